@@ -1,0 +1,36 @@
+//! vxgi-cpu-mirror: scalar Rust mirrors of the vxgi WGSL kernels.
+//!
+//! One module per kernel, named like its WGSL file (`kernels/<name>.wgsl` <-> `<name>`). Each mirror does
+//! the kernel's arithmetic in the kernel's operation order, so that GPU and mirror agree exactly where
+//! WGSL's accuracy rules make the operations exact, and within a stated ULP bound elsewhere. A mirror
+//! takes `flush: bool`: when set it flushes subnormals to zero on every input, intermediate and output —
+//! the other behaviour WGSL allows a GPU — so the comparison can accept exactly that and nothing looser.
+//!
+//! No wgpu, no naga: a mirror can be used (and read) without a GPU.
+pub mod morton;
+pub mod surface_coverage_mip;
+
+/// `x` with a subnormal replaced by zero of the same sign when `flush` is set.
+#[inline]
+pub fn ftz(x: f32, flush: bool) -> f32 {
+    if flush && x.is_subnormal() {
+        0.0f32.copysign(x)
+    } else {
+        x
+    }
+}
+
+/// Component-wise [`ftz`].
+#[inline]
+pub fn ftz4(v: glam::Vec4, flush: bool) -> glam::Vec4 {
+    if flush {
+        glam::Vec4::new(
+            ftz(v.x, true),
+            ftz(v.y, true),
+            ftz(v.z, true),
+            ftz(v.w, true),
+        )
+    } else {
+        v
+    }
+}

@@ -1,0 +1,374 @@
+//! The comparison engine: GPU output vs mirror output, element by element (DESIGN.md section 4).
+use std::fmt::Write as _;
+
+/// How close a GPU value must be to the mirror's.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Tolerance {
+    /// Bitwise equal (integers, copies, float work whose operation order the mirror reproduces).
+    /// +0 and -0 are *not* equal here; NaN equals NaN only with the same bits.
+    Exact,
+    /// At most `ulps` units in the last place apart, or within `abs_floor` absolutely (near zero ULPs are
+    /// meaninglessly small).
+    Ulp { ulps: u32, abs_floor: f32 },
+    /// |gpu - mirror| <= abs + rel * |mirror| (accumulations whose order the GPU may change).
+    AbsRel { abs: f64, rel: f64 },
+}
+
+/// Distance in units in the last place between two f32 (0 for +0/-0; u64::MAX if either is NaN
+/// and they differ).
+pub fn ulp_distance(a: f32, b: f32) -> u64 {
+    if a.is_nan() || b.is_nan() {
+        return if a.to_bits() == b.to_bits() {
+            0
+        } else {
+            u64::MAX
+        };
+    }
+    // Map the sign-magnitude bit patterns onto a monotonic integer line.
+    let key = |x: f32| -> i64 {
+        let bits = x.to_bits() as i32 as i64;
+        if bits < 0 {
+            -(bits & 0x7fff_ffff)
+        } else {
+            bits
+        }
+    };
+    (key(a) - key(b)).unsigned_abs()
+}
+
+/// `x` with subnormals replaced by zero of the same sign: what a flush-to-zero GPU does.
+pub fn flush_subnormal(x: f32) -> f32 {
+    if x.is_subnormal() {
+        0.0f32.copysign(x)
+    } else {
+        x
+    }
+}
+
+impl Tolerance {
+    pub fn accepts(&self, gpu: f32, mirror: f32) -> bool {
+        match *self {
+            Tolerance::Exact => gpu.to_bits() == mirror.to_bits(),
+            Tolerance::Ulp { ulps, abs_floor } => {
+                ulp_distance(gpu, mirror) <= ulps as u64 || (gpu - mirror).abs() <= abs_floor
+            }
+            Tolerance::AbsRel { abs, rel } => {
+                let (g, m) = (gpu as f64, mirror as f64);
+                (g - m).abs() <= abs + rel * m.abs() || gpu.to_bits() == mirror.to_bits()
+            }
+        }
+    }
+}
+
+/// How element indices map to coordinates in reports.
+#[derive(Clone, Debug)]
+pub enum Indexing {
+    Linear,
+    /// Row-major grid `[x, y, z]` extents (x fastest), `components` scalars per element.
+    Grid {
+        dims: [u32; 3],
+        components: u32,
+    },
+    /// Morton (Z-order) cube of side `n`, `components` scalars per element.
+    Morton {
+        n: u32,
+        components: u32,
+    },
+}
+
+impl Indexing {
+    pub fn describe(&self, scalar_index: usize) -> String {
+        match *self {
+            Indexing::Linear => format!("[{scalar_index}]"),
+            Indexing::Grid { dims, components } => {
+                let e = scalar_index / components as usize;
+                let c = scalar_index % components as usize;
+                let x = e % dims[0] as usize;
+                let y = (e / dims[0] as usize) % dims[1] as usize;
+                let z = e / (dims[0] as usize * dims[1] as usize);
+                format!("element {e} (x={x}, y={y}, z={z}) component {c}")
+            }
+            Indexing::Morton { n, components } => {
+                let e = scalar_index / components as usize;
+                let c = scalar_index % components as usize;
+                let [x, y, z] = morton_decode(e as u32);
+                format!("element {e} (x={x}, y={y}, z={z} of {n}^3, Morton order) component {c}")
+            }
+        }
+    }
+}
+
+pub use vxgi_cpu_mirror::morton::decode as morton_decode;
+
+#[derive(Clone, Debug)]
+pub struct Mismatch {
+    pub index: usize,
+    pub gpu: f32,
+    pub mirror: f32,
+    pub ulp: u64,
+}
+
+/// Histogram of ULP distances: exact counts up to 256, one overflow bucket.
+#[derive(Clone, Debug)]
+pub struct UlpHistogram {
+    pub counts: Vec<u64>,
+}
+
+impl Default for UlpHistogram {
+    fn default() -> Self {
+        Self {
+            counts: vec![0; 258],
+        }
+    }
+}
+
+impl UlpHistogram {
+    pub fn add(&mut self, ulp: u64) {
+        let i = (ulp as usize).min(257);
+        self.counts[i] += 1;
+    }
+    pub fn merge(&mut self, other: &UlpHistogram) {
+        for (a, b) in self.counts.iter_mut().zip(&other.counts) {
+            *a += b;
+        }
+    }
+    pub fn total(&self) -> u64 {
+        self.counts.iter().sum()
+    }
+    /// Smallest d with at least `q` of the elements at distance <= d (257 means "over 256").
+    pub fn quantile(&self, q: f64) -> u64 {
+        let total = self.total();
+        if total == 0 {
+            return 0;
+        }
+        let need = (q * total as f64).ceil() as u64;
+        let mut acc = 0;
+        for (d, c) in self.counts.iter().enumerate() {
+            acc += c;
+            if acc >= need {
+                return d as u64;
+            }
+        }
+        257
+    }
+}
+
+/// The result of comparing one output of one case.
+#[derive(Clone, Debug)]
+pub struct Comparison {
+    pub kernel: String,
+    pub output: String,
+    pub case: String,
+    pub seed: u64,
+    pub tolerance: Tolerance,
+    pub indexing: Indexing,
+    pub elements: usize,
+    /// Elements outside tolerance.
+    pub failures: usize,
+    /// Worst 10 elements by ULP distance (failing ones first).
+    pub worst: Vec<Mismatch>,
+    pub max_ulp: u64,
+    pub histogram: UlpHistogram,
+    /// Elements accepted only as the flush-to-zero result.
+    pub flushed: usize,
+}
+
+impl Comparison {
+    pub fn passed(&self) -> bool {
+        self.failures == 0
+    }
+    pub fn p99_ulp(&self) -> u64 {
+        self.histogram.quantile(0.99)
+    }
+
+    /// The mismatch report: kernel, case and seed, the worst 10 elements with coordinates, both values
+    /// and their ULP distance.
+    pub fn report(&self) -> String {
+        let mut s = String::new();
+        let _ = writeln!(
+            s,
+            "kernel `{}` output `{}` case `{}` (seed {}): {} of {} elements outside {:?}; max ULP {}, p99 ULP {}",
+            self.kernel,
+            self.output,
+            self.case,
+            self.seed,
+            self.failures,
+            self.elements,
+            self.tolerance,
+            fmt_ulp(self.max_ulp),
+            fmt_ulp(self.p99_ulp())
+        );
+        for m in &self.worst {
+            let _ = writeln!(
+                s,
+                "  {} index {}: gpu {:e} ({:#010x}) mirror {:e} ({:#010x}) ULP {}{}",
+                if self.tolerance.accepts(m.gpu, m.mirror) {
+                    "  ok"
+                } else {
+                    "FAIL"
+                },
+                self.indexing.describe(m.index),
+                m.gpu,
+                m.gpu.to_bits(),
+                m.mirror,
+                m.mirror.to_bits(),
+                fmt_ulp(m.ulp),
+                ""
+            );
+        }
+        s
+    }
+}
+
+pub fn fmt_ulp(u: u64) -> String {
+    if u == u64::MAX {
+        "NaN".into()
+    } else {
+        u.to_string()
+    }
+}
+
+/// Compare `gpu` against `mirror` element by element. `mirror_ftz`, when given, is the mirror's result
+/// on inputs with subnormals flushed to zero and outputs flushed likewise: an element that matches it
+/// (within the same tolerance) is accepted too — exactly what WGSL allows a GPU to do, nothing looser.
+pub fn compare_f32(
+    meta: (&str, &str, &str, u64),
+    gpu: &[f32],
+    mirror: &[f32],
+    mirror_ftz: Option<&[f32]>,
+    tolerance: Tolerance,
+    indexing: Indexing,
+) -> Comparison {
+    let (kernel, output, case, seed) = meta;
+    let mut c = Comparison {
+        kernel: kernel.into(),
+        output: output.into(),
+        case: case.into(),
+        seed,
+        tolerance,
+        indexing,
+        elements: gpu.len().max(mirror.len()),
+        failures: 0,
+        worst: Vec::new(),
+        max_ulp: 0,
+        histogram: UlpHistogram::default(),
+        flushed: 0,
+    };
+    if gpu.len() != mirror.len() {
+        c.failures = c.elements;
+        c.max_ulp = u64::MAX;
+        c.worst.push(Mismatch {
+            index: gpu.len().min(mirror.len()),
+            gpu: f32::NAN,
+            mirror: f32::NAN,
+            ulp: u64::MAX,
+        });
+        return c;
+    }
+    let mut candidates: Vec<(bool, Mismatch)> = Vec::new();
+    for (i, (&g, &m)) in gpu.iter().zip(mirror).enumerate() {
+        let mut ulp = ulp_distance(g, m);
+        let mut ok = tolerance.accepts(g, m);
+        if !ok {
+            if let Some(ftz) = mirror_ftz {
+                if tolerance.accepts(g, ftz[i]) {
+                    ok = true;
+                    ulp = ulp_distance(g, ftz[i]);
+                    c.flushed += 1;
+                }
+            }
+        }
+        c.histogram.add(ulp);
+        c.max_ulp = c.max_ulp.max(ulp);
+        if !ok {
+            c.failures += 1;
+        }
+        if !ok || ulp > 0 {
+            candidates.push((
+                !ok,
+                Mismatch {
+                    index: i,
+                    gpu: g,
+                    mirror: m,
+                    ulp,
+                },
+            ));
+            if candidates.len() > 1024 {
+                keep_worst(&mut candidates);
+            }
+        }
+    }
+    keep_worst(&mut candidates);
+    c.worst = candidates.into_iter().map(|(_, m)| m).collect();
+    c
+}
+
+fn keep_worst(v: &mut Vec<(bool, Mismatch)>) {
+    v.sort_by(|a, b| {
+        b.0.cmp(&a.0)
+            .then(b.1.ulp.cmp(&a.1.ulp))
+            .then(a.1.index.cmp(&b.1.index))
+    });
+    v.truncate(10);
+}
+
+/// Compare integer outputs: always exact.
+pub fn compare_u32(
+    meta: (&str, &str, &str, u64),
+    gpu: &[u32],
+    mirror: &[u32],
+    indexing: Indexing,
+) -> Comparison {
+    let g: Vec<f32> = gpu.iter().map(|&x| f32::from_bits(x)).collect();
+    let m: Vec<f32> = mirror.iter().map(|&x| f32::from_bits(x)).collect();
+    compare_f32(meta, &g, &m, None, Tolerance::Exact, indexing)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ulp_distance_across_zero_and_neighbours() {
+        assert_eq!(ulp_distance(1.0, 1.0), 0);
+        assert_eq!(ulp_distance(0.0, -0.0), 0);
+        assert_eq!(ulp_distance(1.0, f32::from_bits(1.0f32.to_bits() + 3)), 3);
+        assert_eq!(ulp_distance(f32::from_bits(1), -f32::from_bits(1)), 2);
+        assert_eq!(ulp_distance(f32::NAN, 1.0), u64::MAX);
+    }
+
+    #[test]
+    fn flush_zero_alternative_is_the_only_extra_acceptance() {
+        let sub = f32::from_bits(5);
+        let c = compare_f32(
+            ("k", "o", "c", 0),
+            &[0.0],
+            &[sub],
+            Some(&[0.0]),
+            Tolerance::Exact,
+            Indexing::Linear,
+        );
+        assert!(c.passed());
+        assert_eq!(c.flushed, 1);
+        let c = compare_f32(
+            ("k", "o", "c", 0),
+            &[f32::from_bits(4)],
+            &[sub],
+            Some(&[0.0]),
+            Tolerance::Exact,
+            Indexing::Linear,
+        );
+        assert!(!c.passed());
+    }
+
+    #[test]
+    fn histogram_quantiles() {
+        let mut h = UlpHistogram::default();
+        for _ in 0..99 {
+            h.add(0);
+        }
+        h.add(7);
+        assert_eq!(h.quantile(0.99), 0);
+        assert_eq!(h.quantile(1.0), 7);
+    }
+}

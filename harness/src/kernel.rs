@@ -1,0 +1,380 @@
+//! The kernel declaration ("DSL", DESIGN.md section 3) and the generic verify driver.
+//!
+//! A kernel is declared once as a [`KernelDecl`] (WGSL file and entry, bindings by their WGSL names, the
+//! dispatch rule, the outputs with their tolerances) plus a [`Kernel`] impl that generates cases and
+//! runs the mirror. From that the driver gives: run on GPU, run the mirror, compare, time both.
+use crate::compare::{
+    compare_f32, compare_u32, flush_subnormal, Comparison, Indexing, Tolerance, UlpHistogram,
+};
+use crate::context::GpuContext;
+use crate::error::Result;
+use crate::run::{
+    grid_for, run, HostBuffer, HostResource, Pass, Resources, TimingSource, View, Workgroups,
+};
+use crate::shader::{ScalarKind, Shader};
+use std::collections::BTreeMap;
+use std::time::Instant;
+
+/// One declared output binding and how close the GPU must come to the mirror on it.
+#[derive(Clone, Copy, Debug)]
+pub struct Output {
+    pub binding: &'static str,
+    pub tolerance: Tolerance,
+}
+
+/// How the dispatch grid follows from the data.
+#[derive(Clone, Copy, Debug)]
+pub enum DispatchRule {
+    /// One invocation per element (runtime-array stride) of this binding, x-major, split into x * y
+    /// workgroups past the per-dimension limit.
+    PerElement { binding: &'static str },
+}
+
+/// The declaration: everything about a kernel that is not code.
+#[derive(Debug)]
+pub struct KernelDecl {
+    /// snake_case; equals the WGSL file stem and the cpu_mirror module name.
+    pub name: &'static str,
+    /// Repository-relative path of the WGSL file (for messages).
+    pub wgsl_path: &'static str,
+    /// The WGSL source (`include_str!` of `wgsl_path`).
+    pub wgsl: &'static str,
+    pub entry: &'static str,
+    /// Input bindings, by WGSL name.
+    pub inputs: &'static [&'static str],
+    pub outputs: &'static [Output],
+    pub dispatch: DispatchRule,
+    /// The mirror function's path, for listings (`vxgi_cpu_mirror::module::function`).
+    pub mirror: &'static str,
+    /// One line: what the kernel computes.
+    pub summary: &'static str,
+}
+
+impl KernelDecl {
+    /// Parse, validate and reflect the WGSL.
+    pub fn shader(&self) -> Result<Shader> {
+        Shader::from_wgsl(self.wgsl_path, self.wgsl)
+    }
+
+    pub fn output(&self, binding: &str) -> Option<&Output> {
+        self.outputs.iter().find(|o| o.binding == binding)
+    }
+
+    /// A pass of the declared entry with `bindings` (WGSL name -> view), its grid from the dispatch rule
+    /// applied to `elements` elements of the rule's binding.
+    pub fn pass(
+        &self,
+        shader: &Shader,
+        ctx: &GpuContext,
+        label: String,
+        bindings: Vec<(String, View)>,
+        elements: u64,
+    ) -> Pass {
+        let wg = shader
+            .entry(self.entry)
+            .map(|e| e.workgroup_size[0])
+            .unwrap_or(1);
+        let grid = grid_for(
+            elements,
+            wg,
+            ctx.limits().max_compute_workgroups_per_dimension,
+        );
+        Pass {
+            label,
+            entry: self.entry.into(),
+            bindings,
+            workgroups: Workgroups::Direct(grid),
+        }
+    }
+
+    /// Elements of the dispatch rule's binding in a host buffer of `bytes` bytes.
+    pub fn elements_of(&self, shader: &Shader, bytes: u64) -> u64 {
+        let DispatchRule::PerElement { binding } = self.dispatch;
+        match shader.binding(binding).map(|b| &b.kind) {
+            Some(crate::shader::BindingKind::Storage { layout, .. }) => {
+                let st = layout.runtime_stride.unwrap_or(layout.fixed_size.max(1)) as u64;
+                bytes.saturating_sub(layout.fixed_size as u64) / st
+            }
+            _ => 0,
+        }
+    }
+}
+
+/// How the mirror treats subnormals: IEEE, or flushed to zero on every input, intermediate and output
+/// (the other behaviour WGSL allows a GPU).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FloatMode {
+    Ieee,
+    FlushToZero,
+}
+
+impl FloatMode {
+    #[inline]
+    pub fn f(self, x: f32) -> f32 {
+        match self {
+            FloatMode::Ieee => x,
+            FloatMode::FlushToZero => flush_subnormal(x),
+        }
+    }
+}
+
+/// A resource to compare after a run: which declared output it is an instance of, and how to name
+/// its elements in reports.
+#[derive(Clone, Debug)]
+pub struct Check {
+    pub resource: String,
+    pub output: &'static str,
+    pub indexing: Indexing,
+}
+
+/// One generated test case: the host resources, the passes, what to compare.
+#[derive(Clone, Debug)]
+pub struct Case {
+    pub label: String,
+    pub seed: u64,
+    pub resources: Resources,
+    pub passes: Vec<Pass>,
+    pub checks: Vec<Check>,
+    /// Bytes the kernel must read once plus write once (for effective bandwidth).
+    pub effective_bytes: u64,
+}
+
+/// A declared kernel with its case generator and mirror.
+pub trait Kernel: Sync {
+    fn decl(&self) -> &'static KernelDecl;
+
+    /// Case `index` of a run seeded with `seed`; cycles through the kernel's families of hard inputs.
+    fn case(&self, shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case;
+
+    /// The mirror's value of every checked resource. `data` holds the case's inputs overlaid with what
+    /// the GPU read back, so a multi-pass kernel verifies each pass on exactly the input the GPU pass saw.
+    fn mirror(
+        &self,
+        case: &Case,
+        data: &Resources,
+        mode: FloatMode,
+    ) -> BTreeMap<String, HostBuffer>;
+
+    /// Put an output whose order the GPU leaves free (atomic allocation) into a canonical order before
+    /// comparing; applied to GPU and mirror alike.
+    fn canonicalise(&self, _resource: &str, _data: &mut HostBuffer) {}
+}
+
+/// Deliberately damage the GPU result before comparing: the harness must catch it.
+#[derive(Clone, Debug)]
+pub struct Corruption {
+    pub resource: String,
+    pub index: usize,
+}
+
+#[derive(Clone, Debug, Default)]
+pub struct VerifyOptions {
+    pub cases: usize,
+    pub seed: u64,
+    pub corrupt: Option<Corruption>,
+}
+
+/// What verifying one kernel over many cases found.
+#[derive(Clone, Debug)]
+pub struct KernelReport {
+    pub kernel: String,
+    pub cases: usize,
+    pub elements: u64,
+    pub max_ulp: u64,
+    pub histogram: UlpHistogram,
+    pub gpu_ns: f64,
+    pub mirror_ns: f64,
+    pub effective_bytes: u64,
+    pub largest_case_bytes: u64,
+    pub timing: Option<TimingSource>,
+    /// Comparisons that failed (each with its report).
+    pub failures: Vec<Comparison>,
+    pub flushed: usize,
+}
+
+impl KernelReport {
+    pub fn passed(&self) -> bool {
+        self.failures.is_empty()
+    }
+    pub fn p99_ulp(&self) -> u64 {
+        self.histogram.quantile(0.99)
+    }
+    /// Effective bytes per second of GPU time.
+    pub fn effective_bandwidth(&self) -> f64 {
+        if self.gpu_ns > 0.0 {
+            self.effective_bytes as f64 / (self.gpu_ns * 1e-9)
+        } else {
+            0.0
+        }
+    }
+}
+
+fn flush_resources(r: &Resources) -> Resources {
+    r.iter()
+        .map(|(k, v)| {
+            let v = match v {
+                HostResource::Buffer(b) if b.scalar == ScalarKind::F32 => {
+                    HostResource::Buffer(HostBuffer::f32(
+                        &b.as_f32()
+                            .iter()
+                            .map(|&x| flush_subnormal(x))
+                            .collect::<Vec<_>>(),
+                    ))
+                }
+                other => other.clone(),
+            };
+            (k.clone(), v)
+        })
+        .collect()
+}
+
+/// Run one case on the GPU and the mirror and compare every checked resource.
+pub fn verify_case(
+    ctx: &GpuContext,
+    shader: &Shader,
+    kernel: &dyn Kernel,
+    case: &Case,
+    corrupt: Option<&Corruption>,
+) -> Result<(Vec<Comparison>, f64, f64, TimingSource)> {
+    let decl = kernel.decl();
+    let readback: Vec<&str> = case.checks.iter().map(|c| c.resource.as_str()).collect();
+    let mut out = run(
+        ctx,
+        shader,
+        decl.name,
+        &case.resources,
+        &case.passes,
+        &readback,
+    )?;
+    if let Some(c) = corrupt {
+        if let Some(HostResource::Buffer(b)) = out.resources.get_mut(&c.resource) {
+            // Move one element just past its tolerance (or flip bits for exact outputs).
+            let tol = case
+                .checks
+                .iter()
+                .find(|k| k.resource == c.resource)
+                .and_then(|k| decl.output(k.output))
+                .map(|o| o.tolerance);
+            let words: &mut [u32] = bytemuck::cast_slice_mut(&mut b.bytes);
+            if let Some(w) = words.get_mut(c.index) {
+                *w = match tol {
+                    Some(Tolerance::Ulp { ulps, .. }) if f32::from_bits(*w).abs() > 1e-30 => {
+                        w.wrapping_add(ulps + 1)
+                    }
+                    _ => *w ^ 0x0040_0001,
+                };
+            }
+        }
+    }
+    let mut data = case.resources.clone();
+    for (k, v) in &out.resources {
+        data.insert(k.clone(), v.clone());
+    }
+    let t0 = Instant::now();
+    let mut expected = kernel.mirror(case, &data, FloatMode::Ieee);
+    let mirror_ns = t0.elapsed().as_nanos() as f64;
+    let has_subnormal =
+        |b: &HostBuffer| b.scalar == ScalarKind::F32 && b.as_f32().iter().any(|x| x.is_subnormal());
+    let ftz_needed = data
+        .values()
+        .filter_map(HostResource::buffer)
+        .any(has_subnormal)
+        || expected.values().any(has_subnormal);
+    let mut expected_ftz =
+        ftz_needed.then(|| kernel.mirror(case, &flush_resources(&data), FloatMode::FlushToZero));
+    let mut comps = Vec::new();
+    for check in &case.checks {
+        let tol = decl
+            .output(check.output)
+            .map(|o| o.tolerance)
+            .unwrap_or(Tolerance::Exact);
+        let mut gpu = out
+            .resources
+            .remove(&check.resource)
+            .and_then(|r| match r {
+                HostResource::Buffer(b) => Some(b),
+                _ => None,
+            })
+            .expect("read back");
+        let mut mirror = expected
+            .remove(&check.resource)
+            .unwrap_or_else(|| panic!("mirror of `{}` gave no `{}`", decl.name, check.resource));
+        kernel.canonicalise(&check.resource, &mut gpu);
+        kernel.canonicalise(&check.resource, &mut mirror);
+        let meta = (
+            decl.name,
+            check.resource.as_str(),
+            case.label.as_str(),
+            case.seed,
+        );
+        let c = match gpu.scalar {
+            ScalarKind::F32 => {
+                let ftz = expected_ftz
+                    .as_mut()
+                    .and_then(|e| e.remove(&check.resource))
+                    .map(|mut b| {
+                        kernel.canonicalise(&check.resource, &mut b);
+                        b
+                    });
+                compare_f32(
+                    meta,
+                    gpu.as_f32(),
+                    mirror.as_f32(),
+                    ftz.as_ref().map(|b| b.as_f32()),
+                    tol,
+                    check.indexing.clone(),
+                )
+            }
+            _ => compare_u32(meta, gpu.as_u32(), mirror.as_u32(), check.indexing.clone()),
+        };
+        comps.push(c);
+    }
+    Ok((comps, out.gpu_ns, mirror_ns, out.timing))
+}
+
+/// Verify `kernel` on `opts.cases` generated cases. `progress` is called after each case.
+pub fn verify(
+    ctx: &GpuContext,
+    kernel: &dyn Kernel,
+    opts: &VerifyOptions,
+    progress: &mut dyn FnMut(usize),
+) -> Result<KernelReport> {
+    let decl = kernel.decl();
+    let shader = decl.shader()?;
+    let mut rep = KernelReport {
+        kernel: decl.name.into(),
+        cases: 0,
+        elements: 0,
+        max_ulp: 0,
+        histogram: UlpHistogram::default(),
+        gpu_ns: 0.0,
+        mirror_ns: 0.0,
+        effective_bytes: 0,
+        largest_case_bytes: 0,
+        timing: None,
+        failures: Vec::new(),
+        flushed: 0,
+    };
+    for i in 0..opts.cases {
+        let case = kernel.case(&shader, ctx, opts.seed, i);
+        let corrupt = if i == 0 { opts.corrupt.as_ref() } else { None };
+        let (comps, gpu_ns, mirror_ns, timing) = verify_case(ctx, &shader, kernel, &case, corrupt)?;
+        rep.cases += 1;
+        rep.gpu_ns += gpu_ns;
+        rep.mirror_ns += mirror_ns;
+        rep.effective_bytes += case.effective_bytes;
+        rep.largest_case_bytes = rep.largest_case_bytes.max(case.effective_bytes);
+        rep.timing = Some(timing);
+        for c in comps {
+            rep.elements += c.elements as u64;
+            rep.max_ulp = rep.max_ulp.max(c.max_ulp);
+            rep.histogram.merge(&c.histogram);
+            rep.flushed += c.flushed;
+            if !c.passed() {
+                rep.failures.push(c);
+            }
+        }
+        progress(i + 1);
+    }
+    Ok(rep)
+}

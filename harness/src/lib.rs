@@ -1,0 +1,29 @@
+//! vxgi-harness: the generic half of the kernel verification harness.
+//!
+//! * [`shader`]: naga parse + validate (file:line:column errors) and reflection of bindings and entries.
+//! * [`context`]: a wgpu device on any adapter (lavapipe where there is no GPU), or the caller's own.
+//! * [`run`]: host resources, passes, checks against reflection and device limits *before* any dispatch,
+//!   dispatch (direct or indirect), readback (textures with padded rows), timing.
+//! * [`compare`]: exact / ULP+floor / abs-rel comparison with mismatch reports and ULP statistics.
+//! * [`kernel`]: the kernel declaration and the verify driver.
+//!
+//! It knows no kernel; the declarations live in the `vxgi` crate.
+pub mod compare;
+pub mod context;
+pub mod error;
+pub mod kernel;
+pub mod run;
+pub mod shader;
+
+pub use compare::{Comparison, Indexing, Tolerance};
+pub use context::GpuContext;
+pub use error::{HarnessError, Result};
+pub use kernel::{
+    Case, Check, Corruption, DispatchRule, FloatMode, Kernel, KernelDecl, KernelReport, Output,
+    VerifyOptions,
+};
+pub use run::{
+    HostBuffer, HostResource, HostTexture, Pass, Resources, RunOutput, TimingSource, View,
+    Workgroups,
+};
+pub use shader::{Binding, BindingKind, ScalarKind, Shader};

@@ -1,0 +1,1029 @@
+//! Host resources, passes, the pre-dispatch checks against reflection, dispatch, readback and timing.
+use crate::context::GpuContext;
+use crate::error::{HarnessError, Result};
+use crate::shader::{BindingKind, BufferLayout, ScalarKind, Shader};
+use std::collections::BTreeMap;
+use std::time::Instant;
+use wgpu::util::DeviceExt;
+
+/// Bytes of a buffer plus the scalar they hold (checked against the WGSL element type).
+#[derive(Clone, Debug, PartialEq)]
+pub struct HostBuffer {
+    pub bytes: Vec<u8>,
+    pub scalar: ScalarKind,
+}
+
+impl HostBuffer {
+    pub fn f32(data: &[f32]) -> Self {
+        Self {
+            bytes: bytemuck::cast_slice(data).to_vec(),
+            scalar: ScalarKind::F32,
+        }
+    }
+    pub fn u32(data: &[u32]) -> Self {
+        Self {
+            bytes: bytemuck::cast_slice(data).to_vec(),
+            scalar: ScalarKind::U32,
+        }
+    }
+    /// A parameter block (`#[repr(C)]` struct); its layout is checked against WGSL in tests.
+    pub fn pod<T: bytemuck::Pod>(value: &T) -> Self {
+        Self {
+            bytes: bytemuck::bytes_of(value).to_vec(),
+            scalar: ScalarKind::Mixed,
+        }
+    }
+    pub fn zeroed(len_bytes: usize, scalar: ScalarKind) -> Self {
+        Self {
+            bytes: vec![0; len_bytes],
+            scalar,
+        }
+    }
+    pub fn as_f32(&self) -> &[f32] {
+        bytemuck::cast_slice(&self.bytes)
+    }
+    pub fn as_u32(&self) -> &[u32] {
+        bytemuck::cast_slice(&self.bytes)
+    }
+}
+
+/// A 1D/2D/3D (or 2D-array) texture with all its mip levels, each tightly packed (no row padding).
+#[derive(Clone, Debug, PartialEq)]
+pub struct HostTexture {
+    pub format: wgpu::TextureFormat,
+    pub dimension: wgpu::TextureDimension,
+    /// Width, height, depth (3D) or layer count (2D arrays).
+    pub size: [u32; 3],
+    /// `levels[m]` holds mip `m`; the number of levels is the mip count.
+    pub levels: Vec<Vec<u8>>,
+}
+
+impl HostTexture {
+    /// A zero-filled texture with `mips` levels.
+    pub fn zeroed(
+        format: wgpu::TextureFormat,
+        dimension: wgpu::TextureDimension,
+        size: [u32; 3],
+        mips: u32,
+    ) -> Self {
+        let mut t = Self {
+            format,
+            dimension,
+            size,
+            levels: Vec::new(),
+        };
+        t.levels = (0..mips).map(|m| vec![0; t.level_bytes(m)]).collect();
+        t
+    }
+    pub fn texel_bytes(&self) -> usize {
+        self.format.block_copy_size(None).unwrap_or(4) as usize
+    }
+    /// Extent of mip `m` (the layer count of a 2D array does not shrink).
+    pub fn level_extent(&self, m: u32) -> [u32; 3] {
+        let s = |v: u32| (v >> m).max(1);
+        match self.dimension {
+            wgpu::TextureDimension::D3 => [s(self.size[0]), s(self.size[1]), s(self.size[2])],
+            _ => [s(self.size[0]), s(self.size[1]), self.size[2]],
+        }
+    }
+    pub fn level_bytes(&self, m: u32) -> usize {
+        let [w, h, d] = self.level_extent(m);
+        w as usize * h as usize * d as usize * self.texel_bytes()
+    }
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum HostResource {
+    Buffer(HostBuffer),
+    Texture(HostTexture),
+}
+
+impl HostResource {
+    pub fn buffer(&self) -> Option<&HostBuffer> {
+        match self {
+            HostResource::Buffer(b) => Some(b),
+            _ => None,
+        }
+    }
+    pub fn texture(&self) -> Option<&HostTexture> {
+        match self {
+            HostResource::Texture(t) => Some(t),
+            _ => None,
+        }
+    }
+}
+
+/// Named host resources: the inputs and zeroed outputs of a run, or what a run read back.
+pub type Resources = BTreeMap<String, HostResource>;
+
+/// What a WGSL binding is bound to in one pass.
+#[derive(Clone, Debug)]
+pub enum View {
+    /// A whole buffer resource.
+    Buffer(String),
+    /// A window of a buffer resource (split dispatches over buffers larger than one binding may be).
+    BufferRange {
+        name: String,
+        offset: u64,
+        size: u64,
+    },
+    /// All mips of a texture resource.
+    Texture(String),
+    /// One mip level of a texture resource (storage textures write one level at a time).
+    TextureMip { name: String, mip: u32 },
+    /// A sampler with this filter mode, clamp-to-edge.
+    Sampler(wgpu::FilterMode),
+}
+
+impl View {
+    fn resource(&self) -> Option<&str> {
+        match self {
+            View::Buffer(n) | View::Texture(n) => Some(n),
+            View::BufferRange { name, .. } | View::TextureMip { name, .. } => Some(name),
+            View::Sampler(_) => None,
+        }
+    }
+}
+
+#[derive(Clone, Debug)]
+pub enum Workgroups {
+    Direct([u32; 3]),
+    /// Arguments (x, y, z as u32) read from a buffer the GPU wrote: a GPU-built work list.
+    Indirect {
+        buffer: String,
+        offset: u64,
+    },
+}
+
+/// One dispatch of one entry point.
+#[derive(Clone, Debug)]
+pub struct Pass {
+    pub label: String,
+    pub entry: String,
+    /// WGSL binding name -> what it is bound to. Bindings the entry does not use are ignored.
+    pub bindings: Vec<(String, View)>,
+    pub workgroups: Workgroups,
+}
+
+/// Workgroup grid for `count` invocations of `wg_size` along x: 1D while it fits, else x * y
+/// (the kernel linearises with `gid.x + gid.y * num_workgroups.x * wg_size`).
+pub fn grid_for(count: u64, wg_size: u32, max_per_dim: u32) -> [u32; 3] {
+    let groups = count.div_ceil(wg_size as u64).max(1);
+    if groups <= max_per_dim as u64 {
+        [groups as u32, 1, 1]
+    } else {
+        let y = groups.div_ceil(max_per_dim as u64);
+        let x = groups.div_ceil(y);
+        [x as u32, y as u32, 1]
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TimingSource {
+    /// GPU timestamp queries around each compute pass.
+    Timestamps,
+    /// Wall clock around submit + wait (the adapter lacks timestamp queries).
+    WallClock,
+}
+
+impl std::fmt::Display for TimingSource {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            TimingSource::Timestamps => "GPU timestamps",
+            TimingSource::WallClock => "wall clock (submit+wait)",
+        })
+    }
+}
+
+#[derive(Debug)]
+pub struct RunOutput {
+    /// The resources asked for, as the GPU left them.
+    pub resources: Resources,
+    /// Per pass GPU time in nanoseconds (timestamps) — empty when timing is wall clock.
+    pub pass_ns: Vec<f64>,
+    /// GPU time of all passes: sum of `pass_ns`, or wall clock around submit + wait.
+    pub gpu_ns: f64,
+    pub timing: TimingSource,
+}
+
+impl RunOutput {
+    pub fn buffer(&self, name: &str) -> &HostBuffer {
+        self.resources
+            .get(name)
+            .and_then(HostResource::buffer)
+            .unwrap_or_else(|| panic!("no buffer `{name}` was read back"))
+    }
+}
+
+struct Checker<'a> {
+    ctx: &'a GpuContext,
+    shader: &'a Shader,
+    kernel: &'a str,
+}
+
+impl Checker<'_> {
+    fn mismatch(&self, b: &crate::shader::Binding, expected: String, got: String) -> HarnessError {
+        HarnessError::BindingMismatch {
+            kernel: self.kernel.into(),
+            path: self.shader.path.clone(),
+            line: b.line,
+            binding: b.name.clone(),
+            expected,
+            got,
+        }
+    }
+    fn limit(&self, what: String, value: u64, limit_name: &'static str, limit: u64) -> Result<()> {
+        if value > limit {
+            return Err(HarnessError::Limit {
+                kernel: self.kernel.into(),
+                what,
+                value,
+                limit_name,
+                limit,
+            });
+        }
+        Ok(())
+    }
+
+    fn check_buffer(
+        &self,
+        b: &crate::shader::Binding,
+        layout: &BufferLayout,
+        uniform: bool,
+        host: &HostBuffer,
+        size: u64,
+    ) -> Result<()> {
+        let limits = self.ctx.limits();
+        let expect = match layout.runtime_stride {
+            Some(st) => format!(
+                "{} + n * {st} bytes (n >= 1) of {}",
+                layout.fixed_size, b.ty
+            ),
+            None => format!("exactly {} bytes ({})", layout.fixed_size, b.ty),
+        };
+        let fits = match layout.runtime_stride {
+            Some(st) => {
+                size >= layout.fixed_size as u64 + st as u64
+                    && (size - layout.fixed_size as u64) % st as u64 == 0
+            }
+            None => size == layout.fixed_size as u64,
+        };
+        if !fits {
+            return Err(self.mismatch(b, expect, format!("bound {size} bytes")));
+        }
+        if layout.scalar != ScalarKind::Mixed
+            && host.scalar != ScalarKind::Mixed
+            && layout.scalar != host.scalar
+        {
+            return Err(self.mismatch(
+                b,
+                format!("{:?} elements ({})", layout.scalar, b.ty),
+                format!("gave {:?} data", host.scalar),
+            ));
+        }
+        if uniform {
+            self.limit(
+                format!("uniform binding `{}` size", b.name),
+                size,
+                "max_uniform_buffer_binding_size",
+                limits.max_uniform_buffer_binding_size,
+            )
+        } else {
+            self.limit(
+                format!("storage binding `{}` size", b.name),
+                size,
+                "max_storage_buffer_binding_size",
+                limits.max_storage_buffer_binding_size,
+            )
+        }
+    }
+
+    fn check(&self, resources: &Resources, passes: &[Pass]) -> Result<()> {
+        let limits = self.ctx.limits();
+        for (name, res) in resources {
+            let size = match res {
+                HostResource::Buffer(b) => b.bytes.len() as u64,
+                HostResource::Texture(t) => t.levels.iter().map(|l| l.len() as u64).sum(),
+            };
+            self.limit(
+                format!("resource `{name}` size"),
+                size,
+                "max_buffer_size",
+                limits.max_buffer_size,
+            )?;
+            if let HostResource::Texture(t) = res {
+                let dim_limit = match t.dimension {
+                    wgpu::TextureDimension::D1 => limits.max_texture_dimension_1d,
+                    wgpu::TextureDimension::D2 => limits.max_texture_dimension_2d,
+                    wgpu::TextureDimension::D3 => limits.max_texture_dimension_3d,
+                };
+                let limit_name = match t.dimension {
+                    wgpu::TextureDimension::D1 => "max_texture_dimension_1d",
+                    wgpu::TextureDimension::D2 => "max_texture_dimension_2d",
+                    wgpu::TextureDimension::D3 => "max_texture_dimension_3d",
+                };
+                self.limit(
+                    format!("texture `{name}` extent"),
+                    t.size[0].max(t.size[1]) as u64,
+                    limit_name,
+                    dim_limit as u64,
+                )?;
+                for (m, l) in t.levels.iter().enumerate() {
+                    if l.len() != t.level_bytes(m as u32) {
+                        return Err(HarnessError::Invalid {
+                            kernel: self.kernel.into(),
+                            message: format!(
+                                "texture `{name}` mip {m} holds {} bytes, its extent needs {}",
+                                l.len(),
+                                t.level_bytes(m as u32)
+                            ),
+                        });
+                    }
+                }
+            }
+        }
+        for pass in passes {
+            let entry =
+                self.shader
+                    .entry(&pass.entry)
+                    .ok_or_else(|| HarnessError::UnknownEntry {
+                        kernel: self.kernel.into(),
+                        path: self.shader.path.clone(),
+                        entry: pass.entry.clone(),
+                        available: self
+                            .shader
+                            .entries
+                            .iter()
+                            .map(|e| e.name.as_str())
+                            .collect::<Vec<_>>()
+                            .join(", "),
+                    })?;
+            for (name, _) in &pass.bindings {
+                if self.shader.binding(name).is_none() {
+                    return Err(HarnessError::UnknownBinding {
+                        kernel: self.kernel.into(),
+                        path: self.shader.path.clone(),
+                        binding: name.clone(),
+                        available: self
+                            .shader
+                            .bindings
+                            .iter()
+                            .map(|b| b.name.as_str())
+                            .collect::<Vec<_>>()
+                            .join(", "),
+                    });
+                }
+            }
+            for &bi in &entry.uses {
+                let b = &self.shader.bindings[bi];
+                let Some((_, view)) = pass.bindings.iter().find(|(n, _)| *n == b.name) else {
+                    return Err(HarnessError::MissingBinding {
+                        kernel: self.kernel.into(),
+                        path: self.shader.path.clone(),
+                        line: b.line,
+                        binding: b.name.clone(),
+                        entry: entry.name.clone(),
+                    });
+                };
+                let res = match view.resource() {
+                    Some(r) => {
+                        Some(
+                            resources
+                                .get(r)
+                                .ok_or_else(|| HarnessError::UnknownResource {
+                                    kernel: self.kernel.into(),
+                                    pass: pass.label.clone(),
+                                    resource: r.to_string(),
+                                })?,
+                        )
+                    }
+                    None => None,
+                };
+                match (&b.kind, view, res) {
+                    (BindingKind::Uniform(l), View::Buffer(_), Some(HostResource::Buffer(h))) => {
+                        self.check_buffer(b, l, true, h, h.bytes.len() as u64)?
+                    }
+                    (
+                        BindingKind::Storage { layout, .. },
+                        View::Buffer(_),
+                        Some(HostResource::Buffer(h)),
+                    ) => self.check_buffer(b, layout, false, h, h.bytes.len() as u64)?,
+                    (
+                        BindingKind::Uniform(_) | BindingKind::Storage { .. },
+                        View::BufferRange { offset, size, .. },
+                        Some(HostResource::Buffer(h)),
+                    ) => {
+                        let align = limits
+                            .min_storage_buffer_offset_alignment
+                            .max(limits.min_uniform_buffer_offset_alignment)
+                            as u64;
+                        if offset % align != 0 || offset + size > h.bytes.len() as u64 {
+                            return Err(self.mismatch(
+                                b,
+                                format!("a window aligned to {align} bytes inside the buffer"),
+                                format!(
+                                    "bound [{offset}, {}) of {} bytes",
+                                    offset + size,
+                                    h.bytes.len()
+                                ),
+                            ));
+                        }
+                        let (layout, uniform) = match &b.kind {
+                            BindingKind::Uniform(l) => (l, true),
+                            BindingKind::Storage { layout, .. } => (layout, false),
+                            _ => unreachable!(),
+                        };
+                        self.check_buffer(b, layout, uniform, h, *size)?;
+                    }
+                    (
+                        BindingKind::SampledTexture { dim, .. }
+                        | BindingKind::StorageTexture { dim, .. },
+                        View::Texture(_) | View::TextureMip { .. },
+                        Some(HostResource::Texture(t)),
+                    ) => {
+                        let ok = matches!(
+                            (dim, t.dimension),
+                            (wgpu::TextureViewDimension::D1, wgpu::TextureDimension::D1)
+                                | (
+                                    wgpu::TextureViewDimension::D2
+                                        | wgpu::TextureViewDimension::D2Array,
+                                    wgpu::TextureDimension::D2
+                                )
+                                | (wgpu::TextureViewDimension::D3, wgpu::TextureDimension::D3)
+                        );
+                        if !ok {
+                            return Err(self.mismatch(
+                                b,
+                                format!("a {dim:?} texture ({})", b.ty),
+                                format!("gave a {:?} texture", t.dimension),
+                            ));
+                        }
+                        if let BindingKind::StorageTexture { format, .. } = &b.kind {
+                            if *format != Some(t.format) {
+                                return Err(self.mismatch(
+                                    b,
+                                    format!("format {format:?}"),
+                                    format!("gave {:?}", t.format),
+                                ));
+                            }
+                            if !matches!(view, View::TextureMip { .. }) {
+                                return Err(self.mismatch(
+                                    b,
+                                    "one mip level (View::TextureMip)".into(),
+                                    "bound all mips".into(),
+                                ));
+                            }
+                        }
+                        if let View::TextureMip { mip, .. } = view {
+                            if *mip as usize >= t.levels.len() {
+                                return Err(self.mismatch(
+                                    b,
+                                    format!("a mip below {}", t.levels.len()),
+                                    format!("asked for mip {mip}"),
+                                ));
+                            }
+                        }
+                    }
+                    (BindingKind::Sampler, View::Sampler(_), None) => {}
+                    (kind, view, _) => {
+                        return Err(self.mismatch(
+                            b,
+                            format!("{kind:?}"),
+                            format!("bound {view:?}"),
+                        ));
+                    }
+                }
+            }
+            match &pass.workgroups {
+                Workgroups::Direct(g) => {
+                    for (axis, v) in ["x", "y", "z"].iter().zip(g) {
+                        self.limit(format!("pass `{}` workgroup count along {axis}", pass.label), *v as u64, "max_compute_workgroups_per_dimension", limits.max_compute_workgroups_per_dimension as u64)?;
+                    }
+                }
+                Workgroups::Indirect { buffer, offset } => match resources.get(buffer) {
+                    Some(HostResource::Buffer(h)) if offset % 4 == 0 && offset + 12 <= h.bytes.len() as u64 => {}
+                    _ => {
+                        return Err(HarnessError::Invalid {
+                            kernel: self.kernel.into(),
+                            message: format!("pass `{}`: indirect arguments need 12 bytes at a 4-aligned offset {offset} of buffer `{buffer}`", pass.label),
+                        })
+                    }
+                },
+            }
+        }
+        Ok(())
+    }
+}
+
+enum GpuRes {
+    Buffer(wgpu::Buffer),
+    Texture(wgpu::Texture),
+}
+
+/// Check everything against reflection and the device limits, then upload `resources`, run `passes` in
+/// order in one submission, and read back the resources named in `readback`.
+pub fn run(
+    ctx: &GpuContext,
+    shader: &Shader,
+    kernel: &str,
+    resources: &Resources,
+    passes: &[Pass],
+    readback: &[&str],
+) -> Result<RunOutput> {
+    Checker {
+        ctx,
+        shader,
+        kernel,
+    }
+    .check(resources, passes)?;
+    for r in readback {
+        if !resources.contains_key(*r) {
+            return Err(HarnessError::UnknownResource {
+                kernel: kernel.into(),
+                pass: "readback".into(),
+                resource: r.to_string(),
+            });
+        }
+    }
+    let device = &ctx.device;
+    let scope_v = device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let scope_m = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some(kernel),
+        source: wgpu::ShaderSource::Wgsl(shader.source.as_str().into()),
+    });
+    let mut gpu = BTreeMap::new();
+    for (name, res) in resources {
+        let g = match res {
+            HostResource::Buffer(b) => GpuRes::Buffer(device.create_buffer_init(
+                &wgpu::util::BufferInitDescriptor {
+                    label: Some(name),
+                    contents: &b.bytes,
+                    usage: wgpu::BufferUsages::STORAGE
+                        | wgpu::BufferUsages::UNIFORM
+                        | wgpu::BufferUsages::COPY_SRC
+                        | wgpu::BufferUsages::COPY_DST
+                        | wgpu::BufferUsages::INDIRECT,
+                },
+            )),
+            HostResource::Texture(t) => {
+                let mut usage = wgpu::TextureUsages::TEXTURE_BINDING
+                    | wgpu::TextureUsages::COPY_SRC
+                    | wgpu::TextureUsages::COPY_DST;
+                if t.format
+                    .guaranteed_format_features(device.features())
+                    .allowed_usages
+                    .contains(wgpu::TextureUsages::STORAGE_BINDING)
+                {
+                    usage |= wgpu::TextureUsages::STORAGE_BINDING;
+                }
+                let tex = device.create_texture(&wgpu::TextureDescriptor {
+                    label: Some(name),
+                    size: wgpu::Extent3d {
+                        width: t.size[0],
+                        height: t.size[1],
+                        depth_or_array_layers: t.size[2],
+                    },
+                    mip_level_count: t.levels.len() as u32,
+                    sample_count: 1,
+                    dimension: t.dimension,
+                    format: t.format,
+                    usage,
+                    view_formats: &[],
+                });
+                for (m, data) in t.levels.iter().enumerate() {
+                    let [w, h, d] = t.level_extent(m as u32);
+                    ctx.queue.write_texture(
+                        wgpu::TexelCopyTextureInfo {
+                            texture: &tex,
+                            mip_level: m as u32,
+                            origin: wgpu::Origin3d::ZERO,
+                            aspect: wgpu::TextureAspect::All,
+                        },
+                        data,
+                        wgpu::TexelCopyBufferLayout {
+                            offset: 0,
+                            bytes_per_row: Some(w * t.texel_bytes() as u32),
+                            rows_per_image: Some(h),
+                        },
+                        wgpu::Extent3d {
+                            width: w,
+                            height: h,
+                            depth_or_array_layers: d,
+                        },
+                    );
+                }
+                GpuRes::Texture(tex)
+            }
+        };
+        gpu.insert(name.clone(), g);
+    }
+
+    let use_ts = ctx.timestamps
+        && !passes.is_empty()
+        && passes.len() * 2 <= wgpu::QUERY_SET_MAX_QUERIES as usize;
+    let queries = use_ts.then(|| {
+        let n = passes.len() as u32 * 2;
+        let set = device.create_query_set(&wgpu::QuerySetDescriptor {
+            label: Some("pass times"),
+            ty: wgpu::QueryType::Timestamp,
+            count: n,
+        });
+        let resolve = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("timestamps"),
+            size: n as u64 * 8,
+            usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        (set, resolve, n)
+    });
+
+    let mut pipelines: BTreeMap<&str, wgpu::ComputePipeline> = BTreeMap::new();
+    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+        label: Some(kernel),
+    });
+    for (pi, pass) in passes.iter().enumerate() {
+        let pipeline = pipelines.entry(pass.entry.as_str()).or_insert_with(|| {
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(&pass.entry),
+                layout: None,
+                module: &module,
+                entry_point: Some(&pass.entry),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+        });
+        let entry = shader.entry(&pass.entry).expect("checked");
+        let mut groups: BTreeMap<u32, Vec<wgpu::BindGroupEntry>> = BTreeMap::new();
+        let mut views = Vec::new();
+        let mut samplers = Vec::new();
+        // Views and samplers must outlive the bind-group entries that borrow them: build them first.
+        for &bi in &entry.uses {
+            let b = &shader.bindings[bi];
+            let (_, view) = pass
+                .bindings
+                .iter()
+                .find(|(n, _)| *n == b.name)
+                .expect("checked");
+            match view {
+                View::Texture(n) | View::TextureMip { name: n, .. } => {
+                    let GpuRes::Texture(t) = &gpu[n] else {
+                        unreachable!()
+                    };
+                    let (base, count) = match view {
+                        View::TextureMip { mip, .. } => (*mip, Some(1)),
+                        _ => (0, None),
+                    };
+                    let dim = match &b.kind {
+                        BindingKind::SampledTexture { dim, .. }
+                        | BindingKind::StorageTexture { dim, .. } => *dim,
+                        _ => unreachable!(),
+                    };
+                    views.push((
+                        bi,
+                        t.create_view(&wgpu::TextureViewDescriptor {
+                            dimension: Some(dim),
+                            base_mip_level: base,
+                            mip_level_count: count,
+                            ..Default::default()
+                        }),
+                    ));
+                }
+                View::Sampler(filter) => samplers.push((
+                    bi,
+                    device.create_sampler(&wgpu::SamplerDescriptor {
+                        mag_filter: *filter,
+                        min_filter: *filter,
+                        mipmap_filter: match filter {
+                            wgpu::FilterMode::Linear => wgpu::MipmapFilterMode::Linear,
+                            wgpu::FilterMode::Nearest => wgpu::MipmapFilterMode::Nearest,
+                        },
+                        ..Default::default()
+                    }),
+                )),
+                _ => {}
+            }
+        }
+        for &bi in &entry.uses {
+            let b = &shader.bindings[bi];
+            let (_, view) = pass
+                .bindings
+                .iter()
+                .find(|(n, _)| *n == b.name)
+                .expect("checked");
+            let resource = match view {
+                View::Buffer(n) => {
+                    let GpuRes::Buffer(buf) = &gpu[n] else {
+                        unreachable!()
+                    };
+                    buf.as_entire_binding()
+                }
+                View::BufferRange { name, offset, size } => {
+                    let GpuRes::Buffer(buf) = &gpu[name] else {
+                        unreachable!()
+                    };
+                    wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                        buffer: buf,
+                        offset: *offset,
+                        size: wgpu::BufferSize::new(*size),
+                    })
+                }
+                View::Texture(_) | View::TextureMip { .. } => wgpu::BindingResource::TextureView(
+                    &views.iter().find(|(i, _)| *i == bi).unwrap().1,
+                ),
+                View::Sampler(_) => wgpu::BindingResource::Sampler(
+                    &samplers.iter().find(|(i, _)| *i == bi).unwrap().1,
+                ),
+            };
+            groups
+                .entry(b.group)
+                .or_default()
+                .push(wgpu::BindGroupEntry {
+                    binding: b.binding,
+                    resource,
+                });
+        }
+        let bind_groups: Vec<(u32, wgpu::BindGroup)> = groups
+            .into_iter()
+            .map(|(g, entries)| {
+                (
+                    g,
+                    device.create_bind_group(&wgpu::BindGroupDescriptor {
+                        label: Some(&pass.label),
+                        layout: &pipeline.get_bind_group_layout(g),
+                        entries: &entries,
+                    }),
+                )
+            })
+            .collect();
+        let timestamp_writes =
+            queries
+                .as_ref()
+                .map(|(set, _, _)| wgpu::ComputePassTimestampWrites {
+                    query_set: set,
+                    beginning_of_pass_write_index: Some(pi as u32 * 2),
+                    end_of_pass_write_index: Some(pi as u32 * 2 + 1),
+                });
+        let mut cpass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some(&pass.label),
+            timestamp_writes,
+        });
+        cpass.set_pipeline(pipeline);
+        for (g, bg) in &bind_groups {
+            cpass.set_bind_group(*g, bg, &[]);
+        }
+        match &pass.workgroups {
+            Workgroups::Direct([x, y, z]) => cpass.dispatch_workgroups(*x, *y, *z),
+            Workgroups::Indirect { buffer, offset } => {
+                let GpuRes::Buffer(buf) = &gpu[buffer] else {
+                    unreachable!()
+                };
+                cpass.dispatch_workgroups_indirect(buf, *offset);
+            }
+        }
+    }
+    if let Some((set, resolve, n)) = &queries {
+        encoder.resolve_query_set(set, 0..*n, resolve, 0);
+    }
+    let start = Instant::now();
+    ctx.queue.submit([encoder.finish()]);
+    wait(ctx, kernel)?;
+    let wall_ns = start.elapsed().as_nanos() as f64;
+
+    // Readback.
+    let mut out = Resources::new();
+    let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+        label: Some("readback"),
+    });
+    let mut staged = Vec::new();
+    for name in readback {
+        match (&gpu[*name], &resources[*name]) {
+            (GpuRes::Buffer(b), HostResource::Buffer(h)) => {
+                let st = staging(device, b.size());
+                enc.copy_buffer_to_buffer(b, 0, &st, 0, b.size());
+                staged.push((name.to_string(), st, None, h.scalar));
+            }
+            (GpuRes::Texture(t), HostResource::Texture(h)) => {
+                let mut layout = Vec::new();
+                let mut total = 0u64;
+                for m in 0..h.levels.len() as u32 {
+                    let [w, hh, d] = h.level_extent(m);
+                    let row = w * h.texel_bytes() as u32;
+                    let padded = row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT)
+                        * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+                    layout.push((total, row, padded, [w, hh, d]));
+                    total += padded as u64 * hh as u64 * d as u64;
+                }
+                let st = staging(device, total.max(4));
+                for (m, (off, _, padded, [w, hh, d])) in layout.iter().enumerate() {
+                    enc.copy_texture_to_buffer(
+                        wgpu::TexelCopyTextureInfo {
+                            texture: t,
+                            mip_level: m as u32,
+                            origin: wgpu::Origin3d::ZERO,
+                            aspect: wgpu::TextureAspect::All,
+                        },
+                        wgpu::TexelCopyBufferInfo {
+                            buffer: &st,
+                            layout: wgpu::TexelCopyBufferLayout {
+                                offset: *off,
+                                bytes_per_row: Some(*padded),
+                                rows_per_image: Some(*hh),
+                            },
+                        },
+                        wgpu::Extent3d {
+                            width: *w,
+                            height: *hh,
+                            depth_or_array_layers: *d,
+                        },
+                    );
+                }
+                staged.push((
+                    name.to_string(),
+                    st,
+                    Some((layout, h.clone())),
+                    ScalarKind::Mixed,
+                ));
+            }
+            _ => unreachable!(),
+        }
+    }
+    let ts_staging = queries.as_ref().map(|(_, resolve, n)| {
+        let st = staging(device, *n as u64 * 8);
+        enc.copy_buffer_to_buffer(resolve, 0, &st, 0, *n as u64 * 8);
+        st
+    });
+    ctx.queue.submit([enc.finish()]);
+    for (_, st, _, _) in &staged {
+        st.slice(..).map_async(wgpu::MapMode::Read, |_| {});
+    }
+    if let Some(st) = &ts_staging {
+        st.slice(..).map_async(wgpu::MapMode::Read, |_| {});
+    }
+    wait(ctx, kernel)?;
+    let errors = [
+        pollster::block_on(scope_m.pop()),
+        pollster::block_on(scope_v.pop()),
+    ];
+    if let Some(e) = errors.into_iter().flatten().next() {
+        return Err(HarnessError::Gpu {
+            kernel: kernel.into(),
+            message: e.to_string(),
+        });
+    }
+    for (name, st, tex, scalar) in staged {
+        let bytes = st
+            .slice(..)
+            .get_mapped_range()
+            .map_err(|e| HarnessError::Gpu {
+                kernel: kernel.into(),
+                message: format!("mapping `{name}` for readback: {e}"),
+            })?
+            .to_vec();
+        let res = match tex {
+            None => HostResource::Buffer(HostBuffer { bytes, scalar }),
+            Some((layout, mut h)) => {
+                for (m, (off, row, padded, [_, hh, d])) in layout.into_iter().enumerate() {
+                    let level = &mut h.levels[m];
+                    level.clear();
+                    for r in 0..(hh * d) as u64 {
+                        let s = (off + r * padded as u64) as usize;
+                        level.extend_from_slice(&bytes[s..s + row as usize]);
+                    }
+                }
+                HostResource::Texture(h)
+            }
+        };
+        out.insert(name, res);
+    }
+    let (pass_ns, gpu_ns, timing) = match &ts_staging {
+        Some(st) => {
+            let ticks: Vec<u64> =
+                bytemuck::cast_slice(&st.slice(..).get_mapped_range().map_err(|e| {
+                    HarnessError::Gpu {
+                        kernel: kernel.into(),
+                        message: e.to_string(),
+                    }
+                })?)
+                .to_vec();
+            let period = ctx.queue.get_timestamp_period() as f64;
+            let per: Vec<f64> = ticks
+                .chunks(2)
+                .map(|c| c[1].saturating_sub(c[0]) as f64 * period)
+                .collect();
+            let sum = per.iter().sum();
+            (per, sum, TimingSource::Timestamps)
+        }
+        None => (Vec::new(), wall_ns, TimingSource::WallClock),
+    };
+    Ok(RunOutput {
+        resources: out,
+        pass_ns,
+        gpu_ns,
+        timing,
+    })
+}
+
+fn staging(device: &wgpu::Device, size: u64) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("staging"),
+        size,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
+
+fn wait(ctx: &GpuContext, kernel: &str) -> Result<()> {
+    ctx.device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .map(|_| ())
+        .map_err(|e| HarnessError::Gpu {
+            kernel: kernel.into(),
+            message: format!("waiting for the queue: {e}"),
+        })
+}
+
+/// Time a `copy_buffer_to_buffer` of `bytes` on this device: the yardstick effective bandwidth is divided by.
+/// Returns bytes moved (read + write) per second, best of `repeats`.
+pub fn copy_bandwidth(ctx: &GpuContext, bytes: u64, repeats: usize) -> Result<f64> {
+    let bytes = bytes.max(4).div_ceil(4) * 4;
+    let device = &ctx.device;
+    let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let mk = |usage| {
+        device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("copy bench"),
+            size: bytes,
+            usage,
+            mapped_at_creation: false,
+        })
+    };
+    let a = mk(wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST);
+    let b = mk(wgpu::BufferUsages::COPY_DST);
+    // Touch the source once so the copy reads real pages.
+    ctx.queue.write_buffer(&a, 0, &vec![1u8; bytes as usize]);
+    let qs = device
+        .features()
+        .contains(wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS)
+        .then(|| {
+            (
+                device.create_query_set(&wgpu::QuerySetDescriptor {
+                    label: None,
+                    ty: wgpu::QueryType::Timestamp,
+                    count: 2,
+                }),
+                device.create_buffer(&wgpu::BufferDescriptor {
+                    label: None,
+                    size: 16,
+                    usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                    mapped_at_creation: false,
+                }),
+                staging(device, 16),
+            )
+        });
+    let mut best = f64::INFINITY;
+    for _ in 0..repeats.max(1) {
+        let mut enc = device.create_command_encoder(&Default::default());
+        if let Some((set, _, _)) = &qs {
+            enc.write_timestamp(set, 0);
+        }
+        enc.copy_buffer_to_buffer(&a, 0, &b, 0, bytes);
+        if let Some((set, resolve, st)) = &qs {
+            enc.write_timestamp(set, 1);
+            enc.resolve_query_set(set, 0..2, resolve, 0);
+            enc.copy_buffer_to_buffer(resolve, 0, st, 0, 16);
+        }
+        let start = Instant::now();
+        ctx.queue.submit([enc.finish()]);
+        wait(ctx, "copy")?;
+        let mut ns = start.elapsed().as_nanos() as f64;
+        if let Some((_, _, st)) = &qs {
+            st.slice(..).map_async(wgpu::MapMode::Read, |_| {});
+            wait(ctx, "copy")?;
+            {
+                let v = st
+                    .slice(..)
+                    .get_mapped_range()
+                    .map_err(|e| HarnessError::Gpu {
+                        kernel: "copy".into(),
+                        message: e.to_string(),
+                    })?;
+                let t: &[u64] = bytemuck::cast_slice(&v);
+                let gpu =
+                    t[1].saturating_sub(t[0]) as f64 * ctx.queue.get_timestamp_period() as f64;
+                if gpu > 0.0 {
+                    ns = gpu;
+                }
+            }
+            st.unmap();
+        }
+        best = best.min(ns);
+    }
+    if let Some(e) = pollster::block_on(scope.pop()) {
+        return Err(HarnessError::Gpu {
+            kernel: "copy".into(),
+            message: e.to_string(),
+        });
+    }
+    Ok(2.0 * bytes as f64 / (best * 1e-9))
+}

@@ -1,0 +1,8 @@
+//! vxgi: WGSL compute kernels for voxel-based global illumination, each verified against a scalar Rust
+//! mirror on generated inputs. See README.md for the layout and how to add a kernel.
+pub mod coverage;
+pub mod grids;
+pub mod kernels;
+
+pub use vxgi_cpu_mirror as cpu_mirror;
+pub use vxgi_harness as harness;
