@@ -77,13 +77,12 @@ pub fn reduce_level(
         .unzip()
 }
 
+/// One level: (colour, normal) per voxel in Morton order.
+pub type Level = (Vec<[f32; 4]>, Vec<[f32; 4]>);
+
 /// The whole chain from level 0 (side `n`, a power of two) down to 1^3; `result[0]` is level 1.
-pub fn mip_chain(
-    colour: &[[f32; 4]],
-    normal: &[[f32; 4]],
-    coverage: Coverage,
-) -> Vec<(Vec<[f32; 4]>, Vec<[f32; 4]>)> {
-    let mut levels: Vec<(Vec<[f32; 4]>, Vec<[f32; 4]>)> = Vec::new();
+pub fn mip_chain(colour: &[[f32; 4]], normal: &[[f32; 4]], coverage: Coverage) -> Vec<Level> {
+    let mut levels: Vec<Level> = Vec::new();
     while levels.last().map_or(colour.len(), |l| l.0.len()) > 1 {
         let (c, n) = match levels.last() {
             Some((c, n)) => (c.as_slice(), n.as_slice()),

@@ -201,7 +201,7 @@ impl Comparison {
         for m in &self.worst {
             let _ = writeln!(
                 s,
-                "  {} index {}: gpu {:e} ({:#010x}) mirror {:e} ({:#010x}) ULP {}{}",
+                "  {} index {}: gpu {:e} ({:#010x}) mirror {:e} ({:#010x}) ULP {}",
                 if self.tolerance.accepts(m.gpu, m.mirror) {
                     "  ok"
                 } else {
@@ -213,7 +213,6 @@ impl Comparison {
                 m.mirror,
                 m.mirror.to_bits(),
                 fmt_ulp(m.ulp),
-                ""
             );
         }
         s

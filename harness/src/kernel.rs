@@ -247,24 +247,34 @@ pub fn verify_case(
         &readback,
     )?;
     if let Some(c) = corrupt {
-        if let Some(HostResource::Buffer(b)) = out.resources.get_mut(&c.resource) {
-            // Move one element just past its tolerance (or flip bits for exact outputs).
-            let tol = case
-                .checks
-                .iter()
-                .find(|k| k.resource == c.resource)
-                .and_then(|k| decl.output(k.output))
-                .map(|o| o.tolerance);
-            let words: &mut [u32] = bytemuck::cast_slice_mut(&mut b.bytes);
-            if let Some(w) = words.get_mut(c.index) {
-                *w = match tol {
-                    Some(Tolerance::Ulp { ulps, .. }) if f32::from_bits(*w).abs() > 1e-30 => {
-                        w.wrapping_add(ulps + 1)
-                    }
-                    _ => *w ^ 0x0040_0001,
-                };
+        let tol = case
+            .checks
+            .iter()
+            .find(|k| k.resource == c.resource)
+            .and_then(|k| decl.output(k.output))
+            .map(|o| o.tolerance);
+        let word = match out.resources.get_mut(&c.resource) {
+            Some(HostResource::Buffer(b)) => {
+                bytemuck::cast_slice_mut::<u8, u32>(&mut b.bytes).get_mut(c.index)
             }
-        }
+            _ => None,
+        };
+        let Some(w) = word else {
+            return Err(crate::HarnessError::Invalid {
+                kernel: decl.name.into(),
+                message: format!(
+                    "cannot corrupt `{}`[{}]: no such checked element",
+                    c.resource, c.index
+                ),
+            });
+        };
+        // Move the element one ULP past its tolerance (or flip bits where that is meaningless).
+        *w = match tol {
+            Some(Tolerance::Ulp { ulps, .. }) if f32::from_bits(*w).abs() > 1e-30 => {
+                w.wrapping_add(ulps + 1)
+            }
+            _ => *w ^ 0x0040_0001,
+        };
     }
     let mut data = case.resources.clone();
     for (k, v) in &out.resources {

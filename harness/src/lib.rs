@@ -23,7 +23,7 @@ pub use kernel::{
     VerifyOptions,
 };
 pub use run::{
-    HostBuffer, HostResource, HostTexture, Pass, Resources, RunOutput, TimingSource, View,
-    Workgroups,
+    prepare, HostBuffer, HostResource, HostTexture, Pass, Prepared, Resources, RunOutput,
+    TimingSource, View, Workgroups,
 };
 pub use shader::{Binding, BindingKind, ScalarKind, Shader};

@@ -86,6 +86,15 @@ impl HostTexture {
             _ => [s(self.size[0]), s(self.size[1]), self.size[2]],
         }
     }
+    /// Format, dimension and size without the data.
+    pub fn clone_shape(&self) -> Self {
+        Self {
+            format: self.format,
+            dimension: self.dimension,
+            size: self.size,
+            levels: Vec::new(),
+        }
+    }
     pub fn level_bytes(&self, m: u32) -> usize {
         let [w, h, d] = self.level_extent(m);
         w as usize * h as usize * d as usize * self.texel_bytes()
@@ -264,7 +273,7 @@ impl Checker<'_> {
         let fits = match layout.runtime_stride {
             Some(st) => {
                 size >= layout.fixed_size as u64 + st as u64
-                    && (size - layout.fixed_size as u64) % st as u64 == 0
+                    && (size - layout.fixed_size as u64).is_multiple_of(st as u64)
             }
             None => size == layout.fixed_size as u64,
         };
@@ -520,348 +529,29 @@ enum GpuRes {
     Texture(wgpu::Texture),
 }
 
-/// Check everything against reflection and the device limits, then upload `resources`, run `passes` in
-/// order in one submission, and read back the resources named in `readback`.
-pub fn run(
-    ctx: &GpuContext,
-    shader: &Shader,
-    kernel: &str,
-    resources: &Resources,
-    passes: &[Pass],
-    readback: &[&str],
-) -> Result<RunOutput> {
-    Checker {
-        ctx,
-        shader,
-        kernel,
-    }
-    .check(resources, passes)?;
-    for r in readback {
-        if !resources.contains_key(*r) {
-            return Err(HarnessError::UnknownResource {
-                kernel: kernel.into(),
-                pass: "readback".into(),
-                resource: r.to_string(),
-            });
-        }
-    }
-    let device = &ctx.device;
-    let scope_v = device.push_error_scope(wgpu::ErrorFilter::Validation);
-    let scope_m = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+struct Step {
+    label: String,
+    pipeline: wgpu::ComputePipeline,
+    bind_groups: Vec<(u32, wgpu::BindGroup)>,
+    workgroups: Workgroups,
+}
 
-    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some(kernel),
-        source: wgpu::ShaderSource::Wgsl(shader.source.as_str().into()),
-    });
-    let mut gpu = BTreeMap::new();
-    for (name, res) in resources {
-        let g = match res {
-            HostResource::Buffer(b) => GpuRes::Buffer(device.create_buffer_init(
-                &wgpu::util::BufferInitDescriptor {
-                    label: Some(name),
-                    contents: &b.bytes,
-                    usage: wgpu::BufferUsages::STORAGE
-                        | wgpu::BufferUsages::UNIFORM
-                        | wgpu::BufferUsages::COPY_SRC
-                        | wgpu::BufferUsages::COPY_DST
-                        | wgpu::BufferUsages::INDIRECT,
-                },
-            )),
-            HostResource::Texture(t) => {
-                let mut usage = wgpu::TextureUsages::TEXTURE_BINDING
-                    | wgpu::TextureUsages::COPY_SRC
-                    | wgpu::TextureUsages::COPY_DST;
-                if t.format
-                    .guaranteed_format_features(device.features())
-                    .allowed_usages
-                    .contains(wgpu::TextureUsages::STORAGE_BINDING)
-                {
-                    usage |= wgpu::TextureUsages::STORAGE_BINDING;
-                }
-                let tex = device.create_texture(&wgpu::TextureDescriptor {
-                    label: Some(name),
-                    size: wgpu::Extent3d {
-                        width: t.size[0],
-                        height: t.size[1],
-                        depth_or_array_layers: t.size[2],
-                    },
-                    mip_level_count: t.levels.len() as u32,
-                    sample_count: 1,
-                    dimension: t.dimension,
-                    format: t.format,
-                    usage,
-                    view_formats: &[],
-                });
-                for (m, data) in t.levels.iter().enumerate() {
-                    let [w, h, d] = t.level_extent(m as u32);
-                    ctx.queue.write_texture(
-                        wgpu::TexelCopyTextureInfo {
-                            texture: &tex,
-                            mip_level: m as u32,
-                            origin: wgpu::Origin3d::ZERO,
-                            aspect: wgpu::TextureAspect::All,
-                        },
-                        data,
-                        wgpu::TexelCopyBufferLayout {
-                            offset: 0,
-                            bytes_per_row: Some(w * t.texel_bytes() as u32),
-                            rows_per_image: Some(h),
-                        },
-                        wgpu::Extent3d {
-                            width: w,
-                            height: h,
-                            depth_or_array_layers: d,
-                        },
-                    );
-                }
-                GpuRes::Texture(tex)
-            }
-        };
-        gpu.insert(name.clone(), g);
-    }
+/// Resources uploaded and passes recorded once; dispatch as often as wanted (benchmarks), read back any
+/// resource. [`run`] is `prepare` + `dispatch` + `read`.
+pub struct Prepared<'a> {
+    ctx: &'a GpuContext,
+    kernel: String,
+    gpu: BTreeMap<String, GpuRes>,
+    /// Shape of each resource (buffers: scalar kind; textures: everything but the data).
+    shapes: BTreeMap<String, HostResource>,
+    steps: Vec<Step>,
+    queries: Option<(wgpu::QuerySet, wgpu::Buffer, u32)>,
+}
 
-    let use_ts = ctx.timestamps
-        && !passes.is_empty()
-        && passes.len() * 2 <= wgpu::QUERY_SET_MAX_QUERIES as usize;
-    let queries = use_ts.then(|| {
-        let n = passes.len() as u32 * 2;
-        let set = device.create_query_set(&wgpu::QuerySetDescriptor {
-            label: Some("pass times"),
-            ty: wgpu::QueryType::Timestamp,
-            count: n,
-        });
-        let resolve = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("timestamps"),
-            size: n as u64 * 8,
-            usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        (set, resolve, n)
-    });
-
-    let mut pipelines: BTreeMap<&str, wgpu::ComputePipeline> = BTreeMap::new();
-    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-        label: Some(kernel),
-    });
-    for (pi, pass) in passes.iter().enumerate() {
-        let pipeline = pipelines.entry(pass.entry.as_str()).or_insert_with(|| {
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(&pass.entry),
-                layout: None,
-                module: &module,
-                entry_point: Some(&pass.entry),
-                compilation_options: Default::default(),
-                cache: None,
-            })
-        });
-        let entry = shader.entry(&pass.entry).expect("checked");
-        let mut groups: BTreeMap<u32, Vec<wgpu::BindGroupEntry>> = BTreeMap::new();
-        let mut views = Vec::new();
-        let mut samplers = Vec::new();
-        // Views and samplers must outlive the bind-group entries that borrow them: build them first.
-        for &bi in &entry.uses {
-            let b = &shader.bindings[bi];
-            let (_, view) = pass
-                .bindings
-                .iter()
-                .find(|(n, _)| *n == b.name)
-                .expect("checked");
-            match view {
-                View::Texture(n) | View::TextureMip { name: n, .. } => {
-                    let GpuRes::Texture(t) = &gpu[n] else {
-                        unreachable!()
-                    };
-                    let (base, count) = match view {
-                        View::TextureMip { mip, .. } => (*mip, Some(1)),
-                        _ => (0, None),
-                    };
-                    let dim = match &b.kind {
-                        BindingKind::SampledTexture { dim, .. }
-                        | BindingKind::StorageTexture { dim, .. } => *dim,
-                        _ => unreachable!(),
-                    };
-                    views.push((
-                        bi,
-                        t.create_view(&wgpu::TextureViewDescriptor {
-                            dimension: Some(dim),
-                            base_mip_level: base,
-                            mip_level_count: count,
-                            ..Default::default()
-                        }),
-                    ));
-                }
-                View::Sampler(filter) => samplers.push((
-                    bi,
-                    device.create_sampler(&wgpu::SamplerDescriptor {
-                        mag_filter: *filter,
-                        min_filter: *filter,
-                        mipmap_filter: match filter {
-                            wgpu::FilterMode::Linear => wgpu::MipmapFilterMode::Linear,
-                            wgpu::FilterMode::Nearest => wgpu::MipmapFilterMode::Nearest,
-                        },
-                        ..Default::default()
-                    }),
-                )),
-                _ => {}
-            }
-        }
-        for &bi in &entry.uses {
-            let b = &shader.bindings[bi];
-            let (_, view) = pass
-                .bindings
-                .iter()
-                .find(|(n, _)| *n == b.name)
-                .expect("checked");
-            let resource = match view {
-                View::Buffer(n) => {
-                    let GpuRes::Buffer(buf) = &gpu[n] else {
-                        unreachable!()
-                    };
-                    buf.as_entire_binding()
-                }
-                View::BufferRange { name, offset, size } => {
-                    let GpuRes::Buffer(buf) = &gpu[name] else {
-                        unreachable!()
-                    };
-                    wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                        buffer: buf,
-                        offset: *offset,
-                        size: wgpu::BufferSize::new(*size),
-                    })
-                }
-                View::Texture(_) | View::TextureMip { .. } => wgpu::BindingResource::TextureView(
-                    &views.iter().find(|(i, _)| *i == bi).unwrap().1,
-                ),
-                View::Sampler(_) => wgpu::BindingResource::Sampler(
-                    &samplers.iter().find(|(i, _)| *i == bi).unwrap().1,
-                ),
-            };
-            groups
-                .entry(b.group)
-                .or_default()
-                .push(wgpu::BindGroupEntry {
-                    binding: b.binding,
-                    resource,
-                });
-        }
-        let bind_groups: Vec<(u32, wgpu::BindGroup)> = groups
-            .into_iter()
-            .map(|(g, entries)| {
-                (
-                    g,
-                    device.create_bind_group(&wgpu::BindGroupDescriptor {
-                        label: Some(&pass.label),
-                        layout: &pipeline.get_bind_group_layout(g),
-                        entries: &entries,
-                    }),
-                )
-            })
-            .collect();
-        let timestamp_writes =
-            queries
-                .as_ref()
-                .map(|(set, _, _)| wgpu::ComputePassTimestampWrites {
-                    query_set: set,
-                    beginning_of_pass_write_index: Some(pi as u32 * 2),
-                    end_of_pass_write_index: Some(pi as u32 * 2 + 1),
-                });
-        let mut cpass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some(&pass.label),
-            timestamp_writes,
-        });
-        cpass.set_pipeline(pipeline);
-        for (g, bg) in &bind_groups {
-            cpass.set_bind_group(*g, bg, &[]);
-        }
-        match &pass.workgroups {
-            Workgroups::Direct([x, y, z]) => cpass.dispatch_workgroups(*x, *y, *z),
-            Workgroups::Indirect { buffer, offset } => {
-                let GpuRes::Buffer(buf) = &gpu[buffer] else {
-                    unreachable!()
-                };
-                cpass.dispatch_workgroups_indirect(buf, *offset);
-            }
-        }
-    }
-    if let Some((set, resolve, n)) = &queries {
-        encoder.resolve_query_set(set, 0..*n, resolve, 0);
-    }
-    let start = Instant::now();
-    ctx.queue.submit([encoder.finish()]);
-    wait(ctx, kernel)?;
-    let wall_ns = start.elapsed().as_nanos() as f64;
-
-    // Readback.
-    let mut out = Resources::new();
-    let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-        label: Some("readback"),
-    });
-    let mut staged = Vec::new();
-    for name in readback {
-        match (&gpu[*name], &resources[*name]) {
-            (GpuRes::Buffer(b), HostResource::Buffer(h)) => {
-                let st = staging(device, b.size());
-                enc.copy_buffer_to_buffer(b, 0, &st, 0, b.size());
-                staged.push((name.to_string(), st, None, h.scalar));
-            }
-            (GpuRes::Texture(t), HostResource::Texture(h)) => {
-                let mut layout = Vec::new();
-                let mut total = 0u64;
-                for m in 0..h.levels.len() as u32 {
-                    let [w, hh, d] = h.level_extent(m);
-                    let row = w * h.texel_bytes() as u32;
-                    let padded = row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT)
-                        * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
-                    layout.push((total, row, padded, [w, hh, d]));
-                    total += padded as u64 * hh as u64 * d as u64;
-                }
-                let st = staging(device, total.max(4));
-                for (m, (off, _, padded, [w, hh, d])) in layout.iter().enumerate() {
-                    enc.copy_texture_to_buffer(
-                        wgpu::TexelCopyTextureInfo {
-                            texture: t,
-                            mip_level: m as u32,
-                            origin: wgpu::Origin3d::ZERO,
-                            aspect: wgpu::TextureAspect::All,
-                        },
-                        wgpu::TexelCopyBufferInfo {
-                            buffer: &st,
-                            layout: wgpu::TexelCopyBufferLayout {
-                                offset: *off,
-                                bytes_per_row: Some(*padded),
-                                rows_per_image: Some(*hh),
-                            },
-                        },
-                        wgpu::Extent3d {
-                            width: *w,
-                            height: *hh,
-                            depth_or_array_layers: *d,
-                        },
-                    );
-                }
-                staged.push((
-                    name.to_string(),
-                    st,
-                    Some((layout, h.clone())),
-                    ScalarKind::Mixed,
-                ));
-            }
-            _ => unreachable!(),
-        }
-    }
-    let ts_staging = queries.as_ref().map(|(_, resolve, n)| {
-        let st = staging(device, *n as u64 * 8);
-        enc.copy_buffer_to_buffer(resolve, 0, &st, 0, *n as u64 * 8);
-        st
-    });
-    ctx.queue.submit([enc.finish()]);
-    for (_, st, _, _) in &staged {
-        st.slice(..).map_async(wgpu::MapMode::Read, |_| {});
-    }
-    if let Some(st) = &ts_staging {
-        st.slice(..).map_async(wgpu::MapMode::Read, |_| {});
-    }
-    wait(ctx, kernel)?;
+fn scoped<T>(ctx: &GpuContext, kernel: &str, f: impl FnOnce() -> Result<T>) -> Result<T> {
+    let scope_v = ctx.device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let scope_m = ctx.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+    let r = f();
     let errors = [
         pollster::block_on(scope_m.pop()),
         pollster::block_on(scope_v.pop()),
@@ -872,53 +562,471 @@ pub fn run(
             message: e.to_string(),
         });
     }
-    for (name, st, tex, scalar) in staged {
-        let bytes = st
-            .slice(..)
-            .get_mapped_range()
-            .map_err(|e| HarnessError::Gpu {
-                kernel: kernel.into(),
-                message: format!("mapping `{name}` for readback: {e}"),
-            })?
-            .to_vec();
-        let res = match tex {
-            None => HostResource::Buffer(HostBuffer { bytes, scalar }),
-            Some((layout, mut h)) => {
-                for (m, (off, row, padded, [_, hh, d])) in layout.into_iter().enumerate() {
-                    let level = &mut h.levels[m];
-                    level.clear();
-                    for r in 0..(hh * d) as u64 {
-                        let s = (off + r * padded as u64) as usize;
-                        level.extend_from_slice(&bytes[s..s + row as usize]);
+    r
+}
+
+/// Check everything against reflection and the device limits, then upload `resources` and record
+/// `passes`. Nothing reaches the GPU before the checks pass.
+pub fn prepare<'a>(
+    ctx: &'a GpuContext,
+    shader: &Shader,
+    kernel: &str,
+    resources: &Resources,
+    passes: &[Pass],
+) -> Result<Prepared<'a>> {
+    Checker {
+        ctx,
+        shader,
+        kernel,
+    }
+    .check(resources, passes)?;
+    scoped(ctx, kernel, || {
+        let device = &ctx.device;
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some(kernel),
+            source: wgpu::ShaderSource::Wgsl(shader.source.as_str().into()),
+        });
+        let mut gpu = BTreeMap::new();
+        let mut shapes = BTreeMap::new();
+        for (name, res) in resources {
+            let g = match res {
+                HostResource::Buffer(b) => {
+                    shapes.insert(
+                        name.clone(),
+                        HostResource::Buffer(HostBuffer {
+                            bytes: Vec::new(),
+                            scalar: b.scalar,
+                        }),
+                    );
+                    GpuRes::Buffer(
+                        device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                            label: Some(name),
+                            contents: &b.bytes,
+                            usage: wgpu::BufferUsages::STORAGE
+                                | wgpu::BufferUsages::UNIFORM
+                                | wgpu::BufferUsages::COPY_SRC
+                                | wgpu::BufferUsages::COPY_DST
+                                | wgpu::BufferUsages::INDIRECT,
+                        }),
+                    )
+                }
+                HostResource::Texture(t) => {
+                    shapes.insert(
+                        name.clone(),
+                        HostResource::Texture(HostTexture {
+                            levels: vec![Vec::new(); t.levels.len()],
+                            ..t.clone_shape()
+                        }),
+                    );
+                    let mut usage = wgpu::TextureUsages::TEXTURE_BINDING
+                        | wgpu::TextureUsages::COPY_SRC
+                        | wgpu::TextureUsages::COPY_DST;
+                    if t.format
+                        .guaranteed_format_features(device.features())
+                        .allowed_usages
+                        .contains(wgpu::TextureUsages::STORAGE_BINDING)
+                    {
+                        usage |= wgpu::TextureUsages::STORAGE_BINDING;
+                    }
+                    let tex = device.create_texture(&wgpu::TextureDescriptor {
+                        label: Some(name),
+                        size: wgpu::Extent3d {
+                            width: t.size[0],
+                            height: t.size[1],
+                            depth_or_array_layers: t.size[2],
+                        },
+                        mip_level_count: t.levels.len() as u32,
+                        sample_count: 1,
+                        dimension: t.dimension,
+                        format: t.format,
+                        usage,
+                        view_formats: &[],
+                    });
+                    for (m, data) in t.levels.iter().enumerate() {
+                        let [w, h, d] = t.level_extent(m as u32);
+                        ctx.queue.write_texture(
+                            wgpu::TexelCopyTextureInfo {
+                                texture: &tex,
+                                mip_level: m as u32,
+                                origin: wgpu::Origin3d::ZERO,
+                                aspect: wgpu::TextureAspect::All,
+                            },
+                            data,
+                            wgpu::TexelCopyBufferLayout {
+                                offset: 0,
+                                bytes_per_row: Some(w * t.texel_bytes() as u32),
+                                rows_per_image: Some(h),
+                            },
+                            wgpu::Extent3d {
+                                width: w,
+                                height: h,
+                                depth_or_array_layers: d,
+                            },
+                        );
+                    }
+                    GpuRes::Texture(tex)
+                }
+            };
+            gpu.insert(name.clone(), g);
+        }
+
+        let use_ts = ctx.timestamps
+            && !passes.is_empty()
+            && passes.len() * 2 <= wgpu::QUERY_SET_MAX_QUERIES as usize;
+        let queries = use_ts.then(|| {
+            let n = passes.len() as u32 * 2;
+            let set = device.create_query_set(&wgpu::QuerySetDescriptor {
+                label: Some("pass times"),
+                ty: wgpu::QueryType::Timestamp,
+                count: n,
+            });
+            let resolve = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("timestamps"),
+                size: n as u64 * 8,
+                usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            });
+            (set, resolve, n)
+        });
+
+        let mut pipelines: BTreeMap<&str, wgpu::ComputePipeline> = BTreeMap::new();
+        let mut steps = Vec::new();
+        for pass in passes {
+            let pipeline = pipelines
+                .entry(pass.entry.as_str())
+                .or_insert_with(|| {
+                    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                        label: Some(&pass.entry),
+                        layout: None,
+                        module: &module,
+                        entry_point: Some(&pass.entry),
+                        compilation_options: Default::default(),
+                        cache: None,
+                    })
+                })
+                .clone();
+            let entry = shader.entry(&pass.entry).expect("checked");
+            let mut groups: BTreeMap<u32, Vec<(u32, wgpu::BindingResource)>> = BTreeMap::new();
+            let mut views = Vec::new();
+            let mut samplers = Vec::new();
+            // Views and samplers must outlive the bind-group entries that borrow them: build them first.
+            for &bi in &entry.uses {
+                let b = &shader.bindings[bi];
+                let (_, view) = pass
+                    .bindings
+                    .iter()
+                    .find(|(n, _)| *n == b.name)
+                    .expect("checked");
+                match view {
+                    View::Texture(n) | View::TextureMip { name: n, .. } => {
+                        let GpuRes::Texture(t) = &gpu[n] else {
+                            unreachable!("checked")
+                        };
+                        let (base, count) = match view {
+                            View::TextureMip { mip, .. } => (*mip, Some(1)),
+                            _ => (0, None),
+                        };
+                        let dim = match &b.kind {
+                            BindingKind::SampledTexture { dim, .. }
+                            | BindingKind::StorageTexture { dim, .. } => *dim,
+                            _ => unreachable!("checked"),
+                        };
+                        views.push((
+                            bi,
+                            t.create_view(&wgpu::TextureViewDescriptor {
+                                dimension: Some(dim),
+                                base_mip_level: base,
+                                mip_level_count: count,
+                                ..Default::default()
+                            }),
+                        ));
+                    }
+                    View::Sampler(filter) => samplers.push((
+                        bi,
+                        device.create_sampler(&wgpu::SamplerDescriptor {
+                            mag_filter: *filter,
+                            min_filter: *filter,
+                            mipmap_filter: match filter {
+                                wgpu::FilterMode::Linear => wgpu::MipmapFilterMode::Linear,
+                                wgpu::FilterMode::Nearest => wgpu::MipmapFilterMode::Nearest,
+                            },
+                            ..Default::default()
+                        }),
+                    )),
+                    _ => {}
+                }
+            }
+            for &bi in &entry.uses {
+                let b = &shader.bindings[bi];
+                let (_, view) = pass
+                    .bindings
+                    .iter()
+                    .find(|(n, _)| *n == b.name)
+                    .expect("checked");
+                let resource = match view {
+                    View::Buffer(n) => {
+                        let GpuRes::Buffer(buf) = &gpu[n] else {
+                            unreachable!("checked")
+                        };
+                        buf.as_entire_binding()
+                    }
+                    View::BufferRange { name, offset, size } => {
+                        let GpuRes::Buffer(buf) = &gpu[name] else {
+                            unreachable!("checked")
+                        };
+                        wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                            buffer: buf,
+                            offset: *offset,
+                            size: wgpu::BufferSize::new(*size),
+                        })
+                    }
+                    View::Texture(_) | View::TextureMip { .. } => {
+                        wgpu::BindingResource::TextureView(
+                            &views.iter().find(|(i, _)| *i == bi).expect("built above").1,
+                        )
+                    }
+                    View::Sampler(_) => wgpu::BindingResource::Sampler(
+                        &samplers
+                            .iter()
+                            .find(|(i, _)| *i == bi)
+                            .expect("built above")
+                            .1,
+                    ),
+                };
+                groups
+                    .entry(b.group)
+                    .or_default()
+                    .push((b.binding, resource));
+            }
+            let bind_groups = groups
+                .into_iter()
+                .map(|(g, entries)| {
+                    let entries: Vec<_> = entries
+                        .into_iter()
+                        .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource })
+                        .collect();
+                    (
+                        g,
+                        device.create_bind_group(&wgpu::BindGroupDescriptor {
+                            label: Some(&pass.label),
+                            layout: &pipeline.get_bind_group_layout(g),
+                            entries: &entries,
+                        }),
+                    )
+                })
+                .collect();
+            steps.push(Step {
+                label: pass.label.clone(),
+                pipeline,
+                bind_groups,
+                workgroups: pass.workgroups.clone(),
+            });
+        }
+        Ok(Prepared {
+            ctx,
+            kernel: kernel.into(),
+            gpu,
+            shapes,
+            steps,
+            queries,
+        })
+    })
+}
+
+impl Prepared<'_> {
+    /// Run every pass once, in order, in one submission; returns (per-pass ns, total GPU ns, timing source).
+    pub fn dispatch(&self) -> Result<(Vec<f64>, f64, TimingSource)> {
+        let ctx = self.ctx;
+        scoped(ctx, &self.kernel, || {
+            let mut encoder = ctx
+                .device
+                .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                    label: Some(&self.kernel),
+                });
+            for (pi, step) in self.steps.iter().enumerate() {
+                let timestamp_writes =
+                    self.queries
+                        .as_ref()
+                        .map(|(set, _, _)| wgpu::ComputePassTimestampWrites {
+                            query_set: set,
+                            beginning_of_pass_write_index: Some(pi as u32 * 2),
+                            end_of_pass_write_index: Some(pi as u32 * 2 + 1),
+                        });
+                let mut cpass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some(&step.label),
+                    timestamp_writes,
+                });
+                cpass.set_pipeline(&step.pipeline);
+                for (g, bg) in &step.bind_groups {
+                    cpass.set_bind_group(*g, bg, &[]);
+                }
+                match &step.workgroups {
+                    Workgroups::Direct([x, y, z]) => cpass.dispatch_workgroups(*x, *y, *z),
+                    Workgroups::Indirect { buffer, offset } => {
+                        let GpuRes::Buffer(buf) = &self.gpu[buffer] else {
+                            unreachable!("checked")
+                        };
+                        cpass.dispatch_workgroups_indirect(buf, *offset);
                     }
                 }
-                HostResource::Texture(h)
             }
-        };
-        out.insert(name, res);
+            let ts_staging = self.queries.as_ref().map(|(set, resolve, n)| {
+                encoder.resolve_query_set(set, 0..*n, resolve, 0);
+                let st = staging(&ctx.device, *n as u64 * 8);
+                encoder.copy_buffer_to_buffer(resolve, 0, &st, 0, *n as u64 * 8);
+                st
+            });
+            let start = Instant::now();
+            ctx.queue.submit([encoder.finish()]);
+            wait(ctx, &self.kernel)?;
+            let wall_ns = start.elapsed().as_nanos() as f64;
+            match ts_staging {
+                Some(st) => {
+                    st.slice(..).map_async(wgpu::MapMode::Read, |_| {});
+                    wait(ctx, &self.kernel)?;
+                    let view = st
+                        .slice(..)
+                        .get_mapped_range()
+                        .map_err(|e| HarnessError::Gpu {
+                            kernel: self.kernel.clone(),
+                            message: e.to_string(),
+                        })?;
+                    let ticks: &[u64] = bytemuck::cast_slice(&view);
+                    let period = ctx.queue.get_timestamp_period() as f64;
+                    let per: Vec<f64> = ticks
+                        .chunks(2)
+                        .map(|c| c[1].saturating_sub(c[0]) as f64 * period)
+                        .collect();
+                    let sum = per.iter().sum();
+                    Ok((per, sum, TimingSource::Timestamps))
+                }
+                None => Ok((Vec::new(), wall_ns, TimingSource::WallClock)),
+            }
+        })
     }
-    let (pass_ns, gpu_ns, timing) = match &ts_staging {
-        Some(st) => {
-            let ticks: Vec<u64> =
-                bytemuck::cast_slice(&st.slice(..).get_mapped_range().map_err(|e| {
-                    HarnessError::Gpu {
-                        kernel: kernel.into(),
-                        message: e.to_string(),
-                    }
-                })?)
-                .to_vec();
-            let period = ctx.queue.get_timestamp_period() as f64;
-            let per: Vec<f64> = ticks
-                .chunks(2)
-                .map(|c| c[1].saturating_sub(c[0]) as f64 * period)
-                .collect();
-            let sum = per.iter().sum();
-            (per, sum, TimingSource::Timestamps)
+
+    /// Read back the named resources as they are now.
+    pub fn read(&self, names: &[&str]) -> Result<Resources> {
+        let ctx = self.ctx;
+        let kernel = &self.kernel;
+        for r in names {
+            if !self.gpu.contains_key(*r) {
+                return Err(HarnessError::UnknownResource {
+                    kernel: kernel.clone(),
+                    pass: "readback".into(),
+                    resource: r.to_string(),
+                });
+            }
         }
-        None => (Vec::new(), wall_ns, TimingSource::WallClock),
-    };
+        scoped(ctx, kernel, || {
+            let device = &ctx.device;
+            let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("readback"),
+            });
+            let mut staged = Vec::new();
+            for name in names {
+                match (&self.gpu[*name], &self.shapes[*name]) {
+                    (GpuRes::Buffer(b), HostResource::Buffer(h)) => {
+                        let st = staging(device, b.size());
+                        enc.copy_buffer_to_buffer(b, 0, &st, 0, b.size());
+                        staged.push((name.to_string(), st, None, h.scalar));
+                    }
+                    (GpuRes::Texture(t), HostResource::Texture(h)) => {
+                        let mut layout = Vec::new();
+                        let mut total = 0u64;
+                        for m in 0..h.levels.len() as u32 {
+                            let [w, hh, d] = h.level_extent(m);
+                            let row = w * h.texel_bytes() as u32;
+                            let padded = row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT)
+                                * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+                            layout.push((total, row, padded, [w, hh, d]));
+                            total += padded as u64 * hh as u64 * d as u64;
+                        }
+                        let st = staging(device, total.max(4));
+                        for (m, (off, _, padded, [w, hh, d])) in layout.iter().enumerate() {
+                            enc.copy_texture_to_buffer(
+                                wgpu::TexelCopyTextureInfo {
+                                    texture: t,
+                                    mip_level: m as u32,
+                                    origin: wgpu::Origin3d::ZERO,
+                                    aspect: wgpu::TextureAspect::All,
+                                },
+                                wgpu::TexelCopyBufferInfo {
+                                    buffer: &st,
+                                    layout: wgpu::TexelCopyBufferLayout {
+                                        offset: *off,
+                                        bytes_per_row: Some(*padded),
+                                        rows_per_image: Some(*hh),
+                                    },
+                                },
+                                wgpu::Extent3d {
+                                    width: *w,
+                                    height: *hh,
+                                    depth_or_array_layers: *d,
+                                },
+                            );
+                        }
+                        staged.push((
+                            name.to_string(),
+                            st,
+                            Some((layout, h.clone())),
+                            ScalarKind::Mixed,
+                        ));
+                    }
+                    _ => unreachable!("shapes mirror gpu"),
+                }
+            }
+            ctx.queue.submit([enc.finish()]);
+            for (_, st, _, _) in &staged {
+                st.slice(..).map_async(wgpu::MapMode::Read, |_| {});
+            }
+            wait(ctx, kernel)?;
+            let mut out = Resources::new();
+            for (name, st, tex, scalar) in staged {
+                let bytes = st
+                    .slice(..)
+                    .get_mapped_range()
+                    .map_err(|e| HarnessError::Gpu {
+                        kernel: kernel.clone(),
+                        message: format!("mapping `{name}` for readback: {e}"),
+                    })?
+                    .to_vec();
+                let res = match tex {
+                    None => HostResource::Buffer(HostBuffer { bytes, scalar }),
+                    Some((layout, mut h)) => {
+                        // Drop the row padding copy_texture_to_buffer needs (rows aligned to 256 bytes).
+                        for (m, (off, row, padded, [_, hh, d])) in layout.into_iter().enumerate() {
+                            let level = &mut h.levels[m];
+                            level.clear();
+                            for r in 0..(hh * d) as u64 {
+                                let s = (off + r * padded as u64) as usize;
+                                level.extend_from_slice(&bytes[s..s + row as usize]);
+                            }
+                        }
+                        HostResource::Texture(h)
+                    }
+                };
+                out.insert(name, res);
+            }
+            Ok(out)
+        })
+    }
+}
+
+/// Check, upload, run `passes` once and read back the resources named in `readback`.
+pub fn run(
+    ctx: &GpuContext,
+    shader: &Shader,
+    kernel: &str,
+    resources: &Resources,
+    passes: &[Pass],
+    readback: &[&str],
+) -> Result<RunOutput> {
+    let prepared = prepare(ctx, shader, kernel, resources, passes)?;
+    let (pass_ns, gpu_ns, timing) = prepared.dispatch()?;
+    let resources = prepared.read(readback)?;
     Ok(RunOutput {
-        resources: out,
+        resources,
         pass_ns,
         gpu_ns,
         timing,

@@ -213,7 +213,7 @@ impl Kernel for SurfaceCoverageMip {
             &grid,
             coverage,
             format!("#{index} {n}^3 {pattern:?} {coverage:?}"),
-            case_seed,
+            seed, // reports name the run seed: `vxgi verify --seed S` reproduces case #i
         )
     }
 
