@@ -4,15 +4,16 @@ use crate::grids::Grid;
 use vxgi_cpu_mirror::morton;
 use vxgi_cpu_mirror::surface_coverage_mip::{mip_chain, Coverage};
 
-/// The truth alpha approximates: for the block of `2^level` fine voxels per side at coarse (cx, cy, cz),
-/// the fraction of the 3 * (2^level)^2 axis-aligned rays (one per fine column, along x, y and z) that
+/// The truth alpha approximates, per axis: for the block of `2^level` fine voxels per side at coarse
+/// (cx, cy, cz), the fraction of the (2^level)^2 rays along x (then y, z), one per fine column, that
 /// meet at least one fine voxel with alpha >= 1.
-pub fn ray_coverage(grid: &Grid, level: u32, c: [u32; 3]) -> f32 {
+pub fn ray_coverage(grid: &Grid, level: u32, c: [u32; 3]) -> [f32; 3] {
     let b = 1u32 << level;
     let origin = [c[0] * b, c[1] * b, c[2] * b];
-    let mut hits = 0u32;
-    for axis in 0..3 {
+    let mut frac = [0.0f32; 3];
+    for (axis, f) in frac.iter_mut().enumerate() {
         let (u_axis, v_axis) = ((axis + 1) % 3, (axis + 2) % 3);
+        let mut hits = 0u32;
         for u in 0..b {
             for v in 0..b {
                 let hit = (0..b).any(|t| {
@@ -25,17 +26,23 @@ pub fn ray_coverage(grid: &Grid, level: u32, c: [u32; 3]) -> f32 {
                 hits += hit as u32;
             }
         }
+        *f = hits as f32 / (b * b) as f32;
     }
-    hits as f32 / (3 * b * b) as f32
+    frac
 }
 
-/// Mean and max |alpha - ray coverage| over the non-empty blocks of one level.
+/// |alpha - ray coverage| over the non-empty blocks of one level, against two readings of the truth:
+/// `facing` = coverage along the axis that sees the most (the rays that cross the surface: what light
+/// passing through a wall meets), `all_axes` = coverage averaged over the three axes (grazing rays
+/// included, which no isotropic alpha can also get right: that is what VCT's anisotropic voxels are for).
 #[derive(Clone, Copy, Debug, Default)]
 pub struct CoverageError {
     pub level: u32,
     pub blocks: usize,
-    pub mean: f32,
-    pub max: f32,
+    pub facing_mean: f32,
+    pub facing_max: f32,
+    pub all_axes_mean: f32,
+    pub all_axes_max: f32,
 }
 
 /// Per level (1..=log2 n) error of `coverage` alpha against [`ray_coverage`], over non-empty blocks.
@@ -50,21 +57,24 @@ pub fn coverage_error(grid: &Grid, coverage: Coverage) -> Vec<CoverageError> {
                 level,
                 ..Default::default()
             };
-            let mut sum = 0.0f64;
+            let (mut facing, mut all) = (0.0f64, 0.0f64);
             for (m, c) in colour.iter().enumerate() {
                 if c[3] <= 0.0 {
                     continue;
                 }
-                let err = (c[3] - ray_coverage(grid, level, morton::decode(m as u32))).abs();
-                sum += err as f64;
-                e.max = e.max.max(err);
+                let f = ray_coverage(grid, level, morton::decode(m as u32));
+                let ef = (c[3] - f[0].max(f[1]).max(f[2])).abs();
+                let ea = (c[3] - (f[0] + f[1] + f[2]) / 3.0).abs();
+                facing += ef as f64;
+                all += ea as f64;
+                e.facing_max = e.facing_max.max(ef);
+                e.all_axes_max = e.all_axes_max.max(ea);
                 e.blocks += 1;
             }
-            e.mean = if e.blocks > 0 {
-                (sum / e.blocks as f64) as f32
-            } else {
-                0.0
-            };
+            if e.blocks > 0 {
+                e.facing_mean = (facing / e.blocks as f64) as f32;
+                e.all_axes_mean = (all / e.blocks as f64) as f32;
+            }
             e
         })
         .collect()

@@ -510,6 +510,21 @@ impl Checker<'_> {
                     }
                 }
                 Workgroups::Indirect { buffer, offset } => match resources.get(buffer) {
+                    _ if entry.uses.iter().any(|&bi| {
+                        let b = &self.shader.bindings[bi];
+                        matches!(b.kind, BindingKind::Storage { read_only: false, .. })
+                            && pass.bindings.iter().any(|(n, v)| *n == b.name && v.resource() == Some(buffer.as_str()))
+                    }) =>
+                    {
+                        return Err(HarnessError::Invalid {
+                            kernel: self.kernel.into(),
+                            message: format!(
+                                "pass `{}` dispatches from buffer `{buffer}` while binding it as writable storage; \
+                                 bind it read-only in that pass (WebGPU usage rules)",
+                                pass.label
+                            ),
+                        })
+                    }
                     Some(HostResource::Buffer(h)) if offset % 4 == 0 && offset + 12 <= h.bytes.len() as u64 => {}
                     _ => {
                         return Err(HarnessError::Invalid {
