@@ -72,7 +72,7 @@ fn texture_mips_round_trip_and_storage_writes_read_back_without_row_padding() {
         &shader,
         "texture test",
         &resources,
-        &[pass.clone()],
+        std::slice::from_ref(&pass),
         &["src", "dst"],
     )
     .unwrap();
@@ -182,7 +182,7 @@ impl Kernel for Worklist {
         let n = 1000 + index * 37;
         let values: Vec<u32> = (0..n as u64)
             .map(|i| {
-                if (i * 2_654_435_761 + seed) % 3 == 0 {
+                if (i * 2_654_435_761 + seed).is_multiple_of(3) {
                     (i % 97) as u32 + 1
                 } else {
                     0

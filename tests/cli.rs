@@ -1,0 +1,65 @@
+//! The `vxgi` command line as a user runs it.
+use std::process::Command;
+
+fn vxgi(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_vxgi"))
+        .args(args)
+        .output()
+        .expect("run vxgi");
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into(),
+        String::from_utf8_lossy(&out.stderr).into(),
+    )
+}
+
+#[test]
+fn verify_prints_the_table_and_exits_zero() {
+    let (code, out, err) = vxgi(&["verify", "--cases", "8", "--seed", "3"]);
+    assert_eq!(code, 0, "stdout:\n{out}\nstderr:\n{err}");
+    for col in [
+        "kernel",
+        "cases",
+        "elements",
+        "max ULP",
+        "p99 ULP",
+        "GPU ms",
+        "mirror ms",
+        "eff. GB/s",
+        "copy GB/s",
+    ] {
+        assert!(out.contains(col), "missing column `{col}`:\n{out}");
+    }
+    assert!(
+        out.contains("surface_coverage_mip") && out.contains("adapter:"),
+        "{out}"
+    );
+}
+
+#[test]
+fn an_unknown_kernel_is_a_clear_error() {
+    let (code, out, err) = vxgi(&["verify", "--kernel", "nope"]);
+    assert_ne!(code, 0, "{out}");
+    assert!(
+        err.contains("no kernel named `nope`") && err.contains("surface_coverage_mip"),
+        "{err}"
+    );
+}
+
+#[test]
+fn zero_cases_is_refused() {
+    let (code, _, err) = vxgi(&["verify", "--cases", "0"]);
+    assert_ne!(code, 0);
+    assert!(err.contains("--cases"), "{err}");
+}
+
+#[test]
+fn list_names_wgsl_file_and_mirror() {
+    let (code, out, _) = vxgi(&["list"]);
+    assert_eq!(code, 0);
+    assert!(
+        out.contains("kernels/surface_coverage_mip.wgsl")
+            && out.contains("vxgi_cpu_mirror::surface_coverage_mip::reduce_level"),
+        "{out}"
+    );
+}
