@@ -187,7 +187,8 @@ pub fn chain_mirror(
     out
 }
 
-/// The declared kernel for `vxgi verify`: cycles through grid families, sizes 2..=64 and both coverages.
+/// The declared kernel for `vxgi verify`: cycles through sizes 2..=64 (index % 6), grid families (index % 8)
+/// and both coverages.
 pub struct SurfaceCoverageMip;
 
 impl Kernel for SurfaceCoverageMip {
@@ -196,9 +197,9 @@ impl Kernel for SurfaceCoverageMip {
     }
 
     fn case(&self, shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
-        let n = 2u32 << (index / 8 % 6);
+        let n = 2u32 << (index % 6);
         let pattern = Pattern::family(index, n);
-        let coverage = if index % 16 < 8 {
+        let coverage = if (index / 3) % 2 == 0 {
             Coverage::Surface
         } else {
             Coverage::Volume
