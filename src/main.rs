@@ -103,12 +103,13 @@ fn run_verify(kernel: Option<String>, cases: usize, seed: u64) -> Result<()> {
     }
     bar.finish_and_clear();
     println!(
-        "{:<24} {:>6} {:>12} {:>8} {:>8} {:>10} {:>10} {:>12} {:>10} {:>6}",
+        "{:<26} {:>6} {:>12} {:>10} {:>8} {:>9} {:>10} {:>10} {:>10} {:>10} {:>6}",
         "kernel",
         "cases",
         "elements",
         "max ULP",
         "p99 ULP",
+        "bound use",
         "GPU ms",
         "mirror ms",
         "eff. GB/s",
@@ -117,12 +118,17 @@ fn run_verify(kernel: Option<String>, cases: usize, seed: u64) -> Result<()> {
     );
     for (rep, copy) in &rows {
         println!(
-            "{:<24} {:>6} {:>12} {:>8} {:>8} {:>10.2} {:>10.2} {:>12.2} {:>10.2} {:>6}",
+            "{:<26} {:>6} {:>12} {:>10} {:>8} {:>9} {:>10.2} {:>10.2} {:>10.2} {:>10.2} {:>6}",
             rep.kernel,
             rep.cases,
             rep.elements,
             vxgi::harness::compare::fmt_ulp(rep.max_ulp),
             vxgi::harness::compare::fmt_ulp(rep.p99_ulp()),
+            if rep.max_bound_use > 0.0 {
+                format!("{:.3}", rep.max_bound_use)
+            } else {
+                "-".into()
+            },
             rep.gpu_ns * 1e-6,
             rep.mirror_ns * 1e-6,
             rep.effective_bandwidth() * 1e-9,
@@ -132,7 +138,8 @@ fn run_verify(kernel: Option<String>, cases: usize, seed: u64) -> Result<()> {
     }
     if let Some((rep, _)) = rows.first() {
         println!(
-            "GPU time: {}; effective bytes = read each input once + write each output once",
+            "GPU time: {}; effective bytes = read each input once + write each output once; \
+             bound use = max |gpu - mirror| / per-element bound (kernels with mirror-computed bounds)",
             rep.timing.map(|t| t.to_string()).unwrap_or_default()
         );
     }

@@ -101,6 +101,8 @@ pub fn visibility(moments: [f32; 4], zc: f32, rc: f32, p: &VisibilityParams, flu
     let f = |v: f32| ftz(v, flush);
     let cdf = if p.cdf == 1 { Cdf::AS7127 } else { Cdf::AS7126 };
     let [az, az2, a, _] = moments.map(f);
+    // Written as in the WGSL: NaN opacity must take the empty branch too.
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
     if !(a > f(p.min_alpha)) {
         return 0.0;
     }
@@ -145,6 +147,7 @@ pub fn visibility(moments: [f32; 4], zc: f32, rc: f32, p: &VisibilityParams, flu
 pub fn visibility_bound(moments: [f32; 4], zc: f32, rc: f32, p: &VisibilityParams) -> f32 {
     let u = f64::from(f32::EPSILON) / 2.0;
     let [az, az2, a, _] = moments.map(f64::from);
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
     if !(a > p.min_alpha as f64) {
         return 0.0;
     }

@@ -12,6 +12,15 @@ pub enum Tolerance {
     Ulp { ulps: u32, abs_floor: f32 },
     /// |gpu - mirror| <= abs + rel * |mirror| (accumulations whose order the GPU may change).
     AbsRel { abs: f64, rel: f64 },
+    /// |gpu - mirror| <= a bound the mirror computes per element from the WGSL accuracy rules of the
+    /// operations on that element's path (first step towards the conformance suite's acceptance
+    /// intervals); the bounds travel as the mirror output `<resource>@bound`.
+    MirrorBound,
+}
+
+/// Name of the mirror output that carries the per-element bounds of `resource`.
+pub fn bound_name(resource: &str) -> String {
+    format!("{resource}@bound")
 }
 
 /// Distance in units in the last place between two f32 (0 for +0/-0; u64::MAX if either is NaN
@@ -46,8 +55,21 @@ pub fn flush_subnormal(x: f32) -> f32 {
 }
 
 impl Tolerance {
+    /// Whether `gpu` is close enough to `mirror`; `bound` is the element's bound for [`Tolerance::MirrorBound`].
+    pub fn accepts_bounded(&self, gpu: f32, mirror: f32, bound: Option<f32>) -> bool {
+        match (*self, bound) {
+            (Tolerance::MirrorBound, Some(b)) => {
+                gpu.to_bits() == mirror.to_bits()
+                    || ((gpu as f64) - (mirror as f64)).abs() <= b as f64
+            }
+            _ => self.accepts(gpu, mirror),
+        }
+    }
+
     pub fn accepts(&self, gpu: f32, mirror: f32) -> bool {
         match *self {
+            // Without its bounds, a mirror-bound output accepts only equality.
+            Tolerance::MirrorBound => gpu.to_bits() == mirror.to_bits(),
             Tolerance::Exact => gpu.to_bits() == mirror.to_bits(),
             Tolerance::Ulp { ulps, abs_floor } => {
                 ulp_distance(gpu, mirror) <= ulps as u64 || (gpu - mirror).abs() <= abs_floor
@@ -106,6 +128,10 @@ pub struct Mismatch {
     pub gpu: f32,
     pub mirror: f32,
     pub ulp: u64,
+    /// The element's bound under [`Tolerance::MirrorBound`].
+    pub bound: Option<f32>,
+    /// Outside tolerance (else one of the largest accepted differences).
+    pub failed: bool,
 }
 
 /// Histogram of ULP distances: exact counts up to 256, one overflow bucket.
@@ -171,6 +197,9 @@ pub struct Comparison {
     pub histogram: UlpHistogram,
     /// Elements accepted only as the flush-to-zero result.
     pub flushed: usize,
+    /// Largest |gpu - mirror| / bound under [`Tolerance::MirrorBound`] (how much of the bound is used;
+    /// 0 for other tolerances).
+    pub max_bound_use: f64,
 }
 
 impl Comparison {
@@ -201,18 +230,20 @@ impl Comparison {
         for m in &self.worst {
             let _ = writeln!(
                 s,
-                "  {} index {}: gpu {:e} ({:#010x}) mirror {:e} ({:#010x}) ULP {}",
-                if self.tolerance.accepts(m.gpu, m.mirror) {
-                    "  ok"
-                } else {
-                    "FAIL"
-                },
+                "  {} index {}: gpu {:e} ({:#010x}) mirror {:e} ({:#010x}) ULP {}{}",
+                if m.failed { "FAIL" } else { "  ok" },
                 self.indexing.describe(m.index),
                 m.gpu,
                 m.gpu.to_bits(),
                 m.mirror,
                 m.mirror.to_bits(),
                 fmt_ulp(m.ulp),
+                m.bound
+                    .map(|b| format!(
+                        " |diff| {:e} bound {b:e}",
+                        (m.gpu as f64 - m.mirror as f64).abs()
+                    ))
+                    .unwrap_or_default(),
             );
         }
         s
@@ -238,6 +269,19 @@ pub fn compare_f32(
     tolerance: Tolerance,
     indexing: Indexing,
 ) -> Comparison {
+    compare_f32_bounded(meta, gpu, mirror, mirror_ftz, None, tolerance, indexing)
+}
+
+/// [`compare_f32`] with per-element bounds for [`Tolerance::MirrorBound`].
+pub fn compare_f32_bounded(
+    meta: (&str, &str, &str, u64),
+    gpu: &[f32],
+    mirror: &[f32],
+    mirror_ftz: Option<&[f32]>,
+    bounds: Option<&[f32]>,
+    tolerance: Tolerance,
+    indexing: Indexing,
+) -> Comparison {
     let (kernel, output, case, seed) = meta;
     let mut c = Comparison {
         kernel: kernel.into(),
@@ -252,6 +296,7 @@ pub fn compare_f32(
         max_ulp: 0,
         histogram: UlpHistogram::default(),
         flushed: 0,
+        max_bound_use: 0.0,
     };
     if gpu.len() != mirror.len() {
         c.failures = c.elements;
@@ -261,16 +306,29 @@ pub fn compare_f32(
             gpu: f32::NAN,
             mirror: f32::NAN,
             ulp: u64::MAX,
+            bound: None,
+            failed: true,
         });
         return c;
     }
     let mut candidates: Vec<(bool, Mismatch)> = Vec::new();
     for (i, (&g, &m)) in gpu.iter().zip(mirror).enumerate() {
         let mut ulp = ulp_distance(g, m);
-        let mut ok = tolerance.accepts(g, m);
+        let bound = bounds.and_then(|b| b.get(i).copied());
+        if let Some(b) = bound {
+            let diff = (g as f64 - m as f64).abs();
+            if diff > 0.0 {
+                c.max_bound_use = c.max_bound_use.max(if b > 0.0 {
+                    diff / b as f64
+                } else {
+                    f64::INFINITY
+                });
+            }
+        }
+        let mut ok = tolerance.accepts_bounded(g, m, bound);
         if !ok {
             if let Some(ftz) = mirror_ftz {
-                if tolerance.accepts(g, ftz[i]) {
+                if tolerance.accepts_bounded(g, ftz[i], bound) {
                     ok = true;
                     ulp = ulp_distance(g, ftz[i]);
                     c.flushed += 1;
@@ -290,6 +348,8 @@ pub fn compare_f32(
                     gpu: g,
                     mirror: m,
                     ulp,
+                    bound,
+                    failed: !ok,
                 },
             ));
             if candidates.len() > 1024 {

@@ -4,7 +4,8 @@
 //! dispatch rule, the outputs with their tolerances) plus a [`Kernel`] impl that generates cases and
 //! runs the mirror. From that the driver gives: run on GPU, run the mirror, compare, time both.
 use crate::compare::{
-    compare_f32, compare_u32, flush_subnormal, Comparison, Indexing, Tolerance, UlpHistogram,
+    bound_name, compare_f32_bounded, compare_u32, flush_subnormal, Comparison, Indexing, Tolerance,
+    UlpHistogram,
 };
 use crate::context::GpuContext;
 use crate::error::Result;
@@ -190,6 +191,8 @@ pub struct KernelReport {
     /// Comparisons that failed (each with its report).
     pub failures: Vec<Comparison>,
     pub flushed: usize,
+    /// Largest fraction of a per-element bound used (outputs with `Tolerance::MirrorBound`).
+    pub max_bound_use: f64,
 }
 
 impl KernelReport {
@@ -268,10 +271,15 @@ pub fn verify_case(
                 ),
             });
         };
-        // Move the element one ULP past its tolerance (or flip bits where that is meaningless).
+        // Move the element one ULP past a ULP tolerance, flip bits under an exact one, and add 1 under
+        // absolute ones (bounds of a few ULP cannot absorb that).
+        let x = f32::from_bits(*w);
         *w = match tol {
-            Some(Tolerance::Ulp { ulps, .. }) if f32::from_bits(*w).abs() > 1e-30 => {
-                w.wrapping_add(ulps + 1)
+            Some(Tolerance::Ulp { ulps, .. }) if x.abs() > 1e-30 => w.wrapping_add(ulps + 1),
+            Some(Tolerance::MirrorBound | Tolerance::AbsRel { .. })
+                if x.is_finite() && x + 1.0 != x =>
+            {
+                (x + 1.0).to_bits()
             }
             _ => *w ^ 0x0040_0001,
         };
@@ -326,11 +334,15 @@ pub fn verify_case(
                         kernel.canonicalise(&check.resource, &mut b);
                         b
                     });
-                compare_f32(
+                // Per-element bounds (Tolerance::MirrorBound) come from the IEEE mirror run and are
+                // not canonicalised: outputs with a free order use a fixed tolerance.
+                let bounds = expected.remove(&bound_name(&check.resource));
+                compare_f32_bounded(
                     meta,
                     gpu.as_f32(),
                     mirror.as_f32(),
                     ftz.as_ref().map(|b| b.as_f32()),
+                    bounds.as_ref().map(|b| b.as_f32()),
                     tol,
                     check.indexing.clone(),
                 )
@@ -364,6 +376,7 @@ pub fn verify(
         timing: None,
         failures: Vec::new(),
         flushed: 0,
+        max_bound_use: 0.0,
     };
     for i in 0..opts.cases {
         let case = kernel.case(&shader, ctx, opts.seed, i);
@@ -380,6 +393,7 @@ pub fn verify(
             rep.max_ulp = rep.max_ulp.max(c.max_ulp);
             rep.histogram.merge(&c.histogram);
             rep.flushed += c.flushed;
+            rep.max_bound_use = rep.max_bound_use.max(c.max_bound_use);
             if !c.passed() {
                 rep.failures.push(c);
             }

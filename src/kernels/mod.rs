@@ -1,13 +1,17 @@
 //! Kernel declarations: each pairs a WGSL file in `kernels/` with its mirror module in `cpu_mirror/`.
 //! To add a kernel: `kernels/<name>.wgsl`, `cpu_mirror/src/<name>.rs`, `src/kernels/<name>.rs` with a
 //! `DECL` and a `Kernel` impl, one line in [`all`], and tests in `tests/<name>.rs`.
+pub mod gaussian_depth_visibility;
 pub mod surface_coverage_mip;
 
 use vxgi_harness::Kernel;
 
 /// Every declared kernel, in the order `vxgi verify` runs them.
 pub fn all() -> Vec<&'static dyn Kernel> {
-    vec![&surface_coverage_mip::SurfaceCoverageMip]
+    vec![
+        &surface_coverage_mip::SurfaceCoverageMip,
+        &gaussian_depth_visibility::GaussianDepthVisibility,
+    ]
 }
 
 /// The kernel named `name`, or an error listing the known names.

@@ -199,7 +199,7 @@ impl Kernel for SurfaceCoverageMip {
     fn case(&self, shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
         let n = 2u32 << (index % 6);
         let pattern = Pattern::family(index, n);
-        let coverage = if (index / 3) % 2 == 0 {
+        let coverage = if (index / 3).is_multiple_of(2) {
             Coverage::Surface
         } else {
             Coverage::Volume
