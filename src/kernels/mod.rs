@@ -2,6 +2,7 @@
 //! To add a kernel: `kernels/<name>.wgsl`, `cpu_mirror/src/<name>.rs`, `src/kernels/<name>.rs` with a
 //! `DECL` and a `Kernel` impl, one line in [`all`], and tests in `tests/<name>.rs`.
 pub mod gaussian_depth_visibility;
+pub mod layer_decay;
 pub mod surface_coverage_mip;
 
 use vxgi_harness::Kernel;
@@ -11,6 +12,7 @@ pub fn all() -> Vec<&'static dyn Kernel> {
     vec![
         &surface_coverage_mip::SurfaceCoverageMip,
         &gaussian_depth_visibility::GaussianDepthVisibility,
+        &layer_decay::LayerDecay,
     ]
 }
 

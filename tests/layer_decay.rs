@@ -1,0 +1,96 @@
+//! GPU vs mirror for `kernels/layer_decay.wgsl` (LRSM eq. 15), its range property, and the partition of
+//! unity across an overlap.
+mod common;
+
+use common::gpu;
+use proptest::prelude::*;
+use vxgi::harness::kernel::{verify, verify_case};
+use vxgi::harness::run::run;
+use vxgi::harness::{Corruption, VerifyOptions};
+use vxgi::kernels::layer_decay::{case_for, LayerDecay, DECL};
+
+fn gpu_decay(samples: &[[f32; 4]]) -> Vec<f32> {
+    let shader = DECL.shader().unwrap();
+    let case = case_for(&shader, gpu(), samples, "direct".into(), 0);
+    let (comps, ..) = verify_case(gpu(), &shader, &LayerDecay, &case, None).unwrap();
+    for c in comps {
+        assert!(c.passed(), "{}", c.report());
+    }
+    let out = run(
+        gpu(),
+        &shader,
+        DECL.name,
+        &case.resources,
+        &case.passes,
+        &["decay"],
+    )
+    .unwrap();
+    out.buffer("decay").as_f32().to_vec()
+}
+
+#[test]
+fn generated_cases_match_the_mirror() {
+    let rep = verify(
+        gpu(),
+        &LayerDecay,
+        &VerifyOptions {
+            cases: 12,
+            seed: 5,
+            corrupt: None,
+        },
+        &mut |_| {},
+    )
+    .unwrap();
+    assert!(rep.passed(), "{}", rep.failures[0].report());
+}
+
+#[test]
+fn overlapping_layers_sum_to_one_on_the_gpu() {
+    // Layers [0, 0.55] and [0.45, 1]: overlap delta = 0.1.
+    let zs: Vec<f32> = (0..=200).map(|i| 0.4 + 0.2 * i as f32 / 200.0).collect();
+    let mut samples: Vec<[f32; 4]> = zs.iter().map(|&z| [z, 0.0, 0.55, 0.1]).collect();
+    samples.extend(zs.iter().map(|&z| [z, 0.45, 1.0, 0.1]));
+    let d = gpu_decay(&samples);
+    for (i, z) in zs.iter().enumerate() {
+        let s = d[i] + d[i + zs.len()];
+        // Each weight is within 8 ULP of k(x) and k(1 - x), whose exact sum is 1; the two divisions
+        // by delta differ in rounding, so allow a few ULP of 1 beyond that.
+        assert!(
+            (s - 1.0).abs() < 2e-6,
+            "z = {z}: {} + {} = {s}",
+            d[i],
+            d[i + zs.len()]
+        );
+    }
+}
+
+#[test]
+fn a_corrupted_decay_fails_verification() {
+    let opts = VerifyOptions {
+        cases: 1,
+        seed: 2,
+        corrupt: Some(Corruption {
+            resource: "decay".into(),
+            index: 3,
+        }),
+    };
+    let rep = verify(gpu(), &LayerDecay, &opts, &mut |_| {}).unwrap();
+    assert!(!rep.passed());
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 16, ..ProptestConfig::default() })]
+
+    #[test]
+    fn every_finite_input_gives_a_weight_in_unit_range(
+        rows in proptest::collection::vec((-10.0f32..10.0, -10.0f32..10.0, 0.0f32..5.0, -1.0f32..2.0), 1..300),
+    ) {
+        let samples: Vec<[f32; 4]> = rows.iter().map(|r| [r.0, r.1, r.1 + r.2, r.3]).collect();
+        for (s, d) in samples.iter().zip(gpu_decay(&samples)) {
+            prop_assert!(d.is_finite() && (0.0..=1.0).contains(&d), "{s:?}: {d}");
+            if s[0] < s[1] || s[0] > s[2] {
+                prop_assert_eq!(d, 0.0, "outside the layer: {:?}", s);
+            }
+        }
+    }
+}
