@@ -29,3 +29,69 @@ pub fn find(name: &str) -> Result<&'static dyn Kernel, String> {
             )
         })
 }
+
+use vxgi_harness::run::{Pass, View};
+use vxgi_harness::{GpuContext, KernelDecl, Shader};
+
+/// One buffer stream of a reduction chain: the WGSL bindings it is read and written through, and the
+/// host resource holding level `k`.
+pub struct ChainStream<'a> {
+    pub src_binding: &'a str,
+    pub dst_binding: &'a str,
+    pub resource: &'a dyn Fn(u32) -> String,
+}
+
+/// Passes for levels `1..=parents.len()` of a Morton-ordered mip chain: element `p` of level `k`
+/// reduces elements `factor * p .. factor * (p + 1)` of level `k - 1` (8 children in 3D, 4 in 2D), so
+/// any run of parents reads one contiguous window. A level whose source is larger than one storage
+/// binding may be (`max_storage_buffer_binding_size`) is split into windows bound as buffer ranges.
+/// `parents[k - 1]` is the element count of level `k`; `elem_bytes` the size of one element per stream;
+/// `fixed` are bindings every pass shares (parameters).
+#[allow(clippy::too_many_arguments)]
+pub fn reduction_chain_passes(
+    decl: &KernelDecl,
+    shader: &Shader,
+    ctx: &GpuContext,
+    parents: &[u64],
+    factor: u64,
+    elem_bytes: u64,
+    streams: &[ChainStream],
+    fixed: &[(String, View)],
+) -> Vec<Pass> {
+    let max_binding = ctx.limits().max_storage_buffer_binding_size;
+    // Parents per window: all of them, or the largest power of two whose children fit one binding
+    // (a power of two keeps window offsets aligned to the 256-byte binding offset rule).
+    let fit = (max_binding / (factor * elem_bytes)).max(1);
+    let mut passes = Vec::new();
+    for (k, &count_k) in (1u32..).zip(parents) {
+        let window = if count_k <= fit {
+            count_k
+        } else {
+            1u64 << (63 - fit.leading_zeros())
+        };
+        for w in 0..count_k.div_ceil(window) {
+            let (p0, count) = (w * window, window.min(count_k - w * window));
+            let range = |name: String, first: u64, len: u64| View::BufferRange {
+                name,
+                offset: first * elem_bytes,
+                size: len * elem_bytes,
+            };
+            let mut bindings = fixed.to_vec();
+            for s in streams {
+                bindings.push((
+                    s.src_binding.to_string(),
+                    range((s.resource)(k - 1), factor * p0, factor * count),
+                ));
+                bindings.push((s.dst_binding.to_string(), range((s.resource)(k), p0, count)));
+            }
+            passes.push(decl.pass(
+                shader,
+                ctx,
+                format!("level {k} window {w}"),
+                bindings,
+                count,
+            ));
+        }
+    }
+    passes
+}

@@ -74,56 +74,21 @@ pub fn chain_case(
         normal_name(0),
         HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(&grid.normal))),
     );
-    let max_binding = ctx.limits().max_storage_buffer_binding_size;
-    let mut passes = Vec::new();
     let mut checks = Vec::new();
     let mut effective = 0;
-    for k in 1..=levels_below(n) {
+    let parents: Vec<u64> = (1..=levels_below(n))
+        .map(|k| ((n >> k) as u64).pow(3))
+        .collect();
+    for (k, &count) in (1u32..).zip(&parents) {
         let side = n >> k;
-        let parents = (side as u64).pow(3);
         for name in [colour_name(k), normal_name(k)] {
             resources.insert(
                 name,
                 HostResource::Buffer(HostBuffer::zeroed(
-                    (parents * VOXEL_BYTES) as usize,
+                    (count * VOXEL_BYTES) as usize,
                     ScalarKind::F32,
                 )),
             );
-        }
-        // Parents per window: all of them, or the largest power of two whose children fit one binding.
-        let fit = (max_binding / (8 * VOXEL_BYTES)).max(1);
-        let window = if parents <= fit {
-            parents
-        } else {
-            1u64 << (63 - fit.leading_zeros())
-        };
-        for w in 0..parents.div_ceil(window) {
-            let (p0, count) = (w * window, window.min(parents - w * window));
-            let range = |name: String, first: u64, len: u64| View::BufferRange {
-                name,
-                offset: first * VOXEL_BYTES,
-                size: len * VOXEL_BYTES,
-            };
-            let bindings = vec![
-                ("params".to_string(), View::Buffer("params".into())),
-                (
-                    "src_colour".to_string(),
-                    range(colour_name(k - 1), 8 * p0, 8 * count),
-                ),
-                (
-                    "src_normal".to_string(),
-                    range(normal_name(k - 1), 8 * p0, 8 * count),
-                ),
-                ("dst_colour".to_string(), range(colour_name(k), p0, count)),
-                ("dst_normal".to_string(), range(normal_name(k), p0, count)),
-            ];
-            passes.push(DECL.pass(
-                shader,
-                ctx,
-                format!("level {k} window {w}"),
-                bindings,
-                count,
-            ));
         }
         checks.push(Check {
             resource: colour_name(k),
@@ -141,8 +106,29 @@ pub fn chain_case(
                 components: 4,
             },
         });
-        effective += 9 * parents * 2 * VOXEL_BYTES; // read 8 children + write 1 parent, colour and normal
+        effective += 9 * count * 2 * VOXEL_BYTES; // read 8 children + write 1 parent, colour and normal
     }
+    let passes = super::reduction_chain_passes(
+        &DECL,
+        shader,
+        ctx,
+        &parents,
+        8,
+        VOXEL_BYTES,
+        &[
+            super::ChainStream {
+                src_binding: "src_colour",
+                dst_binding: "dst_colour",
+                resource: &colour_name,
+            },
+            super::ChainStream {
+                src_binding: "src_normal",
+                dst_binding: "dst_normal",
+                resource: &normal_name,
+            },
+        ],
+        &[("params".to_string(), View::Buffer("params".into()))],
+    );
     Case {
         label,
         seed,
