@@ -1,0 +1,194 @@
+//! Declaration of `kernels/lrsm_prefilter.wgsl` (mirror: `vxgi_cpu_mirror::lrsm_prefilter`): the mip chain
+//! of every LRSM layer, verified level by level on the level the GPU produced before it.
+use super::{reduction_chain_passes, ChainStream};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::collections::BTreeMap;
+use vxgi_cpu_mirror::lrsm_prefilter::{reduce_level, Streams};
+use vxgi_harness::{
+    Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
+    KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
+};
+
+pub const WGSL: &str = include_str!("../../kernels/lrsm_prefilter.wgsl");
+
+pub static DECL: KernelDecl = KernelDecl {
+    name: "lrsm_prefilter",
+    wgsl_path: "kernels/lrsm_prefilter.wgsl",
+    wgsl: WGSL,
+    entry: "main",
+    inputs: &["src_radiance", "src_normal", "src_moments"],
+    // Four correctly rounded adds and an exact * 0.25: bit for bit (or the flush-to-zero result).
+    outputs: &[
+        Output {
+            binding: "dst_radiance",
+            tolerance: Tolerance::Exact,
+        },
+        Output {
+            binding: "dst_normal",
+            tolerance: Tolerance::Exact,
+        },
+        Output {
+            binding: "dst_moments",
+            tolerance: Tolerance::Exact,
+        },
+    ],
+    dispatch: DispatchRule::PerElement {
+        binding: "dst_radiance",
+    },
+    mirror: "vxgi_cpu_mirror::lrsm_prefilter::reduce_level",
+    summary: "box-filtered mip level of every LRSM layer, opacity-weighted (LRSM 4.2, Table 1)",
+};
+
+const TEXEL_BYTES: u64 = 16;
+const STREAMS: [&str; 3] = ["radiance", "normal", "moments"];
+
+pub fn stream_name(stream: usize, level: u32) -> String {
+    format!("{}_{level}", STREAMS[stream])
+}
+
+/// Generated level-0 layers: opacities 0, 1/4 .. 1 and subnormal, warped depths in [0, 1], unit normals.
+pub fn generate(layers: u32, side: u32, seed: u64) -> Streams {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let n = (layers * side * side) as usize;
+    let mut out: Streams = [Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n)];
+    for _ in 0..n {
+        let a = match rng.random_range(0..8) {
+            0..=2 => 0.0,
+            3 => f32::from_bits(rng.random_range(1..0x0080_0000)),
+            4 => [0.25, 0.5, 0.75][rng.random_range(0..3)],
+            _ => 1.0,
+        };
+        let z: f32 = rng.random();
+        let n3 = glam::Vec3::new(
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+            rng.random_range(0.1..1.0),
+        )
+        .normalize();
+        let r: [f32; 3] = [
+            rng.random_range(0.0..4.0),
+            rng.random_range(0.0..4.0),
+            rng.random_range(0.0..4.0),
+        ];
+        out[0].push([a * r[0], a * r[1], a * r[2], a]);
+        out[1].push([a * n3.x, a * n3.y, a * n3.z, a]);
+        out[2].push([a * z, a * z * z, a, 0.0]);
+    }
+    out
+}
+
+/// The whole chain of `level0` (`layers` layers of side `side`) as one case.
+pub fn chain_case(
+    shader: &Shader,
+    ctx: &GpuContext,
+    level0: &Streams,
+    layers: u32,
+    side: u32,
+    label: String,
+    seed: u64,
+) -> Case {
+    let mut resources = Resources::new();
+    for (s, data) in level0.iter().enumerate() {
+        resources.insert(
+            stream_name(s, 0),
+            HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(data))),
+        );
+    }
+    let levels = side.trailing_zeros();
+    let parents: Vec<u64> = (1..=levels)
+        .map(|k| layers as u64 * ((side >> k) as u64).pow(2))
+        .collect();
+    let mut checks = Vec::new();
+    let mut effective = 0;
+    for (k, &count) in (1u32..).zip(&parents) {
+        for s in 0..3 {
+            resources.insert(
+                stream_name(s, k),
+                HostResource::Buffer(HostBuffer::zeroed(
+                    (count * TEXEL_BYTES) as usize,
+                    ScalarKind::F32,
+                )),
+            );
+            checks.push(Check {
+                resource: stream_name(s, k),
+                output: DECL.outputs[s].binding,
+                indexing: Indexing::Grid {
+                    dims: [(side >> k).pow(2), layers, 1],
+                    components: 4,
+                },
+            });
+        }
+        effective += 5 * count * 3 * TEXEL_BYTES;
+    }
+    let names: [&dyn Fn(u32) -> String; 3] =
+        [&|k| stream_name(0, k), &|k| stream_name(1, k), &|k| {
+            stream_name(2, k)
+        }];
+    let streams: Vec<ChainStream> = (0..3)
+        .map(|s| ChainStream {
+            src_binding: DECL.inputs[s],
+            dst_binding: DECL.outputs[s].binding,
+            resource: names[s],
+        })
+        .collect();
+    let passes =
+        reduction_chain_passes(&DECL, shader, ctx, &parents, 4, TEXEL_BYTES, &streams, &[]);
+    Case {
+        label,
+        seed,
+        resources,
+        passes,
+        checks,
+        effective_bytes: effective,
+    }
+}
+
+pub struct LrsmPrefilter;
+
+impl Kernel for LrsmPrefilter {
+    fn decl(&self) -> &'static KernelDecl {
+        &DECL
+    }
+
+    fn case(&self, shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
+        let layers = [1, 4, 6, 9][index % 4];
+        let side = 2u32 << (index % 7);
+        let s = seed
+            .wrapping_mul(0x9e37_79b9_7f4a_7c15)
+            .wrapping_add(index as u64);
+        chain_case(
+            shader,
+            ctx,
+            &generate(layers, side, s),
+            layers,
+            side,
+            format!("#{index} {layers} layers {side}^2"),
+            seed,
+        )
+    }
+
+    fn mirror(
+        &self,
+        case: &Case,
+        data: &Resources,
+        mode: FloatMode,
+    ) -> BTreeMap<String, HostBuffer> {
+        let mut out = BTreeMap::new();
+        for check in case.checks.iter().filter(|c| c.output == "dst_radiance") {
+            let k: u32 = check
+                .resource
+                .trim_start_matches("radiance_")
+                .parse()
+                .expect("radiance_<level>");
+            let src = |s: usize| -> &[[f32; 4]] {
+                bytemuck::cast_slice(&data[&stream_name(s, k - 1)].buffer().expect("buffer").bytes)
+            };
+            let level = reduce_level([src(0), src(1), src(2)], mode == FloatMode::FlushToZero);
+            for (s, v) in level.iter().enumerate() {
+                out.insert(stream_name(s, k), HostBuffer::f32(bytemuck::cast_slice(v)));
+            }
+        }
+        out
+    }
+}
