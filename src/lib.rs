@@ -3,6 +3,7 @@
 pub mod coverage;
 pub mod grids;
 pub mod kernels;
+pub mod lrsm;
 
 pub use vxgi_cpu_mirror as cpu_mirror;
 pub use vxgi_harness as harness;

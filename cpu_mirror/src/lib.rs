@@ -9,6 +9,7 @@
 //! No wgpu, no naga: a mirror can be used (and read) without a GPU.
 pub mod gaussian_depth_visibility;
 pub mod layer_decay;
+pub mod lrsm_partition;
 pub mod lrsm_prefilter;
 pub mod morton;
 pub mod surface_coverage_mip;

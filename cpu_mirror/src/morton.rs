@@ -33,8 +33,46 @@ pub fn decode(m: u32) -> [u32; 3] {
     [compact(m), compact(m >> 1), compact(m >> 2)]
 }
 
+fn spread2(mut v: u32) -> u32 {
+    v &= 0x0000_ffff;
+    v = (v | (v << 8)) & 0x00ff_00ff;
+    v = (v | (v << 4)) & 0x0f0f_0f0f;
+    v = (v | (v << 2)) & 0x3333_3333;
+    v = (v | (v << 1)) & 0x5555_5555;
+    v
+}
+
+fn compact2(mut v: u32) -> u32 {
+    v &= 0x5555_5555;
+    v = (v | (v >> 1)) & 0x3333_3333;
+    v = (v | (v >> 2)) & 0x0f0f_0f0f;
+    v = (v | (v >> 4)) & 0x00ff_00ff;
+    v = (v | (v >> 8)) & 0x0000_ffff;
+    v
+}
+
+/// 2D Morton index of (x, y), each below 65536 (bit 2k = x bit k, 2k+1 = y bit k): the four children of
+/// texel `p` in the next finer level are `4p .. 4p+4`.
+pub fn encode2(x: u32, y: u32) -> u32 {
+    spread2(x) | (spread2(y) << 1)
+}
+
+/// (x, y) of a 2D Morton index.
+pub fn decode2(m: u32) -> [u32; 2] {
+    [compact2(m), compact2(m >> 1)]
+}
+
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn roundtrip_2d() {
+        for m in [0u32, 1, 2, 3, 4, 1023, 65_535, 1 << 20, u32::MAX] {
+            let [x, y] = super::decode2(m);
+            assert_eq!(super::encode2(x, y), m);
+        }
+        assert_eq!(super::decode2(0b1001), [2, 1]);
+    }
+
     #[test]
     fn roundtrip_and_children_contiguous() {
         for m in [0u32, 1, 7, 8, 511, 4095, 123_456, (1 << 24) - 1] {

@@ -29,6 +29,9 @@ pub enum DispatchRule {
     /// One invocation per element (runtime-array stride) of this binding, x-major, split into x * y
     /// workgroups past the per-dimension limit.
     PerElement { binding: &'static str },
+    /// One invocation per item of something that is not an output element (e.g. an RSM quad whose
+    /// invocation writes every layer); the case computes the count.
+    PerItem { what: &'static str },
 }
 
 /// The declaration: everything about a kernel that is not code.
@@ -85,18 +88,6 @@ impl KernelDecl {
             entry: self.entry.into(),
             bindings,
             workgroups: Workgroups::Direct(grid),
-        }
-    }
-
-    /// Elements of the dispatch rule's binding in a host buffer of `bytes` bytes.
-    pub fn elements_of(&self, shader: &Shader, bytes: u64) -> u64 {
-        let DispatchRule::PerElement { binding } = self.dispatch;
-        match shader.binding(binding).map(|b| &b.kind) {
-            Some(crate::shader::BindingKind::Storage { layout, .. }) => {
-                let st = layout.runtime_stride.unwrap_or(layout.fixed_size.max(1)) as u64;
-                bytes.saturating_sub(layout.fixed_size as u64) / st
-            }
-            _ => 0,
         }
     }
 }

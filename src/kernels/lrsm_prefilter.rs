@@ -51,7 +51,11 @@ pub fn stream_name(stream: usize, level: u32) -> String {
 pub fn generate(layers: u32, side: u32, seed: u64) -> Streams {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let n = (layers * side * side) as usize;
-    let mut out: Streams = [Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n)];
+    let mut out: Streams = [
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+    ];
     for _ in 0..n {
         let a = match rng.random_range(0..8) {
             0..=2 => 0.0,

@@ -3,6 +3,7 @@
 //! `DECL` and a `Kernel` impl, one line in [`all`], and tests in `tests/<name>.rs`.
 pub mod gaussian_depth_visibility;
 pub mod layer_decay;
+pub mod lrsm_partition;
 pub mod lrsm_prefilter;
 pub mod surface_coverage_mip;
 
@@ -14,6 +15,7 @@ pub fn all() -> Vec<&'static dyn Kernel> {
         &surface_coverage_mip::SurfaceCoverageMip,
         &gaussian_depth_visibility::GaussianDepthVisibility,
         &layer_decay::LayerDecay,
+        &lrsm_partition::LrsmPartition,
         &lrsm_prefilter::LrsmPrefilter,
     ]
 }

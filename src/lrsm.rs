@@ -1,0 +1,238 @@
+//! Layered reflective shadow maps (Sugihara et al. 2014): the host side of the LRSM kernels — the static
+//! partition's layout, checked at the API boundary, and synthetic RSMs for tests and benchmarks.
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use thiserror::Error;
+use vxgi_cpu_mirror::morton;
+
+/// Most layers one LRSM may have (the paper uses 4-6; 64 keeps per-invocation work bounded).
+pub const MAX_LAYERS: u32 = 64;
+
+#[derive(Debug, Error, PartialEq)]
+pub enum LrsmError {
+    #[error("RSM side {0} must be a power of two >= 2 (the LRSM is the RSM at half width and height, in Morton order)")]
+    RsmSize(u32),
+    #[error("{depth_splits} depth and {normal_splits} normal partitions give {layers} layers; at most {MAX_LAYERS} fit the layer array")]
+    TooManyLayers {
+        depth_splits: u32,
+        normal_splits: u32,
+        layers: u32,
+    },
+    #[error("{layers} layers of {texels} texels need {bytes} bytes per stream, past max_storage_buffer_binding_size = {limit}")]
+    LayerArrayTooLarge {
+        layers: u32,
+        texels: u64,
+        bytes: u64,
+        limit: u64,
+    },
+    #[error("overlap {overlap} must be finite, >= 0 and at most one depth slice ({slice})")]
+    Overlap { overlap: f32, slice: f32 },
+    #[error("RSM texel {index} (x={x}, y={y}) holds a non-finite {what}: {value}")]
+    NonFinite {
+        index: usize,
+        x: u32,
+        y: u32,
+        what: &'static str,
+        value: f32,
+    },
+    #[error("RSM streams disagree in length: {radiance} radiance, {normal} normal, {depth} depth texels for side {side}")]
+    Length {
+        radiance: usize,
+        normal: usize,
+        depth: usize,
+        side: u32,
+    },
+}
+
+/// The static partition (section 4.3): `depth_splits` (a) and `normal_splits` (b) give (a+1) depth slices
+/// x (b+1) <n.l> slices; neighbouring depth slices overlap by `overlap` (delta of eq. 15).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PartitionConfig {
+    pub rsm_side: u32,
+    pub depth_splits: u32,
+    pub normal_splits: u32,
+    pub overlap: f32,
+}
+
+impl PartitionConfig {
+    pub fn depth_slices(&self) -> u32 {
+        self.depth_splits + 1
+    }
+    pub fn normal_slices(&self) -> u32 {
+        self.normal_splits + 1
+    }
+    pub fn layers(&self) -> u32 {
+        self.depth_slices() * self.normal_slices()
+    }
+    /// Texels per layer at LRSM level 0.
+    pub fn layer_texels(&self) -> u64 {
+        (self.rsm_side as u64 / 2).pow(2)
+    }
+
+    /// Refuse what the kernels cannot hold or would compute nonsense from.
+    pub fn validate(&self, max_storage_binding: u64) -> Result<(), LrsmError> {
+        if self.rsm_side < 2 || !self.rsm_side.is_power_of_two() {
+            return Err(LrsmError::RsmSize(self.rsm_side));
+        }
+        let layers = self.depth_slices() as u64 * self.normal_slices() as u64;
+        if layers > MAX_LAYERS as u64 {
+            return Err(LrsmError::TooManyLayers {
+                depth_splits: self.depth_splits,
+                normal_splits: self.normal_splits,
+                layers: layers.min(u32::MAX as u64) as u32,
+            });
+        }
+        let bytes = layers * self.layer_texels() * 16;
+        if bytes > max_storage_binding {
+            return Err(LrsmError::LayerArrayTooLarge {
+                layers: layers as u32,
+                texels: self.layer_texels(),
+                bytes,
+                limit: max_storage_binding,
+            });
+        }
+        let slice = 1.0 / self.depth_slices() as f32;
+        if !(self.overlap >= 0.0 && self.overlap <= slice) {
+            return Err(LrsmError::Overlap {
+                overlap: self.overlap,
+                slice,
+            });
+        }
+        Ok(())
+    }
+
+    /// `(zmin, zmax, 1 / (zmax - zmin), 0)` per depth slice: slice d is `[d, d+1] / slices` widened by
+    /// overlap/2 on each side, and by a full overlap at 0 and 1 so that layer_decay is 1 at the ends
+    /// of the depth range (no neighbour layer there to blend with).
+    pub fn depth_ranges(&self) -> Vec<[f32; 4]> {
+        let n = self.depth_slices();
+        let h = self.overlap * 0.5;
+        (0..n)
+            .map(|d| {
+                let lo = if d == 0 {
+                    -self.overlap
+                } else {
+                    d as f32 / n as f32 - h
+                };
+                let hi = if d + 1 == n {
+                    1.0 + self.overlap
+                } else {
+                    (d + 1) as f32 / n as f32 + h
+                };
+                [lo, hi, 1.0 / (hi - lo), 0.0]
+            })
+            .collect()
+    }
+}
+
+/// A reflective shadow map (side `side`, 2D Morton order): see `kernels/lrsm_partition.wgsl`.
+#[derive(Clone, Debug)]
+pub struct Rsm {
+    pub side: u32,
+    pub radiance: Vec<[f32; 4]>,
+    pub normal: Vec<[f32; 4]>,
+    pub depth: Vec<f32>,
+}
+
+impl Rsm {
+    /// NaN or infinity anywhere is an error naming the texel (the kernels' arithmetic is only
+    /// specified for finite values).
+    pub fn validate(&self) -> Result<(), LrsmError> {
+        let n = (self.side as usize).pow(2);
+        if self.radiance.len() != n || self.normal.len() != n || self.depth.len() != n {
+            return Err(LrsmError::Length {
+                radiance: self.radiance.len(),
+                normal: self.normal.len(),
+                depth: self.depth.len(),
+                side: self.side,
+            });
+        }
+        let bad = |index: usize, what: &'static str, value: f32| {
+            let [x, y] = morton::decode2(index as u32);
+            Err(LrsmError::NonFinite {
+                index,
+                x,
+                y,
+                what,
+                value,
+            })
+        };
+        for i in 0..n {
+            if let Some(v) = self.radiance[i].iter().find(|v| !v.is_finite()) {
+                return bad(i, "radiance", *v);
+            }
+            if let Some(v) = self.normal[i].iter().find(|v| !v.is_finite()) {
+                return bad(i, "normal", *v);
+            }
+            if !self.depth[i].is_finite() {
+                return bad(i, "depth", self.depth[i]);
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A synthetic RSM as a spot light straight down (+z light-space depth) would see it: a tilted floor,
+/// a raised box (depth and normal discontinuities), a bump, background texels, and a sprinkling of hard
+/// values (depths exactly on slice bounds, <n.l> exactly on slice bounds, 0, 1, back-facing).
+pub fn synthetic_rsm(side: u32, config: &PartitionConfig, seed: u64) -> Rsm {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let n = (side as usize).pow(2);
+    let ranges = config.depth_ranges();
+    let mut rsm = Rsm {
+        side,
+        radiance: vec![[0.0; 4]; n],
+        normal: vec![[0.0; 4]; n],
+        depth: vec![0.0; n],
+    };
+    let tilt: f32 = rng.random_range(-0.3..0.3);
+    for i in 0..n {
+        let [x, y] = morton::decode2(i as u32);
+        let (u, v) = (
+            (x as f32 + 0.5) / side as f32,
+            (y as f32 + 0.5) / side as f32,
+        );
+        let (mut z, mut nrm) = (
+            0.7 + tilt * (u - 0.5),
+            glam::Vec3::new(-tilt, 0.0, 1.0).normalize(),
+        );
+        if (0.3..0.6).contains(&u) && (0.2..0.5).contains(&v) {
+            z = 0.35; // box top
+            nrm = glam::Vec3::Z;
+        }
+        let (du, dv) = (u - 0.75, v - 0.75);
+        if du * du + dv * dv < 0.02 {
+            let h = (0.02 - du * du - dv * dv).sqrt();
+            z -= h;
+            nrm = glam::Vec3::new(du, dv, h).normalize();
+        }
+        let mut ndotl = nrm.z;
+        let mut covered = !(u > 0.95 && v > 0.9);
+        match rng.random_range(0..24) {
+            0 => z = ranges[rng.random_range(0..ranges.len())][rng.random_range(0..2)],
+            1 => {
+                ndotl = rng.random_range(0..=config.normal_slices()) as f32
+                    / config.normal_slices() as f32
+            }
+            2 => z = [0.0, 1.0][rng.random_range(0..2)],
+            3 => ndotl = -0.2,
+            4 => covered = false,
+            _ => {}
+        }
+        let albedo = if u < 0.5 {
+            [0.8, 0.2, 0.2]
+        } else {
+            [0.2, 0.8, 0.2]
+        };
+        let ld = 3.0 * ndotl.max(0.0) / std::f32::consts::PI;
+        rsm.radiance[i] = [
+            albedo[0] * ld,
+            albedo[1] * ld,
+            albedo[2] * ld,
+            if covered { 1.0 } else { 0.0 },
+        ];
+        rsm.normal[i] = [nrm.x, nrm.y, nrm.z, ndotl];
+        rsm.depth[i] = if covered { z } else { 1.0 };
+    }
+    rsm
+}

@@ -1,0 +1,155 @@
+//! GPU vs mirror for `kernels/lrsm_partition.wgsl`, bad input refused at the API boundary, and what a
+//! partition must conserve.
+mod common;
+
+use common::gpu;
+use vxgi::harness::kernel::{verify, verify_case};
+use vxgi::harness::run::run;
+use vxgi::harness::{Corruption, VerifyOptions};
+use vxgi::kernels::lrsm_partition::{case_for, LrsmPartition, DECL};
+use vxgi::lrsm::{synthetic_rsm, LrsmError, PartitionConfig};
+
+fn config(side: u32, a: u32, b: u32, overlap: f32) -> PartitionConfig {
+    PartitionConfig {
+        rsm_side: side,
+        depth_splits: a,
+        normal_splits: b,
+        overlap,
+    }
+}
+
+#[test]
+fn generated_partitions_match_the_mirror() {
+    let rep = verify(
+        gpu(),
+        &LrsmPartition,
+        &VerifyOptions {
+            cases: 15,
+            seed: 8,
+            corrupt: None,
+        },
+        &mut |_| {},
+    )
+    .unwrap();
+    assert!(rep.passed(), "{}", rep.failures[0].report());
+}
+
+#[test]
+fn a_corrupted_layer_texel_fails_verification() {
+    let opts = VerifyOptions {
+        cases: 1,
+        seed: 8,
+        corrupt: Some(Corruption {
+            resource: "out_normal".into(),
+            index: 1,
+        }),
+    };
+    assert!(!verify(gpu(), &LrsmPartition, &opts, &mut |_| {})
+        .unwrap()
+        .passed());
+}
+
+#[test]
+fn bad_partitions_and_rsms_are_errors_not_panics() {
+    let shader = DECL.shader().unwrap();
+    let good = config(16, 1, 1, 0.05);
+    let rsm = synthetic_rsm(16, &good, 1);
+    let err = |c: PartitionConfig, r: &vxgi::lrsm::Rsm| {
+        case_for(&shader, gpu(), r, &c, "bad".into(), 0).unwrap_err()
+    };
+
+    assert_eq!(err(config(6, 1, 1, 0.05), &rsm), LrsmError::RsmSize(6));
+    assert_eq!(err(config(1, 1, 1, 0.05), &rsm), LrsmError::RsmSize(1));
+    assert!(matches!(
+        err(config(16, 8, 7, 0.01), &rsm),
+        LrsmError::TooManyLayers { layers: 72, .. }
+    ));
+    assert!(matches!(
+        err(config(8192, 7, 7, 0.01), &rsm),
+        LrsmError::LayerArrayTooLarge { .. }
+    ));
+    for overlap in [0.6, -0.1, f32::NAN, f32::INFINITY] {
+        assert!(
+            matches!(
+                err(config(16, 1, 1, overlap), &rsm),
+                LrsmError::Overlap { .. }
+            ),
+            "{overlap}"
+        );
+    }
+    let mut nan = rsm.clone();
+    nan.depth[vxgi_cpu_mirror::morton::encode2(3, 5) as usize] = f32::NAN;
+    let e = err(good, &nan);
+    assert!(
+        matches!(
+            e,
+            LrsmError::NonFinite {
+                x: 3,
+                y: 5,
+                what: "depth",
+                ..
+            }
+        ),
+        "{e}"
+    );
+    assert!(e.to_string().contains("x=3, y=5"), "{e}");
+    let mut inf = rsm.clone();
+    inf.normal[0][3] = f32::INFINITY;
+    assert!(matches!(
+        err(good, &inf),
+        LrsmError::NonFinite { what: "normal", .. }
+    ));
+    let mut short = rsm.clone();
+    short.depth.pop();
+    assert!(matches!(err(good, &short), LrsmError::Length { .. }));
+    // The good one goes through.
+    assert!(case_for(&shader, gpu(), &rsm, &good, "good".into(), 0).is_ok());
+}
+
+#[test]
+fn every_covered_texel_lands_in_its_layers_with_warped_depth_in_unit_range() {
+    let shader = DECL.shader().unwrap();
+    let c = config(32, 2, 1, 0.04);
+    let rsm = synthetic_rsm(32, &c, 4);
+    let case = case_for(&shader, gpu(), &rsm, &c, "conservation".into(), 4).unwrap();
+    let (comps, ..) = verify_case(gpu(), &shader, &LrsmPartition, &case, None).unwrap();
+    assert!(comps.iter().all(|x| x.passed()));
+    let out = run(
+        gpu(),
+        &shader,
+        DECL.name,
+        &case.resources,
+        &case.passes,
+        &["out_moments"],
+    )
+    .unwrap();
+    let m: &[[f32; 4]] = bytemuck::cast_slice(&out.buffer("out_moments").bytes);
+    let ranges = c.depth_ranges();
+    let texels = c.layer_texels() as usize;
+    for q in 0..texels {
+        // Expected total count over layers: each covered texel once per depth slice containing it.
+        let mut expect = 0;
+        for t in 4 * q..4 * q + 4 {
+            if rsm.radiance[t][3] > 0.5 {
+                expect += ranges
+                    .iter()
+                    .filter(|r| rsm.depth[t] >= r[0] && rsm.depth[t] <= r[1])
+                    .count();
+            }
+        }
+        let got: f32 = (0..c.layers() as usize)
+            .map(|l| m[l * texels + q][2] * 4.0)
+            .sum();
+        assert_eq!(got as usize, expect, "quad {q}");
+        for l in 0..c.layers() as usize {
+            let t = m[l * texels + q];
+            if t[2] > 0.0 {
+                let (mu, mu2) = (t[0] / t[2], t[1] / t[2]);
+                assert!(
+                    (0.0..=1.0).contains(&mu) && (0.0..=1.0 + 1e-6).contains(&mu2),
+                    "quad {q} layer {l}: {t:?}"
+                );
+            }
+        }
+    }
+}
