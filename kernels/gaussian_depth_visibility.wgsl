@@ -18,6 +18,7 @@
 // Accuracy: a per-element bound from the WGSL rules of every operation on the path (division 2.5 ULP,
 // sqrt via inverseSqrt, exp 3 + 2|x| ULP, FMA contraction allowed), propagated through dV/dt = phi(t):
 // see visibility_bound in the mirror.
+// The arithmetic lives in kernels/common/lrsm_math.wgsl (shared with sample_lrsm.wgsl).
 
 struct VisibilityParams {
     cdf: u32,
@@ -31,52 +32,6 @@ struct VisibilityParams {
 @group(0) @binding(2) var<storage, read> cone: array<vec2<f32>>;
 @group(0) @binding(3) var<storage, read_write> visibility: array<f32>;
 
-const DEPTH_LIMIT: f32 = 1.0e6;
-const FRAC_1_SQRT_2: f32 = 0.70710677;
-
-// erfc(x) for x >= 0.
-fn erfc_approx(x: f32) -> f32 {
-    if (params.cdf == 1u) {
-        var d = 0.078108;
-        d = 0.000972 + x * d;
-        d = 0.230389 + x * d;
-        d = 0.278393 + x * d;
-        d = 1.0 + x * d;
-        let d2 = d * d;
-        return 1.0 / (d2 * d2);
-    }
-    let t = 1.0 / (1.0 + 0.3275911 * x);
-    var poly = 1.0614054;
-    poly = -1.4531521 + t * poly;
-    poly = 1.4214138 + t * poly;
-    poly = -0.28449674 + t * poly;
-    poly = 0.2548296 + t * poly;
-    return (t * poly) * exp(-x * x);
-}
-
-fn depth_visibility(m: vec4<f32>, zc_in: f32, rc_in: f32) -> f32 {
-    let a = m.z;
-    if (!(a > params.min_alpha)) {
-        return 0.0;
-    }
-    let mu = clamp(m.x / a, -DEPTH_LIMIT, DEPTH_LIMIT);
-    let variance = clamp(m.y / a - mu * mu, params.min_variance, DEPTH_LIMIT * DEPTH_LIMIT);
-    let sigma = sqrt(variance);
-    let zc = clamp(zc_in, -DEPTH_LIMIT, DEPTH_LIMIT);
-    let rc = clamp(rc_in, 0.0, DEPTH_LIMIT);
-    let hi = ((zc + rc) - mu) / sigma;
-    let lo = ((zc - rc) - mu) / sigma;
-    var v: f32;
-    if (lo >= 0.0) {
-        v = 0.5 * (erfc_approx(lo * FRAC_1_SQRT_2) - erfc_approx(hi * FRAC_1_SQRT_2));
-    } else if (hi <= 0.0) {
-        v = 0.5 * (erfc_approx(-hi * FRAC_1_SQRT_2) - erfc_approx(-lo * FRAC_1_SQRT_2));
-    } else {
-        v = 1.0 - 0.5 * (erfc_approx(hi * FRAC_1_SQRT_2) + erfc_approx(-lo * FRAC_1_SQRT_2));
-    }
-    return clamp(v, 0.0, 1.0);
-}
-
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = gid.x + gid.y * groups.x * 64u;
@@ -84,5 +39,5 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
         return;
     }
     let c = cone[i];
-    visibility[i] = depth_visibility(moments[i], c.x, c.y);
+    visibility[i] = lrsm_depth_visibility(moments[i], c.x, c.y, params.cdf, params.min_variance, params.min_alpha);
 }

@@ -13,21 +13,10 @@
 // Accuracy: zc - zmin rounds once (0.5 ULP of the difference), / delta 2.5 ULP, so t is within 3 ULP;
 // |dk/dt| t / k <= 2 propagates that to 6 ULP; t * t, 3 - 2t (>= 1, no cancellation) and the product
 // add 1.5 ULP (fused or not); min and clamp are exact -> 8 ULP.
+// The arithmetic lives in kernels/common/lrsm_math.wgsl (shared with sample_lrsm.wgsl).
 
 @group(0) @binding(0) var<storage, read> sample: array<vec4<f32>>;
 @group(0) @binding(1) var<storage, read_write> decay: array<f32>;
-
-fn falloff(x: f32) -> f32 {
-    let t = clamp(x, 0.0, 1.0);
-    return (t * t) * (3.0 - 2.0 * t);
-}
-
-fn layer_decay(zc: f32, zmin: f32, zmax: f32, delta: f32) -> f32 {
-    if (delta <= 0.0) {
-        return select(0.0, 1.0, zc >= zmin && zc <= zmax);
-    }
-    return min(falloff((zc - zmin) / delta), falloff((zmax - zc) / delta));
-}
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
@@ -36,5 +25,5 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
         return;
     }
     let s = sample[i];
-    decay[i] = layer_decay(s.x, s.y, s.z, s.w);
+    decay[i] = lrsm_layer_decay(s.x, s.y, s.z, s.w);
 }

@@ -145,6 +145,7 @@ static WORKLIST: KernelDecl = KernelDecl {
     name: "worklist_test",
     wgsl_path: "tests/harness.rs (WORKLIST_WGSL)",
     wgsl: WORKLIST_WGSL,
+    includes: &[],
     entry: "build",
     inputs: &["values"],
     outputs: &[
@@ -363,4 +364,38 @@ fn an_indirect_argument_buffer_too_small_is_refused() {
         err.to_string().contains("`args`") && err.to_string().contains("writable"),
         "{err}"
     );
+}
+
+#[test]
+fn included_helpers_report_their_own_file_and_line() {
+    let helper = "// helper\nfn twice(x: f32) -> f32 {\n    return x * 2.0 +;\n}\n";
+    let kernel = "@group(0) @binding(0) var<storage, read_write> dst: array<f32>;\n@compute @workgroup_size(1)\nfn main() {\n    dst[0] = twice(1.0);\n}\n";
+    let err = Shader::from_parts(&[
+        ("kernels/common/helper.wgsl", helper),
+        ("kernels/k.wgsl", kernel),
+    ])
+    .unwrap_err();
+    assert!(
+        err.to_string().starts_with("kernels/common/helper.wgsl:3:"),
+        "{err}"
+    );
+
+    let good = "fn twice(x: f32) -> f32 {\n    return x * 2.0;\n}\n";
+    let shader = Shader::from_parts(&[
+        ("kernels/common/helper.wgsl", good),
+        ("kernels/k.wgsl", kernel),
+    ])
+    .unwrap();
+    assert_eq!(
+        shader.binding("dst").unwrap().line,
+        1,
+        "binding lines are lines of the kernel file"
+    );
+    let bad_kernel = kernel.replace("twice(1.0)", "twice(1u)");
+    let err = Shader::from_parts(&[
+        ("kernels/common/helper.wgsl", good),
+        ("kernels/k.wgsl", &bad_kernel),
+    ])
+    .unwrap_err();
+    assert!(err.to_string().starts_with("kernels/k.wgsl:4:"), "{err}");
 }

@@ -43,6 +43,8 @@ pub struct KernelDecl {
     pub wgsl_path: &'static str,
     /// The WGSL source (`include_str!` of `wgsl_path`).
     pub wgsl: &'static str,
+    /// Shared helpers from `kernels/common/` prepended to `wgsl`, as (path, `include_str!`) pairs.
+    pub includes: &'static [(&'static str, &'static str)],
     pub entry: &'static str,
     /// Input bindings, by WGSL name.
     pub inputs: &'static [&'static str],
@@ -57,7 +59,19 @@ pub struct KernelDecl {
 impl KernelDecl {
     /// Parse, validate and reflect the WGSL.
     pub fn shader(&self) -> Result<Shader> {
-        Shader::from_wgsl(self.wgsl_path, self.wgsl)
+        let mut parts: Vec<(&str, &str)> = self.includes.to_vec();
+        parts.push((self.wgsl_path, self.wgsl));
+        Shader::from_parts(&parts)
+    }
+
+    /// The complete WGSL (includes, then the kernel) for `create_shader_module` in another renderer.
+    pub fn composed_source(&self) -> String {
+        self.includes
+            .iter()
+            .map(|(_, src)| *src)
+            .chain([self.wgsl])
+            .collect::<Vec<_>>()
+            .join("\n")
     }
 
     pub fn output(&self, binding: &str) -> Option<&Output> {

@@ -62,6 +62,7 @@ pub struct EntryPoint {
 }
 
 /// A parsed, validated and reflected WGSL module.
+#[derive(Debug)]
 pub struct Shader {
     pub path: String,
     pub source: String,
@@ -83,13 +84,44 @@ impl Shader {
 
     /// Parse, validate and reflect `source`; `path` labels every message.
     pub fn from_wgsl(path: &str, source: &str) -> Result<Self> {
+        Self::from_parts(&[(path, source)])
+    }
+
+    /// The small include step of DESIGN.md section 2: `parts` are (path, source) pairs, shared helpers
+    /// from `kernels/common/` first and the kernel last, concatenated in order. Messages name the part
+    /// and line the error is in. Includes hold functions and constants only (bindings belong to the
+    /// kernel file, whose lines reflection reports).
+    pub fn from_parts(parts: &[(&str, &str)]) -> Result<Self> {
+        let (path, _) = *parts.last().expect("at least the kernel itself");
+        let mut source = String::new();
+        let mut starts = Vec::new(); // (first line, path)
+        for (p, src) in parts {
+            starts.push((source.matches('\n').count() as u32 + 1, *p));
+            source.push_str(src);
+            if !src.ends_with('\n') {
+                source.push('\n');
+            }
+        }
+        // Global line -> (part path, line within the part).
+        let locate = |line: u32| -> (String, u32) {
+            let (first, p) = starts
+                .iter()
+                .rev()
+                .find(|(first, _)| *first <= line)
+                .copied()
+                .unwrap_or((1, path));
+            (p.to_string(), line + 1 - first)
+        };
+        let kernel_first_line = starts.last().map(|s| s.0).unwrap_or(1);
+        let source = source.as_str();
         let module = naga::front::wgsl::parse_str(source).map_err(|e| {
             let (line, column) = e
                 .location(source)
                 .map(|l| (l.line_number, l.line_position))
                 .unwrap_or((0, 0));
+            let (file, line) = locate(line);
             HarnessError::WgslParse {
-                path: path.to_string(),
+                path: file,
                 line,
                 column,
                 message: e.message().to_string(),
@@ -103,8 +135,9 @@ impl Shader {
                     .location(source)
                     .map(|l| (l.line_number, l.line_position))
                     .unwrap_or((0, 0));
+                let (file, line) = locate(line);
                 HarnessError::WgslValidate {
-                    path: path.to_string(),
+                    path: file,
                     line,
                     column,
                     message: e.as_inner().to_string(),
@@ -124,11 +157,13 @@ impl Shader {
         for (handle, var) in module.global_variables.iter() {
             let Some(rb) = &var.binding else { continue };
             let kind = reflect_kind(&module, &layouter, var);
-            let line = module
+            let line = (module
                 .global_variables
                 .get_span(handle)
                 .location(source)
-                .line_number;
+                .line_number
+                + 1)
+            .saturating_sub(kernel_first_line);
             bindings.push(Binding {
                 name: var
                     .name

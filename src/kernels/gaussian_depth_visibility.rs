@@ -15,10 +15,13 @@ use vxgi_harness::{
 
 pub const WGSL: &str = include_str!("../../kernels/gaussian_depth_visibility.wgsl");
 
+use super::LRSM_MATH;
+
 pub static DECL: KernelDecl = KernelDecl {
     name: "gaussian_depth_visibility",
     wgsl_path: "kernels/gaussian_depth_visibility.wgsl",
     wgsl: WGSL,
+    includes: &[LRSM_MATH],
     entry: "main",
     inputs: &["params", "moments", "cone"],
     outputs: &[

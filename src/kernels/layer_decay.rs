@@ -13,10 +13,13 @@ use vxgi_harness::{
 
 pub const WGSL: &str = include_str!("../../kernels/layer_decay.wgsl");
 
+use super::LRSM_MATH;
+
 pub static DECL: KernelDecl = KernelDecl {
     name: "layer_decay",
     wgsl_path: "kernels/layer_decay.wgsl",
     wgsl: WGSL,
+    includes: &[LRSM_MATH],
     entry: "main",
     inputs: &["sample"],
     outputs: &[

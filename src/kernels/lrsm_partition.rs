@@ -16,6 +16,7 @@ pub static DECL: KernelDecl = KernelDecl {
     name: "lrsm_partition",
     wgsl_path: "kernels/lrsm_partition.wgsl",
     wgsl: WGSL,
+    includes: &[],
     entry: "main",
     inputs: &["params", "depth_ranges", "rsm_radiance", "rsm_normal", "rsm_depth"],
     outputs: &[

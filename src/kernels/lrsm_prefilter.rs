@@ -16,6 +16,7 @@ pub static DECL: KernelDecl = KernelDecl {
     name: "lrsm_prefilter",
     wgsl_path: "kernels/lrsm_prefilter.wgsl",
     wgsl: WGSL,
+    includes: &[],
     entry: "main",
     inputs: &["src_radiance", "src_normal", "src_moments"],
     // Four correctly rounded adds and an exact * 0.25: bit for bit (or the flush-to-zero result).

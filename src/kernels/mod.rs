@@ -9,6 +9,12 @@ pub mod surface_coverage_mip;
 
 use vxgi_harness::Kernel;
 
+/// Shared LRSM arithmetic (erfc, Gaussian depth visibility, layer decay), included by the LRSM kernels.
+pub const LRSM_MATH: (&str, &str) = (
+    "kernels/common/lrsm_math.wgsl",
+    include_str!("../../kernels/common/lrsm_math.wgsl"),
+);
+
 /// Every declared kernel, in the order `vxgi verify` runs them.
 pub fn all() -> Vec<&'static dyn Kernel> {
     vec![

@@ -17,6 +17,7 @@ pub static DECL: KernelDecl = KernelDecl {
     name: "surface_coverage_mip",
     wgsl_path: "kernels/surface_coverage_mip.wgsl",
     wgsl: WGSL,
+    includes: &[],
     entry: "main",
     inputs: &["params", "src_colour", "src_normal"],
     outputs: &[
