@@ -237,9 +237,7 @@ fn a_corrupted_gpu_element_fails_verification_with_a_full_report() {
 #[test]
 fn a_broken_wgsl_file_reports_line_and_column() {
     let src = "@group(0) @binding(0) var<storage, read_write> dst: array<f32>;\n\n@compute @workgroup_size(64)\nfn main() {\n    dst[0] = 1.0 +;\n}\n";
-    let err = Shader::from_wgsl("kernels/broken.wgsl", src)
-        .err()
-        .expect("must not parse");
+    let err = Shader::from_wgsl("kernels/broken.wgsl", src).expect_err("must not parse");
     let msg = err.to_string();
     assert!(
         matches!(err, HarnessError::WgslParse { line: 5, .. }),
@@ -249,9 +247,7 @@ fn a_broken_wgsl_file_reports_line_and_column() {
 
     // Parses, but fails validation (f32 stored into a u32 array).
     let src = "@group(0) @binding(0) var<storage, read_write> dst: array<u32>;\n@compute @workgroup_size(1)\nfn main() {\n    dst[0] = 1.5;\n}\n";
-    let err = Shader::from_wgsl("kernels/invalid.wgsl", src)
-        .err()
-        .expect("must not validate");
+    let err = Shader::from_wgsl("kernels/invalid.wgsl", src).expect_err("must not validate");
     assert!(
         matches!(
             err,
