@@ -12,6 +12,7 @@ pub mod layer_decay;
 pub mod lrsm_partition;
 pub mod lrsm_prefilter;
 pub mod morton;
+pub mod sample_lrsm;
 pub mod surface_coverage_mip;
 
 /// `x` with a subnormal replaced by zero of the same sign when `flush` is set.

@@ -5,6 +5,7 @@ pub mod gaussian_depth_visibility;
 pub mod layer_decay;
 pub mod lrsm_partition;
 pub mod lrsm_prefilter;
+pub mod sample_lrsm;
 pub mod surface_coverage_mip;
 
 use vxgi_harness::Kernel;
@@ -23,6 +24,7 @@ pub fn all() -> Vec<&'static dyn Kernel> {
         &layer_decay::LayerDecay,
         &lrsm_partition::LrsmPartition,
         &lrsm_prefilter::LrsmPrefilter,
+        &sample_lrsm::SampleLrsm,
     ]
 }
 

@@ -1,0 +1,254 @@
+//! Declaration of `kernels/sample_lrsm.wgsl` (mirror: `vxgi_cpu_mirror::sample_lrsm`): Algorithm 1 on an
+//! LRSM built from a synthetic RSM by the partition and pre-filter mirrors, for batches of cone samples
+//! including the hard ones (depths on layer bounds, normals perpendicular to the view direction, mip
+//! levels below 0 and past the chain, coordinates outside [0, 1]).
+use super::LRSM_MATH;
+use crate::lrsm::{synthetic_rsm, PartitionConfig};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::collections::BTreeMap;
+use vxgi_cpu_mirror::lrsm_partition::{partition, PartitionParams};
+use vxgi_cpu_mirror::lrsm_prefilter::reduce_level;
+use vxgi_cpu_mirror::sample_lrsm::{sample, sample_bound, Lrsm, SampleParams};
+use vxgi_harness::compare::bound_name;
+use vxgi_harness::run::View;
+use vxgi_harness::{
+    Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
+    KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
+};
+
+pub const WGSL: &str = include_str!("../../kernels/sample_lrsm.wgsl");
+
+pub static DECL: KernelDecl = KernelDecl {
+    name: "sample_lrsm",
+    wgsl_path: "kernels/sample_lrsm.wgsl",
+    wgsl: WGSL,
+    includes: &[LRSM_MATH],
+    entry: "main",
+    inputs: &["params", "depth_ranges", "lrsm_radiance", "lrsm_normal", "lrsm_moments", "cone_pos", "cone_dir"],
+    outputs: &[
+        // Per element from the WGSL rules along the path: normal division and dot product (any order,
+        // fused or not), V's own bound, decay 8 ULP, three products and the sum over layers; branch
+        // flips at N = 0 or V = 0 change L continuously and are covered (see `sample_bound`).
+        Output { binding: "radiance", tolerance: Tolerance::MirrorBound },
+    ],
+    dispatch: DispatchRule::PerElement { binding: "radiance" },
+    mirror: "vxgi_cpu_mirror::sample_lrsm::sample",
+    summary: "Sample LRSM (LRSM Algorithm 1): radiance of cone samples from the layered, pre-filtered RSM",
+};
+
+/// A complete LRSM (all levels concatenated) plus the parameters to sample it.
+#[derive(Clone, Debug)]
+pub struct BuiltLrsm {
+    pub config: PartitionConfig,
+    pub params: SampleParams,
+    pub depth_ranges: Vec<[f32; 4]>,
+    pub streams: [Vec<[f32; 4]>; 3],
+}
+
+/// Partition a synthetic RSM and pre-filter it, on the CPU (the GPU kernels for these are verified
+/// against exactly these mirrors).
+pub fn build_lrsm(config: PartitionConfig, seed: u64, cdf: u32) -> BuiltLrsm {
+    let rsm = synthetic_rsm(config.rsm_side, &config, seed);
+    let ranges = config.depth_ranges();
+    let pp = PartitionParams {
+        depth_slices: config.depth_slices(),
+        normal_slices: config.normal_slices(),
+        layer_texels: config.layer_texels() as u32,
+        _pad: 0,
+    };
+    let level0 = partition(
+        (&rsm.radiance, &rsm.normal, &rsm.depth),
+        &ranges,
+        &pp,
+        false,
+    );
+    let side0 = config.rsm_side / 2;
+    let levels = side0.trailing_zeros() + 1;
+    let mut streams = level0.clone();
+    let mut level = level0;
+    for _ in 1..levels {
+        level = reduce_level([&level[0], &level[1], &level[2]], false);
+        for (s, l) in streams.iter_mut().zip(&level) {
+            s.extend_from_slice(l);
+        }
+    }
+    let params = SampleParams {
+        depth_slices: config.depth_slices(),
+        normal_slices: config.normal_slices(),
+        levels,
+        side0,
+        cdf,
+        min_variance: 1.0e-4,
+        min_alpha: 1.0e-6,
+        overlap: config.overlap,
+    };
+    BuiltLrsm {
+        config,
+        params,
+        depth_ranges: ranges,
+        streams,
+    }
+}
+
+/// `count` cone samples over `lrsm`.
+pub fn cone_samples(lrsm: &BuiltLrsm, seed: u64, count: usize) -> (Vec<[f32; 4]>, Vec<[f32; 4]>) {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let levels = lrsm.params.levels as f32;
+    (0..count)
+        .map(|_| {
+            let u = if rng.random_range(0..10) == 0 {
+                rng.random_range(-0.5..1.5)
+            } else {
+                rng.random()
+            };
+            let v = if rng.random_range(0..10) == 0 {
+                rng.random_range(-0.5..1.5)
+            } else {
+                rng.random()
+            };
+            let mip = match rng.random_range(0..8) {
+                0 => -1.0,
+                1 => levels + 2.0,
+                2 => rng.random_range(0..lrsm.params.levels) as f32,
+                _ => rng.random_range(0.0..levels),
+            };
+            let zc = match rng.random_range(0..6) {
+                0 => {
+                    lrsm.depth_ranges[rng.random_range(0..lrsm.depth_ranges.len())]
+                        [rng.random_range(0..2)]
+                }
+                1 => rng.random_range(-0.2..1.2),
+                _ => rng.random_range(0.2..0.8),
+            };
+            let dir = match rng.random_range(0..6) {
+                0 => glam::Vec3::new(1.0, 0.0, 0.0), // perpendicular to most normals: N = 0
+                _ => glam::Vec3::new(
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-0.3..1.0),
+                )
+                .normalize_or(glam::Vec3::Z),
+            };
+            let rc = match rng.random_range(0..8) {
+                0 => 0.0,
+                1 => 2.0, // larger than the whole depth range
+                _ => rng.random_range(0.001..0.3),
+            };
+            ([u, v, mip, zc], [dir.x, dir.y, dir.z, rc])
+        })
+        .unzip()
+}
+
+pub fn case_for(
+    shader: &Shader,
+    ctx: &GpuContext,
+    lrsm: &BuiltLrsm,
+    pos: &[[f32; 4]],
+    dir: &[[f32; 4]],
+    label: String,
+    seed: u64,
+) -> Case {
+    let mut resources = Resources::new();
+    let f4 = |v: &[[f32; 4]]| HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(v)));
+    resources.insert(
+        "params".into(),
+        HostResource::Buffer(HostBuffer::pod(&lrsm.params)),
+    );
+    resources.insert("depth_ranges".into(), f4(&lrsm.depth_ranges));
+    resources.insert("lrsm_radiance".into(), f4(&lrsm.streams[0]));
+    resources.insert("lrsm_normal".into(), f4(&lrsm.streams[1]));
+    resources.insert("lrsm_moments".into(), f4(&lrsm.streams[2]));
+    resources.insert("cone_pos".into(), f4(pos));
+    resources.insert("cone_dir".into(), f4(dir));
+    resources.insert(
+        "radiance".into(),
+        HostResource::Buffer(HostBuffer::zeroed(pos.len() * 16, ScalarKind::F32)),
+    );
+    let bindings = DECL
+        .inputs
+        .iter()
+        .chain(["radiance"].iter())
+        .map(|b| (b.to_string(), View::Buffer(b.to_string())))
+        .collect();
+    let layers = (lrsm.params.depth_slices * lrsm.params.normal_slices) as u64;
+    Case {
+        label,
+        seed,
+        passes: vec![DECL.pass(shader, ctx, "sample".into(), bindings, pos.len() as u64)],
+        resources,
+        checks: vec![Check {
+            resource: "radiance".into(),
+            output: "radiance",
+            indexing: Indexing::Grid {
+                dims: [pos.len() as u32, 1, 1],
+                components: 4,
+            },
+        }],
+        // Per sample: its two vec4s, up to 3 texels of 16 bytes per layer, and the output.
+        effective_bytes: pos.len() as u64 * (32 + 16 + layers * 48),
+    }
+}
+
+pub struct SampleLrsm;
+
+impl Kernel for SampleLrsm {
+    fn decl(&self) -> &'static KernelDecl {
+        &DECL
+    }
+
+    fn case(&self, shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
+        let config = super::lrsm_partition::config_for(index);
+        let lrsm = build_lrsm(config, seed.wrapping_add(index as u64), (index % 2) as u32);
+        let count = [4096, 1, 100, 20_000][index % 4];
+        let (pos, dir) = cone_samples(&lrsm, seed ^ index as u64, count);
+        let label = format!(
+            "#{index} {}^2 RSM, {} layers, {count} samples, cdf {}",
+            config.rsm_side,
+            config.layers(),
+            index % 2
+        );
+        case_for(shader, ctx, &lrsm, &pos, &dir, label, seed)
+    }
+
+    fn mirror(
+        &self,
+        _case: &Case,
+        data: &Resources,
+        mode: FloatMode,
+    ) -> BTreeMap<String, HostBuffer> {
+        let v4 = |n: &str| -> &[[f32; 4]] {
+            bytemuck::cast_slice(&data[n].buffer().expect("buffer").bytes)
+        };
+        let params: SampleParams =
+            *bytemuck::from_bytes(&data["params"].buffer().expect("params").bytes);
+        let lrsm = Lrsm {
+            depth_ranges: v4("depth_ranges"),
+            radiance: v4("lrsm_radiance"),
+            normal: v4("lrsm_normal"),
+            moments: v4("lrsm_moments"),
+        };
+        let (pos, dir) = (v4("cone_pos"), v4("cone_dir"));
+        let flush = mode == FloatMode::FlushToZero;
+        let l: Vec<[f32; 4]> = pos
+            .iter()
+            .zip(dir)
+            .map(|(p, d)| sample(&lrsm, &params, *p, *d, flush))
+            .collect();
+        let b: Vec<[f32; 4]> = pos
+            .iter()
+            .zip(dir)
+            .map(|(p, d)| sample_bound(&lrsm, &params, *p, *d))
+            .collect();
+        BTreeMap::from([
+            (
+                "radiance".to_string(),
+                HostBuffer::f32(bytemuck::cast_slice(&l)),
+            ),
+            (
+                bound_name("radiance"),
+                HostBuffer::f32(bytemuck::cast_slice(&b)),
+            ),
+        ])
+    }
+}

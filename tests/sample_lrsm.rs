@@ -1,0 +1,127 @@
+//! GPU vs mirror for `kernels/sample_lrsm.wgsl` (LRSM Algorithm 1) on LRSMs built from synthetic RSMs.
+mod common;
+
+use common::gpu;
+use vxgi::harness::kernel::{verify, verify_case};
+use vxgi::harness::run::run;
+use vxgi::harness::{Corruption, VerifyOptions};
+use vxgi::kernels::sample_lrsm::{build_lrsm, case_for, cone_samples, SampleLrsm, DECL};
+use vxgi::lrsm::PartitionConfig;
+use vxgi_cpu_mirror::sample_lrsm::SampleParams;
+
+#[test]
+fn generated_cone_samples_match_the_mirror() {
+    let rep = verify(
+        gpu(),
+        &SampleLrsm,
+        &VerifyOptions {
+            cases: 12,
+            seed: 31,
+            corrupt: None,
+        },
+        &mut |_| {},
+    )
+    .unwrap();
+    assert!(rep.passed(), "{}", rep.failures[0].report());
+    assert!(rep.max_bound_use < 1.0);
+}
+
+#[test]
+fn samples_gather_light_and_only_layers_containing_zc_are_sampled() {
+    let config = PartitionConfig {
+        rsm_side: 64,
+        depth_splits: 1,
+        normal_splits: 1,
+        overlap: 0.05,
+    };
+    let lrsm = build_lrsm(config, 5, 0);
+    let (pos, dir) = cone_samples(&lrsm, 6, 5000);
+    let shader = DECL.shader().unwrap();
+    let case = case_for(&shader, gpu(), &lrsm, &pos, &dir, "64^2".into(), 6);
+    let (comps, ..) = verify_case(gpu(), &shader, &SampleLrsm, &case, None).unwrap();
+    assert!(comps[0].passed(), "{}", comps[0].report());
+    let out = run(
+        gpu(),
+        &shader,
+        DECL.name,
+        &case.resources,
+        &case.passes,
+        &["radiance"],
+    )
+    .unwrap();
+    let l: &[[f32; 4]] = bytemuck::cast_slice(&out.buffer("radiance").bytes);
+    let lit = l.iter().filter(|x| x[0] + x[1] + x[2] > 0.0).count();
+    assert!(
+        lit > pos.len() / 10,
+        "only {lit} of {} samples gathered any light",
+        pos.len()
+    );
+    for (i, (p, x)) in pos.iter().zip(l).enumerate() {
+        let containing = lrsm
+            .depth_ranges
+            .iter()
+            .filter(|r| p[3] >= r[0] && p[3] <= r[1])
+            .count() as u32
+            * config.normal_slices();
+        assert_eq!(x[3], containing as f32, "sample {i}: layers sampled");
+        if containing == 0 {
+            assert_eq!(
+                &x[..3],
+                &[0.0; 3],
+                "sample {i} outside every layer gathers nothing"
+            );
+        }
+        assert!(
+            x.iter().all(|c| c.is_finite() && *c >= 0.0),
+            "sample {i}: {x:?}"
+        );
+    }
+}
+
+#[test]
+fn a_corrupted_sample_fails_verification() {
+    let opts = VerifyOptions {
+        cases: 1,
+        seed: 31,
+        corrupt: Some(Corruption {
+            resource: "radiance".into(),
+            index: 0,
+        }),
+    };
+    assert!(!verify(gpu(), &SampleLrsm, &opts, &mut |_| {})
+        .unwrap()
+        .passed());
+}
+
+#[test]
+fn params_struct_matches_the_reflected_wgsl_layout() {
+    let shader = DECL.shader().unwrap();
+    let (size, members) = shader.struct_layout("SampleParams").unwrap();
+    assert_eq!(size as usize, std::mem::size_of::<SampleParams>());
+    let names = [
+        "depth_slices",
+        "normal_slices",
+        "levels",
+        "side0",
+        "cdf",
+        "min_variance",
+        "min_alpha",
+        "overlap",
+    ];
+    let offsets = [
+        std::mem::offset_of!(SampleParams, depth_slices),
+        std::mem::offset_of!(SampleParams, normal_slices),
+        std::mem::offset_of!(SampleParams, levels),
+        std::mem::offset_of!(SampleParams, side0),
+        std::mem::offset_of!(SampleParams, cdf),
+        std::mem::offset_of!(SampleParams, min_variance),
+        std::mem::offset_of!(SampleParams, min_alpha),
+        std::mem::offset_of!(SampleParams, overlap),
+    ];
+    let want: Vec<(String, u32)> = names
+        .iter()
+        .zip(offsets)
+        .map(|(n, o)| (n.to_string(), o as u32))
+        .collect();
+    assert_eq!(members, want);
+}
