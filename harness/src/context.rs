@@ -1,6 +1,7 @@
 //! The GPU context: any wgpu adapter, or the caller's own device and queue.
 use crate::error::{HarnessError, Result};
-use std::sync::OnceLock;
+use std::collections::HashMap;
+use std::sync::{Mutex, OnceLock};
 
 /// A device and queue plus what the harness needs to know about them.
 pub struct GpuContext {
@@ -9,6 +10,9 @@ pub struct GpuContext {
     pub info: wgpu::AdapterInfo,
     /// Timestamp queries usable at pass boundaries (else timing is wall clock around submit + wait).
     pub timestamps: bool,
+    /// Compiled pipelines by (WGSL source, entry point): a driver may compile lazily at first dispatch,
+    /// which would otherwise land in every case's GPU time.
+    pipelines: Mutex<HashMap<(String, String), wgpu::ComputePipeline>>,
 }
 
 impl GpuContext {
@@ -47,7 +51,34 @@ impl GpuContext {
             queue,
             info,
             timestamps,
+            pipelines: Mutex::default(),
         }
+    }
+
+    /// The compute pipeline of `entry` in `source` (auto layout), compiled once per context.
+    pub fn pipeline(&self, source: &str, entry: &str, label: &str) -> wgpu::ComputePipeline {
+        let key = (source.to_string(), entry.to_string());
+        let mut cache = self.pipelines.lock().unwrap_or_else(|e| e.into_inner());
+        cache
+            .entry(key)
+            .or_insert_with(|| {
+                let module = self
+                    .device
+                    .create_shader_module(wgpu::ShaderModuleDescriptor {
+                        label: Some(label),
+                        source: wgpu::ShaderSource::Wgsl(source.into()),
+                    });
+                self.device
+                    .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                        label: Some(entry),
+                        layout: None,
+                        module: &module,
+                        entry_point: Some(entry),
+                        compilation_options: Default::default(),
+                        cache: None,
+                    })
+            })
+            .clone()
     }
 
     /// One context per process, created on first use; tests and the CLI share it.

@@ -597,10 +597,6 @@ pub fn prepare<'a>(
     .check(resources, passes)?;
     scoped(ctx, kernel, || {
         let device = &ctx.device;
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some(kernel),
-            source: wgpu::ShaderSource::Wgsl(shader.source.as_str().into()),
-        });
         let mut gpu = BTreeMap::new();
         let mut shapes = BTreeMap::new();
         for (name, res) in resources {
@@ -704,22 +700,9 @@ pub fn prepare<'a>(
             (set, resolve, n)
         });
 
-        let mut pipelines: BTreeMap<&str, wgpu::ComputePipeline> = BTreeMap::new();
         let mut steps = Vec::new();
         for pass in passes {
-            let pipeline = pipelines
-                .entry(pass.entry.as_str())
-                .or_insert_with(|| {
-                    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                        label: Some(&pass.entry),
-                        layout: None,
-                        module: &module,
-                        entry_point: Some(&pass.entry),
-                        compilation_options: Default::default(),
-                        cache: None,
-                    })
-                })
-                .clone();
+            let pipeline = ctx.pipeline(&shader.source, &pass.entry, kernel);
             let entry = shader.entry(&pass.entry).expect("checked");
             let mut groups: BTreeMap<u32, Vec<(u32, wgpu::BindingResource)>> = BTreeMap::new();
             let mut views = Vec::new();
