@@ -70,7 +70,8 @@ mod tests {
             let [x, y] = super::decode2(m);
             assert_eq!(super::encode2(x, y), m);
         }
-        assert_eq!(super::decode2(0b1001), [2, 1]);
+        // Bit 0 is x bit 0, bit 3 is y bit 1.
+        assert_eq!(super::decode2(0b1001), [1, 2]);
     }
 
     #[test]
