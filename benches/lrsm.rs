@@ -196,7 +196,7 @@ fn bench(c: &mut Criterion) {
 /// V with the exact normal CDF (f64) on the same floored moments.
 fn exact_visibility(m: [f32; 4], zc: f32, rc: f32, p: &VisibilityParams) -> f64 {
     let a = m[2] as f64;
-    if !(a > p.min_alpha as f64) {
+    if a.partial_cmp(&(p.min_alpha as f64)) != Some(std::cmp::Ordering::Greater) {
         return 0.0;
     }
     let lim = 1.0e6;
