@@ -83,3 +83,18 @@ fn normalised_coarse_moments_are_the_covered_texels_moments() {
         );
     }
 }
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig { cases: 12, ..proptest::prelude::ProptestConfig::default() })]
+
+    /// Proptest drives the generator: any seed, any of its configuration families.
+    #[test]
+    fn proptest_generated_cases_match_the_mirror(seed in proptest::prelude::any::<u64>(), index in 0usize..60) {
+        let shader = DECL.shader().unwrap();
+        let case = vxgi::harness::Kernel::case(&LrsmPrefilter, &shader, gpu(), seed, index);
+        let (comps, ..) = verify_case(gpu(), &shader, &LrsmPrefilter, &case, None).unwrap();
+        for c in comps {
+            proptest::prop_assert!(c.passed(), "{}", c.report());
+        }
+    }
+}

@@ -125,3 +125,18 @@ fn params_struct_matches_the_reflected_wgsl_layout() {
         .collect();
     assert_eq!(members, want);
 }
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig { cases: 12, ..proptest::prelude::ProptestConfig::default() })]
+
+    /// Proptest drives the generator: any seed, any of its configuration families.
+    #[test]
+    fn proptest_generated_cases_match_the_mirror(seed in proptest::prelude::any::<u64>(), index in 0usize..60) {
+        let shader = DECL.shader().unwrap();
+        let case = vxgi::harness::Kernel::case(&SampleLrsm, &shader, gpu(), seed, index);
+        let (comps, ..) = verify_case(gpu(), &shader, &SampleLrsm, &case, None).unwrap();
+        for c in comps {
+            proptest::prop_assert!(c.passed(), "{}", c.report());
+        }
+    }
+}
