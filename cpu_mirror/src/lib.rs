@@ -8,12 +8,15 @@
 //!
 //! No wgpu, no naga: a mirror can be used (and read) without a GPU.
 pub mod gaussian_depth_visibility;
+pub mod histogram_axes;
 pub mod layer_decay;
 pub mod lrsm_partition;
 pub mod lrsm_prefilter;
 pub mod morton;
+pub mod octahedral;
 pub mod sample_lrsm;
 pub mod surface_coverage_mip;
+pub mod tile_normal_histogram;
 
 /// `x` with a subnormal replaced by zero of the same sign when `flush` is set.
 #[inline]

@@ -2,11 +2,13 @@
 //! To add a kernel: `kernels/<name>.wgsl`, `cpu_mirror/src/<name>.rs`, `src/kernels/<name>.rs` with a
 //! `DECL` and a `Kernel` impl, one line in [`all`], and tests in `tests/<name>.rs`.
 pub mod gaussian_depth_visibility;
+pub mod histogram_axes;
 pub mod layer_decay;
 pub mod lrsm_partition;
 pub mod lrsm_prefilter;
 pub mod sample_lrsm;
 pub mod surface_coverage_mip;
+pub mod tile_normal_histogram;
 
 use vxgi_harness::Kernel;
 
@@ -25,6 +27,8 @@ pub fn all() -> Vec<&'static dyn Kernel> {
         &lrsm_partition::LrsmPartition,
         &lrsm_prefilter::LrsmPrefilter,
         &sample_lrsm::SampleLrsm,
+        &tile_normal_histogram::TileNormalHistogram,
+        &histogram_axes::HistogramAxes,
     ]
 }
 

@@ -1,0 +1,150 @@
+//! Declaration of `kernels/histogram_axes.wgsl` (mirror: `vxgi_cpu_mirror::histogram_axes`): three
+//! axes per tile from the blurred normal histograms of `tile_normal_histogram` (CPRC 3.2), integer and
+//! exact.
+use super::tile_normal_histogram::{params, size_for};
+use crate::gbuffers::{normals, packed, GPattern};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::collections::BTreeMap;
+use vxgi_cpu_mirror::histogram_axes::all_axes;
+use vxgi_cpu_mirror::octahedral::{reweight_table, BIN_COUNT};
+use vxgi_cpu_mirror::tile_normal_histogram::histograms;
+use vxgi_harness::run::View;
+use vxgi_harness::{
+    Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
+    KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
+};
+
+pub static DECL: KernelDecl = KernelDecl {
+    name: "histogram_axes",
+    wgsl_path: "kernels/histogram_axes.wgsl",
+    wgsl: include_str!("../../kernels/histogram_axes.wgsl"),
+    includes: &[],
+    entry: "main",
+    inputs: &["params", "blurred", "histogram", "reweight"],
+    // Integer argmax (lowest index on ties) and integer re-weighting: exact.
+    outputs: &[Output {
+        binding: "axes",
+        tolerance: Tolerance::Exact,
+    }],
+    dispatch: DispatchRule::PerElement { binding: "axes" },
+    mirror: "vxgi_cpu_mirror::histogram_axes::all_axes",
+    summary: "three axes per tile by re-weighted histogram argmax (CPRC 3.2)",
+};
+
+/// Axes case from histograms (raw, blurred) of `tiles` tiles.
+pub fn axes_case(
+    shader: &Shader,
+    ctx: &GpuContext,
+    raw: &[u32],
+    blurred: &[u32],
+    label: String,
+    seed: u64,
+) -> Case {
+    let tiles = raw.len() / BIN_COUNT;
+    let mut resources = Resources::new();
+    resources.insert(
+        "params".into(),
+        HostResource::Buffer(HostBuffer::u32(&[tiles as u32])),
+    );
+    resources.insert(
+        "blurred".into(),
+        HostResource::Buffer(HostBuffer::u32(blurred)),
+    );
+    resources.insert(
+        "histogram".into(),
+        HostResource::Buffer(HostBuffer::u32(raw)),
+    );
+    resources.insert(
+        "reweight".into(),
+        HostResource::Buffer(HostBuffer::u32(&reweight_table())),
+    );
+    resources.insert(
+        "axes".into(),
+        HostResource::Buffer(HostBuffer::zeroed(tiles * 16, ScalarKind::U32)),
+    );
+    let bindings = DECL
+        .inputs
+        .iter()
+        .chain(["axes"].iter())
+        .map(|b| (b.to_string(), View::Buffer(b.to_string())))
+        .collect();
+    Case {
+        label,
+        seed,
+        passes: vec![DECL.pass(shader, ctx, "axes".into(), bindings, tiles as u64)],
+        resources,
+        checks: vec![Check {
+            resource: "axes".into(),
+            output: "axes",
+            indexing: Indexing::Grid {
+                dims: [tiles as u32, 1, 1],
+                components: 4,
+            },
+        }],
+        effective_bytes: tiles as u64 * (BIN_COUNT as u64 * 8 + 16),
+    }
+}
+
+pub struct HistogramAxes;
+
+impl Kernel for HistogramAxes {
+    fn decl(&self) -> &'static KernelDecl {
+        &DECL
+    }
+    fn case(&self, shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
+        let (raw, blurred) = if index % 3 == 2 {
+            // Synthetic histograms: all zero, all equal, one hot bin, maximal counts, random.
+            let mut rng = ChaCha8Rng::seed_from_u64(seed.wrapping_add(index as u64));
+            let tiles = 200;
+            let mut raw = vec![0u32; tiles * BIN_COUNT];
+            for t in 0..tiles {
+                let h = &mut raw[t * BIN_COUNT..(t + 1) * BIN_COUNT];
+                match t % 5 {
+                    0 => {}
+                    1 => h.fill(7),
+                    2 => h[rng.random_range(0..BIN_COUNT)] = 4096,
+                    3 => h.iter_mut().for_each(|x| *x = 64),
+                    _ => h.iter_mut().for_each(|x| *x = rng.random_range(0..100)),
+                }
+            }
+            let blurred: Vec<u32> = raw
+                .chunks(BIN_COUNT)
+                .flat_map(|h| {
+                    vxgi_cpu_mirror::tile_normal_histogram::blur(h.try_into().expect("64 bins"))
+                })
+                .collect();
+            (raw, blurred)
+        } else {
+            let (w, h, tile) = size_for(index);
+            let n = packed(&normals(
+                w,
+                h,
+                GPattern::family(index),
+                seed.wrapping_add(index as u64),
+            ));
+            histograms(&n, &params(w, h, tile).expect("valid sizes"))
+        };
+        axes_case(
+            shader,
+            ctx,
+            &raw,
+            &blurred,
+            format!("#{index} {} tiles", raw.len() / BIN_COUNT),
+            seed,
+        )
+    }
+    fn mirror(
+        &self,
+        _case: &Case,
+        data: &Resources,
+        _mode: FloatMode,
+    ) -> BTreeMap<String, HostBuffer> {
+        let u = |n: &str| data[n].buffer().expect("buffer").as_u32();
+        let axes = all_axes(u("blurred"), u("histogram"), u("reweight"));
+        BTreeMap::from([(
+            "axes".to_string(),
+            HostBuffer::u32(bytemuck::cast_slice(&axes)),
+        )])
+    }
+}

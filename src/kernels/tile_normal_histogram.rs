@@ -1,0 +1,186 @@
+//! Declaration of `kernels/tile_normal_histogram.wgsl` (mirror: `vxgi_cpu_mirror::tile_normal_histogram`):
+//! the first stage of the clustered cache distribution (CPRC 3.2), integer and exact. Its output feeds
+//! `histogram_axes`.
+use crate::gbuffers::{normals, packed, GPattern};
+use std::collections::BTreeMap;
+use thiserror::Error;
+use vxgi_cpu_mirror::octahedral::BIN_COUNT;
+use vxgi_cpu_mirror::tile_normal_histogram::{histograms, HistogramParams};
+use vxgi_harness::run::{Pass, View, Workgroups};
+use vxgi_harness::{
+    Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
+    KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
+};
+
+/// Shared octahedral binning, included by both kernels.
+pub const OCTAHEDRAL_BINS: (&str, &str) = (
+    "kernels/common/octahedral_bins.wgsl",
+    include_str!("../../kernels/common/octahedral_bins.wgsl"),
+);
+
+pub static DECL: KernelDecl = KernelDecl {
+    name: "tile_normal_histogram",
+    wgsl_path: "kernels/tile_normal_histogram.wgsl",
+    wgsl: include_str!("../../kernels/tile_normal_histogram.wgsl"),
+    includes: &[OCTAHEDRAL_BINS],
+    entry: "main",
+    inputs: &["params", "normals"],
+    // Integer counts and integer weighted sums: exact.
+    outputs: &[
+        Output {
+            binding: "histogram",
+            tolerance: Tolerance::Exact,
+        },
+        Output {
+            binding: "blurred",
+            tolerance: Tolerance::Exact,
+        },
+    ],
+    dispatch: DispatchRule::PerItem {
+        what: "screen tile: one workgroup of 64 (one per bin) per tile",
+    },
+    mirror: "vxgi_cpu_mirror::tile_normal_histogram::histograms",
+    summary: "per-tile octahedral normal histogram and its wrapped binomial blur (CPRC 3.2)",
+};
+
+#[derive(Debug, Error, PartialEq)]
+pub enum TileError {
+    #[error(
+        "tile size {0} must be 1..=64 (larger tiles could overflow the u32 re-weighted histogram)"
+    )]
+    TileSize(u32),
+    #[error("G-buffer of {width}x{height} has no pixels")]
+    Empty { width: u32, height: u32 },
+    #[error("G-buffer holds {got} normals, {width}x{height} needs {want}")]
+    Length {
+        width: u32,
+        height: u32,
+        got: usize,
+        want: usize,
+    },
+}
+
+/// Parameters for a `width` x `height` G-buffer in tiles of `tile` pixels, checked.
+pub fn params(width: u32, height: u32, tile: u32) -> Result<HistogramParams, TileError> {
+    if !(1..=64).contains(&tile) {
+        return Err(TileError::TileSize(tile));
+    }
+    if width == 0 || height == 0 {
+        return Err(TileError::Empty { width, height });
+    }
+    Ok(HistogramParams {
+        width,
+        height,
+        tile,
+        tiles_x: width.div_ceil(tile),
+    })
+}
+
+pub fn case_for(
+    normals: &[[u32; 2]],
+    p: HistogramParams,
+    label: String,
+    seed: u64,
+) -> Result<Case, TileError> {
+    let want = (p.width * p.height) as usize;
+    if normals.len() != want {
+        return Err(TileError::Length {
+            width: p.width,
+            height: p.height,
+            got: normals.len(),
+            want,
+        });
+    }
+    let tiles_y = p.height.div_ceil(p.tile);
+    let tiles = (p.tiles_x * tiles_y) as usize;
+    let mut resources = Resources::new();
+    resources.insert("params".into(), HostResource::Buffer(HostBuffer::pod(&p)));
+    resources.insert(
+        "normals".into(),
+        HostResource::Buffer(HostBuffer::u32(bytemuck::cast_slice(normals))),
+    );
+    for out in ["histogram", "blurred"] {
+        resources.insert(
+            out.into(),
+            HostResource::Buffer(HostBuffer::zeroed(tiles * BIN_COUNT * 4, ScalarKind::U32)),
+        );
+    }
+    let bindings = ["params", "normals", "histogram", "blurred"]
+        .iter()
+        .map(|b| (b.to_string(), View::Buffer(b.to_string())))
+        .collect();
+    let pass = Pass {
+        label: "histograms".into(),
+        entry: "main".into(),
+        bindings,
+        workgroups: Workgroups::Direct([p.tiles_x, tiles_y, 1]),
+    };
+    let indexing = Indexing::Grid {
+        dims: [BIN_COUNT as u32, p.tiles_x, tiles_y],
+        components: 1,
+    };
+    Ok(Case {
+        label,
+        seed,
+        resources,
+        passes: vec![pass],
+        checks: ["histogram", "blurred"]
+            .iter()
+            .map(|r| Check {
+                resource: r.to_string(),
+                output: r,
+                indexing: indexing.clone(),
+            })
+            .collect(),
+        effective_bytes: want as u64 * 8 + tiles as u64 * BIN_COUNT as u64 * 8,
+    })
+}
+
+/// The image sizes and tiles `vxgi verify` cycles through (including sizes not a multiple of the tile).
+pub fn size_for(index: usize) -> (u32, u32, u32) {
+    [
+        (64, 64, 32),
+        (100, 37, 32),
+        (1, 1, 32),
+        (33, 65, 16),
+        (256, 144, 32),
+        (96, 64, 64),
+        (17, 9, 1),
+    ][index % 7]
+}
+
+pub struct TileNormalHistogram;
+
+impl Kernel for TileNormalHistogram {
+    fn decl(&self) -> &'static KernelDecl {
+        &DECL
+    }
+    fn case(&self, _shader: &Shader, _ctx: &GpuContext, seed: u64, index: usize) -> Case {
+        let (w, h, tile) = size_for(index);
+        let pattern = GPattern::family(index);
+        let n = packed(&normals(w, h, pattern, seed.wrapping_add(index as u64)));
+        case_for(
+            &n,
+            params(w, h, tile).expect("valid sizes"),
+            format!("#{index} {w}x{h} tile {tile} {pattern:?}"),
+            seed,
+        )
+        .expect("valid case")
+    }
+    fn mirror(
+        &self,
+        _case: &Case,
+        data: &Resources,
+        _mode: FloatMode,
+    ) -> BTreeMap<String, HostBuffer> {
+        let p: HistogramParams =
+            *bytemuck::from_bytes(&data["params"].buffer().expect("params").bytes);
+        let n: &[[u32; 2]] =
+            bytemuck::cast_slice(&data["normals"].buffer().expect("normals").bytes);
+        let (raw, blurred) = histograms(n, &p);
+        BTreeMap::from([
+            ("histogram".to_string(), HostBuffer::u32(&raw)),
+            ("blurred".to_string(), HostBuffer::u32(&blurred)),
+        ])
+    }
+}

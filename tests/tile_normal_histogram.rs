@@ -1,0 +1,108 @@
+//! GPU vs mirror for `kernels/tile_normal_histogram.wgsl` (CPRC 3.2), with `histogram_axes` on its
+//! output in the same property test; stress cases and bad input.
+mod common;
+
+use common::gpu;
+use vxgi::gbuffers::{normals, packed, GPattern};
+use vxgi::harness::kernel::{verify, verify_case};
+use vxgi::harness::run::run;
+use vxgi::harness::{Corruption, Kernel, VerifyOptions};
+use vxgi::kernels::histogram_axes::{axes_case, HistogramAxes, DECL as AXES_DECL};
+use vxgi::kernels::tile_normal_histogram::{
+    case_for, params, TileError, TileNormalHistogram, DECL,
+};
+use vxgi_cpu_mirror::tile_normal_histogram::histograms;
+
+#[test]
+fn generated_g_buffers_match_the_mirror_exactly() {
+    for k in [&TileNormalHistogram as &dyn Kernel, &HistogramAxes] {
+        let rep = verify(
+            gpu(),
+            k,
+            &VerifyOptions {
+                cases: 21,
+                seed: 17,
+                corrupt: None,
+            },
+            &mut |_| {},
+        )
+        .unwrap();
+        assert!(rep.passed(), "{}", rep.failures[0].report());
+        assert_eq!(rep.max_ulp, 0);
+    }
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig { cases: 12, ..proptest::prelude::ProptestConfig::default() })]
+
+    #[test]
+    fn proptest_g_buffers(w in 1u32..200, h in 1u32..120, tile in 1u32..=64, family in 0usize..8, seed in proptest::prelude::any::<u64>()) {
+        let shader = DECL.shader().unwrap();
+        let n = packed(&normals(w, h, GPattern::family(family), seed));
+        let case = case_for(&n, params(w, h, tile).unwrap(), format!("{w}x{h} tile {tile}"), seed).unwrap();
+        let (comps, ..) = verify_case(gpu(), &shader, &TileNormalHistogram, &case, None).unwrap();
+        for c in comps {
+            proptest::prop_assert!(c.passed(), "{}", c.report());
+        }
+        let (raw, blurred) = histograms(&n, &params(w, h, tile).unwrap());
+        let ashader = AXES_DECL.shader().unwrap();
+        let acase = axes_case(&ashader, gpu(), &raw, &blurred, "axes".into(), seed);
+        let (comps, ..) = verify_case(gpu(), &ashader, &HistogramAxes, &acase, None).unwrap();
+        proptest::prop_assert!(comps[0].passed(), "{}", comps[0].report());
+    }
+}
+
+#[test]
+fn bad_normals_count_as_background_and_bad_sizes_are_errors() {
+    let (w, h) = (40, 30);
+    let n = packed(&normals(w, h, GPattern::BadNormals, 9));
+    let geometry = n.iter().filter(|x| x[1] >> 16 == 1).count() as u32;
+    assert!(
+        geometry < w * h,
+        "NaN, infinite and zero normals must become background"
+    );
+    let case = case_for(&n, params(w, h, 16).unwrap(), "bad normals".into(), 9).unwrap();
+    let shader = DECL.shader().unwrap();
+    let out = run(
+        gpu(),
+        &shader,
+        DECL.name,
+        &case.resources,
+        &case.passes,
+        &["histogram"],
+    )
+    .unwrap();
+    assert_eq!(
+        out.buffer("histogram").as_u32().iter().sum::<u32>(),
+        geometry
+    );
+
+    assert_eq!(params(10, 10, 0), Err(TileError::TileSize(0)));
+    assert_eq!(params(10, 10, 65), Err(TileError::TileSize(65)));
+    assert_eq!(
+        params(0, 10, 8),
+        Err(TileError::Empty {
+            width: 0,
+            height: 10
+        })
+    );
+    assert!(matches!(
+        case_for(&n[1..], params(w, h, 16).unwrap(), "short".into(), 0),
+        Err(TileError::Length { .. })
+    ));
+}
+
+#[test]
+fn a_corrupted_count_fails_verification() {
+    let opts = VerifyOptions {
+        cases: 1,
+        seed: 1,
+        corrupt: Some(Corruption {
+            resource: "blurred".into(),
+            index: 5,
+        }),
+    };
+    assert!(!verify(gpu(), &TileNormalHistogram, &opts, &mut |_| {})
+        .unwrap()
+        .passed());
+}
