@@ -14,6 +14,7 @@ pub mod lrsm_partition;
 pub mod lrsm_prefilter;
 pub mod morton;
 pub mod octahedral;
+pub mod radix_sort;
 pub mod sample_lrsm;
 pub mod surface_coverage_mip;
 pub mod tile_normal_histogram;

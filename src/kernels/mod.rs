@@ -6,6 +6,7 @@ pub mod histogram_axes;
 pub mod layer_decay;
 pub mod lrsm_partition;
 pub mod lrsm_prefilter;
+pub mod radix_sort;
 pub mod sample_lrsm;
 pub mod surface_coverage_mip;
 pub mod tile_normal_histogram;
@@ -29,6 +30,7 @@ pub fn all() -> Vec<&'static dyn Kernel> {
         &sample_lrsm::SampleLrsm,
         &tile_normal_histogram::TileNormalHistogram,
         &histogram_axes::HistogramAxes,
+        &radix_sort::RadixSort,
     ]
 }
 

@@ -1,0 +1,102 @@
+//! GPU vs mirror for `kernels/radix_sort.wgsl`: the stable sort is unique, so exact.
+mod common;
+
+use common::gpu;
+use vxgi::harness::kernel::{verify, verify_case};
+use vxgi::harness::run::run;
+use vxgi::harness::{Corruption, VerifyOptions};
+use vxgi::kernels::radix_sort::{case_for, RadixSort, SortError, DECL};
+
+#[test]
+fn generated_sorts_match_the_mirror() {
+    let rep = verify(
+        gpu(),
+        &RadixSort,
+        &VerifyOptions {
+            cases: 18,
+            seed: 2,
+            corrupt: None,
+        },
+        &mut |_| {},
+    )
+    .unwrap();
+    assert!(rep.passed(), "{}", rep.failures[0].report());
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig { cases: 16, ..proptest::prelude::ProptestConfig::default() })]
+
+    #[test]
+    fn any_keys_sort_stably(keys in proptest::collection::vec(proptest::prelude::any::<u32>(), 1..3000), key_bits in 1u32..=32, small in proptest::prelude::any::<bool>()) {
+        // Half the time squeeze keys into few values, so equal keys (and stability) are common.
+        let keys: Vec<u32> = if small { keys.iter().map(|k| k % 5).collect() } else { keys };
+        let values: Vec<u32> = (0..keys.len() as u32).collect();
+        let shader = DECL.shader().unwrap();
+        let (case, out) = case_for(gpu(), &keys, &values, key_bits, "prop".into(), 0).unwrap();
+        let (comps, ..) = verify_case(gpu(), &shader, &RadixSort, &case, None).unwrap();
+        for c in comps {
+            proptest::prop_assert!(c.passed(), "{}", c.report());
+        }
+        // And it is a sort: non-decreasing in the masked key, values a permutation.
+        let got = run(gpu(), &shader, DECL.name, &case.resources, &case.passes, &[&out[0], &out[1]]).unwrap();
+        let mask = if key_bits == 32 { u32::MAX } else { (1 << key_bits) - 1 };
+        let k = got.buffer(&out[0]).as_u32();
+        proptest::prop_assert!(k.windows(2).all(|w| (w[0] & mask) <= (w[1] & mask)));
+        let mut v = got.buffer(&out[1]).as_u32().to_vec();
+        v.sort_unstable();
+        proptest::prop_assert_eq!(v, values);
+    }
+}
+
+#[test]
+fn bad_input_is_an_error() {
+    assert_eq!(
+        case_for(gpu(), &[], &[], 8, "e".into(), 0).unwrap_err(),
+        SortError::Empty
+    );
+    assert_eq!(
+        case_for(gpu(), &[1, 2], &[1], 8, "e".into(), 0).unwrap_err(),
+        SortError::Length { keys: 2, values: 1 }
+    );
+    assert_eq!(
+        case_for(gpu(), &[1], &[1], 0, "e".into(), 0).unwrap_err(),
+        SortError::KeyBits(0)
+    );
+    assert_eq!(
+        case_for(gpu(), &[1], &[1], 33, "e".into(), 0).unwrap_err(),
+        SortError::KeyBits(33)
+    );
+}
+
+#[test]
+fn a_corrupted_value_fails_verification() {
+    let opts = VerifyOptions {
+        cases: 1,
+        seed: 3,
+        corrupt: Some(Corruption {
+            resource: "values_a".into(),
+            index: 0,
+        }),
+    };
+    // Case 0 sorts 32-bit keys: 8 passes end in buffer pair a.
+    assert!(!verify(gpu(), &RadixSort, &opts, &mut |_| {})
+        .unwrap()
+        .passed());
+}
+
+#[test]
+fn params_struct_matches_the_reflected_wgsl_layout() {
+    use vxgi_cpu_mirror::radix_sort::SortParams;
+    let (size, members) = DECL.shader().unwrap().struct_layout("SortParams").unwrap();
+    assert_eq!(size as usize, std::mem::size_of::<SortParams>());
+    let want: Vec<(String, u32)> = [
+        ("count", std::mem::offset_of!(SortParams, count)),
+        ("shift", std::mem::offset_of!(SortParams, shift)),
+        ("blocks", std::mem::offset_of!(SortParams, blocks)),
+        ("key_mask", std::mem::offset_of!(SortParams, key_mask)),
+    ]
+    .iter()
+    .map(|(n, o)| (n.to_string(), *o as u32))
+    .collect();
+    assert_eq!(members, want);
+}
