@@ -1,0 +1,125 @@
+//! GPU vs mirror for `kernels/cluster_keys.wgsl`, and keys through the GPU radix sort (CPRC 3.2).
+mod common;
+
+use common::gpu;
+use vxgi::gbuffers::{normals, packed, GPattern};
+use vxgi::harness::kernel::{verify, verify_case};
+use vxgi::harness::run::run;
+use vxgi::harness::{Corruption, VerifyOptions};
+use vxgi::kernels::cluster_keys::{case_for, depths, sanitise, ClusterKeys, DECL};
+use vxgi::kernels::radix_sort;
+use vxgi_cpu_mirror::cluster_keys::BACKGROUND;
+
+#[test]
+fn generated_g_buffers_match_the_mirror_exactly() {
+    let rep = verify(
+        gpu(),
+        &ClusterKeys,
+        &VerifyOptions {
+            cases: 20,
+            seed: 13,
+            corrupt: None,
+        },
+        &mut |_| {},
+    )
+    .unwrap();
+    assert!(rep.passed(), "{}", rep.failures[0].report());
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig { cases: 10, ..proptest::prelude::ProptestConfig::default() })]
+
+    #[test]
+    fn proptest_g_buffers(w in 1u32..160, h in 1u32..90, tile in 1u32..=64, slices in 1u32..40, family in 0usize..8, seed in proptest::prelude::any::<u64>()) {
+        let shader = DECL.shader().unwrap();
+        let mut n = packed(&normals(w, h, GPattern::family(family), seed));
+        let d = depths(w, h, slices, seed);
+        sanitise(&mut n, &d);
+        let case = case_for(&shader, gpu(), &n, &d, w, h, tile, slices, "prop".into(), seed);
+        let (comps, ..) = verify_case(gpu(), &shader, &ClusterKeys, &case, None).unwrap();
+        proptest::prop_assert!(comps[0].passed(), "{}", comps[0].report());
+    }
+}
+
+#[test]
+fn bad_depths_become_background_and_keys_sort_into_clusters_on_the_gpu() {
+    let (w, h, tile, slices) = (96u32, 64u32, 32u32, 16u32);
+    let mut n = packed(&normals(w, h, GPattern::Spheres, 1));
+    let d = depths(w, h, slices, 1);
+    sanitise(&mut n, &d);
+    let shader = DECL.shader().unwrap();
+    let case = case_for(
+        &shader,
+        gpu(),
+        &n,
+        &d,
+        w,
+        h,
+        tile,
+        slices,
+        "spheres".into(),
+        1,
+    );
+    let out = run(
+        gpu(),
+        &shader,
+        DECL.name,
+        &case.resources,
+        &case.passes,
+        &["keys"],
+    )
+    .unwrap();
+    let keys = out.buffer("keys").as_u32().to_vec();
+    for (i, k) in keys.iter().enumerate() {
+        if !(d[i].is_finite() && d[i] > 0.0) {
+            assert_eq!(
+                *k, BACKGROUND,
+                "pixel {i} with depth {} must be background",
+                d[i]
+            );
+        }
+    }
+    // GPU keys -> GPU sort; the stable order must equal the mirror's and group equal keys.
+    let values: Vec<u32> = (0..keys.len() as u32).collect();
+    let (sort_case, names) =
+        radix_sort::case_for(gpu(), &keys, &values, 32, "sort keys".into(), 1).unwrap();
+    let sshader = radix_sort::DECL.shader().unwrap();
+    let (comps, ..) =
+        verify_case(gpu(), &sshader, &radix_sort::RadixSort, &sort_case, None).unwrap();
+    assert!(comps.iter().all(|c| c.passed()));
+    let sorted = run(
+        gpu(),
+        &sshader,
+        radix_sort::DECL.name,
+        &sort_case.resources,
+        &sort_case.passes,
+        &[&names[0]],
+    )
+    .unwrap();
+    let sk = sorted.buffer(&names[0]).as_u32();
+    assert!(sk.windows(2).all(|p| p[0] <= p[1]));
+    let clusters = 1 + sk
+        .windows(2)
+        .filter(|p| p[0] != p[1] && p[1] != BACKGROUND)
+        .count();
+    assert!(
+        clusters > 6 && clusters < keys.len() / 4,
+        "{clusters} clusters for {} pixels",
+        keys.len()
+    );
+}
+
+#[test]
+fn a_corrupted_key_fails_verification() {
+    let opts = VerifyOptions {
+        cases: 1,
+        seed: 13,
+        corrupt: Some(Corruption {
+            resource: "keys".into(),
+            index: 0,
+        }),
+    };
+    assert!(!verify(gpu(), &ClusterKeys, &opts, &mut |_| {})
+        .unwrap()
+        .passed());
+}
