@@ -46,33 +46,35 @@ pub fn slice_bounds(near: f32, far: f32, slices: u32) -> Vec<f32> {
         .collect()
 }
 
+/// What the kernel reads besides its parameters.
+pub struct KeyInputs<'a> {
+    pub normals: &'a [[u32; 2]],
+    pub depth: &'a [f32],
+    pub tile_axes: &'a [[u32; 4]],
+    pub axis_dirs: &'a [[i32; 4]],
+    pub slice_bounds: &'a [f32],
+}
+
 /// The key of pixel (x, y).
-pub fn key(
-    p: &KeyParams,
-    normal: [u32; 2],
-    depth: f32,
-    tile_axes: &[[u32; 4]],
-    dirs: &[[i32; 4]],
-    bounds: &[f32],
-    x: u32,
-    y: u32,
-) -> u32 {
-    let Some(q) = unpack(normal) else {
+pub fn key(p: &KeyParams, inp: &KeyInputs, x: u32, y: u32) -> u32 {
+    let i = (y * p.width + x) as usize;
+    let Some(q) = unpack(inp.normals[i]) else {
         return BACKGROUND;
     };
     let tile = (y / p.tile) * p.tiles_x + x / p.tile;
-    let axes = tile_axes[tile as usize];
+    let axes = inp.tile_axes[tile as usize];
     let mut best = 0u32;
     let mut best_dot = i32::MIN;
     for k in 0..3 {
-        let a = dirs[axes[k] as usize];
+        let a = inp.axis_dirs[axes[k] as usize];
         let d = q[0] * a[0] + q[1] * a[1] + q[2] * a[2];
         if d > best_dot {
             best_dot = d;
             best = k as u32;
         }
     }
-    let slice = bounds[..p.slices as usize - 1]
+    let depth = inp.depth[i];
+    let slice = inp.slice_bounds[..p.slices as usize - 1]
         .iter()
         .filter(|&&b| depth >= b)
         .count() as u32;
@@ -80,19 +82,9 @@ pub fn key(
 }
 
 /// Keys of every pixel, row-major.
-pub fn keys(
-    p: &KeyParams,
-    normals: &[[u32; 2]],
-    depth: &[f32],
-    tile_axes: &[[u32; 4]],
-    dirs: &[[i32; 4]],
-    bounds: &[f32],
-) -> Vec<u32> {
+pub fn keys(p: &KeyParams, inp: &KeyInputs) -> Vec<u32> {
     (0..p.height)
         .flat_map(|y| (0..p.width).map(move |x| (x, y)))
-        .map(|(x, y)| {
-            let i = (y * p.width + x) as usize;
-            key(p, normals[i], depth[i], tile_axes, dirs, bounds, x, y)
-        })
+        .map(|(x, y)| key(p, inp, x, y))
         .collect()
 }

@@ -5,7 +5,7 @@ use crate::gbuffers::{normals, packed, GPattern};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::collections::BTreeMap;
-use vxgi_cpu_mirror::cluster_keys::{axis_directions, keys, slice_bounds, KeyParams};
+use vxgi_cpu_mirror::cluster_keys::{axis_directions, keys, slice_bounds, KeyInputs, KeyParams};
 use vxgi_cpu_mirror::histogram_axes::all_axes;
 use vxgi_cpu_mirror::octahedral::reweight_table;
 use vxgi_cpu_mirror::tile_normal_histogram::histograms;
@@ -178,14 +178,14 @@ impl Kernel for ClusterKeys {
     ) -> BTreeMap<String, HostBuffer> {
         let b = |n: &str| data[n].buffer().expect("buffer");
         let p: KeyParams = *bytemuck::from_bytes(&b("params").bytes);
-        let k = keys(
-            &p,
-            bytemuck::cast_slice(&b("normals").bytes),
-            b("depth").as_f32(),
-            bytemuck::cast_slice(&b("tile_axes").bytes),
-            bytemuck::cast_slice(&b("axis_dirs").bytes),
-            b("slice_bounds").as_f32(),
-        );
+        let inputs = KeyInputs {
+            normals: bytemuck::cast_slice(&b("normals").bytes),
+            depth: b("depth").as_f32(),
+            tile_axes: bytemuck::cast_slice(&b("tile_axes").bytes),
+            axis_dirs: bytemuck::cast_slice(&b("axis_dirs").bytes),
+            slice_bounds: b("slice_bounds").as_f32(),
+        };
+        let k = keys(&p, &inputs);
         BTreeMap::from([("keys".to_string(), HostBuffer::u32(&k))])
     }
 }
