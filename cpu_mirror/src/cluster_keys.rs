@@ -65,8 +65,8 @@ pub fn key(p: &KeyParams, inp: &KeyInputs, x: u32, y: u32) -> u32 {
     let axes = inp.tile_axes[tile as usize];
     let mut best = 0u32;
     let mut best_dot = i32::MIN;
-    for k in 0..3 {
-        let a = inp.axis_dirs[axes[k] as usize];
+    for (k, &axis) in axes.iter().take(3).enumerate() {
+        let a = inp.axis_dirs[axis as usize];
         let d = q[0] * a[0] + q[1] * a[1] + q[2] * a[2];
         if d > best_dot {
             best_dot = d;
