@@ -1,0 +1,263 @@
+//! Declaration of `kernels/cluster_extract.wgsl` (mirror: `vxgi_cpu_mirror::cluster_extract`): clusters
+//! from key-sorted pixels (CPRC 3.2), exact. Cases run the keys and sort mirrors on generated G-buffers.
+use super::cluster_keys::{depths, sanitise};
+use crate::gbuffers::{normals, packed, GPattern};
+use bytemuck::Zeroable;
+use std::collections::BTreeMap;
+use vxgi_cpu_mirror::cluster_extract::{extract, heads, Cluster};
+use vxgi_cpu_mirror::cluster_keys::{axis_directions, keys, slice_bounds, KeyInputs, KeyParams};
+use vxgi_cpu_mirror::histogram_axes::all_axes;
+use vxgi_cpu_mirror::octahedral::reweight_table;
+use vxgi_cpu_mirror::radix_sort::sort;
+use vxgi_cpu_mirror::tile_normal_histogram::histograms;
+use vxgi_harness::run::{grid_for, Pass, View, Workgroups};
+use vxgi_harness::{
+    Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
+    KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
+};
+
+pub static DECL: KernelDecl = KernelDecl {
+    name: "cluster_extract",
+    wgsl_path: "kernels/cluster_extract.wgsl",
+    wgsl: include_str!("../../kernels/cluster_extract.wgsl"),
+    includes: &[super::tile_normal_histogram::OCTAHEDRAL_BINS],
+    entry: "mark_heads",
+    inputs: &["params", "keys", "pixels", "normals", "positions"],
+    // Comparisons, integer sums and min/max: exact.
+    outputs: &[
+        Output { binding: "heads", tolerance: Tolerance::Exact },
+        Output { binding: "cluster_count", tolerance: Tolerance::Exact },
+        Output { binding: "clusters", tolerance: Tolerance::Exact },
+        Output { binding: "pixel_cluster", tolerance: Tolerance::Exact },
+    ],
+    dispatch: DispatchRule::PerElement { binding: "heads" },
+    mirror: "vxgi_cpu_mirror::cluster_extract::extract",
+    summary: "clusters of key-sorted pixels: heads, prefix sum, per-cluster normal sum and bounding box (CPRC 3.2)",
+};
+
+/// World positions for a generated G-buffer: the pixel's view ray at its depth.
+pub fn positions(width: u32, height: u32, depth: &[f32]) -> Vec<[f32; 4]> {
+    (0..width * height)
+        .map(|i| {
+            let (u, v) = (
+                ((i % width) as f32 + 0.5) / width as f32 - 0.5,
+                ((i / width) as f32 + 0.5) / height as f32 - 0.5,
+            );
+            let d = depth[i as usize];
+            [u * d, v * d, d, 1.0]
+        })
+        .collect()
+}
+
+/// Everything the distribution kernels read for one generated G-buffer, computed by the mirrors.
+pub struct DistributionInputs {
+    pub width: u32,
+    pub height: u32,
+    pub tile: u32,
+    pub normals: Vec<[u32; 2]>,
+    pub positions: Vec<[f32; 4]>,
+    pub sorted_keys: Vec<u32>,
+    pub sorted_pixels: Vec<u32>,
+}
+
+pub fn distribution_inputs(
+    width: u32,
+    height: u32,
+    tile: u32,
+    slices: u32,
+    pattern: GPattern,
+    seed: u64,
+) -> DistributionInputs {
+    let mut n = packed(&normals(width, height, pattern, seed));
+    let d = depths(width, height, slices, seed);
+    sanitise(&mut n, &d);
+    let hp = super::tile_normal_histogram::params(width, height, tile).expect("valid sizes");
+    let (raw, blurred) = histograms(&n, &hp);
+    let tile_axes = all_axes(&blurred, &raw, &reweight_table());
+    let p = KeyParams {
+        width,
+        height,
+        tile,
+        tiles_x: hp.tiles_x,
+        slices,
+        _pad: [0; 3],
+    };
+    let mut bounds = slice_bounds(0.1, 100.0, slices);
+    bounds.push(f32::INFINITY);
+    let dirs = axis_directions();
+    let k = keys(
+        &p,
+        &KeyInputs {
+            normals: &n,
+            depth: &d,
+            tile_axes: &tile_axes,
+            axis_dirs: &dirs,
+            slice_bounds: &bounds,
+        },
+    );
+    let (sorted_keys, sorted_pixels) = sort(&k, &(0..k.len() as u32).collect::<Vec<_>>(), 32);
+    let positions = positions(width, height, &d);
+    DistributionInputs {
+        width,
+        height,
+        tile,
+        normals: n,
+        positions,
+        sorted_keys,
+        sorted_pixels,
+    }
+}
+
+pub fn case_for(ctx: &GpuContext, inp: &DistributionInputs, label: String, seed: u64) -> Case {
+    let n = inp.sorted_keys.len();
+    let mut resources = Resources::new();
+    resources.insert(
+        "params".into(),
+        HostResource::Buffer(HostBuffer::u32(&[n as u32])),
+    );
+    resources.insert(
+        "keys".into(),
+        HostResource::Buffer(HostBuffer::u32(&inp.sorted_keys)),
+    );
+    resources.insert(
+        "pixels".into(),
+        HostResource::Buffer(HostBuffer::u32(&inp.sorted_pixels)),
+    );
+    resources.insert(
+        "normals".into(),
+        HostResource::Buffer(HostBuffer::u32(bytemuck::cast_slice(&inp.normals))),
+    );
+    resources.insert(
+        "positions".into(),
+        HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(&inp.positions))),
+    );
+    resources.insert(
+        "heads".into(),
+        HostResource::Buffer(HostBuffer::zeroed(n * 4, ScalarKind::U32)),
+    );
+    resources.insert(
+        "cluster_count".into(),
+        HostResource::Buffer(HostBuffer::zeroed(4, ScalarKind::U32)),
+    );
+    resources.insert(
+        "clusters".into(),
+        HostResource::Buffer(HostBuffer::zeroed(
+            n * std::mem::size_of::<Cluster>(),
+            ScalarKind::Mixed,
+        )),
+    );
+    resources.insert(
+        "pixel_cluster".into(),
+        HostResource::Buffer(HostBuffer::u32(&vec![u32::MAX; n])),
+    );
+    let names = [
+        "params",
+        "keys",
+        "pixels",
+        "normals",
+        "positions",
+        "heads",
+        "cluster_count",
+        "clusters",
+        "pixel_cluster",
+    ];
+    let bindings: Vec<(String, View)> = names
+        .iter()
+        .map(|b| (b.to_string(), View::Buffer(b.to_string())))
+        .collect();
+    let grid = grid_for(
+        n as u64,
+        64,
+        ctx.limits().max_compute_workgroups_per_dimension,
+    );
+    let passes = [
+        ("mark_heads", grid),
+        ("scan_heads", [1, 1, 1]),
+        ("build_clusters", grid),
+    ]
+    .iter()
+    .map(|(e, g)| Pass {
+        label: e.to_string(),
+        entry: e.to_string(),
+        bindings: bindings.clone(),
+        workgroups: Workgroups::Direct(*g),
+    })
+    .collect();
+    Case {
+        label,
+        seed,
+        resources,
+        passes,
+        checks: ["heads", "cluster_count", "clusters", "pixel_cluster"]
+            .iter()
+            .map(|r| Check {
+                resource: r.to_string(),
+                output: r,
+                indexing: Indexing::Linear,
+            })
+            .collect(),
+        effective_bytes: n as u64 * 40,
+    }
+}
+
+pub struct ClusterExtract;
+
+impl Kernel for ClusterExtract {
+    fn decl(&self) -> &'static KernelDecl {
+        &DECL
+    }
+    fn case(&self, _shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
+        let (w, h, tile) = super::tile_normal_histogram::size_for(index);
+        let slices = [16, 1, 2, 32][index % 4];
+        let inp = distribution_inputs(
+            w,
+            h,
+            tile,
+            slices,
+            GPattern::family(index),
+            seed.wrapping_add(index as u64),
+        );
+        case_for(
+            ctx,
+            &inp,
+            format!("#{index} {w}x{h} tile {tile} {slices} slices"),
+            seed,
+        )
+    }
+    fn mirror(
+        &self,
+        _case: &Case,
+        data: &Resources,
+        _mode: FloatMode,
+    ) -> BTreeMap<String, HostBuffer> {
+        let b = |n: &str| data[n].buffer().expect("buffer");
+        let k = b("keys").as_u32();
+        let (clusters, pixel_cluster) = extract(
+            k,
+            b("pixels").as_u32(),
+            bytemuck::cast_slice(&b("normals").bytes),
+            bytemuck::cast_slice(&b("positions").bytes),
+        );
+        let h = heads(k);
+        let mut scanned = Vec::with_capacity(h.len());
+        let mut acc = 0u32;
+        for x in &h {
+            scanned.push(acc);
+            acc += x;
+        }
+        let mut all = vec![Cluster::zeroed(); k.len()];
+        all[..clusters.len()].copy_from_slice(&clusters);
+        BTreeMap::from([
+            ("heads".to_string(), HostBuffer::u32(&scanned)),
+            ("cluster_count".to_string(), HostBuffer::u32(&[acc])),
+            (
+                "clusters".to_string(),
+                HostBuffer {
+                    bytes: bytemuck::cast_slice(&all).to_vec(),
+                    scalar: ScalarKind::Mixed,
+                },
+            ),
+            ("pixel_cluster".to_string(), HostBuffer::u32(&pixel_cluster)),
+        ])
+    }
+}

@@ -1,0 +1,96 @@
+//! GPU vs mirror for `kernels/cluster_extract.wgsl` (CPRC 3.2), and what clusters must satisfy.
+mod common;
+
+use common::gpu;
+use vxgi::gbuffers::GPattern;
+use vxgi::harness::kernel::{verify, verify_case};
+use vxgi::harness::run::run;
+use vxgi::harness::{Corruption, VerifyOptions};
+use vxgi::kernels::cluster_extract::{case_for, distribution_inputs, ClusterExtract, DECL};
+use vxgi_cpu_mirror::cluster_extract::Cluster;
+
+#[test]
+fn generated_g_buffers_match_the_mirror_exactly() {
+    let rep = verify(
+        gpu(),
+        &ClusterExtract,
+        &VerifyOptions {
+            cases: 20,
+            seed: 29,
+            corrupt: None,
+        },
+        &mut |_| {},
+    )
+    .unwrap();
+    assert!(rep.passed(), "{}", rep.failures[0].report());
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig { cases: 10, ..proptest::prelude::ProptestConfig::default() })]
+
+    #[test]
+    fn proptest_g_buffers(w in 1u32..160, h in 1u32..90, tile in 1u32..=64, slices in 1u32..40, family in 0usize..8, seed in proptest::prelude::any::<u64>()) {
+        let shader = DECL.shader().unwrap();
+        let inp = distribution_inputs(w, h, tile, slices, GPattern::family(family), seed);
+        let case = case_for(gpu(), &inp, "prop".into(), seed);
+        let (comps, ..) = verify_case(gpu(), &shader, &ClusterExtract, &case, None).unwrap();
+        for c in comps {
+            proptest::prop_assert!(c.passed(), "{}", c.report());
+        }
+    }
+}
+
+#[test]
+fn clusters_partition_the_geometry_pixels_and_bound_them() {
+    let inp = distribution_inputs(128, 72, 32, 16, GPattern::Spheres, 4);
+    let shader = DECL.shader().unwrap();
+    let case = case_for(gpu(), &inp, "spheres".into(), 4);
+    let out = run(
+        gpu(),
+        &shader,
+        DECL.name,
+        &case.resources,
+        &case.passes,
+        &["cluster_count", "clusters", "pixel_cluster"],
+    )
+    .unwrap();
+    let count = out.buffer("cluster_count").as_u32()[0] as usize;
+    let clusters: &[Cluster] = bytemuck::cast_slice(&out.buffer("clusters").bytes);
+    let pixel_cluster = out.buffer("pixel_cluster").as_u32();
+    let geometry = inp.normals.iter().filter(|n| n[1] >> 16 == 1).count();
+    assert_eq!(
+        clusters[..count]
+            .iter()
+            .map(|c| c.start_count_key[1] as usize)
+            .sum::<usize>(),
+        geometry
+    );
+    for (p, &c) in pixel_cluster.iter().enumerate() {
+        if c == u32::MAX {
+            continue;
+        }
+        let cl = &clusters[c as usize];
+        for a in 0..3 {
+            assert!(
+                cl.bbox_min[a] <= inp.positions[p][a] && inp.positions[p][a] <= cl.bbox_max[a],
+                "pixel {p} outside cluster {c}"
+            );
+        }
+    }
+    assert!(count > 4, "{count} clusters");
+}
+
+#[test]
+fn a_corrupted_cluster_fails_verification() {
+    let opts = VerifyOptions {
+        cases: 1,
+        seed: 29,
+        corrupt: Some(Corruption {
+            resource: "clusters".into(),
+            index: 1,
+        }),
+    };
+    assert!(!verify(gpu(), &ClusterExtract, &opts, &mut |_| {})
+        .unwrap()
+        .passed());
+}
