@@ -7,6 +7,7 @@
 //! the other behaviour WGSL allows a GPU — so the comparison can accept exactly that and nothing looser.
 //!
 //! No wgpu, no naga: a mirror can be used (and read) without a GPU.
+pub mod cache_placement;
 pub mod cluster_extract;
 pub mod cluster_keys;
 pub mod gaussian_depth_visibility;

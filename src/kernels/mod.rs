@@ -1,6 +1,7 @@
 //! Kernel declarations: each pairs a WGSL file in `kernels/` with its mirror module in `cpu_mirror/`.
 //! To add a kernel: `kernels/<name>.wgsl`, `cpu_mirror/src/<name>.rs`, `src/kernels/<name>.rs` with a
 //! `DECL` and a `Kernel` impl, one line in [`all`], and tests in `tests/<name>.rs`.
+pub mod cache_placement;
 pub mod cluster_extract;
 pub mod cluster_keys;
 pub mod gaussian_depth_visibility;
@@ -35,6 +36,7 @@ pub fn all() -> Vec<&'static dyn Kernel> {
         &radix_sort::RadixSort,
         &cluster_keys::ClusterKeys,
         &cluster_extract::ClusterExtract,
+        &cache_placement::CachePlacement,
     ]
 }
 

@@ -1,0 +1,227 @@
+//! Declaration of `kernels/cache_placement.wgsl` (mirror: `vxgi_cpu_mirror::cache_placement`): placement
+//! scores and one cache pixel per cluster (CPRC 3.2). Scores carry per-element bounds; a GPU pick is
+//! accepted when the mirror's score for it is within the bounds of the mirror's best.
+use super::cluster_extract::{distribution_inputs, DistributionInputs};
+use crate::gbuffers::GPattern;
+use std::collections::BTreeMap;
+use vxgi_cpu_mirror::cache_placement::{best_pixels, score, score_bound};
+use vxgi_cpu_mirror::cluster_extract::{extract, Cluster};
+use vxgi_harness::compare::bound_name;
+use vxgi_harness::run::{grid_for, Pass, View, Workgroups};
+use vxgi_harness::{
+    Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
+    KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
+};
+
+pub static DECL: KernelDecl = KernelDecl {
+    name: "cache_placement",
+    wgsl_path: "kernels/cache_placement.wgsl",
+    wgsl: include_str!("../../kernels/cache_placement.wgsl"),
+    includes: &[super::tile_normal_histogram::OCTAHEDRAL_BINS],
+    entry: "score_pixels",
+    inputs: &["clusters", "cluster_count", "pixel_cluster", "pixels", "normals", "positions"],
+    outputs: &[
+        // Per element from the WGSL rules: sqrt and division 2.5 ULP, dots in any order, fused or not,
+        // relative to the magnitudes of positions and box (see `score_bound`).
+        Output { binding: "scores", tolerance: Tolerance::MirrorBound },
+        // Exact after acceptance: the mirror takes the GPU's pick when its own score for that pixel is
+        // within the score bounds of its best, else its own best (see `accepted_picks`).
+        Output { binding: "picks", tolerance: Tolerance::Exact },
+    ],
+    dispatch: DispatchRule::PerElement { binding: "scores" },
+    mirror: "vxgi_cpu_mirror::cache_placement::score",
+    summary: "placement score per pixel and the argmax pixel per cluster as its radiance cache (CPRC 3.2)",
+};
+
+pub fn case_for(ctx: &GpuContext, inp: &DistributionInputs, label: String, seed: u64) -> Case {
+    let (clusters, pixel_cluster) = extract(
+        &inp.sorted_keys,
+        &inp.sorted_pixels,
+        &inp.normals,
+        &inp.positions,
+    );
+    let n = inp.normals.len();
+    let mut all = clusters.clone();
+    all.push(Cluster {
+        start_count_key: [0; 4],
+        normal_sum: [0; 4],
+        bbox_min: [0.0; 4],
+        bbox_max: [0.0; 4],
+    }); // never empty
+    let mut resources = Resources::new();
+    resources.insert(
+        "clusters".into(),
+        HostResource::Buffer(HostBuffer {
+            bytes: bytemuck::cast_slice(&all).to_vec(),
+            scalar: ScalarKind::Mixed,
+        }),
+    );
+    resources.insert(
+        "cluster_count".into(),
+        HostResource::Buffer(HostBuffer::u32(&[clusters.len() as u32])),
+    );
+    resources.insert(
+        "pixel_cluster".into(),
+        HostResource::Buffer(HostBuffer::u32(&pixel_cluster)),
+    );
+    resources.insert(
+        "pixels".into(),
+        HostResource::Buffer(HostBuffer::u32(&inp.sorted_pixels)),
+    );
+    resources.insert(
+        "normals".into(),
+        HostResource::Buffer(HostBuffer::u32(bytemuck::cast_slice(&inp.normals))),
+    );
+    resources.insert(
+        "positions".into(),
+        HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(&inp.positions))),
+    );
+    resources.insert(
+        "scores".into(),
+        HostResource::Buffer(HostBuffer::zeroed(n * 4, ScalarKind::F32)),
+    );
+    resources.insert(
+        "picks".into(),
+        HostResource::Buffer(HostBuffer::zeroed(all.len() * 4, ScalarKind::U32)),
+    );
+    let names = [
+        "clusters",
+        "cluster_count",
+        "pixel_cluster",
+        "pixels",
+        "normals",
+        "positions",
+        "scores",
+        "picks",
+    ];
+    let bindings: Vec<(String, View)> = names
+        .iter()
+        .map(|b| (b.to_string(), View::Buffer(b.to_string())))
+        .collect();
+    let max = ctx.limits().max_compute_workgroups_per_dimension;
+    let passes = vec![
+        Pass {
+            label: "scores".into(),
+            entry: "score_pixels".into(),
+            bindings: bindings.clone(),
+            workgroups: Workgroups::Direct(grid_for(n as u64, 64, max)),
+        },
+        Pass {
+            label: "picks".into(),
+            entry: "pick_caches".into(),
+            bindings,
+            workgroups: Workgroups::Direct(grid_for(all.len() as u64, 64, max)),
+        },
+    ];
+    Case {
+        label,
+        seed,
+        resources,
+        passes,
+        checks: vec![
+            Check {
+                resource: "scores".into(),
+                output: "scores",
+                indexing: Indexing::Linear,
+            },
+            Check {
+                resource: "picks".into(),
+                output: "picks",
+                indexing: Indexing::Linear,
+            },
+        ],
+        effective_bytes: n as u64 * 36,
+    }
+}
+
+/// Mirror scores and bounds of every pixel.
+pub fn mirror_scores(data: &Resources) -> (Vec<f32>, Vec<f32>) {
+    let b = |n: &str| data[n].buffer().expect("buffer");
+    let clusters: &[Cluster] = bytemuck::cast_slice(&b("clusters").bytes);
+    let normals: &[[u32; 2]] = bytemuck::cast_slice(&b("normals").bytes);
+    let positions: &[[f32; 4]] = bytemuck::cast_slice(&b("positions").bytes);
+    let pc = b("pixel_cluster").as_u32();
+    (0..normals.len())
+        .map(|p| match pc[p] {
+            u32::MAX => (0.0, 0.0),
+            c => {
+                let s = score(normals[p], positions[p], &clusters[c as usize]);
+                (s, score_bound(positions[p], &clusters[c as usize], s))
+            }
+        })
+        .unzip()
+}
+
+/// Per cluster the pick the GPU must have made: its own when the mirror's score for it is within the
+/// bounds of the mirror's best (and it is a pixel of that cluster), else the mirror's best. Also
+/// returns how many accepted GPU picks differ from the mirror's.
+pub fn accepted_picks(data: &Resources, gpu_picks: &[u32]) -> (Vec<u32>, usize) {
+    let b = |n: &str| data[n].buffer().expect("buffer");
+    let count = b("cluster_count").as_u32()[0] as usize;
+    let clusters: &[Cluster] = bytemuck::cast_slice(&b("clusters").bytes);
+    let pc = b("pixel_cluster").as_u32();
+    let (scores, bounds) = mirror_scores(data);
+    let best = best_pixels(&clusters[..count], b("pixels").as_u32(), &scores);
+    let mut differ = 0;
+    let mut out: Vec<u32> = best
+        .iter()
+        .enumerate()
+        .map(|(c, &m)| {
+            let g = gpu_picks.get(c).copied().unwrap_or(u32::MAX);
+            let ok = (g as usize) < pc.len()
+                && pc[g as usize] == c as u32
+                && scores[g as usize]
+                    >= scores[m as usize] - (bounds[g as usize] + bounds[m as usize]);
+            if ok && g != m {
+                differ += 1;
+            }
+            if ok {
+                g
+            } else {
+                m
+            }
+        })
+        .collect();
+    out.resize(gpu_picks.len(), 0);
+    (out, differ)
+}
+
+pub struct CachePlacement;
+
+impl Kernel for CachePlacement {
+    fn decl(&self) -> &'static KernelDecl {
+        &DECL
+    }
+    fn case(&self, _shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
+        let (w, h, tile) = super::tile_normal_histogram::size_for(index);
+        let slices = [16, 1, 2, 32][index % 4];
+        let inp = distribution_inputs(
+            w,
+            h,
+            tile,
+            slices,
+            GPattern::family(index),
+            seed.wrapping_add(index as u64),
+        );
+        case_for(
+            ctx,
+            &inp,
+            format!("#{index} {w}x{h} tile {tile} {slices} slices"),
+            seed,
+        )
+    }
+    fn mirror(
+        &self,
+        _case: &Case,
+        data: &Resources,
+        _mode: FloatMode,
+    ) -> BTreeMap<String, HostBuffer> {
+        let (scores, bounds) = mirror_scores(data);
+        let (picks, _) = accepted_picks(data, data["picks"].buffer().expect("picks").as_u32());
+        BTreeMap::from([
+            ("scores".to_string(), HostBuffer::f32(&scores)),
+            (bound_name("scores"), HostBuffer::f32(&bounds)),
+            ("picks".to_string(), HostBuffer::u32(&picks)),
+        ])
+    }
+}

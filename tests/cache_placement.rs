@@ -1,0 +1,100 @@
+//! GPU vs mirror for `kernels/cache_placement.wgsl` (CPRC 3.2): scores within their bounds, picks
+//! accepted by score, and how often the picks differ.
+mod common;
+
+use common::gpu;
+use vxgi::gbuffers::GPattern;
+use vxgi::harness::kernel::{verify, verify_case};
+use vxgi::harness::run::run;
+use vxgi::harness::{Corruption, VerifyOptions};
+use vxgi::kernels::cache_placement::{accepted_picks, case_for, CachePlacement, DECL};
+use vxgi::kernels::cluster_extract::distribution_inputs;
+
+#[test]
+fn generated_g_buffers_match_the_mirror() {
+    let rep = verify(
+        gpu(),
+        &CachePlacement,
+        &VerifyOptions {
+            cases: 20,
+            seed: 37,
+            corrupt: None,
+        },
+        &mut |_| {},
+    )
+    .unwrap();
+    assert!(rep.passed(), "{}", rep.failures[0].report());
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig { cases: 10, ..proptest::prelude::ProptestConfig::default() })]
+
+    #[test]
+    fn proptest_g_buffers(w in 1u32..160, h in 1u32..90, tile in 1u32..=64, slices in 1u32..40, family in 0usize..8, seed in proptest::prelude::any::<u64>()) {
+        let shader = DECL.shader().unwrap();
+        let inp = distribution_inputs(w, h, tile, slices, GPattern::family(family), seed);
+        let case = case_for(gpu(), &inp, "prop".into(), seed);
+        let (comps, ..) = verify_case(gpu(), &shader, &CachePlacement, &case, None).unwrap();
+        for c in comps {
+            proptest::prop_assert!(c.passed(), "{}", c.report());
+        }
+    }
+}
+
+/// Stress: clusters of one pixel (d_c = 0, the pixel is its own box centre), identical normals, thin
+/// features; and the pick-difference rate, printed.
+#[test]
+fn one_pixel_clusters_and_pick_agreement() {
+    let shader = DECL.shader().unwrap();
+    let (mut differ, mut total) = (0, 0);
+    for (i, pattern) in [
+        GPattern::OnePixelPerTile { tile: 16 },
+        GPattern::IdenticalNormals,
+        GPattern::ThinFeatures,
+        GPattern::Spheres,
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let inp = distribution_inputs(96, 64, 16, 16, pattern, i as u64);
+        let case = case_for(gpu(), &inp, format!("{pattern:?}"), 0);
+        let (comps, ..) = verify_case(gpu(), &shader, &CachePlacement, &case, None).unwrap();
+        assert!(comps.iter().all(|c| c.passed()), "{pattern:?}");
+        let out = run(
+            gpu(),
+            &shader,
+            DECL.name,
+            &case.resources,
+            &case.passes,
+            &["picks", "scores"],
+        )
+        .unwrap();
+        let mut data = case.resources.clone();
+        data.extend(out.resources.clone());
+        let count = data["cluster_count"].buffer().unwrap().as_u32()[0] as usize;
+        let (_, d) = accepted_picks(&data, out.buffer("picks").as_u32());
+        differ += d;
+        total += count;
+        assert!(
+            out.buffer("scores").as_f32().iter().all(|s| s.is_finite()),
+            "{pattern:?}: non-finite score"
+        );
+    }
+    eprintln!("cache picks differing from the mirror's (within score bounds): {differ} of {total}");
+    assert!(total > 0);
+}
+
+#[test]
+fn a_corrupted_pick_fails_verification() {
+    let opts = VerifyOptions {
+        cases: 1,
+        seed: 37,
+        corrupt: Some(Corruption {
+            resource: "picks".into(),
+            index: 0,
+        }),
+    };
+    assert!(!verify(gpu(), &CachePlacement, &opts, &mut |_| {})
+        .unwrap()
+        .passed());
+}
