@@ -10,6 +10,7 @@
 pub mod cache_placement;
 pub mod cluster_extract;
 pub mod cluster_keys;
+pub mod gather_caches;
 pub mod gaussian_depth_visibility;
 pub mod histogram_axes;
 pub mod layer_decay;

@@ -4,6 +4,7 @@
 pub mod cache_placement;
 pub mod cluster_extract;
 pub mod cluster_keys;
+pub mod gather_caches;
 pub mod gaussian_depth_visibility;
 pub mod histogram_axes;
 pub mod layer_decay;
@@ -37,6 +38,7 @@ pub fn all() -> Vec<&'static dyn Kernel> {
         &cluster_keys::ClusterKeys,
         &cluster_extract::ClusterExtract,
         &cache_placement::CachePlacement,
+        &gather_caches::GatherCaches,
     ]
 }
 

@@ -1,0 +1,147 @@
+//! GPU vs mirror for `kernels/gather_caches.wgsl` (CPRC 3.3), and the distribution's quality as the
+//! paper's Fig. 6 argues it: clustered placement vs an equidistant grid of caches.
+mod common;
+
+use common::gpu;
+use vxgi::gbuffers::GPattern;
+use vxgi::harness::kernel::{verify, verify_case};
+use vxgi::harness::{Corruption, VerifyOptions};
+use vxgi::kernels::cluster_extract::{distribution_inputs, DistributionInputs};
+use vxgi::kernels::gather_caches::{case_for, place_caches, GatherCaches, DECL};
+use vxgi_cpu_mirror::octahedral::unpack;
+
+#[test]
+fn generated_g_buffers_match_the_mirror() {
+    let rep = verify(
+        gpu(),
+        &GatherCaches,
+        &VerifyOptions {
+            cases: 16,
+            seed: 41,
+            corrupt: None,
+        },
+        &mut |_| {},
+    )
+    .unwrap();
+    assert!(rep.passed(), "{}", rep.failures[0].report());
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig { cases: 8, ..proptest::prelude::ProptestConfig::default() })]
+
+    #[test]
+    fn proptest_g_buffers(w in 1u32..120, h in 1u32..80, tile in 4u32..=32, family in 0usize..8, seed in proptest::prelude::any::<u64>()) {
+        let shader = DECL.shader().unwrap();
+        let inp = distribution_inputs(w, h, tile, 16, GPattern::family(family), seed);
+        let case = case_for(&shader, gpu(), &inp, "prop".into(), seed);
+        let (comps, ..) = verify_case(gpu(), &shader, &GatherCaches, &case, None).unwrap();
+        for c in comps {
+            proptest::prop_assert!(c.passed(), "{}", c.report());
+        }
+    }
+}
+
+#[test]
+fn a_corrupted_weight_fails_verification() {
+    let opts = VerifyOptions {
+        cases: 1,
+        seed: 41,
+        corrupt: Some(Corruption {
+            resource: "weight_sum".into(),
+            index: 0,
+        }),
+    };
+    // Case 0 is a 64x64 room corner: pixel 0 is geometry with caches nearby.
+    assert!(!verify(gpu(), &GatherCaches, &opts, &mut |_| {})
+        .unwrap()
+        .passed());
+}
+
+/// Fraction of geometry pixels with at least one cache of non-zero weight min(w_w, w_s) whose normal
+/// faces the pixel's hemisphere (n_p . n_c > 0: a cache holds only its upper hemisphere).
+fn coverage(
+    inp: &DistributionInputs,
+    caches: &[([f32; 4], [i32; 2], [f32; 3])],
+    radius_px: f32,
+) -> f64 {
+    let (mut covered, mut geometry) = (0usize, 0usize);
+    for (i, n) in inp.normals.iter().enumerate() {
+        let Some(q) = unpack(*n) else { continue };
+        geometry += 1;
+        let np = [q[0] as f32, q[1] as f32, q[2] as f32];
+        let (x, y) = ((i as u32 % inp.width) as i32, (i as u32 / inp.width) as i32);
+        let p = inp.positions[i];
+        let hit = caches.iter().any(|(cp, cpx, cn)| {
+            let ds2 = ((cpx[0] - x).pow(2) + (cpx[1] - y).pow(2)) as f32;
+            let dw2 = (p[0] - cp[0]).powi(2) + (p[1] - cp[1]).powi(2) + (p[2] - cp[2]).powi(2);
+            let w = (1.0 - dw2 / (cp[3] * cp[3])).min(1.0 - ds2 / (radius_px * radius_px));
+            w > 0.0 && np[0] * cn[0] + np[1] * cn[1] + np[2] * cn[2] > 0.0
+        });
+        covered += hit as usize;
+    }
+    if geometry == 0 {
+        1.0
+    } else {
+        covered as f64 / geometry as f64
+    }
+}
+
+#[test]
+fn clustered_distribution_covers_more_than_an_equidistant_grid() {
+    let (w, h, tile) = (256u32, 144u32, 32u32);
+    let radius_px = (2 * tile) as f32;
+    eprintln!("G-buffer      caches  clustered coverage  grid caches  grid coverage   (r_s = 2 tiles; r_w: see below)");
+    for pattern in [
+        GPattern::FlatWalls,
+        GPattern::Spheres,
+        GPattern::ThinFeatures,
+        GPattern::IdenticalNormals,
+    ] {
+        let inp = distribution_inputs(w, h, tile, 16, pattern, 7);
+        // r_w: clustered caches carry 1.5 x their cluster's box diagonal (place_caches); grid caches,
+        // having no cluster, get the mean of those radii, so both distributions spend the same reach.
+        let c = place_caches(&inp);
+        let clustered: Vec<_> = c
+            .pos
+            .iter()
+            .zip(&c.pixel)
+            .zip(&c.normal)
+            .map(|((p, px), n)| (*p, [px[0] as i32, px[1] as i32], [n[0], n[1], n[2]]))
+            .collect();
+        let r_w = clustered.iter().map(|c| c.0[3] as f64).sum::<f64>() as f32
+            / clustered.len().max(1) as f32;
+        // Equidistant grid with about as many caches, on the geometry pixels it hits.
+        let n = clustered.len().max(1);
+        let step = ((w * h) as f64 / n as f64).sqrt().max(1.0);
+        let mut grid = Vec::new();
+        let mut gy = step / 2.0;
+        while gy < h as f64 {
+            let mut gx = step / 2.0;
+            while gx < w as f64 {
+                let i = (gy as u32 * w + gx as u32) as usize;
+                if let Some(q) = unpack(inp.normals[i]) {
+                    let p = inp.positions[i];
+                    grid.push((
+                        [p[0], p[1], p[2], r_w],
+                        [gx as i32, gy as i32],
+                        [q[0] as f32, q[1] as f32, q[2] as f32],
+                    ));
+                }
+                gx += step;
+            }
+            gy += step;
+        }
+        let cc = coverage(&inp, &clustered, radius_px);
+        let gc = coverage(&inp, &grid, radius_px);
+        eprintln!(
+            "{:<13} {:>6} {:>19.3} {:>12} {:>14.3}",
+            format!("{pattern:?}"),
+            clustered.len(),
+            cc,
+            grid.len(),
+            gc
+        );
+        assert!(cc >= gc - 1e-9, "{pattern:?}: clustered {cc} < grid {gc}");
+        assert!(cc > 0.97, "{pattern:?}: clustered coverage {cc}");
+    }
+}
