@@ -68,8 +68,29 @@ pub fn distribution_inputs(
     pattern: GPattern,
     seed: u64,
 ) -> DistributionInputs {
+    distribution_inputs_with_depth(
+        width,
+        height,
+        tile,
+        slices,
+        pattern,
+        seed,
+        depths(width, height, slices, seed),
+    )
+}
+
+/// [`distribution_inputs`] with the caller's depths (e.g. smooth ones, without the stress values).
+#[allow(clippy::too_many_arguments)]
+pub fn distribution_inputs_with_depth(
+    width: u32,
+    height: u32,
+    tile: u32,
+    slices: u32,
+    pattern: GPattern,
+    seed: u64,
+    d: Vec<f32>,
+) -> DistributionInputs {
     let mut n = packed(&normals(width, height, pattern, seed));
-    let d = depths(width, height, slices, seed);
     sanitise(&mut n, &d);
     let hp = super::tile_normal_histogram::params(width, height, tile).expect("valid sizes");
     let (raw, blurred) = histograms(&n, &hp);
