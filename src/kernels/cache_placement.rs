@@ -1,8 +1,7 @@
 //! Declaration of `kernels/cache_placement.wgsl` (mirror: `vxgi_cpu_mirror::cache_placement`): placement
 //! scores and one cache pixel per cluster (CPRC 3.2). Scores carry per-element bounds; a GPU pick is
 //! accepted when the mirror's score for it is within the bounds of the mirror's best.
-use super::cluster_extract::{distribution_inputs, DistributionInputs};
-use crate::gbuffers::GPattern;
+use super::cluster_extract::DistributionInputs;
 use std::collections::BTreeMap;
 use vxgi_cpu_mirror::cache_placement::{best_pixels, score, score_bound};
 use vxgi_cpu_mirror::cluster_extract::{extract, Cluster};
@@ -193,22 +192,8 @@ impl Kernel for CachePlacement {
         &DECL
     }
     fn case(&self, _shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
-        let (w, h, tile) = super::tile_normal_histogram::size_for(index);
-        let slices = [16, 1, 2, 32][index % 4];
-        let inp = distribution_inputs(
-            w,
-            h,
-            tile,
-            slices,
-            GPattern::family(index),
-            seed.wrapping_add(index as u64),
-        );
-        case_for(
-            ctx,
-            &inp,
-            format!("#{index} {w}x{h} tile {tile} {slices} slices"),
-            seed,
-        )
+        let (inp, label) = super::cluster_extract::generated_distribution(seed, index);
+        case_for(ctx, &inp, label, seed)
     }
     fn mirror(
         &self,

@@ -129,6 +129,22 @@ pub fn distribution_inputs_with_depth(
     }
 }
 
+/// Case `index` of the distribution kernels' generator: the image sizes of `tile_normal_histogram`,
+/// 16/1/2/32 depth slices, the G-buffer families of `gbuffers`; and its label.
+pub fn generated_distribution(seed: u64, index: usize) -> (DistributionInputs, String) {
+    let (w, h, tile) = super::tile_normal_histogram::size_for(index);
+    let slices = [16, 1, 2, 32][index % 4];
+    let inp = distribution_inputs(
+        w,
+        h,
+        tile,
+        slices,
+        GPattern::family(index),
+        seed.wrapping_add(index as u64),
+    );
+    (inp, format!("#{index} {w}x{h} tile {tile} {slices} slices"))
+}
+
 pub fn case_for(ctx: &GpuContext, inp: &DistributionInputs, label: String, seed: u64) -> Case {
     let n = inp.sorted_keys.len();
     let mut resources = Resources::new();
@@ -228,22 +244,8 @@ impl Kernel for ClusterExtract {
         &DECL
     }
     fn case(&self, _shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
-        let (w, h, tile) = super::tile_normal_histogram::size_for(index);
-        let slices = [16, 1, 2, 32][index % 4];
-        let inp = distribution_inputs(
-            w,
-            h,
-            tile,
-            slices,
-            GPattern::family(index),
-            seed.wrapping_add(index as u64),
-        );
-        case_for(
-            ctx,
-            &inp,
-            format!("#{index} {w}x{h} tile {tile} {slices} slices"),
-            seed,
-        )
+        let (inp, label) = generated_distribution(seed, index);
+        case_for(ctx, &inp, label, seed)
     }
     fn mirror(
         &self,

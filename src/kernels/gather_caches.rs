@@ -1,8 +1,7 @@
 //! Declaration of `kernels/gather_caches.wgsl` (mirror: `vxgi_cpu_mirror::gather_caches`): CPRC 3.3
 //! gathering weights. Cases place caches with the distribution mirrors (histograms, axes, keys, sort,
 //! clusters, placement) on generated G-buffers.
-use super::cluster_extract::{distribution_inputs, DistributionInputs};
-use crate::gbuffers::GPattern;
+use super::cluster_extract::DistributionInputs;
 use std::collections::BTreeMap;
 use vxgi_cpu_mirror::cache_placement::{best_pixels, score};
 use vxgi_cpu_mirror::cluster_extract::extract;
@@ -191,23 +190,8 @@ impl Kernel for GatherCaches {
         &DECL
     }
     fn case(&self, shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
-        let (w, h, tile) = super::tile_normal_histogram::size_for(index);
-        let slices = [16, 1, 2, 32][index % 4];
-        let inp = distribution_inputs(
-            w,
-            h,
-            tile,
-            slices,
-            GPattern::family(index),
-            seed.wrapping_add(index as u64),
-        );
-        case_for(
-            shader,
-            ctx,
-            &inp,
-            format!("#{index} {w}x{h} tile {tile}"),
-            seed,
-        )
+        let (inp, label) = super::cluster_extract::generated_distribution(seed, index);
+        case_for(shader, ctx, &inp, label, seed)
     }
     fn mirror(
         &self,
