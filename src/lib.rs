@@ -5,6 +5,7 @@ pub mod gbuffers;
 pub mod grids;
 pub mod kernels;
 pub mod lrsm;
+pub mod scene;
 
 pub use vxgi_cpu_mirror as cpu_mirror;
 pub use vxgi_harness as harness;

@@ -31,6 +31,11 @@ enum Command {
     },
     /// List the declared kernels with their WGSL files and mirrors.
     List,
+    /// Load a scene file (default: the built-in Cornell box), check it and print what it holds.
+    Scene {
+        /// A TOML scene file (see README, "Scenes").
+        path: Option<std::path::PathBuf>,
+    },
 }
 
 fn main() {
@@ -61,7 +66,32 @@ fn real_main() -> Result<()> {
             cases,
             seed,
         } => run_verify(kernel, cases, seed),
+        Command::Scene { path } => run_scene(path),
     }
+}
+
+fn run_scene(path: Option<std::path::PathBuf>) -> Result<()> {
+    let scene = match &path {
+        Some(p) => vxgi::scene::Scene::load(p)?,
+        None => vxgi::scene::Scene::cornell_box(),
+    };
+    for w in &scene.warnings {
+        eprintln!("warning: {w}");
+    }
+    let c = &scene.camera;
+    println!(
+        "{} triangles, {} vertices, {} materials ({} glossy), {} lights, camera {}x{} fov {} deg, voxels {}",
+        scene.mesh.triangles.len(),
+        scene.mesh.positions.len(),
+        scene.materials.len(),
+        scene.materials.iter().filter(|m| m.is_glossy()).count(),
+        scene.lights.len(),
+        c.width,
+        c.height,
+        c.fov_y_deg,
+        scene.render.voxels
+    );
+    Ok(())
 }
 
 fn run_verify(kernel: Option<String>, cases: usize, seed: u64) -> Result<()> {

@@ -63,3 +63,16 @@ fn list_names_wgsl_file_and_mirror() {
         "{out}"
     );
 }
+
+#[test]
+fn scene_summarises_the_built_in_cornell_box_and_reports_bad_files() {
+    let (code, out, err) = vxgi(&["scene"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        out.contains("30 triangles") && out.contains("1 lights"),
+        "{out}"
+    );
+    let (code, _, err) = vxgi(&["scene", "/nonexistent/scene.toml"]);
+    assert_ne!(code, 0);
+    assert!(err.contains("/nonexistent/scene.toml"), "{err}");
+}

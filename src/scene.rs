@@ -1,0 +1,518 @@
+//! Scene input (issue 6): a TOML file naming an OBJ mesh (loaded with tobj, triangulated, materials from
+//! its .mtl), a camera, lights and optional render settings; or the built-in Cornell box. Everything a
+//! user can get wrong is an error with file and line, never a panic.
+use glam::Vec3;
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+use thiserror::Error;
+
+#[derive(Debug, Error)]
+pub enum SceneError {
+    #[error("{path}: {source}")]
+    Read {
+        path: String,
+        source: std::io::Error,
+    },
+    #[error("{path}:{line}:{column}: {message}")]
+    Toml {
+        path: String,
+        line: usize,
+        column: usize,
+        message: String,
+    },
+    #[error("{path}: mesh OBJ {obj} could not be loaded: {message}")]
+    Obj {
+        path: String,
+        obj: String,
+        message: String,
+    },
+    #[error("{path}:{line}: vertex {index} is not finite: {value:?}")]
+    NonFiniteVertex {
+        path: String,
+        line: usize,
+        index: usize,
+        value: [f32; 3],
+    },
+    #[error("{path}: triangle {triangle} (vertices on lines {lines:?}) has zero area")]
+    DegenerateTriangle {
+        path: String,
+        triangle: usize,
+        lines: [usize; 3],
+    },
+    #[error("{path}: the mesh has no triangles")]
+    EmptyMesh { path: String },
+    #[error("{path}: [camera] {message}")]
+    Camera { path: String, message: String },
+    #[error("{path}: light {index}: {message}")]
+    Light {
+        path: String,
+        index: usize,
+        message: String,
+    },
+    #[error("{path}: [render] {message}")]
+    Render { path: String, message: String },
+}
+
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct CameraDesc {
+    pub eye: [f32; 3],
+    pub target: [f32; 3],
+    pub up: [f32; 3],
+    pub fov_y_deg: f32,
+    pub width: u32,
+    pub height: u32,
+}
+
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
+pub enum Light {
+    /// Radiant intensity (W/sr) per channel.
+    Point {
+        position: [f32; 3],
+        intensity: [f32; 3],
+    },
+    /// `direction`: where the light travels; `cone_deg`: half-angle; `falloff_deg`: half-angle where
+    /// the smooth falloff starts (defaults to `cone_deg`: a hard edge).
+    Spot {
+        position: [f32; 3],
+        direction: [f32; 3],
+        intensity: [f32; 3],
+        cone_deg: f32,
+        falloff_deg: Option<f32>,
+    },
+    /// `intensity`: irradiance on a surface facing the light (W/m^2).
+    Directional {
+        direction: [f32; 3],
+        intensity: [f32; 3],
+    },
+}
+
+/// `[render]`: every key optional. Unknown keys are errors (typos should not pass silently).
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct RenderSettings {
+    /// Voxel grid side (a power of two, 8..=512).
+    pub voxels: u32,
+    /// AO occluder range in scene units.
+    pub ao_range: f32,
+    /// AO distance falloff 1 / (1 + lambda r).
+    pub ao_lambda: f32,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        Self {
+            voxels: 128,
+            ao_range: 0.5,
+            ao_lambda: 1.0,
+        }
+    }
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MeshDesc {
+    obj: String,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SceneFile {
+    mesh: MeshDesc,
+    camera: CameraDesc,
+    #[serde(default)]
+    lights: Vec<Light>,
+    #[serde(default)]
+    render: RenderSettings,
+}
+
+/// Diffuse albedo (Kd) and normalised Phong lobe (Ks, Ns).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    pub name: String,
+    pub diffuse: [f32; 3],
+    pub specular: [f32; 3],
+    pub shininess: f32,
+    /// `map_Kd`, resolved against the OBJ's folder.
+    pub diffuse_texture: Option<PathBuf>,
+}
+
+impl Material {
+    pub fn grey() -> Self {
+        Self {
+            name: "default grey".into(),
+            diffuse: [0.8; 3],
+            specular: [0.0; 3],
+            shininess: 1.0,
+            diffuse_texture: None,
+        }
+    }
+    pub fn is_glossy(&self) -> bool {
+        self.specular.iter().any(|&s| s > 0.0)
+    }
+}
+
+/// Triangles with per-vertex positions and normals (from `vn`, else flat from the winding: the front
+/// is the side from which the vertices appear counter-clockwise) and a material per triangle.
+#[derive(Clone, Debug)]
+pub struct Mesh {
+    pub positions: Vec<Vec3>,
+    pub normals: Vec<Vec3>,
+    pub triangles: Vec<[u32; 3]>,
+    pub material: Vec<u32>,
+}
+
+#[derive(Clone, Debug)]
+pub struct Scene {
+    pub mesh: Mesh,
+    pub materials: Vec<Material>,
+    pub camera: CameraDesc,
+    pub lights: Vec<Light>,
+    pub render: RenderSettings,
+    /// Things worth telling the user that do not stop loading (e.g. no .mtl).
+    pub warnings: Vec<String>,
+}
+
+const CORNELL_OBJ: &str = include_str!("../scenes/cornell_box.obj");
+const CORNELL_MTL: &str = include_str!("../scenes/cornell_box.mtl");
+const CORNELL_TOML: &str = include_str!("../scenes/cornell_box.toml");
+
+impl Scene {
+    /// The built-in Cornell box (also shipped as scenes/cornell_box.toml).
+    pub fn cornell_box() -> Self {
+        let file: SceneFile = toml::from_str(CORNELL_TOML).expect("built-in scene parses");
+        let mut reader = std::io::BufReader::new(CORNELL_OBJ.as_bytes());
+        let loaded = tobj::load_obj_buf(&mut reader, &load_options(), |_| {
+            tobj::load_mtl_buf(&mut std::io::BufReader::new(CORNELL_MTL.as_bytes()))
+        });
+        Self::assemble(
+            "built-in cornell_box",
+            file,
+            loaded,
+            CORNELL_OBJ,
+            Path::new("."),
+        )
+        .expect("built-in scene is valid")
+    }
+
+    /// Load a scene file; paths inside it are relative to it.
+    pub fn load(path: impl AsRef<Path>) -> Result<Self, SceneError> {
+        let path = path.as_ref();
+        let p = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read {
+            path: p.clone(),
+            source,
+        })?;
+        let file: SceneFile = toml::from_str(&text).map_err(|e| {
+            let (line, column) = e.span().map(|s| line_col(&text, s.start)).unwrap_or((0, 0));
+            SceneError::Toml {
+                path: p.clone(),
+                line,
+                column,
+                message: e.message().to_string(),
+            }
+        })?;
+        let dir = path.parent().unwrap_or(Path::new("."));
+        let obj_path = dir.join(&file.mesh.obj);
+        let obj_text = std::fs::read_to_string(&obj_path).map_err(|e| SceneError::Obj {
+            path: p.clone(),
+            obj: obj_path.display().to_string(),
+            message: e.to_string(),
+        })?;
+        let loaded = tobj::load_obj(&obj_path, &load_options());
+        let obj_dir = obj_path.parent().unwrap_or(Path::new(".")).to_path_buf();
+        Self::assemble(
+            &obj_path.display().to_string(),
+            file,
+            loaded,
+            &obj_text,
+            &obj_dir,
+        )
+        .map_err(|e| match e {
+            SceneError::Camera { message, .. } => SceneError::Camera {
+                path: p.clone(),
+                message,
+            },
+            SceneError::Light { index, message, .. } => SceneError::Light {
+                path: p.clone(),
+                index,
+                message,
+            },
+            SceneError::Render { message, .. } => SceneError::Render {
+                path: p.clone(),
+                message,
+            },
+            other => other,
+        })
+    }
+
+    fn assemble(
+        obj_label: &str,
+        file: SceneFile,
+        loaded: tobj::LoadResult,
+        obj_text: &str,
+        obj_dir: &Path,
+    ) -> Result<Self, SceneError> {
+        let (models, mtl) = loaded.map_err(|e| SceneError::Obj {
+            path: obj_label.into(),
+            obj: obj_label.into(),
+            message: e.to_string(),
+        })?;
+        let mut warnings = Vec::new();
+        let mut materials: Vec<Material> = match mtl {
+            Ok(m) => m
+                .into_iter()
+                .map(|m| Material {
+                    name: m.name,
+                    diffuse: m.diffuse.unwrap_or([0.8; 3]),
+                    specular: m.specular.unwrap_or([0.0; 3]),
+                    shininess: m.shininess.unwrap_or(1.0),
+                    diffuse_texture: m.diffuse_texture.map(|t| obj_dir.join(t)),
+                })
+                .collect(),
+            Err(e) => {
+                warnings.push(format!(
+                    "{obj_label}: no usable .mtl ({e}): every surface is grey diffuse 0.8"
+                ));
+                Vec::new()
+            }
+        };
+        let grey = materials.len() as u32;
+        materials.push(Material::grey());
+        let mut mesh = Mesh {
+            positions: Vec::new(),
+            normals: Vec::new(),
+            triangles: Vec::new(),
+            material: Vec::new(),
+        };
+        for m in &models {
+            let base = mesh.positions.len() as u32;
+            let positions: Vec<Vec3> = m
+                .mesh
+                .positions
+                .chunks(3)
+                .map(|c| Vec3::new(c[0], c[1], c[2]))
+                .collect();
+            let has_normals = m.mesh.normals.len() == m.mesh.positions.len();
+            let normals: Vec<Vec3> = if has_normals {
+                m.mesh
+                    .normals
+                    .chunks(3)
+                    .map(|c| Vec3::new(c[0], c[1], c[2]).normalize_or_zero())
+                    .collect()
+            } else {
+                vec![Vec3::ZERO; positions.len()]
+            };
+            mesh.positions.extend(positions);
+            mesh.normals.extend(normals);
+            let mat = m
+                .mesh
+                .material_id
+                .map(|i| i as u32)
+                .filter(|&i| i < grey)
+                .unwrap_or(grey);
+            for t in m.mesh.indices.chunks(3) {
+                mesh.triangles.push([base + t[0], base + t[1], base + t[2]]);
+                mesh.material.push(mat);
+            }
+        }
+        // Source lines: single_index may duplicate vertices, so locate each position by value.
+        let line_of = |p: Vec3| -> usize {
+            obj_text
+                .lines()
+                .enumerate()
+                .filter(|(_, l)| l.trim_start().starts_with("v "))
+                .find(|(_, l)| {
+                    let v: Vec<f32> = l
+                        .split_whitespace()
+                        .skip(1)
+                        .take(3)
+                        .filter_map(|x| x.parse().ok())
+                        .collect();
+                    v.len() == 3
+                        && (v[0] == p.x || (v[0].is_nan() && p.x.is_nan()))
+                        && (v[1] == p.y || (v[1].is_nan() && p.y.is_nan()))
+                        && (v[2] == p.z || (v[2].is_nan() && p.z.is_nan()))
+                })
+                .map(|(i, _)| i + 1)
+                .unwrap_or(0)
+        };
+        if mesh.triangles.is_empty() {
+            return Err(SceneError::EmptyMesh {
+                path: obj_label.into(),
+            });
+        }
+        let fallback = mesh.material.iter().filter(|&&m| m == grey).count();
+        if fallback > 0 {
+            warnings.push(format!("{obj_label}: {fallback} triangles have no material (no .mtl or no usemtl): grey diffuse 0.8"));
+        }
+        for (i, p) in mesh.positions.iter().enumerate() {
+            if !p.is_finite() {
+                return Err(SceneError::NonFiniteVertex {
+                    path: obj_label.into(),
+                    line: line_of(*p),
+                    index: i,
+                    value: p.to_array(),
+                });
+            }
+        }
+        for (i, t) in mesh.triangles.iter().enumerate() {
+            let [a, b, c] = t.map(|v| mesh.positions[v as usize]);
+            let n = (b - a).cross(c - a);
+            // Positions are finite here, so the comparison is well defined.
+            if n.length() <= 1e-12 * (b - a).length().max((c - a).length()).max(1e-30) {
+                return Err(SceneError::DegenerateTriangle {
+                    path: obj_label.into(),
+                    triangle: i,
+                    lines: [a, b, c].map(line_of),
+                });
+            }
+        }
+        // Flat normals from the winding where the OBJ has none.
+        let flat: Vec<Vec3> = mesh
+            .triangles
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|v| mesh.positions[v as usize]);
+                (b - a).cross(c - a).normalize()
+            })
+            .collect();
+        for (t, f) in mesh.triangles.iter().zip(&flat) {
+            for &v in t {
+                if mesh.normals[v as usize] == Vec3::ZERO {
+                    mesh.normals[v as usize] = *f;
+                }
+            }
+        }
+        validate_camera(&file.camera).map_err(|message| SceneError::Camera {
+            path: obj_label.into(),
+            message,
+        })?;
+        for (index, l) in file.lights.iter().enumerate() {
+            validate_light(l).map_err(|message| SceneError::Light {
+                path: obj_label.into(),
+                index,
+                message,
+            })?;
+        }
+        let r = &file.render;
+        if !(8..=512).contains(&r.voxels) || !r.voxels.is_power_of_two() {
+            return Err(SceneError::Render {
+                path: obj_label.into(),
+                message: format!("voxels = {} must be a power of two in 8..=512", r.voxels),
+            });
+        }
+        if !(r.ao_range > 0.0
+            && r.ao_range.is_finite()
+            && r.ao_lambda >= 0.0
+            && r.ao_lambda.is_finite())
+        {
+            return Err(SceneError::Render {
+                path: obj_label.into(),
+                message: format!(
+                    "ao_range = {} must be > 0 and ao_lambda = {} >= 0, both finite",
+                    r.ao_range, r.ao_lambda
+                ),
+            });
+        }
+        if file.lights.is_empty() {
+            warnings.push("the scene has no lights: every image will be black".into());
+        }
+        Ok(Scene {
+            mesh,
+            materials,
+            camera: file.camera,
+            lights: file.lights,
+            render: file.render,
+            warnings,
+        })
+    }
+}
+
+fn load_options() -> tobj::LoadOptions {
+    tobj::LoadOptions {
+        triangulate: true,
+        single_index: true,
+        ignore_points: true,
+        ignore_lines: true,
+    }
+}
+
+fn line_col(text: &str, offset: usize) -> (usize, usize) {
+    let before = &text[..offset.min(text.len())];
+    let line = before.matches('\n').count() + 1;
+    let column = before.len() - before.rfind('\n').map(|i| i + 1).unwrap_or(0) + 1;
+    (line, column)
+}
+
+fn finite3(v: [f32; 3]) -> bool {
+    v.iter().all(|x| x.is_finite())
+}
+
+fn validate_camera(c: &CameraDesc) -> Result<(), String> {
+    if !(finite3(c.eye) && finite3(c.target) && finite3(c.up)) {
+        return Err("eye, target and up must be finite".into());
+    }
+    let (eye, target, up) = (Vec3::from(c.eye), Vec3::from(c.target), Vec3::from(c.up));
+    let forward = target - eye;
+    if forward.length() <= 0.0 {
+        return Err("eye and target coincide".into());
+    }
+    if forward.normalize().cross(up.normalize_or_zero()).length() < 1e-6 {
+        return Err("up is zero or parallel to the view direction".into());
+    }
+    if !(c.fov_y_deg > 0.0 && c.fov_y_deg < 180.0) {
+        return Err(format!("fov_y_deg = {} must be in (0, 180)", c.fov_y_deg));
+    }
+    if c.width == 0 || c.height == 0 || c.width > 8192 || c.height > 8192 {
+        return Err(format!(
+            "width x height = {} x {} must be 1..=8192 each",
+            c.width, c.height
+        ));
+    }
+    Ok(())
+}
+
+fn validate_light(l: &Light) -> Result<(), String> {
+    let intensity = match l {
+        Light::Point { intensity, .. }
+        | Light::Spot { intensity, .. }
+        | Light::Directional { intensity, .. } => *intensity,
+    };
+    if !finite3(intensity) || intensity.iter().any(|&x| x < 0.0) {
+        return Err(format!("intensity {intensity:?} must be finite and >= 0"));
+    }
+    match l {
+        Light::Point { position, .. } if !finite3(*position) => {
+            Err("position must be finite".into())
+        }
+        Light::Spot {
+            position,
+            direction,
+            cone_deg,
+            falloff_deg,
+            ..
+        } => {
+            if !finite3(*position) || !finite3(*direction) || Vec3::from(*direction).length() <= 0.0
+            {
+                return Err("position must be finite and direction finite and non-zero".into());
+            }
+            if !(*cone_deg > 0.0 && *cone_deg <= 90.0) {
+                return Err(format!("cone_deg = {cone_deg} must be in (0, 90]"));
+            }
+            match falloff_deg {
+                Some(f) if !(*f >= 0.0 && f <= cone_deg) => {
+                    Err(format!("falloff_deg = {f} must be in [0, cone_deg]"))
+                }
+                _ => Ok(()),
+            }
+        }
+        Light::Directional { direction, .. }
+            if !finite3(*direction) || Vec3::from(*direction).length() <= 0.0 =>
+        {
+            Err("direction must be finite and non-zero".into())
+        }
+        _ => Ok(()),
+    }
+}
