@@ -207,12 +207,7 @@ impl Kernel for Worklist {
             "tripled".into(),
             HostResource::Buffer(HostBuffer::zeroed(n * 4, ScalarKind::U32)),
         );
-        let all = |names: &[&str]| {
-            names
-                .iter()
-                .map(|n| (n.to_string(), View::Buffer(n.to_string())))
-                .collect::<Vec<_>>()
-        };
+        let all = |names: &[&str]| vxgi::harness::run::bind_same_names(names.iter().copied());
         let build = WORKLIST.pass(
             shader,
             ctx,

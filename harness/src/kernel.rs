@@ -78,6 +78,16 @@ impl KernelDecl {
         self.outputs.iter().find(|o| o.binding == binding)
     }
 
+    /// Every declared input and output binding bound to the host buffer of the same name.
+    pub fn bind_by_name(&self) -> Vec<(String, View)> {
+        crate::run::bind_same_names(
+            self.inputs
+                .iter()
+                .copied()
+                .chain(self.outputs.iter().map(|o| o.binding)),
+        )
+    }
+
     /// A pass of the declared entry with `bindings` (WGSL name -> view), its grid from the dispatch rule
     /// applied to `elements` elements of the rule's binding.
     pub fn pass(

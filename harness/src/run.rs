@@ -154,6 +154,14 @@ impl View {
     }
 }
 
+/// Bind each WGSL name to the whole host buffer of the same name (the common case).
+pub fn bind_same_names<'a>(names: impl IntoIterator<Item = &'a str>) -> Vec<(String, View)> {
+    names
+        .into_iter()
+        .map(|n| (n.to_string(), View::Buffer(n.to_string())))
+        .collect()
+}
+
 #[derive(Clone, Debug)]
 pub enum Workgroups {
     Direct([u32; 3]),

@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 use vxgi_cpu_mirror::cache_placement::{best_pixels, score, score_bound};
 use vxgi_cpu_mirror::cluster_extract::{extract, Cluster};
 use vxgi_harness::compare::bound_name;
-use vxgi_harness::run::{grid_for, Pass, View, Workgroups};
+use vxgi_harness::run::{grid_for, Pass, Workgroups};
 use vxgi_harness::{
     Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
     KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
@@ -83,20 +83,7 @@ pub fn case_for(ctx: &GpuContext, inp: &DistributionInputs, label: String, seed:
         "picks".into(),
         HostResource::Buffer(HostBuffer::zeroed(all.len() * 4, ScalarKind::U32)),
     );
-    let names = [
-        "clusters",
-        "cluster_count",
-        "pixel_cluster",
-        "pixels",
-        "normals",
-        "positions",
-        "scores",
-        "picks",
-    ];
-    let bindings: Vec<(String, View)> = names
-        .iter()
-        .map(|b| (b.to_string(), View::Buffer(b.to_string())))
-        .collect();
+    let bindings = DECL.bind_by_name();
     let max = ctx.limits().max_compute_workgroups_per_dimension;
     let passes = vec![
         Pass {

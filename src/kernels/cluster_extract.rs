@@ -10,7 +10,7 @@ use vxgi_cpu_mirror::histogram_axes::all_axes;
 use vxgi_cpu_mirror::octahedral::reweight_table;
 use vxgi_cpu_mirror::radix_sort::sort;
 use vxgi_cpu_mirror::tile_normal_histogram::histograms;
-use vxgi_harness::run::{grid_for, Pass, View, Workgroups};
+use vxgi_harness::run::{grid_for, Pass, Workgroups};
 use vxgi_harness::{
     Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
     KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
@@ -187,21 +187,7 @@ pub fn case_for(ctx: &GpuContext, inp: &DistributionInputs, label: String, seed:
         "pixel_cluster".into(),
         HostResource::Buffer(HostBuffer::u32(&vec![u32::MAX; n])),
     );
-    let names = [
-        "params",
-        "keys",
-        "pixels",
-        "normals",
-        "positions",
-        "heads",
-        "cluster_count",
-        "clusters",
-        "pixel_cluster",
-    ];
-    let bindings: Vec<(String, View)> = names
-        .iter()
-        .map(|b| (b.to_string(), View::Buffer(b.to_string())))
-        .collect();
+    let bindings = DECL.bind_by_name();
     let grid = grid_for(
         n as u64,
         64,

@@ -9,7 +9,6 @@ use vxgi_cpu_mirror::cluster_keys::{axis_directions, keys, slice_bounds, KeyInpu
 use vxgi_cpu_mirror::histogram_axes::all_axes;
 use vxgi_cpu_mirror::octahedral::reweight_table;
 use vxgi_cpu_mirror::tile_normal_histogram::histograms;
-use vxgi_harness::run::View;
 use vxgi_harness::{
     Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
     KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
@@ -103,12 +102,7 @@ pub fn case_for(
         "keys".into(),
         HostResource::Buffer(HostBuffer::zeroed(n * 4, ScalarKind::U32)),
     );
-    let bindings = DECL
-        .inputs
-        .iter()
-        .chain(["keys"].iter())
-        .map(|b| (b.to_string(), View::Buffer(b.to_string())))
-        .collect();
+    let bindings = DECL.bind_by_name();
     Case {
         label,
         seed,

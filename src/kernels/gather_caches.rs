@@ -10,7 +10,6 @@ use vxgi_cpu_mirror::gather_caches::{
 };
 use vxgi_cpu_mirror::octahedral::unpack;
 use vxgi_harness::compare::bound_name;
-use vxgi_harness::run::View;
 use vxgi_harness::{
     Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
     KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
@@ -160,12 +159,7 @@ pub fn case_for(
         "in_radius".into(),
         HostResource::Buffer(HostBuffer::zeroed(n * 4, ScalarKind::U32)),
     );
-    let bindings = DECL
-        .inputs
-        .iter()
-        .chain(["gathered", "weight_sum", "in_radius"].iter())
-        .map(|b| (b.to_string(), View::Buffer(b.to_string())))
-        .collect();
+    let bindings = DECL.bind_by_name();
     Case {
         label,
         seed,

@@ -7,7 +7,6 @@ use rand_chacha::ChaCha8Rng;
 use std::collections::BTreeMap;
 use vxgi_cpu_mirror::gaussian_depth_visibility::{visibility, visibility_bound, VisibilityParams};
 use vxgi_harness::compare::bound_name;
-use vxgi_harness::run::View;
 use vxgi_harness::{
     Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
     KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
@@ -198,10 +197,7 @@ pub fn case_for(
         "visibility".into(),
         HostResource::Buffer(HostBuffer::zeroed(n * 4, ScalarKind::F32)),
     );
-    let bindings = ["params", "moments", "cone", "visibility"]
-        .iter()
-        .map(|b| (b.to_string(), View::Buffer(b.to_string())))
-        .collect();
+    let bindings = DECL.bind_by_name();
     let pass = DECL.pass(shader, ctx, "visibility".into(), bindings, n as u64);
     Case {
         label,

@@ -9,7 +9,6 @@ use std::collections::BTreeMap;
 use vxgi_cpu_mirror::histogram_axes::all_axes;
 use vxgi_cpu_mirror::octahedral::{reweight_table, BIN_COUNT};
 use vxgi_cpu_mirror::tile_normal_histogram::histograms;
-use vxgi_harness::run::View;
 use vxgi_harness::{
     Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
     KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
@@ -63,12 +62,7 @@ pub fn axes_case(
         "axes".into(),
         HostResource::Buffer(HostBuffer::zeroed(tiles * 16, ScalarKind::U32)),
     );
-    let bindings = DECL
-        .inputs
-        .iter()
-        .chain(["axes"].iter())
-        .map(|b| (b.to_string(), View::Buffer(b.to_string())))
-        .collect();
+    let bindings = DECL.bind_by_name();
     Case {
         label,
         seed,

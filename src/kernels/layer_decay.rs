@@ -5,7 +5,6 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::collections::BTreeMap;
 use vxgi_cpu_mirror::layer_decay::layer_decay;
-use vxgi_harness::run::View;
 use vxgi_harness::{
     Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
     KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
@@ -88,10 +87,7 @@ pub fn case_for(
         "decay".into(),
         HostResource::Buffer(HostBuffer::zeroed(samples.len() * 4, ScalarKind::F32)),
     );
-    let bindings = ["sample", "decay"]
-        .iter()
-        .map(|b| (b.to_string(), View::Buffer(b.to_string())))
-        .collect();
+    let bindings = DECL.bind_by_name();
     Case {
         label,
         seed,

@@ -4,7 +4,6 @@
 use crate::lrsm::{synthetic_rsm, LrsmError, PartitionConfig, Rsm};
 use std::collections::BTreeMap;
 use vxgi_cpu_mirror::lrsm_partition::{partition, PartitionParams};
-use vxgi_harness::run::View;
 use vxgi_harness::{
     Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
     KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
@@ -84,12 +83,7 @@ pub fn case_for(
             HostResource::Buffer(HostBuffer::zeroed(out_len, ScalarKind::F32)),
         );
     }
-    let bindings = DECL
-        .inputs
-        .iter()
-        .chain(DECL.outputs.iter().map(|o| &o.binding))
-        .map(|b| (b.to_string(), View::Buffer(b.to_string())))
-        .collect();
+    let bindings = DECL.bind_by_name();
     let indexing = Indexing::Grid {
         dims: [texels as u32, config.layers(), 1],
         components: 4,

@@ -11,7 +11,6 @@ use vxgi_cpu_mirror::lrsm_partition::{partition, PartitionParams};
 use vxgi_cpu_mirror::lrsm_prefilter::reduce_level;
 use vxgi_cpu_mirror::sample_lrsm::{sample, sample_bound, Lrsm, SampleParams};
 use vxgi_harness::compare::bound_name;
-use vxgi_harness::run::View;
 use vxgi_harness::{
     Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
     KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
@@ -165,12 +164,7 @@ pub fn case_for(
         "radiance".into(),
         HostResource::Buffer(HostBuffer::zeroed(pos.len() * 16, ScalarKind::F32)),
     );
-    let bindings = DECL
-        .inputs
-        .iter()
-        .chain(["radiance"].iter())
-        .map(|b| (b.to_string(), View::Buffer(b.to_string())))
-        .collect();
+    let bindings = DECL.bind_by_name();
     let layers = (lrsm.params.depth_slices * lrsm.params.normal_slices) as u64;
     Case {
         label,

@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 use thiserror::Error;
 use vxgi_cpu_mirror::octahedral::BIN_COUNT;
 use vxgi_cpu_mirror::tile_normal_histogram::{histograms, HistogramParams};
-use vxgi_harness::run::{Pass, View, Workgroups};
+use vxgi_harness::run::{Pass, Workgroups};
 use vxgi_harness::{
     Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
     KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
@@ -105,10 +105,7 @@ pub fn case_for(
             HostResource::Buffer(HostBuffer::zeroed(tiles * BIN_COUNT * 4, ScalarKind::U32)),
         );
     }
-    let bindings = ["params", "normals", "histogram", "blurred"]
-        .iter()
-        .map(|b| (b.to_string(), View::Buffer(b.to_string())))
-        .collect();
+    let bindings = DECL.bind_by_name();
     let pass = Pass {
         label: "histograms".into(),
         entry: "main".into(),
