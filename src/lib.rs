@@ -3,9 +3,13 @@
 pub mod coverage;
 pub mod gbuffers;
 pub mod grids;
+pub mod images;
 pub mod kernels;
 pub mod lrsm;
+pub mod reference;
+pub mod render;
 pub mod scene;
+pub mod trace;
 
 pub use vxgi_cpu_mirror as cpu_mirror;
 pub use vxgi_harness as harness;

@@ -2,7 +2,9 @@
 use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
+use std::path::{Path, PathBuf};
 use vxgi::harness::{kernel::verify, run::copy_bandwidth, GpuContext, VerifyOptions};
+use vxgi::images::{read_exr, write_heatmap, write_pair, RgbImage};
 
 #[derive(Parser)]
 #[command(
@@ -36,6 +38,140 @@ enum Command {
         /// A TOML scene file (see README, "Scenes").
         path: Option<std::path::PathBuf>,
     },
+    /// Render a scene on the GPU into --out: direct.exr/.png (indirect and AO come with cone tracing).
+    Render {
+        /// A TOML scene file (default: the built-in Cornell box).
+        scene: Option<PathBuf>,
+        #[arg(long, default_value = "out")]
+        out: PathBuf,
+        #[command(flatten)]
+        render: RenderFlags,
+    },
+    /// CPU Monte Carlo reference (direct + one bounce, AO) into --out: direct, indirect, combined, ao
+    /// as .exr (linear) and .png (sRGB preview).
+    Reference {
+        /// A TOML scene file (default: the built-in Cornell box).
+        scene: Option<PathBuf>,
+        /// Samples per pixel.
+        #[arg(long, default_value_t = 64)]
+        spp: u32,
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Every sample through the pixel centre (no anti-aliasing): for comparing conventions.
+        #[arg(long)]
+        no_jitter: bool,
+        #[arg(long, default_value = "reference")]
+        out: PathBuf,
+        #[command(flatten)]
+        render: RenderFlags,
+    },
+    /// Compare a test image against a reference: relative MSE and mean LDR-FLIP, optional heat map.
+    Compare {
+        reference: PathBuf,
+        test: PathBuf,
+        /// Write the FLIP error map (magma) here as PNG.
+        #[arg(long)]
+        heatmap: Option<PathBuf>,
+    },
+}
+
+/// Flags overriding the scene file's `[render]` keys (same names).
+#[derive(clap::Args, Clone, Debug, Default)]
+struct RenderFlags {
+    /// Voxel grid side (power of two, 8..=512).
+    #[arg(long, alias = "voxels")]
+    voxels: Option<u32>,
+    /// AO occluder range in scene units.
+    #[arg(long = "ao-range", alias = "ao_range")]
+    ao_range: Option<f32>,
+    /// AO falloff 1 / (1 + ao_lambda r).
+    #[arg(long = "ao-lambda", alias = "ao_lambda")]
+    ao_lambda: Option<f32>,
+}
+
+fn load_scene(path: &Option<PathBuf>, flags: &RenderFlags) -> Result<vxgi::scene::Scene> {
+    let mut scene = match path {
+        Some(p) => vxgi::scene::Scene::load(p)?,
+        None => vxgi::scene::Scene::cornell_box(),
+    };
+    for w in &scene.warnings {
+        eprintln!("warning: {w}");
+    }
+    if let Some(v) = flags.voxels {
+        scene.render.voxels = v;
+    }
+    if let Some(v) = flags.ao_range {
+        scene.render.ao_range = v;
+    }
+    if let Some(v) = flags.ao_lambda {
+        scene.render.ao_lambda = v;
+    }
+    scene.render.validate().map_err(anyhow::Error::msg)?;
+    Ok(scene)
+}
+
+fn create_out(dir: &Path) -> Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))
+}
+
+fn run_render(scene: Option<PathBuf>, out: PathBuf, flags: RenderFlags) -> Result<()> {
+    let scene = load_scene(&scene, &flags)?;
+    create_out(&out)?;
+    let ctx = GpuContext::new().context("creating the GPU context")?;
+    eprintln!("adapter: {}", ctx.describe());
+    let r = vxgi::render::render(&ctx, &scene)?;
+    write_pair(&out, "direct", &r.direct)?;
+    println!("wrote {}", out.join("direct.exr").display());
+    for (name, why) in &r.missing {
+        println!("{name}.exr not written: {why}");
+    }
+    Ok(())
+}
+
+fn run_reference(
+    scene: Option<PathBuf>,
+    opts: vxgi::reference::ReferenceOptions,
+    out: PathBuf,
+    flags: RenderFlags,
+) -> Result<()> {
+    let scene = load_scene(&scene, &flags)?;
+    if opts.spp == 0 {
+        bail!("--spp must be at least 1");
+    }
+    create_out(&out)?;
+    let bar = ProgressBar::new(scene.camera.height as u64);
+    bar.set_style(
+        ProgressStyle::with_template("{bar:40} {pos}/{len} rows {elapsed} (eta {eta})")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let start = std::time::Instant::now();
+    let img = vxgi::reference::render_reference(&scene, &opts, |n| bar.inc(n));
+    bar.finish_and_clear();
+    let rgb = |px: Vec<[f32; 3]>| RgbImage::new(img.width, img.height, px);
+    write_pair(&out, "direct", &rgb(img.direct.clone()))?;
+    write_pair(&out, "indirect", &rgb(img.indirect.clone()))?;
+    write_pair(&out, "combined", &rgb(img.combined()))?;
+    write_pair(&out, "ao", &rgb(img.ao.clone()))?;
+    println!(
+        "wrote direct, indirect, combined, ao (.exr + .png) to {} ({} spp, {:.1} s)",
+        out.display(),
+        opts.spp,
+        start.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+fn run_compare(reference: PathBuf, test: PathBuf, heatmap: Option<PathBuf>) -> Result<()> {
+    let r = read_exr(&reference)?;
+    let t = read_exr(&test)?;
+    let c = vxgi::images::compare(&r, &reference, &t, &test)?;
+    println!("relative MSE {:.6}", c.rel_mse);
+    println!("mean FLIP    {:.6}", c.flip_mean);
+    if let Some(path) = heatmap {
+        write_heatmap(&path, r.width, r.height, &c.heatmap)?;
+        println!("wrote {}", path.display());
+    }
+    Ok(())
 }
 
 fn main() {
@@ -67,6 +203,29 @@ fn real_main() -> Result<()> {
             seed,
         } => run_verify(kernel, cases, seed),
         Command::Scene { path } => run_scene(path),
+        Command::Render { scene, out, render } => run_render(scene, out, render),
+        Command::Reference {
+            scene,
+            spp,
+            seed,
+            no_jitter,
+            out,
+            render,
+        } => run_reference(
+            scene,
+            vxgi::reference::ReferenceOptions {
+                spp,
+                seed,
+                jitter: !no_jitter,
+            },
+            out,
+            render,
+        ),
+        Command::Compare {
+            reference,
+            test,
+            heatmap,
+        } => run_compare(reference, test, heatmap),
     }
 }
 

@@ -100,6 +100,29 @@ pub struct RenderSettings {
     pub ao_lambda: f32,
 }
 
+impl RenderSettings {
+    /// The ranges every key must be in (also applied to CLI overrides).
+    pub fn validate(&self) -> Result<(), String> {
+        if !(8..=512).contains(&self.voxels) || !self.voxels.is_power_of_two() {
+            return Err(format!(
+                "voxels = {} must be a power of two in 8..=512",
+                self.voxels
+            ));
+        }
+        if !(self.ao_range > 0.0
+            && self.ao_range.is_finite()
+            && self.ao_lambda >= 0.0
+            && self.ao_lambda.is_finite())
+        {
+            return Err(format!(
+                "ao_range = {} must be > 0 and ao_lambda = {} >= 0, both finite",
+                self.ao_range, self.ao_lambda
+            ));
+        }
+        Ok(())
+    }
+}
+
 impl Default for RenderSettings {
     fn default() -> Self {
         Self {
@@ -369,21 +392,19 @@ impl Scene {
                 });
             }
         }
-        // Flat normals from the winding where the OBJ has none.
-        let flat: Vec<Vec3> = mesh
-            .triangles
-            .iter()
-            .map(|t| {
-                let [a, b, c] = t.map(|v| mesh.positions[v as usize]);
-                (b - a).cross(c - a).normalize()
-            })
-            .collect();
-        for (t, f) in mesh.triangles.iter().zip(&flat) {
-            for &v in t {
-                if mesh.normals[v as usize] == Vec3::ZERO {
-                    mesh.normals[v as usize] = *f;
-                }
+        // Flat normals from the winding where the OBJ has none: such a triangle gets vertices of its
+        // own, so a vertex shared by faces of different orientation keeps each face flat.
+        for t in 0..mesh.triangles.len() {
+            let tri = mesh.triangles[t];
+            if tri.iter().all(|&v| mesh.normals[v as usize] != Vec3::ZERO) {
+                continue;
             }
+            let [a, b, c] = tri.map(|v| mesh.positions[v as usize]);
+            let flat = (b - a).cross(c - a).normalize();
+            let base = mesh.positions.len() as u32;
+            mesh.positions.extend([a, b, c]);
+            mesh.normals.extend([flat; 3]);
+            mesh.triangles[t] = [base, base + 1, base + 2];
         }
         validate_camera(&file.camera).map_err(|message| SceneError::Camera {
             path: obj_label.into(),
@@ -396,26 +417,12 @@ impl Scene {
                 message,
             })?;
         }
-        let r = &file.render;
-        if !(8..=512).contains(&r.voxels) || !r.voxels.is_power_of_two() {
-            return Err(SceneError::Render {
+        file.render
+            .validate()
+            .map_err(|message| SceneError::Render {
                 path: obj_label.into(),
-                message: format!("voxels = {} must be a power of two in 8..=512", r.voxels),
-            });
-        }
-        if !(r.ao_range > 0.0
-            && r.ao_range.is_finite()
-            && r.ao_lambda >= 0.0
-            && r.ao_lambda.is_finite())
-        {
-            return Err(SceneError::Render {
-                path: obj_label.into(),
-                message: format!(
-                    "ao_range = {} must be > 0 and ao_lambda = {} >= 0, both finite",
-                    r.ao_range, r.ao_lambda
-                ),
-            });
-        }
+                message,
+            })?;
         if file.lights.is_empty() {
             warnings.push("the scene has no lights: every image will be black".into());
         }

@@ -7,11 +7,14 @@
 //! the other behaviour WGSL allows a GPU — so the comparison can accept exactly that and nothing looser.
 //!
 //! No wgpu, no naga: a mirror can be used (and read) without a GPU.
+pub mod bvh_trace;
 pub mod cache_placement;
 pub mod cluster_extract;
 pub mod cluster_keys;
+pub mod direct_light;
 pub mod gather_caches;
 pub mod gaussian_depth_visibility;
+pub mod gbuffer;
 pub mod histogram_axes;
 pub mod layer_decay;
 pub mod lrsm_partition;

@@ -4,8 +4,10 @@
 pub mod cache_placement;
 pub mod cluster_extract;
 pub mod cluster_keys;
+pub mod direct_light;
 pub mod gather_caches;
 pub mod gaussian_depth_visibility;
+pub mod gbuffer;
 pub mod histogram_axes;
 pub mod layer_decay;
 pub mod lrsm_partition;
@@ -39,6 +41,8 @@ pub fn all() -> Vec<&'static dyn Kernel> {
         &cluster_extract::ClusterExtract,
         &cache_placement::CachePlacement,
         &gather_caches::GatherCaches,
+        &gbuffer::Gbuffer,
+        &direct_light::DirectLight,
     ]
 }
 

@@ -1,0 +1,205 @@
+//! Mirror of `kernels/gbuffer.wgsl`: one primary ray per pixel centre through the flattened BVH
+//! (`bvh_trace`), writing position + distance, shading normal + side, and the triangle hit.
+//!
+//! Pixel (x, y), y down: `ndc = ((x + 0.5) / w * 2 - 1, 1 - (y + 0.5) / h * 2)`,
+//! `d = normalize(forward + right * ndc.x + up * ndc.y)` (right and up pre-scaled by the field of view
+//! and aspect on the host), origin = eye. Shading normal: `normalize(na (1-u-v) + nb u + nc v)`.
+//! Side: 1 front, -1 back, 0 no hit (then position = (0,0,0,-1), normal = 0, triangle = NONE).
+use crate::bvh_trace::{closest, intersect, GpuNode, GpuTriangle, Hit, FAR, NONE};
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+
+/// Camera and frame constants (the WGSL `Frame`). `eye.w` = the scene's ray offset epsilon.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct Frame {
+    pub eye: [f32; 4],
+    pub forward: [f32; 4],
+    pub right: [f32; 4],
+    pub up: [f32; 4],
+    /// width, height, light count, 0.
+    pub size: [u32; 4],
+}
+
+fn v3(a: [f32; 4]) -> Vec3 {
+    Vec3::new(a[0], a[1], a[2])
+}
+
+/// The primary ray of pixel `(x, y)`.
+pub fn primary_ray(frame: &Frame, x: u32, y: u32) -> (Vec3, Vec3) {
+    let w = frame.size[0] as f32;
+    let h = frame.size[1] as f32;
+    let nx = (x as f32 + 0.5) / w * 2.0 - 1.0;
+    let ny = 1.0 - (y as f32 + 0.5) / h * 2.0;
+    let d = v3(frame.forward) + v3(frame.right) * nx + v3(frame.up) * ny;
+    let d = d * (1.0 / d.dot(d).sqrt());
+    (v3(frame.eye), d)
+}
+
+/// One pixel of the G-buffer.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Texel {
+    pub position: [f32; 4],
+    pub normal: [f32; 4],
+    pub triangle: u32,
+}
+
+pub const MISS: Texel = Texel {
+    position: [0.0, 0.0, 0.0, -1.0],
+    normal: [0.0; 4],
+    triangle: NONE,
+};
+
+/// The texel a hit on triangle `h.tri` produces.
+pub fn texel(o: Vec3, d: Vec3, tri: &GpuTriangle, h: &Hit) -> Texel {
+    let p = o + d * h.t;
+    let w = 1.0 - h.u - h.v;
+    let n = v3(tri.na) * w + v3(tri.nb) * h.u + v3(tri.nc) * h.v;
+    let n = n * (1.0 / n.dot(n).sqrt());
+    Texel {
+        position: [p.x, p.y, p.z, h.t],
+        normal: [n.x, n.y, n.z, if h.front { 1.0 } else { -1.0 }],
+        triangle: h.tri,
+    }
+}
+
+/// The mirror's texel for pixel `(x, y)`.
+pub fn shade_pixel(
+    frame: &Frame,
+    nodes: &[GpuNode],
+    tris: &[GpuTriangle],
+    x: u32,
+    y: u32,
+) -> Texel {
+    let (o, d) = primary_ray(frame, x, y);
+    match closest(nodes, tris, o, d, 0.0, FAR) {
+        Some(h) => texel(o, d, &tris[h.tri as usize], &h),
+        None => MISS,
+    }
+}
+
+/// Barycentric slack within which a hit is decided by rounding rather than by geometry: the
+/// barycentrics are quotients of cross/dot products whose absolute error is a few ULP of the
+/// products' magnitudes; 1e-4 is ~800 ULP of a unit barycentric, far above that for any ray that is
+/// not grazing (grazing rays are accepted through the distance test below).
+pub const EDGE_SLACK: f32 = 1e-4;
+
+/// The texel the GPU must have produced at `(x, y)`, given what it did produce (`gpu_triangle`):
+/// the mirror's own when the GPU hit the same triangle; the GPU's pick (recomputed by the mirror) when
+/// rounding could have decided between them — the GPU's triangle is hit within [`EDGE_SLACK`] and not
+/// measurably farther than the mirror's, or the mirror's own hit lies within the slack of an edge.
+/// The flag says whether the GPU's differing pick was accepted.
+pub fn accepted_texel(
+    frame: &Frame,
+    nodes: &[GpuNode],
+    tris: &[GpuTriangle],
+    x: u32,
+    y: u32,
+    gpu_triangle: u32,
+) -> (Texel, bool) {
+    let (o, d) = primary_ray(frame, x, y);
+    let mine = closest(nodes, tris, o, d, 0.0, FAR);
+    let own = match &mine {
+        Some(h) => texel(o, d, &tris[h.tri as usize], h),
+        None => MISS,
+    };
+    if own.triangle == gpu_triangle {
+        return (own, false);
+    }
+    // Is the mirror's own hit (if any) itself borderline?
+    let own_borderline = match &mine {
+        Some(h) => intersect(o, d, &tris[h.tri as usize], 0.0, FAR, -EDGE_SLACK).is_none(),
+        None => true,
+    };
+    if gpu_triangle == NONE {
+        return if own_borderline {
+            (MISS, true)
+        } else {
+            (own, false)
+        };
+    }
+    let Some(tri) = tris.get(gpu_triangle as usize) else {
+        return (own, false);
+    };
+    let Some(g) = intersect(o, d, tri, 0.0, FAR, EDGE_SLACK) else {
+        return (own, false);
+    };
+    let near_enough = match &mine {
+        // Same distance up to rounding (coplanar or meeting triangles), or the mirror's pick is
+        // borderline and the GPU's is the next surface behind an edge.
+        Some(h) => g.t <= h.t * (1.0 + 1e-4) || own_borderline,
+        None => true,
+    };
+    if !near_enough {
+        return (own, false);
+    }
+    let hit = Hit {
+        t: g.t,
+        tri: gpu_triangle,
+        u: g.u,
+        v: g.v,
+        front: g.det > 0.0,
+    };
+    (texel(o, d, tri, &hit), true)
+}
+
+/// Per-element bounds |GPU - mirror| for position (xyz and t) and normal of a texel, from the WGSL
+/// rules: +, -, * correctly rounded, division and inverseSqrt 2.5 / 2 ULP, dots and crosses in any order
+/// and possibly fused. The distance t = (e2 . q) / det is a quotient of sums whose cancellation is
+/// measured by `cond` (sum of |terms| over |result| for numerator and denominator); the ray direction
+/// itself carries ~8 ULP from the camera basis and the normalisation. 32 ULP per unit of condition
+/// covers those with margin; bound use is reported by the tests.
+pub fn texel_bounds(
+    frame: &Frame,
+    tris: &[GpuTriangle],
+    x: u32,
+    y: u32,
+    t: &Texel,
+) -> ([f32; 4], [f32; 4]) {
+    if t.triangle == NONE {
+        return ([0.0; 4], [0.0; 4]);
+    }
+    let eps = f32::EPSILON;
+    let (o, d) = primary_ray(frame, x, y);
+    let tri = &tris[t.triangle as usize];
+    let a = v3(tri.a);
+    let e1 = v3(tri.b) - a;
+    let e2 = v3(tri.c) - a;
+    let s = o - a;
+    let p = d.cross(e2);
+    let q = s.cross(e1);
+    let pa = d.abs().cross_abs(e2.abs());
+    let qa = s.abs().cross_abs(e1.abs());
+    let det = e1.dot(p);
+    let num = e2.dot(q);
+    let cond_det = e1.abs().dot(pa) / det.abs().max(f32::MIN_POSITIVE);
+    let cond_num = e2.abs().dot(qa) / num.abs().max(f32::MIN_POSITIVE);
+    let cond = 1.0 + cond_det + cond_num;
+    let dist = t.position[3].abs();
+    let bt = 32.0 * eps * dist * cond;
+    let scale = o.abs().max_element() + dist;
+    let bp = 32.0 * eps * scale * cond;
+    // Barycentric error ~ the same relative error as t, in units of the barycentric (<= 1 + slack).
+    let duv = 32.0
+        * eps
+        * (1.0
+            + cond_det
+            + e1.abs().dot(qa).max(s.abs().dot(pa)) / det.abs().max(f32::MIN_POSITIVE));
+    let spread = (v3(tri.nb) - v3(tri.na)).length() + (v3(tri.nc) - v3(tri.na)).length();
+    let bn = 16.0 * eps + 4.0 * duv * spread;
+    ([bp, bp, bp, bt], [bn, bn, bn, 0.0])
+}
+
+trait CrossAbs {
+    fn cross_abs(self, o: Self) -> Self;
+}
+impl CrossAbs for Vec3 {
+    /// |a| x |b| with every product added: bounds the magnitude of each term of a cross product.
+    fn cross_abs(self, o: Vec3) -> Vec3 {
+        Vec3::new(
+            self.y * o.z + self.z * o.y,
+            self.z * o.x + self.x * o.z,
+            self.x * o.y + self.y * o.x,
+        )
+    }
+}

@@ -1,0 +1,122 @@
+// direct_light — direct light with exact hard shadows at every G-buffer texel: one shadow ray per
+// light through the flattened BVH. Mirror: cpu_mirror/src/direct_light.rs (whose `shade` the reference
+// path tracer also uses). Uses kernels/common/bvh_trace.wgsl.
+//
+// Contract: back faces and background reflect nothing; BRDF kd/pi + ks (n+2)/(2 pi) max(r . wo, 0)^n
+// (r = mirror direction of the light about the shading normal, wo towards the eye, n = diffuse.w);
+// point: I cos / r^2; spot: times spot_factor (1 inside falloff, 0 outside cone, smoothstep in cosine
+// between); directional: I cos. Lights below the geometric surface or the shading normal add nothing.
+// Shadow rays start at p + ng * eps (ng = the triangle's front normal, eps = frame.eye.w) and end at the
+// light (distance r) or at 3e38.
+// Output: radiance (rgb, 0) per pixel, row-major.
+// Accuracy: per-element bound (see shade_with_bound): 64 ULP per light term, 8 ULP absolute on the
+// cosines, pow's exp2/log2 rule; a term whose visibility or spot edge rounding decides adds its value.
+
+struct Frame {
+    eye: vec4<f32>,
+    forward: vec4<f32>,
+    right: vec4<f32>,
+    up: vec4<f32>,
+    size: vec4<u32>,   // width, height, light count, 0
+}
+
+struct Light {
+    position: vec4<f32>,   // w = kind: 0 point, 1 spot, 2 directional
+    direction: vec4<f32>,  // unit travel direction; w = cos(cone)
+    intensity: vec4<f32>,  // w = cos(falloff)
+}
+
+struct Material {
+    diffuse: vec4<f32>,    // w = Phong exponent
+    specular: vec4<f32>,
+}
+
+@group(0) @binding(0) var<storage, read> frame: Frame;
+@group(0) @binding(1) var<storage, read> nodes: array<BvhNode>;
+@group(0) @binding(2) var<storage, read> triangles: array<Triangle>;
+@group(0) @binding(3) var<storage, read> lights: array<Light>;
+@group(0) @binding(4) var<storage, read> materials: array<Material>;
+@group(0) @binding(5) var<storage, read> gb_position: array<vec4<f32>>;
+@group(0) @binding(6) var<storage, read> gb_normal: array<vec4<f32>>;
+@group(0) @binding(7) var<storage, read> gb_triangle: array<u32>;
+@group(0) @binding(8) var<storage, read_write> radiance: array<vec4<f32>>;
+
+const PI: f32 = 3.14159265358979;
+
+fn spot_factor(cos_a: f32, cos_cone: f32, cos_falloff: f32) -> f32 {
+    if (cos_a >= cos_falloff) {
+        return 1.0;
+    }
+    if (cos_a < cos_cone) {
+        return 0.0;
+    }
+    let t = clamp((cos_a - cos_cone) / (cos_falloff - cos_cone), 0.0, 1.0);
+    return t * t * (3.0 - 2.0 * t);
+}
+
+fn brdf(m: Material, n: vec3<f32>, wi: vec3<f32>, wo: vec3<f32>, cos: f32) -> vec3<f32> {
+    let kd = m.diffuse.xyz * (1.0 / PI);
+    let ks = m.specular.xyz;
+    if (all(ks == vec3<f32>(0.0))) {
+        return kd;
+    }
+    let shin = m.diffuse.w;
+    let r = n * (2.0 * cos) - wi;
+    let x = dot(r, wo);
+    var lobe = 0.0;
+    if (x > 0.0) {
+        lobe = pow(x, shin);
+    }
+    return kd + ks * ((shin + 2.0) * (0.5 / PI) * lobe);
+}
+
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let pix = gid.x + gid.y * groups.x * 64u;
+    if (pix >= arrayLength(&radiance)) {
+        return;
+    }
+    let nrm = gb_normal[pix];
+    let ti = gb_triangle[pix];
+    if (nrm.w <= 0.0 || ti >= arrayLength(&triangles)) {
+        radiance[pix] = vec4<f32>(0.0);
+        return;
+    }
+    let tri = triangles[ti];
+    let m = materials[min(u32(tri.a.w), arrayLength(&materials) - 1u)];
+    let p = gb_position[pix].xyz;
+    let n = nrm.xyz;
+    let fc = cross(tri.b.xyz - tri.a.xyz, tri.c.xyz - tri.a.xyz);
+    let ng = fc * (1.0 / sqrt(dot(fc, fc)));
+    let eps = frame.eye.w;
+    let wv = frame.eye.xyz - p;
+    let wo = wv * (1.0 / sqrt(dot(wv, wv)));
+    let origin = p + ng * eps;
+    var sum = vec3<f32>(0.0);
+    for (var l = 0u; l < frame.size.z; l++) {
+        let light = lights[l];
+        var wi = -light.direction.xyz;
+        var e = light.intensity.xyz;
+        var t_max = 3.0e38;
+        if (light.position.w != 2.0) {
+            let lv = light.position.xyz - p;
+            let r2 = dot(lv, lv);
+            let r = sqrt(r2);
+            wi = lv / r;
+            e = light.intensity.xyz / r2;
+            t_max = r;
+            if (light.position.w == 1.0) {
+                e = e * spot_factor(-dot(wi, light.direction.xyz), light.direction.w, light.intensity.w);
+            }
+        }
+        let cos = dot(n, wi);
+        if (cos <= 0.0 || dot(ng, wi) <= 0.0 || all(e == vec3<f32>(0.0))) {
+            continue;
+        }
+        if (trace_occluded(origin, wi, 0.0, t_max)) {
+            continue;
+        }
+        sum += brdf(m, n, wi, wo, cos) * e * cos;
+    }
+    radiance[pix] = vec4<f32>(sum, 0.0);
+}

@@ -1,0 +1,405 @@
+//! Declaration of `kernels/gbuffer.wgsl` (mirror: `vxgi_cpu_mirror::gbuffer`): primary rays through
+//! the flattened BVH. Cases are generated scenes ([`generated_scene`]): the Cornell box, triangle soups
+//! with smooth normals, box stacks with shared edges (rays on edges), and far-from-origin / tiny scenes.
+use crate::scene::{CameraDesc, Light, Material, Mesh, RenderSettings, Scene};
+use crate::trace::SceneData;
+use glam::Vec3;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::collections::BTreeMap;
+use vxgi_cpu_mirror::gbuffer::{accepted_texel, texel_bounds, Frame};
+use vxgi_harness::compare::bound_name;
+use vxgi_harness::run::{Pass, Workgroups};
+use vxgi_harness::{
+    Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
+    KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
+};
+
+pub const BVH_TRACE: (&str, &str) = (
+    "kernels/common/bvh_trace.wgsl",
+    include_str!("../../kernels/common/bvh_trace.wgsl"),
+);
+
+pub static DECL: KernelDecl = KernelDecl {
+    name: "gbuffer",
+    wgsl_path: "kernels/gbuffer.wgsl",
+    wgsl: include_str!("../../kernels/gbuffer.wgsl"),
+    includes: &[BVH_TRACE],
+    entry: "main",
+    inputs: &["frame", "nodes", "triangles"],
+    outputs: &[
+        // Per element (see `texel_bounds`): t and p are quotients of dots/crosses conditioned by the
+        // ray's angle to the triangle; 32 ULP per unit of that condition number.
+        Output { binding: "gb_position", tolerance: Tolerance::MirrorBound },
+        Output { binding: "gb_normal", tolerance: Tolerance::MirrorBound },
+        // Exact after acceptance: where rounding decides between triangles (edges, equal depths) the
+        // mirror adopts the GPU's pick after checking rounding could have made it (`accepted_texel`).
+        Output { binding: "gb_triangle", tolerance: Tolerance::Exact },
+    ],
+    dispatch: DispatchRule::PerElement { binding: "gb_triangle" },
+    mirror: "vxgi_cpu_mirror::gbuffer::shade_pixel",
+    summary: "primary ray per pixel through the flattened BVH: position + t, shading normal + side, triangle",
+};
+
+fn quad(mesh: &mut Mesh, corners: [Vec3; 4], material: u32) {
+    // Two CCW triangles; flat normals (unique vertices per triangle).
+    for [a, b, c] in [[0, 1, 2], [0, 2, 3]] {
+        tri(mesh, [corners[a], corners[b], corners[c]], None, material);
+    }
+}
+
+fn tri(mesh: &mut Mesh, p: [Vec3; 3], normals: Option<[Vec3; 3]>, material: u32) {
+    let base = mesh.positions.len() as u32;
+    let face = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
+    let n = normals.unwrap_or([face; 3]);
+    mesh.positions.extend(p);
+    mesh.normals.extend(n);
+    mesh.triangles.push([base, base + 1, base + 2]);
+    mesh.material.push(material);
+}
+
+/// An axis-aligned box as 6 outward-facing quads.
+fn cuboid(mesh: &mut Mesh, lo: Vec3, hi: Vec3, material: u32) {
+    let c = |x: bool, y: bool, z: bool| {
+        Vec3::new(
+            if x { hi.x } else { lo.x },
+            if y { hi.y } else { lo.y },
+            if z { hi.z } else { lo.z },
+        )
+    };
+    let (f, t) = (false, true);
+    quad(
+        mesh,
+        [c(f, f, t), c(t, f, t), c(t, t, t), c(f, t, t)],
+        material,
+    ); // +z
+    quad(
+        mesh,
+        [c(t, f, f), c(f, f, f), c(f, t, f), c(t, t, f)],
+        material,
+    ); // -z
+    quad(
+        mesh,
+        [c(t, f, t), c(t, f, f), c(t, t, f), c(t, t, t)],
+        material,
+    ); // +x
+    quad(
+        mesh,
+        [c(f, f, f), c(f, f, t), c(f, t, t), c(f, t, f)],
+        material,
+    ); // -x
+    quad(
+        mesh,
+        [c(f, t, t), c(t, t, t), c(t, t, f), c(f, t, f)],
+        material,
+    ); // +y
+    quad(
+        mesh,
+        [c(f, f, f), c(t, f, f), c(t, f, t), c(f, f, t)],
+        material,
+    ); // -y
+}
+
+fn random_materials(rng: &mut ChaCha8Rng) -> Vec<Material> {
+    (0..4)
+        .map(|i| Material {
+            name: format!("m{i}"),
+            diffuse: [rng.random(), rng.random(), rng.random()],
+            specular: if i % 2 == 1 {
+                [rng.random::<f32>() * 0.5; 3]
+            } else {
+                [0.0; 3]
+            },
+            shininess: [1.0, 8.0, 32.0, 128.0][i],
+            diffuse_texture: None,
+        })
+        .collect()
+}
+
+fn random_lights(rng: &mut ChaCha8Rng, centre: Vec3, size: f32) -> Vec<Light> {
+    let mut pos = || {
+        (centre
+            + Vec3::new(
+                rng.random::<f32>() - 0.5,
+                rng.random::<f32>() * 0.5 + 0.6,
+                rng.random::<f32>() - 0.5,
+            ) * size)
+            .to_array()
+    };
+    let (p0, p1) = (pos(), pos());
+    vec![
+        Light::Point {
+            position: p0,
+            intensity: [size * size * 2.0, size * size * 1.5, size * size],
+        },
+        Light::Spot {
+            position: p1,
+            direction: (centre - Vec3::from(p1)).to_array(),
+            intensity: [size * size * 3.0; 3],
+            cone_deg: 35.0,
+            falloff_deg: Some(20.0),
+        },
+        Light::Directional {
+            direction: [0.3, -1.0, 0.2],
+            intensity: [0.5, 0.6, 0.7],
+        },
+    ]
+}
+
+/// Generated scene `index` of a run seeded with `seed`, and a label naming its family.
+pub fn generated_scene(seed: u64, index: usize) -> (Scene, String) {
+    let mut rng =
+        ChaCha8Rng::seed_from_u64(seed.wrapping_mul(0x2545_F491_4F6C_DD1D) ^ index as u64);
+    let family = index % 4;
+    let (w, h) = (
+        40 + rng.random_range(0..3u32) * 8,
+        32 + rng.random_range(0..3u32) * 8,
+    );
+    let mut mesh = Mesh {
+        positions: vec![],
+        normals: vec![],
+        triangles: vec![],
+        material: vec![],
+    };
+    let (label, centre, size) = match family {
+        0 => {
+            let mut s = Scene::cornell_box();
+            s.camera.width = w;
+            s.camera.height = h;
+            return (s, format!("cornell box {w}x{h}"));
+        }
+        1 => {
+            // Soup: random triangles with smooth (perturbed) normals, some facing away.
+            let n = rng.random_range(40..160);
+            for _ in 0..n {
+                let c = Vec3::new(rng.random(), rng.random(), rng.random());
+                let p = [0, 1, 2]
+                    .map(|_| c + Vec3::new(rng.random(), rng.random(), rng.random()) * 0.4 - 0.2);
+                let face = (p[1] - p[0]).cross(p[2] - p[0]);
+                if face.length() < 1e-4 {
+                    continue;
+                }
+                let face = face.normalize();
+                let nrm = [0, 1, 2].map(|_| {
+                    (face + Vec3::new(rng.random(), rng.random(), rng.random()) * 0.4 - 0.2)
+                        .normalize()
+                });
+                tri(&mut mesh, p, Some(nrm), rng.random_range(0..4));
+            }
+            (
+                format!("triangle soup ({n}) {w}x{h}"),
+                Vec3::splat(0.5),
+                1.0,
+            )
+        }
+        2 => {
+            // Stacked unit boxes on a floor: shared edges and coplanar faces (rays on edges).
+            quad(
+                &mut mesh,
+                [
+                    Vec3::new(-2.0, 0.0, 2.0),
+                    Vec3::new(2.0, 0.0, 2.0),
+                    Vec3::new(2.0, 0.0, -2.0),
+                    Vec3::new(-2.0, 0.0, -2.0),
+                ],
+                0,
+            );
+            for i in 0..rng.random_range(3..8) {
+                let x = rng.random_range(-2..2) as f32;
+                let z = rng.random_range(-2..2) as f32;
+                let y = (i % 3) as f32 * 0.5;
+                cuboid(
+                    &mut mesh,
+                    Vec3::new(x, y, z) * 0.5,
+                    Vec3::new(x + 1.0, y + 1.0, z + 1.0) * 0.5,
+                    rng.random_range(0..4),
+                );
+            }
+            (format!("box stack {w}x{h}"), Vec3::new(0.0, 0.5, 0.0), 2.0)
+        }
+        _ => {
+            // The box stack far from the origin or tiny: relative precision of positions.
+            let (scale, offset) = if rng.random::<bool>() {
+                (1.0, Vec3::new(1000.0, -500.0, 250.0))
+            } else {
+                (1e-3, Vec3::ZERO)
+            };
+            for i in 0..4 {
+                let x = i as f32 * 0.5 - 1.0;
+                cuboid(
+                    &mut mesh,
+                    Vec3::new(x, 0.0, -0.25) * scale + offset,
+                    Vec3::new(x + 0.5, 0.5 + 0.25 * i as f32, 0.25) * scale + offset,
+                    i,
+                );
+            }
+            (
+                format!("boxes at scale {scale} offset {offset} {w}x{h}"),
+                offset + Vec3::new(0.0, 0.25, 0.0) * scale,
+                2.0 * scale,
+            )
+        }
+    };
+    let az: f32 = rng.random_range(-1.2..1.2);
+    let el: f32 = rng.random_range(0.1..0.9);
+    let eye = centre + Vec3::new(az.sin() * el.cos(), el.sin(), az.cos() * el.cos()) * (2.5 * size);
+    let scene = Scene {
+        mesh,
+        materials: random_materials(&mut rng),
+        camera: CameraDesc {
+            eye: eye.to_array(),
+            target: centre.to_array(),
+            up: [0.0, 1.0, 0.0],
+            fov_y_deg: rng.random_range(30.0..60.0),
+            width: w,
+            height: h,
+        },
+        lights: random_lights(&mut rng, centre, size),
+        render: RenderSettings::default(),
+        warnings: vec![],
+    };
+    (scene, label)
+}
+
+/// The scene's buffers, named as the ray-tracing kernels bind them.
+pub fn scene_resources(data: &SceneData) -> Resources {
+    let mut r = Resources::new();
+    r.insert(
+        "frame".into(),
+        HostResource::Buffer(HostBuffer::pod(&data.frame)),
+    );
+    r.insert(
+        "nodes".into(),
+        HostResource::Buffer(HostBuffer {
+            bytes: bytemuck::cast_slice(&data.nodes).to_vec(),
+            scalar: ScalarKind::Mixed,
+        }),
+    );
+    let f = |b: &[u8]| HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(b)));
+    r.insert("triangles".into(), f(bytemuck::cast_slice(&data.triangles)));
+    let lights = if data.lights.is_empty() {
+        vec![Default::default()]
+    } else {
+        data.lights.clone()
+    };
+    r.insert("lights".into(), f(bytemuck::cast_slice(&lights)));
+    r.insert("materials".into(), f(bytemuck::cast_slice(&data.materials)));
+    r
+}
+
+/// The G-buffer pass over a scene: resources (inputs plus zeroed outputs) and the pass.
+pub fn case_for(data: &SceneData, label: String, seed: u64) -> Case {
+    let (w, h) = (data.width(), data.height());
+    let n = w as usize * h as usize;
+    let mut resources = scene_resources(data);
+    resources.insert(
+        "gb_position".into(),
+        HostResource::Buffer(HostBuffer::zeroed(n * 16, ScalarKind::F32)),
+    );
+    resources.insert(
+        "gb_normal".into(),
+        HostResource::Buffer(HostBuffer::zeroed(n * 16, ScalarKind::F32)),
+    );
+    resources.insert(
+        "gb_triangle".into(),
+        HostResource::Buffer(HostBuffer::zeroed(n * 4, ScalarKind::U32)),
+    );
+    Case {
+        label,
+        seed,
+        resources,
+        passes: vec![Pass {
+            label: "gbuffer".into(),
+            entry: "main".into(),
+            bindings: DECL.bind_by_name(),
+            workgroups: Workgroups::Direct([w.div_ceil(8), h.div_ceil(8), 1]),
+        }],
+        checks: [("gb_position", 4), ("gb_normal", 4), ("gb_triangle", 1)]
+            .into_iter()
+            .map(|(name, components)| Check {
+                resource: name.into(),
+                output: name,
+                indexing: Indexing::Grid {
+                    dims: [w, h, 1],
+                    components,
+                },
+            })
+            .collect(),
+        effective_bytes: n as u64 * 36,
+    }
+}
+
+/// Mirror G-buffer given the GPU's triangle picks: texels, their bounds, and how many GPU picks
+/// differing from the mirror's own were accepted.
+pub struct MirrorGbuffer {
+    pub position: Vec<[f32; 4]>,
+    pub normal: Vec<[f32; 4]>,
+    pub triangle: Vec<u32>,
+    pub position_bound: Vec<[f32; 4]>,
+    pub normal_bound: Vec<[f32; 4]>,
+    pub accepted_differences: usize,
+}
+
+pub fn mirror_gbuffer(data: &Resources, gpu_triangle: &[u32]) -> MirrorGbuffer {
+    let b = |n: &str| data[n].buffer().expect("buffer");
+    let frame: Frame = *bytemuck::from_bytes(&b("frame").bytes);
+    let nodes: &[vxgi_cpu_mirror::bvh_trace::GpuNode] = bytemuck::cast_slice(&b("nodes").bytes);
+    let tris: &[vxgi_cpu_mirror::bvh_trace::GpuTriangle] =
+        bytemuck::cast_slice(&b("triangles").bytes);
+    let (w, h) = (frame.size[0], frame.size[1]);
+    let mut out = MirrorGbuffer {
+        position: vec![],
+        normal: vec![],
+        triangle: vec![],
+        position_bound: vec![],
+        normal_bound: vec![],
+        accepted_differences: 0,
+    };
+    for y in 0..h {
+        for x in 0..w {
+            let i = (y * w + x) as usize;
+            let g = gpu_triangle.get(i).copied().unwrap_or(u32::MAX);
+            let (t, differs) = accepted_texel(&frame, nodes, tris, x, y, g);
+            let (bp, bn) = texel_bounds(&frame, tris, x, y, &t);
+            out.accepted_differences += differs as usize;
+            out.position.push(t.position);
+            out.normal.push(t.normal);
+            out.triangle.push(t.triangle);
+            out.position_bound.push(bp);
+            out.normal_bound.push(bn);
+        }
+    }
+    out
+}
+
+pub struct Gbuffer;
+
+impl Kernel for Gbuffer {
+    fn decl(&self) -> &'static KernelDecl {
+        &DECL
+    }
+    fn case(&self, _shader: &Shader, _ctx: &GpuContext, seed: u64, index: usize) -> Case {
+        let (scene, label) = generated_scene(seed, index);
+        case_for(&SceneData::new(&scene), label, seed)
+    }
+    fn mirror(
+        &self,
+        _case: &Case,
+        data: &Resources,
+        _mode: FloatMode,
+    ) -> BTreeMap<String, HostBuffer> {
+        // Subnormals play no part in ray-triangle arithmetic at scene scales: one mode serves both.
+        let m = mirror_gbuffer(
+            data,
+            data["gb_triangle"].buffer().expect("gb_triangle").as_u32(),
+        );
+        let f = |v: &[[f32; 4]]| HostBuffer::f32(bytemuck::cast_slice(v));
+        BTreeMap::from([
+            ("gb_position".to_string(), f(&m.position)),
+            (bound_name("gb_position"), f(&m.position_bound)),
+            ("gb_normal".to_string(), f(&m.normal)),
+            (bound_name("gb_normal"), f(&m.normal_bound)),
+            ("gb_triangle".to_string(), HostBuffer::u32(&m.triangle)),
+        ])
+    }
+}

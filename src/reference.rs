@@ -1,0 +1,310 @@
+//! The yardstick: a CPU Monte Carlo renderer of the light-transport contract (README, "Scenes"),
+//! direct + exactly one bounce, kept separate, plus ambient occlusion.
+//!
+//! Per sample: a primary ray through a uniformly jittered point of the pixel (the pixel centre when
+//! `jitter` is off); at a front-face hit
+//! - direct: [`shade_with`] — every light, one exact shadow ray each (the same contract code the
+//!   `direct_light` kernel mirrors);
+//! - indirect: one direction drawn from a mixture of a cosine lobe (weight ∝ the diffuse albedo's
+//!   luminance) and the Phong lobe around the mirror direction (∝ the specular's), weighted by the
+//!   mixture pdf; the surface it reaches (front face) contributes its direct radiance;
+//! - AO: one cosine-distributed direction; an occluder at distance r < ao_range occludes by
+//!   1 / (1 + ao_lambda r); AO = 1 - mean occlusion (1 = open). AO is geometric: at back faces it is taken
+//!   on the side facing the camera.
+//!
+//! Back faces reflect nothing (direct = indirect = 0 there); pixels that see nothing are 0 in all images.
+//! Every pixel has its own ChaCha stream seeded from (seed, pixel): results do not depend on threads.
+use crate::scene::Scene;
+use crate::trace::{SceneData, Tracer};
+use glam::Vec3;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
+use std::f32::consts::PI;
+use vxgi_cpu_mirror::bvh_trace::FAR;
+use vxgi_cpu_mirror::direct_light::{brdf, face_normal, shade_with, GpuMaterial};
+use vxgi_cpu_mirror::gbuffer::Frame;
+
+/// Linear RGB images of one view, row-major, y down.
+#[derive(Clone, Debug, Default)]
+pub struct Images {
+    pub width: u32,
+    pub height: u32,
+    pub direct: Vec<[f32; 3]>,
+    pub indirect: Vec<[f32; 3]>,
+    pub ao: Vec<[f32; 3]>,
+}
+
+impl Images {
+    /// direct + indirect (AO is not multiplied in).
+    pub fn combined(&self) -> Vec<[f32; 3]> {
+        self.direct
+            .iter()
+            .zip(&self.indirect)
+            .map(|(d, i)| [d[0] + i[0], d[1] + i[1], d[2] + i[2]])
+            .collect()
+    }
+}
+
+#[derive(Clone, Copy, Debug)]
+pub struct ReferenceOptions {
+    /// Samples per pixel.
+    pub spp: u32,
+    pub seed: u64,
+    /// Jitter primary rays over the pixel (off: every sample through the pixel centre).
+    pub jitter: bool,
+}
+
+impl Default for ReferenceOptions {
+    fn default() -> Self {
+        Self {
+            spp: 64,
+            seed: 1,
+            jitter: true,
+        }
+    }
+}
+
+fn ray_through(frame: &Frame, x: f32, y: f32) -> (Vec3, Vec3) {
+    let v = |a: [f32; 4]| Vec3::new(a[0], a[1], a[2]);
+    let w = frame.size[0] as f32;
+    let h = frame.size[1] as f32;
+    let nx = x / w * 2.0 - 1.0;
+    let ny = 1.0 - y / h * 2.0;
+    let d = v(frame.forward) + v(frame.right) * nx + v(frame.up) * ny;
+    (v(frame.eye), d.normalize())
+}
+
+/// An orthonormal basis around `n` (Duff et al. 2017).
+fn basis(n: Vec3) -> (Vec3, Vec3) {
+    n.any_orthonormal_pair()
+}
+
+fn cosine_direction(n: Vec3, r1: f32, r2: f32) -> Vec3 {
+    let (t, b) = basis(n);
+    let phi = 2.0 * PI * r1;
+    let s = r2.sqrt();
+    (t * (phi.cos() * s) + b * (phi.sin() * s) + n * (1.0 - r2).max(0.0).sqrt()).normalize()
+}
+
+fn phong_direction(axis: Vec3, shininess: f32, r1: f32, r2: f32) -> Vec3 {
+    let (t, b) = basis(axis);
+    let phi = 2.0 * PI * r1;
+    let c = r2.powf(1.0 / (shininess + 1.0));
+    let s = (1.0 - c * c).max(0.0).sqrt();
+    (t * (phi.cos() * s) + b * (phi.sin() * s) + axis * c).normalize()
+}
+
+fn luminance(c: Vec3) -> f32 {
+    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
+}
+
+struct Ctx<'a> {
+    data: &'a SceneData,
+    tracer: Tracer<'a>,
+    ao_range: f32,
+    ao_lambda: f32,
+}
+
+struct Surface {
+    p: Vec3,
+    n: Vec3,
+    ng: Vec3,
+    front: bool,
+    material: GpuMaterial,
+}
+
+impl Ctx<'_> {
+    fn surface(&self, o: Vec3, d: Vec3) -> Option<Surface> {
+        let h = self.tracer.closest(o, d, 0.0, FAR)?;
+        let tri = &self.data.triangles[h.tri as usize];
+        let v = |a: [f32; 4]| Vec3::new(a[0], a[1], a[2]);
+        let w = 1.0 - h.u - h.v;
+        let n = (v(tri.na) * w + v(tri.nb) * h.u + v(tri.nc) * h.v).normalize();
+        let m = (tri.material() as usize).min(self.data.materials.len() - 1);
+        Some(Surface {
+            p: o + d * h.t,
+            n,
+            ng: face_normal(tri),
+            front: h.front,
+            material: self.data.materials[m],
+        })
+    }
+
+    fn direct(&self, s: &Surface, wo: Vec3) -> Vec3 {
+        shade_with(
+            |o, d, t0, t1| self.tracer.occluded(o, d, t0, t1),
+            &self.data.lights,
+            &s.material,
+            s.p,
+            s.n,
+            s.ng,
+            wo,
+            self.data.eps(),
+        )
+    }
+
+    fn indirect(&self, s: &Surface, wo: Vec3, rng: &mut ChaCha8Rng) -> Vec3 {
+        let m = &s.material;
+        let kd = Vec3::from_slice(&m.diffuse[..3]);
+        let ks = Vec3::from_slice(&m.specular[..3]);
+        let shin = m.diffuse[3];
+        let (ld, ls) = (luminance(kd), luminance(ks));
+        if ld + ls <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let p_spec = ls / (ld + ls);
+        let mirror = s.n * (2.0 * s.n.dot(wo)) - wo;
+        let (r0, r1, r2): (f32, f32, f32) = (rng.random(), rng.random(), rng.random());
+        let wi = if r0 < p_spec {
+            phong_direction(mirror, shin, r1, r2)
+        } else {
+            cosine_direction(s.n, r1, r2)
+        };
+        let cos = s.n.dot(wi);
+        if cos <= 0.0 || s.ng.dot(wi) <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let lobe = mirror.dot(wi).max(0.0);
+        let pdf = (1.0 - p_spec) * cos / PI
+            + if p_spec > 0.0 {
+                p_spec * (shin + 1.0) * (0.5 / PI) * lobe.powf(shin)
+            } else {
+                0.0
+            };
+        if pdf <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let origin = s.p + s.ng * self.data.eps();
+        match self.surface(origin, wi) {
+            Some(s2) if s2.front => {
+                let l = self.direct(&s2, -wi);
+                brdf(m, s.n, wi, wo, cos) * l * (cos / pdf)
+            }
+            _ => Vec3::ZERO,
+        }
+    }
+
+    fn occlusion(&self, s: &Surface, toward_eye: Vec3, rng: &mut ChaCha8Rng) -> f32 {
+        let (n, ng) = if s.ng.dot(toward_eye) >= 0.0 {
+            (s.n, s.ng)
+        } else {
+            (-s.n, -s.ng)
+        };
+        let n = if n.dot(ng) > 0.0 { n } else { ng };
+        let wi = cosine_direction(n, rng.random(), rng.random());
+        if ng.dot(wi) <= 0.0 {
+            return 1.0; // into the surface itself
+        }
+        let origin = s.p + ng * self.data.eps();
+        match self.tracer.closest(origin, wi, 0.0, self.ao_range) {
+            Some(h) => 1.0 / (1.0 + self.ao_lambda * h.t),
+            None => 0.0,
+        }
+    }
+}
+
+/// Render the reference images. `progress(rows)` is called as rows finish (from worker threads).
+pub fn render_reference(
+    scene: &Scene,
+    opts: &ReferenceOptions,
+    progress: impl Fn(u64) + Sync,
+) -> Images {
+    let data = SceneData::new(scene);
+    let ctx = Ctx {
+        tracer: Tracer::new(&data),
+        data: &data,
+        ao_range: scene.render.ao_range,
+        ao_lambda: scene.render.ao_lambda,
+    };
+    let (w, h) = (data.width(), data.height());
+    let spp = opts.spp.max(1);
+    let rows: Vec<Vec<[[f32; 3]; 3]>> = (0..h)
+        .into_par_iter()
+        .map(|y| {
+            let row = (0..w)
+                .map(|x| {
+                    let pixel = y as u64 * w as u64 + x as u64;
+                    let mut rng = ChaCha8Rng::seed_from_u64(
+                        opts.seed ^ pixel.wrapping_mul(0x9E37_79B9_7F4A_7C15),
+                    );
+                    let (mut d, mut i, mut a) = (Vec3::ZERO, Vec3::ZERO, 0.0f32);
+                    for _ in 0..spp {
+                        let (jx, jy) = if opts.jitter {
+                            (rng.random::<f32>(), rng.random::<f32>())
+                        } else {
+                            (0.5, 0.5)
+                        };
+                        let (o, dir) = ray_through(&data.frame, x as f32 + jx, y as f32 + jy);
+                        let Some(s) = ctx.surface(o, dir) else {
+                            continue;
+                        };
+                        let wo = -dir;
+                        if s.front {
+                            d += ctx.direct(&s, wo);
+                            i += ctx.indirect(&s, wo, &mut rng);
+                        }
+                        a += 1.0 - ctx.occlusion(&s, wo, &mut rng);
+                    }
+                    let k = 1.0 / spp as f32;
+                    [(d * k).to_array(), (i * k).to_array(), [a * k; 3]]
+                })
+                .collect();
+            progress(1);
+            row
+        })
+        .collect();
+    let mut out = Images {
+        width: w,
+        height: h,
+        ..Default::default()
+    };
+    for px in rows.into_iter().flatten() {
+        out.direct.push(px[0]);
+        out.indirect.push(px[1]);
+        out.ao.push(px[2]);
+    }
+    out
+}
+
+/// World position (w = distance, -1: nothing) of every pixel centre, from the CPU mirror of the
+/// `gbuffer` kernel.
+pub fn pixel_positions(scene: &Scene) -> Vec<[f32; 4]> {
+    let data = SceneData::new(scene);
+    let (w, h) = (data.width(), data.height());
+    (0..h)
+        .flat_map(|y| (0..w).map(move |x| (x, y)))
+        .map(|(x, y)| {
+            vxgi_cpu_mirror::gbuffer::shade_pixel(&data.frame, &data.nodes, &data.triangles, x, y)
+                .position
+        })
+        .collect()
+}
+
+/// Light leak of `scenes/thin_wall.toml`: indirect energy (summed luminance) over pixels that see the
+/// dark room (x > split_x) divided by that over pixels that see the lit room (x < split_x). Pixels
+/// seeing nothing, or the wall's front edge (|x - split_x| <= half_thickness), count for neither.
+pub fn leak(
+    indirect: &[[f32; 3]],
+    positions: &[[f32; 4]],
+    split_x: f32,
+    half_thickness: f32,
+) -> f64 {
+    let (mut dark, mut lit) = (0.0f64, 0.0f64);
+    for (c, p) in indirect.iter().zip(positions) {
+        if p[3] < 0.0 || (p[0] - split_x).abs() <= half_thickness {
+            continue;
+        }
+        let l = luminance(Vec3::from(*c)) as f64;
+        if p[0] > split_x {
+            dark += l;
+        } else {
+            lit += l;
+        }
+    }
+    if lit > 0.0 {
+        dark / lit
+    } else {
+        0.0
+    }
+}

@@ -1,0 +1,227 @@
+//! Our GPU direct light against the CPU reference's (both exact), on the Cornell box and thin_wall;
+//! the reference's one-bounce and AO images; the render / reference / compare commands.
+mod common;
+
+use common::gpu;
+use std::path::Path;
+use std::process::Command;
+use vxgi::images::{compare, read_exr, relative_mse, RgbImage};
+use vxgi::reference::{leak, pixel_positions, render_reference, ReferenceOptions};
+use vxgi::scene::Scene;
+
+fn small(mut scene: Scene, w: u32, h: u32) -> Scene {
+    scene.camera.width = w;
+    scene.camera.height = h;
+    scene
+}
+
+fn thin_wall() -> Scene {
+    Scene::load(Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/thin_wall.toml")).unwrap()
+}
+
+/// The stated bound. Both sides trace the same pixel-centre rays (reference with jitter off) and
+/// evaluate the same contract, so they agree to float rounding except at pixels whose ray meets an
+/// edge shared by two faces (corners of the room): there the two traversals may take different faces.
+/// Bound: >= 99% of pixels within 1e-4 relative (+1e-6 absolute) and relative MSE < 1e-2.
+fn assert_direct_agrees(scene: &Scene, name: &str) {
+    let ours = vxgi::render::render(gpu(), scene).unwrap().direct;
+    let reference = render_reference(
+        scene,
+        &ReferenceOptions {
+            spp: 1,
+            seed: 1,
+            jitter: false,
+        },
+        |_| {},
+    );
+    let r = RgbImage::new(reference.width, reference.height, reference.direct);
+    let close = ours
+        .pixels
+        .iter()
+        .zip(&r.pixels)
+        .filter(|(a, b)| (0..3).all(|c| (a[c] - b[c]).abs() <= 1e-4 * b[c].abs() + 1e-6))
+        .count();
+    let mse = relative_mse(&r, &ours);
+    let lit = r.pixels.iter().filter(|p| p[0] > 0.0).count();
+    println!(
+        "{name}: {close} of {} pixels within 1e-4, relative MSE {mse:.2e}, {lit} lit",
+        r.pixels.len()
+    );
+    assert!(
+        lit * 4 > r.pixels.len(),
+        "{name}: too few lit pixels for a meaningful check"
+    );
+    assert!(
+        close * 100 >= r.pixels.len() * 99,
+        "{name}: {close} of {}",
+        r.pixels.len()
+    );
+    assert!(mse < 1e-2, "{name}: relative MSE {mse}");
+}
+
+#[test]
+fn direct_light_agrees_with_the_reference_on_the_cornell_box() {
+    assert_direct_agrees(&small(Scene::cornell_box(), 96, 96), "cornell box");
+}
+
+#[test]
+fn direct_light_agrees_with_the_reference_on_thin_wall() {
+    assert_direct_agrees(&small(thin_wall(), 128, 64), "thin_wall");
+}
+
+/// With anti-aliasing on (jittered reference) the pixel-centre GPU image differs along geometric edges
+/// and hard-shadow boundaries, which at 96x96 are a large share of the pixels: a sanity bound (a
+/// convention error gives far more: measured, an extra 1/pi gives FLIP 0.61, a factor 2 gives 0.41;
+/// the correct image 0.107), printed for reading.
+#[test]
+fn anti_aliased_reference_differs_only_at_edges() {
+    let scene = small(Scene::cornell_box(), 96, 96);
+    let ours = vxgi::render::render(gpu(), &scene).unwrap().direct;
+    let reference = render_reference(
+        &scene,
+        &ReferenceOptions {
+            spp: 16,
+            seed: 3,
+            jitter: true,
+        },
+        |_| {},
+    );
+    let r = RgbImage::new(reference.width, reference.height, reference.direct);
+    let c = compare(&r, Path::new("reference"), &ours, Path::new("ours")).unwrap();
+    println!(
+        "jittered 16 spp reference vs ours: relative MSE {:.4}, mean FLIP {:.4}",
+        c.rel_mse, c.flip_mean
+    );
+    assert!(
+        c.flip_mean < 0.15 && c.rel_mse < 0.1,
+        "{} {}",
+        c.flip_mean,
+        c.rel_mse
+    );
+}
+
+/// thin_wall's reference: the dark room gets no light at all (no one-bounce path crosses the wall),
+/// the lit room plenty; AO is 1 on open surfaces far from corners and below 1 near them.
+#[test]
+fn thin_wall_reference_has_no_leak_and_ao_is_in_range() {
+    let scene = small(thin_wall(), 64, 32);
+    let img = render_reference(
+        &scene,
+        &ReferenceOptions {
+            spp: 8,
+            seed: 2,
+            jitter: false,
+        },
+        |_| {},
+    );
+    let pos = pixel_positions(&scene);
+    let lit: f32 = img.indirect.iter().map(|p| p[0]).sum();
+    assert!(lit > 0.0, "no indirect light at all");
+    assert_eq!(leak(&img.indirect, &pos, 0.0, 1.0 / 64.0), 0.0);
+    assert!(img.ao.iter().all(|a| (0.0..=1.0).contains(&a[0])));
+    assert!(img
+        .ao
+        .iter()
+        .zip(&pos)
+        .any(|(a, p)| p[3] > 0.0 && a[0] < 0.9));
+}
+
+fn vxgi(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_vxgi"))
+        .args(args)
+        .output()
+        .expect("run vxgi");
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into(),
+        String::from_utf8_lossy(&out.stderr).into(),
+    )
+}
+
+/// A 32x32 copy of the Cornell box scene file (the OBJ referenced by absolute path).
+fn small_scene_file(dir: &Path) -> String {
+    let obj = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell_box.obj");
+    let toml = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell_box.toml"),
+    )
+    .unwrap()
+    .replace(
+        "\"cornell_box.obj\"",
+        &format!("{:?}", obj.display().to_string()),
+    )
+    .replace("width = 256", "width = 32")
+    .replace("height = 256", "height = 32");
+    let path = dir.join("small.toml");
+    std::fs::write(&path, toml).unwrap();
+    path.display().to_string()
+}
+
+#[test]
+fn render_reference_and_compare_commands() {
+    let dir = std::env::temp_dir().join(format!("vxgi-cli-render-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = small_scene_file(&dir);
+    let (gpu_dir, ref_dir) = (dir.join("gpu"), dir.join("ref"));
+    let s = |p: &Path| p.display().to_string();
+
+    let (code, out, err) = vxgi(&["render", &scene, "--out", &s(&gpu_dir)]);
+    assert_eq!(code, 0, "{out}\n{err}");
+    assert!(out.contains("indirect.exr not written"), "{out}");
+    assert_eq!(read_exr(&gpu_dir.join("direct.exr")).unwrap().width, 32);
+    assert!(gpu_dir.join("direct.png").exists());
+
+    // The built-in scene without a file, too.
+    let (code, out, err) = vxgi(&["render", "--out", &s(&dir.join("builtin"))]);
+    assert_eq!(code, 0, "{out}\n{err}");
+    assert_eq!(
+        read_exr(&dir.join("builtin/direct.exr")).unwrap().width,
+        256
+    );
+
+    let (code, out, err) = vxgi(&["reference", &scene, "--spp", "2", "--out", &s(&ref_dir)]);
+    assert_eq!(code, 0, "{out}\n{err}");
+    for name in ["direct", "indirect", "combined", "ao"] {
+        let img = read_exr(&ref_dir.join(format!("{name}.exr"))).unwrap();
+        assert_eq!((img.width, img.height), (32, 32), "{name}");
+        assert!(img.first_non_finite().is_none(), "{name}");
+        assert!(ref_dir.join(format!("{name}.png")).exists(), "{name}");
+    }
+
+    let heat = dir.join("heat.png");
+    let (code, out, err) = vxgi(&[
+        "compare",
+        &s(&ref_dir.join("direct.exr")),
+        &s(&gpu_dir.join("direct.exr")),
+        "--heatmap",
+        &s(&heat),
+    ]);
+    assert_eq!(code, 0, "{out}\n{err}");
+    assert!(
+        out.contains("relative MSE") && out.contains("mean FLIP"),
+        "{out}"
+    );
+    assert!(heat.exists());
+
+    // A [render] override out of range is refused, naming the key.
+    let (code, _, err) = vxgi(&["reference", &scene, "--ao-range=-1", "--out", &s(&ref_dir)]);
+    assert_ne!(code, 0);
+    assert!(err.contains("ao_range"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn compare_refuses_non_finite_pixels_and_size_mismatch() {
+    let a = RgbImage::new(2, 1, vec![[0.5; 3], [0.5; 3]]);
+    let nan = RgbImage::new(2, 1, vec![[0.5; 3], [f32::NAN, 0.0, 0.0]]);
+    let e = compare(&a, Path::new("ref.exr"), &nan, Path::new("test.exr")).unwrap_err();
+    assert!(
+        e.to_string().contains("test.exr") && e.to_string().contains("(1, 0)"),
+        "{e}"
+    );
+    let b = RgbImage::new(1, 2, vec![[0.5; 3], [0.5; 3]]);
+    assert!(compare(&a, Path::new("a"), &b, Path::new("b")).is_err());
+    // Identical images: zero error on both metrics.
+    let c = compare(&a, Path::new("a"), &a.clone(), Path::new("a")).unwrap();
+    assert_eq!(c.rel_mse, 0.0);
+    assert_eq!(c.flip_mean, 0.0);
+}
