@@ -16,6 +16,7 @@ pub mod radix_sort;
 pub mod sample_lrsm;
 pub mod surface_coverage_mip;
 pub mod tile_normal_histogram;
+pub mod voxelize;
 
 use vxgi_harness::Kernel;
 
@@ -43,6 +44,7 @@ pub fn all() -> Vec<&'static dyn Kernel> {
         &gather_caches::GatherCaches,
         &gbuffer::Gbuffer,
         &direct_light::DirectLight,
+        &voxelize::Voxelize,
     ]
 }
 

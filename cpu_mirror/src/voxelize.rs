@@ -1,0 +1,119 @@
+//! Mirror of `kernels/voxelize.wgsl`: surface-sampling voxelization (CPRC 3.1, "Voxelization": sample
+//! all surfaces uniformly, write each sample to its cell, average albedo and normal per cell, list the
+//! non-empty cells), in integer arithmetic so GPU and mirror agree exactly whatever the order of the
+//! atomic additions.
+//!
+//! Host preparation (`vxgi::kernels::voxelize::prepare`): vertices on a lattice of 1/256 voxel
+//! (`q = round((p - origin) / voxel * 256)`, clamped to the grid), albedo and vertex normals in fixed
+//! point (x 4096), and per triangle the sample count `n = 2 * ceil(longest edge in voxels) + 1`, so
+//! neighbouring samples are at most half a voxel apart.
+//!
+//! Samples: `P(i, j) = A + ((B - A) i + (C - A) j) / n` for `i + j <= n` (i32, division truncating
+//! toward zero, as in WGSL); voxel `P >> 8`. Normal of a sample: `(na (n - i - j) + nb i + nc j) / n`.
+//! Per voxel (Morton index) the sums of albedo, normal and the sample count are accumulated; then
+//! `colour = (sum_albedo / count / 4096, 1)`, `normal = (sum_normal / count / 4096, 0)` (the mean normal,
+//! not renormalised: the mip kernel's convention) and the voxel joins the list.
+use crate::morton;
+use bytemuck::{Pod, Zeroable};
+
+/// Fixed-point scale of albedo and normals.
+pub const FIXED: f32 = 4096.0;
+/// Lattice steps per voxel.
+pub const SUB: i32 = 256;
+
+/// One triangle prepared for voxelization (the WGSL `VoxTriangle`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct VoxTriangle {
+    /// Lattice vertices; a.w = sample count n.
+    pub a: [i32; 4],
+    pub b: [i32; 4],
+    pub c: [i32; 4],
+    /// Fixed-point vertex normals.
+    pub na: [i32; 4],
+    pub nb: [i32; 4],
+    pub nc: [i32; 4],
+    /// Fixed-point albedo (rgb), w unused.
+    pub albedo: [u32; 4],
+}
+
+/// Accumulators of one voxel (the WGSL keeps 8 u32 per voxel; normals wrap as two's complement).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Acc {
+    pub albedo: [u32; 3],
+    pub normal: [i32; 3],
+    pub count: u32,
+}
+
+/// The sample (lattice point and fixed-point normal) of row `i`, column `j` of a triangle.
+pub fn sample(t: &VoxTriangle, i: i32, j: i32) -> ([i32; 3], [i32; 3]) {
+    let n = t.a[3];
+    let mut p = [0; 3];
+    let mut nrm = [0; 3];
+    for k in 0..3 {
+        p[k] = t.a[k] + ((t.b[k] - t.a[k]) * i + (t.c[k] - t.a[k]) * j) / n;
+        nrm[k] = (t.na[k] * (n - i - j) + t.nb[k] * i + t.nc[k] * j) / n;
+    }
+    (p, nrm)
+}
+
+/// Accumulate every sample of every triangle into a grid of side `side` (Morton order).
+pub fn accumulate(tris: &[VoxTriangle], side: u32) -> Vec<Acc> {
+    let mut acc = vec![Acc::default(); (side as usize).pow(3)];
+    for t in tris {
+        let n = t.a[3];
+        for i in 0..=n {
+            for j in 0..=(n - i) {
+                let (p, nrm) = sample(t, i, j);
+                let v = p.map(|c| (c / SUB).clamp(0, side as i32 - 1) as u32);
+                let a = &mut acc[morton::encode(v[0], v[1], v[2]) as usize];
+                for (k, n) in nrm.iter().enumerate() {
+                    a.albedo[k] = a.albedo[k].wrapping_add(t.albedo[k]);
+                    a.normal[k] = a.normal[k].wrapping_add(*n);
+                }
+                a.count += 1;
+            }
+        }
+    }
+    acc
+}
+
+/// Colour (albedo, alpha) and mean normal of one voxel.
+pub fn resolve(a: &Acc) -> ([f32; 4], [f32; 4]) {
+    if a.count == 0 {
+        return ([0.0; 4], [0.0; 4]);
+    }
+    let c = a.count as f32;
+    let s = 1.0 / FIXED;
+    (
+        [
+            a.albedo[0] as f32 / c * s,
+            a.albedo[1] as f32 / c * s,
+            a.albedo[2] as f32 / c * s,
+            1.0,
+        ],
+        [
+            a.normal[0] as f32 / c * s,
+            a.normal[1] as f32 / c * s,
+            a.normal[2] as f32 / c * s,
+            0.0,
+        ],
+    )
+}
+
+/// The whole kernel: colour and normal grids (Morton order) and the sorted list of non-empty voxels.
+pub fn voxelize(tris: &[VoxTriangle], side: u32) -> (Vec<[f32; 4]>, Vec<[f32; 4]>, Vec<u32>) {
+    let acc = accumulate(tris, side);
+    let mut colour = Vec::with_capacity(acc.len());
+    let mut normal = Vec::with_capacity(acc.len());
+    let mut list = Vec::new();
+    for (v, a) in acc.iter().enumerate() {
+        let (c, n) = resolve(a);
+        colour.push(c);
+        normal.push(n);
+        if a.count > 0 {
+            list.push(v as u32);
+        }
+    }
+    (colour, normal, list)
+}

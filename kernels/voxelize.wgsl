@@ -1,0 +1,112 @@
+// voxelize — surface-sampling voxelization into the dense Morton grid that surface_coverage_mip reads
+// (Rehfeld et al. 2014, 3.1 "Voxelization": sample all surfaces uniformly, write each sample to its
+// cell, average albedo and normals per cell, keep a list of the non-empty cells).
+// Mirror: cpu_mirror/src/voxelize.rs. Declaration and host preparation: src/kernels/voxelize.rs.
+//
+// Integer arithmetic throughout the sampling, so the result does not depend on the order of atomic
+// additions and the mirror reproduces it exactly:
+//   triangles: lattice vertices (1/256 voxel, a.w = sample count n), fixed-point (x 4096) vertex normals
+//   and albedo. Sample (i, j), i + j <= n: P = A + ((B - A) i + (C - A) j) / n (i32, truncating
+//   division), voxel = P >> 8 (clamped to the grid), normal = (na (n-i-j) + nb i + nc j) / n.
+// Pass `splat` (one invocation per triangle row: gid.x = triangle, gid.y = i): adds albedo, normal
+//   (two's complement in u32) and 1 into acc[8 v .. 8 v + 7] = (r, g, b, nx, ny, nz, count, -) of the
+//   sample's voxel v (Morton index). acc must start zeroed.
+// Pass `resolve` (one invocation per voxel): colour = (sum_albedo / count / 4096, 1),
+//   normal = (sum_normal / count / 4096, 0) — the mean, not renormalised — or zeros when empty; a
+//   non-empty voxel appends its index to `list` (atomic counter list_count[0]; order is the GPU's, the
+//   comparison sorts it).
+// Accuracy: counts, lists, alpha exact; colour and normal: one division (2.5 ULP) then an exact
+// power-of-two scale, and the integer-to-float conversions are exact below 2^24 (sums of up to 4096
+// samples): 3 ULP, 4 past that.
+
+struct VoxTriangle {
+    a: vec4<i32>,
+    b: vec4<i32>,
+    c: vec4<i32>,
+    na: vec4<i32>,
+    nb: vec4<i32>,
+    nc: vec4<i32>,
+    albedo: vec4<u32>,
+}
+
+struct VoxParams {
+    side: u32,
+    triangles: u32,
+    _pad0: u32,
+    _pad1: u32,
+}
+
+@group(0) @binding(0) var<uniform> params: VoxParams;
+@group(0) @binding(1) var<storage, read> vox_triangles: array<VoxTriangle>;
+@group(0) @binding(2) var<storage, read_write> acc: array<atomic<u32>>;
+@group(0) @binding(3) var<storage, read_write> vox_colour: array<vec4<f32>>;
+@group(0) @binding(4) var<storage, read_write> vox_normal: array<vec4<f32>>;
+@group(0) @binding(5) var<storage, read_write> list: array<u32>;
+@group(0) @binding(6) var<storage, read_write> list_count: array<atomic<u32>>;
+
+fn spread3(v: u32) -> u32 {
+    var x = v & 0x3ffu;
+    x = (x | (x << 16u)) & 0x030000ffu;
+    x = (x | (x << 8u)) & 0x0300f00fu;
+    x = (x | (x << 4u)) & 0x030c30c3u;
+    x = (x | (x << 2u)) & 0x09249249u;
+    return x;
+}
+
+fn morton3(p: vec3<u32>) -> u32 {
+    return spread3(p.x) | (spread3(p.y) << 1u) | (spread3(p.z) << 2u);
+}
+
+@compute @workgroup_size(64)
+fn splat(@builtin(global_invocation_id) gid: vec3<u32>) {
+    if (gid.x >= params.triangles) {
+        return;
+    }
+    let t = vox_triangles[gid.x];
+    let n = t.a.w;
+    let i = i32(gid.y);
+    if (i > n) {
+        return;
+    }
+    let side = i32(params.side);
+    for (var j = 0; j <= n - i; j++) {
+        let p = t.a.xyz + ((t.b.xyz - t.a.xyz) * i + (t.c.xyz - t.a.xyz) * j) / vec3<i32>(n);
+        let nrm = (t.na.xyz * (n - i - j) + t.nb.xyz * i + t.nc.xyz * j) / vec3<i32>(n);
+        let v = vec3<u32>(clamp(p / vec3<i32>(256), vec3<i32>(0), vec3<i32>(side - 1)));
+        let base = morton3(v) * 8u;
+        atomicAdd(&acc[base], t.albedo.x);
+        atomicAdd(&acc[base + 1u], t.albedo.y);
+        atomicAdd(&acc[base + 2u], t.albedo.z);
+        atomicAdd(&acc[base + 3u], bitcast<u32>(nrm.x));
+        atomicAdd(&acc[base + 4u], bitcast<u32>(nrm.y));
+        atomicAdd(&acc[base + 5u], bitcast<u32>(nrm.z));
+        atomicAdd(&acc[base + 6u], 1u);
+    }
+}
+
+@compute @workgroup_size(64)
+fn resolve(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let v = gid.x + gid.y * groups.x * 64u;
+    if (v >= arrayLength(&vox_colour)) {
+        return;
+    }
+    let base = v * 8u;
+    let count = atomicLoad(&acc[base + 6u]);
+    if (count == 0u) {
+        vox_colour[v] = vec4<f32>(0.0);
+        vox_normal[v] = vec4<f32>(0.0);
+        return;
+    }
+    let c = f32(count);
+    let s = 1.0 / 4096.0;
+    let alb = vec3<f32>(f32(atomicLoad(&acc[base])), f32(atomicLoad(&acc[base + 1u])), f32(atomicLoad(&acc[base + 2u])));
+    let nrm = vec3<f32>(
+        f32(bitcast<i32>(atomicLoad(&acc[base + 3u]))),
+        f32(bitcast<i32>(atomicLoad(&acc[base + 4u]))),
+        f32(bitcast<i32>(atomicLoad(&acc[base + 5u]))),
+    );
+    vox_colour[v] = vec4<f32>(alb / c * s, 1.0);
+    vox_normal[v] = vec4<f32>(nrm / c * s, 0.0);
+    let slot = atomicAdd(&list_count[0], 1u);
+    list[slot] = v;
+}

@@ -1,0 +1,335 @@
+//! Declaration of `kernels/voxelize.wgsl` (mirror: `vxgi_cpu_mirror::voxelize`): surface-sampling
+//! voxelization of a scene into the dense Morton grid `surface_coverage_mip` reads, plus the list of
+//! non-empty voxels. [`prepare`] puts a scene on the integer lattice the kernel samples; cases are the
+//! generated scenes of [`super::gbuffer::generated_scene`] at 8^3..64^3.
+use super::gbuffer::generated_scene;
+use crate::grids::Grid;
+use crate::scene::Scene;
+use glam::Vec3;
+use std::collections::BTreeMap;
+use vxgi_cpu_mirror::voxelize::{accumulate, resolve, VoxTriangle, FIXED, SUB};
+use vxgi_harness::run::{grid_for, run, Pass, Workgroups};
+use vxgi_harness::{
+    Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
+    KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
+};
+
+pub static DECL: KernelDecl = KernelDecl {
+    name: "voxelize",
+    wgsl_path: "kernels/voxelize.wgsl",
+    wgsl: include_str!("../../kernels/voxelize.wgsl"),
+    includes: &[],
+    entry: "splat",
+    inputs: &["params", "vox_triangles"],
+    outputs: &[
+        // Integer sums of integer samples: exact in any order of the atomic additions.
+        Output { binding: "acc", tolerance: Tolerance::Exact },
+        // One division (2.5 ULP) then an exact power-of-two scale; integer-to-float conversions exact
+        // below 2^24, one more ULP past that.
+        Output { binding: "vox_colour", tolerance: Tolerance::Ulp { ulps: 4, abs_floor: 0.0 } },
+        Output { binding: "vox_normal", tolerance: Tolerance::Ulp { ulps: 4, abs_floor: 0.0 } },
+        // Exact; the list's order is the GPU's (atomic append): both sides are sorted before comparing.
+        Output { binding: "list", tolerance: Tolerance::Exact },
+        Output { binding: "list_count", tolerance: Tolerance::Exact },
+    ],
+    dispatch: DispatchRule::PerElement { binding: "vox_colour" },
+    mirror: "vxgi_cpu_mirror::voxelize::voxelize",
+    summary: "surface-sampling voxelization (CPRC 3.1): mean albedo and normal per voxel, alpha 1, non-empty list",
+};
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct VoxParams {
+    pub side: u32,
+    pub triangles: u32,
+    pub _pad: [u32; 2],
+}
+
+/// Where the grid sits: a cube of `side` voxels of size `voxel` from `origin` (the scene's bounding
+/// box's minimum corner; the cube's side is the box's longest extent).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VoxelFrame {
+    pub origin: Vec3,
+    pub voxel: f32,
+    pub side: u32,
+}
+
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum VoxelizeError {
+    #[error("voxels = {0}: must be a power of two in 8..=512")]
+    Side(u32),
+    #[error(
+        "voxels = {side}: the accumulators need {bytes} bytes in one binding, past the device's \
+         max_storage_buffer_binding_size ({limit}); use a smaller grid"
+    )]
+    TooLarge { side: u32, bytes: u64, limit: u64 },
+}
+
+/// The scene's triangles on the kernel's lattice, and the grid's frame.
+pub fn prepare(scene: &Scene, side: u32) -> Result<(Vec<VoxTriangle>, VoxelFrame), VoxelizeError> {
+    if !(8..=512).contains(&side) || !side.is_power_of_two() {
+        return Err(VoxelizeError::Side(side));
+    }
+    let mesh = &scene.mesh;
+    let (lo, hi) = mesh.positions.iter().fold(
+        (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+        |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+    );
+    let extent = (hi - lo).max_element().max(1e-6);
+    let voxel = extent / side as f32;
+    let max_q = side as i32 * SUB - 1;
+    let lattice = |p: Vec3| -> [i32; 3] {
+        ((p - lo) / voxel * SUB as f32)
+            .round()
+            .to_array()
+            .map(|c| (c as i32).clamp(0, max_q))
+    };
+    let fixed = |v: Vec3| (v * FIXED).round().to_array().map(|c| c as i32);
+    let tris = mesh
+        .triangles
+        .iter()
+        .zip(&mesh.material)
+        .map(|(t, &m)| {
+            let p = t.map(|i| lattice(mesh.positions[i as usize]));
+            let n = t.map(|i| fixed(mesh.normals[i as usize]));
+            let len = |a: [i32; 3], b: [i32; 3]| {
+                let d = Vec3::new(
+                    (b[0] - a[0]) as f32,
+                    (b[1] - a[1]) as f32,
+                    (b[2] - a[2]) as f32,
+                );
+                d.length() / SUB as f32
+            };
+            let longest = len(p[0], p[1]).max(len(p[1], p[2])).max(len(p[2], p[0]));
+            let samples = 2 * longest.ceil() as i32 + 1;
+            let kd = scene
+                .materials
+                .get(m as usize)
+                .map(|m| m.diffuse)
+                .unwrap_or([0.8; 3]);
+            let w = |a: [i32; 3], w: i32| [a[0], a[1], a[2], w];
+            VoxTriangle {
+                a: w(p[0], samples),
+                b: w(p[1], 0),
+                c: w(p[2], 0),
+                na: w(n[0], 0),
+                nb: w(n[1], 0),
+                nc: w(n[2], 0),
+                albedo: [
+                    (kd[0].clamp(0.0, 1.0) * FIXED).round() as u32,
+                    (kd[1].clamp(0.0, 1.0) * FIXED).round() as u32,
+                    (kd[2].clamp(0.0, 1.0) * FIXED).round() as u32,
+                    0,
+                ],
+            }
+        })
+        .collect();
+    Ok((
+        tris,
+        VoxelFrame {
+            origin: lo,
+            voxel,
+            side,
+        },
+    ))
+}
+
+/// Resources and passes voxelizing `tris` into a grid of side `side`.
+pub fn case_for(
+    ctx: &GpuContext,
+    tris: &[VoxTriangle],
+    side: u32,
+    label: String,
+    seed: u64,
+) -> Result<Case, VoxelizeError> {
+    let voxels = (side as u64).pow(3);
+    let limit = ctx.limits().max_storage_buffer_binding_size;
+    if voxels * 32 > limit {
+        return Err(VoxelizeError::TooLarge {
+            side,
+            bytes: voxels * 32,
+            limit,
+        });
+    }
+    let mut resources = Resources::new();
+    resources.insert(
+        "params".into(),
+        HostResource::Buffer(HostBuffer::pod(&VoxParams {
+            side,
+            triangles: tris.len() as u32,
+            _pad: [0; 2],
+        })),
+    );
+    let tri_bytes = if tris.is_empty() {
+        bytemuck::bytes_of(&VoxTriangle::default()).to_vec()
+    } else {
+        bytemuck::cast_slice(tris).to_vec()
+    };
+    resources.insert(
+        "vox_triangles".into(),
+        HostResource::Buffer(HostBuffer {
+            bytes: tri_bytes,
+            scalar: ScalarKind::Mixed,
+        }),
+    );
+    let v = voxels as usize;
+    let zeroed = |bytes: usize, s| HostResource::Buffer(HostBuffer::zeroed(bytes, s));
+    resources.insert("acc".into(), zeroed(v * 32, ScalarKind::U32));
+    resources.insert("vox_colour".into(), zeroed(v * 16, ScalarKind::F32));
+    resources.insert("vox_normal".into(), zeroed(v * 16, ScalarKind::F32));
+    resources.insert("list".into(), zeroed(v * 4, ScalarKind::U32));
+    resources.insert("list_count".into(), zeroed(4, ScalarKind::U32));
+    let max_rows = tris.iter().map(|t| t.a[3] + 1).max().unwrap_or(1) as u32;
+    let max = ctx.limits().max_compute_workgroups_per_dimension;
+    let bindings = DECL.bind_by_name();
+    let morton = |components| Indexing::Morton {
+        n: side,
+        components,
+    };
+    Ok(Case {
+        label,
+        seed,
+        resources,
+        passes: vec![
+            Pass {
+                label: "splat".into(),
+                entry: "splat".into(),
+                bindings: bindings.clone(),
+                workgroups: Workgroups::Direct([
+                    (tris.len() as u32).div_ceil(64).max(1),
+                    max_rows,
+                    1,
+                ]),
+            },
+            Pass {
+                label: "resolve".into(),
+                entry: "resolve".into(),
+                bindings,
+                workgroups: Workgroups::Direct(grid_for(voxels, 64, max)),
+            },
+        ],
+        checks: vec![
+            Check {
+                resource: "acc".into(),
+                output: "acc",
+                indexing: morton(8),
+            },
+            Check {
+                resource: "vox_colour".into(),
+                output: "vox_colour",
+                indexing: morton(4),
+            },
+            Check {
+                resource: "vox_normal".into(),
+                output: "vox_normal",
+                indexing: morton(4),
+            },
+            Check {
+                resource: "list".into(),
+                output: "list",
+                indexing: Indexing::Linear,
+            },
+            Check {
+                resource: "list_count".into(),
+                output: "list_count",
+                indexing: Indexing::Linear,
+            },
+        ],
+        effective_bytes: voxels * 68,
+    })
+}
+
+/// Voxelize `scene` on the GPU: the level-0 grid for `surface_coverage_mip`, the non-empty voxels
+/// (sorted) and the grid's frame.
+pub fn voxelize_on_gpu(
+    ctx: &GpuContext,
+    scene: &Scene,
+    side: u32,
+) -> anyhow::Result<(Grid, Vec<u32>, VoxelFrame)> {
+    let (tris, frame) = prepare(scene, side)?;
+    let case = case_for(ctx, &tris, side, "voxelize".into(), 0)?;
+    let out = run(
+        ctx,
+        &DECL.shader()?,
+        DECL.name,
+        &case.resources,
+        &case.passes,
+        &["vox_colour", "vox_normal", "list", "list_count"],
+    )?;
+    let count = out.buffer("list_count").as_u32()[0] as usize;
+    let mut list = out.buffer("list").as_u32()[..count].to_vec();
+    list.sort_unstable();
+    let grid = Grid {
+        n: side,
+        colour: bytemuck::cast_slice(&out.buffer("vox_colour").bytes).to_vec(),
+        normal: bytemuck::cast_slice(&out.buffer("vox_normal").bytes).to_vec(),
+    };
+    Ok((grid, list, frame))
+}
+
+pub struct Voxelize;
+
+const SIDES: [u32; 4] = [8, 16, 32, 64];
+
+impl Kernel for Voxelize {
+    fn decl(&self) -> &'static KernelDecl {
+        &DECL
+    }
+    fn case(&self, _shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
+        let (scene, label) = generated_scene(seed, index);
+        let side = SIDES[(index / 4) % SIDES.len()];
+        let (tris, _) = prepare(&scene, side).expect("generated sides are valid");
+        case_for(ctx, &tris, side, format!("{label}, {side}^3"), seed).expect("generated grids fit")
+    }
+    fn mirror(
+        &self,
+        case: &Case,
+        data: &Resources,
+        _mode: FloatMode,
+    ) -> BTreeMap<String, HostBuffer> {
+        // No subnormal can arise: the smallest non-zero value is 1 / count / 4096 >= 2^-36, so the
+        // flush-to-zero mode computes the same.
+        let b = |n: &str| data[n].buffer().expect("buffer");
+        let p: VoxParams = *bytemuck::from_bytes(&b("params").bytes);
+        let tris: &[VoxTriangle] = bytemuck::cast_slice(&b("vox_triangles").bytes);
+        let acc = accumulate(&tris[..p.triangles as usize], p.side);
+        let mut colour = Vec::with_capacity(acc.len());
+        let mut normal = Vec::with_capacity(acc.len());
+        let mut list = Vec::new();
+        let mut raw = Vec::with_capacity(acc.len() * 8);
+        for (v, a) in acc.iter().enumerate() {
+            let (c, n) = resolve(a);
+            colour.push(c);
+            normal.push(n);
+            if a.count > 0 {
+                list.push(v as u32);
+            }
+            raw.extend(a.albedo);
+            raw.extend(a.normal.map(|x| x as u32));
+            raw.extend([a.count, 0]);
+        }
+        let count = list.len() as u32;
+        list.resize(
+            case.resources["list"]
+                .buffer()
+                .expect("list")
+                .as_u32()
+                .len(),
+            0,
+        );
+        let f = |v: &[[f32; 4]]| HostBuffer::f32(bytemuck::cast_slice(v));
+        BTreeMap::from([
+            ("acc".to_string(), HostBuffer::u32(&raw)),
+            ("vox_colour".to_string(), f(&colour)),
+            ("vox_normal".to_string(), f(&normal)),
+            ("list".to_string(), HostBuffer::u32(&list)),
+            ("list_count".to_string(), HostBuffer::u32(&[count])),
+        ])
+    }
+    fn canonicalise(&self, resource: &str, data: &mut HostBuffer) {
+        if resource == "list" {
+            let v: &mut [u32] = bytemuck::cast_slice_mut(&mut data.bytes);
+            v.sort_unstable();
+        }
+    }
+}

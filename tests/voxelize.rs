@@ -1,0 +1,125 @@
+//! GPU vs mirror for `kernels/voxelize.wgsl` (surface-sampling voxelization, CPRC 3.1), its output fed to
+//! `surface_coverage_mip`, coverage without holes, and bad grid sizes.
+mod common;
+
+use common::gpu;
+use std::path::Path;
+use vxgi::harness::kernel::{verify, verify_case};
+use vxgi::harness::{Corruption, VerifyOptions};
+use vxgi::kernels::surface_coverage_mip::{self, chain_case, SurfaceCoverageMip};
+use vxgi::kernels::voxelize::{prepare, voxelize_on_gpu, Voxelize, VoxelizeError};
+use vxgi::scene::Scene;
+use vxgi_cpu_mirror::morton;
+use vxgi_cpu_mirror::surface_coverage_mip::Coverage;
+
+#[test]
+fn generated_scenes_match_the_mirror() {
+    let rep = verify(
+        gpu(),
+        &Voxelize,
+        &VerifyOptions {
+            cases: 12,
+            seed: 4,
+            corrupt: None,
+        },
+        &mut |_| {},
+    )
+    .unwrap();
+    assert!(rep.passed(), "{}", rep.failures[0].report());
+}
+
+#[test]
+fn corrupted_sums_and_lists_are_caught() {
+    // Case 0: the Cornell box at 8^3; voxel 0 (the floor corner) is non-empty.
+    for resource in ["acc", "list", "vox_colour"] {
+        let opts = VerifyOptions {
+            cases: 1,
+            seed: 4,
+            corrupt: Some(Corruption {
+                resource: resource.into(),
+                index: 0,
+            }),
+        };
+        assert!(
+            !verify(gpu(), &Voxelize, &opts, &mut |_| {})
+                .unwrap()
+                .passed(),
+            "{resource}"
+        );
+    }
+}
+
+/// The Cornell box at the default 128^3: the floor (y = 0, 2 x 2 units = the whole grid's width) fills
+/// every voxel of layer 0 — no holes — with alpha 1, and the floor's (12-bit fixed-point) albedo and normal
+/// where nothing else shares the voxel; the voxelization then feeds
+/// the surface-coverage mip chain, verified GPU vs mirror on the GPU's own voxels.
+#[test]
+fn cornell_box_floor_has_no_holes_and_feeds_the_mip_chain() {
+    let scene = Scene::cornell_box();
+    let (grid, list, frame) = voxelize_on_gpu(gpu(), &scene, 128).unwrap();
+    assert_eq!(frame.side, 128);
+    for x in 0..128 {
+        for z in 0..128 {
+            let v = morton::encode(x, 0, z) as usize;
+            assert_eq!(
+                grid.colour[v][3], 1.0,
+                "hole in the floor at voxel ({x}, 0, {z})"
+            );
+            // Away from the walls (x = 0, 127; z = 0) and the boxes (z < 107): the floor alone.
+            if (1..127).contains(&x) && z >= 107 {
+                assert_eq!(grid.colour[v][0], (0.73f32 * 4096.0).round() / 4096.0);
+                assert_eq!(grid.normal[v][1], 1.0, "floor normal {:?}", grid.normal[v]);
+            }
+        }
+    }
+    assert_eq!(
+        list.len(),
+        grid.colour.iter().filter(|c| c[3] == 1.0).count()
+    );
+    let case = chain_case(
+        &surface_coverage_mip::DECL.shader().unwrap(),
+        gpu(),
+        &grid,
+        Coverage::Surface,
+        "voxelized cornell box".into(),
+        0,
+    );
+    let shader = surface_coverage_mip::DECL.shader().unwrap();
+    let (comps, ..) = verify_case(gpu(), &shader, &SurfaceCoverageMip, &case, None).unwrap();
+    assert!(comps.iter().all(|c| c.passed()));
+}
+
+/// thin_wall at the default resolution: the wall (1/32 thick = one voxel) is voxelized without holes
+/// on both faces: every voxel column (y, z) has the wall's two faces in x layers 63 and 64.
+#[test]
+fn thin_wall_is_one_voxel_per_face_without_holes() {
+    let scene =
+        Scene::load(Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/thin_wall.toml")).unwrap();
+    let (grid, _, frame) = voxelize_on_gpu(gpu(), &scene, 128).unwrap();
+    assert!((frame.voxel - 4.0 / 128.0).abs() < 1e-6);
+    // The grid spans y in [0, 4) and z in [-1, 3): the rooms fill y < 2 and z < 1 (layers 0..64).
+    for y in 1..63 {
+        for z in 1..63 {
+            for x in [63, 64] {
+                let v = morton::encode(x, y, z) as usize;
+                assert_eq!(
+                    grid.colour[v][3], 1.0,
+                    "hole in the wall at ({x}, {y}, {z})"
+                );
+            }
+            assert_eq!(grid.colour[morton::encode(62, y, z) as usize][3], 0.0);
+        }
+    }
+}
+
+#[test]
+fn bad_grid_sizes_are_errors() {
+    let scene = Scene::cornell_box();
+    assert_eq!(prepare(&scene, 100).unwrap_err(), VoxelizeError::Side(100));
+    assert_eq!(prepare(&scene, 4).unwrap_err(), VoxelizeError::Side(4));
+    let limit = gpu().limits().max_storage_buffer_binding_size;
+    if 512u64.pow(3) * 32 > limit {
+        let e = voxelize_on_gpu(gpu(), &scene, 512).unwrap_err().to_string();
+        assert!(e.contains("max_storage_buffer_binding_size"), "{e}");
+    }
+}
