@@ -25,6 +25,7 @@ pub mod radix_sort;
 pub mod sample_lrsm;
 pub mod surface_coverage_mip;
 pub mod tile_normal_histogram;
+pub mod voxel_light;
 pub mod voxelize;
 
 /// `x` with a subnormal replaced by zero of the same sign when `flush` is set.

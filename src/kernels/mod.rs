@@ -16,6 +16,7 @@ pub mod radix_sort;
 pub mod sample_lrsm;
 pub mod surface_coverage_mip;
 pub mod tile_normal_histogram;
+pub mod voxel_light;
 pub mod voxelize;
 
 use vxgi_harness::Kernel;
@@ -45,6 +46,7 @@ pub fn all() -> Vec<&'static dyn Kernel> {
         &gbuffer::Gbuffer,
         &direct_light::DirectLight,
         &voxelize::Voxelize,
+        &voxel_light::VoxelLight,
     ]
 }
 
