@@ -5,6 +5,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
 use vxgi::harness::{kernel::verify, run::copy_bandwidth, GpuContext, VerifyOptions};
 use vxgi::images::{read_exr, write_heatmap, write_pair, RgbImage};
+use vxgi::kernels::cone_trace::ConeSettings;
 
 #[derive(Parser)]
 #[command(
@@ -38,12 +39,24 @@ enum Command {
         /// A TOML scene file (see README, "Scenes").
         path: Option<std::path::PathBuf>,
     },
-    /// Render a scene on the GPU into --out: direct.exr/.png (indirect and AO come with cone tracing).
+    /// Render a scene on the GPU into --out: direct, indirect, combined, ao (.exr linear + .png sRGB).
     Render {
         /// A TOML scene file (default: the built-in Cornell box).
         scene: Option<PathBuf>,
         #[arg(long, default_value = "out")]
         out: PathBuf,
+        /// Which pipeline renders indirect light and AO.
+        #[arg(long, value_enum, default_value_t = Pipeline::VctDense)]
+        pipeline: Pipeline,
+        /// Diffuse cones per pixel.
+        #[arg(long, default_value_t = 5)]
+        cones: u32,
+        /// Half-angle of the diffuse cones, degrees.
+        #[arg(long, default_value_t = 30.0)]
+        cone_half_angle: f32,
+        /// Cone origins start this many voxels off the surface along its normal.
+        #[arg(long, default_value_t = ConeSettings::default().offset_voxels)]
+        cone_offset: f32,
         #[command(flatten)]
         render: RenderFlags,
     },
@@ -73,6 +86,12 @@ enum Command {
         #[arg(long)]
         heatmap: Option<PathBuf>,
     },
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+enum Pipeline {
+    /// Dense voxel grid + surface-coverage mips + cone tracing (Crassin 2011 / Rehfeld 2014 section 4).
+    VctDense,
 }
 
 /// Flags overriding the scene file's `[render]` keys (same names).
@@ -114,17 +133,50 @@ fn create_out(dir: &Path) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))
 }
 
-fn run_render(scene: Option<PathBuf>, out: PathBuf, flags: RenderFlags) -> Result<()> {
+fn run_render(
+    scene: Option<PathBuf>,
+    out: PathBuf,
+    cones: ConeSettings,
+    flags: RenderFlags,
+) -> Result<()> {
     let scene = load_scene(&scene, &flags)?;
+    if !(cones.diffuse_half_angle_deg > 0.0 && cones.diffuse_half_angle_deg < 90.0)
+        || cones.diffuse_cones == 0
+    {
+        bail!("--cones must be >= 1 and --cone-half-angle in (0, 90) degrees");
+    }
     create_out(&out)?;
     let ctx = GpuContext::new().context("creating the GPU context")?;
     eprintln!("adapter: {}", ctx.describe());
-    let r = vxgi::render::render(&ctx, &scene)?;
+    let cones = ConeSettings {
+        ao_range: scene.render.ao_range,
+        ao_lambda: scene.render.ao_lambda,
+        ..cones
+    };
+    let bar = ProgressBar::new_spinner();
+    bar.set_style(
+        ProgressStyle::with_template("{spinner} {elapsed} {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+    );
+    bar.enable_steady_tick(std::time::Duration::from_millis(120));
+    let r = vxgi::render::render(&ctx, &scene, &cones, |stage| {
+        bar.set_message(stage.to_string())
+    })?;
+    bar.finish_and_clear();
     write_pair(&out, "direct", &r.direct)?;
-    println!("wrote {}", out.join("direct.exr").display());
-    for (name, why) in &r.missing {
-        println!("{name}.exr not written: {why}");
-    }
+    write_pair(&out, "indirect", &r.indirect)?;
+    write_pair(&out, "combined", &r.combined)?;
+    write_pair(&out, "ao", &r.ao)?;
+    let stages: Vec<String> = r
+        .stages
+        .iter()
+        .map(|(n, s)| format!("{n} {:.0} ms", s * 1e3))
+        .collect();
+    println!(
+        "wrote direct, indirect, combined, ao (.exr + .png) to {}",
+        out.display()
+    );
+    println!("stages (wall clock incl. transfers): {}", stages.join(", "));
     Ok(())
 }
 
@@ -203,7 +255,25 @@ fn real_main() -> Result<()> {
             seed,
         } => run_verify(kernel, cases, seed),
         Command::Scene { path } => run_scene(path),
-        Command::Render { scene, out, render } => run_render(scene, out, render),
+        Command::Render {
+            scene,
+            out,
+            pipeline: Pipeline::VctDense,
+            cones,
+            cone_half_angle,
+            cone_offset,
+            render,
+        } => run_render(
+            scene,
+            out,
+            ConeSettings {
+                diffuse_cones: cones,
+                diffuse_half_angle_deg: cone_half_angle,
+                offset_voxels: cone_offset,
+                ..Default::default()
+            },
+            render,
+        ),
         Command::Reference {
             scene,
             spp,

@@ -24,7 +24,9 @@ fn thin_wall() -> Scene {
 /// edge shared by two faces (corners of the room): there the two traversals may take different faces.
 /// Bound: >= 99% of pixels within 1e-4 relative (+1e-6 absolute) and relative MSE < 1e-2.
 fn assert_direct_agrees(scene: &Scene, name: &str) {
-    let ours = vxgi::render::render(gpu(), scene).unwrap().direct;
+    let ours = vxgi::render::render(gpu(), scene, &Default::default(), |_| {})
+        .unwrap()
+        .direct;
     let reference = render_reference(
         scene,
         &ReferenceOptions {
@@ -76,7 +78,9 @@ fn direct_light_agrees_with_the_reference_on_thin_wall() {
 #[test]
 fn anti_aliased_reference_differs_only_at_edges() {
     let scene = small(Scene::cornell_box(), 96, 96);
-    let ours = vxgi::render::render(gpu(), &scene).unwrap().direct;
+    let ours = vxgi::render::render(gpu(), &scene, &Default::default(), |_| {})
+        .unwrap()
+        .direct;
     let reference = render_reference(
         &scene,
         &ReferenceOptions {
@@ -166,9 +170,12 @@ fn render_reference_and_compare_commands() {
 
     let (code, out, err) = vxgi(&["render", &scene, "--out", &s(&gpu_dir)]);
     assert_eq!(code, 0, "{out}\n{err}");
-    assert!(out.contains("indirect.exr not written"), "{out}");
-    assert_eq!(read_exr(&gpu_dir.join("direct.exr")).unwrap().width, 32);
-    assert!(gpu_dir.join("direct.png").exists());
+    for name in ["direct", "indirect", "combined", "ao"] {
+        let img = read_exr(&gpu_dir.join(format!("{name}.exr"))).unwrap();
+        assert_eq!((img.width, img.height), (32, 32), "{name}");
+        assert!(img.first_non_finite().is_none(), "{name}");
+        assert!(gpu_dir.join(format!("{name}.png")).exists(), "{name}");
+    }
 
     // The built-in scene without a file, too.
     let (code, out, err) = vxgi(&["render", "--out", &s(&dir.join("builtin"))]);

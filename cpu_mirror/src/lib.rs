@@ -11,6 +11,7 @@ pub mod bvh_trace;
 pub mod cache_placement;
 pub mod cluster_extract;
 pub mod cluster_keys;
+pub mod cone_trace;
 pub mod direct_light;
 pub mod gather_caches;
 pub mod gaussian_depth_visibility;

@@ -66,10 +66,21 @@ pub fn gpu_gbuffer(ctx: &GpuContext, data: &SceneData) -> Resources {
 
 /// Direct-light pass over a scene whose G-buffer the GPU has computed.
 pub fn case_for(ctx: &GpuContext, data: &SceneData, label: String, seed: u64) -> Case {
+    case_with_gbuffer(ctx, data, &gpu_gbuffer(ctx, data), label, seed)
+}
+
+/// Direct-light pass over a scene with the given G-buffer (gb_position, gb_normal, gb_triangle).
+pub fn case_with_gbuffer(
+    ctx: &GpuContext,
+    data: &SceneData,
+    gbuffer: &Resources,
+    label: String,
+    seed: u64,
+) -> Case {
     let (w, h) = (data.width(), data.height());
     let n = w as usize * h as usize;
     let mut resources = scene_resources(data);
-    resources.extend(gpu_gbuffer(ctx, data));
+    resources.extend(gbuffer.clone());
     resources.insert(
         "radiance".into(),
         HostResource::Buffer(HostBuffer::zeroed(n * 16, ScalarKind::F32)),

@@ -4,6 +4,7 @@
 pub mod cache_placement;
 pub mod cluster_extract;
 pub mod cluster_keys;
+pub mod cone_trace;
 pub mod direct_light;
 pub mod gather_caches;
 pub mod gaussian_depth_visibility;
@@ -47,6 +48,7 @@ pub fn all() -> Vec<&'static dyn Kernel> {
         &direct_light::DirectLight,
         &voxelize::Voxelize,
         &voxel_light::VoxelLight,
+        &cone_trace::ConeTrace,
     ]
 }
 

@@ -1,0 +1,277 @@
+//! Mirror of `kernels/cone_trace.wgsl`: per G-buffer pixel, AO and diffuse cones plus one glossy cone
+//! marched through the pre-filtered radiance pyramid (CPRC section 4, VCT sections 5-7).
+//!
+//! Pyramid: levels 0..levels of a Morton grid of side `side` concatenated (level l at
+//! `((8^(L+1) - 8^(L-l+1)) / 7`, L = log2 side), each voxel `(L * alpha, alpha)` (pre-multiplied).
+//!
+//! March (origin o, unit direction d, tan of the half-angle):
+//! - diameter starts at 3/4 of a level-0 cell; the first sample is half a step from o;
+//! - step = diameter / 2; after each step the diameter grows by the factor (1 + tan) and the mip level
+//!   by log2(1 + tan): one addition per step, no logarithm (CPRC 4);
+//! - quadrilinear sampling: trilinear in levels floor(lf) and floor(lf) + 1 (voxels outside the grid are
+//!   empty), blended by fract(lf); lf < 0 samples level 0, past the top the top level;
+//! - alpha corrected for the step: `a' = 1 - (1 - a)^(step / cell)` with cell = max(diameter, s0)
+//!   (VCT 5), colour scaled by a'/a; front-to-back `C += (1 - A) c'`, `A += (1 - A) a'`;
+//! - AO on the same march: `occ += (1 - A) a' / (1 + lambda t)` while t <= ao_range (VCT 6);
+//! - stops when A >= 1 - 1/256 or t > the grid's diagonal.
+//!
+//! Pixel: origin `p + ng * offset_voxels * s0` (ng the triangle's normal on the side facing the camera);
+//! diffuse cones from `cone_dirs` (tangent space, w = weight, weights sum to 1), indirect diffuse =
+//! `albedo * sum w C`, AO = `1 - sum w occ`; glossy (materials with Ks): one cone along the mirror
+//! direction of the view with tan = clamp(sqrt(2 / (n + 2)), 0.02, 1), adding `Ks * C`. Back faces get
+//! AO (on the camera's side) and no indirect light; background pixels get 0.
+use crate::bvh_trace::GpuTriangle;
+use crate::direct_light::{face_normal, GpuMaterial};
+use crate::gbuffer::Frame;
+use crate::morton;
+use bytemuck::{Pod, Zeroable};
+use glam::{Vec3, Vec4};
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct ConeParams {
+    /// xyz, w = level-0 cell size s0.
+    pub origin: [f32; 4],
+    pub ao_range: f32,
+    pub ao_lambda: f32,
+    /// tan of the diffuse cones' half-angle.
+    pub diffuse_tan: f32,
+    pub offset_voxels: f32,
+    pub diffuse_cones: u32,
+    /// Levels in the pyramid (log2 side + 1).
+    pub levels: u32,
+    pub side: u32,
+    /// 1 / s0, computed once on the host (so both sides scale by the same value).
+    pub inv_s0: f32,
+}
+
+pub const OPAQUE: f32 = 1.0 - 1.0 / 256.0;
+
+/// Offset of level `l` in the concatenated pyramid of a grid of side 2^big_l.
+pub fn level_offset(side: u32, l: u32) -> usize {
+    let big = side.trailing_zeros();
+    (((1u64 << (3 * (big + 1))) - (1u64 << (3 * (big + 1 - l)))) / 7) as usize
+}
+
+/// Total voxels of the pyramid.
+pub fn pyramid_len(side: u32) -> usize {
+    level_offset(side, side.trailing_zeros() + 1)
+}
+
+pub struct Pyramid<'a> {
+    pub p: &'a ConeParams,
+    pub voxels: &'a [[f32; 4]],
+}
+
+impl Pyramid<'_> {
+    fn level(&self, x: Vec3, l: u32) -> Vec4 {
+        let n = (self.p.side >> l) as i32;
+        let inv = self.p.inv_s0 * (1.0 / (1u32 << l) as f32);
+        let q = (x - Vec3::from_slice(&self.p.origin[..3])) * inv - Vec3::splat(0.5);
+        let fl = q.floor();
+        let f = q - fl;
+        let i0 = [fl.x as i32, fl.y as i32, fl.z as i32];
+        let off = level_offset(self.p.side, l);
+        let mut acc = Vec4::ZERO;
+        for corner in 0..8u32 {
+            let (cx, cy, cz) = (corner & 1, (corner >> 1) & 1, (corner >> 2) & 1);
+            let wx = if cx == 1 { f.x } else { 1.0 - f.x };
+            let wy = if cy == 1 { f.y } else { 1.0 - f.y };
+            let wz = if cz == 1 { f.z } else { 1.0 - f.z };
+            let (ix, iy, iz) = (i0[0] + cx as i32, i0[1] + cy as i32, i0[2] + cz as i32);
+            if ix < 0 || iy < 0 || iz < 0 || ix >= n || iy >= n || iz >= n {
+                continue;
+            }
+            let v = self.voxels[off + morton::encode(ix as u32, iy as u32, iz as u32) as usize];
+            acc += Vec4::from_array(v) * (wx * wy * wz);
+        }
+        acc
+    }
+
+    /// Quadrilinear sample at mip level `lf`.
+    pub fn sample(&self, x: Vec3, lf: f32) -> Vec4 {
+        let top = self.p.levels - 1;
+        let lf = lf.max(0.0);
+        let l0 = lf.floor();
+        if l0 >= top as f32 {
+            return self.level(x, top);
+        }
+        let a = lf - l0;
+        let l0 = l0 as u32;
+        self.level(x, l0) * (1.0 - a) + self.level(x, l0 + 1) * a
+    }
+}
+
+/// Result of one cone: radiance, AO occlusion, and the mirror's bound on the radiance.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ConeResult {
+    pub radiance: Vec3,
+    pub occlusion: f32,
+    /// Accumulated magnitude the bound is proportional to, and allowances for rounding-decided stops.
+    pub magnitude: f32,
+    pub allowance: f32,
+    /// The same for the occlusion.
+    pub occ_magnitude: f32,
+    pub occ_allowance: f32,
+}
+
+pub fn march(pyr: &Pyramid, o: Vec3, d: Vec3, tan: f32, lmax: f32) -> ConeResult {
+    let p = pyr.p;
+    let s0 = p.origin[3];
+    let inv_s0 = p.inv_s0;
+    let max_dist = p.side as f32 * s0 * 1.732_050_8;
+    let grow = 1.0 + tan;
+    let dl = grow.log2();
+    let mut diam = 0.75 * s0;
+    let mut lf = -0.415_037_5; // log2(0.75)
+    let mut t = diam * 0.25;
+    let mut c_acc = Vec3::ZERO;
+    let mut a_acc = 0.0f32;
+    let mut occ = 0.0f32;
+    let mut r = ConeResult::default();
+    while t <= max_dist && a_acc < OPAQUE {
+        let s = pyr.sample(o + d * t, lf);
+        let step = diam * 0.5;
+        let ratio = 0.5 * (diam * inv_s0).min(1.0);
+        let a = s.w.clamp(0.0, 1.0);
+        let a2 = if a > 0.0 {
+            let keep = 1.0 - a;
+            1.0 - if keep > 0.0 { keep.powf(ratio) } else { 0.0 }
+        } else {
+            0.0
+        };
+        let c2 = if a > 0.0 {
+            s.truncate() * (a2 / a)
+        } else {
+            Vec3::ZERO
+        };
+        let vis = 1.0 - a_acc;
+        c_acc += c2 * vis;
+        if t <= p.ao_range {
+            let o = vis * a2 / (1.0 + p.ao_lambda * t);
+            occ += o;
+            r.occ_magnitude += o + 1e-3 * vis * a2;
+        }
+        a_acc += vis * a2;
+        r.magnitude += vis * (c2.abs().max_element() + lmax * 1e-3 * a2);
+        if (a_acc - OPAQUE).abs() < 1e-4
+            || (t - max_dist).abs() < 1e-5 * max_dist
+            || (t - p.ao_range).abs() < 1e-5 * p.ao_range.max(s0)
+        {
+            r.allowance += vis.max(1.0 - a_acc) * lmax;
+            r.occ_allowance += vis.max(1.0 - a_acc);
+        }
+        t += step;
+        diam *= grow;
+        lf += dl;
+    }
+    r.radiance = c_acc;
+    r.occlusion = occ;
+    r
+}
+
+/// Tangent basis the kernel uses: t = normalize(cross(z or x, n)), b = cross(n, t).
+pub fn basis(n: Vec3) -> (Vec3, Vec3) {
+    let up = if n.z.abs() < 0.999 { Vec3::Z } else { Vec3::X };
+    let t = up.cross(n);
+    let t = t * (1.0 / t.dot(t).sqrt());
+    (t, n.cross(t))
+}
+
+/// Host-side diffuse cone set: one along the normal and `count - 1` in a ring at polar angle
+/// 90 deg - 1.5 x the half-angle (so the ring's cones stay half a half-angle clear of the surface's own
+/// plane, which they would otherwise sample as occluder and light), weights proportional to cos(polar
+/// angle), summing to 1. Tangent space (z = normal), w = weight.
+pub fn diffuse_cones(count: u32, tan: f32) -> Vec<[f32; 4]> {
+    let count = count.max(1);
+    let ring = count - 1;
+    let theta = (std::f32::consts::FRAC_PI_2 - 1.5 * tan.atan()).max(0.0);
+    let mut dirs = vec![[0.0, 0.0, 1.0, 1.0]];
+    for k in 0..ring {
+        let phi = k as f32 / ring as f32 * std::f32::consts::TAU;
+        dirs.push([
+            theta.sin() * phi.cos(),
+            theta.sin() * phi.sin(),
+            theta.cos(),
+            theta.cos(),
+        ]);
+    }
+    let sum: f32 = dirs.iter().map(|d| d[3]).sum();
+    for d in &mut dirs {
+        d[3] /= sum;
+    }
+    dirs
+}
+
+/// Bound factor on accumulated magnitudes: ~30 dependent operations per sample (each correctly rounded
+/// or within 2.5 ULP; pow and log2 per WGSL's exp2/log2 rules), over at most ~64 samples per cone:
+/// 30 x 2.5 x 64 ULP ~ 5e3 ULP ~ 6e-4, and the samples' errors are damped by the (1 - A) factors, so
+/// 4e-4 of the accumulated |terms| (each padded by 1e-3 of the sample's alpha times the largest radiance,
+/// for pow's absolute error near alpha = 0).
+pub const MAG: f32 = 4e-4;
+
+/// One pixel: indirect radiance (rgb, 0), AO (a, a, a, 0), and their bounds.
+#[allow(clippy::too_many_arguments)]
+pub fn shade_pixel(
+    pyr: &Pyramid,
+    frame: &Frame,
+    tris: &[GpuTriangle],
+    materials: &[GpuMaterial],
+    cones: &[[f32; 4]],
+    position: [f32; 4],
+    normal: [f32; 4],
+    triangle: u32,
+    lmax: f32,
+) -> [[f32; 4]; 4] {
+    let p = pyr.p;
+    if normal[3] == 0.0 || triangle as usize >= tris.len() {
+        return [[0.0; 4]; 4];
+    }
+    let front = normal[3] > 0.0;
+    let tri = &tris[triangle as usize];
+    let m = &materials[(tri.material() as usize).min(materials.len() - 1)];
+    let sign = if front { 1.0 } else { -1.0 };
+    let n = Vec3::new(normal[0], normal[1], normal[2]) * sign;
+    let ng = face_normal(tri) * sign;
+    let pos = Vec3::new(position[0], position[1], position[2]);
+    let s0 = p.origin[3];
+    let o = pos + ng * (p.offset_voxels * s0);
+    let (bt, bb) = basis(n);
+    let mut diffuse = Vec3::ZERO;
+    let mut occ = 0.0f32;
+    let mut mag = 0.0f32;
+    let mut occ_b = 0.0f32;
+    for c in &cones[..p.diffuse_cones as usize] {
+        let dir = bt * c[0] + bb * c[1] + n * c[2];
+        let r = march(pyr, o, dir, p.diffuse_tan, lmax);
+        diffuse += r.radiance * c[3];
+        occ += r.occlusion * c[3];
+        mag += (r.magnitude * MAG + r.allowance) * c[3];
+        occ_b += (r.occ_magnitude * MAG + r.occ_allowance) * c[3];
+    }
+    let ao = (1.0 - occ).clamp(0.0, 1.0);
+    let ao_out = [ao, ao, ao, 0.0];
+    let ao_bound = [occ_b, occ_b, occ_b, 0.0];
+    if !front {
+        return [[0.0; 4], ao_out, [0.0; 4], ao_bound];
+    }
+    let kd = Vec3::from_slice(&m.diffuse[..3]);
+    let ks = Vec3::from_slice(&m.specular[..3]);
+    let mut indirect = kd * diffuse;
+    let mut bound = kd * mag;
+    if ks != Vec3::ZERO {
+        let e = Vec3::from_slice(&frame.eye[..3]) - pos;
+        let wo = e * (1.0 / e.dot(e).sqrt());
+        let refl = n * (2.0 * n.dot(wo)) - wo;
+        let tan = (2.0 / (m.diffuse[3] + 2.0)).sqrt().clamp(0.02, 1.0);
+        let r = march(pyr, o, refl, tan, lmax);
+        indirect += ks * r.radiance;
+        bound += ks * (r.magnitude * MAG + r.allowance);
+    }
+    [
+        [indirect.x, indirect.y, indirect.z, 0.0],
+        ao_out,
+        [bound.x, bound.y, bound.z, 0.0],
+        ao_bound,
+    ]
+}

@@ -1,0 +1,216 @@
+// cone_trace — per G-buffer pixel: AO and diffuse cones plus one glossy cone marched through the
+// pre-filtered radiance pyramid (Rehfeld et al. 2014 section 4; Crassin et al. 2011 sections 5-7).
+// Mirror: cpu_mirror/src/cone_trace.rs (its module comment is the full definition).
+//
+// Pyramid: levels of a Morton grid of side 2^L concatenated, level l at (8^(L+1) - 8^(L-l+1)) / 7, each
+// voxel (L * alpha, alpha) — voxel_light's output and its surface_coverage_mip levels.
+// March: diameter from 3/4 of a level-0 cell, first sample half a step out, step = diameter / 2,
+// diameter *= 1 + tan and mip level += log2(1 + tan) per step (no logarithm in the loop), quadrilinear
+// sampling (outside the grid = empty), alpha corrected for the step (a' = 1 - (1 - a)^(step / cell)),
+// front-to-back accumulation, AO weighted 1 / (1 + lambda t) within ao_range, stop when A >= 1 - 1/256
+// or past the grid's diagonal.
+// Pixel: origin p + ng * offset_voxels * s0; diffuse cones from cone_dirs (tangent space, w = weight);
+// indirect = albedo * sum w C (+ Ks * C of a glossy cone along the mirror direction, tan = clamp(
+// sqrt(2 / (n + 2)), 0.02, 1)); AO = 1 - sum w occ. Back faces: AO only. Background: 0.
+// Outputs per pixel (row-major): indirect (rgb, 0), ao (a, a, a, 0).
+// Accuracy: per-element bound (see cone_trace::MAG): 4e-4 of the accumulated magnitudes, plus the
+// whole remainder where a stop (opacity, distance, AO range) is within rounding of its threshold.
+
+struct Frame {
+    eye: vec4<f32>,
+    forward: vec4<f32>,
+    right: vec4<f32>,
+    up: vec4<f32>,
+    size: vec4<u32>,
+}
+
+struct Triangle {
+    a: vec4<f32>,
+    b: vec4<f32>,
+    c: vec4<f32>,
+    na: vec4<f32>,
+    nb: vec4<f32>,
+    nc: vec4<f32>,
+}
+
+struct Material {
+    diffuse: vec4<f32>,
+    specular: vec4<f32>,
+}
+
+struct ConeParams {
+    origin: vec4<f32>,   // xyz, w = s0
+    ao_range: f32,
+    ao_lambda: f32,
+    diffuse_tan: f32,
+    offset_voxels: f32,
+    diffuse_cones: u32,
+    levels: u32,
+    side: u32,
+    inv_s0: f32,
+}
+
+@group(0) @binding(0) var<storage, read> frame: Frame;
+@group(0) @binding(1) var<storage, read> triangles: array<Triangle>;
+@group(0) @binding(2) var<storage, read> materials: array<Material>;
+@group(0) @binding(3) var<storage, read> gb_position: array<vec4<f32>>;
+@group(0) @binding(4) var<storage, read> gb_normal: array<vec4<f32>>;
+@group(0) @binding(5) var<storage, read> gb_triangle: array<u32>;
+@group(0) @binding(6) var<storage, read> cone: ConeParams;
+@group(0) @binding(7) var<storage, read> cone_dirs: array<vec4<f32>>;
+@group(0) @binding(8) var<storage, read> pyramid: array<vec4<f32>>;
+@group(0) @binding(9) var<storage, read_write> indirect: array<vec4<f32>>;
+@group(0) @binding(10) var<storage, read_write> ao: array<vec4<f32>>;
+
+const OPAQUE: f32 = 0.99609375;  // 1 - 1/256
+
+fn spread3(v: u32) -> u32 {
+    var x = v & 0x3ffu;
+    x = (x | (x << 16u)) & 0x030000ffu;
+    x = (x | (x << 8u)) & 0x0300f00fu;
+    x = (x | (x << 4u)) & 0x030c30c3u;
+    x = (x | (x << 2u)) & 0x09249249u;
+    return x;
+}
+
+fn level_offset(l: u32) -> u32 {
+    let big = countTrailingZeros(cone.side);
+    return ((1u << (3u * (big + 1u))) - (1u << (3u * (big + 1u - l)))) / 7u;
+}
+
+fn sample_level(x: vec3<f32>, l: u32) -> vec4<f32> {
+    let n = i32(cone.side >> l);
+    let inv = cone.inv_s0 * (1.0 / f32(1u << l));
+    let q = (x - cone.origin.xyz) * inv - vec3<f32>(0.5);
+    let fl = floor(q);
+    let f = q - fl;
+    let i0 = vec3<i32>(fl);
+    let off = level_offset(l);
+    var acc = vec4<f32>(0.0);
+    for (var corner = 0u; corner < 8u; corner++) {
+        let cc = vec3<u32>(corner & 1u, (corner >> 1u) & 1u, (corner >> 2u) & 1u);
+        let w = select(vec3<f32>(1.0) - f, f, cc == vec3<u32>(1u));
+        let i = i0 + vec3<i32>(cc);
+        if (any(i < vec3<i32>(0)) || any(i >= vec3<i32>(n))) {
+            continue;
+        }
+        let u = vec3<u32>(i);
+        let v = pyramid[off + (spread3(u.x) | (spread3(u.y) << 1u) | (spread3(u.z) << 2u))];
+        acc += v * (w.x * w.y * w.z);
+    }
+    return acc;
+}
+
+fn sample_pyramid(x: vec3<f32>, lf_in: f32) -> vec4<f32> {
+    let top = cone.levels - 1u;
+    let lf = max(lf_in, 0.0);
+    let l0 = floor(lf);
+    if (l0 >= f32(top)) {
+        return sample_level(x, top);
+    }
+    let a = lf - l0;
+    let l = u32(l0);
+    return sample_level(x, l) * (1.0 - a) + sample_level(x, l + 1u) * a;
+}
+
+struct ConeOut {
+    radiance: vec3<f32>,
+    occlusion: f32,
+}
+
+fn march(o: vec3<f32>, d: vec3<f32>, tan_half: f32) -> ConeOut {
+    let s0 = cone.origin.w;
+    let max_dist = f32(cone.side) * s0 * 1.7320508;
+    let grow = 1.0 + tan_half;
+    let dl = log2(grow);
+    var diam = 0.75 * s0;
+    var lf = -0.4150375;
+    var t = diam * 0.25;
+    var c_acc = vec3<f32>(0.0);
+    var a_acc = 0.0;
+    var occ = 0.0;
+    while (t <= max_dist && a_acc < OPAQUE) {
+        let s = sample_pyramid(o + d * t, lf);
+        let step = diam * 0.5;
+        let ratio = 0.5 * min(diam * cone.inv_s0, 1.0);
+        let a = clamp(s.w, 0.0, 1.0);
+        var a2 = 0.0;
+        var c2 = vec3<f32>(0.0);
+        if (a > 0.0) {
+            let keep = 1.0 - a;
+            var kept = 0.0;
+            if (keep > 0.0) {
+                kept = pow(keep, ratio);
+            }
+            a2 = 1.0 - kept;
+            c2 = s.xyz * (a2 / a);
+        }
+        let vis = 1.0 - a_acc;
+        c_acc += c2 * vis;
+        if (t <= cone.ao_range) {
+            occ += vis * a2 / (1.0 + cone.ao_lambda * t);
+        }
+        a_acc += vis * a2;
+        t += step;
+        diam *= grow;
+        lf += dl;
+    }
+    return ConeOut(c_acc, occ);
+}
+
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let pix = gid.x + gid.y * groups.x * 64u;
+    if (pix >= arrayLength(&indirect)) {
+        return;
+    }
+    let nrm = gb_normal[pix];
+    let ti = gb_triangle[pix];
+    if (nrm.w == 0.0 || ti >= arrayLength(&triangles)) {
+        indirect[pix] = vec4<f32>(0.0);
+        ao[pix] = vec4<f32>(0.0);
+        return;
+    }
+    let front = nrm.w > 0.0;
+    let tri = triangles[ti];
+    let m = materials[min(u32(tri.a.w), arrayLength(&materials) - 1u)];
+    let sgn = select(-1.0, 1.0, front);
+    let n = nrm.xyz * sgn;
+    let fc = cross(tri.b.xyz - tri.a.xyz, tri.c.xyz - tri.a.xyz);
+    let ng = fc * (1.0 / sqrt(dot(fc, fc))) * sgn;
+    let pos = gb_position[pix].xyz;
+    let s0 = cone.origin.w;
+    let o = pos + ng * (cone.offset_voxels * s0);
+    var up = vec3<f32>(0.0, 0.0, 1.0);
+    if (abs(n.z) >= 0.999) {
+        up = vec3<f32>(1.0, 0.0, 0.0);
+    }
+    let tt = cross(up, n);
+    let bt = tt * (1.0 / sqrt(dot(tt, tt)));
+    let bb = cross(n, bt);
+    var diffuse = vec3<f32>(0.0);
+    var occ = 0.0;
+    for (var k = 0u; k < cone.diffuse_cones; k++) {
+        let c = cone_dirs[k];
+        let dir = bt * c.x + bb * c.y + n * c.z;
+        let r = march(o, dir, cone.diffuse_tan);
+        diffuse += r.radiance * c.w;
+        occ += r.occlusion * c.w;
+    }
+    let a = clamp(1.0 - occ, 0.0, 1.0);
+    ao[pix] = vec4<f32>(a, a, a, 0.0);
+    if (!front) {
+        indirect[pix] = vec4<f32>(0.0);
+        return;
+    }
+    var result = m.diffuse.xyz * diffuse;
+    let ks = m.specular.xyz;
+    if (any(ks != vec3<f32>(0.0))) {
+        let e = frame.eye.xyz - pos;
+        let wo = e * (1.0 / sqrt(dot(e, e)));
+        let refl = n * (2.0 * dot(n, wo)) - wo;
+        let tan_g = clamp(sqrt(2.0 / (m.diffuse.w + 2.0)), 0.02, 1.0);
+        result += ks * march(o, refl, tan_g).radiance;
+    }
+    indirect[pix] = vec4<f32>(result, 0.0);
+}

@@ -1,0 +1,278 @@
+//! Declaration of `kernels/cone_trace.wgsl` (mirror: `vxgi_cpu_mirror::cone_trace`): AO, diffuse and
+//! glossy cones per G-buffer pixel through the radiance pyramid. A case runs the earlier stages on the
+//! GPU (G-buffer, voxelization, voxel lighting, mip chain) on a generated scene and feeds them in.
+use super::gbuffer::{generated_scene, scene_resources};
+use super::surface_coverage_mip::{self, chain_case, colour_name};
+use super::voxelize::{voxelize_on_gpu, VoxelFrame};
+use crate::trace::SceneData;
+use std::collections::BTreeMap;
+use vxgi_cpu_mirror::bvh_trace::GpuTriangle;
+use vxgi_cpu_mirror::cone_trace::{
+    diffuse_cones, level_offset, pyramid_len, shade_pixel, ConeParams, Pyramid,
+};
+use vxgi_cpu_mirror::direct_light::GpuMaterial;
+use vxgi_cpu_mirror::gbuffer::Frame;
+use vxgi_cpu_mirror::surface_coverage_mip::Coverage;
+use vxgi_harness::compare::bound_name;
+use vxgi_harness::run::{grid_for, run, Pass, Workgroups};
+use vxgi_harness::{
+    Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
+    KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
+};
+
+pub static DECL: KernelDecl = KernelDecl {
+    name: "cone_trace",
+    wgsl_path: "kernels/cone_trace.wgsl",
+    wgsl: include_str!("../../kernels/cone_trace.wgsl"),
+    includes: &[],
+    entry: "main",
+    inputs: &[
+        "frame", "triangles", "materials", "gb_position", "gb_normal", "gb_triangle", "cone", "cone_dirs",
+        "pyramid",
+    ],
+    outputs: &[
+        // Per element (see `cone_trace::MAG`): 4e-4 of the accumulated magnitudes (~30 operations per
+        // sample, <= ~64 samples, pow/log2 per WGSL's exp2/log2 rules), plus the whole remainder where a
+        // stop is within rounding of its threshold.
+        Output { binding: "indirect", tolerance: Tolerance::MirrorBound },
+        Output { binding: "ao", tolerance: Tolerance::MirrorBound },
+    ],
+    dispatch: DispatchRule::PerElement { binding: "indirect" },
+    mirror: "vxgi_cpu_mirror::cone_trace::shade_pixel",
+    summary: "AO + diffuse cones + one glossy cone per pixel, quadrilinear marching of the radiance pyramid (CPRC 4, VCT 5-7)",
+};
+
+/// Cone settings (the `[render]`-level knobs of the vct-dense pipeline).
+#[derive(Clone, Copy, Debug)]
+pub struct ConeSettings {
+    pub diffuse_cones: u32,
+    /// Half-angle of the diffuse cones, degrees.
+    pub diffuse_half_angle_deg: f32,
+    pub ao_range: f32,
+    pub ao_lambda: f32,
+    /// Cone origins start this many level-0 cells off the surface along its normal.
+    pub offset_voxels: f32,
+}
+
+impl Default for ConeSettings {
+    fn default() -> Self {
+        Self {
+            diffuse_cones: 5,
+            diffuse_half_angle_deg: 30.0,
+            ao_range: 0.5,
+            ao_lambda: 1.0,
+            offset_voxels: 2.0,
+        }
+    }
+}
+
+pub fn cone_params(frame: &VoxelFrame, s: &ConeSettings) -> ConeParams {
+    ConeParams {
+        origin: [frame.origin.x, frame.origin.y, frame.origin.z, frame.voxel],
+        ao_range: s.ao_range,
+        ao_lambda: s.ao_lambda,
+        diffuse_tan: s.diffuse_half_angle_deg.to_radians().tan(),
+        offset_voxels: s.offset_voxels,
+        diffuse_cones: s.diffuse_cones.max(1),
+        levels: frame.side.trailing_zeros() + 1,
+        side: frame.side,
+        inv_s0: 1.0 / frame.voxel,
+    }
+}
+
+/// Level 0 (voxel radiance) and the surface-coverage mip chain built on the GPU, concatenated.
+pub fn gpu_pyramid(
+    ctx: &GpuContext,
+    radiance: &[[f32; 4]],
+    normal: &[[f32; 4]],
+    side: u32,
+) -> anyhow::Result<Vec<[f32; 4]>> {
+    let grid = crate::grids::Grid {
+        n: side,
+        colour: radiance.to_vec(),
+        normal: normal.to_vec(),
+    };
+    let shader = surface_coverage_mip::DECL.shader()?;
+    let case = chain_case(&shader, ctx, &grid, Coverage::Surface, "pyramid".into(), 0);
+    let levels = side.trailing_zeros() + 1;
+    let names: Vec<String> = (1..levels).map(colour_name).collect();
+    let refs: Vec<&str> = names.iter().map(|s| s.as_str()).collect();
+    let out = run(
+        ctx,
+        &shader,
+        surface_coverage_mip::DECL.name,
+        &case.resources,
+        &case.passes,
+        &refs,
+    )?;
+    let mut pyr = Vec::with_capacity(pyramid_len(side));
+    pyr.extend_from_slice(radiance);
+    for name in &names {
+        pyr.extend_from_slice(bytemuck::cast_slice::<u8, [f32; 4]>(
+            &out.buffer(name).bytes,
+        ));
+    }
+    debug_assert_eq!(pyr.len(), pyramid_len(side));
+    debug_assert_eq!(level_offset(side, 1), radiance.len());
+    Ok(pyr)
+}
+
+/// The cone pass over a scene whose G-buffer and pyramid are given.
+#[allow(clippy::too_many_arguments)]
+pub fn case_for(
+    ctx: &GpuContext,
+    data: &SceneData,
+    gbuffer: &Resources,
+    pyramid: &[[f32; 4]],
+    params: &ConeParams,
+    label: String,
+    seed: u64,
+) -> Case {
+    let (w, h) = (data.width(), data.height());
+    let n = w as usize * h as usize;
+    let mut resources = scene_resources(data);
+    resources.remove("nodes");
+    resources.remove("lights");
+    for name in ["gb_position", "gb_normal", "gb_triangle"] {
+        resources.insert(name.into(), gbuffer[name].clone());
+    }
+    resources.insert("cone".into(), HostResource::Buffer(HostBuffer::pod(params)));
+    let tan = params.diffuse_tan;
+    let dirs = diffuse_cones(params.diffuse_cones, tan);
+    let f4 = |v: &[[f32; 4]]| HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(v)));
+    resources.insert("cone_dirs".into(), f4(&dirs));
+    resources.insert("pyramid".into(), f4(pyramid));
+    for name in ["indirect", "ao"] {
+        resources.insert(
+            name.into(),
+            HostResource::Buffer(HostBuffer::zeroed(n * 16, ScalarKind::F32)),
+        );
+    }
+    let max = ctx.limits().max_compute_workgroups_per_dimension;
+    let grid = Indexing::Grid {
+        dims: [w, h, 1],
+        components: 4,
+    };
+    Case {
+        label,
+        seed,
+        resources,
+        passes: vec![Pass {
+            label: "cone_trace".into(),
+            entry: "main".into(),
+            bindings: DECL.bind_by_name(),
+            workgroups: Workgroups::Direct(grid_for(n as u64, 64, max)),
+        }],
+        checks: ["indirect", "ao"]
+            .into_iter()
+            .map(|name| Check {
+                resource: name.into(),
+                output: name,
+                indexing: grid.clone(),
+            })
+            .collect(),
+        effective_bytes: n as u64 * 68,
+    }
+}
+
+/// Largest radiance in level 0 (allowances for rounding-decided stops scale with it).
+pub fn max_radiance(pyramid: &[[f32; 4]], side: u32) -> f32 {
+    pyramid[..level_offset(side, 1)]
+        .iter()
+        .map(|v| v[0].max(v[1]).max(v[2]))
+        .fold(0.0, f32::max)
+}
+
+pub fn mirror_cones(data: &Resources) -> [Vec<[f32; 4]>; 4] {
+    let b = |n: &str| data[n].buffer().expect("buffer");
+    let frame: Frame = *bytemuck::from_bytes(&b("frame").bytes);
+    let params: ConeParams = *bytemuck::from_bytes(&b("cone").bytes);
+    let tris: &[GpuTriangle] = bytemuck::cast_slice(&b("triangles").bytes);
+    let materials: &[GpuMaterial] = bytemuck::cast_slice(&b("materials").bytes);
+    let dirs: &[[f32; 4]] = bytemuck::cast_slice(&b("cone_dirs").bytes);
+    let voxels: &[[f32; 4]] = bytemuck::cast_slice(&b("pyramid").bytes);
+    let pos: &[[f32; 4]] = bytemuck::cast_slice(&b("gb_position").bytes);
+    let nrm: &[[f32; 4]] = bytemuck::cast_slice(&b("gb_normal").bytes);
+    let tri = b("gb_triangle").as_u32();
+    let pyr = Pyramid { p: &params, voxels };
+    let lmax = max_radiance(voxels, params.side);
+    let px: Vec<[[f32; 4]; 4]> = {
+        use rayon::prelude::*;
+        (0..tri.len())
+            .into_par_iter()
+            .map(|i| {
+                shade_pixel(
+                    &pyr, &frame, tris, materials, dirs, pos[i], nrm[i], tri[i], lmax,
+                )
+            })
+            .collect()
+    };
+    let pick = |k: usize| px.iter().map(|p| p[k]).collect::<Vec<_>>();
+    [pick(0), pick(1), pick(2), pick(3)]
+}
+
+pub struct ConeTrace;
+
+const SIDES: [u32; 2] = [16, 32];
+
+impl Kernel for ConeTrace {
+    fn decl(&self) -> &'static KernelDecl {
+        &DECL
+    }
+    fn case(&self, _shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
+        let (scene, label) = generated_scene(seed, index);
+        let side = SIDES[(index / 4) % SIDES.len()];
+        let data = SceneData::new(&scene);
+        let gb = super::direct_light::gpu_gbuffer(ctx, &data);
+        let (grid, list, frame) =
+            voxelize_on_gpu(ctx, &scene, side).expect("generated grids voxelize");
+        let light =
+            super::voxel_light::case_for(ctx, &data, &grid, &list, &frame, String::new(), seed);
+        let shader = super::voxel_light::DECL
+            .shader()
+            .expect("voxel_light.wgsl is valid");
+        let out = run(
+            ctx,
+            &shader,
+            "voxel_light",
+            &light.resources,
+            &light.passes,
+            &["vox_radiance"],
+        )
+        .expect("voxel_light runs");
+        let rad: &[[f32; 4]] = bytemuck::cast_slice(&out.buffer("vox_radiance").bytes);
+        let pyr = gpu_pyramid(ctx, rad, &grid.normal, side).expect("mip chain runs");
+        let settings = ConeSettings {
+            ao_range: scene.render.ao_range,
+            ao_lambda: scene.render.ao_lambda,
+            ..Default::default()
+        };
+        let params = cone_params(&frame, &settings);
+        case_for(
+            ctx,
+            &data,
+            &gb,
+            &pyr,
+            &params,
+            format!("{label}, {side}^3"),
+            seed,
+        )
+    }
+    fn mirror(
+        &self,
+        _case: &Case,
+        data: &Resources,
+        _mode: FloatMode,
+    ) -> BTreeMap<String, HostBuffer> {
+        // Radiance-scale arithmetic; subnormal alphas at coarse levels only scale terms that are
+        // already below the bound: one mode serves both.
+        let [ind, ao, ind_b, ao_b] = mirror_cones(data);
+        let f = |v: &[[f32; 4]]| HostBuffer::f32(bytemuck::cast_slice(v));
+        BTreeMap::from([
+            ("indirect".to_string(), f(&ind)),
+            (bound_name("indirect"), f(&ind_b)),
+            ("ao".to_string(), f(&ao)),
+            (bound_name("ao"), f(&ao_b)),
+        ])
+    }
+}
