@@ -289,7 +289,9 @@ fn image_of(w: u32, h: u32, bytes: &[u8]) -> RgbImage {
 /// snapshot tests store; the GPU image is then compared to it numerically (DESIGN.md section 8).
 pub fn render_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendered> {
     use rayon::prelude::*;
-    use vxgi_cpu_mirror::{cone_trace as ct, direct_light as dl, gbuffer as gbm, voxel_light as vl};
+    use vxgi_cpu_mirror::{
+        cone_trace as ct, direct_light as dl, gbuffer as gbm, voxel_light as vl,
+    };
     let data = SceneData::new(scene);
     let (w, h) = (data.width(), data.height());
     let texels: Vec<gbm::Texel> = (0..w * h)
