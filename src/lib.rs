@@ -6,8 +6,10 @@ pub mod grids;
 pub mod images;
 pub mod kernels;
 pub mod lrsm;
+pub mod plan;
 pub mod reference;
 pub mod render;
+pub mod report;
 pub mod scene;
 pub mod trace;
 

@@ -54,6 +54,9 @@ enum Command {
         /// Half-angle of the diffuse cones, degrees.
         #[arg(long, default_value_t = 30.0)]
         cone_half_angle: f32,
+        /// Print the frame plan (what runs, what is skipped and why) and exit.
+        #[arg(long)]
+        plan: bool,
         /// Cone origins start this many voxels off the surface along its normal.
         #[arg(long, default_value_t = ConeSettings::default().offset_voxels)]
         cone_offset: f32,
@@ -77,6 +80,17 @@ enum Command {
         out: PathBuf,
         #[command(flatten)]
         render: RenderFlags,
+    },
+    /// Render scenes with every pipeline and the reference; print the table and write report.md.
+    Report {
+        /// Scene files, or built-in names (cornell_box, thin_wall). Default: both built-ins.
+        #[arg(long, num_args = 1..)]
+        scenes: Vec<String>,
+        /// Reference samples per pixel.
+        #[arg(long, default_value_t = 64)]
+        spp: u32,
+        #[arg(long, default_value = "report")]
+        out: PathBuf,
     },
     /// Compare a test image against a reference: relative MSE and mean LDR-FLIP, optional heat map.
     Compare {
@@ -134,12 +148,17 @@ fn create_out(dir: &Path) -> Result<()> {
 }
 
 fn run_render(
+    plan_only: bool,
     scene: Option<PathBuf>,
     out: PathBuf,
     cones: ConeSettings,
     flags: RenderFlags,
 ) -> Result<()> {
     let scene = load_scene(&scene, &flags)?;
+    if plan_only {
+        print!("{}", vxgi::plan::FramePlan::vct_dense(&scene, &cones));
+        return Ok(());
+    }
     if !(cones.diffuse_half_angle_deg > 0.0 && cones.diffuse_half_angle_deg < 90.0)
         || cones.diffuse_cones == 0
     {
@@ -213,6 +232,60 @@ fn run_reference(
     Ok(())
 }
 
+fn run_report(scenes: Vec<String>, spp: u32, out: PathBuf) -> Result<()> {
+    if spp == 0 {
+        bail!("--spp must be at least 1");
+    }
+    let names = if scenes.is_empty() {
+        vec!["cornell_box".to_string(), "thin_wall".to_string()]
+    } else {
+        scenes
+    };
+    let mut loaded = Vec::new();
+    for n in &names {
+        let scene = match vxgi::scene::Scene::builtin(n) {
+            Some(s) => s,
+            None => vxgi::scene::Scene::load(n)?,
+        };
+        let label = Path::new(n)
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| n.clone());
+        loaded.push((label, scene));
+    }
+    create_out(&out)?;
+    let ctx = GpuContext::new().context("creating the GPU context")?;
+    eprintln!("adapter: {}", ctx.describe());
+    let bar = ProgressBar::new_spinner();
+    bar.set_style(
+        ProgressStyle::with_template("{spinner} {elapsed} {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+    );
+    bar.enable_steady_tick(std::time::Duration::from_millis(120));
+    let rows = vxgi::report::report(&ctx, &loaded, spp, &out, |m| bar.set_message(m.to_string()))?;
+    bar.finish_and_clear();
+    println!(
+        "{:<10} {:<14} {:>8} {:>14} {:>14} {:>10} {:>8}",
+        "pipeline", "scene", "time", "indirect FLIP", "combined FLIP", "memory", "leak"
+    );
+    for r in &rows {
+        println!(
+            "{:<10} {:<14} {:>7.2}s {:>14.3} {:>14.3} {:>8.1}MB {:>8}",
+            r.pipeline,
+            r.scene,
+            r.seconds,
+            r.indirect_flip,
+            r.combined_flip,
+            r.memory as f64 / 1e6,
+            r.leak
+                .map(|l| format!("{l:.4}"))
+                .unwrap_or_else(|| "-".into())
+        );
+    }
+    println!("wrote {}", out.join("report.md").display());
+    Ok(())
+}
+
 fn run_compare(reference: PathBuf, test: PathBuf, heatmap: Option<PathBuf>) -> Result<()> {
     let r = read_exr(&reference)?;
     let t = read_exr(&test)?;
@@ -262,8 +335,10 @@ fn real_main() -> Result<()> {
             cones,
             cone_half_angle,
             cone_offset,
+            plan,
             render,
         } => run_render(
+            plan,
             scene,
             out,
             ConeSettings {
@@ -296,6 +371,7 @@ fn real_main() -> Result<()> {
             test,
             heatmap,
         } => run_compare(reference, test, heatmap),
+        Command::Report { scenes, spp, out } => run_report(scenes, spp, out),
     }
 }
 

@@ -4,6 +4,7 @@
 use crate::images::RgbImage;
 use crate::kernels::cone_trace::{self, ConeSettings};
 use crate::kernels::{direct_light, gbuffer, voxel_light, voxelize};
+use crate::plan::FramePlan;
 use crate::scene::Scene;
 use crate::trace::SceneData;
 use anyhow::{Context, Result};
@@ -170,8 +171,10 @@ pub struct Rendered {
     pub indirect: RgbImage,
     pub combined: RgbImage,
     pub ao: RgbImage,
-    /// (stage, wall-clock seconds including readback).
+    /// (stage, wall-clock seconds including readback) of the stages that ran.
     pub stages: Vec<(&'static str, f64)>,
+    /// What the frame ran and skipped.
+    pub plan: FramePlan,
 }
 
 /// The vct-dense pipeline: G-buffer and direct light with exact shadows, voxelization, voxel lighting,
@@ -195,6 +198,7 @@ pub fn render(
              max_storage_buffer_binding_size ({limit})"
         );
     }
+    let plan = FramePlan::vct_dense(scene, cones);
     let mut stages = Vec::new();
     let mut timed = |name: &'static str, start: std::time::Instant| {
         stages.push((name, start.elapsed().as_secs_f64()));
@@ -204,40 +208,51 @@ pub fn render(
     let gb = direct_light::gpu_gbuffer(ctx, &data);
     timed("gbuffer", t);
 
-    progress("direct light");
-    let t = std::time::Instant::now();
-    let case = direct_light::case_with_gbuffer(ctx, &data, &gb, "render".into(), 0);
-    let out = run(
-        ctx,
-        &direct_light::DECL.shader()?,
-        "direct_light",
-        &case.resources,
-        &case.passes,
-        &["radiance"],
-    )
-    .context("direct light")?;
-    let direct = image_of(w, h, &out.buffer("radiance").bytes);
-    timed("direct_light", t);
+    let direct = if plan.runs("direct_light") {
+        progress("direct light");
+        let t = std::time::Instant::now();
+        let case = direct_light::case_with_gbuffer(ctx, &data, &gb, "render".into(), 0);
+        let shader = direct_light::DECL.shader()?;
+        let out = run(
+            ctx,
+            &shader,
+            "direct_light",
+            &case.resources,
+            &case.passes,
+            &["radiance"],
+        )
+        .context("direct light")?;
+        timed("direct_light", t);
+        image_of(w, h, &out.buffer("radiance").bytes)
+    } else {
+        RgbImage::new(w, h, vec![[0.0; 3]; w as usize * h as usize])
+    };
 
     progress("voxelize");
     let t = std::time::Instant::now();
     let (grid, list, frame) = voxelize::voxelize_on_gpu(ctx, scene, scene.render.voxels)?;
     timed("voxelize", t);
 
-    progress("voxel light");
-    let t = std::time::Instant::now();
-    let light = voxel_light::case_for(ctx, &data, &grid, &list, &frame, "render".into(), 0);
-    let out = run(
-        ctx,
-        &voxel_light::DECL.shader()?,
-        "voxel_light",
-        &light.resources,
-        &light.passes,
-        &["vox_radiance"],
-    )
-    .context("voxel light")?;
-    let rad: Vec<[f32; 4]> = bytemuck::cast_slice(&out.buffer("vox_radiance").bytes).to_vec();
-    timed("voxel_light", t);
+    let rad: Vec<[f32; 4]> = if plan.runs("voxel_light") {
+        progress("voxel light");
+        let t = std::time::Instant::now();
+        let light = voxel_light::case_for(ctx, &data, &grid, &list, &frame, "render".into(), 0);
+        let shader = voxel_light::DECL.shader()?;
+        let out = run(
+            ctx,
+            &shader,
+            "voxel_light",
+            &light.resources,
+            &light.passes,
+            &["vox_radiance"],
+        )
+        .context("voxel light")?;
+        timed("voxel_light", t);
+        bytemuck::cast_slice(&out.buffer("vox_radiance").bytes).to_vec()
+    } else {
+        // No lights: radiance 0; filled voxels keep their alpha (AO still sees the geometry).
+        grid.colour.iter().map(|c| [0.0, 0.0, 0.0, c[3]]).collect()
+    };
 
     progress("mip chain");
     let t = std::time::Instant::now();
@@ -277,6 +292,7 @@ pub fn render(
         combined,
         ao,
         stages,
+        plan,
     })
 }
 
@@ -395,5 +411,6 @@ pub fn render_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendered> {
         combined,
         ao: RgbImage::new(w, h, rgb(1)),
         stages: vec![],
+        plan: FramePlan::vct_dense(scene, cones),
     })
 }

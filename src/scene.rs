@@ -201,19 +201,41 @@ const CORNELL_OBJ: &str = include_str!("../scenes/cornell_box.obj");
 const CORNELL_MTL: &str = include_str!("../scenes/cornell_box.mtl");
 const CORNELL_TOML: &str = include_str!("../scenes/cornell_box.toml");
 
+const THIN_WALL_OBJ: &str = include_str!("../scenes/thin_wall.obj");
+const THIN_WALL_MTL: &str = include_str!("../scenes/thin_wall.mtl");
+const THIN_WALL_TOML: &str = include_str!("../scenes/thin_wall.toml");
+
 impl Scene {
     /// The built-in Cornell box (also shipped as scenes/cornell_box.toml).
     pub fn cornell_box() -> Self {
-        let file: SceneFile = toml::from_str(CORNELL_TOML).expect("built-in scene parses");
-        let mut reader = std::io::BufReader::new(CORNELL_OBJ.as_bytes());
+        Self::embedded("cornell_box", CORNELL_TOML, CORNELL_OBJ, CORNELL_MTL)
+    }
+
+    /// The built-in light-leak scene (also shipped as scenes/thin_wall.toml).
+    pub fn thin_wall() -> Self {
+        Self::embedded("thin_wall", THIN_WALL_TOML, THIN_WALL_OBJ, THIN_WALL_MTL)
+    }
+
+    /// A built-in scene by name (`cornell_box`, `thin_wall`).
+    pub fn builtin(name: &str) -> Option<Self> {
+        match name {
+            "cornell_box" => Some(Self::cornell_box()),
+            "thin_wall" => Some(Self::thin_wall()),
+            _ => None,
+        }
+    }
+
+    fn embedded(name: &str, toml_text: &str, obj: &str, mtl: &str) -> Self {
+        let file: SceneFile = toml::from_str(toml_text).expect("built-in scene parses");
+        let mut reader = std::io::BufReader::new(obj.as_bytes());
         let loaded = tobj::load_obj_buf(&mut reader, &load_options(), |_| {
-            tobj::load_mtl_buf(&mut std::io::BufReader::new(CORNELL_MTL.as_bytes()))
+            tobj::load_mtl_buf(&mut std::io::BufReader::new(mtl.as_bytes()))
         });
         Self::assemble(
-            "built-in cornell_box",
+            &format!("built-in {name}"),
             file,
             loaded,
-            CORNELL_OBJ,
+            obj,
             Path::new("."),
         )
         .expect("built-in scene is valid")

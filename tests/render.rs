@@ -232,3 +232,71 @@ fn compare_refuses_non_finite_pixels_and_size_mismatch() {
     assert_eq!(c.rel_mse, 0.0);
     assert_eq!(c.flip_mean, 0.0);
 }
+
+#[test]
+fn report_and_plan_commands() {
+    let dir = std::env::temp_dir().join(format!("vxgi-cli-report-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = small_scene_file(&dir);
+    let out = dir.join("report");
+    let (code, stdout, err) = vxgi(&[
+        "report",
+        "--scenes",
+        &scene,
+        "--spp",
+        "2",
+        "--out",
+        &out.display().to_string(),
+    ]);
+    assert_eq!(code, 0, "{stdout}\n{err}");
+    for col in [
+        "pipeline",
+        "scene",
+        "time",
+        "indirect FLIP",
+        "combined FLIP",
+        "memory",
+        "leak",
+        "vct-dense",
+    ] {
+        assert!(stdout.contains(col), "{col}: {stdout}");
+    }
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(md.contains("| vct-dense | small |"), "{md}");
+    assert!(
+        out.join("small/vct-dense/combined.png").exists()
+            && out.join("small/reference/combined.exr").exists()
+    );
+
+    let (code, stdout, _) = vxgi(&["render", "--plan"]);
+    assert_eq!(code, 0);
+    assert!(
+        stdout.contains("frame plan (vct-dense)") && stdout.contains("no glossy cone"),
+        "{stdout}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The plan follows the scene: a glossy material brings the glossy cone, no lights skip the direct
+/// passes, and the rendered frame then has zero direct light (but AO).
+#[test]
+fn frame_plan_follows_the_scene() {
+    let mut scene = small(Scene::cornell_box(), 32, 32);
+    let plan = vxgi::plan::FramePlan::vct_dense(&scene, &Default::default());
+    assert!(plan.runs("direct_light") && plan.runs("cone_trace"));
+    assert!(plan.to_string().contains("no glossy cone"));
+    scene.materials[0].specular = [0.5; 3];
+    assert!(
+        vxgi::plan::FramePlan::vct_dense(&scene, &Default::default())
+            .to_string()
+            .contains("1 glossy")
+    );
+    scene.lights.clear();
+    let plan = vxgi::plan::FramePlan::vct_dense(&scene, &Default::default());
+    assert!(!plan.runs("direct_light") && !plan.runs("voxel_light"));
+    let r = vxgi::render::render(gpu(), &scene, &Default::default(), |_| {}).unwrap();
+    assert!(r.direct.pixels.iter().all(|p| *p == [0.0; 3]));
+    assert!(r.indirect.pixels.iter().all(|p| *p == [0.0; 3]));
+    assert!(r.ao.pixels.iter().any(|p| p[0] > 0.0));
+    assert!(!r.stages.iter().any(|s| s.0 == "direct_light"));
+}

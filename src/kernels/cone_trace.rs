@@ -276,3 +276,8 @@ impl Kernel for ConeTrace {
         ])
     }
 }
+
+/// Voxels in the radiance pyramid of a grid of side `side`.
+pub fn pyramid_len_for(side: u32) -> usize {
+    pyramid_len(side)
+}

@@ -1,0 +1,130 @@
+//! The frame plan: the passes a frame runs, built from the scene and the view, each with its kernel,
+//! its size, and whether it runs and why. `vxgi render --plan` prints it; [`crate::render::render`]
+//! follows it. Skip rules (DESIGN.md section 7) are the planner's job (issue 11): this is the structure
+//! they fill, with the decisions that already follow from the scene.
+use crate::kernels::cone_trace::ConeSettings;
+use crate::scene::Scene;
+use std::fmt;
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlannedPass {
+    /// Stage name, as in `Rendered::stages`.
+    pub stage: &'static str,
+    /// The kernel (`vxgi list` name) that runs it.
+    pub kernel: &'static str,
+    /// What it is dispatched over.
+    pub size: String,
+    pub runs: bool,
+    /// Why it runs (or is skipped).
+    pub why: String,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct FramePlan {
+    pub pipeline: &'static str,
+    pub passes: Vec<PlannedPass>,
+}
+
+impl FramePlan {
+    /// The vct-dense frame for `scene` with `cones`.
+    pub fn vct_dense(scene: &Scene, cones: &ConeSettings) -> Self {
+        let (w, h) = (scene.camera.width, scene.camera.height);
+        let px = format!("{w}x{h} pixels");
+        let side = scene.render.voxels;
+        let levels = side.trailing_zeros();
+        let glossy = scene.materials.iter().filter(|m| m.is_glossy()).count();
+        let lights = scene.lights.len();
+        let pass = |stage, kernel, size: String, runs, why: String| PlannedPass {
+            stage,
+            kernel,
+            size,
+            runs,
+            why,
+        };
+        let passes = vec![
+            pass(
+                "gbuffer",
+                "gbuffer",
+                px.clone(),
+                true,
+                "every renderer shades G-buffer texels".into(),
+            ),
+            pass(
+                "direct_light",
+                "direct_light",
+                format!("{px} x {lights} lights"),
+                lights > 0,
+                if lights > 0 {
+                    "exact shadow ray per light and texel".into()
+                } else {
+                    "skipped: the scene has no lights (direct is 0)".into()
+                },
+            ),
+            pass(
+                "voxelize",
+                "voxelize",
+                format!("{} triangles into {side}^3", scene.mesh.triangles.len()),
+                true,
+                "the radiance pyramid's geometry".into(),
+            ),
+            pass(
+                "voxel_light",
+                "voxel_light",
+                format!("non-empty voxels x {lights} lights"),
+                lights > 0,
+                if lights > 0 {
+                    "direct light into the voxels (work list from voxelize)".into()
+                } else {
+                    "skipped: no lights, the pyramid holds no radiance".into()
+                },
+            ),
+            pass(
+                "surface_coverage_mip",
+                "surface_coverage_mip",
+                format!("{levels} levels below {side}^3"),
+                true,
+                "cones read coarser levels as they widen".into(),
+            ),
+            pass(
+                "cone_trace",
+                "cone_trace",
+                format!(
+                    "{px} x ({} diffuse{})",
+                    cones.diffuse_cones,
+                    if glossy > 0 { " + 1 glossy" } else { "" }
+                ),
+                true,
+                if glossy > 0 {
+                    format!("AO + diffuse; glossy cone for the {glossy} glossy material(s)")
+                } else {
+                    "AO + diffuse; no glossy cone: no material has Ks".into()
+                },
+            ),
+        ];
+        Self {
+            pipeline: "vct-dense",
+            passes,
+        }
+    }
+
+    pub fn runs(&self, stage: &str) -> bool {
+        self.passes.iter().any(|p| p.stage == stage && p.runs)
+    }
+}
+
+impl fmt::Display for FramePlan {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(f, "frame plan ({}):", self.pipeline)?;
+        for p in &self.passes {
+            writeln!(
+                f,
+                "  {} {:<22} {:<34} {}",
+                if p.runs { "run " } else { "skip" },
+                p.kernel,
+                p.size,
+                p.why
+            )?;
+        }
+        Ok(())
+    }
+}

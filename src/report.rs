@@ -1,0 +1,128 @@
+//! `vxgi report`: every scene with every pipeline and with the Monte Carlo reference, compared; a table
+//! (printed and written as report.md with the images side by side).
+use crate::images::{compare, write_pair, RgbImage};
+use crate::kernels::cone_trace::{pyramid_len_for, ConeSettings};
+use crate::reference::{leak, pixel_positions, render_reference, ReferenceOptions};
+use crate::scene::Scene;
+use anyhow::{Context, Result};
+use std::fmt::Write as _;
+use std::path::Path;
+
+#[derive(Clone, Debug)]
+pub struct ReportRow {
+    pub pipeline: &'static str,
+    pub scene: String,
+    /// Wall-clock seconds of the pipeline's stages (transfers included).
+    pub seconds: f64,
+    pub indirect_flip: f32,
+    pub combined_flip: f32,
+    /// Bytes of GPU buffers the frame allocates.
+    pub memory: u64,
+    /// Light leak (thin_wall only): indirect energy seen in the dark room / in the lit room.
+    pub leak: Option<f64>,
+}
+
+/// GPU buffer bytes of a vct-dense frame: G-buffer (position, normal, triangle) and the four images,
+/// scene buffers (BVH nodes, triangles), voxelization accumulators, the level-0 colour/normal/radiance
+/// grids, the radiance pyramid and its normals.
+pub fn vct_dense_memory(scene: &Scene) -> u64 {
+    let px = scene.camera.width as u64 * scene.camera.height as u64;
+    let tris = scene.mesh.triangles.len() as u64;
+    let side = scene.render.voxels as u64;
+    let voxels = side.pow(3);
+    let pyramid = pyramid_len_for(scene.render.voxels) as u64;
+    px * (16 + 16 + 4 + 16 * 3)
+        + tris * (96 + 2 * 48 + 112)
+        + voxels * (32 + 16 * 3 + 4)
+        + pyramid * 32
+}
+
+/// Render every scene with the reference (`spp`) and vct-dense, write the images under `out`
+/// (`<scene>/reference/`, `<scene>/vct-dense/`) and report.md; return the rows.
+pub fn report(
+    ctx: &crate::harness::GpuContext,
+    scenes: &[(String, Scene)],
+    spp: u32,
+    out: &Path,
+    progress: impl Fn(&str),
+) -> Result<Vec<ReportRow>> {
+    let mut rows = Vec::new();
+    let mut md = String::from("# vxgi report\n\n| pipeline | scene | time | indirect FLIP | combined FLIP | memory | leak |\n|---|---|---|---|---|---|---|\n");
+    let mut images = String::new();
+    for (name, scene) in scenes {
+        let dir = out.join(name);
+        progress(&format!("{name}: reference ({spp} spp)"));
+        let reference = render_reference(
+            scene,
+            &ReferenceOptions {
+                spp,
+                seed: 1,
+                jitter: true,
+            },
+            |_| {},
+        );
+        let (w, h) = (reference.width, reference.height);
+        let rgb = |px: Vec<[f32; 3]>| RgbImage::new(w, h, px);
+        let ref_dir = dir.join("reference");
+        std::fs::create_dir_all(&ref_dir)
+            .with_context(|| format!("creating {}", ref_dir.display()))?;
+        let ref_indirect = rgb(reference.indirect.clone());
+        let ref_combined = rgb(reference.combined());
+        write_pair(&ref_dir, "direct", &rgb(reference.direct.clone()))?;
+        write_pair(&ref_dir, "indirect", &ref_indirect)?;
+        write_pair(&ref_dir, "combined", &ref_combined)?;
+        write_pair(&ref_dir, "ao", &rgb(reference.ao.clone()))?;
+
+        progress(&format!("{name}: vct-dense"));
+        let cones = ConeSettings {
+            ao_range: scene.render.ao_range,
+            ao_lambda: scene.render.ao_lambda,
+            ..Default::default()
+        };
+        let r = crate::render::render(ctx, scene, &cones, |_| {})?;
+        let vdir = dir.join("vct-dense");
+        std::fs::create_dir_all(&vdir).with_context(|| format!("creating {}", vdir.display()))?;
+        write_pair(&vdir, "direct", &r.direct)?;
+        write_pair(&vdir, "indirect", &r.indirect)?;
+        write_pair(&vdir, "combined", &r.combined)?;
+        write_pair(&vdir, "ao", &r.ao)?;
+        let p = Path::new(name);
+        let ind = compare(&ref_indirect, p, &r.indirect, p)?;
+        let comb = compare(&ref_combined, p, &r.combined, p)?;
+        let leak = name
+            .contains("thin_wall")
+            .then(|| leak(&r.indirect.pixels, &pixel_positions(scene), 0.0, 1.0 / 64.0));
+        let row = ReportRow {
+            pipeline: "vct-dense",
+            scene: name.clone(),
+            seconds: r.stages.iter().map(|s| s.1).sum(),
+            indirect_flip: ind.flip_mean,
+            combined_flip: comb.flip_mean,
+            memory: vct_dense_memory(scene),
+            leak,
+        };
+        let _ = writeln!(
+            md,
+            "| {} | {} | {:.2} s | {:.3} | {:.3} | {:.1} MB | {} |",
+            row.pipeline,
+            row.scene,
+            row.seconds,
+            row.indirect_flip,
+            row.combined_flip,
+            row.memory as f64 / 1e6,
+            row.leak
+                .map(|l| format!("{l:.4}"))
+                .unwrap_or_else(|| "-".into())
+        );
+        let _ = writeln!(
+            images,
+            "\n### {name}\n\nreference ({spp} spp) | vct-dense\n---|---\n![]({name}/reference/combined.png) | ![]({name}/vct-dense/combined.png)\n![]({name}/reference/indirect.png) | ![]({name}/vct-dense/indirect.png)\n![]({name}/reference/ao.png) | ![]({name}/vct-dense/ao.png)"
+        );
+        rows.push(row);
+    }
+    md.push_str("\ntime: wall clock of the pipeline's stages, transfers between stages included; FLIP: mean LDR-FLIP against the reference (`vxgi compare`); leak: thin_wall only.\n");
+    md.push_str(&images);
+    std::fs::write(out.join("report.md"), md)
+        .with_context(|| format!("writing {}", out.join("report.md").display()))?;
+    Ok(rows)
+}
