@@ -6,7 +6,8 @@
 // Pixel (x, y), y down: ndc = ((x + 0.5) / w * 2 - 1, 1 - (y + 0.5) / h * 2),
 //   d = normalize(forward + right * ndc.x + up * ndc.y), origin = eye.
 // Outputs per pixel (row-major): gb_position = (p, t) or (0, 0, 0, -1) for no hit;
-//   gb_normal = (normalize(na (1-u-v) + nb u + nc v), side) with side 1 front, -1 back, 0 none;
+//   gb_normal = (normalize(na (1-u-v) + nb u + nc v), side) with side 1 front, -1 back, 0 none (the
+//   face normal where the interpolated one has squared length <= 1e-12);
 //   gb_triangle = triangle index or NONE.
 // Accuracy: t, p and n within per-element bounds (quotients of dots/crosses, conditioned by the
 // grazing angle; see texel_bounds). Which triangle is hit is exact except where rounding decides (ray
@@ -51,7 +52,11 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let tri = triangles[hit.tri];
     let p = o + d * hit.t;
     let bw = 1.0 - hit.u - hit.v;
-    let ns = tri.na.xyz * bw + tri.nb.xyz * hit.u + tri.nc.xyz * hit.v;
+    var ns = tri.na.xyz * bw + tri.nb.xyz * hit.u + tri.nc.xyz * hit.v;
+    if (!(dot(ns, ns) > 1e-12)) {
+        // Vertex normals that cancel (or are zero): the face normal instead of a NaN.
+        ns = cross(tri.b.xyz - tri.a.xyz, tri.c.xyz - tri.a.xyz);
+    }
     let n = ns * (1.0 / sqrt(dot(ns, ns)));
     gb_position[pix] = vec4<f32>(p, hit.t);
     gb_normal[pix] = vec4<f32>(n, select(-1.0, 1.0, hit.det > 0.0));

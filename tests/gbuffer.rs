@@ -102,3 +102,33 @@ fn a_scene_without_triangles_sees_nothing() {
         .chunks(4)
         .all(|p| p[3] == -1.0));
 }
+
+/// Vertex normals that cancel (or are zero) give the face normal, never a NaN.
+#[test]
+fn zero_vertex_normals_fall_back_to_the_face_normal() {
+    let (scene, _) = generated_scene(1, 0);
+    let mut data = SceneData::new(&scene);
+    for t in &mut data.triangles {
+        t.na = [0.0; 4];
+        t.nb = [0.0; 4];
+        t.nc = [0.0; 4];
+    }
+    let case = case_for(&data, "zero normals".into(), 0);
+    let shader = DECL.shader().unwrap();
+    let (comps, ..) = verify_case(gpu(), &shader, &Gbuffer, &case, None).unwrap();
+    assert!(comps.iter().all(|c| c.passed()));
+    let out = run(
+        gpu(),
+        &shader,
+        DECL.name,
+        &case.resources,
+        &case.passes,
+        &["gb_normal"],
+    )
+    .unwrap();
+    let n = out.buffer("gb_normal").as_f32();
+    assert!(n.iter().all(|x| x.is_finite()));
+    assert!(n
+        .chunks(4)
+        .any(|c| c[3] != 0.0 && (c[0] * c[0] + c[1] * c[1] + c[2] * c[2] - 1.0).abs() < 1e-5));
+}

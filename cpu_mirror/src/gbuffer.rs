@@ -4,7 +4,8 @@
 //! Pixel (x, y), y down: `ndc = ((x + 0.5) / w * 2 - 1, 1 - (y + 0.5) / h * 2)`,
 //! `d = normalize(forward + right * ndc.x + up * ndc.y)` (right and up pre-scaled by the field of view
 //! and aspect on the host), origin = eye. Shading normal: `normalize(na (1-u-v) + nb u + nc v)`.
-//! Side: 1 front, -1 back, 0 no hit (then position = (0,0,0,-1), normal = 0, triangle = NONE).
+//! Where the interpolated normal has squared length <= 1e-12 (vertex normals that cancel) the face
+//! normal is used. Side: 1 front, -1 back, 0 no hit (then position = (0,0,0,-1), normal = 0, triangle = NONE).
 use crate::bvh_trace::{closest, intersect, GpuNode, GpuTriangle, Hit, FAR, NONE};
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
@@ -54,7 +55,11 @@ pub const MISS: Texel = Texel {
 pub fn texel(o: Vec3, d: Vec3, tri: &GpuTriangle, h: &Hit) -> Texel {
     let p = o + d * h.t;
     let w = 1.0 - h.u - h.v;
-    let n = v3(tri.na) * w + v3(tri.nb) * h.u + v3(tri.nc) * h.v;
+    let mut n = v3(tri.na) * w + v3(tri.nb) * h.u + v3(tri.nc) * h.v;
+    #[allow(clippy::neg_cmp_op_on_partial_ord)] // NaN must take the fallback too, as in the WGSL
+    if !(n.dot(n) > 1e-12) {
+        n = (v3(tri.b) - v3(tri.a)).cross(v3(tri.c) - v3(tri.a));
+    }
     let n = n * (1.0 / n.dot(n).sqrt());
     Texel {
         position: [p.x, p.y, p.z, h.t],
