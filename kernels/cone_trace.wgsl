@@ -8,7 +8,8 @@
 // diameter *= 1 + tan and mip level += log2(1 + tan) per step (no logarithm in the loop), quadrilinear
 // sampling (outside the grid = empty), alpha corrected for the step (a' = 1 - (1 - a)^(step / cell)),
 // front-to-back accumulation, AO weighted 1 / (1 + lambda t) within ao_range, stop when A >= 1 - 1/256
-// or past the grid's diagonal.
+// or past the grid's diagonal. Option mip_clamp (0 = off): level capped at log2(D / (mip_clamp s0)),
+// D = the sample's distance from the origin surface's plane (offset + t cos), step ratio per capped cell.
 // Pixel: origin p + ng * offset_voxels * s0; diffuse cones from cone_dirs (tangent space, w = weight);
 // indirect = albedo * sum w C (+ Ks * C of a glossy cone along the mirror direction, tan = clamp(
 // sqrt(2 / (n + 2)), 0.02, 1)); AO = 1 - sum w occ. Back faces: AO only. Background: 0.
@@ -48,6 +49,10 @@ struct ConeParams {
     levels: u32,
     side: u32,
     inv_s0: f32,
+    mip_clamp: f32,     // 0 = off; else cap the level at log2(D / (mip_clamp s0)), D = distance from the origin plane
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 @group(0) @binding(0) var<storage, read> frame: Frame;
@@ -118,7 +123,7 @@ struct ConeOut {
     occlusion: f32,
 }
 
-fn march(o: vec3<f32>, d: vec3<f32>, tan_half: f32) -> ConeOut {
+fn march(o: vec3<f32>, d: vec3<f32>, tan_half: f32, cos_n: f32) -> ConeOut {
     let s0 = cone.origin.w;
     let max_dist = f32(cone.side) * s0 * 1.7320508;
     let grow = 1.0 + tan_half;
@@ -129,10 +134,19 @@ fn march(o: vec3<f32>, d: vec3<f32>, tan_half: f32) -> ConeOut {
     var c_acc = vec3<f32>(0.0);
     var a_acc = 0.0;
     var occ = 0.0;
+    let off = cone.offset_voxels * s0;
     while (t <= max_dist && a_acc < OPAQUE) {
-        let s = sample_pyramid(o + d * t, lf);
+        var l = lf;
+        if (cone.mip_clamp > 0.0) {
+            let plane = off + t * max(cos_n, 0.0);
+            l = min(l, log2(plane * cone.inv_s0 / cone.mip_clamp));
+        }
+        let s = sample_pyramid(o + d * t, l);
         let step = diam * 0.5;
-        let ratio = 0.5 * min(diam * cone.inv_s0, 1.0);
+        var ratio = 0.5 * min(diam * cone.inv_s0, 1.0);
+        if (l < lf) {
+            ratio = step * cone.inv_s0 / exp2(max(l, 0.0));
+        }
         let a = clamp(s.w, 0.0, 1.0);
         var a2 = 0.0;
         var c2 = vec3<f32>(0.0);
@@ -193,7 +207,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
     for (var k = 0u; k < cone.diffuse_cones; k++) {
         let c = cone_dirs[k];
         let dir = bt * c.x + bb * c.y + n * c.z;
-        let r = march(o, dir, cone.diffuse_tan);
+        let r = march(o, dir, cone.diffuse_tan, c.z);
         diffuse += r.radiance * c.w;
         occ += r.occlusion * c.w;
     }
@@ -210,7 +224,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
         let wo = e * (1.0 / sqrt(dot(e, e)));
         let refl = n * (2.0 * dot(n, wo)) - wo;
         let tan_g = clamp(sqrt(2.0 / (m.diffuse.w + 2.0)), 0.02, 1.0);
-        result += ks * march(o, refl, tan_g).radiance;
+        result += ks * march(o, refl, tan_g, dot(refl, n)).radiance;
     }
     indirect[pix] = vec4<f32>(result, 0.0);
 }

@@ -60,6 +60,10 @@ enum Command {
         /// Cone origins start this many voxels off the surface along its normal.
         #[arg(long, default_value_t = ConeSettings::default().offset_voxels)]
         cone_offset: f32,
+        /// Surface-aware mip clamp: sampled cells stay below 1/F of the distance from the origin
+        /// surface (0 = off, the paper's rule).
+        #[arg(long, default_value_t = ConeSettings::default().mip_clamp)]
+        mip_clamp: f32,
         #[command(flatten)]
         render: RenderFlags,
     },
@@ -335,6 +339,7 @@ fn real_main() -> Result<()> {
             cones,
             cone_half_angle,
             cone_offset,
+            mip_clamp,
             plan,
             render,
         } => run_render(
@@ -345,6 +350,7 @@ fn real_main() -> Result<()> {
                 diffuse_cones: cones,
                 diffuse_half_angle_deg: cone_half_angle,
                 offset_voxels: cone_offset,
+                mip_clamp,
                 ..Default::default()
             },
             render,

@@ -13,7 +13,9 @@
 //! - alpha corrected for the step: `a' = 1 - (1 - a)^(step / cell)` with cell = max(diameter, s0)
 //!   (VCT 5), colour scaled by a'/a; front-to-back `C += (1 - A) c'`, `A += (1 - A) a'`;
 //! - AO on the same march: `occ += (1 - A) a' / (1 + lambda t)` while t <= ao_range (VCT 6);
-//! - stops when A >= 1 - 1/256 or t > the grid's diagonal.
+//! - stops when A >= 1 - 1/256 or t > the grid's diagonal;
+//! - option `mip_clamp` (0 = off): the level is capped at log2(D / (mip_clamp s0)), D = the sample's
+//!   distance from the origin surface's plane (offset + t cos), and the step ratio uses the capped cell.
 //!
 //! Pixel: origin `p + ng * offset_voxels * s0` (ng the triangle's normal on the side facing the camera);
 //! diffuse cones from `cone_dirs` (tangent space, w = weight, weights sum to 1), indirect diffuse =
@@ -43,6 +45,11 @@ pub struct ConeParams {
     pub side: u32,
     /// 1 / s0, computed once on the host (so both sides scale by the same value).
     pub inv_s0: f32,
+    /// Surface-aware mip clamp (0 = off, the paper's rule): the sampled cell stays below
+    /// 1 / mip_clamp of the sample's distance from the origin surface's plane, so trilinear filtering
+    /// does not reach back into the surface's own voxels (which surface coverage keeps opaque).
+    pub mip_clamp: f32,
+    pub _pad: [u32; 3],
 }
 
 pub const OPAQUE: f32 = 1.0 - 1.0 / 256.0;
@@ -115,7 +122,8 @@ pub struct ConeResult {
     pub occ_allowance: f32,
 }
 
-pub fn march(pyr: &Pyramid, o: Vec3, d: Vec3, tan: f32, lmax: f32) -> ConeResult {
+/// `cos_n`: cosine between the cone and the origin surface's normal (for the mip clamp).
+pub fn march(pyr: &Pyramid, o: Vec3, d: Vec3, tan: f32, cos_n: f32, lmax: f32) -> ConeResult {
     let p = pyr.p;
     let s0 = p.origin[3];
     let inv_s0 = p.inv_s0;
@@ -123,16 +131,27 @@ pub fn march(pyr: &Pyramid, o: Vec3, d: Vec3, tan: f32, lmax: f32) -> ConeResult
     let grow = 1.0 + tan;
     let dl = grow.log2();
     let mut diam = 0.75 * s0;
-    let mut lf = -0.415_037_5; // log2(0.75)
+    let mut lf: f32 = -0.415_037_5; // log2(0.75)
     let mut t = diam * 0.25;
     let mut c_acc = Vec3::ZERO;
     let mut a_acc = 0.0f32;
     let mut occ = 0.0f32;
     let mut r = ConeResult::default();
+    let off = p.offset_voxels * s0;
     while t <= max_dist && a_acc < OPAQUE {
-        let s = pyr.sample(o + d * t, lf);
+        let mut l = lf;
+        if p.mip_clamp > 0.0 {
+            let plane = off + t * cos_n.max(0.0);
+            l = l.min((plane * inv_s0 / p.mip_clamp).log2());
+        }
+        let s = pyr.sample(o + d * t, l);
         let step = diam * 0.5;
-        let ratio = 0.5 * (diam * inv_s0).min(1.0);
+        // step / cell, cell = s0 * 2^max(l, 0) (= diam while the level follows the diameter).
+        let ratio = if l < lf {
+            step * inv_s0 / l.max(0.0).exp2()
+        } else {
+            0.5 * (diam * inv_s0).min(1.0)
+        };
         let a = s.w.clamp(0.0, 1.0);
         let a2 = if a > 0.0 {
             let keep = 1.0 - a;
@@ -243,7 +262,7 @@ pub fn shade_pixel(
     let mut occ_b = 0.0f32;
     for c in &cones[..p.diffuse_cones as usize] {
         let dir = bt * c[0] + bb * c[1] + n * c[2];
-        let r = march(pyr, o, dir, p.diffuse_tan, lmax);
+        let r = march(pyr, o, dir, p.diffuse_tan, c[2], lmax);
         diffuse += r.radiance * c[3];
         occ += r.occlusion * c[3];
         mag += (r.magnitude * MAG + r.allowance) * c[3];
@@ -264,7 +283,7 @@ pub fn shade_pixel(
         let wo = e * (1.0 / e.dot(e).sqrt());
         let refl = n * (2.0 * n.dot(wo)) - wo;
         let tan = (2.0 / (m.diffuse[3] + 2.0)).sqrt().clamp(0.02, 1.0);
-        let r = march(pyr, o, refl, tan, lmax);
+        let r = march(pyr, o, refl, tan, refl.dot(n), lmax);
         indirect += ks * r.radiance;
         bound += ks * (r.magnitude * MAG + r.allowance);
     }
