@@ -1,6 +1,7 @@
 // direct_light — direct light with exact hard shadows at every G-buffer texel: one shadow ray per
 // light through the flattened BVH. Mirror: cpu_mirror/src/direct_light.rs (whose `shade` the reference
-// path tracer also uses). Uses kernels/common/bvh_trace.wgsl.
+// path tracer also uses). Uses kernels/common/bvh_trace.wgsl and
+// kernels/common/lights.wgsl.
 //
 // Contract: back faces and background reflect nothing; BRDF kd/pi + ks (n+2)/(2 pi) max(r . wo, 0)^n
 // (r = mirror direction of the light about the shading normal, wo towards the eye, n = diffuse.w);
@@ -20,12 +21,6 @@ struct Frame {
     size: vec4<u32>,   // width, height, light count, 0
 }
 
-struct Light {
-    position: vec4<f32>,   // w = kind: 0 point, 1 spot, 2 directional
-    direction: vec4<f32>,  // unit travel direction; w = cos(cone)
-    intensity: vec4<f32>,  // w = cos(falloff)
-}
-
 struct Material {
     diffuse: vec4<f32>,    // w = Phong exponent
     specular: vec4<f32>,
@@ -42,17 +37,6 @@ struct Material {
 @group(0) @binding(8) var<storage, read_write> radiance: array<vec4<f32>>;
 
 const PI: f32 = 3.14159265358979;
-
-fn spot_factor(cos_a: f32, cos_cone: f32, cos_falloff: f32) -> f32 {
-    if (cos_a >= cos_falloff) {
-        return 1.0;
-    }
-    if (cos_a < cos_cone) {
-        return 0.0;
-    }
-    let t = clamp((cos_a - cos_cone) / (cos_falloff - cos_cone), 0.0, 1.0);
-    return t * t * (3.0 - 2.0 * t);
-}
 
 fn brdf(m: Material, n: vec3<f32>, wi: vec3<f32>, wo: vec3<f32>, cos: f32) -> vec3<f32> {
     let kd = m.diffuse.xyz * (1.0 / PI);
@@ -95,20 +79,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
     var sum = vec3<f32>(0.0);
     for (var l = 0u; l < frame.size.z; l++) {
         let light = lights[l];
-        var wi = -light.direction.xyz;
-        var e = light.intensity.xyz;
-        var t_max = 3.0e38;
-        if (light.position.w != 2.0) {
-            let lv = light.position.xyz - p;
-            let r2 = dot(lv, lv);
-            let r = sqrt(r2);
-            wi = lv / r;
-            e = light.intensity.xyz / r2;
-            t_max = r;
-            if (light.position.w == 1.0) {
-                e = e * spot_factor(-dot(wi, light.direction.xyz), light.direction.w, light.intensity.w);
-            }
-        }
+        let inc = incident(light, p);
+        let wi = inc.wi;
+        let e = inc.e;
+        let t_max = inc.t_max;
         let cos = dot(n, wi);
         if (cos <= 0.0 || dot(ng, wi) <= 0.0 || all(e == vec3<f32>(0.0))) {
             continue;

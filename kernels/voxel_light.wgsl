@@ -1,7 +1,8 @@
 // voxel_light — direct light into the non-empty voxels (Rehfeld et al. 2014, 3.1 "Voxel Illumination"),
 // with exact hard shadows (one shadow ray per light through the BVH) instead of the paper's shadow
 // cones, as the light-transport contract asks. Output is the pre-multiplied (radiance * alpha, alpha)
-// grid surface_coverage_mip filters. Mirror: cpu_mirror/src/voxel_light.rs. Uses common/bvh_trace.wgsl.
+// grid surface_coverage_mip filters. Mirror: cpu_mirror/src/voxel_light.rs. Uses common/bvh_trace.wgsl and
+// common/lights.wgsl.
 //
 // One invocation per entry of `list` (the voxelize kernel's non-empty voxels; entries past
 // list_count[0] return). Voxel v (Morton index) has centre origin + (xyz + 0.5) * size, albedo and alpha
@@ -12,12 +13,6 @@
 // short of the light. vox_radiance[v] = (L * alpha, alpha); unlisted voxels are left as they are (0).
 // Accuracy: per-element bound as direct_light's (64 ULP per term, 8 ULP absolute on the cosine); a
 // term whose shadow ray rounding decides adds its value.
-
-struct Light {
-    position: vec4<f32>,
-    direction: vec4<f32>,
-    intensity: vec4<f32>,
-}
 
 struct VoxelGrid {
     origin: vec4<f32>,   // xyz, w = voxel size
@@ -45,17 +40,6 @@ fn compact3(v: u32) -> u32 {
     return x;
 }
 
-fn spot_factor(cos_a: f32, cos_cone: f32, cos_falloff: f32) -> f32 {
-    if (cos_a >= cos_falloff) {
-        return 1.0;
-    }
-    if (cos_a < cos_cone) {
-        return 0.0;
-    }
-    let t = clamp((cos_a - cos_cone) / (cos_falloff - cos_cone), 0.0, 1.0);
-    return t * t * (3.0 - 2.0 * t);
-}
-
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let k = gid.x + gid.y * groups.x * 64u;
@@ -73,20 +57,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
     var sum = vec3<f32>(0.0);
     for (var l = 0u; l < grid.size.y; l++) {
         let light = lights[l];
-        var wi = -light.direction.xyz;
-        var e = light.intensity.xyz;
-        var t_light = 3.0e38;
-        if (light.position.w != 2.0) {
-            let lv = light.position.xyz - c;
-            let r2 = dot(lv, lv);
-            let r = sqrt(r2);
-            wi = lv / r;
-            e = light.intensity.xyz / r2;
-            t_light = r;
-            if (light.position.w == 1.0) {
-                e = e * spot_factor(-dot(wi, light.direction.xyz), light.direction.w, light.intensity.w);
-            }
-        }
+        let inc = incident(light, c);
+        let wi = inc.wi;
+        let e = inc.e;
+        let t_light = inc.t_max;
         var n = wi;
         var cos = 1.0;
         if (len > 1e-3) {

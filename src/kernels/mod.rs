@@ -28,6 +28,13 @@ pub const LRSM_MATH: (&str, &str) = (
     include_str!("../../kernels/common/lrsm_math.wgsl"),
 );
 
+/// What reaches a point from one light (point, spot, directional), included by direct_light and
+/// voxel_light.
+pub const LIGHTS: (&str, &str) = (
+    "kernels/common/lights.wgsl",
+    include_str!("../../kernels/common/lights.wgsl"),
+);
+
 /// Every declared kernel, in the order `vxgi verify` runs them.
 pub fn all() -> Vec<&'static dyn Kernel> {
     vec![
