@@ -270,6 +270,9 @@ pub fn shade_pixel(
     }
     let ao = (1.0 - occ).clamp(0.0, 1.0);
     let ao_out = [ao, ao, ao, 0.0];
+    // Plus one ULP at 1 for the final `1 - occ`: correctly rounded, but occ's own error can carry it
+    // across a rounding boundary of the result (seen: occ ~ 2e-7, AO off by one ULP below 1).
+    let occ_b = occ_b + f32::EPSILON;
     let ao_bound = [occ_b, occ_b, occ_b, 0.0];
     if !front {
         return [[0.0; 4], ao_out, [0.0; 4], ao_bound];
