@@ -42,6 +42,14 @@ impl RgbImage {
     }
 }
 
+/// Pixel-wise sum (combined = direct + indirect).
+pub fn add(a: &[[f32; 3]], b: &[[f32; 3]]) -> Vec<[f32; 3]> {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| [x[0] + y[0], x[1] + y[1], x[2] + y[2]])
+        .collect()
+}
+
 fn codec(path: &Path) -> impl FnOnce(image::ImageError) -> ImageError + '_ {
     move |source| ImageError::Codec {
         path: path.to_path_buf(),

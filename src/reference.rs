@@ -23,7 +23,7 @@ use rayon::prelude::*;
 use std::f32::consts::PI;
 use vxgi_cpu_mirror::bvh_trace::FAR;
 use vxgi_cpu_mirror::direct_light::{brdf, face_normal, shade_with, GpuMaterial};
-use vxgi_cpu_mirror::gbuffer::Frame;
+use vxgi_cpu_mirror::gbuffer::{ray_through, texel};
 
 /// Linear RGB images of one view, row-major, y down.
 #[derive(Clone, Debug, Default)]
@@ -38,11 +38,7 @@ pub struct Images {
 impl Images {
     /// direct + indirect (AO is not multiplied in).
     pub fn combined(&self) -> Vec<[f32; 3]> {
-        self.direct
-            .iter()
-            .zip(&self.indirect)
-            .map(|(d, i)| [d[0] + i[0], d[1] + i[1], d[2] + i[2]])
-            .collect()
+        crate::images::add(&self.direct, &self.indirect)
     }
 }
 
@@ -63,16 +59,6 @@ impl Default for ReferenceOptions {
             jitter: true,
         }
     }
-}
-
-fn ray_through(frame: &Frame, x: f32, y: f32) -> (Vec3, Vec3) {
-    let v = |a: [f32; 4]| Vec3::new(a[0], a[1], a[2]);
-    let w = frame.size[0] as f32;
-    let h = frame.size[1] as f32;
-    let nx = x / w * 2.0 - 1.0;
-    let ny = 1.0 - y / h * 2.0;
-    let d = v(frame.forward) + v(frame.right) * nx + v(frame.up) * ny;
-    (v(frame.eye), d.normalize())
 }
 
 /// An orthonormal basis around `n` (Duff et al. 2017).
@@ -118,13 +104,13 @@ impl Ctx<'_> {
     fn surface(&self, o: Vec3, d: Vec3) -> Option<Surface> {
         let h = self.tracer.closest(o, d, 0.0, FAR)?;
         let tri = &self.data.triangles[h.tri as usize];
-        let v = |a: [f32; 4]| Vec3::new(a[0], a[1], a[2]);
-        let w = 1.0 - h.u - h.v;
-        let n = (v(tri.na) * w + v(tri.nb) * h.u + v(tri.nc) * h.v).normalize();
+        // The G-buffer's definition of position and shading normal (face normal where vertex
+        // normals cancel).
+        let t = texel(o, d, tri, &h);
         let m = (tri.material() as usize).min(self.data.materials.len() - 1);
         Some(Surface {
-            p: o + d * h.t,
-            n,
+            p: Vec3::from_slice(&t.position[..3]),
+            n: Vec3::from_slice(&t.normal[..3]),
             ng: face_normal(tri),
             front: h.front,
             material: self.data.materials[m],

@@ -236,19 +236,10 @@ pub fn render(
     let rad: Vec<[f32; 4]> = if plan.runs("voxel_light") {
         progress("voxel light");
         let t = std::time::Instant::now();
-        let light = voxel_light::case_for(ctx, &data, &grid, &list, &frame, "render".into(), 0);
-        let shader = voxel_light::DECL.shader()?;
-        let out = run(
-            ctx,
-            &shader,
-            "voxel_light",
-            &light.resources,
-            &light.passes,
-            &["vox_radiance"],
-        )
-        .context("voxel light")?;
+        let rad =
+            voxel_light::light_on_gpu(ctx, &data, &grid, &list, &frame).context("voxel light")?;
         timed("voxel_light", t);
-        bytemuck::cast_slice(&out.buffer("vox_radiance").bytes).to_vec()
+        rad
     } else {
         // No lights: radiance 0; filled voxels keep their alpha (AO still sees the geometry).
         grid.colour.iter().map(|c| [0.0, 0.0, 0.0, c[3]]).collect()
@@ -276,16 +267,7 @@ pub fn render(
     let ao = image_of(w, h, &out.buffer("ao").bytes);
     timed("cone_trace", t);
 
-    let combined = RgbImage::new(
-        w,
-        h,
-        direct
-            .pixels
-            .iter()
-            .zip(&indirect.pixels)
-            .map(|(a, b)| [a[0] + b[0], a[1] + b[1], a[2] + b[2]])
-            .collect(),
-    );
+    let combined = RgbImage::new(w, h, crate::images::add(&direct.pixels, &indirect.pixels));
     Ok(Rendered {
         direct,
         indirect,
@@ -396,15 +378,7 @@ pub fn render_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendered> {
             .collect()
     };
     let indirect = RgbImage::new(w, h, rgb(0));
-    let combined = RgbImage::new(
-        w,
-        h,
-        direct
-            .iter()
-            .zip(&indirect.pixels)
-            .map(|(a, b)| [a[0] + b[0], a[1] + b[1], a[2] + b[2]])
-            .collect(),
-    );
+    let combined = RgbImage::new(w, h, crate::images::add(&direct, &indirect.pixels));
     Ok(Rendered {
         direct: RgbImage::new(w, h, direct),
         indirect,

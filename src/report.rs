@@ -1,12 +1,13 @@
 //! `vxgi report`: every scene with every pipeline and with the Monte Carlo reference, compared; a table
 //! (printed and written as report.md with the images side by side).
 use crate::images::{compare, write_pair, RgbImage};
-use crate::kernels::cone_trace::{pyramid_len_for, ConeSettings};
+use crate::kernels::cone_trace::ConeSettings;
 use crate::reference::{leak, pixel_positions, render_reference, ReferenceOptions};
 use crate::scene::Scene;
 use anyhow::{Context, Result};
 use std::fmt::Write as _;
 use std::path::Path;
+use vxgi_cpu_mirror::cone_trace::pyramid_len;
 
 #[derive(Clone, Debug)]
 pub struct ReportRow {
@@ -30,7 +31,7 @@ pub fn vct_dense_memory(scene: &Scene) -> u64 {
     let tris = scene.mesh.triangles.len() as u64;
     let side = scene.render.voxels as u64;
     let voxels = side.pow(3);
-    let pyramid = pyramid_len_for(scene.render.voxels) as u64;
+    let pyramid = pyramid_len(scene.render.voxels) as u64;
     px * (16 + 16 + 4 + 16 * 3)
         + tris * (96 + 2 * 48 + 112)
         + voxels * (32 + 16 * 3 + 4)

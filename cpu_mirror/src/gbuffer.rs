@@ -26,12 +26,18 @@ fn v3(a: [f32; 4]) -> Vec3 {
     Vec3::new(a[0], a[1], a[2])
 }
 
-/// The primary ray of pixel `(x, y)`.
+/// The primary ray of pixel `(x, y)` (through its centre).
 pub fn primary_ray(frame: &Frame, x: u32, y: u32) -> (Vec3, Vec3) {
+    ray_through(frame, x as f32 + 0.5, y as f32 + 0.5)
+}
+
+/// The camera ray through image point `(fx, fy)` in pixel units (y down); the reference renderer
+/// jitters it over the pixel.
+pub fn ray_through(frame: &Frame, fx: f32, fy: f32) -> (Vec3, Vec3) {
     let w = frame.size[0] as f32;
     let h = frame.size[1] as f32;
-    let nx = (x as f32 + 0.5) / w * 2.0 - 1.0;
-    let ny = 1.0 - (y as f32 + 0.5) / h * 2.0;
+    let nx = fx / w * 2.0 - 1.0;
+    let ny = 1.0 - fy / h * 2.0;
     let d = v3(frame.forward) + v3(frame.right) * nx + v3(frame.up) * ny;
     let d = d * (1.0 / d.dot(d).sqrt());
     (v3(frame.eye), d)

@@ -233,22 +233,9 @@ impl Kernel for ConeTrace {
         let gb = super::direct_light::gpu_gbuffer(ctx, &data);
         let (grid, list, frame) =
             voxelize_on_gpu(ctx, &scene, side).expect("generated grids voxelize");
-        let light =
-            super::voxel_light::case_for(ctx, &data, &grid, &list, &frame, String::new(), seed);
-        let shader = super::voxel_light::DECL
-            .shader()
-            .expect("voxel_light.wgsl is valid");
-        let out = run(
-            ctx,
-            &shader,
-            "voxel_light",
-            &light.resources,
-            &light.passes,
-            &["vox_radiance"],
-        )
-        .expect("voxel_light runs");
-        let rad: &[[f32; 4]] = bytemuck::cast_slice(&out.buffer("vox_radiance").bytes);
-        let pyr = gpu_pyramid(ctx, rad, &grid.normal, side).expect("mip chain runs");
+        let rad = super::voxel_light::light_on_gpu(ctx, &data, &grid, &list, &frame)
+            .expect("voxel_light runs");
+        let pyr = gpu_pyramid(ctx, &rad, &grid.normal, side).expect("mip chain runs");
         let settings = ConeSettings {
             ao_range: scene.render.ao_range,
             ao_lambda: scene.render.ao_lambda,
@@ -282,9 +269,4 @@ impl Kernel for ConeTrace {
             (bound_name("ao"), f(&ao_b)),
         ])
     }
-}
-
-/// Voxels in the radiance pyramid of a grid of side `side`.
-pub fn pyramid_len_for(side: u32) -> usize {
-    pyramid_len(side)
 }

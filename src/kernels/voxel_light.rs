@@ -10,7 +10,7 @@ use vxgi_cpu_mirror::bvh_trace::{GpuNode, GpuTriangle};
 use vxgi_cpu_mirror::direct_light::GpuLight;
 use vxgi_cpu_mirror::voxel_light::{light_voxel, VoxelGrid};
 use vxgi_harness::compare::bound_name;
-use vxgi_harness::run::{grid_for, Pass, Workgroups};
+use vxgi_harness::run::{grid_for, run, Pass, Workgroups};
 use vxgi_harness::{
     Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
     KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
@@ -100,6 +100,26 @@ pub fn case_for(
         }],
         effective_bytes: list.len() as u64 * 52,
     }
+}
+
+/// Light a voxelized scene on the GPU: the radiance grid (Morton order), the mip chain's input.
+pub fn light_on_gpu(
+    ctx: &GpuContext,
+    data: &SceneData,
+    grid: &Grid,
+    list: &[u32],
+    frame: &VoxelFrame,
+) -> anyhow::Result<Vec<[f32; 4]>> {
+    let case = case_for(ctx, data, grid, list, frame, "voxel_light".into(), 0);
+    let out = run(
+        ctx,
+        &DECL.shader()?,
+        DECL.name,
+        &case.resources,
+        &case.passes,
+        &["vox_radiance"],
+    )?;
+    Ok(bytemuck::cast_slice(&out.buffer("vox_radiance").bytes).to_vec())
 }
 
 /// Mirror radiance grid and bounds.
