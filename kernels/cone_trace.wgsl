@@ -11,7 +11,7 @@
 // or past the grid's diagonal. Option mip_clamp (0 = off): level capped at log2(D / (mip_clamp s0)),
 // D = the sample's distance from the origin surface's plane (offset + t cos), step ratio per capped cell.
 // Pixel: origin p + ng * offset_voxels * s0; diffuse cones from cone_dirs (tangent space, w = weight);
-// indirect = albedo * sum w C (+ Ks * C of a glossy cone along the mirror direction, tan = clamp(
+// indirect = albedo (gb_albedo) * sum w C (+ Ks * C of a glossy cone along the mirror direction, tan = clamp(
 // sqrt(2 / (n + 2)), 0.02, 1)); AO = 1 - sum w occ. Back faces: AO only. Background: 0.
 // Outputs per pixel (row-major): indirect (rgb, 0), ao (a, a, a, 0).
 // Accuracy: per-element bound (see cone_trace::MAG): 4e-4 of the accumulated magnitudes, plus the
@@ -37,6 +37,7 @@ struct Triangle {
 struct Material {
     diffuse: vec4<f32>,
     specular: vec4<f32>,
+    texture: vec4<u32>,   // read by gbuffer (gb_albedo), not here
 }
 
 struct ConeParams {
@@ -66,6 +67,7 @@ struct ConeParams {
 @group(0) @binding(8) var<storage, read> pyramid: array<vec4<f32>>;
 @group(0) @binding(9) var<storage, read_write> indirect: array<vec4<f32>>;
 @group(0) @binding(10) var<storage, read_write> ao: array<vec4<f32>>;
+@group(0) @binding(11) var<storage, read> gb_albedo: array<vec4<f32>>;
 
 const OPAQUE: f32 = 0.99609375;  // 1 - 1/256
 
@@ -217,7 +219,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
         indirect[pix] = vec4<f32>(0.0);
         return;
     }
-    var result = m.diffuse.xyz * diffuse;
+    var result = gb_albedo[pix].xyz * diffuse;   // Kd or the map_Kd texel
     let ks = m.specular.xyz;
     if (any(ks != vec3<f32>(0.0))) {
         let e = frame.eye.xyz - pos;

@@ -21,11 +21,6 @@ struct Frame {
     size: vec4<u32>,   // width, height, light count, 0
 }
 
-struct Material {
-    diffuse: vec4<f32>,    // w = Phong exponent
-    specular: vec4<f32>,
-}
-
 @group(0) @binding(0) var<storage, read> frame: Frame;
 @group(0) @binding(1) var<storage, read> nodes: array<BvhNode>;
 @group(0) @binding(2) var<storage, read> triangles: array<Triangle>;
@@ -35,6 +30,7 @@ struct Material {
 @group(0) @binding(6) var<storage, read> gb_normal: array<vec4<f32>>;
 @group(0) @binding(7) var<storage, read> gb_triangle: array<u32>;
 @group(0) @binding(8) var<storage, read_write> radiance: array<vec4<f32>>;
+@group(0) @binding(9) var<storage, read> gb_albedo: array<vec4<f32>>;
 
 const PI: f32 = 3.14159265358979;
 
@@ -67,7 +63,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
         return;
     }
     let tri = triangles[ti];
-    let m = materials[min(u32(tri.a.w), arrayLength(&materials) - 1u)];
+    var m = materials[min(u32(tri.a.w), arrayLength(&materials) - 1u)];
+    m.diffuse = vec4<f32>(gb_albedo[pix].xyz, m.diffuse.w);   // Kd or the map_Kd texel
     let p = gb_position[pix].xyz;
     let n = nrm.xyz;
     let fc = cross(tri.b.xyz - tri.a.xyz, tri.c.xyz - tri.a.xyz);

@@ -8,7 +8,13 @@
 // Outputs per pixel (row-major): gb_position = (p, t) or (0, 0, 0, -1) for no hit;
 //   gb_normal = (normalize(na (1-u-v) + nb u + nc v), side) with side 1 front, -1 back, 0 none (the
 //   face normal where the interpolated one has squared length <= 1e-12);
-//   gb_triangle = triangle index or NONE.
+//   gb_triangle = triangle index or NONE;
+//   gb_albedo = (albedo, 0): the material's Kd, or where it has a map_Kd texture the nearest texel at
+//   uv = uv_a (1-u-v) + uv_b u + uv_c v (uvs[3 t + k]), repeating: f = uv - floor(uv), column
+//   min(u32(f.x W), W-1), row min(u32((1 - f.y) H), H-1) (row 0 = the image's top); texels packed
+//   sRGB8 r | g << 8 | b << 16, decoded through srgb_lut. Zeros for no hit.
+// Albedo accuracy: exact where Kd; from a texture, any texel the uv's rounding could select
+// (albedo_bound; the texel choice itself is exact for a given uv: x - floor(x) is exact).
 // Accuracy: t, p and n within per-element bounds (quotients of dots/crosses, conditioned by the
 // grazing angle; see texel_bounds). Which triangle is hit is exact except where rounding decides (ray
 // within 1e-4 barycentric of an edge, or meeting triangles at equal depth): there the mirror accepts
@@ -28,6 +34,26 @@ struct Frame {
 @group(0) @binding(3) var<storage, read_write> gb_position: array<vec4<f32>>;
 @group(0) @binding(4) var<storage, read_write> gb_normal: array<vec4<f32>>;
 @group(0) @binding(5) var<storage, read_write> gb_triangle: array<u32>;
+@group(0) @binding(6) var<storage, read> materials: array<Material>;
+@group(0) @binding(7) var<storage, read> uvs: array<vec2<f32>>;
+@group(0) @binding(8) var<storage, read> texels: array<u32>;
+@group(0) @binding(9) var<storage, read> srgb_lut: array<f32>;
+@group(0) @binding(10) var<storage, read_write> gb_albedo: array<vec4<f32>>;
+
+fn albedo(ti: u32, u: f32, v: f32) -> vec4<f32> {
+    let m = materials[min(u32(triangles[ti].a.w), arrayLength(&materials) - 1u)];
+    let w = m.texture.y;
+    let h = m.texture.z;
+    if (w == 0u || h == 0u) {
+        return vec4<f32>(m.diffuse.xyz, 0.0);
+    }
+    let uv = uvs[3u * ti] * (1.0 - u - v) + uvs[3u * ti + 1u] * u + uvs[3u * ti + 2u] * v;
+    let f = uv - floor(uv);
+    let x = min(u32(f.x * f32(w)), w - 1u);
+    let y = min(u32((1.0 - f.y) * f32(h)), h - 1u);
+    let t = texels[m.texture.x + y * w + x];
+    return vec4<f32>(srgb_lut[t & 255u], srgb_lut[(t >> 8u) & 255u], srgb_lut[(t >> 16u) & 255u], 0.0);
+}
 
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -47,6 +73,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         gb_position[pix] = vec4<f32>(0.0, 0.0, 0.0, -1.0);
         gb_normal[pix] = vec4<f32>(0.0);
         gb_triangle[pix] = NONE;
+        gb_albedo[pix] = vec4<f32>(0.0);
         return;
     }
     let tri = triangles[hit.tri];
@@ -61,4 +88,5 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     gb_position[pix] = vec4<f32>(p, hit.t);
     gb_normal[pix] = vec4<f32>(n, select(-1.0, 1.0, hit.det > 0.0));
     gb_triangle[pix] = hit.tri;
+    gb_albedo[pix] = albedo(hit.tri, hit.u, hit.v);
 }

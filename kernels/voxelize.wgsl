@@ -8,6 +8,9 @@
 //   triangles: lattice vertices (1/256 voxel, a.w = sample count n), fixed-point (x 4096) vertex normals
 //   and albedo. Sample (i, j), i + j <= n: P = A + ((B - A) i + (C - A) j) / n (i32, truncating
 //   division), voxel = P >> 8 (clamped to the grid), normal = (na (n-i-j) + nb i + nc j) / n.
+//   Textured triangles (texture.y = W > 0): fixed-point texture coordinates (1/16 texel) interpolate
+//   the same way; the sample's albedo is vox_lut of the channels of texel ((Us >> 4) mod W,
+//   (Vs >> 4) mod H) at texture.x in vox_texels (packed sRGB8 r | g << 8 | b << 16).
 // Pass `splat` (one invocation per triangle row: gid.x = triangle, gid.y = i): adds albedo, normal
 //   (two's complement in u32) and 1 into acc[8 v .. 8 v + 7] = (r, g, b, nx, ny, nz, count, -) of the
 //   sample's voxel v (Morton index). acc must start zeroed.
@@ -27,6 +30,9 @@ struct VoxTriangle {
     nb: vec4<i32>,
     nc: vec4<i32>,
     albedo: vec4<u32>,
+    uv_ab: vec4<i32>,   // Ua, Va, Ub, Vb
+    uv_c: vec4<i32>,    // Uc, Vc
+    texture: vec4<u32>, // first atlas texel, W, H, 0
 }
 
 struct VoxParams {
@@ -43,6 +49,28 @@ struct VoxParams {
 @group(0) @binding(4) var<storage, read_write> vox_normal: array<vec4<f32>>;
 @group(0) @binding(5) var<storage, read_write> list: array<u32>;
 @group(0) @binding(6) var<storage, read_write> list_count: array<atomic<u32>>;
+@group(0) @binding(7) var<storage, read> vox_texels: array<u32>;
+@group(0) @binding(8) var<storage, read> vox_lut: array<u32>;
+
+fn wrap(a: i32, n: u32) -> u32 {
+    let m = a % i32(n);
+    return u32(select(m, m + i32(n), m < 0));
+}
+
+fn sample_albedo(t: VoxTriangle, i: i32, j: i32) -> vec3<u32> {
+    let w = t.texture.y;
+    let h = t.texture.z;
+    if (w == 0u || h == 0u) {
+        return t.albedo.xyz;
+    }
+    let n = t.a.w;
+    let us = t.uv_ab.x + ((t.uv_ab.z - t.uv_ab.x) * i + (t.uv_c.x - t.uv_ab.x) * j) / n;
+    let vs = t.uv_ab.y + ((t.uv_ab.w - t.uv_ab.y) * i + (t.uv_c.y - t.uv_ab.y) * j) / n;
+    let x = wrap(us >> 4u, w);
+    let y = wrap(vs >> 4u, h);
+    let texel = vox_texels[t.texture.x + y * w + x];
+    return vec3<u32>(vox_lut[texel & 255u], vox_lut[(texel >> 8u) & 255u], vox_lut[(texel >> 16u) & 255u]);
+}
 
 fn spread3(v: u32) -> u32 {
     var x = v & 0x3ffu;
@@ -74,9 +102,10 @@ fn splat(@builtin(global_invocation_id) gid: vec3<u32>) {
         let nrm = (t.na.xyz * (n - i - j) + t.nb.xyz * i + t.nc.xyz * j) / vec3<i32>(n);
         let v = vec3<u32>(clamp(p / vec3<i32>(256), vec3<i32>(0), vec3<i32>(side - 1)));
         let base = morton3(v) * 8u;
-        atomicAdd(&acc[base], t.albedo.x);
-        atomicAdd(&acc[base + 1u], t.albedo.y);
-        atomicAdd(&acc[base + 2u], t.albedo.z);
+        let albedo = sample_albedo(t, i, j);
+        atomicAdd(&acc[base], albedo.x);
+        atomicAdd(&acc[base + 1u], albedo.y);
+        atomicAdd(&acc[base + 2u], albedo.z);
         atomicAdd(&acc[base + 3u], bitcast<u32>(nrm.x));
         atomicAdd(&acc[base + 4u], bitcast<u32>(nrm.y));
         atomicAdd(&acc[base + 5u], bitcast<u32>(nrm.z));

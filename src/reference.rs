@@ -23,7 +23,7 @@ use rayon::prelude::*;
 use std::f32::consts::PI;
 use vxgi_cpu_mirror::bvh_trace::FAR;
 use vxgi_cpu_mirror::direct_light::{brdf, face_normal, shade_with, GpuMaterial};
-use vxgi_cpu_mirror::gbuffer::{ray_through, texel};
+use vxgi_cpu_mirror::gbuffer::{albedo, ray_through, texel};
 
 /// Linear RGB images of one view, row-major, y down.
 #[derive(Clone, Debug, Default)]
@@ -105,15 +105,21 @@ impl Ctx<'_> {
         let h = self.tracer.closest(o, d, 0.0, FAR)?;
         let tri = &self.data.triangles[h.tri as usize];
         // The G-buffer's definition of position and shading normal (face normal where vertex
-        // normals cancel).
+        // normals cancel), and its albedo (Kd or the map_Kd texel).
         let t = texel(o, d, tri, &h);
         let m = (tri.material() as usize).min(self.data.materials.len() - 1);
+        let alb = albedo(
+            &self.data.materials,
+            &self.data.triangles,
+            &self.data.textures(),
+            &t,
+        );
         Some(Surface {
             p: Vec3::from_slice(&t.position[..3]),
             n: Vec3::from_slice(&t.normal[..3]),
             ng: face_normal(tri),
             front: h.front,
-            material: self.data.materials[m],
+            material: self.data.materials[m].with_albedo(alb),
         })
     }
 

@@ -18,6 +18,8 @@ pub struct FrameTargets {
     pub gb_normal: wgpu::Buffer,
     /// u32 per pixel: triangle index or u32::MAX.
     pub gb_triangle: wgpu::Buffer,
+    /// vec4<f32> per pixel: albedo (Kd or the map_Kd texel; rgb, 0).
+    pub gb_albedo: wgpu::Buffer,
     /// vec4<f32> per pixel: direct radiance (rgb, 0).
     pub radiance: wgpu::Buffer,
 }
@@ -39,6 +41,7 @@ impl FrameTargets {
             gb_position: buf("gb_position", n * 16),
             gb_normal: buf("gb_normal", n * 16),
             gb_triangle: buf("gb_triangle", n * 4),
+            gb_albedo: buf("gb_albedo", n * 16),
             radiance: buf("radiance", n * 16),
         }
     }
@@ -48,7 +51,7 @@ impl FrameTargets {
 pub struct DirectRenderer {
     gbuffer: wgpu::ComputePipeline,
     direct: wgpu::ComputePipeline,
-    scene: [wgpu::Buffer; 5],
+    scene: [wgpu::Buffer; 8],
     width: u32,
     height: u32,
 }
@@ -91,6 +94,9 @@ impl DirectRenderer {
                 upload("triangles", bytemuck::cast_slice(&data.triangles)),
                 upload("lights", bytemuck::cast_slice(&lights)),
                 upload("materials", bytemuck::cast_slice(&data.materials)),
+                upload("uvs", bytemuck::cast_slice(&data.uvs)),
+                upload("texels", bytemuck::cast_slice(&data.texels)),
+                upload("srgb_lut", bytemuck::cast_slice(&data.srgb_lut)),
             ],
             width: data.width(),
             height: data.height(),
@@ -105,7 +111,7 @@ impl DirectRenderer {
         encoder: &mut wgpu::CommandEncoder,
         targets: &FrameTargets,
     ) {
-        let [frame, nodes, triangles, lights, materials] = &self.scene;
+        let [frame, nodes, triangles, lights, materials, uvs, texels, lut] = &self.scene;
         let bind = |p: &wgpu::ComputePipeline, buffers: &[&wgpu::Buffer]| {
             let entries: Vec<_> = buffers
                 .iter()
@@ -130,6 +136,11 @@ impl DirectRenderer {
                 &targets.gb_position,
                 &targets.gb_normal,
                 &targets.gb_triangle,
+                materials,
+                uvs,
+                texels,
+                lut,
+                &targets.gb_albedo,
             ],
         );
         let d = bind(
@@ -144,6 +155,7 @@ impl DirectRenderer {
                 &targets.gb_normal,
                 &targets.gb_triangle,
                 &targets.radiance,
+                &targets.gb_albedo,
             ],
         );
         let n = self.width as u64 * self.height as u64;
@@ -296,9 +308,15 @@ pub fn render_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendered> {
         .into_par_iter()
         .map(|i| gbm::shade_pixel(&data.frame, &data.nodes, &data.triangles, i % w, i / w))
         .collect();
+    let tex = data.textures();
+    let albedo: Vec<[f32; 4]> = texels
+        .iter()
+        .map(|t| gbm::albedo(&data.materials, &data.triangles, &tex, t))
+        .collect();
     let direct: Vec<[f32; 3]> = texels
         .par_iter()
-        .map(|t| {
+        .zip(&albedo)
+        .map(|(t, &alb)| {
             let (l, _) = dl::shade_with_bound(
                 &data.frame,
                 &data.nodes,
@@ -308,13 +326,14 @@ pub fn render_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendered> {
                 t.position,
                 t.normal,
                 t.triangle,
+                alb,
             );
             l.to_array()
         })
         .collect();
     let side = scene.render.voxels;
-    let (vtris, frame) = voxelize::prepare(scene, side)?;
-    let (colour, normal, list) = vxgi_cpu_mirror::voxelize::voxelize(&vtris, side);
+    let (input, frame) = voxelize::prepare(scene, side)?;
+    let (colour, normal, list) = vxgi_cpu_mirror::voxelize::voxelize(&input, side);
     let grid = voxel_light::voxel_grid(&frame, data.lights.len());
     let lit: Vec<(u32, [f32; 4])> = list
         .par_iter()
@@ -357,7 +376,8 @@ pub fn render_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendered> {
     let lmax = cone_trace::max_radiance(&pyramid, side);
     let cones_out: Vec<[[f32; 4]; 4]> = texels
         .par_iter()
-        .map(|t| {
+        .zip(&albedo)
+        .map(|(t, &alb)| {
             ct::shade_pixel(
                 &pyr,
                 &data.frame,
@@ -367,6 +387,7 @@ pub fn render_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendered> {
                 t.position,
                 t.normal,
                 t.triangle,
+                alb,
                 lmax,
             )
         })

@@ -1,9 +1,10 @@
 //! Scene input (issue 6): a TOML file naming an OBJ mesh (loaded with tobj, triangulated, materials from
 //! its .mtl), a camera, lights and optional render settings; or the built-in Cornell box. Everything a
 //! user can get wrong is an error with file and line, never a panic.
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use thiserror::Error;
 
 #[derive(Debug, Error)]
@@ -51,6 +52,51 @@ pub enum SceneError {
     },
     #[error("{path}: [render] {message}")]
     Render { path: String, message: String },
+    #[error("{path}: texture coordinate of vertex {index} is not finite: {value:?}")]
+    NonFiniteUv {
+        path: String,
+        index: usize,
+        value: [f32; 2],
+    },
+}
+
+/// A `map_Kd` texture as loaded (any format the `image` crate reads here: PNG, JPEG): 8-bit sRGB
+/// texels, row 0 at the image's top (texture coordinate v = 1).
+#[derive(Clone, PartialEq)]
+pub struct Texture {
+    pub path: PathBuf,
+    pub width: u32,
+    pub height: u32,
+    pub rgb: Vec<[u8; 3]>,
+}
+
+impl std::fmt::Debug for Texture {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "Texture({}, {}x{})",
+            self.path.display(),
+            self.width,
+            self.height
+        )
+    }
+}
+
+impl Texture {
+    /// Read an image file (alpha dropped).
+    pub fn load(path: &Path) -> Result<Self, String> {
+        let img = image::open(path).map_err(|e| e.to_string())?.to_rgb8();
+        let (width, height) = img.dimensions();
+        if width == 0 || height == 0 {
+            return Err("the image is empty".into());
+        }
+        Ok(Self {
+            path: path.to_path_buf(),
+            width,
+            height,
+            rgb: img.pixels().map(|p| p.0).collect(),
+        })
+    }
 }
 
 #[derive(Clone, Debug, Deserialize, PartialEq)]
@@ -157,8 +203,8 @@ pub struct Material {
     pub diffuse: [f32; 3],
     pub specular: [f32; 3],
     pub shininess: f32,
-    /// `map_Kd`, resolved against the OBJ's folder.
-    pub diffuse_texture: Option<PathBuf>,
+    /// `map_Kd` (resolved against the OBJ's folder, loaded): replaces `diffuse` where present.
+    pub diffuse_map: Option<Arc<Texture>>,
 }
 
 impl Material {
@@ -168,7 +214,7 @@ impl Material {
             diffuse: [0.8; 3],
             specular: [0.0; 3],
             shininess: 1.0,
-            diffuse_texture: None,
+            diffuse_map: None,
         }
     }
     pub fn is_glossy(&self) -> bool {
@@ -176,12 +222,14 @@ impl Material {
     }
 }
 
-/// Triangles with per-vertex positions and normals (from `vn`, else flat from the winding: the front
-/// is the side from which the vertices appear counter-clockwise) and a material per triangle.
-#[derive(Clone, Debug)]
+/// Triangles with per-vertex positions, normals (from `vn`, else flat from the winding: the front
+/// is the side from which the vertices appear counter-clockwise) and texture coordinates (from `vt`,
+/// else zero), and a material per triangle.
+#[derive(Clone, Debug, Default)]
 pub struct Mesh {
     pub positions: Vec<Vec3>,
     pub normals: Vec<Vec3>,
+    pub uvs: Vec<Vec2>,
     pub triangles: Vec<[u32; 3]>,
     pub material: Vec<u32>,
 }
@@ -308,12 +356,28 @@ impl Scene {
         let mut materials: Vec<Material> = match mtl {
             Ok(m) => m
                 .into_iter()
-                .map(|m| Material {
-                    name: m.name,
-                    diffuse: m.diffuse.unwrap_or([0.8; 3]),
-                    specular: m.specular.unwrap_or([0.0; 3]),
-                    shininess: m.shininess.unwrap_or(1.0),
-                    diffuse_texture: m.diffuse_texture.map(|t| obj_dir.join(t)),
+                .map(|m| {
+                    // A texture that cannot be read is a warning: the material keeps its Kd.
+                    let diffuse_map = m.diffuse_texture.and_then(|t| {
+                        let path = obj_dir.join(t.trim());
+                        Texture::load(&path)
+                            .map_err(|e| {
+                                warnings.push(format!(
+                                    "material {}: map_Kd {} not used ({e}): Kd instead",
+                                    m.name,
+                                    path.display()
+                                ))
+                            })
+                            .ok()
+                            .map(Arc::new)
+                    });
+                    Material {
+                        name: m.name,
+                        diffuse: m.diffuse.unwrap_or([0.8; 3]),
+                        specular: m.specular.unwrap_or([0.0; 3]),
+                        shininess: m.shininess.unwrap_or(1.0),
+                        diffuse_map,
+                    }
                 })
                 .collect(),
             Err(e) => {
@@ -325,12 +389,7 @@ impl Scene {
         };
         let grey = materials.len() as u32;
         materials.push(Material::grey());
-        let mut mesh = Mesh {
-            positions: Vec::new(),
-            normals: Vec::new(),
-            triangles: Vec::new(),
-            material: Vec::new(),
-        };
+        let mut mesh = Mesh::default();
         for m in &models {
             let base = mesh.positions.len() as u32;
             let positions: Vec<Vec3> = m
@@ -349,14 +408,31 @@ impl Scene {
             } else {
                 vec![Vec3::ZERO; positions.len()]
             };
+            let has_uvs = m.mesh.texcoords.len() * 3 == m.mesh.positions.len() * 2;
+            let uvs: Vec<Vec2> = if has_uvs {
+                m.mesh
+                    .texcoords
+                    .chunks(2)
+                    .map(|c| Vec2::new(c[0], c[1]))
+                    .collect()
+            } else {
+                vec![Vec2::ZERO; positions.len()]
+            };
             mesh.positions.extend(positions);
             mesh.normals.extend(normals);
+            mesh.uvs.extend(uvs);
             let mat = m
                 .mesh
                 .material_id
                 .map(|i| i as u32)
                 .filter(|&i| i < grey)
                 .unwrap_or(grey);
+            if !has_uvs && materials[mat as usize].diffuse_map.is_some() {
+                warnings.push(format!(
+                    "{obj_label}: object {} uses textured material {} but has no vt: its texture is read at (0, 0)",
+                    m.name, materials[mat as usize].name
+                ));
+            }
             for t in m.mesh.indices.chunks(3) {
                 mesh.triangles.push([base + t[0], base + t[1], base + t[2]]);
                 mesh.material.push(mat);
@@ -402,6 +478,15 @@ impl Scene {
                 });
             }
         }
+        for (index, uv) in mesh.uvs.iter().enumerate() {
+            if !uv.is_finite() {
+                return Err(SceneError::NonFiniteUv {
+                    path: obj_label.into(),
+                    index,
+                    value: uv.to_array(),
+                });
+            }
+        }
         for (i, t) in mesh.triangles.iter().enumerate() {
             let [a, b, c] = t.map(|v| mesh.positions[v as usize]);
             let n = (b - a).cross(c - a);
@@ -426,6 +511,7 @@ impl Scene {
             let base = mesh.positions.len() as u32;
             mesh.positions.extend([a, b, c]);
             mesh.normals.extend([flat; 3]);
+            mesh.uvs.extend(tri.map(|v| mesh.uvs[v as usize]));
             mesh.triangles[t] = [base, base + 1, base + 2];
         }
         validate_camera(&file.camera).map_err(|message| SceneError::Camera {

@@ -54,8 +54,65 @@ pub struct SceneData {
     pub triangles: Vec<GpuTriangle>,
     pub lights: Vec<GpuLight>,
     pub materials: Vec<GpuMaterial>,
+    /// Texture coordinates, three per triangle (`uvs[3 t + k]`).
+    pub uvs: Vec<[f32; 2]>,
+    /// Every material's `map_Kd` texture, one after another, packed sRGB8 `r | g << 8 | b << 16`
+    /// (one black texel when there are none: bindings cannot be empty).
+    pub texels: Vec<u32>,
+    /// sRGB8 to linear ([`srgb_lut`]).
+    pub srgb_lut: Vec<f32>,
     /// Scene bounding box.
     pub bounds: (Vec3, Vec3),
+}
+
+/// The scene's `map_Kd` textures one after another, each distinct texture once, texels packed sRGB8
+/// `r | g << 8 | b << 16` (one black texel when there are none: bindings cannot be empty), and per
+/// material (first texel, width, height, 0), zeros for a material without texture.
+pub fn texture_atlas(scene: &Scene) -> (Vec<u32>, Vec<[u32; 4]>) {
+    let mut texels: Vec<u32> = Vec::new();
+    let mut placed: Vec<(*const crate::scene::Texture, u32)> = Vec::new();
+    let placement = scene
+        .materials
+        .iter()
+        .map(|m| {
+            m.diffuse_map.as_ref().map_or([0; 4], |t| {
+                let key = std::sync::Arc::as_ptr(t);
+                let offset = match placed.iter().find(|(k, _)| *k == key) {
+                    Some(&(_, o)) => o,
+                    None => {
+                        let o = texels.len() as u32;
+                        texels.extend(
+                            t.rgb
+                                .iter()
+                                .map(|c| c[0] as u32 | (c[1] as u32) << 8 | (c[2] as u32) << 16),
+                        );
+                        placed.push((key, o));
+                        o
+                    }
+                };
+                [offset, t.width, t.height, 0]
+            })
+        })
+        .collect();
+    if texels.is_empty() {
+        texels.push(0);
+    }
+    (texels, placement)
+}
+
+/// The 256-entry sRGB-to-linear table (IEC 61966-2-1, evaluated in f64): the GPU and the mirrors
+/// read the same table, so decoding is exact.
+pub fn srgb_lut() -> Vec<f32> {
+    (0..256)
+        .map(|i| {
+            let c = i as f64 / 255.0;
+            (if c <= 0.04045 {
+                c / 12.92
+            } else {
+                ((c + 0.055) / 1.055).powf(2.4)
+            }) as f32
+        })
+        .collect()
 }
 
 fn v4(v: Vec3, w: f32) -> [f32; 4] {
@@ -184,24 +241,45 @@ impl SceneData {
             });
             (nodes, triangles)
         };
+        let (texels, placement) = texture_atlas(scene);
         let materials = scene
             .materials
             .iter()
-            .map(|m| GpuMaterial {
+            .zip(placement)
+            .map(|(m, texture)| GpuMaterial {
                 diffuse: [m.diffuse[0], m.diffuse[1], m.diffuse[2], m.shininess],
                 specular: [m.specular[0], m.specular[1], m.specular[2], 0.0],
+                texture,
             })
             .chain(std::iter::once(GpuMaterial {
                 diffuse: [0.8, 0.8, 0.8, 1.0],
                 specular: [0.0; 4],
+                texture: [0; 4],
             }))
             .collect();
+        let mut uvs: Vec<[f32; 2]> = mesh
+            .triangles
+            .iter()
+            .flat_map(|t| {
+                t.map(|v| {
+                    mesh.uvs
+                        .get(v as usize)
+                        .map_or([0.0; 2], |uv| uv.to_array())
+                })
+            })
+            .collect();
+        if uvs.is_empty() {
+            uvs = vec![[0.0; 2]; 3];
+        }
         Self {
             frame: camera_frame(scene, RAY_EPS * extent),
             nodes,
             triangles,
             lights: gpu_lights(scene),
             materials,
+            uvs,
+            texels,
+            srgb_lut: srgb_lut(),
             bounds: (lo, hi),
         }
     }
@@ -214,6 +292,14 @@ impl SceneData {
     }
     pub fn eps(&self) -> f32 {
         self.frame.eye[3]
+    }
+    /// The textures as the mirrors read them.
+    pub fn textures(&self) -> vxgi_cpu_mirror::gbuffer::Textures<'_> {
+        vxgi_cpu_mirror::gbuffer::Textures {
+            uvs: &self.uvs,
+            texels: &self.texels,
+            lut: &self.srgb_lut,
+        }
     }
 }
 

@@ -30,7 +30,11 @@ fn generated_scenes_match_the_mirror() {
 
 #[test]
 fn a_corrupted_position_or_triangle_is_caught() {
-    for (resource, index) in [("gb_position", 40 * 16 + 20), ("gb_triangle", 40 * 16 + 20)] {
+    for (resource, index) in [
+        ("gb_position", 40 * 16 + 20),
+        ("gb_triangle", 40 * 16 + 20),
+        ("gb_albedo", 40 * 16 + 20),
+    ] {
         let opts = VerifyOptions {
             cases: 1,
             seed: 11,

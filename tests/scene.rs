@@ -1,5 +1,7 @@
 //! Scene input: the built-in Cornell box, and every kind of bad file a user can hand us — each an error
 //! with file and line, never a panic.
+mod common;
+
 use std::path::PathBuf;
 use vxgi::scene::{Light, Scene, SceneError};
 
@@ -174,4 +176,72 @@ fn bad_cameras_lights_and_settings_are_errors() {
         matches!(e, SceneError::Render { .. }) && e.to_string().contains("voxels = 100"),
         "{e}"
     );
+}
+
+/// A quad with `vt` and a `map_Kd` texture of four coloured texels, seen head-on: the G-buffer kernel
+/// reads each quadrant's texel (row 0 of the image is the top, v = 1), decoded from sRGB to linear.
+/// A texture that cannot be read is a warning and the material keeps its Kd.
+#[test]
+fn map_kd_textures_are_loaded_and_sampled_by_the_gbuffer() {
+    use vxgi::harness::run::run;
+    use vxgi::kernels::gbuffer::{case_for, DECL};
+    let d = dir("textured");
+    // Top row red, green; bottom row blue, mid grey (sRGB 128 -> linear 0.2158605).
+    let texels = vec![255, 0, 0, 0, 255, 0, 0, 0, 255, 128, 128, 128];
+    image::RgbImage::from_raw(2, 2, texels)
+        .unwrap()
+        .save(d.join("tex.png"))
+        .unwrap();
+    std::fs::write(
+        d.join("mesh.mtl"),
+        "newmtl tex\nKd 0.5 0.5 0.5\nmap_Kd tex.png\nnewmtl missing\nKd 0.25 0.5 0.75\nmap_Kd nowhere.png\n",
+    )
+    .unwrap();
+    let obj =
+        "mtllib mesh.mtl\nv -1 0 0\nv 1 0 0\nv 1 2 0\nv -1 2 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n\
+               o textured\nusemtl tex\nf 1/1 2/2 3/3\nf 1/1 3/3 4/4\n\
+               o plain\nusemtl missing\nv -1 0 -1\nv 1 0 -1\nv 1 2 -1\nf 5 6 7\n";
+    std::fs::write(d.join("mesh.obj"), obj).unwrap();
+    let p = d.join("scene.toml");
+    std::fs::write(
+        &p,
+        scene_toml("mesh.obj", "")
+            .replace("eye = [0.0, 0.5, 3.0]", "eye = [0.0, 1.0, 3.0]")
+            .replace("target = [0.0, 0.5, 0.0]", "target = [0.0, 1.0, 0.0]"),
+    )
+    .unwrap();
+    let scene = Scene::load(&p).unwrap();
+    let tex = scene.materials[0]
+        .diffuse_map
+        .as_ref()
+        .expect("map_Kd loaded");
+    assert_eq!((tex.width, tex.height), (2, 2));
+    assert!(scene.materials[1].diffuse_map.is_none());
+    assert!(
+        scene.warnings.iter().any(|w| w.contains("nowhere.png")),
+        "{:?}",
+        scene.warnings
+    );
+
+    let data = vxgi::trace::SceneData::new(&scene);
+    let case = case_for(&data, "textured quad".into(), 1);
+    let shader = DECL.shader().unwrap();
+    let out = run(
+        common::gpu(),
+        &shader,
+        DECL.name,
+        &case.resources,
+        &case.passes,
+        &["gb_albedo"],
+    )
+    .unwrap();
+    let albedo: &[[f32; 4]] = bytemuck::cast_slice(&out.buffer("gb_albedo").bytes);
+    let at = |x: usize, y: usize| albedo[y * 32 + x];
+    let grey = 0.215_860_5;
+    assert_eq!(at(8, 8), [1.0, 0.0, 0.0, 0.0], "top left: red");
+    assert_eq!(at(23, 8), [0.0, 1.0, 0.0, 0.0], "top right: green");
+    assert_eq!(at(8, 23), [0.0, 0.0, 1.0, 0.0], "bottom left: blue");
+    for c in 0..3 {
+        approx::assert_abs_diff_eq!(at(23, 23)[c], grey, epsilon = 1e-6);
+    }
 }

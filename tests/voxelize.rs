@@ -123,3 +123,54 @@ fn bad_grid_sizes_are_errors() {
         assert!(e.contains("max_storage_buffer_binding_size"), "{e}");
     }
 }
+
+/// A unit square in the z = 0 plane with a 2 x 2 `map_Kd` texture (top row red, green; bottom row
+/// blue, white): at 8^3 each quadrant's inner voxels take exactly their texel's fixed-point linear
+/// colour (row 0 of the image at v = 1, the top); a texture coordinate range past the fixed point's
+/// reach is an error naming the triangle, not a wrap.
+#[test]
+fn map_kd_textures_colour_the_voxels_per_sample() {
+    use glam::{Vec2, Vec3};
+    use std::sync::Arc;
+    use vxgi::scene::{Material, Mesh, Texture};
+    let mut scene = Scene::cornell_box();
+    let corners = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
+    let mut mesh = Mesh::default();
+    for [a, b, c] in [[0, 1, 2], [0, 2, 3]] {
+        let base = mesh.positions.len() as u32;
+        for k in [a, b, c] {
+            let [x, y] = corners[k];
+            mesh.positions.push(Vec3::new(x, y, 0.0));
+            mesh.normals.push(Vec3::Z);
+            mesh.uvs.push(Vec2::new(x, y));
+        }
+        mesh.triangles.push([base, base + 1, base + 2]);
+        mesh.material.push(0);
+    }
+    scene.mesh = mesh;
+    scene.materials = vec![Material {
+        diffuse_map: Some(Arc::new(Texture {
+            path: "quadrants".into(),
+            width: 2,
+            height: 2,
+            rgb: vec![[255, 0, 0], [0, 255, 0], [0, 0, 255], [255, 255, 255]],
+        })),
+        ..Material::grey()
+    }];
+    let (grid, _, frame) = voxelize_on_gpu(gpu(), &scene, 8).unwrap();
+    assert_eq!(frame.side, 8);
+    let at = |x, y| grid.colour[morton::encode(x, y, 0) as usize];
+    assert_eq!(at(1, 6), [1.0, 0.0, 0.0, 1.0], "top left: red");
+    assert_eq!(at(6, 6), [0.0, 1.0, 0.0, 1.0], "top right: green");
+    assert_eq!(at(1, 1), [0.0, 0.0, 1.0, 1.0], "bottom left: blue");
+    assert_eq!(at(6, 1), [1.0, 1.0, 1.0, 1.0], "bottom right: white");
+    // The texel edge u = 0.5 is the voxel edge x = 4: no voxel mixes them.
+    assert_eq!(at(3, 6), [1.0, 0.0, 0.0, 1.0]);
+    assert_eq!(at(4, 6), [0.0, 1.0, 0.0, 1.0]);
+
+    scene.mesh.uvs[1] = Vec2::new(1e7, 0.0);
+    assert!(matches!(
+        prepare(&scene, 8),
+        Err(VoxelizeError::UvRange { triangle: 0, .. })
+    ));
+}

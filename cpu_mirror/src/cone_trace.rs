@@ -19,7 +19,7 @@
 //!
 //! Pixel: origin `p + ng * offset_voxels * s0` (ng the triangle's normal on the side facing the camera);
 //! diffuse cones from `cone_dirs` (tangent space, w = weight, weights sum to 1), indirect diffuse =
-//! `albedo * sum w C`, AO = `1 - sum w occ`; glossy (materials with Ks): one cone along the mirror
+//! `albedo * sum w C` (albedo: the G-buffer's, Kd or the map_Kd texel), AO = `1 - sum w occ`; glossy (materials with Ks): one cone along the mirror
 //! direction of the view with tan = clamp(sqrt(2 / (n + 2)), 0.02, 1), adding `Ks * C`. Back faces get
 //! AO (on the camera's side) and no indirect light; background pixels get 0.
 use crate::bvh_trace::GpuTriangle;
@@ -240,6 +240,7 @@ pub fn shade_pixel(
     position: [f32; 4],
     normal: [f32; 4],
     triangle: u32,
+    albedo: [f32; 4],
     lmax: f32,
 ) -> [[f32; 4]; 4] {
     let p = pyr.p;
@@ -277,7 +278,7 @@ pub fn shade_pixel(
     if !front {
         return [[0.0; 4], ao_out, [0.0; 4], ao_bound];
     }
-    let kd = Vec3::from_slice(&m.diffuse[..3]);
+    let kd = Vec3::from_slice(&albedo[..3]);
     let ks = Vec3::from_slice(&m.specular[..3]);
     let mut indirect = kd * diffuse;
     let mut bound = kd * mag;

@@ -30,12 +30,25 @@ pub struct GpuLight {
     pub intensity: [f32; 4],
 }
 
-/// diffuse.w = Phong exponent n.
+/// diffuse.w = Phong exponent n; texture = (first texel in the atlas, width, height, 0) of the
+/// `map_Kd` texture that replaces diffuse.rgb, width 0 when there is none (see `gbuffer::albedo`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuMaterial {
     pub diffuse: [f32; 4],
     pub specular: [f32; 4],
+    pub texture: [u32; 4],
+}
+
+impl GpuMaterial {
+    /// The material with its diffuse albedo replaced by `albedo` (a G-buffer texel's, which is the
+    /// texture's where the material has one).
+    pub fn with_albedo(&self, albedo: [f32; 4]) -> Self {
+        Self {
+            diffuse: [albedo[0], albedo[1], albedo[2], self.diffuse[3]],
+            ..*self
+        }
+    }
 }
 
 fn v3(a: [f32; 4]) -> Vec3 {
@@ -191,12 +204,13 @@ pub fn shade_with_bound(
     position: [f32; 4],
     normal: [f32; 4],
     triangle: u32,
+    albedo: [f32; 4],
 ) -> (Vec3, Vec3) {
     if normal[3] <= 0.0 || triangle as usize >= tris.len() {
         return (Vec3::ZERO, Vec3::ZERO);
     }
     let tri = &tris[triangle as usize];
-    let m = &materials[(tri.material() as usize).min(materials.len() - 1)];
+    let m = &materials[(tri.material() as usize).min(materials.len() - 1)].with_albedo(albedo);
     let p = v3(position);
     let n = v3(normal);
     let ng = face_normal(tri);

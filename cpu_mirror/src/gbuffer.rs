@@ -6,9 +6,15 @@
 //! and aspect on the host), origin = eye. Shading normal: `normalize(na (1-u-v) + nb u + nc v)`.
 //! Where the interpolated normal has squared length <= 1e-12 (vertex normals that cancel) the face
 //! normal is used. Side: 1 front, -1 back, 0 no hit (then position = (0,0,0,-1), normal = 0, triangle = NONE).
+//!
+//! Albedo (`gb_albedo`, rgb + 0): the material's Kd, or where it has a `map_Kd` texture the nearest
+//! texel at `uv = uv_a (1-u-v) + uv_b u + uv_c v`, repeating: `f = uv - floor(uv)`, column
+//! `min(u32(f.x W), W-1)`, row `min(u32((1 - f.y) H), H-1)` (row 0 is the image's top, OBJ's v = 1).
+//! Texels are packed sRGB8 (`r | g << 8 | b << 16`) decoded through a 256-entry table to linear.
 use crate::bvh_trace::{closest, intersect, GpuNode, GpuTriangle, Hit, FAR, NONE};
+use crate::direct_light::GpuMaterial;
 use bytemuck::{Pod, Zeroable};
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 /// Camera and frame constants (the WGSL `Frame`). `eye.w` = the scene's ray offset epsilon.
 #[repr(C)]
@@ -49,13 +55,115 @@ pub struct Texel {
     pub position: [f32; 4],
     pub normal: [f32; 4],
     pub triangle: u32,
+    /// Barycentrics (u, v) of the hit (not an output: what the albedo lookup uses).
+    pub bary: [f32; 2],
 }
 
 pub const MISS: Texel = Texel {
     position: [0.0, 0.0, 0.0, -1.0],
     normal: [0.0; 4],
     triangle: NONE,
+    bary: [0.0; 2],
 };
+
+/// The diffuse textures as the kernels bind them: per-triangle vertex UVs (`uvs[3 t + k]`), the atlas
+/// of packed sRGB8 texels, and the sRGB-to-linear table (256 entries).
+#[derive(Clone, Copy, Debug)]
+pub struct Textures<'a> {
+    pub uvs: &'a [[f32; 2]],
+    pub texels: &'a [u32],
+    pub lut: &'a [f32],
+}
+
+/// Texel index of `uv` in a `w` x `h` texture (nearest, repeating), as the WGSL computes it: every
+/// step is exact or correctly rounded (x - floor(x) is exact), so equal `uv` give equal indices.
+pub fn texel_index(uv: Vec2, w: u32, h: u32) -> u32 {
+    let f = uv - uv.floor();
+    let x = ((f.x * w as f32) as u32).min(w - 1);
+    let y = (((1.0 - f.y) * h as f32) as u32).min(h - 1);
+    y * w + x
+}
+
+fn decode(texel: u32, lut: &[f32]) -> [f32; 4] {
+    let c = |s: u32| lut[((texel >> s) & 255) as usize];
+    [c(0), c(8), c(16), 0.0]
+}
+
+/// Interpolated texture coordinate of a hit (barycentrics `bary`) on triangle `t`.
+pub fn hit_uv(tex: &Textures, t: u32, bary: [f32; 2]) -> Vec2 {
+    let uv = |k: usize| Vec2::from(tex.uvs[3 * t as usize + k]);
+    let (u, v) = (bary[0], bary[1]);
+    uv(0) * (1.0 - u - v) + uv(1) * u + uv(2) * v
+}
+
+/// The albedo of a texel (see the module documentation); zeros for a miss.
+pub fn albedo(
+    materials: &[GpuMaterial],
+    tris: &[GpuTriangle],
+    tex: &Textures,
+    t: &Texel,
+) -> [f32; 4] {
+    let Some(tri) = tris.get(t.triangle as usize) else {
+        return [0.0; 4];
+    };
+    let m = &materials[(tri.material() as usize).min(materials.len() - 1)];
+    let [offset, w, h, _] = m.texture;
+    if w == 0 || h == 0 {
+        return [m.diffuse[0], m.diffuse[1], m.diffuse[2], 0.0];
+    }
+    let i = texel_index(hit_uv(tex, t.triangle, t.bary), w, h);
+    decode(tex.texels[(offset + i) as usize], tex.lut)
+}
+
+/// Bound |GPU - mirror| of a texel's albedo: 0 where it is Kd; where it comes from a texture, the
+/// largest difference to any texel the GPU's uv could select. That uv differs from the mirror's by the
+/// barycentrics' error (`duv`, from [`texel_bounds`]' analysis) times the UV edges, plus the
+/// interpolation's own rounding (three products and two sums, possibly fused: 8 ULP of the terms).
+pub fn albedo_bound(
+    materials: &[GpuMaterial],
+    tris: &[GpuTriangle],
+    tex: &Textures,
+    t: &Texel,
+    duv: f32,
+) -> [f32; 4] {
+    let Some(tri) = tris.get(t.triangle as usize) else {
+        return [0.0; 4];
+    };
+    let m = &materials[(tri.material() as usize).min(materials.len() - 1)];
+    let [offset, w, h, _] = m.texture;
+    if w == 0 || h == 0 {
+        return [0.0; 4];
+    }
+    let uv = |k: usize| Vec2::from(tex.uvs[3 * t.triangle as usize + k]);
+    let eps = f32::EPSILON;
+    let centre = hit_uv(tex, t.triangle, t.bary);
+    let err = ((uv(1) - uv(0)).abs() + (uv(2) - uv(0)).abs()) * (2.0 * duv)
+        + (uv(0).abs() + uv(1).abs() + uv(2).abs() + centre.abs()) * (8.0 * eps);
+    let own = decode(
+        tex.texels[(offset + texel_index(centre, w, h)) as usize],
+        tex.lut,
+    );
+    // Columns/rows reachable within the error (wrapping), all of them when the error spans the texture.
+    let reach = |c: f32, e: f32, n: u32| -> Vec<u32> {
+        let lo = ((c - e) * n as f32).floor() as i64 - 1;
+        let hi = ((c + e) * n as f32).floor() as i64 + 1;
+        if hi - lo + 1 >= n as i64 {
+            (0..n).collect()
+        } else {
+            (lo..=hi).map(|k| k.rem_euclid(n as i64) as u32).collect()
+        }
+    };
+    let mut bound = [0.0f32; 4];
+    for y in reach(-centre.y, err.y, h) {
+        for x in reach(centre.x, err.x, w) {
+            let other = decode(tex.texels[(offset + y * w + x) as usize], tex.lut);
+            for c in 0..3 {
+                bound[c] = bound[c].max((other[c] - own[c]).abs());
+            }
+        }
+    }
+    bound
+}
 
 /// The texel a hit on triangle `h.tri` produces.
 pub fn texel(o: Vec3, d: Vec3, tri: &GpuTriangle, h: &Hit) -> Texel {
@@ -71,6 +179,7 @@ pub fn texel(o: Vec3, d: Vec3, tri: &GpuTriangle, h: &Hit) -> Texel {
         position: [p.x, p.y, p.z, h.t],
         normal: [n.x, n.y, n.z, if h.front { 1.0 } else { -1.0 }],
         triangle: h.tri,
+        bary: [h.u, h.v],
     }
 }
 
@@ -159,16 +268,17 @@ pub fn accepted_texel(
 /// and possibly fused. The distance t = (e2 . q) / det is a quotient of sums whose cancellation is
 /// measured by `cond` (sum of |terms| over |result| for numerator and denominator); the ray direction
 /// itself carries ~8 ULP from the camera basis and the normalisation. 32 ULP per unit of condition
-/// covers those with margin; bound use is reported by the tests.
+/// covers those with margin; bound use is reported by the tests. The third value bounds the
+/// barycentrics' error (what [`albedo_bound`] takes).
 pub fn texel_bounds(
     frame: &Frame,
     tris: &[GpuTriangle],
     x: u32,
     y: u32,
     t: &Texel,
-) -> ([f32; 4], [f32; 4]) {
+) -> ([f32; 4], [f32; 4], f32) {
     if t.triangle == NONE {
-        return ([0.0; 4], [0.0; 4]);
+        return ([0.0; 4], [0.0; 4], 0.0);
     }
     let eps = f32::EPSILON;
     let (o, d) = primary_ray(frame, x, y);
@@ -198,7 +308,7 @@ pub fn texel_bounds(
             + e1.abs().dot(qa).max(s.abs().dot(pa)) / det.abs().max(f32::MIN_POSITIVE));
     let spread = (v3(tri.nb) - v3(tri.na)).length() + (v3(tri.nc) - v3(tri.na)).length();
     let bn = 16.0 * eps + 4.0 * duv * spread;
-    ([bp, bp, bp, bt], [bn, bn, bn, 0.0])
+    ([bp, bp, bp, bt], [bn, bn, bn, 0.0], duv)
 }
 
 trait CrossAbs {

@@ -13,6 +13,13 @@
 //! Per voxel (Morton index) the sums of albedo, normal and the sample count are accumulated; then
 //! `colour = (sum_albedo / count / 4096, 1)`, `normal = (sum_normal / count / 4096, 0)` (the mean normal,
 //! not renormalised: the mip kernel's convention) and the voxel joins the list.
+//!
+//! Textured triangles (`texture.y = W > 0`: a `map_Kd` of W x H texels at `texture.x` in the atlas)
+//! take each sample's albedo from the texture: texture coordinates in fixed point (1/16 texel,
+//! `U = round(u W 16)`, `V = round(-v H 16)` so that rows run down the image, each triangle's shifted
+//! by whole texture repeats to start near 0) interpolate like positions, `Us = Ua + ((Ub - Ua) i +
+//! (Uc - Ua) j) / n`; the texel is column `(Us >> 4) mod W`, row `(Vs >> 4) mod H` (nearest,
+//! repeating), its packed sRGB8 channels mapped through `lut` (linear x 4096, rounded, on the host).
 use crate::morton;
 use bytemuck::{Pod, Zeroable};
 
@@ -35,6 +42,20 @@ pub struct VoxTriangle {
     pub nc: [i32; 4],
     /// Fixed-point albedo (rgb), w unused.
     pub albedo: [u32; 4],
+    /// Fixed-point texture coordinates (Ua, Va, Ub, Vb) and (Uc, Vc, 0, 0).
+    pub uv_ab: [i32; 4],
+    pub uv_c: [i32; 4],
+    /// (first atlas texel, width, height, 0); width 0: `albedo` for every sample.
+    pub texture: [u32; 4],
+}
+
+/// The kernel's inputs besides the grid: triangles, the texture atlas (packed sRGB8
+/// `r | g << 8 | b << 16`) and the sRGB-to-fixed-point table.
+#[derive(Clone, Debug, Default)]
+pub struct VoxInput {
+    pub tris: Vec<VoxTriangle>,
+    pub texels: Vec<u32>,
+    pub lut: Vec<u32>,
 }
 
 /// Accumulators of one voxel (the WGSL keeps 8 u32 per voxel; normals wrap as two's complement).
@@ -57,18 +78,35 @@ pub fn sample(t: &VoxTriangle, i: i32, j: i32) -> ([i32; 3], [i32; 3]) {
     (p, nrm)
 }
 
+/// Fixed-point albedo of sample (i, j): the triangle's, or its texture's texel.
+pub fn sample_albedo(t: &VoxTriangle, texels: &[u32], lut: &[u32], i: i32, j: i32) -> [u32; 3] {
+    let [offset, w, h, _] = t.texture;
+    if w == 0 || h == 0 {
+        return [t.albedo[0], t.albedo[1], t.albedo[2]];
+    }
+    let n = t.a[3];
+    let at = |a: i32, b: i32, c: i32| a + ((b - a) * i + (c - a) * j) / n;
+    let us = at(t.uv_ab[0], t.uv_ab[2], t.uv_c[0]);
+    let vs = at(t.uv_ab[1], t.uv_ab[3], t.uv_c[1]);
+    let x = (us >> 4).rem_euclid(w as i32) as u32;
+    let y = (vs >> 4).rem_euclid(h as i32) as u32;
+    let texel = texels[(offset + y * w + x) as usize];
+    [0, 8, 16].map(|s| lut[((texel >> s) & 255) as usize])
+}
+
 /// Accumulate every sample of every triangle into a grid of side `side` (Morton order).
-pub fn accumulate(tris: &[VoxTriangle], side: u32) -> Vec<Acc> {
+pub fn accumulate(tris: &[VoxTriangle], texels: &[u32], lut: &[u32], side: u32) -> Vec<Acc> {
     let mut acc = vec![Acc::default(); (side as usize).pow(3)];
     for t in tris {
         let n = t.a[3];
         for i in 0..=n {
             for j in 0..=(n - i) {
                 let (p, nrm) = sample(t, i, j);
+                let albedo = sample_albedo(t, texels, lut, i, j);
                 let v = p.map(|c| (c / SUB).clamp(0, side as i32 - 1) as u32);
                 let a = &mut acc[morton::encode(v[0], v[1], v[2]) as usize];
                 for (k, n) in nrm.iter().enumerate() {
-                    a.albedo[k] = a.albedo[k].wrapping_add(t.albedo[k]);
+                    a.albedo[k] = a.albedo[k].wrapping_add(albedo[k]);
                     a.normal[k] = a.normal[k].wrapping_add(*n);
                 }
                 a.count += 1;
@@ -102,8 +140,8 @@ pub fn resolve(a: &Acc) -> ([f32; 4], [f32; 4]) {
 }
 
 /// The whole kernel: colour and normal grids (Morton order) and the sorted list of non-empty voxels.
-pub fn voxelize(tris: &[VoxTriangle], side: u32) -> (Vec<[f32; 4]>, Vec<[f32; 4]>, Vec<u32>) {
-    let acc = accumulate(tris, side);
+pub fn voxelize(input: &VoxInput, side: u32) -> (Vec<[f32; 4]>, Vec<[f32; 4]>, Vec<u32>) {
+    let acc = accumulate(&input.tris, &input.texels, &input.lut, side);
     let mut colour = Vec::with_capacity(acc.len());
     let mut normal = Vec::with_capacity(acc.len());
     let mut list = Vec::new();

@@ -17,6 +17,14 @@ struct Triangle {
     nc: vec4<f32>,
 }
 
+// diffuse.w = Phong exponent; texture = (first atlas texel, width, height, 0) of the map_Kd texture
+// that replaces diffuse.rgb (width 0: none; gbuffer.wgsl reads it into gb_albedo).
+struct Material {
+    diffuse: vec4<f32>,
+    specular: vec4<f32>,
+    texture: vec4<u32>,
+}
+
 struct BvhNode {
     lo: vec3<f32>,
     entry: u32,

@@ -27,7 +27,7 @@ pub static DECL: KernelDecl = KernelDecl {
     includes: &[],
     entry: "main",
     inputs: &[
-        "frame", "triangles", "materials", "gb_position", "gb_normal", "gb_triangle", "cone", "cone_dirs",
+        "frame", "triangles", "materials", "gb_position", "gb_normal", "gb_triangle", "gb_albedo", "cone", "cone_dirs",
         "pyramid",
     ],
     outputs: &[
@@ -140,7 +140,7 @@ pub fn case_for(
     let mut resources = scene_resources(data);
     resources.remove("nodes");
     resources.remove("lights");
-    for name in ["gb_position", "gb_normal", "gb_triangle"] {
+    for name in ["gb_position", "gb_normal", "gb_triangle", "gb_albedo"] {
         resources.insert(name.into(), gbuffer[name].clone());
     }
     resources.insert("cone".into(), HostResource::Buffer(HostBuffer::pod(params)));
@@ -201,6 +201,7 @@ pub fn mirror_cones(data: &Resources) -> [Vec<[f32; 4]>; 4] {
     let pos: &[[f32; 4]] = bytemuck::cast_slice(&b("gb_position").bytes);
     let nrm: &[[f32; 4]] = bytemuck::cast_slice(&b("gb_normal").bytes);
     let tri = b("gb_triangle").as_u32();
+    let alb: &[[f32; 4]] = bytemuck::cast_slice(&b("gb_albedo").bytes);
     let pyr = Pyramid { p: &params, voxels };
     let lmax = max_radiance(voxels, params.side);
     let px: Vec<[[f32; 4]; 4]> = {
@@ -209,7 +210,7 @@ pub fn mirror_cones(data: &Resources) -> [Vec<[f32; 4]>; 4] {
             .into_par_iter()
             .map(|i| {
                 shade_pixel(
-                    &pyr, &frame, tris, materials, dirs, pos[i], nrm[i], tri[i], lmax,
+                    &pyr, &frame, tris, materials, dirs, pos[i], nrm[i], tri[i], alb[i], lmax,
                 )
             })
             .collect()

@@ -29,6 +29,7 @@ pub static DECL: KernelDecl = KernelDecl {
         "gb_position",
         "gb_normal",
         "gb_triangle",
+        "gb_albedo",
     ],
     outputs: &[
         // Per element (see `shade_with_bound`): 64 ULP per light term, 8 ULP absolute on cosines, pow's
@@ -58,7 +59,7 @@ pub fn gpu_gbuffer(ctx: &GpuContext, data: &SceneData) -> Resources {
         "gbuffer",
         &case.resources,
         &case.passes,
-        &["gb_position", "gb_normal", "gb_triangle"],
+        &["gb_position", "gb_normal", "gb_triangle", "gb_albedo"],
     )
     .expect("gbuffer runs");
     out.resources
@@ -69,7 +70,8 @@ pub fn case_for(ctx: &GpuContext, data: &SceneData, label: String, seed: u64) ->
     case_with_gbuffer(ctx, data, &gpu_gbuffer(ctx, data), label, seed)
 }
 
-/// Direct-light pass over a scene with the given G-buffer (gb_position, gb_normal, gb_triangle).
+/// Direct-light pass over a scene with the given G-buffer (gb_position, gb_normal, gb_triangle,
+/// gb_albedo).
 pub fn case_with_gbuffer(
     ctx: &GpuContext,
     data: &SceneData,
@@ -120,10 +122,11 @@ pub fn mirror_direct(data: &Resources) -> (Vec<[f32; 4]>, Vec<[f32; 4]>) {
     let pos: &[[f32; 4]] = bytemuck::cast_slice(&b("gb_position").bytes);
     let nrm: &[[f32; 4]] = bytemuck::cast_slice(&b("gb_normal").bytes);
     let tri = b("gb_triangle").as_u32();
+    let alb: &[[f32; 4]] = bytemuck::cast_slice(&b("gb_albedo").bytes);
     (0..tri.len())
         .map(|i| {
             let (l, e) = shade_with_bound(
-                &frame, nodes, tris, lights, materials, pos[i], nrm[i], tri[i],
+                &frame, nodes, tris, lights, materials, pos[i], nrm[i], tri[i], alb[i],
             );
             ([l.x, l.y, l.z, 0.0], [e.x, e.y, e.z, 0.0])
         })

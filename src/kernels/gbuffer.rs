@@ -1,13 +1,16 @@
 //! Declaration of `kernels/gbuffer.wgsl` (mirror: `vxgi_cpu_mirror::gbuffer`): primary rays through
 //! the flattened BVH. Cases are generated scenes ([`generated_scene`]): the Cornell box, triangle soups
 //! with smooth normals, box stacks with shared edges (rays on edges), and far-from-origin / tiny scenes.
-use crate::scene::{CameraDesc, Light, Material, Mesh, RenderSettings, Scene};
+use crate::scene::{CameraDesc, Light, Material, Mesh, RenderSettings, Scene, Texture};
 use crate::trace::SceneData;
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::collections::BTreeMap;
-use vxgi_cpu_mirror::gbuffer::{accepted_texel, texel_bounds, Frame};
+use std::sync::Arc;
+use vxgi_cpu_mirror::gbuffer::{
+    accepted_texel, albedo, albedo_bound, texel_bounds, Frame, Textures,
+};
 use vxgi_harness::compare::bound_name;
 use vxgi_harness::run::{Pass, Workgroups};
 use vxgi_harness::{
@@ -26,7 +29,7 @@ pub static DECL: KernelDecl = KernelDecl {
     wgsl: include_str!("../../kernels/gbuffer.wgsl"),
     includes: &[BVH_TRACE],
     entry: "main",
-    inputs: &["frame", "nodes", "triangles"],
+    inputs: &["frame", "nodes", "triangles", "materials", "uvs", "texels", "srgb_lut"],
     outputs: &[
         // Per element (see `texel_bounds`): t and p are quotients of dots/crosses conditioned by the
         // ray's angle to the triangle; 32 ULP per unit of that condition number.
@@ -35,25 +38,36 @@ pub static DECL: KernelDecl = KernelDecl {
         // Exact after acceptance: where rounding decides between triangles (edges, equal depths) the
         // mirror adopts the GPU's pick after checking rounding could have made it (`accepted_texel`).
         Output { binding: "gb_triangle", tolerance: Tolerance::Exact },
+        // Exact for Kd; from a texture, any texel the uv's rounding could select (`albedo_bound`).
+        Output { binding: "gb_albedo", tolerance: Tolerance::MirrorBound },
     ],
     dispatch: DispatchRule::PerElement { binding: "gb_triangle" },
     mirror: "vxgi_cpu_mirror::gbuffer::shade_pixel",
-    summary: "primary ray per pixel through the flattened BVH: position + t, shading normal + side, triangle",
+    summary: "primary ray per pixel through the flattened BVH: position + t, shading normal + side, triangle, albedo (Kd or map_Kd)",
 };
 
 fn quad(mesh: &mut Mesh, corners: [Vec3; 4], material: u32) {
-    // Two CCW triangles; flat normals (unique vertices per triangle).
+    // Two CCW triangles; flat normals (unique vertices per triangle); UVs over [0, 2]^2 (the texture
+    // repeats twice).
+    let uv = [[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0]].map(Vec2::from);
     for [a, b, c] in [[0, 1, 2], [0, 2, 3]] {
-        tri(mesh, [corners[a], corners[b], corners[c]], None, material);
+        tri(
+            mesh,
+            [corners[a], corners[b], corners[c]],
+            None,
+            [uv[a], uv[b], uv[c]],
+            material,
+        );
     }
 }
 
-fn tri(mesh: &mut Mesh, p: [Vec3; 3], normals: Option<[Vec3; 3]>, material: u32) {
+fn tri(mesh: &mut Mesh, p: [Vec3; 3], normals: Option<[Vec3; 3]>, uv: [Vec2; 3], material: u32) {
     let base = mesh.positions.len() as u32;
     let face = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
     let n = normals.unwrap_or([face; 3]);
     mesh.positions.extend(p);
     mesh.normals.extend(n);
+    mesh.uvs.extend(uv);
     mesh.triangles.push([base, base + 1, base + 2]);
     mesh.material.push(material);
 }
@@ -100,6 +114,18 @@ fn cuboid(mesh: &mut Mesh, lo: Vec3, hi: Vec3, material: u32) {
     ); // -y
 }
 
+/// A small random texture (sides 1 to 16 texels, not powers of two only).
+fn random_texture(rng: &mut ChaCha8Rng, i: usize) -> Texture {
+    let (width, height) = (rng.random_range(1..=16u32), rng.random_range(1..=16u32));
+    Texture {
+        path: format!("generated texture {i}").into(),
+        width,
+        height,
+        rgb: (0..width * height).map(|_| rng.random()).collect(),
+    }
+}
+
+/// Four materials: diffuse and glossy, materials 2 and 3 textured.
 fn random_materials(rng: &mut ChaCha8Rng) -> Vec<Material> {
     (0..4)
         .map(|i| Material {
@@ -111,7 +137,7 @@ fn random_materials(rng: &mut ChaCha8Rng) -> Vec<Material> {
                 [0.0; 3]
             },
             shininess: [1.0, 8.0, 32.0, 128.0][i],
-            diffuse_texture: None,
+            diffuse_map: (i >= 2).then(|| Arc::new(random_texture(rng, i))),
         })
         .collect()
 }
@@ -155,12 +181,7 @@ pub fn generated_scene(seed: u64, index: usize) -> (Scene, String) {
         40 + rng.random_range(0..3u32) * 8,
         32 + rng.random_range(0..3u32) * 8,
     );
-    let mut mesh = Mesh {
-        positions: vec![],
-        normals: vec![],
-        triangles: vec![],
-        material: vec![],
-    };
+    let mut mesh = Mesh::default();
     let (label, centre, size) = match family {
         0 => {
             let mut s = Scene::cornell_box();
@@ -184,7 +205,10 @@ pub fn generated_scene(seed: u64, index: usize) -> (Scene, String) {
                     (face + Vec3::new(rng.random(), rng.random(), rng.random()) * 0.4 - 0.2)
                         .normalize()
                 });
-                tri(&mut mesh, p, Some(nrm), rng.random_range(0..4));
+                // UVs anywhere in [-3, 3]: repeats, negative coordinates.
+                let uv = [0, 1, 2]
+                    .map(|_| Vec2::new(rng.random_range(-3.0..3.0), rng.random_range(-3.0..3.0)));
+                tri(&mut mesh, p, Some(nrm), uv, rng.random_range(0..4));
             }
             (
                 format!("triangle soup ({n}) {w}x{h}"),
@@ -283,7 +307,19 @@ pub fn scene_resources(data: &SceneData) -> Resources {
         data.lights.clone()
     };
     r.insert("lights".into(), f(bytemuck::cast_slice(&lights)));
-    r.insert("materials".into(), f(bytemuck::cast_slice(&data.materials)));
+    r.insert(
+        "materials".into(),
+        HostResource::Buffer(HostBuffer {
+            bytes: bytemuck::cast_slice(&data.materials).to_vec(),
+            scalar: ScalarKind::Mixed,
+        }),
+    );
+    r.insert("uvs".into(), f(bytemuck::cast_slice(&data.uvs)));
+    r.insert(
+        "texels".into(),
+        HostResource::Buffer(HostBuffer::u32(&data.texels)),
+    );
+    r.insert("srgb_lut".into(), f(bytemuck::cast_slice(&data.srgb_lut)));
     r
 }
 
@@ -304,6 +340,10 @@ pub fn case_for(data: &SceneData, label: String, seed: u64) -> Case {
         "gb_triangle".into(),
         HostResource::Buffer(HostBuffer::zeroed(n * 4, ScalarKind::U32)),
     );
+    resources.insert(
+        "gb_albedo".into(),
+        HostResource::Buffer(HostBuffer::zeroed(n * 16, ScalarKind::F32)),
+    );
     Case {
         label,
         seed,
@@ -314,18 +354,23 @@ pub fn case_for(data: &SceneData, label: String, seed: u64) -> Case {
             bindings: DECL.bind_by_name(),
             workgroups: Workgroups::Direct([w.div_ceil(8), h.div_ceil(8), 1]),
         }],
-        checks: [("gb_position", 4), ("gb_normal", 4), ("gb_triangle", 1)]
-            .into_iter()
-            .map(|(name, components)| Check {
-                resource: name.into(),
-                output: name,
-                indexing: Indexing::Grid {
-                    dims: [w, h, 1],
-                    components,
-                },
-            })
-            .collect(),
-        effective_bytes: n as u64 * 36,
+        checks: [
+            ("gb_position", 4),
+            ("gb_normal", 4),
+            ("gb_triangle", 1),
+            ("gb_albedo", 4),
+        ]
+        .into_iter()
+        .map(|(name, components)| Check {
+            resource: name.into(),
+            output: name,
+            indexing: Indexing::Grid {
+                dims: [w, h, 1],
+                components,
+            },
+        })
+        .collect(),
+        effective_bytes: n as u64 * 52,
     }
 }
 
@@ -337,6 +382,8 @@ pub struct MirrorGbuffer {
     pub triangle: Vec<u32>,
     pub position_bound: Vec<[f32; 4]>,
     pub normal_bound: Vec<[f32; 4]>,
+    pub albedo: Vec<[f32; 4]>,
+    pub albedo_bound: Vec<[f32; 4]>,
     pub accepted_differences: usize,
 }
 
@@ -346,6 +393,13 @@ pub fn mirror_gbuffer(data: &Resources, gpu_triangle: &[u32]) -> MirrorGbuffer {
     let nodes: &[vxgi_cpu_mirror::bvh_trace::GpuNode] = bytemuck::cast_slice(&b("nodes").bytes);
     let tris: &[vxgi_cpu_mirror::bvh_trace::GpuTriangle] =
         bytemuck::cast_slice(&b("triangles").bytes);
+    let materials: &[vxgi_cpu_mirror::direct_light::GpuMaterial] =
+        bytemuck::cast_slice(&b("materials").bytes);
+    let tex = Textures {
+        uvs: bytemuck::cast_slice(&b("uvs").bytes),
+        texels: b("texels").as_u32(),
+        lut: bytemuck::cast_slice(&b("srgb_lut").bytes),
+    };
     let (w, h) = (frame.size[0], frame.size[1]);
     let mut out = MirrorGbuffer {
         position: vec![],
@@ -353,6 +407,8 @@ pub fn mirror_gbuffer(data: &Resources, gpu_triangle: &[u32]) -> MirrorGbuffer {
         triangle: vec![],
         position_bound: vec![],
         normal_bound: vec![],
+        albedo: vec![],
+        albedo_bound: vec![],
         accepted_differences: 0,
     };
     for y in 0..h {
@@ -360,7 +416,10 @@ pub fn mirror_gbuffer(data: &Resources, gpu_triangle: &[u32]) -> MirrorGbuffer {
             let i = (y * w + x) as usize;
             let g = gpu_triangle.get(i).copied().unwrap_or(u32::MAX);
             let (t, differs) = accepted_texel(&frame, nodes, tris, x, y, g);
-            let (bp, bn) = texel_bounds(&frame, tris, x, y, &t);
+            let (bp, bn, duv) = texel_bounds(&frame, tris, x, y, &t);
+            out.albedo.push(albedo(materials, tris, &tex, &t));
+            out.albedo_bound
+                .push(albedo_bound(materials, tris, &tex, &t, duv));
             out.accepted_differences += differs as usize;
             out.position.push(t.position);
             out.normal.push(t.normal);
@@ -400,6 +459,8 @@ impl Kernel for Gbuffer {
             ("gb_normal".to_string(), f(&m.normal)),
             (bound_name("gb_normal"), f(&m.normal_bound)),
             ("gb_triangle".to_string(), HostBuffer::u32(&m.triangle)),
+            ("gb_albedo".to_string(), f(&m.albedo)),
+            (bound_name("gb_albedo"), f(&m.albedo_bound)),
         ])
     }
 }

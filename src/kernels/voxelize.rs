@@ -7,7 +7,7 @@ use crate::grids::Grid;
 use crate::scene::Scene;
 use glam::Vec3;
 use std::collections::BTreeMap;
-use vxgi_cpu_mirror::voxelize::{accumulate, resolve, VoxTriangle, FIXED, SUB};
+use vxgi_cpu_mirror::voxelize::{accumulate, resolve, VoxInput, VoxTriangle, FIXED, SUB};
 use vxgi_harness::run::{grid_for, run, Pass, Workgroups};
 use vxgi_harness::{
     Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
@@ -20,7 +20,7 @@ pub static DECL: KernelDecl = KernelDecl {
     wgsl: include_str!("../../kernels/voxelize.wgsl"),
     includes: &[],
     entry: "splat",
-    inputs: &["params", "vox_triangles"],
+    inputs: &["params", "vox_triangles", "vox_texels", "vox_lut"],
     outputs: &[
         // Integer sums of integer samples: exact in any order of the atomic additions.
         Output { binding: "acc", tolerance: Tolerance::Exact },
@@ -63,10 +63,39 @@ pub enum VoxelizeError {
          max_storage_buffer_binding_size ({limit}); use a smaller grid"
     )]
     TooLarge { side: u32, bytes: u64, limit: u64 },
+    #[error(
+        "triangle {triangle}: its texture coordinates span too many repeats of the texture for the \
+         kernel's 32-bit fixed point (1/16 texel) at voxels = {side}"
+    )]
+    UvRange { triangle: usize, side: u32 },
 }
 
-/// The scene's triangles on the kernel's lattice, and the grid's frame.
-pub fn prepare(scene: &Scene, side: u32) -> Result<(Vec<VoxTriangle>, VoxelFrame), VoxelizeError> {
+/// Fixed-point texture coordinates (1/16 texel) of a triangle's vertices for a `w` x `h` texture,
+/// shifted by whole repeats to start near 0; `None` when interpolating them could overflow i32.
+fn fixed_uvs(uv: [glam::Vec2; 3], w: u32, h: u32, samples: i32) -> Option<([i32; 4], [i32; 4])> {
+    let axis = |c: [f64; 3], n: u32| -> Option<[i32; 3]> {
+        let period = n as i64 * 16;
+        let q = c.map(|x| (x * period as f64).round() as i64);
+        let shift = q.iter().min()?.div_euclid(period) * period;
+        let q = q.map(|x| x - shift);
+        let span = (q[1] - q[0]).abs() + (q[2] - q[0]).abs();
+        (span * samples as i64 + q[0].abs() < i32::MAX as i64).then(|| q.map(|x| x as i32))
+    };
+    let u = axis(uv.map(|t| t.x as f64), w)?;
+    let v = axis(uv.map(|t| -(t.y as f64)), h)?;
+    Some(([u[0], v[0], u[1], v[1]], [u[2], v[2], 0, 0]))
+}
+
+/// sRGB8 to linear in the kernel's fixed point (x 4096, rounded).
+pub fn fixed_lut() -> Vec<u32> {
+    crate::trace::srgb_lut()
+        .iter()
+        .map(|&l| (l * FIXED).round() as u32)
+        .collect()
+}
+
+/// The scene's triangles on the kernel's lattice with the texture atlas, and the grid's frame.
+pub fn prepare(scene: &Scene, side: u32) -> Result<(VoxInput, VoxelFrame), VoxelizeError> {
     if !(8..=512).contains(&side) || !side.is_power_of_two() {
         return Err(VoxelizeError::Side(side));
     }
@@ -85,11 +114,13 @@ pub fn prepare(scene: &Scene, side: u32) -> Result<(Vec<VoxTriangle>, VoxelFrame
             .map(|c| (c as i32).clamp(0, max_q))
     };
     let fixed = |v: Vec3| (v * FIXED).round().to_array().map(|c| c as i32);
+    let (texels, placement) = crate::trace::texture_atlas(scene);
     let tris = mesh
         .triangles
         .iter()
         .zip(&mesh.material)
-        .map(|(t, &m)| {
+        .enumerate()
+        .map(|(index, (t, &m))| {
             let p = t.map(|i| lattice(mesh.positions[i as usize]));
             let n = t.map(|i| fixed(mesh.normals[i as usize]));
             let len = |a: [i32; 3], b: [i32; 3]| {
@@ -107,8 +138,18 @@ pub fn prepare(scene: &Scene, side: u32) -> Result<(Vec<VoxTriangle>, VoxelFrame
                 .get(m as usize)
                 .map(|m| m.diffuse)
                 .unwrap_or([0.8; 3]);
+            let texture = placement.get(m as usize).copied().unwrap_or([0; 4]);
+            let (uv_ab, uv_c) = if texture[1] == 0 {
+                ([0; 4], [0; 4])
+            } else {
+                let uv = t.map(|i| mesh.uvs.get(i as usize).copied().unwrap_or_default());
+                fixed_uvs(uv, texture[1], texture[2], samples).ok_or(VoxelizeError::UvRange {
+                    triangle: index,
+                    side,
+                })?
+            };
             let w = |a: [i32; 3], w: i32| [a[0], a[1], a[2], w];
-            VoxTriangle {
+            Ok(VoxTriangle {
                 a: w(p[0], samples),
                 b: w(p[1], 0),
                 c: w(p[2], 0),
@@ -121,11 +162,18 @@ pub fn prepare(scene: &Scene, side: u32) -> Result<(Vec<VoxTriangle>, VoxelFrame
                     (kd[2].clamp(0.0, 1.0) * FIXED).round() as u32,
                     0,
                 ],
-            }
+                uv_ab,
+                uv_c,
+                texture,
+            })
         })
-        .collect();
+        .collect::<Result<Vec<_>, VoxelizeError>>()?;
     Ok((
-        tris,
+        VoxInput {
+            tris,
+            texels,
+            lut: fixed_lut(),
+        },
         VoxelFrame {
             origin: lo,
             voxel,
@@ -134,14 +182,15 @@ pub fn prepare(scene: &Scene, side: u32) -> Result<(Vec<VoxTriangle>, VoxelFrame
     ))
 }
 
-/// Resources and passes voxelizing `tris` into a grid of side `side`.
+/// Resources and passes voxelizing `input` into a grid of side `side`.
 pub fn case_for(
     ctx: &GpuContext,
-    tris: &[VoxTriangle],
+    input: &VoxInput,
     side: u32,
     label: String,
     seed: u64,
 ) -> Result<Case, VoxelizeError> {
+    let tris = &input.tris;
     let voxels = (side as u64).pow(3);
     let limit = ctx.limits().max_storage_buffer_binding_size;
     if voxels * 32 > limit {
@@ -179,6 +228,19 @@ pub fn case_for(
     resources.insert("vox_normal".into(), zeroed(v * 16, ScalarKind::F32));
     resources.insert("list".into(), zeroed(v * 4, ScalarKind::U32));
     resources.insert("list_count".into(), zeroed(4, ScalarKind::U32));
+    let texels = if input.texels.is_empty() {
+        vec![0]
+    } else {
+        input.texels.clone()
+    };
+    resources.insert(
+        "vox_texels".into(),
+        HostResource::Buffer(HostBuffer::u32(&texels)),
+    );
+    resources.insert(
+        "vox_lut".into(),
+        HostResource::Buffer(HostBuffer::u32(&input.lut)),
+    );
     let max_rows = tris.iter().map(|t| t.a[3] + 1).max().unwrap_or(1) as u32;
     let max = ctx.limits().max_compute_workgroups_per_dimension;
     let bindings = DECL.bind_by_name();
@@ -246,8 +308,8 @@ pub fn voxelize_on_gpu(
     scene: &Scene,
     side: u32,
 ) -> anyhow::Result<(Grid, Vec<u32>, VoxelFrame)> {
-    let (tris, frame) = prepare(scene, side)?;
-    let case = case_for(ctx, &tris, side, "voxelize".into(), 0)?;
+    let (input, frame) = prepare(scene, side)?;
+    let case = case_for(ctx, &input, side, "voxelize".into(), 0)?;
     let out = run(
         ctx,
         &DECL.shader()?,
@@ -278,8 +340,9 @@ impl Kernel for Voxelize {
     fn case(&self, _shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
         let (scene, label) = generated_scene(seed, index);
         let side = SIDES[(index / 4) % SIDES.len()];
-        let (tris, _) = prepare(&scene, side).expect("generated sides are valid");
-        case_for(ctx, &tris, side, format!("{label}, {side}^3"), seed).expect("generated grids fit")
+        let (input, _) = prepare(&scene, side).expect("generated sides are valid");
+        case_for(ctx, &input, side, format!("{label}, {side}^3"), seed)
+            .expect("generated grids fit")
     }
     fn mirror(
         &self,
@@ -292,7 +355,12 @@ impl Kernel for Voxelize {
         let b = |n: &str| data[n].buffer().expect("buffer");
         let p: VoxParams = *bytemuck::from_bytes(&b("params").bytes);
         let tris: &[VoxTriangle] = bytemuck::cast_slice(&b("vox_triangles").bytes);
-        let acc = accumulate(&tris[..p.triangles as usize], p.side);
+        let acc = accumulate(
+            &tris[..p.triangles as usize],
+            b("vox_texels").as_u32(),
+            b("vox_lut").as_u32(),
+            p.side,
+        );
         let mut colour = Vec::with_capacity(acc.len());
         let mut normal = Vec::with_capacity(acc.len());
         let mut list = Vec::new();
