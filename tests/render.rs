@@ -71,6 +71,35 @@ fn direct_light_agrees_with_the_reference_on_thin_wall() {
     assert_direct_agrees(&small(thin_wall(), 128, 64), "thin_wall");
 }
 
+/// The textured Cornell box (a `map_Kd` checkerboard floor): the GPU's texels agree with the
+/// reference's (both read the nearest texel at the hit's interpolated `vt`), and the floor shows both
+/// checker colours (blue-dominant squares and grey ones).
+#[test]
+fn direct_light_agrees_with_the_reference_on_a_textured_floor() {
+    let scene = small(
+        Scene::load(Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/textured_cornell.toml"))
+            .unwrap(),
+        96,
+        96,
+    );
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+    assert_direct_agrees(&scene, "textured cornell box");
+    let ours = vxgi::render::render(gpu(), &scene, &Default::default(), |_| {})
+        .unwrap()
+        .direct;
+    let floor = &ours.pixels[90 * 96..];
+    let blue = floor.iter().filter(|p| p[2] > 2.0 * p[0]).count();
+    let grey = floor
+        .iter()
+        .filter(|p| p[0] > 0.0 && (p[2] - p[0]).abs() < 0.05 * p[0])
+        .count();
+    assert!(
+        blue > 50 && grey > 50,
+        "blue {blue}, grey {grey} of {}",
+        floor.len()
+    );
+}
+
 /// With anti-aliasing on (jittered reference) the pixel-centre GPU image differs along geometric edges
 /// and hard-shadow boundaries, which at 96x96 are a large share of the pixels: a sanity bound (a
 /// convention error gives far more: measured, an extra 1/pi gives FLIP 0.61, a factor 2 gives 0.41;
