@@ -96,6 +96,16 @@ pub fn hit_uv(tex: &Textures, t: u32, bary: [f32; 2]) -> Vec2 {
     uv(0) * (1.0 - u - v) + uv(1) * u + uv(2) * v
 }
 
+/// The material of a texel's triangle (None for a miss).
+fn material_of<'a>(
+    materials: &'a [GpuMaterial],
+    tris: &[GpuTriangle],
+    t: &Texel,
+) -> Option<&'a GpuMaterial> {
+    let tri = tris.get(t.triangle as usize)?;
+    Some(&materials[(tri.material() as usize).min(materials.len() - 1)])
+}
+
 /// The albedo of a texel (see the module documentation); zeros for a miss.
 pub fn albedo(
     materials: &[GpuMaterial],
@@ -103,10 +113,9 @@ pub fn albedo(
     tex: &Textures,
     t: &Texel,
 ) -> [f32; 4] {
-    let Some(tri) = tris.get(t.triangle as usize) else {
+    let Some(m) = material_of(materials, tris, t) else {
         return [0.0; 4];
     };
-    let m = &materials[(tri.material() as usize).min(materials.len() - 1)];
     let [offset, w, h, _] = m.texture;
     if w == 0 || h == 0 {
         return [m.diffuse[0], m.diffuse[1], m.diffuse[2], 0.0];
@@ -126,11 +135,7 @@ pub fn albedo_bound(
     t: &Texel,
     duv: f32,
 ) -> [f32; 4] {
-    let Some(tri) = tris.get(t.triangle as usize) else {
-        return [0.0; 4];
-    };
-    let m = &materials[(tri.material() as usize).min(materials.len() - 1)];
-    let [offset, w, h, _] = m.texture;
+    let [offset, w, h, _] = material_of(materials, tris, t).map_or([0; 4], |m| m.texture);
     if w == 0 || h == 0 {
         return [0.0; 4];
     }
