@@ -1,5 +1,6 @@
 //! vxgi: WGSL compute kernels for voxel-based global illumination, each verified against a scalar Rust
 //! mirror on generated inputs. See README.md for the layout and how to add a kernel.
+pub mod bench;
 pub mod coverage;
 pub mod gbuffers;
 pub mod grids;

@@ -48,22 +48,9 @@ enum Command {
         /// Which pipeline renders indirect light and AO.
         #[arg(long, value_enum, default_value_t = Pipeline::VctDense)]
         pipeline: Pipeline,
-        /// Diffuse cones per pixel.
-        #[arg(long, default_value_t = 5)]
-        cones: u32,
-        /// Half-angle of the diffuse cones, degrees.
-        #[arg(long, default_value_t = 30.0)]
-        cone_half_angle: f32,
         /// Print the frame plan (what runs, what is skipped and why) and exit.
         #[arg(long)]
         plan: bool,
-        /// Cone origins start this many voxels off the surface along its normal.
-        #[arg(long, default_value_t = ConeSettings::default().offset_voxels)]
-        cone_offset: f32,
-        /// Surface-aware mip clamp: sampled cells stay below 1/F of the distance from the origin
-        /// surface (0 = off, the paper's rule).
-        #[arg(long, default_value_t = ConeSettings::default().mip_clamp)]
-        mip_clamp: f32,
         #[command(flatten)]
         render: RenderFlags,
     },
@@ -96,6 +83,24 @@ enum Command {
         #[arg(long, default_value = "report")]
         out: PathBuf,
     },
+    /// Run time against error: sweep voxels, cone count and aperture, mip clamp on a scene; each
+    /// configuration rendered and compared with one Monte Carlo reference. Writes bench.csv, bench.md
+    /// and bench.svg (time vs combined FLIP, Pareto front) into --out.
+    Bench {
+        /// A TOML scene file (default: the built-in Cornell box).
+        scene: Option<PathBuf>,
+        /// 4 configurations instead of 54, reference at 8 spp unless --spp says otherwise (for CI).
+        #[arg(long)]
+        quick: bool,
+        /// Reference samples per pixel [default 64, 8 with --quick].
+        #[arg(long)]
+        spp: Option<u32>,
+        #[arg(long, default_value = "bench")]
+        out: PathBuf,
+        /// The keys the sweep does not vary (e.g. --ao-range) apply to every configuration.
+        #[command(flatten)]
+        render: RenderFlags,
+    },
     /// Compare a test image against a reference: relative MSE and mean LDR-FLIP, optional heat map.
     Compare {
         reference: PathBuf,
@@ -124,6 +129,19 @@ struct RenderFlags {
     /// AO falloff 1 / (1 + ao_lambda r).
     #[arg(long = "ao-lambda", alias = "ao_lambda")]
     ao_lambda: Option<f32>,
+    /// Diffuse cones per pixel (1..=64) [default 5].
+    #[arg(long)]
+    cones: Option<u32>,
+    /// Half-angle of the diffuse cones, degrees [default 30].
+    #[arg(long = "cone-half-angle", alias = "cone_half_angle")]
+    cone_half_angle: Option<f32>,
+    /// Cone origins start this many voxels off the surface along its normal [default 2].
+    #[arg(long = "cone-offset", alias = "cone_offset")]
+    cone_offset: Option<f32>,
+    /// Surface-aware mip clamp: sampled cells stay below 1/F of the distance from the origin
+    /// surface (0 = off, the paper's rule) [default 2].
+    #[arg(long = "mip-clamp", alias = "mip_clamp")]
+    mip_clamp: Option<f32>,
 }
 
 fn load_scene(path: &Option<PathBuf>, flags: &RenderFlags) -> Result<vxgi::scene::Scene> {
@@ -143,8 +161,31 @@ fn load_scene(path: &Option<PathBuf>, flags: &RenderFlags) -> Result<vxgi::scene
     if let Some(v) = flags.ao_lambda {
         scene.render.ao_lambda = v;
     }
+    if let Some(v) = flags.cones {
+        scene.render.cones = v;
+    }
+    if let Some(v) = flags.cone_half_angle {
+        scene.render.cone_half_angle = v;
+    }
+    if let Some(v) = flags.cone_offset {
+        scene.render.cone_offset = v;
+    }
+    if let Some(v) = flags.mip_clamp {
+        scene.render.mip_clamp = v;
+    }
     scene.render.validate().map_err(anyhow::Error::msg)?;
     Ok(scene)
+}
+
+/// A spinner with the elapsed time and a message (hidden when stderr is not a terminal).
+fn spinner() -> ProgressBar {
+    let bar = ProgressBar::new_spinner();
+    bar.set_style(
+        ProgressStyle::with_template("{spinner} {elapsed} {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+    );
+    bar.enable_steady_tick(std::time::Duration::from_millis(120));
+    bar
 }
 
 fn create_out(dir: &Path) -> Result<()> {
@@ -155,33 +196,18 @@ fn run_render(
     plan_only: bool,
     scene: Option<PathBuf>,
     out: PathBuf,
-    cones: ConeSettings,
     flags: RenderFlags,
 ) -> Result<()> {
     let scene = load_scene(&scene, &flags)?;
+    let cones = ConeSettings::from(&scene.render);
     if plan_only {
         print!("{}", vxgi::plan::FramePlan::vct_dense(&scene, &cones));
         return Ok(());
     }
-    if !(cones.diffuse_half_angle_deg > 0.0 && cones.diffuse_half_angle_deg < 90.0)
-        || cones.diffuse_cones == 0
-    {
-        bail!("--cones must be >= 1 and --cone-half-angle in (0, 90) degrees");
-    }
     create_out(&out)?;
     let ctx = GpuContext::new().context("creating the GPU context")?;
     eprintln!("adapter: {}", ctx.describe());
-    let cones = ConeSettings {
-        ao_range: scene.render.ao_range,
-        ao_lambda: scene.render.ao_lambda,
-        ..cones
-    };
-    let bar = ProgressBar::new_spinner();
-    bar.set_style(
-        ProgressStyle::with_template("{spinner} {elapsed} {msg}")
-            .unwrap_or_else(|_| ProgressStyle::default_spinner()),
-    );
-    bar.enable_steady_tick(std::time::Duration::from_millis(120));
+    let bar = spinner();
     let r = vxgi::render::render(&ctx, &scene, &cones, |stage| {
         bar.set_message(stage.to_string())
     })?;
@@ -236,6 +262,40 @@ fn run_reference(
     Ok(())
 }
 
+fn run_bench(
+    scene: Option<PathBuf>,
+    quick: bool,
+    spp: Option<u32>,
+    out: PathBuf,
+    flags: RenderFlags,
+) -> Result<()> {
+    let spp = spp.unwrap_or(if quick { 8 } else { 64 });
+    if spp == 0 {
+        bail!("--spp must be at least 1");
+    }
+    let scene = load_scene(&scene, &flags)?;
+    create_out(&out)?;
+    let ctx = GpuContext::new().context("creating the GPU context")?;
+    eprintln!("adapter: {}", ctx.describe());
+    let bar = ProgressBar::new(1);
+    bar.set_style(
+        ProgressStyle::with_template("{bar:30} {pos}/{len} {elapsed} {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let rows = vxgi::bench::bench(&ctx, &scene, spp, quick, &out, |done, total, what| {
+        bar.set_length(total as u64);
+        bar.set_position(done as u64);
+        bar.set_message(what.to_string());
+    })?;
+    bar.finish_and_clear();
+    print!(
+        "{}",
+        vxgi::bench::table(&rows, spp, scene.camera.width, scene.camera.height)
+    );
+    println!("wrote bench.csv, bench.md, bench.svg to {}", out.display());
+    Ok(())
+}
+
 fn run_report(scenes: Vec<String>, spp: u32, out: PathBuf) -> Result<()> {
     if spp == 0 {
         bail!("--spp must be at least 1");
@@ -260,12 +320,7 @@ fn run_report(scenes: Vec<String>, spp: u32, out: PathBuf) -> Result<()> {
     create_out(&out)?;
     let ctx = GpuContext::new().context("creating the GPU context")?;
     eprintln!("adapter: {}", ctx.describe());
-    let bar = ProgressBar::new_spinner();
-    bar.set_style(
-        ProgressStyle::with_template("{spinner} {elapsed} {msg}")
-            .unwrap_or_else(|_| ProgressStyle::default_spinner()),
-    );
-    bar.enable_steady_tick(std::time::Duration::from_millis(120));
+    let bar = spinner();
     let rows = vxgi::report::report(&ctx, &loaded, spp, &out, |m| bar.set_message(m.to_string()))?;
     bar.finish_and_clear();
     println!(
@@ -336,25 +391,9 @@ fn real_main() -> Result<()> {
             scene,
             out,
             pipeline: Pipeline::VctDense,
-            cones,
-            cone_half_angle,
-            cone_offset,
-            mip_clamp,
             plan,
             render,
-        } => run_render(
-            plan,
-            scene,
-            out,
-            ConeSettings {
-                diffuse_cones: cones,
-                diffuse_half_angle_deg: cone_half_angle,
-                offset_voxels: cone_offset,
-                mip_clamp,
-                ..Default::default()
-            },
-            render,
-        ),
+        } => run_render(plan, scene, out, render),
         Command::Reference {
             scene,
             spp,
@@ -378,6 +417,13 @@ fn real_main() -> Result<()> {
             heatmap,
         } => run_compare(reference, test, heatmap),
         Command::Report { scenes, spp, out } => run_report(scenes, spp, out),
+        Command::Bench {
+            scene,
+            quick,
+            spp,
+            out,
+            render,
+        } => run_bench(scene, quick, spp, out, render),
     }
 }
 

@@ -57,8 +57,7 @@ pub fn report(
             scene,
             &ReferenceOptions {
                 spp,
-                seed: 1,
-                jitter: true,
+                ..Default::default()
             },
             |_| {},
         );
@@ -75,11 +74,7 @@ pub fn report(
         write_pair(&ref_dir, "ao", &rgb(reference.ao.clone()))?;
 
         progress(&format!("{name}: vct-dense"));
-        let cones = ConeSettings {
-            ao_range: scene.render.ao_range,
-            ao_lambda: scene.render.ao_lambda,
-            ..Default::default()
-        };
+        let cones = ConeSettings::from(&scene.render);
         let r = crate::render::render(ctx, scene, &cones, |_| {})?;
         let vdir = dir.join("vct-dense");
         std::fs::create_dir_all(&vdir).with_context(|| format!("creating {}", vdir.display()))?;

@@ -144,6 +144,15 @@ pub struct RenderSettings {
     pub ao_range: f32,
     /// AO distance falloff 1 / (1 + lambda r).
     pub ao_lambda: f32,
+    /// Diffuse cones per pixel (1..=64): one along the normal, the rest in a ring.
+    pub cones: u32,
+    /// Half-angle of the diffuse cones, degrees (0, 90).
+    pub cone_half_angle: f32,
+    /// Cone origins start this many level-0 voxels off the surface along its normal (>= 0).
+    pub cone_offset: f32,
+    /// Surface-aware mip clamp F (>= 0; 0 = off, the paper's rule): sampled cells stay below 1/F of
+    /// the distance from the origin surface.
+    pub mip_clamp: f32,
 }
 
 impl RenderSettings {
@@ -165,6 +174,27 @@ impl RenderSettings {
                 self.ao_range, self.ao_lambda
             ));
         }
+        if !(1..=64).contains(&self.cones) {
+            return Err(format!("cones = {} must be in 1..=64", self.cones));
+        }
+        if !(self.cone_half_angle > 0.0 && self.cone_half_angle < 90.0) {
+            return Err(format!(
+                "cone_half_angle = {} must be in (0, 90) degrees",
+                self.cone_half_angle
+            ));
+        }
+        if !(self.cone_offset >= 0.0 && self.cone_offset.is_finite()) {
+            return Err(format!(
+                "cone_offset = {} must be finite and >= 0",
+                self.cone_offset
+            ));
+        }
+        if !(self.mip_clamp >= 0.0 && self.mip_clamp.is_finite()) {
+            return Err(format!(
+                "mip_clamp = {} must be finite and >= 0",
+                self.mip_clamp
+            ));
+        }
         Ok(())
     }
 }
@@ -175,6 +205,12 @@ impl Default for RenderSettings {
             voxels: 128,
             ao_range: 0.5,
             ao_lambda: 1.0,
+            cones: 5,
+            cone_half_angle: 30.0,
+            cone_offset: 2.0,
+            // Measured on the Cornell box vs a 256-spp reference (README, "Accuracy"): combined FLIP
+            // 0.287 without the clamp, 0.237 with 2; AO FLIP 0.85 -> 0.42.
+            mip_clamp: 2.0,
         }
     }
 }

@@ -306,6 +306,55 @@ fn report_and_plan_commands() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// `vxgi bench --quick` on a small scene: 4 configurations, each with its time per stage and its error
+/// against the reference, written as CSV, Markdown and SVG with a Pareto front; the swept settings are
+/// `[render]` keys whose CLI flags are checked like the file's.
+#[test]
+fn bench_quick_writes_csv_table_and_plot() {
+    let dir = std::env::temp_dir().join(format!("vxgi-cli-bench-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = small_scene_file(&dir);
+    let out = dir.join("bench");
+    let o = out.display().to_string();
+    let (code, stdout, err) = vxgi(&["bench", &scene, "--quick", "--spp", "2", "--out", &o]);
+    assert_eq!(code, 0, "{stdout}\n{err}");
+    let csv = std::fs::read_to_string(out.join("bench.csv")).unwrap();
+    let lines: Vec<&str> = csv.lines().collect();
+    assert_eq!(lines.len(), 5, "{csv}");
+    assert!(lines[0].starts_with("voxels,cones,cone_half_angle,mip_clamp,seconds,"));
+    assert!(lines[0].contains("combined_flip") && lines[0].contains("cone_trace_seconds"));
+    // Every row: a positive time and a finite FLIP in [0, 1]; at least one row is Pareto-optimal.
+    for l in &lines[1..] {
+        let f: Vec<&str> = l.split(',').collect();
+        let secs: f64 = f[4].parse().unwrap();
+        let flip: f64 = f[8].parse().unwrap();
+        assert!(secs > 0.0 && (0.0..=1.0).contains(&flip), "{l}");
+    }
+    assert!(lines[1..].iter().any(|l| l.contains(",true,")), "{csv}");
+    let md = std::fs::read_to_string(out.join("bench.md")).unwrap();
+    assert!(
+        md.contains("| 32^3 | 1 | 30 | 2 |") && md.contains("**yes**"),
+        "{md}"
+    );
+    let svg = std::fs::read_to_string(out.join("bench.svg")).unwrap();
+    assert!(
+        svg.starts_with("<svg") && svg.contains("Pareto front"),
+        "{svg}"
+    );
+    assert!(stdout.contains("combined FLIP"), "{stdout}");
+
+    for (bad, key) in [
+        ("--cones=0", "cones"),
+        ("--cone-half-angle=90", "cone_half_angle"),
+        ("--mip-clamp=-1", "mip_clamp"),
+    ] {
+        let (code, _, err) = vxgi(&["render", "--plan", bad]);
+        assert_ne!(code, 0, "{bad} accepted");
+        assert!(err.contains(key), "{bad}: {err}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// The plan follows the scene: a glossy material brings the glossy cone, no lights skip the direct
 /// passes, and the rendered frame then has zero direct light (but AO).
 #[test]

@@ -57,16 +57,21 @@ pub struct ConeSettings {
 }
 
 impl Default for ConeSettings {
+    /// The `[render]` defaults.
     fn default() -> Self {
+        Self::from(&crate::scene::RenderSettings::default())
+    }
+}
+
+impl From<&crate::scene::RenderSettings> for ConeSettings {
+    fn from(r: &crate::scene::RenderSettings) -> Self {
         Self {
-            diffuse_cones: 5,
-            diffuse_half_angle_deg: 30.0,
-            ao_range: 0.5,
-            ao_lambda: 1.0,
-            offset_voxels: 2.0,
-            // Measured on the Cornell box vs a 256-spp reference (README, "Accuracy"): combined FLIP
-            // 0.287 without the clamp, 0.237 with 2; AO FLIP 0.85 -> 0.42.
-            mip_clamp: 2.0,
+            diffuse_cones: r.cones,
+            diffuse_half_angle_deg: r.cone_half_angle,
+            ao_range: r.ao_range,
+            ao_lambda: r.ao_lambda,
+            offset_voxels: r.cone_offset,
+            mip_clamp: r.mip_clamp,
         }
     }
 }

@@ -1,0 +1,338 @@
+//! `vxgi bench`: run time against error. A sweep over `[render]` settings of the vct-dense pipeline
+//! (voxel resolution, diffuse cone count and aperture, mip clamp), each configuration rendered on the
+//! GPU and compared with one Monte Carlo reference of the same scene (relative MSE and mean FLIP of
+//! indirect and combined, as `vxgi compare` defines them). Written into the output folder: `bench.csv`,
+//! `bench.md` (table, Pareto-optimal rows marked) and `bench.svg` (time vs combined FLIP, Pareto
+//! front drawn).
+use crate::images::{compare, RgbImage};
+use crate::kernels::cone_trace::ConeSettings;
+use crate::reference::{render_reference, ReferenceOptions};
+use crate::scene::{RenderSettings, Scene};
+use anyhow::{Context, Result};
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// The stages of a vct-dense frame, in order (the columns of the per-stage times).
+pub const STAGES: [&str; 6] = [
+    "gbuffer",
+    "direct_light",
+    "voxelize",
+    "voxel_light",
+    "surface_coverage_mip",
+    "cone_trace",
+];
+
+/// One configuration's result.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct BenchRow {
+    pub voxels: u32,
+    pub cones: u32,
+    pub cone_half_angle: f32,
+    pub mip_clamp: f32,
+    /// Wall-clock seconds of the whole frame (stages, transfers between them included).
+    pub seconds: f64,
+    /// Wall-clock seconds per stage, in [`STAGES`] order (0 where the plan skipped the stage).
+    #[serde(skip)]
+    pub stage_seconds: [f64; 6],
+    pub indirect_rel_mse: f64,
+    pub indirect_flip: f32,
+    pub combined_rel_mse: f64,
+    pub combined_flip: f32,
+    /// No other configuration is both faster and more accurate (combined FLIP).
+    pub pareto: bool,
+}
+
+/// The configurations of a sweep around `base` (its other keys, e.g. AO, kept). Full: voxels
+/// {32, 64, 128} x cones {1, 5, 9} x half-angle {20, 30, 45} x mip clamp {0, 2} = 54. Quick (for CI):
+/// voxels {32, 64} x cones {1, 5} at 30 degrees with the clamp = 4.
+pub fn sweep(base: &RenderSettings, quick: bool) -> Vec<RenderSettings> {
+    let (voxels, cones, angles, clamps): (&[u32], &[u32], &[f32], &[f32]) = if quick {
+        (&[32, 64], &[1, 5], &[30.0], &[2.0])
+    } else {
+        (&[32, 64, 128], &[1, 5, 9], &[20.0, 30.0, 45.0], &[0.0, 2.0])
+    };
+    let mut out = Vec::new();
+    for &v in voxels {
+        for &c in cones {
+            for &a in angles {
+                for &m in clamps {
+                    out.push(RenderSettings {
+                        voxels: v,
+                        cones: c,
+                        cone_half_angle: a,
+                        mip_clamp: m,
+                        ..base.clone()
+                    });
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Which points (time, error) are Pareto-optimal: no other point is at most as slow and at most as
+/// wrong while strictly better in one of the two.
+pub fn pareto(points: &[(f64, f64)]) -> Vec<bool> {
+    points
+        .iter()
+        .map(|&(t, e)| {
+            !points
+                .iter()
+                .any(|&(t2, e2)| t2 <= t && e2 <= e && (t2 < t || e2 < e))
+        })
+        .collect()
+}
+
+/// Run the sweep on `scene` against a reference of `spp` samples per pixel and write the results into
+/// `out`. One untimed warm-up frame first (the driver compiles pipelines on first use); each
+/// configuration's stage times are the minimum over `repeats` frames (2 in the full sweep, 1 quick).
+/// `progress(done, total, what)` is called before each step (the reference is step 0).
+pub fn bench(
+    ctx: &crate::harness::GpuContext,
+    scene: &Scene,
+    spp: u32,
+    quick: bool,
+    out: &Path,
+    mut progress: impl FnMut(usize, usize, &str),
+) -> Result<Vec<BenchRow>> {
+    let configs = sweep(&scene.render, quick);
+    let repeats = if quick { 1 } else { 2 };
+    let total = configs.len() + 1;
+    progress(0, total, &format!("reference ({spp} spp)"));
+    let reference = render_reference(
+        scene,
+        &ReferenceOptions {
+            spp,
+            ..Default::default()
+        },
+        |_| {},
+    );
+    let (w, h) = (reference.width, reference.height);
+    let ref_indirect = RgbImage::new(w, h, reference.indirect.clone());
+    let ref_combined = RgbImage::new(w, h, reference.combined());
+    let mut rows = Vec::new();
+    let frame = |settings: &RenderSettings| {
+        let s = Scene {
+            render: settings.clone(),
+            ..scene.clone()
+        };
+        crate::render::render(ctx, &s, &ConeSettings::from(settings), |_| {})
+            .with_context(|| format!("rendering with {settings:?}"))
+    };
+    frame(&configs[0])?;
+    for (i, settings) in configs.iter().enumerate() {
+        progress(
+            i + 1,
+            total,
+            &format!(
+                "{}^3 voxels, {} cones of {} deg, clamp {}",
+                settings.voxels, settings.cones, settings.cone_half_angle, settings.mip_clamp
+            ),
+        );
+        let mut stage_seconds = [f64::INFINITY; 6];
+        let mut r = None;
+        for _ in 0..repeats {
+            let f = frame(settings)?;
+            let mut t = [0.0; 6];
+            for (name, secs) in &f.stages {
+                if let Some(k) = STAGES.iter().position(|s| s == name) {
+                    t[k] += secs;
+                }
+            }
+            for (best, t) in stage_seconds.iter_mut().zip(t) {
+                *best = best.min(t);
+            }
+            r = Some(f);
+        }
+        let r = r.expect("at least one frame");
+        let p = Path::new("bench");
+        let ind = compare(&ref_indirect, p, &r.indirect, p)?;
+        let comb = compare(&ref_combined, p, &r.combined, p)?;
+        rows.push(BenchRow {
+            voxels: settings.voxels,
+            cones: settings.cones,
+            cone_half_angle: settings.cone_half_angle,
+            mip_clamp: settings.mip_clamp,
+            seconds: stage_seconds.iter().sum(),
+            stage_seconds,
+            indirect_rel_mse: ind.rel_mse,
+            indirect_flip: ind.flip_mean,
+            combined_rel_mse: comb.rel_mse,
+            combined_flip: comb.flip_mean,
+            pareto: false,
+        });
+    }
+    let points: Vec<(f64, f64)> = rows
+        .iter()
+        .map(|r| (r.seconds, r.combined_flip as f64))
+        .collect();
+    for (r, p) in rows.iter_mut().zip(pareto(&points)) {
+        r.pareto = p;
+    }
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    write_csv(&out.join("bench.csv"), &rows)?;
+    let md = table(&rows, spp, w, h);
+    std::fs::write(out.join("bench.md"), md)
+        .with_context(|| format!("writing {}", out.join("bench.md").display()))?;
+    plot(&out.join("bench.svg"), &rows)?;
+    Ok(rows)
+}
+
+fn write_csv(path: &Path, rows: &[BenchRow]) -> Result<()> {
+    let mut w =
+        csv::Writer::from_path(path).with_context(|| format!("writing {}", path.display()))?;
+    // Header by hand: the flattened per-stage columns follow the serialised fields.
+    let mut header: Vec<String> = [
+        "voxels",
+        "cones",
+        "cone_half_angle",
+        "mip_clamp",
+        "seconds",
+        "indirect_rel_mse",
+        "indirect_flip",
+        "combined_rel_mse",
+        "combined_flip",
+        "pareto",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    header.extend(STAGES.iter().map(|s| format!("{s}_seconds")));
+    w.write_record(&header)?;
+    for r in rows {
+        let mut rec = vec![
+            r.voxels.to_string(),
+            r.cones.to_string(),
+            r.cone_half_angle.to_string(),
+            r.mip_clamp.to_string(),
+            format!("{:.4}", r.seconds),
+            format!("{:.5}", r.indirect_rel_mse),
+            format!("{:.4}", r.indirect_flip),
+            format!("{:.5}", r.combined_rel_mse),
+            format!("{:.4}", r.combined_flip),
+            r.pareto.to_string(),
+        ];
+        rec.extend(r.stage_seconds.iter().map(|s| format!("{s:.4}")));
+        w.write_record(&rec)?;
+    }
+    w.flush()?;
+    Ok(())
+}
+
+/// The Markdown table (rows by time, Pareto-optimal ones marked).
+pub fn table(rows: &[BenchRow], spp: u32, w: u32, h: u32) -> String {
+    let mut sorted: Vec<&BenchRow> = rows.iter().collect();
+    sorted.sort_by(|a, b| a.seconds.total_cmp(&b.seconds));
+    let mut md = format!(
+        "# vxgi bench (vct-dense, {w}x{h}, reference {spp} spp)\n\n\
+         | voxels | cones | half-angle | mip clamp | time | cone_trace | voxelize | indirect FLIP | combined FLIP | combined rel. MSE | Pareto |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|\n"
+    );
+    for r in sorted {
+        let _ = writeln!(
+            md,
+            "| {}^3 | {} | {} | {} | {:.0} ms | {:.0} ms | {:.0} ms | {:.3} | {:.3} | {:.4} | {} |",
+            r.voxels,
+            r.cones,
+            r.cone_half_angle,
+            r.mip_clamp,
+            r.seconds * 1e3,
+            r.stage_seconds[5] * 1e3,
+            r.stage_seconds[2] * 1e3,
+            r.indirect_flip,
+            r.combined_flip,
+            r.combined_rel_mse,
+            if r.pareto { "**yes**" } else { "" }
+        );
+    }
+    md.push_str(
+        "\ntime: wall clock of the frame's stages, transfers between stages included (per stage in \
+         bench.csv); FLIP and rel. MSE as `vxgi compare` defines them, against the Monte Carlo \
+         reference; Pareto: no other configuration is both faster and more accurate.\n\n![time vs error](bench.svg)\n",
+    );
+    md
+}
+
+fn plot(path: &Path, rows: &[BenchRow]) -> Result<()> {
+    use plotters::prelude::*;
+    let root = SVGBackend::new(path, (800, 500)).into_drawing_area();
+    let err = |e: DrawingAreaErrorKind<_>| anyhow::anyhow!("plotting {}: {e:?}", path.display());
+    root.fill(&WHITE).map_err(err)?;
+    let t_max = rows.iter().map(|r| r.seconds * 1e3).fold(1.0, f64::max) * 1.1;
+    // Errors span a narrow band: the y axis covers it with a margin rather than starting at 0.
+    let flips = || rows.iter().map(|r| r.combined_flip as f64);
+    let (e_lo, e_hi) = (flips().fold(1.0, f64::min), flips().fold(0.0, f64::max));
+    let pad = ((e_hi - e_lo) * 0.1).max(0.005);
+    let (e_min, e_max) = ((e_lo - pad).max(0.0), e_hi + pad);
+    let mut chart = ChartBuilder::on(&root)
+        .caption("vct-dense: time vs error", ("sans-serif", 22))
+        .margin(15)
+        .x_label_area_size(45)
+        .y_label_area_size(60)
+        .build_cartesian_2d(0.0..t_max, e_min..e_max)
+        .map_err(err)?;
+    chart
+        .configure_mesh()
+        .x_desc("frame time (ms, wall clock)")
+        .y_desc("combined mean FLIP")
+        .draw()
+        .map_err(err)?;
+    chart
+        .draw_series(rows.iter().map(|r| {
+            Circle::new(
+                (r.seconds * 1e3, r.combined_flip as f64),
+                4,
+                BLUE.mix(0.5).filled(),
+            )
+        }))
+        .map_err(err)?
+        .label("configuration")
+        .legend(|(x, y)| Circle::new((x, y), 4, BLUE.mix(0.5).filled()));
+    let mut front: Vec<(f64, f64)> = rows
+        .iter()
+        .filter(|r| r.pareto)
+        .map(|r| (r.seconds * 1e3, r.combined_flip as f64))
+        .collect();
+    front.sort_by(|a, b| a.0.total_cmp(&b.0));
+    chart
+        .draw_series(LineSeries::new(front.clone(), RED.stroke_width(2)))
+        .map_err(err)?
+        .label("Pareto front")
+        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], RED.stroke_width(2)));
+    chart
+        .draw_series(front.iter().map(|&p| Circle::new(p, 5, RED.filled())))
+        .map_err(err)?;
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .draw()
+        .map_err(err)?;
+    root.present().map_err(err)?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pareto_keeps_only_undominated_points() {
+        let p = [(1.0, 0.5), (2.0, 0.3), (2.0, 0.4), (3.0, 0.3), (0.5, 0.9)];
+        assert_eq!(pareto(&p), vec![true, true, false, false, true]);
+    }
+
+    #[test]
+    fn sweeps_cover_the_grid_and_keep_other_keys() {
+        let base = RenderSettings {
+            ao_range: 0.25,
+            ..Default::default()
+        };
+        let full = sweep(&base, false);
+        assert_eq!(full.len(), 54);
+        assert!(full
+            .iter()
+            .all(|s| s.ao_range == 0.25 && s.validate().is_ok()));
+        assert_eq!(sweep(&base, true).len(), 4);
+    }
+}
