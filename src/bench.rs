@@ -2,8 +2,8 @@
 //! (voxel resolution, diffuse cone count and aperture, mip clamp), each configuration rendered on the
 //! GPU and compared with one Monte Carlo reference of the same scene (relative MSE and mean FLIP of
 //! indirect and combined, as `vxgi compare` defines them). Written into the output folder: `bench.csv`,
-//! `bench.md` (table, Pareto-optimal rows marked) and `bench.svg` (time vs combined FLIP, Pareto
-//! front drawn).
+//! `bench.md` (table, Pareto-optimal rows marked, and the planner's reuse rule off vs on) and
+//! `bench.svg` (time vs combined FLIP, Pareto front drawn).
 use crate::images::{compare, RgbImage};
 use crate::kernels::cone_trace::ConeSettings;
 use crate::reference::{render_reference, ReferenceOptions};
@@ -70,6 +70,126 @@ pub fn sweep(base: &RenderSettings, quick: bool) -> Vec<RenderSettings> {
     out
 }
 
+/// The planner's reuse rule measured: two frames, the second with the camera orbited 10 degrees about
+/// its target (geometry, materials and lights unchanged), rendered with the rule off (every pass every
+/// frame) and on (the second frame reuses the first's radiance pyramid).
+#[derive(Clone, Debug)]
+pub struct PlannerRow {
+    /// Wall-clock seconds of the second frame, rule off and on.
+    pub off_seconds: f64,
+    pub on_seconds: f64,
+    /// Combined mean FLIP of the second frame against a reference of that view, rule off and on.
+    pub off_flip: f32,
+    pub on_flip: f32,
+    /// Largest difference between the two second frames (any pixel, any channel, all four images).
+    pub max_difference: f32,
+    /// The stages the rule skipped in the second frame.
+    pub skipped: Vec<&'static str>,
+}
+
+/// `scene` with its camera orbited `deg` degrees about the target (around the camera's up axis).
+pub fn orbited(scene: &Scene, deg: f32) -> Scene {
+    use glam::{Quat, Vec3};
+    let mut s = scene.clone();
+    let c = &mut s.camera;
+    let (eye, target) = (Vec3::from(c.eye), Vec3::from(c.target));
+    let axis = Vec3::from(c.up).normalize();
+    c.eye = (target + Quat::from_axis_angle(axis, deg.to_radians()) * (eye - target)).to_array();
+    s
+}
+
+/// Measure the reuse rule on `scene` (see [`PlannerRow`]); times are the minimum over `repeats`.
+pub fn planner_comparison(
+    ctx: &crate::harness::GpuContext,
+    scene: &Scene,
+    spp: u32,
+    repeats: usize,
+) -> Result<PlannerRow> {
+    let cones = ConeSettings::from(&scene.render);
+    let second = orbited(scene, 10.0);
+    let mut best = [f64::INFINITY; 2];
+    let mut frames = Vec::new();
+    let mut skipped = Vec::new();
+    for (k, reuse) in [false, true].into_iter().enumerate() {
+        for _ in 0..repeats.max(1) {
+            let mut r = crate::render::VctDense::new(reuse);
+            r.render(ctx, scene, &cones, |_| {})?;
+            let f = r.render(ctx, &second, &cones, |_| {})?;
+            best[k] = best[k].min(f.stages.iter().map(|s| s.1).sum());
+            if reuse {
+                skipped = f
+                    .plan
+                    .passes
+                    .iter()
+                    .filter(|p| !p.runs)
+                    .map(|p| p.stage)
+                    .collect();
+            }
+            frames.push((k, f));
+        }
+    }
+    let last = |k: usize| &frames.iter().rev().find(|f| f.0 == k).expect("rendered").1;
+    let (off, on) = (last(0), last(1));
+    let max_difference = [
+        (&off.direct, &on.direct),
+        (&off.indirect, &on.indirect),
+        (&off.combined, &on.combined),
+        (&off.ao, &on.ao),
+    ]
+    .iter()
+    .flat_map(|(a, b)| {
+        a.pixels
+            .iter()
+            .flatten()
+            .zip(b.pixels.iter().flatten())
+            .map(|(x, y)| (x - y).abs())
+    })
+    .fold(0.0, f32::max);
+    let reference = render_reference(
+        &second,
+        &ReferenceOptions {
+            spp,
+            ..Default::default()
+        },
+        |_| {},
+    );
+    let ref_combined = RgbImage::new(reference.width, reference.height, reference.combined());
+    let p = Path::new("bench");
+    Ok(PlannerRow {
+        off_seconds: best[0],
+        on_seconds: best[1],
+        off_flip: compare(&ref_combined, p, &off.combined, p)?.flip_mean,
+        on_flip: compare(&ref_combined, p, &on.combined, p)?.flip_mean,
+        max_difference,
+        skipped,
+    })
+}
+
+/// The planner section of the table.
+pub fn planner_table(p: &PlannerRow) -> String {
+    format!(
+        "
+## Planner: reuse the radiance pyramid when only the view changed
+
+         Second of two frames (camera orbited 10 degrees, `[render]` settings of the scene), rule off          (every pass) vs on (skips {}).
+
+         | rule | frame time | combined FLIP (reference of that view) |
+|---|---|---|
+         | off | {:.0} ms | {:.3} |
+| on | {:.0} ms | {:.3} |
+
+         Saved {:.0}% of the frame; largest difference between the two frames: {:e} (the reused pyramid          is the one a rebuild makes).
+",
+        p.skipped.join(", "),
+        p.off_seconds * 1e3,
+        p.off_flip,
+        p.on_seconds * 1e3,
+        p.on_flip,
+        100.0 * (1.0 - p.on_seconds / p.off_seconds),
+        p.max_difference
+    )
+}
+
 /// Which points (time, error) are Pareto-optimal: no other point is at most as slow and at most as
 /// wrong while strictly better in one of the two.
 pub fn pareto(points: &[(f64, f64)]) -> Vec<bool> {
@@ -94,10 +214,10 @@ pub fn bench(
     quick: bool,
     out: &Path,
     mut progress: impl FnMut(usize, usize, &str),
-) -> Result<Vec<BenchRow>> {
+) -> Result<(Vec<BenchRow>, PlannerRow)> {
     let configs = sweep(&scene.render, quick);
     let repeats = if quick { 1 } else { 2 };
-    let total = configs.len() + 1;
+    let total = configs.len() + 2;
     progress(0, total, &format!("reference ({spp} spp)"));
     let reference = render_reference(
         scene,
@@ -169,13 +289,15 @@ pub fn bench(
     for (r, p) in rows.iter_mut().zip(pareto(&points)) {
         r.pareto = p;
     }
+    progress(total - 1, total, "planner: reuse rule off vs on");
+    let planner = planner_comparison(ctx, scene, spp, repeats)?;
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     write_csv(&out.join("bench.csv"), &rows)?;
-    let md = table(&rows, spp, w, h);
+    let md = table(&rows, spp, w, h) + &planner_table(&planner);
     std::fs::write(out.join("bench.md"), md)
         .with_context(|| format!("writing {}", out.join("bench.md").display()))?;
     plot(&out.join("bench.svg"), &rows)?;
-    Ok(rows)
+    Ok((rows, planner))
 }
 
 fn write_csv(path: &Path, rows: &[BenchRow]) -> Result<()> {

@@ -106,6 +106,17 @@ pub fn write_pair(dir: &Path, name: &str, img: &RgbImage) -> Result<(), ImageErr
     write_png_preview(&dir.join(format!("{name}.png")), img)
 }
 
+/// The four images of a frame — direct, indirect, combined, ao — as EXR + PNG preview in `dir`.
+pub fn write_frame(dir: &Path, images: [&RgbImage; 4]) -> Result<(), ImageError> {
+    for (name, img) in ["direct", "indirect", "combined", "ao"]
+        .into_iter()
+        .zip(images)
+    {
+        write_pair(dir, name, img)?;
+    }
+    Ok(())
+}
+
 /// Result of [`compare`].
 #[derive(Clone, Debug)]
 pub struct Comparison {

@@ -4,7 +4,7 @@ use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
 use vxgi::harness::{kernel::verify, run::copy_bandwidth, GpuContext, VerifyOptions};
-use vxgi::images::{read_exr, write_heatmap, write_pair, RgbImage};
+use vxgi::images::{read_exr, write_frame, write_heatmap, RgbImage};
 use vxgi::kernels::cone_trace::ConeSettings;
 
 #[derive(Parser)]
@@ -212,10 +212,7 @@ fn run_render(
         bar.set_message(stage.to_string())
     })?;
     bar.finish_and_clear();
-    write_pair(&out, "direct", &r.direct)?;
-    write_pair(&out, "indirect", &r.indirect)?;
-    write_pair(&out, "combined", &r.combined)?;
-    write_pair(&out, "ao", &r.ao)?;
+    write_frame(&out, [&r.direct, &r.indirect, &r.combined, &r.ao])?;
     let stages: Vec<String> = r
         .stages
         .iter()
@@ -249,10 +246,15 @@ fn run_reference(
     let img = vxgi::reference::render_reference(&scene, &opts, |n| bar.inc(n));
     bar.finish_and_clear();
     let rgb = |px: Vec<[f32; 3]>| RgbImage::new(img.width, img.height, px);
-    write_pair(&out, "direct", &rgb(img.direct.clone()))?;
-    write_pair(&out, "indirect", &rgb(img.indirect.clone()))?;
-    write_pair(&out, "combined", &rgb(img.combined()))?;
-    write_pair(&out, "ao", &rgb(img.ao.clone()))?;
+    write_frame(
+        &out,
+        [
+            &rgb(img.direct.clone()),
+            &rgb(img.indirect.clone()),
+            &rgb(img.combined()),
+            &rgb(img.ao.clone()),
+        ],
+    )?;
     println!(
         "wrote direct, indirect, combined, ao (.exr + .png) to {} ({} spp, {:.1} s)",
         out.display(),
@@ -282,16 +284,18 @@ fn run_bench(
         ProgressStyle::with_template("{bar:30} {pos}/{len} {elapsed} {msg}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
-    let rows = vxgi::bench::bench(&ctx, &scene, spp, quick, &out, |done, total, what| {
-        bar.set_length(total as u64);
-        bar.set_position(done as u64);
-        bar.set_message(what.to_string());
-    })?;
+    let (rows, planner) =
+        vxgi::bench::bench(&ctx, &scene, spp, quick, &out, |done, total, what| {
+            bar.set_length(total as u64);
+            bar.set_position(done as u64);
+            bar.set_message(what.to_string());
+        })?;
     bar.finish_and_clear();
     print!(
         "{}",
         vxgi::bench::table(&rows, spp, scene.camera.width, scene.camera.height)
     );
+    print!("{}", vxgi::bench::planner_table(&planner));
     println!("wrote bench.csv, bench.md, bench.svg to {}", out.display());
     Ok(())
 }

@@ -26,8 +26,16 @@ pub struct FramePlan {
 }
 
 impl FramePlan {
-    /// The vct-dense frame for `scene` with `cones`.
+    /// The vct-dense frame for `scene` with `cones` (a first frame: nothing cached).
     pub fn vct_dense(scene: &Scene, cones: &ConeSettings) -> Self {
+        Self::vct_dense_after(scene, cones, false)
+    }
+
+    /// The vct-dense frame when `pyramid_cached` says whether the last frame's radiance pyramid was
+    /// built from the same geometry, materials, lights and grid (then only the camera or the cone
+    /// settings changed, and voxelize, voxel_light and the mips are skipped: the pyramid is reused
+    /// as it is, so the image is the same as with a rebuild).
+    pub fn vct_dense_after(scene: &Scene, cones: &ConeSettings, pyramid_cached: bool) -> Self {
         let (w, h) = (scene.camera.width, scene.camera.height);
         let px = format!("{w}x{h} pixels");
         let side = scene.render.voxels;
@@ -41,6 +49,7 @@ impl FramePlan {
             runs,
             why,
         };
+        const CACHED: &str = "skipped: geometry, materials, lights and voxels unchanged since the last frame (its radiance pyramid is reused)";
         let passes = vec![
             pass(
                 "gbuffer",
@@ -64,15 +73,21 @@ impl FramePlan {
                 "voxelize",
                 "voxelize",
                 format!("{} triangles into {side}^3", scene.mesh.triangles.len()),
-                true,
-                "the radiance pyramid's geometry".into(),
+                !pyramid_cached,
+                if pyramid_cached {
+                    CACHED.into()
+                } else {
+                    "the radiance pyramid's geometry".into()
+                },
             ),
             pass(
                 "voxel_light",
                 "voxel_light",
                 format!("non-empty voxels x {lights} lights"),
-                lights > 0,
-                if lights > 0 {
+                lights > 0 && !pyramid_cached,
+                if pyramid_cached {
+                    CACHED.into()
+                } else if lights > 0 {
                     "direct light into the voxels (work list from voxelize)".into()
                 } else {
                     "skipped: no lights, the pyramid holds no radiance".into()
@@ -82,8 +97,12 @@ impl FramePlan {
                 "surface_coverage_mip",
                 "surface_coverage_mip",
                 format!("{levels} levels below {side}^3"),
-                true,
-                "cones read coarser levels as they widen".into(),
+                !pyramid_cached,
+                if pyramid_cached {
+                    CACHED.into()
+                } else {
+                    "cones read coarser levels as they widen".into()
+                },
             ),
             pass(
                 "cone_trace",

@@ -192,11 +192,77 @@ pub struct Rendered {
 /// The vct-dense pipeline: G-buffer and direct light with exact shadows, voxelization, voxel lighting,
 /// surface-coverage mips, cone tracing (AO, diffuse, glossy). Every stage is a verified kernel; stages
 /// hand over through host memory for now (simple, and each hand-over is what `vxgi verify` checks).
-/// `progress(stage)` is called before each stage.
+/// `progress(stage)` is called before each stage. One frame, nothing kept: [`VctDense`] renders
+/// sequences of frames.
 pub fn render(
     ctx: &crate::harness::GpuContext,
     scene: &Scene,
     cones: &ConeSettings,
+    progress: impl Fn(&str),
+) -> Result<Rendered> {
+    VctDense::new(false).render(ctx, scene, cones, progress)
+}
+
+/// What the radiance pyramid depends on; the camera and the cone settings are not part of it.
+#[derive(Clone, Debug, PartialEq)]
+struct PyramidKey {
+    mesh: crate::scene::Mesh,
+    materials: Vec<crate::scene::Material>,
+    lights: Vec<crate::scene::Light>,
+    voxels: u32,
+}
+
+impl PyramidKey {
+    fn of(scene: &Scene) -> Self {
+        Self {
+            mesh: scene.mesh.clone(),
+            materials: scene.materials.clone(),
+            lights: scene.lights.clone(),
+            voxels: scene.render.voxels,
+        }
+    }
+}
+
+/// The vct-dense pipeline over a sequence of frames. With the planner's reuse rule on, a frame whose
+/// geometry, materials, lights and voxel grid equal the last frame's (only the camera or the cone
+/// settings changed) skips voxelize, voxel_light and the mips and cone-traces the last frame's
+/// radiance pyramid: the same pyramid a rebuild would make, so the same image, sooner.
+pub struct VctDense {
+    reuse: bool,
+    cache: Option<(PyramidKey, Vec<[f32; 4]>, voxelize::VoxelFrame)>,
+}
+
+impl VctDense {
+    /// `reuse`: the planner's rule on (true) or every pass every frame (false).
+    pub fn new(reuse: bool) -> Self {
+        Self { reuse, cache: None }
+    }
+
+    /// Render one frame (see [`render`]); its plan says what was skipped and why.
+    pub fn render(
+        &mut self,
+        ctx: &crate::harness::GpuContext,
+        scene: &Scene,
+        cones: &ConeSettings,
+        progress: impl Fn(&str),
+    ) -> Result<Rendered> {
+        let key = PyramidKey::of(scene);
+        let cached = self.reuse && self.cache.as_ref().is_some_and(|c| c.0 == key);
+        let plan = FramePlan::vct_dense_after(scene, cones, cached);
+        if !cached {
+            self.cache = None;
+        }
+        render_frame(ctx, scene, cones, plan, &mut self.cache, key, progress)
+    }
+}
+
+fn render_frame(
+    ctx: &crate::harness::GpuContext,
+    scene: &Scene,
+    cones: &ConeSettings,
+    plan: FramePlan,
+    cache: &mut Option<(PyramidKey, Vec<[f32; 4]>, voxelize::VoxelFrame)>,
+    key: PyramidKey,
     progress: impl Fn(&str),
 ) -> Result<Rendered> {
     use crate::harness::run::run;
@@ -210,7 +276,6 @@ pub fn render(
              max_storage_buffer_binding_size ({limit})"
         );
     }
-    let plan = FramePlan::vct_dense(scene, cones);
     let mut stages = Vec::new();
     let mut timed = |name: &'static str, start: std::time::Instant| {
         stages.push((name, start.elapsed().as_secs_f64()));
@@ -240,32 +305,38 @@ pub fn render(
         RgbImage::new(w, h, vec![[0.0; 3]; w as usize * h as usize])
     };
 
-    progress("voxelize");
-    let t = std::time::Instant::now();
-    let (grid, list, frame) = voxelize::voxelize_on_gpu(ctx, scene, scene.render.voxels)?;
-    timed("voxelize", t);
-
-    let rad: Vec<[f32; 4]> = if plan.runs("voxel_light") {
-        progress("voxel light");
-        let t = std::time::Instant::now();
-        let rad =
-            voxel_light::light_on_gpu(ctx, &data, &grid, &list, &frame).context("voxel light")?;
-        timed("voxel_light", t);
-        rad
+    if !plan.runs("voxelize") {
+        progress("radiance pyramid: reused");
     } else {
-        // No lights: radiance 0; filled voxels keep their alpha (AO still sees the geometry).
-        grid.colour.iter().map(|c| [0.0, 0.0, 0.0, c[3]]).collect()
-    };
+        progress("voxelize");
+        let t = std::time::Instant::now();
+        let (grid, list, frame) = voxelize::voxelize_on_gpu(ctx, scene, scene.render.voxels)?;
+        timed("voxelize", t);
 
-    progress("mip chain");
-    let t = std::time::Instant::now();
-    let pyramid = cone_trace::gpu_pyramid(ctx, &rad, &grid.normal, frame.side)?;
-    timed("surface_coverage_mip", t);
+        let rad: Vec<[f32; 4]> = if plan.runs("voxel_light") {
+            progress("voxel light");
+            let t = std::time::Instant::now();
+            let rad = voxel_light::light_on_gpu(ctx, &data, &grid, &list, &frame)
+                .context("voxel light")?;
+            timed("voxel_light", t);
+            rad
+        } else {
+            // No lights: radiance 0; filled voxels keep their alpha (AO still sees the geometry).
+            grid.colour.iter().map(|c| [0.0, 0.0, 0.0, c[3]]).collect()
+        };
+
+        progress("mip chain");
+        let t = std::time::Instant::now();
+        let pyramid = cone_trace::gpu_pyramid(ctx, &rad, &grid.normal, frame.side)?;
+        timed("surface_coverage_mip", t);
+        *cache = Some((key, pyramid, frame));
+    }
+    let (_, pyramid, frame) = cache.as_ref().expect("built or reused above");
 
     progress("cone tracing");
     let t = std::time::Instant::now();
-    let params = cone_trace::cone_params(&frame, cones);
-    let case = cone_trace::case_for(ctx, &data, &gb, &pyramid, &params, "render".into(), 0);
+    let params = cone_trace::cone_params(frame, cones);
+    let case = cone_trace::case_for(ctx, &data, &gb, pyramid, &params, "render".into(), 0);
     let out = run(
         ctx,
         &cone_trace::DECL.shader()?,

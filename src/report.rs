@@ -1,6 +1,6 @@
 //! `vxgi report`: every scene with every pipeline and with the Monte Carlo reference, compared; a table
 //! (printed and written as report.md with the images side by side).
-use crate::images::{compare, write_pair, RgbImage};
+use crate::images::{compare, write_frame, RgbImage};
 use crate::kernels::cone_trace::ConeSettings;
 use crate::reference::{leak, pixel_positions, render_reference, ReferenceOptions};
 use crate::scene::Scene;
@@ -68,20 +68,22 @@ pub fn report(
             .with_context(|| format!("creating {}", ref_dir.display()))?;
         let ref_indirect = rgb(reference.indirect.clone());
         let ref_combined = rgb(reference.combined());
-        write_pair(&ref_dir, "direct", &rgb(reference.direct.clone()))?;
-        write_pair(&ref_dir, "indirect", &ref_indirect)?;
-        write_pair(&ref_dir, "combined", &ref_combined)?;
-        write_pair(&ref_dir, "ao", &rgb(reference.ao.clone()))?;
+        write_frame(
+            &ref_dir,
+            [
+                &rgb(reference.direct.clone()),
+                &ref_indirect,
+                &ref_combined,
+                &rgb(reference.ao.clone()),
+            ],
+        )?;
 
         progress(&format!("{name}: vct-dense"));
         let cones = ConeSettings::from(&scene.render);
         let r = crate::render::render(ctx, scene, &cones, |_| {})?;
         let vdir = dir.join("vct-dense");
         std::fs::create_dir_all(&vdir).with_context(|| format!("creating {}", vdir.display()))?;
-        write_pair(&vdir, "direct", &r.direct)?;
-        write_pair(&vdir, "indirect", &r.indirect)?;
-        write_pair(&vdir, "combined", &r.combined)?;
-        write_pair(&vdir, "ao", &r.ao)?;
+        write_frame(&vdir, [&r.direct, &r.indirect, &r.combined, &r.ao])?;
         let p = Path::new(name);
         let ind = compare(&ref_indirect, p, &r.indirect, p)?;
         let comb = compare(&ref_combined, p, &r.combined, p)?;

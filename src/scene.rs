@@ -261,7 +261,7 @@ impl Material {
 /// Triangles with per-vertex positions, normals (from `vn`, else flat from the winding: the front
 /// is the side from which the vertices appear counter-clockwise) and texture coordinates (from `vt`,
 /// else zero), and a material per triangle.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct Mesh {
     pub positions: Vec<Vec3>,
     pub normals: Vec<Vec3>,

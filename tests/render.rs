@@ -336,6 +336,7 @@ fn bench_quick_writes_csv_table_and_plot() {
         md.contains("| 32^3 | 1 | 30 | 2 |") && md.contains("**yes**"),
         "{md}"
     );
+    assert!(md.contains("## Planner") && md.contains("| on |"), "{md}");
     let svg = std::fs::read_to_string(out.join("bench.svg")).unwrap();
     assert!(
         svg.starts_with("<svg") && svg.contains("Pareto front"),
@@ -353,6 +354,71 @@ fn bench_quick_writes_csv_table_and_plot() {
         assert!(err.contains(key), "{bad}: {err}");
     }
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The planner's reuse rule: a second frame with only the camera moved skips voxelize, voxel_light and
+/// the mips and equals, bit for bit, a frame that rebuilds everything (the stated bound for the skipped
+/// passes is 0); a moved light, a changed material or another grid size rebuilds, and with the rule
+/// off nothing is reused.
+#[test]
+fn reuse_rule_skips_the_pyramid_only_when_the_scene_is_unchanged() {
+    use vxgi::kernels::cone_trace::ConeSettings;
+    use vxgi::render::VctDense;
+    use vxgi::scene::Light;
+    let mut scene = small(Scene::cornell_box(), 32, 32);
+    scene.render.voxels = 32;
+    let cones = ConeSettings::from(&scene.render);
+    let second = vxgi::bench::orbited(&scene, 10.0);
+    assert_ne!(second.camera.eye, scene.camera.eye);
+    let pyramid = ["voxelize", "voxel_light", "surface_coverage_mip"];
+
+    let mut r = VctDense::new(true);
+    let first = r.render(gpu(), &scene, &cones, |_| {}).unwrap();
+    assert!(pyramid.iter().all(|s| first.plan.runs(s)));
+    let reused = r.render(gpu(), &second, &cones, |_| {}).unwrap();
+    for stage in pyramid {
+        assert!(!reused.plan.runs(stage), "{stage} ran");
+        assert!(reused.stages.iter().all(|s| s.0 != stage), "{stage} timed");
+    }
+    assert!(reused
+        .plan
+        .to_string()
+        .contains("unchanged since the last frame"));
+    let rebuilt = vxgi::render::render(gpu(), &second, &cones, |_| {}).unwrap();
+    assert_eq!(reused.combined.pixels, rebuilt.combined.pixels);
+    assert_eq!(reused.ao.pixels, rebuilt.ao.pixels);
+
+    let mut moved = second.clone();
+    if let Light::Point { position, .. } = &mut moved.lights[0] {
+        position[0] += 0.1;
+    }
+    assert!(r
+        .render(gpu(), &moved, &cones, |_| {})
+        .unwrap()
+        .plan
+        .runs("voxelize"));
+    let mut recoloured = moved.clone();
+    recoloured.materials[0].diffuse[0] *= 0.5;
+    assert!(r
+        .render(gpu(), &recoloured, &cones, |_| {})
+        .unwrap()
+        .plan
+        .runs("voxelize"));
+    let mut finer = recoloured.clone();
+    finer.render.voxels = 16;
+    assert!(r
+        .render(gpu(), &finer, &cones, |_| {})
+        .unwrap()
+        .plan
+        .runs("voxelize"));
+
+    let mut off = VctDense::new(false);
+    off.render(gpu(), &scene, &cones, |_| {}).unwrap();
+    assert!(off
+        .render(gpu(), &second, &cones, |_| {})
+        .unwrap()
+        .plan
+        .runs("voxelize"));
 }
 
 /// The plan follows the scene: a glossy material brings the glossy cone, no lights skip the direct
