@@ -168,18 +168,15 @@ pub fn planner_comparison(
 /// The planner section of the table.
 pub fn planner_table(p: &PlannerRow) -> String {
     format!(
-        "
-## Planner: reuse the radiance pyramid when only the view changed
-
-         Second of two frames (camera orbited 10 degrees, `[render]` settings of the scene), rule off          (every pass) vs on (skips {}).
-
-         | rule | frame time | combined FLIP (reference of that view) |
-|---|---|---|
-         | off | {:.0} ms | {:.3} |
-| on | {:.0} ms | {:.3} |
-
-         Saved {:.0}% of the frame; largest difference between the two frames: {:e} (the reused pyramid          is the one a rebuild makes).
-",
+        "\n## Planner: reuse the radiance pyramid when only the view changed\n\n\
+         Second of two frames (camera orbited 10 degrees, `[render]` settings of the scene), rule off \
+         (every pass) vs on (skips {}).\n\n\
+         | rule | frame time | combined FLIP (reference of that view) |\n\
+         |---|---|---|\n\
+         | off | {:.0} ms | {:.3} |\n\
+         | on | {:.0} ms | {:.3} |\n\n\
+         Saved {:.0}% of the frame; largest difference between the two frames: {:e} (the reused \
+         pyramid is the one a rebuild makes).\n",
         p.skipped.join(", "),
         p.off_seconds * 1e3,
         p.off_flip,
