@@ -21,6 +21,7 @@ pub const BOX_PAD: f32 = 1e-5;
 /// Ray offset off surfaces, relative to the scene's bounding-box diagonal.
 pub const RAY_EPS: f32 = 1e-4;
 
+#[derive(Clone, Debug)]
 struct TriShape {
     lo: Vec3,
     hi: Vec3,
@@ -63,6 +64,9 @@ pub struct SceneData {
     pub srgb_lut: Vec<f32>,
     /// Scene bounding box.
     pub bounds: (Vec3, Vec3),
+    /// The `bvh` crate's tree the flat nodes came from, and its shapes (for [`Tracer`]; none for a
+    /// scene without triangles).
+    tree: Option<(Bvh<f32, 3>, Vec<TriShape>)>,
 }
 
 /// The scene's `map_Kd` textures one after another, each distinct texture once, texels packed sRGB8
@@ -217,7 +221,7 @@ impl SceneData {
                 }
             })
             .collect();
-        let (nodes, triangles) = if triangles.is_empty() {
+        let (nodes, triangles, tree) = if triangles.is_empty() {
             // Bindings cannot be empty: one degenerate triangle (det = 0: never hit) in one leaf.
             (
                 vec![GpuNode {
@@ -227,6 +231,7 @@ impl SceneData {
                     ..Default::default()
                 }],
                 vec![GpuTriangle::default()],
+                None,
             )
         } else {
             let mut shapes = shapes_of(&triangles, extent);
@@ -239,7 +244,7 @@ impl SceneData {
                 shape,
                 _pad: [0; 3],
             });
-            (nodes, triangles)
+            (nodes, triangles, Some((bvh, shapes)))
         };
         let (texels, placement) = texture_atlas(scene);
         let materials = scene
@@ -281,6 +286,7 @@ impl SceneData {
             texels,
             srgb_lut: srgb_lut(),
             bounds: (lo, hi),
+            tree,
         }
     }
 
@@ -320,19 +326,26 @@ fn shapes_of(triangles: &[GpuTriangle], extent: f32) -> Vec<TriShape> {
         .collect()
 }
 
-/// CPU ray queries over the `bvh` crate's own tree (the reference renderer's traversal).
+/// CPU ray queries over the `bvh` crate's own tree (the reference renderer's traversal): the tree
+/// [`SceneData::new`] built and flattened for the kernels, not a second build.
 pub struct Tracer<'a> {
     data: &'a SceneData,
-    bvh: Bvh<f32, 3>,
-    shapes: Vec<TriShape>,
 }
 
 impl<'a> Tracer<'a> {
     pub fn new(data: &'a SceneData) -> Self {
-        let extent = (data.bounds.1 - data.bounds.0).length().max(1e-6);
-        let mut shapes = shapes_of(&data.triangles, extent);
-        let bvh = Bvh::build(&mut shapes);
-        Self { data, bvh, shapes }
+        Self { data }
+    }
+
+    /// The shapes the tree's traversal yields for `ray` (none without triangles).
+    fn candidates<'r>(
+        &'r self,
+        ray: &'r bvh::ray::Ray<f32, 3>,
+    ) -> impl Iterator<Item = &'r TriShape> + 'r {
+        self.data
+            .tree
+            .iter()
+            .flat_map(move |(bvh, shapes)| bvh.traverse_iterator(ray, shapes))
     }
 
     fn ray(o: Vec3, d: Vec3) -> bvh::ray::Ray<f32, 3> {
@@ -344,7 +357,7 @@ impl<'a> Tracer<'a> {
         let ray = Self::ray(o, d);
         let mut best: Option<Hit> = None;
         let mut t_best = t_max;
-        for shape in self.bvh.traverse_iterator(&ray, &self.shapes) {
+        for shape in self.candidates(&ray) {
             let i = shape.index;
             if let Some(h) = intersect(o, d, &self.data.triangles[i], t_min, t_best, 0.0) {
                 t_best = h.t;
@@ -363,9 +376,10 @@ impl<'a> Tracer<'a> {
     /// Whether anything lies on the ray in `(t_min, t_max)`.
     pub fn occluded(&self, o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> bool {
         let ray = Self::ray(o, d);
-        self.bvh.traverse_iterator(&ray, &self.shapes).any(|s| {
+        let hit = self.candidates(&ray).any(|s| {
             let i = s.index;
             intersect(o, d, &self.data.triangles[i], t_min, t_max, 0.0).is_some()
-        })
+        });
+        hit
     }
 }
