@@ -170,6 +170,31 @@ fn vct_dense_against_the_reference() {
     assert!(r.ao.pixels.iter().all(|p| (0.0..=1.0).contains(&p[0])));
 }
 
+/// vct-dense at the Cornell box's own 256x256 with the default settings against the committed
+/// converged reference (references/cornell_box_256_4096spp, 4096 spp: a 256-spp reference is FLIP 0.084
+/// from it, so this measures the method, not the reference's noise). Measured on lavapipe: combined
+/// FLIP 0.238, indirect 0.419, AO 0.417. A regression guard at the measured values plus margin; the
+/// vct-dense issue's goal (combined < 0.1) is not met (README, "Accuracy").
+#[test]
+fn vct_dense_against_the_converged_reference() {
+    let dir =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("references/cornell_box_256_4096spp");
+    let read = |name: &str| vxgi::images::read_exr(&dir.join(format!("{name}.exr"))).unwrap();
+    let scene = Scene::cornell_box();
+    let r = vxgi::render::render(gpu(), &scene, &ConeSettings::default(), |_| {}).unwrap();
+    let p = std::path::Path::new("");
+    let comb = compare(&read("combined"), p, &r.combined, p).unwrap();
+    let ind = compare(&read("indirect"), p, &r.indirect, p).unwrap();
+    let ao = compare(&read("ao"), p, &r.ao, p).unwrap();
+    println!(
+        "256x256 Cornell box vs 4096 spp: combined FLIP {:.3} (rel MSE {:.3}), indirect {:.3}, AO {:.3}",
+        comb.flip_mean, comb.rel_mse, ind.flip_mean, ao.flip_mean
+    );
+    assert!(comb.flip_mean < 0.26, "combined FLIP {}", comb.flip_mean);
+    assert!(ind.flip_mean < 0.45, "indirect FLIP {}", ind.flip_mean);
+    assert!(ao.flip_mean < 0.45, "AO FLIP {}", ao.flip_mean);
+}
+
 /// thin_wall: the vct-dense leak (indirect energy seen in the dark room / in the lit room; the
 /// reference's is exactly 0), printed. The wall is one voxel thick at 128^3: dense isotropic voxels
 /// with trilinear sampling leak through it, which is what the later pipelines are measured on.
