@@ -222,6 +222,8 @@ impl Kernel for SurfaceCoverageMip {
 pub struct MipPipeline {
     pipeline: wgpu::ComputePipeline,
     params: wgpu::Buffer,
+    /// The WGSL's @workgroup_size, read through naga reflection (the WGSL is the source of truth).
+    workgroup: u32,
 }
 
 impl MipPipeline {
@@ -245,7 +247,16 @@ impl MipPipeline {
             }),
             usage: wgpu::BufferUsages::UNIFORM,
         });
-        Self { pipeline, params }
+        let workgroup = DECL
+            .shader()
+            .ok()
+            .and_then(|s| s.entry(DECL.entry).map(|e| e.workgroup_size[0]))
+            .expect("surface_coverage_mip.wgsl parses (tested)");
+        Self {
+            pipeline,
+            params,
+            workgroup,
+        }
     }
 
     /// Record one level: `dst` gets the parents of the voxels in `src` (colour, normal pairs).
@@ -288,7 +299,7 @@ impl MipPipeline {
         });
         let grid = vxgi_harness::run::grid_for(
             dst_voxels as u64,
-            64,
+            self.workgroup,
             device.limits().max_compute_workgroups_per_dimension,
         );
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
