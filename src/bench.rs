@@ -87,17 +87,6 @@ pub struct PlannerRow {
     pub skipped: Vec<&'static str>,
 }
 
-/// `scene` with its camera orbited `deg` degrees about the target (around the camera's up axis).
-pub fn orbited(scene: &Scene, deg: f32) -> Scene {
-    use glam::{Quat, Vec3};
-    let mut s = scene.clone();
-    let c = &mut s.camera;
-    let (eye, target) = (Vec3::from(c.eye), Vec3::from(c.target));
-    let axis = Vec3::from(c.up).normalize();
-    c.eye = (target + Quat::from_axis_angle(axis, deg.to_radians()) * (eye - target)).to_array();
-    s
-}
-
 /// Measure the reuse rule on `scene` (see [`PlannerRow`]); times are the minimum over `repeats`.
 pub fn planner_comparison(
     ctx: &crate::harness::GpuContext,
@@ -106,7 +95,7 @@ pub fn planner_comparison(
     repeats: usize,
 ) -> Result<PlannerRow> {
     let cones = ConeSettings::from(&scene.render);
-    let second = orbited(scene, 10.0);
+    let second = scene.orbited(10.0);
     let mut best = [f64::INFINITY; 2];
     let mut frames = Vec::new();
     let mut skipped = Vec::new();

@@ -51,6 +51,13 @@ enum Command {
         /// Print the frame plan (what runs, what is skipped and why) and exit.
         #[arg(long)]
         plan: bool,
+        /// Render this many frames along a camera orbit (into DIR/frame_000, ...): frames after the
+        /// first reuse the radiance pyramid (the planner's reuse rule).
+        #[arg(long, default_value_t = 1)]
+        frames: u32,
+        /// Degrees the camera orbits about its target between frames.
+        #[arg(long, default_value_t = 10.0)]
+        orbit: f32,
         #[command(flatten)]
         render: RenderFlags,
     },
@@ -196,33 +203,64 @@ fn run_render(
     plan_only: bool,
     scene: Option<PathBuf>,
     out: PathBuf,
+    (frames, orbit): (u32, f32),
     flags: RenderFlags,
 ) -> Result<()> {
     let scene = load_scene(&scene, &flags)?;
     let cones = ConeSettings::from(&scene.render);
+    if frames == 0 || !orbit.is_finite() {
+        bail!("--frames must be at least 1 and --orbit finite");
+    }
     if plan_only {
         print!("{}", vxgi::plan::FramePlan::vct_dense(&scene, &cones));
+        if frames > 1 {
+            println!("frames 2..{frames} (only the camera moves):");
+            print!(
+                "{}",
+                vxgi::plan::FramePlan::vct_dense_after(&scene, &cones, true)
+            );
+        }
         return Ok(());
     }
     create_out(&out)?;
     let ctx = GpuContext::new().context("creating the GPU context")?;
     eprintln!("adapter: {}", ctx.describe());
-    let bar = spinner();
-    let r = vxgi::render::render(&ctx, &scene, &cones, |stage| {
-        bar.set_message(stage.to_string())
-    })?;
-    bar.finish_and_clear();
-    write_frame(&out, [&r.direct, &r.indirect, &r.combined, &r.ao])?;
-    let stages: Vec<String> = r
-        .stages
-        .iter()
-        .map(|(n, s)| format!("{n} {:.0} ms", s * 1e3))
-        .collect();
-    println!(
-        "wrote direct, indirect, combined, ao (.exr + .png) to {}",
-        out.display()
-    );
-    println!("stages (wall clock incl. transfers): {}", stages.join(", "));
+    let mut renderer = vxgi::render::VctDense::new(true);
+    for k in 0..frames {
+        let view = scene.orbited(orbit * k as f32);
+        let dir = if frames == 1 {
+            out.clone()
+        } else {
+            out.join(format!("frame_{k:03}"))
+        };
+        create_out(&dir)?;
+        let bar = spinner();
+        let r = renderer.render(&ctx, &view, &cones, |stage| {
+            bar.set_message(format!("frame {}/{frames}: {stage}", k + 1))
+        })?;
+        bar.finish_and_clear();
+        write_frame(&dir, [&r.direct, &r.indirect, &r.combined, &r.ao])?;
+        let stages: Vec<String> = r
+            .stages
+            .iter()
+            .map(|(n, s)| format!("{n} {:.0} ms", s * 1e3))
+            .collect();
+        println!(
+            "wrote direct, indirect, combined, ao (.exr + .png) to {}",
+            dir.display()
+        );
+        println!("stages (wall clock incl. transfers): {}", stages.join(", "));
+        let skipped: Vec<&str> = r
+            .plan
+            .passes
+            .iter()
+            .filter(|p| !p.runs)
+            .map(|p| p.stage)
+            .collect();
+        if !skipped.is_empty() {
+            println!("skipped by the plan: {}", skipped.join(", "));
+        }
+    }
     Ok(())
 }
 
@@ -396,8 +434,10 @@ fn real_main() -> Result<()> {
             out,
             pipeline: Pipeline::VctDense,
             plan,
+            frames,
+            orbit,
             render,
-        } => run_render(plan, scene, out, render),
+        } => run_render(plan, scene, out, (frames, orbit), render),
         Command::Reference {
             scene,
             spp,

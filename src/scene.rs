@@ -300,6 +300,19 @@ impl Scene {
         Self::embedded("thin_wall", THIN_WALL_TOML, THIN_WALL_OBJ, THIN_WALL_MTL)
     }
 
+    /// This scene with its camera orbited `deg` degrees about the target (around the camera's up
+    /// axis): the next view of a camera path.
+    pub fn orbited(&self, deg: f32) -> Self {
+        use glam::Quat;
+        let mut s = self.clone();
+        let c = &mut s.camera;
+        let (eye, target) = (Vec3::from(c.eye), Vec3::from(c.target));
+        let axis = Vec3::from(c.up).normalize();
+        c.eye =
+            (target + Quat::from_axis_angle(axis, deg.to_radians()) * (eye - target)).to_array();
+        s
+    }
+
     /// A built-in scene by name (`cornell_box`, `thin_wall`).
     pub fn builtin(name: &str) -> Option<Self> {
         match name {

@@ -368,7 +368,7 @@ fn reuse_rule_skips_the_pyramid_only_when_the_scene_is_unchanged() {
     let mut scene = small(Scene::cornell_box(), 32, 32);
     scene.render.voxels = 32;
     let cones = ConeSettings::from(&scene.render);
-    let second = vxgi::bench::orbited(&scene, 10.0);
+    let second = scene.orbited(10.0);
     assert_ne!(second.camera.eye, scene.camera.eye);
     let pyramid = ["voxelize", "voxel_light", "surface_coverage_mip"];
 
@@ -419,6 +419,41 @@ fn reuse_rule_skips_the_pyramid_only_when_the_scene_is_unchanged() {
         .unwrap()
         .plan
         .runs("voxelize"));
+}
+
+/// `vxgi render --frames N --orbit DEG`: a camera path, one folder per frame; frames after the first
+/// skip the radiance pyramid's passes and say so, and `--plan --frames 2` prints both plans.
+#[test]
+fn render_frames_along_an_orbit_reuse_the_pyramid() {
+    let dir = std::env::temp_dir().join(format!("vxgi-cli-frames-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = small_scene_file(&dir);
+    let out = dir.join("frames");
+    let o = out.display().to_string();
+    let (code, stdout, err) = vxgi(&[
+        "render", &scene, "--voxels", "32", "--frames", "2", "--orbit", "5", "--out", &o,
+    ]);
+    assert_eq!(code, 0, "{stdout}\n{err}");
+    for f in ["frame_000", "frame_001"] {
+        assert!(out.join(f).join("combined.exr").exists(), "{f}");
+    }
+    assert_eq!(
+        stdout
+            .matches("skipped by the plan: voxelize, voxel_light, surface_coverage_mip")
+            .count(),
+        1,
+        "{stdout}"
+    );
+    let (code, stdout, _) = vxgi(&["render", "--plan", "--frames", "2"]);
+    assert_eq!(code, 0);
+    assert!(
+        stdout.contains("frames 2..2") && stdout.contains("unchanged since the last frame"),
+        "{stdout}"
+    );
+    let (code, _, err) = vxgi(&["render", "--plan", "--frames", "0"]);
+    assert_ne!(code, 0);
+    assert!(err.contains("--frames"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
 }
 
 /// The plan follows the scene: a glossy material brings the glossy cone, no lights skip the direct
