@@ -106,13 +106,7 @@ pub fn planner_comparison(
             let f = r.render(ctx, &second, &cones, |_| {})?;
             best[k] = best[k].min(f.stages.iter().map(|s| s.1).sum());
             if reuse {
-                skipped = f
-                    .plan
-                    .passes
-                    .iter()
-                    .filter(|p| !p.runs)
-                    .map(|p| p.stage)
-                    .collect();
+                skipped = f.plan.skipped();
             }
             frames.push((k, f));
         }
@@ -134,14 +128,7 @@ pub fn planner_comparison(
             .map(|(x, y)| (x - y).abs())
     })
     .fold(0.0, f32::max);
-    let reference = render_reference(
-        &second,
-        &ReferenceOptions {
-            spp,
-            ..Default::default()
-        },
-        |_| {},
-    );
+    let reference = render_reference(&second, &ReferenceOptions::spp(spp), |_| {});
     let ref_combined = RgbImage::new(reference.width, reference.height, reference.combined());
     let p = Path::new("bench");
     Ok(PlannerRow {
@@ -205,14 +192,7 @@ pub fn bench(
     let repeats = if quick { 1 } else { 2 };
     let total = configs.len() + 2;
     progress(0, total, &format!("reference ({spp} spp)"));
-    let reference = render_reference(
-        scene,
-        &ReferenceOptions {
-            spp,
-            ..Default::default()
-        },
-        |_| {},
-    );
+    let reference = render_reference(scene, &ReferenceOptions::spp(spp), |_| {});
     let (w, h) = (reference.width, reference.height);
     let ref_indirect = RgbImage::new(w, h, reference.indirect.clone());
     let ref_combined = RgbImage::new(w, h, reference.combined());

@@ -250,13 +250,7 @@ fn run_render(
             dir.display()
         );
         println!("stages (wall clock incl. transfers): {}", stages.join(", "));
-        let skipped: Vec<&str> = r
-            .plan
-            .passes
-            .iter()
-            .filter(|p| !p.runs)
-            .map(|p| p.stage)
-            .collect();
+        let skipped = r.plan.skipped();
         if !skipped.is_empty() {
             println!("skipped by the plan: {}", skipped.join(", "));
         }

@@ -126,6 +126,15 @@ impl FramePlan {
         }
     }
 
+    /// The stages the plan skips, in order.
+    pub fn skipped(&self) -> Vec<&'static str> {
+        self.passes
+            .iter()
+            .filter(|p| !p.runs)
+            .map(|p| p.stage)
+            .collect()
+    }
+
     pub fn runs(&self, stage: &str) -> bool {
         self.passes.iter().any(|p| p.stage == stage && p.runs)
     }

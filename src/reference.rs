@@ -61,6 +61,16 @@ impl Default for ReferenceOptions {
     }
 }
 
+impl ReferenceOptions {
+    /// `spp` samples per pixel, the other options at their defaults (jittered, seed 1).
+    pub fn spp(spp: u32) -> Self {
+        Self {
+            spp,
+            ..Default::default()
+        }
+    }
+}
+
 /// An orthonormal basis around `n` (Duff et al. 2017).
 fn basis(n: Vec3) -> (Vec3, Vec3) {
     n.any_orthonormal_pair()

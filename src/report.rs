@@ -53,14 +53,7 @@ pub fn report(
     for (name, scene) in scenes {
         let dir = out.join(name);
         progress(&format!("{name}: reference ({spp} spp)"));
-        let reference = render_reference(
-            scene,
-            &ReferenceOptions {
-                spp,
-                ..Default::default()
-            },
-            |_| {},
-        );
+        let reference = render_reference(scene, &ReferenceOptions::spp(spp), |_| {});
         let (w, h) = (reference.width, reference.height);
         let rgb = |px: Vec<[f32; 3]>| RgbImage::new(w, h, px);
         let ref_dir = dir.join("reference");
