@@ -51,7 +51,7 @@ struct ConeParams {
     side: u32,
     inv_s0: f32,
     mip_clamp: f32,     // 0 = off; else cap the level at log2(D / (mip_clamp s0)), D = distance from the origin plane
-    _pad0: u32,
+    step_factor: f32,   // step = diameter * step_factor (CPRC 4: 0.5); first sample half a step out
     _pad1: u32,
     _pad2: u32,
 }
@@ -128,11 +128,12 @@ struct ConeOut {
 fn march(o: vec3<f32>, d: vec3<f32>, tan_half: f32, cos_n: f32) -> ConeOut {
     let s0 = cone.origin.w;
     let max_dist = f32(cone.side) * s0 * 1.7320508;
-    let grow = 1.0 + tan_half;
+    let sf = cone.step_factor;
+    let grow = 1.0 + 2.0 * sf * tan_half;
     let dl = log2(grow);
     var diam = 0.75 * s0;
     var lf = -0.4150375;
-    var t = diam * 0.25;
+    var t = diam * (0.5 * sf);
     var c_acc = vec3<f32>(0.0);
     var a_acc = 0.0;
     var occ = 0.0;
@@ -144,8 +145,8 @@ fn march(o: vec3<f32>, d: vec3<f32>, tan_half: f32, cos_n: f32) -> ConeOut {
             l = min(l, log2(plane * cone.inv_s0 / cone.mip_clamp));
         }
         let s = sample_pyramid(o + d * t, l);
-        let step = diam * 0.5;
-        var ratio = 0.5 * min(diam * cone.inv_s0, 1.0);
+        let step = diam * sf;
+        var ratio = sf * min(diam * cone.inv_s0, 1.0);
         if (l < lf) {
             ratio = step * cone.inv_s0 / exp2(max(l, 0.0));
         }

@@ -29,6 +29,7 @@ pub struct BenchRow {
     pub cones: u32,
     pub cone_half_angle: f32,
     pub mip_clamp: f32,
+    pub cone_step: f32,
     /// Wall-clock seconds of the whole frame (stages, transfers between them included).
     pub seconds: f64,
     /// Wall-clock seconds per stage, in [`STAGES`] order (0 where the plan skipped the stage).
@@ -43,26 +44,36 @@ pub struct BenchRow {
 }
 
 /// The configurations of a sweep around `base` (its other keys, e.g. AO, kept). Full: voxels
-/// {32, 64, 128} x cones {1, 5, 9} x half-angle {20, 30, 45} x mip clamp {0, 2} = 54. Quick (for CI):
-/// voxels {32, 64} x cones {1, 5} at 30 degrees with the clamp = 4.
+/// {32, 64, 128} x cones {1, 5, 9} x half-angle {20, 30, 45} x mip clamp {0, 2} x cone step {0.5, 1}
+/// = 108. Quick (for CI): voxels {32, 64} x cones {1, 5} at 30 degrees, clamp 2, step 0.5 = 4.
 pub fn sweep(base: &RenderSettings, quick: bool) -> Vec<RenderSettings> {
-    let (voxels, cones, angles, clamps): (&[u32], &[u32], &[f32], &[f32]) = if quick {
-        (&[32, 64], &[1, 5], &[30.0], &[2.0])
+    type Axes<'a> = (&'a [u32], &'a [u32], &'a [f32], &'a [f32], &'a [f32]);
+    let (voxels, cones, angles, clamps, steps): Axes = if quick {
+        (&[32, 64], &[1, 5], &[30.0], &[2.0], &[0.5])
     } else {
-        (&[32, 64, 128], &[1, 5, 9], &[20.0, 30.0, 45.0], &[0.0, 2.0])
+        (
+            &[32, 64, 128],
+            &[1, 5, 9],
+            &[20.0, 30.0, 45.0],
+            &[0.0, 2.0],
+            &[0.5, 1.0],
+        )
     };
     let mut out = Vec::new();
     for &v in voxels {
         for &c in cones {
             for &a in angles {
                 for &m in clamps {
-                    out.push(RenderSettings {
-                        voxels: v,
-                        cones: c,
-                        cone_half_angle: a,
-                        mip_clamp: m,
-                        ..base.clone()
-                    });
+                    for &s in steps {
+                        out.push(RenderSettings {
+                            voxels: v,
+                            cones: c,
+                            cone_half_angle: a,
+                            mip_clamp: m,
+                            cone_step: s,
+                            ..base.clone()
+                        });
+                    }
                 }
             }
         }
@@ -239,6 +250,7 @@ pub fn bench(
             cones: settings.cones,
             cone_half_angle: settings.cone_half_angle,
             mip_clamp: settings.mip_clamp,
+            cone_step: settings.cone_step,
             seconds: stage_seconds.iter().sum(),
             stage_seconds,
             indirect_rel_mse: ind.rel_mse,
@@ -275,6 +287,7 @@ fn write_csv(path: &Path, rows: &[BenchRow]) -> Result<()> {
         "cones",
         "cone_half_angle",
         "mip_clamp",
+        "cone_step",
         "seconds",
         "indirect_rel_mse",
         "indirect_flip",
@@ -293,6 +306,7 @@ fn write_csv(path: &Path, rows: &[BenchRow]) -> Result<()> {
             r.cones.to_string(),
             r.cone_half_angle.to_string(),
             r.mip_clamp.to_string(),
+            r.cone_step.to_string(),
             format!("{:.4}", r.seconds),
             format!("{:.5}", r.indirect_rel_mse),
             format!("{:.4}", r.indirect_flip),
@@ -313,17 +327,18 @@ pub fn table(rows: &[BenchRow], spp: u32, w: u32, h: u32) -> String {
     sorted.sort_by(|a, b| a.seconds.total_cmp(&b.seconds));
     let mut md = format!(
         "# vxgi bench (vct-dense, {w}x{h}, reference {spp} spp)\n\n\
-         | voxels | cones | half-angle | mip clamp | time | cone_trace | voxelize | indirect FLIP | combined FLIP | combined rel. MSE | Pareto |\n\
-         |---|---|---|---|---|---|---|---|---|---|---|\n"
+         | voxels | cones | half-angle | mip clamp | step | time | cone_trace | voxelize | indirect FLIP | combined FLIP | combined rel. MSE | Pareto |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|---|\n"
     );
     for r in sorted {
         let _ = writeln!(
             md,
-            "| {}^3 | {} | {} | {} | {:.0} ms | {:.0} ms | {:.0} ms | {:.3} | {:.3} | {:.4} | {} |",
+            "| {}^3 | {} | {} | {} | {} | {:.0} ms | {:.0} ms | {:.0} ms | {:.3} | {:.3} | {:.4} | {} |",
             r.voxels,
             r.cones,
             r.cone_half_angle,
             r.mip_clamp,
+            r.cone_step,
             r.seconds * 1e3,
             r.stage_seconds[5] * 1e3,
             r.stage_seconds[2] * 1e3,
@@ -417,7 +432,7 @@ mod tests {
             ..Default::default()
         };
         let full = sweep(&base, false);
-        assert_eq!(full.len(), 54);
+        assert_eq!(full.len(), 108);
         assert!(full
             .iter()
             .all(|s| s.ao_range == 0.25 && s.validate().is_ok()));

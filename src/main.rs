@@ -149,6 +149,9 @@ struct RenderFlags {
     /// surface (0 = off, the paper's rule) [default 2].
     #[arg(long = "mip-clamp", alias = "mip_clamp")]
     mip_clamp: Option<f32>,
+    /// Cone step as a fraction of the cone's diameter, (0, 1] [default 0.5, the paper's].
+    #[arg(long = "cone-step", alias = "cone_step")]
+    cone_step: Option<f32>,
 }
 
 fn load_scene(path: &Option<PathBuf>, flags: &RenderFlags) -> Result<vxgi::scene::Scene> {
@@ -179,6 +182,9 @@ fn load_scene(path: &Option<PathBuf>, flags: &RenderFlags) -> Result<vxgi::scene
     }
     if let Some(v) = flags.mip_clamp {
         scene.render.mip_clamp = v;
+    }
+    if let Some(v) = flags.cone_step {
+        scene.render.cone_step = v;
     }
     scene.render.validate().map_err(anyhow::Error::msg)?;
     Ok(scene)

@@ -73,11 +73,16 @@ fn marching_is_stable_on_extreme_pyramids() {
         side,
         inv_s0: 16.0,
         mip_clamp: 0.0,
-        _pad: [0; 3],
+        step_factor: 0.5,
+        _pad: [0; 2],
     };
     let clamped = ConeParams {
         mip_clamp: 1.5,
         ..params
+    };
+    let long_steps = ConeParams {
+        step_factor: 1.0,
+        ..clamped
     };
     let solid = vec![[2.0, 2.0, 2.0, 1.0]; len];
     let empty = vec![[0.0; 4]; len];
@@ -92,7 +97,7 @@ fn marching_is_stable_on_extreme_pyramids() {
         .collect();
     for (voxels, p) in [&solid, &empty, &checker]
         .into_iter()
-        .flat_map(|v| [(v, &params), (v, &clamped)])
+        .flat_map(|v| [(v, &params), (v, &clamped), (v, &long_steps)])
     {
         let pyr = Pyramid { p, voxels };
         for tan in [0.01f32, 0.2, 0.577, 1.0] {

@@ -321,19 +321,19 @@ fn bench_quick_writes_csv_table_and_plot() {
     let csv = std::fs::read_to_string(out.join("bench.csv")).unwrap();
     let lines: Vec<&str> = csv.lines().collect();
     assert_eq!(lines.len(), 5, "{csv}");
-    assert!(lines[0].starts_with("voxels,cones,cone_half_angle,mip_clamp,seconds,"));
+    assert!(lines[0].starts_with("voxels,cones,cone_half_angle,mip_clamp,cone_step,seconds,"));
     assert!(lines[0].contains("combined_flip") && lines[0].contains("cone_trace_seconds"));
     // Every row: a positive time and a finite FLIP in [0, 1]; at least one row is Pareto-optimal.
     for l in &lines[1..] {
         let f: Vec<&str> = l.split(',').collect();
-        let secs: f64 = f[4].parse().unwrap();
-        let flip: f64 = f[8].parse().unwrap();
+        let secs: f64 = f[5].parse().unwrap();
+        let flip: f64 = f[9].parse().unwrap();
         assert!(secs > 0.0 && (0.0..=1.0).contains(&flip), "{l}");
     }
     assert!(lines[1..].iter().any(|l| l.contains(",true,")), "{csv}");
     let md = std::fs::read_to_string(out.join("bench.md")).unwrap();
     assert!(
-        md.contains("| 32^3 | 1 | 30 | 2 |") && md.contains("**yes**"),
+        md.contains("| 32^3 | 1 | 30 | 2 | 0.5 |") && md.contains("**yes**"),
         "{md}"
     );
     assert!(md.contains("## Planner") && md.contains("| on |"), "{md}");

@@ -49,7 +49,11 @@ pub struct ConeParams {
     /// 1 / mip_clamp of the sample's distance from the origin surface's plane, so trilinear filtering
     /// does not reach back into the surface's own voxels (which surface coverage keeps opaque).
     pub mip_clamp: f32,
-    pub _pad: [u32; 3],
+    /// Step as a fraction of the current diameter (CPRC 4: 0.5). The first sample sits half a step
+    /// out and the diameter grows by 1 + 2 step_factor tan per step; at 0.5 every expression equals
+    /// the paper's exactly (2 x 0.5 = 1 and 0.5 x 0.5 = 0.25 are exact).
+    pub step_factor: f32,
+    pub _pad: [u32; 2],
 }
 
 pub const OPAQUE: f32 = 1.0 - 1.0 / 256.0;
@@ -157,11 +161,12 @@ pub fn march(pyr: &Pyramid, o: Vec3, d: Vec3, tan: f32, cos_n: f32, lmax: f32) -
     let s0 = p.origin[3];
     let inv_s0 = p.inv_s0;
     let max_dist = p.side as f32 * s0 * 1.732_050_8;
-    let grow = 1.0 + tan;
+    let sf = p.step_factor;
+    let grow = 1.0 + 2.0 * sf * tan;
     let dl = grow.log2();
     let mut diam = 0.75 * s0;
     let mut lf: f32 = -0.415_037_5; // log2(0.75)
-    let mut t = diam * 0.25;
+    let mut t = diam * (0.5 * sf);
     let mut c_acc = Vec3::ZERO;
     let mut a_acc = 0.0f32;
     let mut occ = 0.0f32;
@@ -174,12 +179,12 @@ pub fn march(pyr: &Pyramid, o: Vec3, d: Vec3, tan: f32, cos_n: f32, lmax: f32) -
             l = l.min((plane * inv_s0 / p.mip_clamp).log2());
         }
         let (s, serr) = pyr.sample(o + d * t, l);
-        let step = diam * 0.5;
+        let step = diam * sf;
         // step / cell, cell = s0 * 2^max(l, 0) (= diam while the level follows the diameter).
         let ratio = if l < lf {
             step * inv_s0 / l.max(0.0).exp2()
         } else {
-            0.5 * (diam * inv_s0).min(1.0)
+            sf * (diam * inv_s0).min(1.0)
         };
         let a = s.w.clamp(0.0, 1.0);
         let a2 = if a > 0.0 {

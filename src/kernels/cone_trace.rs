@@ -54,6 +54,8 @@ pub struct ConeSettings {
     pub offset_voxels: f32,
     /// Surface-aware mip clamp (0 = off: the paper's rule), see `vxgi_cpu_mirror::cone_trace`.
     pub mip_clamp: f32,
+    /// Step as a fraction of the cone's diameter (the paper's 0.5).
+    pub step_factor: f32,
 }
 
 impl Default for ConeSettings {
@@ -72,6 +74,7 @@ impl From<&crate::scene::RenderSettings> for ConeSettings {
             ao_lambda: r.ao_lambda,
             offset_voxels: r.cone_offset,
             mip_clamp: r.mip_clamp,
+            step_factor: r.cone_step,
         }
     }
 }
@@ -88,7 +91,8 @@ pub fn cone_params(frame: &VoxelFrame, s: &ConeSettings) -> ConeParams {
         side: frame.side,
         inv_s0: 1.0 / frame.voxel,
         mip_clamp: s.mip_clamp,
-        _pad: [0; 3],
+        step_factor: s.step_factor,
+        _pad: [0; 2],
     }
 }
 
@@ -242,10 +246,11 @@ impl Kernel for ConeTrace {
         let rad = super::voxel_light::light_on_gpu(ctx, &data, &grid, &list, &frame)
             .expect("voxel_light runs");
         let pyr = gpu_pyramid(ctx, &rad, &grid.normal, side).expect("mip chain runs");
+        // Cases vary the marching: step factor 0.5 (the paper's), 0.75, 1; mip clamp on and off.
         let settings = ConeSettings {
-            ao_range: scene.render.ao_range,
-            ao_lambda: scene.render.ao_lambda,
-            ..Default::default()
+            step_factor: [0.5, 0.75, 1.0][index % 3],
+            mip_clamp: if index % 5 == 4 { 0.0 } else { 2.0 },
+            ..ConeSettings::from(&scene.render)
         };
         let params = cone_params(&frame, &settings);
         case_for(
