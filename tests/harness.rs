@@ -276,7 +276,12 @@ impl Kernel for Worklist {
         ])
     }
     /// Slots come from an atomic counter: compare the list as a sorted multiset.
-    fn canonicalise(&self, resource: &str, data: &mut HostBuffer) {
+    fn canonicalise(
+        &self,
+        resource: &str,
+        data: &mut HostBuffer,
+        _all: &BTreeMap<String, HostBuffer>,
+    ) {
         if resource == "list" {
             let v: &mut [u32] = bytemuck::cast_slice_mut(&mut data.bytes);
             v.sort_unstable();

@@ -24,6 +24,7 @@ pub mod morton;
 pub mod octahedral;
 pub mod radix_sort;
 pub mod sample_lrsm;
+pub mod sparse_voxel_octree;
 pub mod surface_coverage_mip;
 pub mod tile_normal_histogram;
 pub mod voxel_light;

@@ -172,8 +172,16 @@ pub trait Kernel: Sync {
     ) -> BTreeMap<String, HostBuffer>;
 
     /// Put an output whose order the GPU leaves free (atomic allocation) into a canonical order before
-    /// comparing; applied to GPU and mirror alike.
-    fn canonicalise(&self, _resource: &str, _data: &mut HostBuffer) {}
+    /// comparing; applied to GPU and mirror alike. `all` holds every checked buffer of the same side as
+    /// it was produced (before any canonicalising), for outputs whose order follows another's (e.g.
+    /// bricks in the order of their nodes).
+    fn canonicalise(
+        &self,
+        _resource: &str,
+        _data: &mut HostBuffer,
+        _all: &BTreeMap<String, HostBuffer>,
+    ) {
+    }
 }
 
 /// Deliberately damage the GPU result before comparing: the harness must catch it.
@@ -315,6 +323,15 @@ pub fn verify_case(
         || expected.values().any(has_subnormal);
     let mut expected_ftz =
         ftz_needed.then(|| kernel.mirror(case, &flush_resources(&data), FloatMode::FlushToZero));
+    // Both sides as produced, for canonicalising outputs whose order follows another output's.
+    let buffers_of = |r: &Resources| -> BTreeMap<String, HostBuffer> {
+        r.iter()
+            .filter_map(|(k, v)| v.buffer().map(|b| (k.clone(), b.clone())))
+            .collect()
+    };
+    let gpu_all = buffers_of(&out.resources);
+    let mirror_all = expected.clone();
+    let ftz_all = expected_ftz.clone();
     let mut comps = Vec::new();
     for check in &case.checks {
         let tol = decl
@@ -332,8 +349,8 @@ pub fn verify_case(
         let mut mirror = expected
             .remove(&check.resource)
             .unwrap_or_else(|| panic!("mirror of `{}` gave no `{}`", decl.name, check.resource));
-        kernel.canonicalise(&check.resource, &mut gpu);
-        kernel.canonicalise(&check.resource, &mut mirror);
+        kernel.canonicalise(&check.resource, &mut gpu, &gpu_all);
+        kernel.canonicalise(&check.resource, &mut mirror, &mirror_all);
         let meta = (
             decl.name,
             check.resource.as_str(),
@@ -346,7 +363,11 @@ pub fn verify_case(
                     .as_mut()
                     .and_then(|e| e.remove(&check.resource))
                     .map(|mut b| {
-                        kernel.canonicalise(&check.resource, &mut b);
+                        kernel.canonicalise(
+                            &check.resource,
+                            &mut b,
+                            ftz_all.as_ref().unwrap_or(&mirror_all),
+                        );
                         b
                     });
                 // Per-element bounds (Tolerance::MirrorBound) come from the IEEE mirror run and are

@@ -15,6 +15,7 @@ pub mod lrsm_partition;
 pub mod lrsm_prefilter;
 pub mod radix_sort;
 pub mod sample_lrsm;
+pub mod sparse_voxel_octree;
 pub mod surface_coverage_mip;
 pub mod tile_normal_histogram;
 pub mod voxel_light;
@@ -56,6 +57,7 @@ pub fn all() -> Vec<&'static dyn Kernel> {
         &voxelize::Voxelize,
         &voxel_light::VoxelLight,
         &cone_trace::ConeTrace,
+        &sparse_voxel_octree::SparseVoxelOctree,
     ]
 }
 

@@ -394,7 +394,12 @@ impl Kernel for Voxelize {
             ("list_count".to_string(), HostBuffer::u32(&[count])),
         ])
     }
-    fn canonicalise(&self, resource: &str, data: &mut HostBuffer) {
+    fn canonicalise(
+        &self,
+        resource: &str,
+        data: &mut HostBuffer,
+        _all: &BTreeMap<String, HostBuffer>,
+    ) {
         if resource == "list" {
             let v: &mut [u32] = bytemuck::cast_slice_mut(&mut data.bytes);
             v.sort_unstable();

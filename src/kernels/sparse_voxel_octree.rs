@@ -1,0 +1,605 @@
+//! Declaration of `kernels/sparse_voxel_octree.wgsl` (mirror: `vxgi_cpu_mirror::sparse_voxel_octree`):
+//! the sparse voxel octree of voxel cone tracing: build from fragments (atomic tile allocation), splat,
+//! brick border transfer and distribution over levels, all integer and exact. The GPU hands out tiles in
+//! a free order; nodes, bricks and flags are compared after canonicalising (sorted by node key, pointers
+//! replaced by keys). [`build_on_gpu`] is the own-device API.
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::collections::BTreeMap;
+use thiserror::Error;
+use vxgi_cpu_mirror::sparse_voxel_octree::{
+    build, canonical_bricks, canonical_nodes, capacity_bound, key, Fragment, Node, Octree,
+    OctreeParams, ARGS_SLOTS, BRICK_WORDS, ERR_OUTSIDE, ERR_OVERFLOW, ERR_POOL, LEVELS_WORDS,
+    MAX_DEPTH, SLOT_CLASS, SLOT_RING, STATS_WORDS, STATUS_ERRORS, STATUS_TILES,
+};
+use vxgi_harness::run::{grid_for, Pass, View, Workgroups};
+use vxgi_harness::{
+    Case, Check, DispatchRule, FloatMode, GpuContext, HarnessError, HostBuffer, HostResource,
+    Indexing, Kernel, KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
+};
+
+pub static DECL: KernelDecl = KernelDecl {
+    name: "sparse_voxel_octree",
+    wgsl_path: "kernels/sparse_voxel_octree.wgsl",
+    wgsl: include_str!("../../kernels/sparse_voxel_octree.wgsl"),
+    includes: &[],
+    entry: "flag_parents",
+    inputs: &["params", "fragments"],
+    // Integer arithmetic only (atomic adds, shifts, saturating checks): exact. Nodes, bricks and flags
+    // after canonicalising the atomic allocation order.
+    outputs: &[
+        Output { binding: "nodes", tolerance: Tolerance::Exact },
+        Output { binding: "bricks", tolerance: Tolerance::Exact },
+        Output { binding: "flags", tolerance: Tolerance::Exact },
+        Output { binding: "levels", tolerance: Tolerance::Exact },
+        Output { binding: "status", tolerance: Tolerance::Exact },
+        Output { binding: "stats", tolerance: Tolerance::Exact },
+    ],
+    dispatch: DispatchRule::PerItem { what: "fragment (x 8 in flag_parents); node of a level, list entry or list entry x class voxel (indirect, GPU-written arguments)" },
+    mirror: "vxgi_cpu_mirror::sparse_voxel_octree::build",
+    summary: "sparse voxel octree, 3x3x3 vertex-centred bricks: build (atomic tiles), splat, border transfer (add, copy), Gaussian distribution over levels (VCT 4.1-4.2.3, 8.2)",
+};
+
+/// Bytes of one node record and one brick.
+pub const NODE_BYTES: u64 = std::mem::size_of::<Node>() as u64;
+pub const BRICK_BYTES: u64 = BRICK_WORDS as u64 * 4;
+
+#[derive(Debug, Error)]
+pub enum SvoError {
+    #[error("octree depth {0}: must be 1..={MAX_DEPTH} (1 = 2^3 leaves, 9 = 512^3)")]
+    Depth(u32),
+    #[error("fragment {index} at lattice point {pos:?} is outside the volume (0..={side} per axis at depth {depth})")]
+    Outside {
+        index: usize,
+        pos: [u32; 3],
+        side: u32,
+        depth: u32,
+    },
+    #[error("node pool of {capacity} tiles is too small: the structure asked for at least {needed} tiles{hint}")]
+    Pool {
+        capacity: u32,
+        needed: u32,
+        hint: String,
+    },
+    #[error(
+        "fixed-point overflow: a sum of brick values passed u32::MAX (lower the fixed-point scale)"
+    )]
+    Overflow,
+    #[error("value {value} cannot be stored in u32 fixed point with scale {scale}")]
+    Value { value: f32, scale: f32 },
+    #[error(transparent)]
+    Harness(Box<HarnessError>),
+}
+
+impl From<HarnessError> for SvoError {
+    fn from(e: HarnessError) -> Self {
+        SvoError::Harness(Box::new(e))
+    }
+}
+
+/// `v * scale` rounded, as u32 fixed point; an error for negative, non-finite or too large values.
+pub fn to_fixed(v: f32, scale: f32) -> Result<u32, SvoError> {
+    let x = (v as f64 * scale as f64).round();
+    if !x.is_finite() || x < 0.0 || x > u32::MAX as f64 {
+        return Err(SvoError::Value { value: v, scale });
+    }
+    Ok(x as u32)
+}
+
+/// Largest node pool (tiles) whose brick pool fits one storage binding of this device.
+pub fn max_capacity(ctx: &GpuContext) -> u32 {
+    let limit = ctx.limits().max_storage_buffer_binding_size;
+    (limit / (8 * BRICK_BYTES)).min(u32::MAX as u64 / 8) as u32
+}
+
+/// The tile pool a build of `fragments` gets when the caller does not choose one: the bound of
+/// [`capacity_bound`] (never too small), or the largest a binding allows.
+pub fn default_capacity(ctx: &GpuContext, depth: u32, fragments: usize) -> u32 {
+    capacity_bound(depth, fragments).min(max_capacity(ctx) as u64) as u32
+}
+
+fn params(
+    depth: u32,
+    level: u32,
+    fragments: u32,
+    capacity: u32,
+    variant: u32,
+    max_groups: u32,
+) -> OctreeParams {
+    OctreeParams {
+        depth,
+        level,
+        fragments,
+        capacity_tiles: capacity,
+        variant,
+        max_groups,
+        _pad: [0; 2],
+    }
+}
+
+/// Resources and the pass sequence of a whole build: structure, splat, then transfer and distribution
+/// level by level from the leaves up. `phases` receives, per pass, which phase it belongs to (for timing).
+pub fn case_for(
+    ctx: &GpuContext,
+    depth: u32,
+    capacity: u32,
+    fragments: &[Fragment],
+    label: String,
+    seed: u64,
+) -> Case {
+    let n = capacity as usize * 8;
+    let mut nodes = vec![Node::UNUSED; n];
+    nodes[0] = Node {
+        key: key(0, [0; 3]),
+        ..Node::UNUSED
+    };
+    let mut levels = vec![0u32; LEVELS_WORDS];
+    levels[1] = 1; // tile 0: the root
+    let mut resources = Resources::new();
+    let buf = |b: HostBuffer| HostResource::Buffer(b);
+    // A binding cannot be empty: one unused fragment when there are none (params.fragments says 0).
+    let frag_data: Vec<Fragment> = if fragments.is_empty() {
+        vec![bytemuck::Zeroable::zeroed()]
+    } else {
+        fragments.to_vec()
+    };
+    resources.insert(
+        "fragments".into(),
+        buf(HostBuffer {
+            bytes: bytemuck::cast_slice(&frag_data).to_vec(),
+            scalar: ScalarKind::U32,
+        }),
+    );
+    resources.insert(
+        "nodes".into(),
+        buf(HostBuffer {
+            bytes: bytemuck::cast_slice(&nodes).to_vec(),
+            scalar: ScalarKind::U32,
+        }),
+    );
+    resources.insert(
+        "bricks".into(),
+        buf(HostBuffer::zeroed(n * BRICK_WORDS * 4, ScalarKind::U32)),
+    );
+    resources.insert(
+        "flags".into(),
+        buf(HostBuffer::zeroed(n * 4, ScalarKind::U32)),
+    );
+    resources.insert(
+        "tile_parent".into(),
+        buf(HostBuffer::u32(&vec![u32::MAX; capacity as usize])),
+    );
+    resources.insert("levels".into(), buf(HostBuffer::u32(&levels)));
+    // Errors, tiles handed out (the root's), list counters.
+    resources.insert("status".into(), buf(HostBuffer::u32(&[0, 1, 0, 0])));
+    resources.insert(
+        "stats".into(),
+        buf(HostBuffer::zeroed(STATS_WORDS * 4, ScalarKind::U32)),
+    );
+    let mut args = vec![0u32; ARGS_SLOTS * 3];
+    args[..3].copy_from_slice(&[1, 1, 1]); // level 0: the root's tile
+    resources.insert("args".into(), buf(HostBuffer::u32(&args)));
+    resources.insert(
+        "list_active".into(),
+        buf(HostBuffer::zeroed(n * 4, ScalarKind::U32)),
+    );
+    resources.insert(
+        "list_ring".into(),
+        buf(HostBuffer::zeroed(n * 4, ScalarKind::U32)),
+    );
+
+    let max_groups = ctx.limits().max_compute_workgroups_per_dimension;
+    let f = fragments.len() as u32;
+    let mut passes = Vec::new();
+    let mut push =
+        |resources: &mut Resources, entry: &str, level: u32, variant: u32, w: Workgroups| {
+            let pname = format!("params_l{level}_v{variant}");
+            resources.entry(pname.clone()).or_insert_with(|| {
+                buf(HostBuffer::pod(&params(
+                    depth, level, f, capacity, variant, max_groups,
+                )))
+            });
+            let mut bindings = vxgi_harness::run::bind_same_names(SHARED);
+            bindings.push(("params".into(), View::Buffer(pname)));
+            passes.push(Pass {
+                label: format!("{entry} level {level} variant {variant}"),
+                entry: entry.into(),
+                bindings,
+                workgroups: w,
+            });
+        };
+    let slot = |s: usize| Workgroups::Indirect {
+        buffer: "args".into(),
+        offset: s as u64 * 12,
+    };
+    let one = Workgroups::Direct([1, 1, 1]);
+    for l in 1..=depth {
+        let g = Workgroups::Direct(grid_for(f as u64 * 8, 64, max_groups));
+        push(&mut resources, "flag_parents", l, 0, g);
+        push(&mut resources, "allocate", l, 0, slot(l as usize - 1));
+        push(&mut resources, "finish_level", l, 0, one.clone());
+        push(&mut resources, "init_nodes", l, 0, slot(l as usize));
+    }
+    push(
+        &mut resources,
+        "splat",
+        depth,
+        0,
+        Workgroups::Direct(grid_for(f as u64, 64, max_groups)),
+    );
+    for l in (0..=depth).rev() {
+        push(&mut resources, "begin_level", l, 0, one.clone());
+        push(&mut resources, "mark_ring", l, 0, slot(l as usize));
+        push(&mut resources, "compact", l, 0, slot(l as usize));
+        push(&mut resources, "list_args", l, 0, one.clone());
+        if l < depth {
+            for class in 0..4 {
+                push(
+                    &mut resources,
+                    "distribute",
+                    l,
+                    class,
+                    slot(SLOT_CLASS + class as usize),
+                );
+            }
+        }
+        for axis in 0..3 {
+            push(&mut resources, "transfer_add", l, axis, slot(SLOT_RING));
+            push(&mut resources, "transfer_copy", l, axis, slot(SLOT_RING));
+        }
+        if l < depth {
+            push(&mut resources, "round_level", l, 0, slot(SLOT_RING));
+        }
+        if l > 0 {
+            push(&mut resources, "mark_parents", l, 0, slot(SLOT_RING));
+        }
+    }
+    Case {
+        label,
+        seed,
+        resources,
+        passes,
+        checks: CHECKED
+            .iter()
+            .map(|r| Check {
+                resource: r.to_string(),
+                output: r,
+                indexing: Indexing::Linear,
+            })
+            .collect(),
+        effective_bytes: n as u64 * (NODE_BYTES + BRICK_BYTES) + fragments.len() as u64 * 32,
+    }
+}
+
+/// Storage bindings every pass binds under their own names.
+const SHARED: [&str; 11] = [
+    "fragments",
+    "nodes",
+    "bricks",
+    "flags",
+    "tile_parent",
+    "levels",
+    "status",
+    "stats",
+    "args",
+    "list_active",
+    "list_ring",
+];
+const CHECKED: [&str; 6] = ["nodes", "bricks", "flags", "levels", "status", "stats"];
+
+/// Which phase a pass of [`case_for`] belongs to, by its entry point.
+pub fn phase_of(entry: &str) -> &'static str {
+    match entry {
+        "flag_parents" | "allocate" | "finish_level" | "init_nodes" => "build",
+        "splat" => "splat",
+        "transfer_add" | "transfer_copy" => "transfer",
+        "distribute" | "round_level" => "distribution",
+        _ => "work lists",
+    }
+}
+
+/// A fragment set of the generator's families, and its label.
+pub fn generated(seed: u64, index: usize) -> (u32, Vec<Fragment>, String) {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed.wrapping_add(index as u64));
+    let family = index % 8;
+    let depth = match family {
+        5 => MAX_DEPTH,
+        _ => 1 + (index / 8 + index) as u32 % 5,
+    };
+    let side = 2u32 << depth; // lattice points 0..=side per axis
+    let value = |rng: &mut ChaCha8Rng| -> [u32; 4] {
+        [
+            rng.random_range(0..1 << 20),
+            rng.random_range(0..1 << 20),
+            rng.random_range(0..1 << 16),
+            1 << 16,
+        ]
+    };
+    let frag = |pos: [u32; 3], value: [u32; 4]| Fragment {
+        pos,
+        _pad: 0,
+        value,
+    };
+    let mut out = Vec::new();
+    let name = match family {
+        0 => {
+            out.push(frag(
+                [0, 1, 2].map(|_| rng.random_range(0..=side)),
+                value(&mut rng),
+            ));
+            "single point"
+        }
+        1 => {
+            // A full slab one lattice point thick, at a random height (on a node boundary half the time).
+            let z = rng.random_range(0..=side);
+            let step = if side > 16 { 2 } else { 1 };
+            for y in (0..=side).step_by(step) {
+                for x in (0..=side).step_by(step) {
+                    out.push(frag([x, y, z], value(&mut rng)));
+                }
+            }
+            "slab"
+        }
+        2 => {
+            for _ in 0..rng.random_range(1..200) {
+                out.push(frag(
+                    [0, 1, 2].map(|_| rng.random_range(0..=side)),
+                    value(&mut rng),
+                ));
+            }
+            "scattered points"
+        }
+        3 => {
+            // Every corner of every leaf-level octant boundary: points on node faces, edges, corners.
+            let s = (side / 4).max(1);
+            for z in (0..=side).step_by(s as usize) {
+                for y in (0..=side).step_by(s as usize) {
+                    for x in (0..=side).step_by(s as usize) {
+                        out.push(frag([x, y, z], value(&mut rng)));
+                    }
+                }
+            }
+            "octree boundaries and corners"
+        }
+        4 => {
+            // Many fragments on few points: atomic adds collide.
+            let p = [0, 1, 2].map(|_| rng.random_range(0..=side));
+            for _ in 0..300 {
+                out.push(frag(p, value(&mut rng)));
+            }
+            "colliding splats"
+        }
+        5 => {
+            for _ in 0..8 {
+                out.push(frag(
+                    [0, 1, 2].map(|_| rng.random_range(0..=side)),
+                    value(&mut rng),
+                ));
+            }
+            out.push(frag([side; 3], value(&mut rng)));
+            out.push(frag([0; 3], value(&mut rng)));
+            "maximum depth"
+        }
+        6 => {
+            // Geometry everywhere, light on a few fragments: most nodes receive nothing (skipped).
+            for _ in 0..150 {
+                let lit = rng.random_range(0..10) == 0;
+                let v = if lit { value(&mut rng) } else { [0; 4] };
+                out.push(frag([0, 1, 2].map(|_| rng.random_range(0..=side)), v));
+            }
+            "mostly unlit"
+        }
+        _ => {
+            // Values near u32::MAX: the saturating sums and the overflow bit must agree too.
+            for _ in 0..4 {
+                let p = [0, 1, 2].map(|_| rng.random_range(0..=side.min(4)));
+                out.push(frag(
+                    p,
+                    [u32::MAX - rng.random_range(0..1000), 7, 0, 1 << 30],
+                ));
+            }
+            "overflowing values"
+        }
+    };
+    let label = format!("#{index} {name}, depth {depth}, {} fragments", out.len());
+    (depth, out, label)
+}
+
+pub struct SparseVoxelOctree;
+
+impl Kernel for SparseVoxelOctree {
+    fn decl(&self) -> &'static KernelDecl {
+        &DECL
+    }
+    fn case(&self, _shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
+        let (depth, frags, label) = generated(seed, index);
+        let cap = default_capacity(ctx, depth, frags.len());
+        case_for(ctx, depth, cap, &frags, label, seed)
+    }
+    fn mirror(
+        &self,
+        case: &Case,
+        _data: &Resources,
+        _mode: FloatMode,
+    ) -> BTreeMap<String, HostBuffer> {
+        let p: OctreeParams = *bytemuck::from_bytes(
+            &case.resources["params_l1_v0"]
+                .buffer()
+                .expect("params")
+                .bytes,
+        );
+        let bytes = &case.resources["fragments"]
+            .buffer()
+            .expect("fragments")
+            .bytes;
+        let frags: &[Fragment] = bytemuck::cast_slice(bytes);
+        let o = build(p.depth, p.capacity_tiles, &frags[..p.fragments as usize]);
+        octree_buffers(&o)
+    }
+    fn canonicalise(
+        &self,
+        resource: &str,
+        data: &mut HostBuffer,
+        all: &BTreeMap<String, HostBuffer>,
+    ) {
+        let nodes: &[Node] = bytemuck::cast_slice(&all["nodes"].bytes);
+        match resource {
+            "nodes" => data.bytes = bytemuck::cast_slice(&canonical_nodes(nodes).0).to_vec(),
+            "bricks" => {
+                data.bytes = bytemuck::cast_slice(&canonical_bricks(nodes, data.as_u32())).to_vec()
+            }
+            "flags" => {
+                let (_, order) = canonical_nodes(nodes);
+                let f = data.as_u32();
+                let v: Vec<u32> = order.iter().map(|&i| f[i]).collect();
+                data.bytes = bytemuck::cast_slice(&v).to_vec();
+            }
+            _ => {}
+        }
+    }
+}
+
+/// The checked buffers of an octree, by binding name.
+pub fn octree_buffers(o: &Octree) -> BTreeMap<String, HostBuffer> {
+    BTreeMap::from([
+        (
+            "nodes".to_string(),
+            HostBuffer {
+                bytes: bytemuck::cast_slice(&o.nodes).to_vec(),
+                scalar: ScalarKind::U32,
+            },
+        ),
+        ("bricks".to_string(), HostBuffer::u32(&o.bricks)),
+        ("flags".to_string(), HostBuffer::u32(&o.flags)),
+        ("levels".to_string(), HostBuffer::u32(&o.levels)),
+        ("status".to_string(), HostBuffer::u32(&o.status)),
+        ("stats".to_string(), HostBuffer::u32(&o.stats)),
+    ])
+}
+
+/// What a GPU build produced, with its per-phase GPU time (timestamps, or one wall-clock total).
+#[derive(Debug)]
+pub struct GpuOctree {
+    pub octree: Octree,
+    pub gpu_ns: f64,
+    /// (phase, ns) summed over passes, when the adapter has timestamps.
+    pub phase_ns: Vec<(&'static str, f64)>,
+}
+
+/// Memory of an octree against the dense vertex lattices of the same resolution (all levels).
+#[derive(Clone, Debug, PartialEq)]
+pub struct MemoryReport {
+    pub nodes: u64,
+    pub bricks: u64,
+    pub bytes: u64,
+    pub dense_bytes: u64,
+}
+
+impl MemoryReport {
+    pub fn of(o: &Octree) -> MemoryReport {
+        // Tile 0 holds the root alone.
+        let nodes = o.levels[o.depth as usize + 1] as u64 * 8 - 7;
+        let dense_points: u64 = (0..=o.depth)
+            .map(|l| (2u64 << l) + 1)
+            .map(|s| s * s * s)
+            .sum();
+        MemoryReport {
+            nodes,
+            bricks: nodes,
+            bytes: nodes * (NODE_BYTES + BRICK_BYTES),
+            dense_bytes: dense_points * 16,
+        }
+    }
+}
+
+/// Build, splat and filter an octree on the GPU. `capacity_tiles`: the node pool (tiles of 8 nodes);
+/// `None` takes [`default_capacity`]. Fragments outside the volume, a bad depth, a pool too small and
+/// fixed-point overflow are errors.
+pub fn build_on_gpu(
+    ctx: &GpuContext,
+    depth: u32,
+    fragments: &[Fragment],
+    capacity_tiles: Option<u32>,
+) -> Result<GpuOctree, SvoError> {
+    if depth == 0 || depth > MAX_DEPTH {
+        return Err(SvoError::Depth(depth));
+    }
+    let side = 2u32 << depth;
+    if let Some((index, f)) = fragments
+        .iter()
+        .enumerate()
+        .find(|(_, f)| f.pos.iter().any(|&x| x > side))
+    {
+        return Err(SvoError::Outside {
+            index,
+            pos: f.pos,
+            side,
+            depth,
+        });
+    }
+    let capacity = capacity_tiles.unwrap_or_else(|| default_capacity(ctx, depth, fragments.len()));
+    let case = case_for(
+        ctx,
+        depth,
+        capacity.max(1),
+        fragments,
+        "build_on_gpu".into(),
+        0,
+    );
+    let shader = DECL.shader()?;
+    let out = vxgi_harness::run::run(
+        ctx,
+        &shader,
+        DECL.name,
+        &case.resources,
+        &case.passes,
+        &CHECKED,
+    )?;
+    let b = |n: &str| out.resources[n].buffer().expect("read back").clone();
+    let status = b("status").as_u32().to_vec();
+    let errors = status[STATUS_ERRORS];
+    if errors & ERR_POOL != 0 {
+        let max = max_capacity(ctx);
+        let hint = if capacity >= max {
+            format!(
+                "; {max} tiles is the most one storage binding holds on this device (max_storage_buffer_binding_size {} bytes / {} bytes per tile of bricks): use a shallower octree or fewer fragments",
+                ctx.limits().max_storage_buffer_binding_size,
+                8 * BRICK_BYTES
+            )
+        } else {
+            String::new()
+        };
+        return Err(SvoError::Pool {
+            capacity,
+            needed: status[STATUS_TILES],
+            hint,
+        });
+    }
+    if errors & ERR_OVERFLOW != 0 {
+        return Err(SvoError::Overflow);
+    }
+    debug_assert_eq!(errors & ERR_OUTSIDE, 0, "checked on the host");
+    let octree = Octree {
+        depth,
+        capacity_tiles: capacity,
+        nodes: bytemuck::cast_slice(&b("nodes").bytes).to_vec(),
+        bricks: b("bricks").as_u32().to_vec(),
+        flags: b("flags").as_u32().to_vec(),
+        levels: b("levels").as_u32().to_vec(),
+        status,
+        stats: b("stats").as_u32().to_vec(),
+    };
+    let mut phase_ns: Vec<(&'static str, f64)> = Vec::new();
+    for (p, ns) in case.passes.iter().zip(&out.pass_ns) {
+        let ph = phase_of(&p.entry);
+        match phase_ns.iter_mut().find(|(n, _)| *n == ph) {
+            Some(e) => e.1 += ns,
+            None => phase_ns.push((ph, *ns)),
+        }
+    }
+    Ok(GpuOctree {
+        octree,
+        gpu_ns: out.gpu_ns,
+        phase_ns,
+    })
+}

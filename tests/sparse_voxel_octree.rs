@@ -1,0 +1,239 @@
+//! GPU vs mirror for `kernels/sparse_voxel_octree.wgsl` (exact, after canonicalising the atomic tile
+//! order), every brick voxel of every level against a dense reference lattice, shared voxels
+//! consistent, work skipped, memory, and bad input.
+mod common;
+
+use common::gpu;
+use proptest::prelude::*;
+use vxgi::harness::kernel::{verify, verify_case};
+use vxgi::harness::{Corruption, VerifyOptions};
+use vxgi::kernels::sparse_voxel_octree::{
+    build_on_gpu, case_for, default_capacity, generated, MemoryReport, SparseVoxelOctree, SvoError,
+    DECL,
+};
+use vxgi_cpu_mirror::sparse_voxel_octree::{
+    build, dense_reference, shared_voxels_consistent, unkey, voxel_index, Fragment, Octree,
+    BRICK_WORDS, NONE,
+};
+
+#[test]
+fn generated_octrees_match_the_mirror_exactly() {
+    let rep = verify(
+        gpu(),
+        &SparseVoxelOctree,
+        &VerifyOptions {
+            cases: 16,
+            seed: 3,
+            corrupt: None,
+        },
+        &mut |_| {},
+    )
+    .unwrap();
+    assert!(rep.passed(), "{}", rep.failures[0].report());
+    assert_eq!(rep.max_ulp, 0);
+}
+
+#[test]
+fn a_damaged_brick_is_caught() {
+    let rep = verify(
+        gpu(),
+        &SparseVoxelOctree,
+        &VerifyOptions {
+            cases: 1,
+            seed: 3,
+            corrupt: Some(Corruption {
+                resource: "bricks".into(),
+                index: 5,
+            }),
+        },
+        &mut |_| {},
+    )
+    .unwrap();
+    assert!(
+        !rep.passed(),
+        "a flipped brick word must fail the comparison"
+    );
+}
+
+/// Every brick voxel of every node equals the dense lattice at its point; every non-zero dense point is
+/// held by some node (nothing lost to sparsity).
+fn assert_matches_dense(o: &Octree, frags: &[Fragment]) {
+    let dense = dense_reference(o.depth, frags).expect("no overflow");
+    let mut covered: Vec<Vec<bool>> = dense.iter().map(|d| vec![false; d.len()]).collect();
+    for (n, node) in o.nodes.iter().enumerate() {
+        if node.key == NONE {
+            continue;
+        }
+        let (l, c) = unkey(node.key);
+        let s = (2usize << l) + 1;
+        for k in 0..3u32 {
+            for j in 0..3u32 {
+                for i in 0..3u32 {
+                    let p = [2 * c[0] + i, 2 * c[1] + j, 2 * c[2] + k].map(|x| x as usize);
+                    let di = p[0] + s * (p[1] + s * p[2]);
+                    let w = n * BRICK_WORDS + voxel_index([i, j, k]) * 4;
+                    assert_eq!(
+                        o.bricks[w..w + 4],
+                        dense[l as usize][di],
+                        "level {l} node {c:?} voxel {:?}",
+                        [i, j, k]
+                    );
+                    covered[l as usize][di] = true;
+                }
+            }
+        }
+    }
+    for (l, d) in dense.iter().enumerate() {
+        for (i, v) in d.iter().enumerate() {
+            assert!(
+                covered[l][i] || *v == [0; 4],
+                "level {l}: dense point {i} = {v:?} has no node"
+            );
+        }
+    }
+}
+
+#[test]
+fn every_brick_voxel_of_every_level_equals_the_dense_reference() {
+    // The generator's families except the overflowing one (the dense reference refuses overflow), up
+    // to depth 6 (a dense depth-9 lattice would be 1025^3 points x 16 bytes).
+    for index in 0..16 {
+        let (depth, frags, label) = generated(11, index);
+        if index % 8 == 7 || depth > 6 {
+            continue;
+        }
+        let o = build_on_gpu(gpu(), depth, &frags, None).unwrap_or_else(|e| panic!("{label}: {e}"));
+        assert_matches_dense(&o.octree, &frags);
+        shared_voxels_consistent(&o.octree).unwrap_or_else(|e| panic!("{label}: {e}"));
+    }
+}
+
+fn fragment() -> impl Strategy<Value = ([u32; 3], [u32; 4])> {
+    (
+        proptest::array::uniform3(0u32..=64),
+        proptest::array::uniform4(0u32..1 << 22),
+    )
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 12, ..ProptestConfig::default() })]
+
+    /// Random fragment sets (points snapped to node boundaries half the time): GPU equals mirror after
+    /// canonicalising, and equals the dense reference.
+    #[test]
+    fn random_fragment_sets_match_mirror_and_dense(depth in 1u32..=5, raw in proptest::collection::vec(fragment(), 0..60), snap in any::<bool>()) {
+        let side = 2u32 << depth;
+        let frags: Vec<Fragment> = raw
+            .iter()
+            .map(|(p, v)| {
+                let mut pos = p.map(|x| x % (side + 1));
+                if snap {
+                    pos = pos.map(|x| x / 4 * 4); // node corners of the level above the leaves
+                }
+                Fragment { pos, _pad: 0, value: *v }
+            })
+            .collect();
+        let shader = DECL.shader().unwrap();
+        let cap = default_capacity(gpu(), depth, frags.len());
+        let case = case_for(gpu(), depth, cap, &frags, "prop".into(), 0);
+        let (comps, ..) = verify_case(gpu(), &shader, &SparseVoxelOctree, &case, None).unwrap();
+        for c in comps {
+            prop_assert!(c.passed(), "{}", c.report());
+        }
+        let o = build(depth, cap, &frags);
+        assert_matches_dense(&o, &frags);
+        prop_assert!(shared_voxels_consistent(&o).is_ok());
+    }
+}
+
+#[test]
+fn shared_voxels_are_consistent_after_every_level() {
+    // The mirror's passes one level at a time: after each level's transfer (and rounding) every voxel
+    // two face neighbours share holds one value.
+    let (depth, frags, _) = generated(5, 2);
+    let mut o = Octree::empty(depth, default_capacity(gpu(), depth, frags.len()));
+    o.build_structure(&frags);
+    o.splat(&frags);
+    for l in (0..=depth).rev() {
+        let (active, ring) = o.lists(l);
+        if l < depth {
+            for class in 0..4 {
+                o.distribute(&active, l, class);
+            }
+        }
+        for axis in 0..3 {
+            o.transfer_add(&ring, axis);
+            o.transfer_copy(&ring, axis);
+        }
+        if l < depth {
+            o.round_level(&ring);
+        }
+        shared_voxels_consistent(&o).unwrap_or_else(|e| panic!("after level {l}: {e}"));
+        if l > 0 {
+            o.mark_parents(&ring);
+        }
+    }
+}
+
+#[test]
+fn unlit_nodes_are_skipped_and_sparse_input_costs_less_than_dense() {
+    // Geometry everywhere, values on a tenth of it: the active lists hold fewer nodes than exist.
+    let (depth, frags, label) = generated(1, 6);
+    let o = build_on_gpu(gpu(), depth, &frags, None).unwrap().octree;
+    let leaves = (o.levels[depth as usize + 1] - o.levels[depth as usize]) * 8;
+    let active = o.stats[2 * depth as usize];
+    let ring = o.stats[2 * depth as usize + 1];
+    assert!(
+        active > 0 && ring < leaves,
+        "{label}: active {active}, ring {ring}, leaves {leaves}"
+    );
+    // A few scattered points at depth 6 take far less than the dense lattices; a full slab at depth 3
+    // takes more than a dense 17^3 lattice would (bricks duplicate shared voxels).
+    let sparse: Vec<Fragment> = (0..10)
+        .map(|i| Fragment {
+            pos: [i * 12, i * 7, 128 - i * 11],
+            _pad: 0,
+            value: [1, 2, 3, 4],
+        })
+        .collect();
+    let m = MemoryReport::of(&build_on_gpu(gpu(), 6, &sparse, None).unwrap().octree);
+    assert!(m.bytes * 10 < m.dense_bytes, "{m:?}");
+    assert_eq!(m.nodes, m.bricks);
+}
+
+#[test]
+fn bad_input_is_an_error_not_corruption() {
+    let f = |pos: [u32; 3], v: u32| Fragment {
+        pos,
+        _pad: 0,
+        value: [v; 4],
+    };
+    assert!(matches!(
+        build_on_gpu(gpu(), 0, &[f([0; 3], 1)], None),
+        Err(SvoError::Depth(0))
+    ));
+    assert!(matches!(
+        build_on_gpu(gpu(), 10, &[f([0; 3], 1)], None),
+        Err(SvoError::Depth(10))
+    ));
+    // Depth 2: lattice points 0..=8.
+    let e = build_on_gpu(gpu(), 2, &[f([1, 1, 1], 1), f([0, 9, 0], 1)], None).unwrap_err();
+    assert!(matches!(e, SvoError::Outside { index: 1, .. }), "{e}");
+    // A pool of two tiles cannot hold a depth-4 tree: an error naming what was asked for.
+    let e = build_on_gpu(gpu(), 4, &[f([5, 9, 30], 1)], Some(2)).unwrap_err();
+    match &e {
+        SvoError::Pool {
+            capacity: 2,
+            needed,
+            ..
+        } => assert!(*needed > 2, "{e}"),
+        other => panic!("expected a pool error, got {other}"),
+    }
+    // Sums past u32: an error, never a wrapped value.
+    let e = build_on_gpu(gpu(), 2, &[f([2, 2, 2], u32::MAX), f([2, 2, 2], 5)], None).unwrap_err();
+    assert!(matches!(e, SvoError::Overflow), "{e}");
+    // An empty fragment list is a valid (empty) octree: the root alone.
+    let o = build_on_gpu(gpu(), 3, &[], None).unwrap().octree;
+    assert_eq!(o.levels[1], 1);
+    assert_eq!(o.levels[4], 1);
+}
