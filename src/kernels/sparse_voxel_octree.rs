@@ -603,3 +603,41 @@ pub fn build_on_gpu(
         phase_ns,
     })
 }
+
+/// The fragments of a lit scene, the paper's setting: `scene` voxelized at `2 * 2^depth` voxels per
+/// axis (each voxel one point of the leaf vertex lattice), lit by its lights (`voxel_light`, on the GPU);
+/// values: radiance RGB and a "lit" channel, in fixed point with `scale`. Unlit voxels are fragments with
+/// zero values: they build the structure but receive nothing, which is what the work lists skip.
+pub fn scene_fragments(
+    ctx: &GpuContext,
+    scene: &crate::scene::Scene,
+    depth: u32,
+    scale: f32,
+) -> anyhow::Result<Vec<Fragment>> {
+    if depth == 0 || depth > 8 {
+        anyhow::bail!(
+            "scene fragments need depth 1..=8 (voxelize takes at most 512 voxels per axis)"
+        );
+    }
+    let side = 2u32 << depth;
+    let data = crate::trace::SceneData::new(scene);
+    let (grid, list, frame) = super::voxelize::voxelize_on_gpu(ctx, scene, side)?;
+    let radiance = super::voxel_light::light_on_gpu(ctx, &data, &grid, &list, &frame)?;
+    list.iter()
+        .map(|&m| {
+            let r = radiance[m as usize];
+            let lit = r[0] > 0.0 || r[1] > 0.0 || r[2] > 0.0;
+            Ok(Fragment {
+                pos: vxgi_cpu_mirror::morton::decode(m),
+                _pad: 0,
+                value: [
+                    to_fixed(r[0], scale)?,
+                    to_fixed(r[1], scale)?,
+                    to_fixed(r[2], scale)?,
+                    if lit { to_fixed(1.0, scale)? } else { 0 },
+                ],
+            })
+        })
+        .collect::<Result<_, SvoError>>()
+        .map_err(Into::into)
+}
