@@ -3,7 +3,7 @@
 // vertex-centred brick per node, values splatted in u32 fixed point with integer atomics, brick border
 // transfer (add along +axis, copy back; per axis, no atomics) and distribution over levels.
 // Mirror: cpu_mirror/src/sparse_voxel_octree.rs (its module doc has the model: lattice, halo rule,
-// distribution weights, work lists).
+// distribution weights, work lists). Node layout and descent: kernels/common/svo_node.wgsl.
 //
 // Entry points, in order (params.level / params.variant say which level, axis or class):
 //   build, for level l = 1..=depth:
@@ -26,8 +26,6 @@
 // Everything is integer: GPU and mirror agree exactly; the free allocation order is canonicalised
 // (records sorted by node key, pointers replaced by keys) before comparing.
 
-const NONE: u32 = 0xffffffffu;
-const BRICK_WORDS: u32 = 108u;
 const FLAG_SUBDIVIDE: u32 = 1u;
 const FLAG_ACTIVE: u32 = 2u;
 const FLAG_RING: u32 = 4u;
@@ -36,14 +34,6 @@ const ERR_OVERFLOW: u32 = 2u;
 const ERR_OUTSIDE: u32 = 4u;
 const SLOT_RING: u32 = 10u;
 const SLOT_CLASS: u32 = 11u;
-
-struct Node {
-    key: u32,
-    parent: u32,
-    child: u32,
-    // -x, +x, -y, +y, -z, +z
-    neighbours: array<u32, 6>,
-}
 
 struct Fragment {
     pos: vec3<u32>,
@@ -79,29 +69,6 @@ fn linear(gid: vec3<u32>, groups: vec3<u32>) -> u32 {
     return gid.x + gid.y * groups.x * 64u;
 }
 
-fn key_of(level: u32, c: vec3<u32>) -> u32 {
-    return (level << 27u) | (c.x << 18u) | (c.y << 9u) | c.z;
-}
-
-fn coords_of(k: u32) -> vec3<u32> {
-    return vec3<u32>((k >> 18u) & 511u, (k >> 9u) & 511u, k & 511u);
-}
-
-// The node at (level, c), descending from the root along child pointers; NONE where a tile is missing.
-fn find(level: u32, c: vec3<u32>) -> u32 {
-    var n = 0u;
-    for (var k = 1u; k <= level; k = k + 1u) {
-        let t = nodes[n].child;
-        if (t == NONE) {
-            return NONE;
-        }
-        let s = level - k;
-        let b = (c >> vec3<u32>(s)) & vec3<u32>(1u);
-        n = t * 8u + b.x + 2u * b.y + 4u * b.z;
-    }
-    return n;
-}
-
 // Dispatch arguments for `count` threads of 64 in slot `slot`: 1D while it fits, else x * y.
 fn write_args(slot: u32, count: u32) {
     let groups = (count + 63u) / 64u;
@@ -123,10 +90,6 @@ fn add_checked(x: u32, y: u32) -> u32 {
         return 0xffffffffu;
     }
     return x + y;
-}
-
-fn voxel_index(v: vec3<u32>) -> u32 {
-    return v.x + 3u * v.y + 9u * v.z;
 }
 
 fn outside(p: vec3<u32>) -> bool {

@@ -17,6 +17,7 @@ pub mod radix_sort;
 pub mod sample_lrsm;
 pub mod sparse_voxel_octree;
 pub mod surface_coverage_mip;
+pub mod svo_sample;
 pub mod tile_normal_histogram;
 pub mod voxel_light;
 pub mod voxelize;
@@ -34,6 +35,12 @@ pub const LRSM_MATH: (&str, &str) = (
 pub const LIGHTS: (&str, &str) = (
     "kernels/common/lights.wgsl",
     include_str!("../../kernels/common/lights.wgsl"),
+);
+
+/// The sparse voxel octree's node layout and descent, included by sparse_voxel_octree and svo_sample.
+pub const SVO_NODE: (&str, &str) = (
+    "kernels/common/svo_node.wgsl",
+    include_str!("../../kernels/common/svo_node.wgsl"),
 );
 
 /// Every declared kernel, in the order `vxgi verify` runs them.
@@ -58,6 +65,7 @@ pub fn all() -> Vec<&'static dyn Kernel> {
         &voxel_light::VoxelLight,
         &cone_trace::ConeTrace,
         &sparse_voxel_octree::SparseVoxelOctree,
+        &svo_sample::SvoSample,
     ]
 }
 

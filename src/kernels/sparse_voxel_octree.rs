@@ -22,7 +22,7 @@ pub static DECL: KernelDecl = KernelDecl {
     name: "sparse_voxel_octree",
     wgsl_path: "kernels/sparse_voxel_octree.wgsl",
     wgsl: include_str!("../../kernels/sparse_voxel_octree.wgsl"),
-    includes: &[],
+    includes: &[super::SVO_NODE],
     entry: "flag_parents",
     inputs: &["params", "fragments"],
     // Integer arithmetic only (atomic adds, shifts, saturating checks): exact. Nodes, bricks and flags
