@@ -17,7 +17,7 @@ fn ms(t: Instant) -> f64 {
 fn main() {
     let ctx = GpuContext::new().expect("GPU adapter (see README: install mesa-vulkan-drivers)");
     eprintln!("adapter: {}", ctx.describe());
-    println!("| depth (leaf lattice) | fragments (lit) | nodes | memory vs dense | phase | GPU ms | mirror ms | work skipped |");
+    println!("| depth (leaf lattice) | fragments (lit) | nodes | memory: octree / dense lattices / vct-dense pyramids | phase | GPU ms | mirror ms | work skipped |");
     println!("|---|---|---|---|---|---|---|---|");
     for depth in [5u32, 6] {
         let scene = Scene::cornell_box();
@@ -102,12 +102,13 @@ fn main() {
         };
         let side = 2u32 << depth;
         let head = format!(
-            "| {depth} ({}^3) | {} ({lit}) | {} | {:.1} MB vs {:.1} MB |",
+            "| {depth} ({}^3) | {} ({lit}) | {} | {:.1} / {:.1} / {:.1} MB |",
             side + 1,
             frags.len(),
             mem.nodes,
             mem.bytes as f64 / 1e6,
-            mem.dense_bytes as f64 / 1e6
+            mem.dense_bytes as f64 / 1e6,
+            mem.vct_dense_bytes as f64 / 1e6
         );
         let skip = |done: u64, all: u64| {
             format!(

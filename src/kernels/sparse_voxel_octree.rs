@@ -492,7 +492,11 @@ pub struct MemoryReport {
     pub nodes: u64,
     pub bricks: u64,
     pub bytes: u64,
+    /// The dense vertex lattices of every level, four u32 channels per point.
     pub dense_bytes: u64,
+    /// vct-dense at the same effective resolution: the Morton radiance and normal pyramids (vec4<f32>
+    /// per voxel, every level) of a grid with one voxel per leaf lattice interval (`2 * 2^depth`).
+    pub vct_dense_bytes: u64,
 }
 
 impl MemoryReport {
@@ -508,6 +512,7 @@ impl MemoryReport {
             bricks: nodes,
             bytes: nodes * (NODE_BYTES + BRICK_BYTES),
             dense_bytes: dense_points * 16,
+            vct_dense_bytes: 2 * 16 * (0..=o.depth + 1).map(|l| 1u64 << (3 * l)).sum::<u64>(),
         }
     }
 }
