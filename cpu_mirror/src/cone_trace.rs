@@ -69,6 +69,14 @@ pub fn pyramid_len(side: u32) -> usize {
     level_offset(side, side.trailing_zeros() + 1)
 }
 
+/// What the cones read: pre-multiplied (L * alpha, alpha) at a world point and fractional mip level
+/// (cell s0 * 2^lf; below 0 level 0, past the top the top level), with the error its sample point's
+/// rounding allows. The dense pyramid here; the sparse voxel octree in `svo_cone_trace`.
+pub trait Volume {
+    fn params(&self) -> &ConeParams;
+    fn sample(&self, x: Vec3, lf: f32) -> (Vec4, SampleError);
+}
+
 pub struct Pyramid<'a> {
     pub p: &'a ConeParams,
     pub voxels: &'a [[f32; 4]],
@@ -125,6 +133,16 @@ impl Pyramid<'_> {
 
     /// Quadrilinear sample at mip level `lf`, and its error from the sample point's rounding.
     pub fn sample(&self, x: Vec3, lf: f32) -> (Vec4, SampleError) {
+        Volume::sample(self, x, lf)
+    }
+}
+
+impl Volume for Pyramid<'_> {
+    fn params(&self) -> &ConeParams {
+        self.p
+    }
+
+    fn sample(&self, x: Vec3, lf: f32) -> (Vec4, SampleError) {
         let top = self.p.levels - 1;
         let lf = lf.max(0.0);
         let l0 = lf.floor();
@@ -156,8 +174,8 @@ pub struct ConeResult {
 }
 
 /// `cos_n`: cosine between the cone and the origin surface's normal (for the mip clamp).
-pub fn march(pyr: &Pyramid, o: Vec3, d: Vec3, tan: f32, cos_n: f32, lmax: f32) -> ConeResult {
-    let p = pyr.p;
+pub fn march(pyr: &impl Volume, o: Vec3, d: Vec3, tan: f32, cos_n: f32, lmax: f32) -> ConeResult {
+    let p = pyr.params();
     let s0 = p.origin[3];
     let inv_s0 = p.inv_s0;
     let max_dist = p.side as f32 * s0 * 1.732_050_8;
@@ -272,7 +290,7 @@ pub const MAG: f32 = 4e-4;
 /// One pixel: indirect radiance (rgb, 0), AO (a, a, a, 0), and their bounds.
 #[allow(clippy::too_many_arguments)]
 pub fn shade_pixel(
-    pyr: &Pyramid,
+    pyr: &impl Volume,
     frame: &Frame,
     tris: &[GpuTriangle],
     materials: &[GpuMaterial],
@@ -283,7 +301,7 @@ pub fn shade_pixel(
     albedo: [f32; 4],
     lmax: f32,
 ) -> [[f32; 4]; 4] {
-    let p = pyr.p;
+    let p = pyr.params();
     if normal[3] == 0.0 || triangle as usize >= tris.len() {
         return [[0.0; 4]; 4];
     }

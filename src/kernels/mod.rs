@@ -37,6 +37,13 @@ pub const LIGHTS: (&str, &str) = (
     include_str!("../../kernels/common/lights.wgsl"),
 );
 
+/// The cone tracer (bindings, march, pixel entry), included by cone_trace and svo_cone_trace, which
+/// each define the volume it samples (`sample_volume`).
+pub const CONE_MARCH: (&str, &str) = (
+    "kernels/common/cone_march.wgsl",
+    include_str!("../../kernels/common/cone_march.wgsl"),
+);
+
 /// The sparse voxel octree's node layout and descent, included by sparse_voxel_octree and svo_sample.
 pub const SVO_NODE: (&str, &str) = (
     "kernels/common/svo_node.wgsl",

@@ -1,0 +1,173 @@
+// common/cone_march.wgsl — the cone tracer shared by cone_trace.wgsl (dense radiance pyramid) and
+// svo_cone_trace.wgsl (sparse voxel octree): frame, scene and G-buffer bindings, the cone parameters, the
+// march (front-to-back, step-corrected alpha, AO falloff, early exit) and the per-pixel entry `main`
+// (diffuse cones + one glossy cone). The including kernel defines the volume the cones read:
+//   fn sample_volume(x: vec3<f32>, lf: f32) -> vec4<f32>
+// the pre-multiplied (L * alpha, alpha) at world point x and fractional mip level lf (cell s0 * 2^lf;
+// lf < 0 reads level 0, past the top the top level). Mirror: cpu_mirror/src/cone_trace.rs (`march`,
+// `shade_pixel`, generic over `Volume`). See cone_trace.wgsl's header for the full definition.
+
+struct Frame {
+    eye: vec4<f32>,
+    forward: vec4<f32>,
+    right: vec4<f32>,
+    up: vec4<f32>,
+    size: vec4<u32>,
+}
+
+struct Triangle {
+    a: vec4<f32>,
+    b: vec4<f32>,
+    c: vec4<f32>,
+    na: vec4<f32>,
+    nb: vec4<f32>,
+    nc: vec4<f32>,
+}
+
+struct Material {
+    diffuse: vec4<f32>,
+    specular: vec4<f32>,
+    texture: vec4<u32>,   // read by gbuffer (gb_albedo), not here
+}
+
+struct ConeParams {
+    origin: vec4<f32>,   // xyz, w = s0
+    ao_range: f32,
+    ao_lambda: f32,
+    diffuse_tan: f32,
+    offset_voxels: f32,
+    diffuse_cones: u32,
+    levels: u32,
+    side: u32,
+    inv_s0: f32,
+    mip_clamp: f32,     // 0 = off; else cap the level at log2(D / (mip_clamp s0)), D = distance from the origin plane
+    step_factor: f32,   // step = diameter * step_factor (CPRC 4: 0.5); first sample half a step out
+    _pad1: u32,
+    _pad2: u32,
+}
+
+@group(0) @binding(0) var<storage, read> frame: Frame;
+@group(0) @binding(1) var<storage, read> triangles: array<Triangle>;
+@group(0) @binding(2) var<storage, read> materials: array<Material>;
+@group(0) @binding(3) var<storage, read> gb_position: array<vec4<f32>>;
+@group(0) @binding(4) var<storage, read> gb_normal: array<vec4<f32>>;
+@group(0) @binding(5) var<storage, read> gb_triangle: array<u32>;
+@group(0) @binding(6) var<storage, read> cone: ConeParams;
+@group(0) @binding(7) var<storage, read> cone_dirs: array<vec4<f32>>;
+@group(0) @binding(9) var<storage, read_write> indirect: array<vec4<f32>>;
+@group(0) @binding(10) var<storage, read_write> ao: array<vec4<f32>>;
+@group(0) @binding(11) var<storage, read> gb_albedo: array<vec4<f32>>;
+
+const OPAQUE: f32 = 0.99609375;  // 1 - 1/256
+
+struct ConeOut {
+    radiance: vec3<f32>,
+    occlusion: f32,
+}
+
+fn march(o: vec3<f32>, d: vec3<f32>, tan_half: f32, cos_n: f32) -> ConeOut {
+    let s0 = cone.origin.w;
+    let max_dist = f32(cone.side) * s0 * 1.7320508;
+    let sf = cone.step_factor;
+    let grow = 1.0 + 2.0 * sf * tan_half;
+    let dl = log2(grow);
+    var diam = 0.75 * s0;
+    var lf = -0.4150375;
+    var t = diam * (0.5 * sf);
+    var c_acc = vec3<f32>(0.0);
+    var a_acc = 0.0;
+    var occ = 0.0;
+    let off = cone.offset_voxels * s0;
+    while (t <= max_dist && a_acc < OPAQUE) {
+        var l = lf;
+        if (cone.mip_clamp > 0.0) {
+            let plane = off + t * max(cos_n, 0.0);
+            l = min(l, log2(plane * cone.inv_s0 / cone.mip_clamp));
+        }
+        let s = sample_volume(o + d * t, l);
+        let step = diam * sf;
+        var ratio = sf * min(diam * cone.inv_s0, 1.0);
+        if (l < lf) {
+            ratio = step * cone.inv_s0 / exp2(max(l, 0.0));
+        }
+        let a = clamp(s.w, 0.0, 1.0);
+        var a2 = 0.0;
+        var c2 = vec3<f32>(0.0);
+        if (a > 0.0) {
+            let keep = 1.0 - a;
+            var kept = 0.0;
+            if (keep > 0.0) {
+                kept = pow(keep, ratio);
+            }
+            a2 = 1.0 - kept;
+            c2 = s.xyz * (a2 / a);
+        }
+        let vis = 1.0 - a_acc;
+        c_acc += c2 * vis;
+        if (t <= cone.ao_range) {
+            occ += vis * a2 / (1.0 + cone.ao_lambda * t);
+        }
+        a_acc += vis * a2;
+        t += step;
+        diam *= grow;
+        lf += dl;
+    }
+    return ConeOut(c_acc, occ);
+}
+
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let pix = gid.x + gid.y * groups.x * 64u;
+    if (pix >= arrayLength(&indirect)) {
+        return;
+    }
+    let nrm = gb_normal[pix];
+    let ti = gb_triangle[pix];
+    if (nrm.w == 0.0 || ti >= arrayLength(&triangles)) {
+        indirect[pix] = vec4<f32>(0.0);
+        ao[pix] = vec4<f32>(0.0);
+        return;
+    }
+    let front = nrm.w > 0.0;
+    let tri = triangles[ti];
+    let m = materials[min(u32(tri.a.w), arrayLength(&materials) - 1u)];
+    let sgn = select(-1.0, 1.0, front);
+    let n = nrm.xyz * sgn;
+    let fc = cross(tri.b.xyz - tri.a.xyz, tri.c.xyz - tri.a.xyz);
+    let ng = fc * (1.0 / sqrt(dot(fc, fc))) * sgn;
+    let pos = gb_position[pix].xyz;
+    let s0 = cone.origin.w;
+    let o = pos + ng * (cone.offset_voxels * s0);
+    var up = vec3<f32>(0.0, 0.0, 1.0);
+    if (abs(n.z) >= 0.999) {
+        up = vec3<f32>(1.0, 0.0, 0.0);
+    }
+    let tt = cross(up, n);
+    let bt = tt * (1.0 / sqrt(dot(tt, tt)));
+    let bb = cross(n, bt);
+    var diffuse = vec3<f32>(0.0);
+    var occ = 0.0;
+    for (var k = 0u; k < cone.diffuse_cones; k++) {
+        let c = cone_dirs[k];
+        let dir = bt * c.x + bb * c.y + n * c.z;
+        let r = march(o, dir, cone.diffuse_tan, c.z);
+        diffuse += r.radiance * c.w;
+        occ += r.occlusion * c.w;
+    }
+    let a = clamp(1.0 - occ, 0.0, 1.0);
+    ao[pix] = vec4<f32>(a, a, a, 0.0);
+    if (!front) {
+        indirect[pix] = vec4<f32>(0.0);
+        return;
+    }
+    var result = gb_albedo[pix].xyz * diffuse;   // Kd or the map_Kd texel
+    let ks = m.specular.xyz;
+    if (any(ks != vec3<f32>(0.0))) {
+        let e = frame.eye.xyz - pos;
+        let wo = e * (1.0 / sqrt(dot(e, e)));
+        let refl = n * (2.0 * dot(n, wo)) - wo;
+        let tan_g = clamp(sqrt(2.0 / (m.diffuse.w + 2.0)), 0.02, 1.0);
+        result += ks * march(o, refl, tan_g, dot(refl, n)).radiance;
+    }
+    indirect[pix] = vec4<f32>(result, 0.0);
+}
