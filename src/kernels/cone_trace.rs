@@ -144,6 +144,24 @@ pub fn case_for(
     label: String,
     seed: u64,
 ) -> Case {
+    let f4 = |v: &[[f32; 4]]| HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(v)));
+    let volume = Resources::from([("pyramid".to_string(), f4(pyramid))]);
+    tracer_case(ctx, &DECL, data, gbuffer, params, volume, label, seed)
+}
+
+/// The cone pass of a kernel built on `kernels/common/cone_march.wgsl` (`decl`): the scene, G-buffer
+/// and cone bindings, plus the resources of its volume (`volume`, by binding name).
+#[allow(clippy::too_many_arguments)]
+pub fn tracer_case(
+    ctx: &GpuContext,
+    decl: &KernelDecl,
+    data: &SceneData,
+    gbuffer: &Resources,
+    params: &ConeParams,
+    volume: Resources,
+    label: String,
+    seed: u64,
+) -> Case {
     let (w, h) = (data.width(), data.height());
     let n = w as usize * h as usize;
     let mut resources = scene_resources(data);
@@ -157,7 +175,7 @@ pub fn case_for(
     let dirs = diffuse_cones(params.diffuse_cones, tan);
     let f4 = |v: &[[f32; 4]]| HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(v)));
     resources.insert("cone_dirs".into(), f4(&dirs));
-    resources.insert("pyramid".into(), f4(pyramid));
+    resources.extend(volume);
     for name in ["indirect", "ao"] {
         resources.insert(
             name.into(),
@@ -174,9 +192,9 @@ pub fn case_for(
         seed,
         resources,
         passes: vec![Pass {
-            label: "cone_trace".into(),
+            label: decl.name.into(),
             entry: "main".into(),
-            bindings: DECL.bind_by_name(),
+            bindings: decl.bind_by_name(),
             workgroups: Workgroups::Direct(grid_for(n as u64, 64, max)),
         }],
         checks: ["indirect", "ao"]
@@ -201,25 +219,36 @@ pub fn max_radiance(pyramid: &[[f32; 4]], side: u32) -> f32 {
 
 pub fn mirror_cones(data: &Resources) -> [Vec<[f32; 4]>; 4] {
     let b = |n: &str| data[n].buffer().expect("buffer");
-    let frame: Frame = *bytemuck::from_bytes(&b("frame").bytes);
     let params: ConeParams = *bytemuck::from_bytes(&b("cone").bytes);
+    let voxels: &[[f32; 4]] = bytemuck::cast_slice(&b("pyramid").bytes);
+    let pyr = Pyramid { p: &params, voxels };
+    let lmax = max_radiance(voxels, params.side);
+    shade_all(data, &pyr, lmax)
+}
+
+/// Every pixel of a cone pass's resources through `volume`: indirect, AO and their bounds. `lmax`: the
+/// largest radiance in the volume (allowances for rounding-decided stops scale with it).
+pub fn shade_all(
+    data: &Resources,
+    volume: &(impl vxgi_cpu_mirror::cone_trace::Volume + Sync),
+    lmax: f32,
+) -> [Vec<[f32; 4]>; 4] {
+    let b = |n: &str| data[n].buffer().expect("buffer");
+    let frame: Frame = *bytemuck::from_bytes(&b("frame").bytes);
     let tris: &[GpuTriangle] = bytemuck::cast_slice(&b("triangles").bytes);
     let materials: &[GpuMaterial] = bytemuck::cast_slice(&b("materials").bytes);
     let dirs: &[[f32; 4]] = bytemuck::cast_slice(&b("cone_dirs").bytes);
-    let voxels: &[[f32; 4]] = bytemuck::cast_slice(&b("pyramid").bytes);
     let pos: &[[f32; 4]] = bytemuck::cast_slice(&b("gb_position").bytes);
     let nrm: &[[f32; 4]] = bytemuck::cast_slice(&b("gb_normal").bytes);
     let tri = b("gb_triangle").as_u32();
     let alb: &[[f32; 4]] = bytemuck::cast_slice(&b("gb_albedo").bytes);
-    let pyr = Pyramid { p: &params, voxels };
-    let lmax = max_radiance(voxels, params.side);
     let px: Vec<[[f32; 4]; 4]> = {
         use rayon::prelude::*;
         (0..tri.len())
             .into_par_iter()
             .map(|i| {
                 shade_pixel(
-                    &pyr, &frame, tris, materials, dirs, pos[i], nrm[i], tri[i], alb[i], lmax,
+                    volume, &frame, tris, materials, dirs, pos[i], nrm[i], tri[i], alb[i], lmax,
                 )
             })
             .collect()

@@ -17,6 +17,7 @@ pub mod radix_sort;
 pub mod sample_lrsm;
 pub mod sparse_voxel_octree;
 pub mod surface_coverage_mip;
+pub mod svo_cone_trace;
 pub mod svo_sample;
 pub mod tile_normal_histogram;
 pub mod voxel_light;
@@ -73,6 +74,7 @@ pub fn all() -> Vec<&'static dyn Kernel> {
         &cone_trace::ConeTrace,
         &sparse_voxel_octree::SparseVoxelOctree,
         &svo_sample::SvoSample,
+        &svo_cone_trace::SvoConeTrace,
     ]
 }
 

@@ -1,0 +1,189 @@
+//! Declaration of `kernels/svo_cone_trace.wgsl` (mirror: `vxgi_cpu_mirror::svo_cone_trace`): the cone
+//! pass of vct-svo, cone_trace's tracer reading the sparse voxel octree. A case runs the earlier stages
+//! on a generated scene (G-buffer, voxelization, voxel lighting on the GPU), builds the octree of the
+//! lit voxels with the mirror (the builder is verified on its own) and feeds it in.
+use super::cone_trace::{cone_params, shade_all, tracer_case, ConeSettings};
+use super::gbuffer::generated_scene;
+use super::sparse_voxel_octree::{to_fixed, SvoError};
+use super::voxelize::{voxelize_on_gpu, VoxelFrame};
+use crate::trace::SceneData;
+use std::collections::BTreeMap;
+use vxgi_cpu_mirror::cone_trace::ConeParams;
+use vxgi_cpu_mirror::sparse_voxel_octree::{build, capacity_bound, Fragment, Octree};
+use vxgi_cpu_mirror::svo_cone_trace::{SvoParams, SvoVolume};
+use vxgi_harness::compare::bound_name;
+use vxgi_harness::{
+    Case, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Kernel, KernelDecl,
+    Output, Resources, ScalarKind, Shader, Tolerance,
+};
+
+pub static DECL: KernelDecl = KernelDecl {
+    name: "svo_cone_trace",
+    wgsl_path: "kernels/svo_cone_trace.wgsl",
+    wgsl: include_str!("../../kernels/svo_cone_trace.wgsl"),
+    includes: &[super::SVO_NODE, super::CONE_MARCH],
+    entry: "main",
+    inputs: &[
+        "frame", "triangles", "materials", "gb_position", "gb_normal", "gb_triangle", "gb_albedo", "cone", "cone_dirs",
+        "nodes", "bricks", "svo",
+    ],
+    outputs: &[
+        // cone_trace's bound (see `cone_trace::MAG`): the march is the same code; the octree's sample
+        // adds the conversion f32(u32) * inv_scale (two correctly rounded operations per voxel) to the
+        // ~30 operations per sample the bound already covers, and the sample point's rounding is in
+        // the mirror's SampleError as for the pyramid.
+        Output { binding: "indirect", tolerance: Tolerance::MirrorBound },
+        Output { binding: "ao", tolerance: Tolerance::MirrorBound },
+    ],
+    dispatch: DispatchRule::PerElement { binding: "indirect" },
+    mirror: "vxgi_cpu_mirror::cone_trace::shade_pixel (volume: vxgi_cpu_mirror::svo_cone_trace::SvoVolume)",
+    summary: "cone_trace's AO + diffuse + glossy cones marching the sparse voxel octree (quadrilinear brick sampling, VCT 5-7)",
+};
+
+/// Fixed-point scale of the octree's values: 2^16 steps per unit of radiance.
+pub const SCALE: f32 = 65536.0;
+
+/// Fragments of a lit voxel grid (Morton order, side `2^(depth + 1)`, voxels `(L * alpha, alpha)` as
+/// voxel_light writes them): one per non-empty voxel, at the leaf lattice point of its index.
+pub fn grid_fragments(radiance: &[[f32; 4]], scale: f32) -> Result<Vec<Fragment>, SvoError> {
+    radiance
+        .iter()
+        .enumerate()
+        .filter(|(_, v)| v.iter().any(|&c| c != 0.0))
+        .map(|(m, v)| {
+            Ok(Fragment {
+                pos: vxgi_cpu_mirror::morton::decode(m as u32),
+                _pad: 0,
+                value: [
+                    to_fixed(v[0], scale)?,
+                    to_fixed(v[1], scale)?,
+                    to_fixed(v[2], scale)?,
+                    to_fixed(v[3], scale)?,
+                ],
+            })
+        })
+        .collect()
+}
+
+/// Cone parameters for an octree of `depth` over the voxel grid `frame` (side `2^(depth + 1)`): mip
+/// levels 0..=depth.
+pub fn svo_cone_params(frame: &VoxelFrame, settings: &ConeSettings) -> ConeParams {
+    let mut p = cone_params(frame, settings);
+    p.levels = frame.side.trailing_zeros(); // depth + 1
+    p
+}
+
+/// The cone pass over a scene whose G-buffer and octree are given (values in fixed point with `scale`).
+#[allow(clippy::too_many_arguments)]
+pub fn case_for(
+    ctx: &GpuContext,
+    data: &SceneData,
+    gbuffer: &Resources,
+    octree: &Octree,
+    scale: f32,
+    params: &ConeParams,
+    label: String,
+    seed: u64,
+) -> Case {
+    let svo = SvoParams {
+        depth: octree.depth,
+        inv_scale: 1.0 / scale,
+        _pad: [0; 2],
+    };
+    let volume = Resources::from([
+        (
+            "nodes".to_string(),
+            HostResource::Buffer(HostBuffer {
+                bytes: bytemuck::cast_slice(&octree.nodes).to_vec(),
+                scalar: ScalarKind::U32,
+            }),
+        ),
+        (
+            "bricks".to_string(),
+            HostResource::Buffer(HostBuffer::u32(&octree.bricks)),
+        ),
+        (
+            "svo".to_string(),
+            HostResource::Buffer(HostBuffer::pod(&svo)),
+        ),
+    ]);
+    tracer_case(ctx, &DECL, data, gbuffer, params, volume, label, seed)
+}
+
+/// Largest radiance the octree holds (allowances for rounding-decided stops scale with it).
+pub fn max_radiance(bricks: &[u32], inv_scale: f32) -> f32 {
+    bricks
+        .chunks_exact(4)
+        .map(|v| v[0].max(v[1]).max(v[2]))
+        .max()
+        .unwrap_or(0) as f32
+        * inv_scale
+}
+
+pub fn mirror_cones(data: &Resources) -> [Vec<[f32; 4]>; 4] {
+    let b = |n: &str| data[n].buffer().expect("buffer");
+    let params: ConeParams = *bytemuck::from_bytes(&b("cone").bytes);
+    let svo: SvoParams = *bytemuck::from_bytes(&b("svo").bytes);
+    let bricks = b("bricks").as_u32();
+    let volume = SvoVolume {
+        p: &params,
+        svo: &svo,
+        nodes: bytemuck::cast_slice(&b("nodes").bytes),
+        bricks,
+    };
+    shade_all(data, &volume, max_radiance(bricks, svo.inv_scale))
+}
+
+pub struct SvoConeTrace;
+
+const SIDES: [u32; 2] = [16, 32];
+
+impl Kernel for SvoConeTrace {
+    fn decl(&self) -> &'static KernelDecl {
+        &DECL
+    }
+    fn case(&self, _shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
+        let (scene, label) = generated_scene(seed, index);
+        let side = SIDES[(index / 4) % SIDES.len()];
+        let depth = side.trailing_zeros() - 1;
+        let data = SceneData::new(&scene);
+        let gb = super::direct_light::gpu_gbuffer(ctx, &data);
+        let (grid, list, frame) =
+            voxelize_on_gpu(ctx, &scene, side).expect("generated grids voxelize");
+        let rad = super::voxel_light::light_on_gpu(ctx, &data, &grid, &list, &frame)
+            .expect("voxel_light runs");
+        let frags = grid_fragments(&rad, SCALE).expect("generated radiance fits the fixed point");
+        let octree = build(depth, capacity_bound(depth, frags.len()) as u32, &frags);
+        let settings = ConeSettings {
+            step_factor: [0.5, 0.75, 1.0][index % 3],
+            mip_clamp: if index % 5 == 4 { 0.0 } else { 2.0 },
+            ..ConeSettings::from(&scene.render)
+        };
+        let params = svo_cone_params(&frame, &settings);
+        case_for(
+            ctx,
+            &data,
+            &gb,
+            &octree,
+            SCALE,
+            &params,
+            format!("{label}, octree depth {depth} ({side}^3 voxels)"),
+            seed,
+        )
+    }
+    fn mirror(
+        &self,
+        _case: &Case,
+        data: &Resources,
+        _mode: FloatMode,
+    ) -> BTreeMap<String, HostBuffer> {
+        let [ind, ao, ind_b, ao_b] = mirror_cones(data);
+        let f = |v: &[[f32; 4]]| HostBuffer::f32(bytemuck::cast_slice(v));
+        BTreeMap::from([
+            ("indirect".to_string(), f(&ind)),
+            (bound_name("indirect"), f(&ind_b)),
+            ("ao".to_string(), f(&ao)),
+            (bound_name("ao"), f(&ao_b)),
+        ])
+    }
+}
