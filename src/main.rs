@@ -122,6 +122,9 @@ enum Command {
 enum Pipeline {
     /// Dense voxel grid + surface-coverage mips + cone tracing (Crassin 2011 / Rehfeld 2014 section 4).
     VctDense,
+    /// Sparse voxel octree (3x3x3 vertex-centred bricks, border transfer, Gaussian distribution over
+    /// levels) + cone tracing through it (Crassin 2011). Octree depth log2(voxels) - 1.
+    VctSvo,
 }
 
 /// Flags overriding the scene file's `[render]` keys (same names).
@@ -207,6 +210,7 @@ fn create_out(dir: &Path) -> Result<()> {
 
 fn run_render(
     plan_only: bool,
+    pipeline: Pipeline,
     scene: Option<PathBuf>,
     out: PathBuf,
     (frames, orbit): (u32, f32),
@@ -216,6 +220,10 @@ fn run_render(
     let cones = ConeSettings::from(&scene.render);
     if frames == 0 || !orbit.is_finite() {
         bail!("--frames must be at least 1 and --orbit finite");
+    }
+    if plan_only && matches!(pipeline, Pipeline::VctSvo) {
+        print!("{}", vxgi::plan::FramePlan::vct_svo(&scene, &cones));
+        return Ok(());
     }
     if plan_only {
         print!("{}", vxgi::plan::FramePlan::vct_dense(&scene, &cones));
@@ -241,9 +249,20 @@ fn run_render(
         };
         create_out(&dir)?;
         let bar = spinner();
-        let r = renderer.render(&ctx, &view, &cones, |stage| {
-            bar.set_message(format!("frame {}/{frames}: {stage}", k + 1))
-        })?;
+        let message = |stage: &str| bar.set_message(format!("frame {}/{frames}: {stage}", k + 1));
+        let r = match pipeline {
+            Pipeline::VctDense => renderer.render(&ctx, &view, &cones, message)?,
+            Pipeline::VctSvo => {
+                let (r, m) = vxgi::render::render_svo(&ctx, &view, &cones, message)?;
+                println!(
+                    "octree: {} nodes and bricks, {:.1} MB (vct-dense's pyramids at this resolution: {:.1} MB)",
+                    m.nodes,
+                    m.bytes as f64 / 1e6,
+                    m.vct_dense_bytes as f64 / 1e6
+                );
+                r
+            }
+        };
         bar.finish_and_clear();
         write_frame(&dir, [&r.direct, &r.indirect, &r.combined, &r.ao])?;
         let stages: Vec<String> = r
@@ -432,12 +451,12 @@ fn real_main() -> Result<()> {
         Command::Render {
             scene,
             out,
-            pipeline: Pipeline::VctDense,
+            pipeline,
             plan,
             frames,
             orbit,
             render,
-        } => run_render(plan, scene, out, (frames, orbit), render),
+        } => run_render(plan, pipeline, scene, out, (frames, orbit), render),
         Command::Reference {
             scene,
             spp,

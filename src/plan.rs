@@ -126,6 +126,38 @@ impl FramePlan {
         }
     }
 
+    /// The vct-svo frame: vct-dense's G-buffer, direct light, voxelization and voxel light, then the
+    /// sparse voxel octree instead of the mip chain and the octree's cone tracer.
+    pub fn vct_svo(scene: &Scene, cones: &ConeSettings) -> Self {
+        let dense = Self::vct_dense(scene, cones);
+        let side = scene.render.voxels;
+        let depth = side.trailing_zeros().saturating_sub(1);
+        let passes = dense
+            .passes
+            .into_iter()
+            .map(|mut p| {
+                match p.stage {
+                    "surface_coverage_mip" => {
+                        p.stage = "sparse_voxel_octree";
+                        p.kernel = "sparse_voxel_octree";
+                        p.size = format!("depth {depth} over {side}^3 voxels, {} levels", depth + 1);
+                        p.why = "build, splat, border transfer, distribution over levels; work lists skip empty nodes".into();
+                    }
+                    "cone_trace" => {
+                        p.stage = "svo_cone_trace";
+                        p.kernel = "svo_cone_trace";
+                    }
+                    _ => {}
+                }
+                p
+            })
+            .collect();
+        Self {
+            pipeline: "vct-svo",
+            passes,
+        }
+    }
+
     /// The stages the plan skips, in order.
     pub fn skipped(&self) -> Vec<&'static str> {
         self.passes

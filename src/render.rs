@@ -268,67 +268,17 @@ fn render_frame(
     use crate::harness::run::run;
     let data = SceneData::new(scene);
     let (w, h) = (data.width(), data.height());
-    let limit = ctx.limits().max_storage_buffer_binding_size;
-    let need = w as u64 * h as u64 * 16;
-    if need > limit {
-        anyhow::bail!(
-            "{w}x{h} needs {need} bytes per G-buffer binding, past the device's \
-             max_storage_buffer_binding_size ({limit})"
-        );
-    }
     let mut stages = Vec::new();
-    let mut timed = |name: &'static str, start: std::time::Instant| {
-        stages.push((name, start.elapsed().as_secs_f64()));
-    };
-    progress("G-buffer");
-    let t = std::time::Instant::now();
-    let gb = direct_light::gpu_gbuffer(ctx, &data);
-    timed("gbuffer", t);
-
-    let direct = if plan.runs("direct_light") {
-        progress("direct light");
-        let t = std::time::Instant::now();
-        let case = direct_light::case_with_gbuffer(ctx, &data, &gb, "render".into(), 0);
-        let shader = direct_light::DECL.shader()?;
-        let out = run(
-            ctx,
-            &shader,
-            "direct_light",
-            &case.resources,
-            &case.passes,
-            &["radiance"],
-        )
-        .context("direct light")?;
-        timed("direct_light", t);
-        image_of(w, h, &out.buffer("radiance").bytes)
-    } else {
-        RgbImage::new(w, h, vec![[0.0; 3]; w as usize * h as usize])
-    };
+    let (gb, direct) = gbuffer_and_direct(ctx, &data, &plan, &mut stages, &progress)?;
 
     if !plan.runs("voxelize") {
         progress("radiance pyramid: reused");
     } else {
-        progress("voxelize");
-        let t = std::time::Instant::now();
-        let (grid, list, frame) = voxelize::voxelize_on_gpu(ctx, scene, scene.render.voxels)?;
-        timed("voxelize", t);
-
-        let rad: Vec<[f32; 4]> = if plan.runs("voxel_light") {
-            progress("voxel light");
-            let t = std::time::Instant::now();
-            let rad = voxel_light::light_on_gpu(ctx, &data, &grid, &list, &frame)
-                .context("voxel light")?;
-            timed("voxel_light", t);
-            rad
-        } else {
-            // No lights: radiance 0; filled voxels keep their alpha (AO still sees the geometry).
-            grid.colour.iter().map(|c| [0.0, 0.0, 0.0, c[3]]).collect()
-        };
-
+        let (rad, normal, frame) = lit_voxels(ctx, scene, &data, &plan, &mut stages, &progress)?;
         progress("mip chain");
         let t = std::time::Instant::now();
-        let pyramid = cone_trace::gpu_pyramid(ctx, &rad, &grid.normal, frame.side)?;
-        timed("surface_coverage_mip", t);
+        let pyramid = cone_trace::gpu_pyramid(ctx, &rad, &normal, frame.side)?;
+        stages.push(("surface_coverage_mip", t.elapsed().as_secs_f64()));
         *cache = Some((key, pyramid, frame));
     }
     let (_, pyramid, frame) = cache.as_ref().expect("built or reused above");
@@ -348,7 +298,7 @@ fn render_frame(
     .context("cone tracing")?;
     let indirect = image_of(w, h, &out.buffer("indirect").bytes);
     let ao = image_of(w, h, &out.buffer("ao").bytes);
-    timed("cone_trace", t);
+    stages.push(("cone_trace", t.elapsed().as_secs_f64()));
 
     let combined = RgbImage::new(w, h, crate::images::add(&direct.pixels, &indirect.pixels));
     Ok(Rendered {
@@ -359,6 +309,145 @@ fn render_frame(
         stages,
         plan,
     })
+}
+
+type Stages = Vec<(&'static str, f64)>;
+
+/// The G-buffer and, where the plan runs it, direct light (exact shadow rays): the first stages of
+/// every pipeline.
+fn gbuffer_and_direct(
+    ctx: &crate::harness::GpuContext,
+    data: &SceneData,
+    plan: &FramePlan,
+    stages: &mut Stages,
+    progress: &impl Fn(&str),
+) -> Result<(crate::harness::Resources, RgbImage)> {
+    let (w, h) = (data.width(), data.height());
+    let limit = ctx.limits().max_storage_buffer_binding_size;
+    let need = w as u64 * h as u64 * 16;
+    if need > limit {
+        anyhow::bail!(
+            "{w}x{h} needs {need} bytes per G-buffer binding, past the device's \
+             max_storage_buffer_binding_size ({limit})"
+        );
+    }
+    progress("G-buffer");
+    let t = std::time::Instant::now();
+    let gb = direct_light::gpu_gbuffer(ctx, data);
+    stages.push(("gbuffer", t.elapsed().as_secs_f64()));
+    let direct = if plan.runs("direct_light") {
+        progress("direct light");
+        let t = std::time::Instant::now();
+        let case = direct_light::case_with_gbuffer(ctx, data, &gb, "render".into(), 0);
+        let shader = direct_light::DECL.shader()?;
+        let out = crate::harness::run::run(
+            ctx,
+            &shader,
+            "direct_light",
+            &case.resources,
+            &case.passes,
+            &["radiance"],
+        )
+        .context("direct light")?;
+        stages.push(("direct_light", t.elapsed().as_secs_f64()));
+        image_of(w, h, &out.buffer("radiance").bytes)
+    } else {
+        RgbImage::new(w, h, vec![[0.0; 3]; w as usize * h as usize])
+    };
+    Ok((gb, direct))
+}
+
+/// Voxelize and light the scene: the lit voxel grid `(L * alpha, alpha)` (Morton order), its normals
+/// and its frame. Without lights (the plan skips voxel_light) the voxels keep their alpha and hold no
+/// radiance, so AO still sees the geometry.
+fn lit_voxels(
+    ctx: &crate::harness::GpuContext,
+    scene: &Scene,
+    data: &SceneData,
+    plan: &FramePlan,
+    stages: &mut Stages,
+    progress: &impl Fn(&str),
+) -> Result<(Vec<[f32; 4]>, Vec<[f32; 4]>, voxelize::VoxelFrame)> {
+    progress("voxelize");
+    let t = std::time::Instant::now();
+    let (grid, list, frame) = voxelize::voxelize_on_gpu(ctx, scene, scene.render.voxels)?;
+    stages.push(("voxelize", t.elapsed().as_secs_f64()));
+    let rad = if plan.runs("voxel_light") {
+        progress("voxel light");
+        let t = std::time::Instant::now();
+        let rad =
+            voxel_light::light_on_gpu(ctx, data, &grid, &list, &frame).context("voxel light")?;
+        stages.push(("voxel_light", t.elapsed().as_secs_f64()));
+        rad
+    } else {
+        grid.colour.iter().map(|c| [0.0, 0.0, 0.0, c[3]]).collect()
+    };
+    Ok((rad, grid.normal, frame))
+}
+
+/// The vct-svo pipeline (Crassin et al. 2011): G-buffer and direct light as vct-dense; the lit voxels
+/// become fragments of a sparse voxel octree of depth log2(voxels) - 1 (leaf lattice = the voxel grid),
+/// built, splatted, border-transferred and filtered over its levels on the GPU (`sparse_voxel_octree`),
+/// then cone-traced through the octree (`svo_cone_trace`: cone_trace's tracer on quadrilinear brick
+/// samples). Returns the frame and the octree's memory report (its actual allocation).
+pub fn render_svo(
+    ctx: &crate::harness::GpuContext,
+    scene: &Scene,
+    cones: &ConeSettings,
+    progress: impl Fn(&str),
+) -> Result<(Rendered, crate::kernels::sparse_voxel_octree::MemoryReport)> {
+    use crate::kernels::{sparse_voxel_octree as svo, svo_cone_trace};
+    let plan = FramePlan::vct_svo(scene, cones);
+    let data = SceneData::new(scene);
+    let (w, h) = (data.width(), data.height());
+    let mut stages = Vec::new();
+    let (gb, direct) = gbuffer_and_direct(ctx, &data, &plan, &mut stages, &progress)?;
+    let (rad, _, frame) = lit_voxels(ctx, scene, &data, &plan, &mut stages, &progress)?;
+    progress("sparse voxel octree");
+    let t = std::time::Instant::now();
+    let depth = frame.side.trailing_zeros() - 1;
+    let frags = svo_cone_trace::grid_fragments(&rad, svo_cone_trace::SCALE)?;
+    let built = svo::build_on_gpu(ctx, depth, &frags, None).context("sparse voxel octree")?;
+    stages.push(("sparse_voxel_octree", t.elapsed().as_secs_f64()));
+    let memory = svo::MemoryReport::of(&built.octree);
+
+    progress("cone tracing");
+    let t = std::time::Instant::now();
+    let params = svo_cone_trace::svo_cone_params(&frame, cones);
+    let case = svo_cone_trace::case_for(
+        ctx,
+        &data,
+        &gb,
+        &built.octree,
+        svo_cone_trace::SCALE,
+        &params,
+        "render".into(),
+        0,
+    );
+    let out = crate::harness::run::run(
+        ctx,
+        &svo_cone_trace::DECL.shader()?,
+        "svo_cone_trace",
+        &case.resources,
+        &case.passes,
+        &["indirect", "ao"],
+    )
+    .context("cone tracing")?;
+    let indirect = image_of(w, h, &out.buffer("indirect").bytes);
+    let ao = image_of(w, h, &out.buffer("ao").bytes);
+    stages.push(("svo_cone_trace", t.elapsed().as_secs_f64()));
+    let combined = RgbImage::new(w, h, crate::images::add(&direct.pixels, &indirect.pixels));
+    Ok((
+        Rendered {
+            direct,
+            indirect,
+            combined,
+            ao,
+            stages,
+            plan,
+        },
+        memory,
+    ))
 }
 
 fn image_of(w: u32, h: u32, bytes: &[u8]) -> RgbImage {

@@ -38,8 +38,8 @@ pub fn vct_dense_memory(scene: &Scene) -> u64 {
         + pyramid * 32
 }
 
-/// Render every scene with the reference (`spp`) and vct-dense, write the images under `out`
-/// (`<scene>/reference/`, `<scene>/vct-dense/`) and report.md; return the rows.
+/// Render every scene with the reference (`spp`), vct-dense and vct-svo, write the images under `out`
+/// (`<scene>/reference/`, `<scene>/vct-dense/`, `<scene>/vct-svo/`) and report.md; return the rows.
 pub fn report(
     ctx: &crate::harness::GpuContext,
     scenes: &[(String, Scene)],
@@ -71,45 +71,56 @@ pub fn report(
             ],
         )?;
 
-        progress(&format!("{name}: vct-dense"));
         let cones = ConeSettings::from(&scene.render);
-        let r = crate::render::render(ctx, scene, &cones, |_| {})?;
-        let vdir = dir.join("vct-dense");
-        std::fs::create_dir_all(&vdir).with_context(|| format!("creating {}", vdir.display()))?;
-        write_frame(&vdir, [&r.direct, &r.indirect, &r.combined, &r.ao])?;
-        let p = Path::new(name);
-        let ind = compare(&ref_indirect, p, &r.indirect, p)?;
-        let comb = compare(&ref_combined, p, &r.combined, p)?;
-        let leak = name
-            .contains("thin_wall")
-            .then(|| leak(&r.indirect.pixels, &pixel_positions(scene), 0.0, 1.0 / 64.0));
-        let row = ReportRow {
-            pipeline: "vct-dense",
-            scene: name.clone(),
-            seconds: r.stages.iter().map(|s| s.1).sum(),
-            indirect_flip: ind.flip_mean,
-            combined_flip: comb.flip_mean,
-            memory: vct_dense_memory(scene),
-            leak,
-        };
-        let _ = writeln!(
-            md,
-            "| {} | {} | {:.2} s | {:.3} | {:.3} | {:.1} MB | {} |",
-            row.pipeline,
-            row.scene,
-            row.seconds,
-            row.indirect_flip,
-            row.combined_flip,
-            row.memory as f64 / 1e6,
-            row.leak
-                .map(|l| format!("{l:.4}"))
-                .unwrap_or_else(|| "-".into())
-        );
+        for pipeline in ["vct-dense", "vct-svo"] {
+            progress(&format!("{name}: {pipeline}"));
+            let (r, memory) = if pipeline == "vct-dense" {
+                let r = crate::render::render(ctx, scene, &cones, |_| {})?;
+                (r, vct_dense_memory(scene))
+            } else {
+                let (r, m) = crate::render::render_svo(ctx, scene, &cones, |_| {})?;
+                // vct-dense's buffers with the octree (its actual allocation) for the pyramid.
+                let pyramid = pyramid_len(scene.render.voxels) as u64 * 32;
+                (r, vct_dense_memory(scene) - pyramid + m.bytes)
+            };
+            let vdir = dir.join(pipeline);
+            std::fs::create_dir_all(&vdir)
+                .with_context(|| format!("creating {}", vdir.display()))?;
+            write_frame(&vdir, [&r.direct, &r.indirect, &r.combined, &r.ao])?;
+            let p = Path::new(name);
+            let ind = compare(&ref_indirect, p, &r.indirect, p)?;
+            let comb = compare(&ref_combined, p, &r.combined, p)?;
+            let leak = name
+                .contains("thin_wall")
+                .then(|| leak(&r.indirect.pixels, &pixel_positions(scene), 0.0, 1.0 / 64.0));
+            let row = ReportRow {
+                pipeline,
+                scene: name.clone(),
+                seconds: r.stages.iter().map(|s| s.1).sum(),
+                indirect_flip: ind.flip_mean,
+                combined_flip: comb.flip_mean,
+                memory,
+                leak,
+            };
+            let _ = writeln!(
+                md,
+                "| {} | {} | {:.2} s | {:.3} | {:.3} | {:.1} MB | {} |",
+                row.pipeline,
+                row.scene,
+                row.seconds,
+                row.indirect_flip,
+                row.combined_flip,
+                row.memory as f64 / 1e6,
+                row.leak
+                    .map(|l| format!("{l:.4}"))
+                    .unwrap_or_else(|| "-".into())
+            );
+            rows.push(row);
+        }
         let _ = writeln!(
             images,
-            "\n### {name}\n\nreference ({spp} spp) | vct-dense\n---|---\n![]({name}/reference/combined.png) | ![]({name}/vct-dense/combined.png)\n![]({name}/reference/indirect.png) | ![]({name}/vct-dense/indirect.png)\n![]({name}/reference/ao.png) | ![]({name}/vct-dense/ao.png)"
+            "\n### {name}\n\nreference ({spp} spp) | vct-dense | vct-svo\n---|---|---\n![]({name}/reference/combined.png) | ![]({name}/vct-dense/combined.png) | ![]({name}/vct-svo/combined.png)\n![]({name}/reference/indirect.png) | ![]({name}/vct-dense/indirect.png) | ![]({name}/vct-svo/indirect.png)\n![]({name}/reference/ao.png) | ![]({name}/vct-dense/ao.png) | ![]({name}/vct-svo/ao.png)"
         );
-        rows.push(row);
     }
     md.push_str("\ntime: wall clock of the pipeline's stages, transfers between stages included; FLIP: mean LDR-FLIP against the reference (`vxgi compare`); leak: thin_wall only.\n");
     md.push_str(&images);

@@ -292,9 +292,20 @@ fn report_and_plan_commands() {
     }
     let md = std::fs::read_to_string(out.join("report.md")).unwrap();
     assert!(md.contains("| vct-dense | small |"), "{md}");
+    assert!(md.contains("| vct-svo | small |"), "{md}");
     assert!(
         out.join("small/vct-dense/combined.png").exists()
+            && out.join("small/vct-svo/combined.png").exists()
             && out.join("small/reference/combined.exr").exists()
+    );
+    let (code, stdout, _) = vxgi(&["render", "--plan", "--pipeline", "vct-svo"]);
+    assert_eq!(code, 0);
+    assert!(
+        stdout.contains("frame plan (vct-svo)")
+            && stdout.contains("sparse_voxel_octree")
+            && stdout.contains("svo_cone_trace")
+            && !stdout.contains("surface_coverage_mip"),
+        "{stdout}"
     );
 
     let (code, stdout, _) = vxgi(&["render", "--plan"]);
