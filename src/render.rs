@@ -313,6 +313,9 @@ fn render_frame(
 
 type Stages = Vec<(&'static str, f64)>;
 
+/// The lit voxel grid `(L * alpha, alpha)` (Morton order), its normals, its frame.
+type LitVoxels = (Vec<[f32; 4]>, Vec<[f32; 4]>, voxelize::VoxelFrame);
+
 /// The G-buffer and, where the plan runs it, direct light (exact shadow rays): the first stages of
 /// every pipeline.
 fn gbuffer_and_direct(
@@ -367,7 +370,7 @@ fn lit_voxels(
     plan: &FramePlan,
     stages: &mut Stages,
     progress: &impl Fn(&str),
-) -> Result<(Vec<[f32; 4]>, Vec<[f32; 4]>, voxelize::VoxelFrame)> {
+) -> Result<LitVoxels> {
     progress("voxelize");
     let t = std::time::Instant::now();
     let (grid, list, frame) = voxelize::voxelize_on_gpu(ctx, scene, scene.render.voxels)?;
