@@ -461,64 +461,10 @@ fn image_of(w: u32, h: u32, bytes: &[u8]) -> RgbImage {
 /// The same frame computed by the scalar mirrors alone (no GPU): deterministic, so it is what the
 /// snapshot tests store; the GPU image is then compared to it numerically (DESIGN.md section 8).
 pub fn render_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendered> {
-    use rayon::prelude::*;
-    use vxgi_cpu_mirror::{
-        cone_trace as ct, direct_light as dl, gbuffer as gbm, voxel_light as vl,
-    };
-    let data = SceneData::new(scene);
-    let (w, h) = (data.width(), data.height());
-    let texels: Vec<gbm::Texel> = (0..w * h)
-        .into_par_iter()
-        .map(|i| gbm::shade_pixel(&data.frame, &data.nodes, &data.triangles, i % w, i / w))
-        .collect();
-    let tex = data.textures();
-    let albedo: Vec<[f32; 4]> = texels
-        .iter()
-        .map(|t| gbm::albedo(&data.materials, &data.triangles, &tex, t))
-        .collect();
-    let direct: Vec<[f32; 3]> = texels
-        .par_iter()
-        .zip(&albedo)
-        .map(|(t, &alb)| {
-            let (l, _) = dl::shade_with_bound(
-                &data.frame,
-                &data.nodes,
-                &data.triangles,
-                &data.lights,
-                &data.materials,
-                t.position,
-                t.normal,
-                t.triangle,
-                alb,
-            );
-            l.to_array()
-        })
-        .collect();
-    let side = scene.render.voxels;
-    let (input, frame) = voxelize::prepare(scene, side)?;
-    let (colour, normal, list) = vxgi_cpu_mirror::voxelize::voxelize(&input, side);
-    let grid = voxel_light::voxel_grid(&frame, data.lights.len());
-    let lit: Vec<(u32, [f32; 4])> = list
-        .par_iter()
-        .map(|&v| {
-            let (l, _) = vl::light_voxel(
-                &grid,
-                &data.nodes,
-                &data.triangles,
-                &data.lights,
-                colour[v as usize],
-                normal[v as usize],
-                v,
-            );
-            (v, l)
-        })
-        .collect();
-    let mut level = vec![[0.0f32; 4]; colour.len()];
-    for (v, l) in lit {
-        level[v as usize] = l;
-    }
+    let m = MirrorFrame::new(scene)?;
+    let mut level = m.lit.clone();
     let mut pyramid = level.clone();
-    let mut nrm = normal;
+    let mut nrm = m.normal.clone();
     while level.len() > 1 {
         let (c, n) = vxgi_cpu_mirror::surface_coverage_mip::reduce_level(
             &level,
@@ -530,45 +476,165 @@ pub fn render_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendered> {
         level = c;
         nrm = n;
     }
-    let params = cone_trace::cone_params(&frame, cones);
-    let dirs = ct::diffuse_cones(params.diffuse_cones, params.diffuse_tan);
-    let pyr = ct::Pyramid {
+    let params = cone_trace::cone_params(&m.frame, cones);
+    let pyr = vxgi_cpu_mirror::cone_trace::Pyramid {
         p: &params,
         voxels: &pyramid,
     };
-    let lmax = cone_trace::max_radiance(&pyramid, side);
-    let cones_out: Vec<[[f32; 4]; 4]> = texels
-        .par_iter()
-        .zip(&albedo)
-        .map(|(t, &alb)| {
-            ct::shade_pixel(
-                &pyr,
-                &data.frame,
-                &data.triangles,
-                &data.materials,
-                &dirs,
-                t.position,
-                t.normal,
-                t.triangle,
-                alb,
-                lmax,
-            )
-        })
-        .collect();
-    let rgb = |k: usize| -> Vec<[f32; 3]> {
-        cones_out
-            .iter()
-            .map(|p| [p[k][0], p[k][1], p[k][2]])
-            .collect()
+    let lmax = cone_trace::max_radiance(&pyramid, m.frame.side);
+    Ok(m.shade(&pyr, lmax, FramePlan::vct_dense(scene, cones)))
+}
+
+/// vct-svo computed by the scalar mirrors alone (the snapshot tests' vct-svo images): the mirror's
+/// octree of the lit voxels, then cone_trace's mirror through it.
+pub fn render_svo_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendered> {
+    use crate::kernels::svo_cone_trace::{grid_fragments, max_radiance, svo_cone_params, SCALE};
+    use vxgi_cpu_mirror::sparse_voxel_octree::{build, capacity_bound};
+    let m = MirrorFrame::new(scene)?;
+    let depth = m.frame.side.trailing_zeros() - 1;
+    let frags = grid_fragments(&m.lit, SCALE)?;
+    let octree = build(depth, capacity_bound(depth, frags.len()) as u32, &frags);
+    let params = svo_cone_params(&m.frame, cones);
+    let svo = vxgi_cpu_mirror::svo_cone_trace::SvoParams {
+        depth,
+        inv_scale: 1.0 / SCALE,
+        _pad: [0; 2],
     };
-    let indirect = RgbImage::new(w, h, rgb(0));
-    let combined = RgbImage::new(w, h, crate::images::add(&direct, &indirect.pixels));
-    Ok(Rendered {
-        direct: RgbImage::new(w, h, direct),
-        indirect,
-        combined,
-        ao: RgbImage::new(w, h, rgb(1)),
-        stages: vec![],
-        plan: FramePlan::vct_dense(scene, cones),
-    })
+    let volume = vxgi_cpu_mirror::svo_cone_trace::SvoVolume {
+        p: &params,
+        svo: &svo,
+        nodes: &octree.nodes,
+        bricks: &octree.bricks,
+    };
+    let lmax = max_radiance(&octree.bricks, svo.inv_scale);
+    Ok(m.shade(&volume, lmax, FramePlan::vct_svo(scene, cones)))
+}
+
+/// The stages every mirror pipeline shares: G-buffer texels, albedo, direct light, the lit voxel grid.
+struct MirrorFrame {
+    data: SceneData,
+    texels: Vec<vxgi_cpu_mirror::gbuffer::Texel>,
+    albedo: Vec<[f32; 4]>,
+    direct: Vec<[f32; 3]>,
+    /// Level 0: `(L * alpha, alpha)` per voxel, Morton order.
+    lit: Vec<[f32; 4]>,
+    normal: Vec<[f32; 4]>,
+    frame: voxelize::VoxelFrame,
+}
+
+impl MirrorFrame {
+    fn new(scene: &Scene) -> Result<Self> {
+        use rayon::prelude::*;
+        use vxgi_cpu_mirror::{direct_light as dl, gbuffer as gbm, voxel_light as vl};
+        let data = SceneData::new(scene);
+        let w = data.width();
+        let texels: Vec<gbm::Texel> = (0..w * data.height())
+            .into_par_iter()
+            .map(|i| gbm::shade_pixel(&data.frame, &data.nodes, &data.triangles, i % w, i / w))
+            .collect();
+        let tex = data.textures();
+        let albedo: Vec<[f32; 4]> = texels
+            .iter()
+            .map(|t| gbm::albedo(&data.materials, &data.triangles, &tex, t))
+            .collect();
+        let direct: Vec<[f32; 3]> = texels
+            .par_iter()
+            .zip(&albedo)
+            .map(|(t, &alb)| {
+                let (l, _) = dl::shade_with_bound(
+                    &data.frame,
+                    &data.nodes,
+                    &data.triangles,
+                    &data.lights,
+                    &data.materials,
+                    t.position,
+                    t.normal,
+                    t.triangle,
+                    alb,
+                );
+                l.to_array()
+            })
+            .collect();
+        let side = scene.render.voxels;
+        let (input, frame) = voxelize::prepare(scene, side)?;
+        let (colour, normal, list) = vxgi_cpu_mirror::voxelize::voxelize(&input, side);
+        let grid = voxel_light::voxel_grid(&frame, data.lights.len());
+        let lit_list: Vec<(u32, [f32; 4])> = list
+            .par_iter()
+            .map(|&v| {
+                let (l, _) = vl::light_voxel(
+                    &grid,
+                    &data.nodes,
+                    &data.triangles,
+                    &data.lights,
+                    colour[v as usize],
+                    normal[v as usize],
+                    v,
+                );
+                (v, l)
+            })
+            .collect();
+        let mut lit = vec![[0.0f32; 4]; colour.len()];
+        for (v, l) in lit_list {
+            lit[v as usize] = l;
+        }
+        Ok(Self {
+            data,
+            texels,
+            albedo,
+            direct,
+            lit,
+            normal,
+            frame,
+        })
+    }
+
+    /// Cone-trace every texel through `volume` and assemble the frame.
+    fn shade(
+        self,
+        volume: &(impl vxgi_cpu_mirror::cone_trace::Volume + Sync),
+        lmax: f32,
+        plan: FramePlan,
+    ) -> Rendered {
+        use rayon::prelude::*;
+        let p = volume.params();
+        let dirs = vxgi_cpu_mirror::cone_trace::diffuse_cones(p.diffuse_cones, p.diffuse_tan);
+        let d = &self.data;
+        let cones_out: Vec<[[f32; 4]; 4]> = self
+            .texels
+            .par_iter()
+            .zip(&self.albedo)
+            .map(|(t, &alb)| {
+                vxgi_cpu_mirror::cone_trace::shade_pixel(
+                    volume,
+                    &d.frame,
+                    &d.triangles,
+                    &d.materials,
+                    &dirs,
+                    t.position,
+                    t.normal,
+                    t.triangle,
+                    alb,
+                    lmax,
+                )
+            })
+            .collect();
+        let (w, h) = (d.width(), d.height());
+        let rgb = |k: usize| -> Vec<[f32; 3]> {
+            cones_out
+                .iter()
+                .map(|p| [p[k][0], p[k][1], p[k][2]])
+                .collect()
+        };
+        let indirect = RgbImage::new(w, h, rgb(0));
+        let combined = RgbImage::new(w, h, crate::images::add(&self.direct, &indirect.pixels));
+        Rendered {
+            direct: RgbImage::new(w, h, self.direct),
+            indirect,
+            combined,
+            ao: RgbImage::new(w, h, rgb(1)),
+            stages: vec![],
+            plan,
+        }
+    }
 }

@@ -56,3 +56,39 @@ fn cornell_box_64_snapshots_and_gpu_agreement() {
         );
     }
 }
+
+/// vct-svo: the same 64x64 Cornell box, octree depth 5 over 64^3 voxels, by the mirrors alone; and the
+/// GPU's frame against it.
+#[test]
+fn cornell_box_64_vct_svo_snapshots_and_gpu_agreement() {
+    let mut scene = Scene::cornell_box();
+    scene.camera.width = 64;
+    scene.camera.height = 64;
+    scene.render.voxels = 64;
+    let cones = ConeSettings::default();
+    let mirror = vxgi::render::render_svo_mirror(&scene, &cones).unwrap();
+    insta::with_settings!({ snapshot_path => "../snapshots", prepend_module_to_snapshot => false }, {
+        insta::assert_binary_snapshot!("cornell_64_svo_indirect.png", png(&mirror.indirect));
+        insta::assert_binary_snapshot!("cornell_64_svo_combined.png", png(&mirror.combined));
+        insta::assert_binary_snapshot!("cornell_64_svo_ao.png", png(&mirror.ao));
+    });
+    let (ours, _) = vxgi::render::render_svo(gpu(), &scene, &cones, |_| {}).unwrap();
+    let p = Path::new("");
+    for (name, m, g) in [
+        ("indirect", &mirror.indirect, &ours.indirect),
+        ("combined", &mirror.combined, &ours.combined),
+        ("ao", &mirror.ao, &ours.ao),
+    ] {
+        let c = compare(m, p, g, p).unwrap();
+        println!(
+            "vct-svo {name}: GPU vs mirror FLIP {:.5}, relative MSE {:.2e}",
+            c.flip_mean, c.rel_mse
+        );
+        assert!(
+            c.flip_mean < 0.01 && c.rel_mse < 1e-4,
+            "{name}: {} {}",
+            c.flip_mean,
+            c.rel_mse
+        );
+    }
+}
