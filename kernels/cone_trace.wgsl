@@ -56,16 +56,3 @@ fn sample_level(x: vec3<f32>, l: u32) -> vec4<f32> {
     }
     return acc;
 }
-
-fn sample_volume(x: vec3<f32>, lf_in: f32) -> vec4<f32> {
-    let top = cone.levels - 1u;
-    let lf = max(lf_in, 0.0);
-    let l0 = floor(lf);
-    if (l0 >= f32(top)) {
-        return sample_level(x, top);
-    }
-    let a = lf - l0;
-    let l = u32(l0);
-    return sample_level(x, l) * (1.0 - a) + sample_level(x, l + 1u) * a;
-}
-

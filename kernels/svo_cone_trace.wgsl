@@ -10,7 +10,7 @@
 // sample_level: the level's lattice coordinate q = (x - origin) / (s0 2^l) - 1/2^(l+1), the node holding
 // the cell floor(q) (clamped into the volume), trilinear over the cell's 8 brick voxels (points outside
 // the lattice are empty; a missing node is empty: exact under the octree's halo rule). sample_volume:
-// quadrilinear, exactly as cone_trace's sample_pyramid. Accuracy: the same per-element bound as
+// quadrilinear (common/cone_march.wgsl). Accuracy: the same per-element bound as
 // cone_trace (the mirror's SampleError covers the sample point's rounding).
 
 struct SvoParams {
@@ -54,16 +54,4 @@ fn sample_level(x: vec3<f32>, l: u32) -> vec4<f32> {
         acc += brick_voxel(n, vec3<u32>(local)) * (w.x * w.y * w.z);
     }
     return acc;
-}
-
-fn sample_volume(x: vec3<f32>, lf_in: f32) -> vec4<f32> {
-    let top = cone.levels - 1u;
-    let lf = max(lf_in, 0.0);
-    let l0 = floor(lf);
-    if (l0 >= f32(top)) {
-        return sample_level(x, top);
-    }
-    let a = lf - l0;
-    let l = u32(l0);
-    return sample_level(x, l) * (1.0 - a) + sample_level(x, l + 1u) * a;
 }

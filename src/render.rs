@@ -265,9 +265,7 @@ fn render_frame(
     key: PyramidKey,
     progress: impl Fn(&str),
 ) -> Result<Rendered> {
-    use crate::harness::run::run;
     let data = SceneData::new(scene);
-    let (w, h) = (data.width(), data.height());
     let mut stages = Vec::new();
     let (gb, direct) = gbuffer_and_direct(ctx, &data, &plan, &mut stages, &progress)?;
 
@@ -287,28 +285,7 @@ fn render_frame(
     let t = std::time::Instant::now();
     let params = cone_trace::cone_params(frame, cones);
     let case = cone_trace::case_for(ctx, &data, &gb, pyramid, &params, "render".into(), 0);
-    let out = run(
-        ctx,
-        &cone_trace::DECL.shader()?,
-        "cone_trace",
-        &case.resources,
-        &case.passes,
-        &["indirect", "ao"],
-    )
-    .context("cone tracing")?;
-    let indirect = image_of(w, h, &out.buffer("indirect").bytes);
-    let ao = image_of(w, h, &out.buffer("ao").bytes);
-    stages.push(("cone_trace", t.elapsed().as_secs_f64()));
-
-    let combined = RgbImage::new(w, h, crate::images::add(&direct.pixels, &indirect.pixels));
-    Ok(Rendered {
-        direct,
-        indirect,
-        combined,
-        ao,
-        stages,
-        plan,
-    })
+    cone_pass_frame(ctx, &cone_trace::DECL, &case, direct, stages, plan, t)
 }
 
 type Stages = Vec<(&'static str, f64)>;
@@ -402,7 +379,6 @@ pub fn render_svo(
     use crate::kernels::{sparse_voxel_octree as svo, svo_cone_trace};
     let plan = FramePlan::vct_svo(scene, cones);
     let data = SceneData::new(scene);
-    let (w, h) = (data.width(), data.height());
     let mut stages = Vec::new();
     let (gb, direct) = gbuffer_and_direct(ctx, &data, &plan, &mut stages, &progress)?;
     let (rad, _, frame) = lit_voxels(ctx, scene, &data, &plan, &mut stages, &progress)?;
@@ -427,10 +403,26 @@ pub fn render_svo(
         "render".into(),
         0,
     );
+    let frame = cone_pass_frame(ctx, &svo_cone_trace::DECL, &case, direct, stages, plan, t)?;
+    Ok((frame, memory))
+}
+
+/// Run a cone pass (`decl`: a kernel on common/cone_march.wgsl, `case` from its case_for, started at
+/// `started`) and assemble the frame: indirect and AO from it, combined = direct + indirect.
+fn cone_pass_frame(
+    ctx: &crate::harness::GpuContext,
+    decl: &'static crate::harness::KernelDecl,
+    case: &crate::harness::Case,
+    direct: RgbImage,
+    mut stages: Stages,
+    plan: FramePlan,
+    started: std::time::Instant,
+) -> Result<Rendered> {
+    let (w, h) = (direct.width, direct.height);
     let out = crate::harness::run::run(
         ctx,
-        &svo_cone_trace::DECL.shader()?,
-        "svo_cone_trace",
+        &decl.shader()?,
+        decl.name,
         &case.resources,
         &case.passes,
         &["indirect", "ao"],
@@ -438,19 +430,16 @@ pub fn render_svo(
     .context("cone tracing")?;
     let indirect = image_of(w, h, &out.buffer("indirect").bytes);
     let ao = image_of(w, h, &out.buffer("ao").bytes);
-    stages.push(("svo_cone_trace", t.elapsed().as_secs_f64()));
+    stages.push((decl.name, started.elapsed().as_secs_f64()));
     let combined = RgbImage::new(w, h, crate::images::add(&direct.pixels, &indirect.pixels));
-    Ok((
-        Rendered {
-            direct,
-            indirect,
-            combined,
-            ao,
-            stages,
-            plan,
-        },
-        memory,
-    ))
+    Ok(Rendered {
+        direct,
+        indirect,
+        combined,
+        ao,
+        stages,
+        plan,
+    })
 }
 
 fn image_of(w: u32, h: u32, bytes: &[u8]) -> RgbImage {

@@ -19,6 +19,25 @@ fn png(img: &RgbImage) -> Vec<u8> {
     out.into_inner()
 }
 
+/// The GPU's frame against the mirror's: every kernel is within its bound of its mirror, so the images
+/// agree to far below what FLIP can see.
+fn assert_gpu_agrees(pipeline: &str, pairs: &[(&str, &RgbImage, &RgbImage)]) {
+    let p = Path::new("");
+    for &(name, m, g) in pairs {
+        let c = compare(m, p, g, p).unwrap();
+        println!(
+            "{pipeline} {name}: GPU vs mirror FLIP {:.5}, relative MSE {:.2e}",
+            c.flip_mean, c.rel_mse
+        );
+        assert!(
+            c.flip_mean < 0.01 && c.rel_mse < 1e-4,
+            "{pipeline} {name}: {} {}",
+            c.flip_mean,
+            c.rel_mse
+        );
+    }
+}
+
 #[test]
 fn cornell_box_64_snapshots_and_gpu_agreement() {
     let mut scene = Scene::cornell_box();
@@ -33,28 +52,16 @@ fn cornell_box_64_snapshots_and_gpu_agreement() {
         insta::assert_binary_snapshot!("cornell_64_combined.png", png(&mirror.combined));
         insta::assert_binary_snapshot!("cornell_64_ao.png", png(&mirror.ao));
     });
-    // The GPU's frame against the mirror's: every kernel is within its bound of its mirror, so the images
-    // agree to far below what FLIP can see.
     let ours = render(gpu(), &scene, &cones, |_| {}).unwrap();
-    let p = Path::new("");
-    for (name, m, g) in [
-        ("direct", &mirror.direct, &ours.direct),
-        ("indirect", &mirror.indirect, &ours.indirect),
-        ("combined", &mirror.combined, &ours.combined),
-        ("ao", &mirror.ao, &ours.ao),
-    ] {
-        let c = compare(m, p, g, p).unwrap();
-        println!(
-            "{name}: GPU vs mirror FLIP {:.5}, relative MSE {:.2e}",
-            c.flip_mean, c.rel_mse
-        );
-        assert!(
-            c.flip_mean < 0.01 && c.rel_mse < 1e-4,
-            "{name}: {} {}",
-            c.flip_mean,
-            c.rel_mse
-        );
-    }
+    assert_gpu_agrees(
+        "vct-dense",
+        &[
+            ("direct", &mirror.direct, &ours.direct),
+            ("indirect", &mirror.indirect, &ours.indirect),
+            ("combined", &mirror.combined, &ours.combined),
+            ("ao", &mirror.ao, &ours.ao),
+        ],
+    );
 }
 
 /// vct-svo: the same 64x64 Cornell box, octree depth 5 over 64^3 voxels, by the mirrors alone; and the
@@ -73,22 +80,12 @@ fn cornell_box_64_vct_svo_snapshots_and_gpu_agreement() {
         insta::assert_binary_snapshot!("cornell_64_svo_ao.png", png(&mirror.ao));
     });
     let (ours, _) = vxgi::render::render_svo(gpu(), &scene, &cones, |_| {}).unwrap();
-    let p = Path::new("");
-    for (name, m, g) in [
-        ("indirect", &mirror.indirect, &ours.indirect),
-        ("combined", &mirror.combined, &ours.combined),
-        ("ao", &mirror.ao, &ours.ao),
-    ] {
-        let c = compare(m, p, g, p).unwrap();
-        println!(
-            "vct-svo {name}: GPU vs mirror FLIP {:.5}, relative MSE {:.2e}",
-            c.flip_mean, c.rel_mse
-        );
-        assert!(
-            c.flip_mean < 0.01 && c.rel_mse < 1e-4,
-            "{name}: {} {}",
-            c.flip_mean,
-            c.rel_mse
-        );
-    }
+    assert_gpu_agrees(
+        "vct-svo",
+        &[
+            ("indirect", &mirror.indirect, &ours.indirect),
+            ("combined", &mirror.combined, &ours.combined),
+            ("ao", &mirror.ao, &ours.ao),
+        ],
+    );
 }

@@ -74,7 +74,28 @@ pub fn pyramid_len(side: u32) -> usize {
 /// rounding allows. The dense pyramid here; the sparse voxel octree in `svo_cone_trace`.
 pub trait Volume {
     fn params(&self) -> &ConeParams;
-    fn sample(&self, x: Vec3, lf: f32) -> (Vec4, SampleError);
+
+    /// Trilinear sample of whole level `l` (0..levels), and its error from the sample point's rounding.
+    fn level(&self, x: Vec3, l: u32) -> (Vec4, SampleError);
+
+    /// Quadrilinear sample at mip level `lf`: levels floor(lf) and floor(lf) + 1 blended by the
+    /// fraction; below 0 level 0, from the top level up the top level alone.
+    fn sample(&self, x: Vec3, lf: f32) -> (Vec4, SampleError) {
+        let top = self.params().levels - 1;
+        let lf = lf.max(0.0);
+        let l0 = lf.floor();
+        if l0 >= top as f32 {
+            return self.level(x, top);
+        }
+        let a = lf - l0;
+        let l0 = l0 as u32;
+        let ((s0, e0), (s1, e1)) = (self.level(x, l0), self.level(x, l0 + 1));
+        let err = SampleError {
+            rgb: e0.rgb * (1.0 - a) + e1.rgb * a,
+            a: e0.a * (1.0 - a) + e1.a * a,
+        };
+        (s0 * (1.0 - a) + s1 * a, err)
+    }
 }
 
 pub struct Pyramid<'a> {
@@ -97,6 +118,17 @@ pub struct SampleError {
 }
 
 impl Pyramid<'_> {
+    /// Quadrilinear sample at mip level `lf`, and its error from the sample point's rounding.
+    pub fn sample(&self, x: Vec3, lf: f32) -> (Vec4, SampleError) {
+        Volume::sample(self, x, lf)
+    }
+}
+
+impl Volume for Pyramid<'_> {
+    fn params(&self) -> &ConeParams {
+        self.p
+    }
+
     fn level(&self, x: Vec3, l: u32) -> (Vec4, SampleError) {
         let n = (self.p.side >> l) as i32;
         let inv = self.p.inv_s0 * (1.0 / (1u32 << l) as f32);
@@ -129,34 +161,6 @@ impl Pyramid<'_> {
             err.a += slope * v[3].abs();
         }
         (acc, err)
-    }
-
-    /// Quadrilinear sample at mip level `lf`, and its error from the sample point's rounding.
-    pub fn sample(&self, x: Vec3, lf: f32) -> (Vec4, SampleError) {
-        Volume::sample(self, x, lf)
-    }
-}
-
-impl Volume for Pyramid<'_> {
-    fn params(&self) -> &ConeParams {
-        self.p
-    }
-
-    fn sample(&self, x: Vec3, lf: f32) -> (Vec4, SampleError) {
-        let top = self.p.levels - 1;
-        let lf = lf.max(0.0);
-        let l0 = lf.floor();
-        if l0 >= top as f32 {
-            return self.level(x, top);
-        }
-        let a = lf - l0;
-        let l0 = l0 as u32;
-        let ((s0, e0), (s1, e1)) = (self.level(x, l0), self.level(x, l0 + 1));
-        let err = SampleError {
-            rgb: e0.rgb * (1.0 - a) + e1.rgb * a,
-            a: e0.a * (1.0 - a) + e1.a * a,
-        };
-        (s0 * (1.0 - a) + s1 * a, err)
     }
 }
 

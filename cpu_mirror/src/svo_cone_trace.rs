@@ -26,7 +26,11 @@ pub struct SvoVolume<'a> {
     pub bricks: &'a [u32],
 }
 
-impl SvoVolume<'_> {
+impl Volume for SvoVolume<'_> {
+    fn params(&self) -> &ConeParams {
+        self.p
+    }
+
     fn level(&self, x: Vec3, l: u32) -> (Vec4, SampleError) {
         let s = self.svo.depth - l;
         let inv = self.p.inv_s0 * (1.0 / (1u32 << l) as f32);
@@ -71,29 +75,5 @@ impl SvoVolume<'_> {
             err.a += slope * v.w.abs();
         }
         (acc, err)
-    }
-}
-
-impl Volume for SvoVolume<'_> {
-    fn params(&self) -> &ConeParams {
-        self.p
-    }
-
-    /// Quadrilinear, exactly as the pyramid's.
-    fn sample(&self, x: Vec3, lf: f32) -> (Vec4, SampleError) {
-        let top = self.p.levels - 1;
-        let lf = lf.max(0.0);
-        let l0 = lf.floor();
-        if l0 >= top as f32 {
-            return self.level(x, top);
-        }
-        let a = lf - l0;
-        let l0 = l0 as u32;
-        let ((s0, e0), (s1, e1)) = (self.level(x, l0), self.level(x, l0 + 1));
-        let err = SampleError {
-            rgb: e0.rgb * (1.0 - a) + e1.rgb * a,
-            a: e0.a * (1.0 - a) + e1.a * a,
-        };
-        (s0 * (1.0 - a) + s1 * a, err)
     }
 }

@@ -2,9 +2,10 @@
 // svo_cone_trace.wgsl (sparse voxel octree): frame, scene and G-buffer bindings, the cone parameters, the
 // march (front-to-back, step-corrected alpha, AO falloff, early exit) and the per-pixel entry `main`
 // (diffuse cones + one glossy cone). The including kernel defines the volume the cones read:
-//   fn sample_volume(x: vec3<f32>, lf: f32) -> vec4<f32>
-// the pre-multiplied (L * alpha, alpha) at world point x and fractional mip level lf (cell s0 * 2^lf;
-// lf < 0 reads level 0, past the top the top level). Mirror: cpu_mirror/src/cone_trace.rs (`march`,
+//   fn sample_level(x: vec3<f32>, l: u32) -> vec4<f32>
+// the pre-multiplied (L * alpha, alpha) at world point x, trilinear in whole mip level l (cell s0 * 2^l,
+// l < cone.levels); sample_volume here blends two levels (quadrilinear; lf < 0 reads level 0, past the
+// top the top level). Mirror: cpu_mirror/src/cone_trace.rs (`march`,
 // `shade_pixel`, generic over `Volume`). See cone_trace.wgsl's header for the full definition.
 
 struct Frame {
@@ -59,6 +60,18 @@ struct ConeParams {
 @group(0) @binding(11) var<storage, read> gb_albedo: array<vec4<f32>>;
 
 const OPAQUE: f32 = 0.99609375;  // 1 - 1/256
+
+fn sample_volume(x: vec3<f32>, lf_in: f32) -> vec4<f32> {
+    let top = cone.levels - 1u;
+    let lf = max(lf_in, 0.0);
+    let l0 = floor(lf);
+    if (l0 >= f32(top)) {
+        return sample_level(x, top);
+    }
+    let a = lf - l0;
+    let l = u32(l0);
+    return sample_level(x, l) * (1.0 - a) + sample_level(x, l + 1u) * a;
+}
 
 struct ConeOut {
     radiance: vec3<f32>,

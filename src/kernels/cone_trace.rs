@@ -261,36 +261,64 @@ pub struct ConeTrace;
 
 const SIDES: [u32; 2] = [16, 32];
 
+/// What a cone-pass case (cone_trace, svo_cone_trace) is made from: a generated scene, its G-buffer
+/// and lit voxels (side 16 or 32) from the GPU, and marching settings varied per case.
+pub struct LitCase {
+    pub data: SceneData,
+    pub gbuffer: Resources,
+    /// Level 0 `(L * alpha, alpha)` and normals, Morton order.
+    pub radiance: Vec<[f32; 4]>,
+    pub normal: Vec<[f32; 4]>,
+    pub frame: VoxelFrame,
+    pub settings: ConeSettings,
+    pub label: String,
+}
+
+pub fn lit_case(ctx: &GpuContext, seed: u64, index: usize) -> LitCase {
+    let (scene, label) = generated_scene(seed, index);
+    let side = SIDES[(index / 4) % SIDES.len()];
+    let data = SceneData::new(&scene);
+    let gbuffer = super::direct_light::gpu_gbuffer(ctx, &data);
+    let (grid, list, frame) = voxelize_on_gpu(ctx, &scene, side).expect("generated grids voxelize");
+    let radiance = super::voxel_light::light_on_gpu(ctx, &data, &grid, &list, &frame)
+        .expect("voxel_light runs");
+    // Cases vary the marching: step factor 0.5 (the paper's), 0.75, 1; mip clamp on and off.
+    let settings = ConeSettings {
+        step_factor: [0.5, 0.75, 1.0][index % 3],
+        mip_clamp: if index % 5 == 4 { 0.0 } else { 2.0 },
+        ..ConeSettings::from(&scene.render)
+    };
+    LitCase {
+        data,
+        gbuffer,
+        radiance,
+        normal: grid.normal,
+        frame,
+        settings,
+        label: format!("{label}, {side}^3"),
+    }
+}
+
+/// A cone pass's mirror outputs (indirect, ao, their bounds) by resource name.
+pub fn bounded_outputs([ind, ao, ind_b, ao_b]: [Vec<[f32; 4]>; 4]) -> BTreeMap<String, HostBuffer> {
+    let f = |v: &[[f32; 4]]| HostBuffer::f32(bytemuck::cast_slice(v));
+    BTreeMap::from([
+        ("indirect".to_string(), f(&ind)),
+        (bound_name("indirect"), f(&ind_b)),
+        ("ao".to_string(), f(&ao)),
+        (bound_name("ao"), f(&ao_b)),
+    ])
+}
+
 impl Kernel for ConeTrace {
     fn decl(&self) -> &'static KernelDecl {
         &DECL
     }
     fn case(&self, _shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
-        let (scene, label) = generated_scene(seed, index);
-        let side = SIDES[(index / 4) % SIDES.len()];
-        let data = SceneData::new(&scene);
-        let gb = super::direct_light::gpu_gbuffer(ctx, &data);
-        let (grid, list, frame) =
-            voxelize_on_gpu(ctx, &scene, side).expect("generated grids voxelize");
-        let rad = super::voxel_light::light_on_gpu(ctx, &data, &grid, &list, &frame)
-            .expect("voxel_light runs");
-        let pyr = gpu_pyramid(ctx, &rad, &grid.normal, side).expect("mip chain runs");
-        // Cases vary the marching: step factor 0.5 (the paper's), 0.75, 1; mip clamp on and off.
-        let settings = ConeSettings {
-            step_factor: [0.5, 0.75, 1.0][index % 3],
-            mip_clamp: if index % 5 == 4 { 0.0 } else { 2.0 },
-            ..ConeSettings::from(&scene.render)
-        };
-        let params = cone_params(&frame, &settings);
-        case_for(
-            ctx,
-            &data,
-            &gb,
-            &pyr,
-            &params,
-            format!("{label}, {side}^3"),
-            seed,
-        )
+        let c = lit_case(ctx, seed, index);
+        let pyr = gpu_pyramid(ctx, &c.radiance, &c.normal, c.frame.side).expect("mip chain runs");
+        let params = cone_params(&c.frame, &c.settings);
+        case_for(ctx, &c.data, &c.gbuffer, &pyr, &params, c.label, seed)
     }
     fn mirror(
         &self,
@@ -300,13 +328,6 @@ impl Kernel for ConeTrace {
     ) -> BTreeMap<String, HostBuffer> {
         // Radiance-scale arithmetic; subnormal alphas at coarse levels only scale terms that are
         // already below the bound: one mode serves both.
-        let [ind, ao, ind_b, ao_b] = mirror_cones(data);
-        let f = |v: &[[f32; 4]]| HostBuffer::f32(bytemuck::cast_slice(v));
-        BTreeMap::from([
-            ("indirect".to_string(), f(&ind)),
-            (bound_name("indirect"), f(&ind_b)),
-            ("ao".to_string(), f(&ao)),
-            (bound_name("ao"), f(&ao_b)),
-        ])
+        bounded_outputs(mirror_cones(data))
     }
 }

@@ -2,16 +2,16 @@
 //! pass of vct-svo, cone_trace's tracer reading the sparse voxel octree. A case runs the earlier stages
 //! on a generated scene (G-buffer, voxelization, voxel lighting on the GPU), builds the octree of the
 //! lit voxels with the mirror (the builder is verified on its own) and feeds it in.
-use super::cone_trace::{cone_params, shade_all, tracer_case, ConeSettings};
-use super::gbuffer::generated_scene;
+use super::cone_trace::{
+    bounded_outputs, cone_params, lit_case, shade_all, tracer_case, ConeSettings,
+};
 use super::sparse_voxel_octree::{to_fixed, SvoError};
-use super::voxelize::{voxelize_on_gpu, VoxelFrame};
+use super::voxelize::VoxelFrame;
 use crate::trace::SceneData;
 use std::collections::BTreeMap;
 use vxgi_cpu_mirror::cone_trace::ConeParams;
 use vxgi_cpu_mirror::sparse_voxel_octree::{build, capacity_bound, Fragment, Octree};
 use vxgi_cpu_mirror::svo_cone_trace::{SvoParams, SvoVolume};
-use vxgi_harness::compare::bound_name;
 use vxgi_harness::{
     Case, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Kernel, KernelDecl,
     Output, Resources, ScalarKind, Shader, Tolerance,
@@ -136,39 +136,20 @@ pub fn mirror_cones(data: &Resources) -> [Vec<[f32; 4]>; 4] {
 
 pub struct SvoConeTrace;
 
-const SIDES: [u32; 2] = [16, 32];
-
 impl Kernel for SvoConeTrace {
     fn decl(&self) -> &'static KernelDecl {
         &DECL
     }
     fn case(&self, _shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
-        let (scene, label) = generated_scene(seed, index);
-        let side = SIDES[(index / 4) % SIDES.len()];
-        let depth = side.trailing_zeros() - 1;
-        let data = SceneData::new(&scene);
-        let gb = super::direct_light::gpu_gbuffer(ctx, &data);
-        let (grid, list, frame) =
-            voxelize_on_gpu(ctx, &scene, side).expect("generated grids voxelize");
-        let rad = super::voxel_light::light_on_gpu(ctx, &data, &grid, &list, &frame)
-            .expect("voxel_light runs");
-        let frags = grid_fragments(&rad, SCALE).expect("generated radiance fits the fixed point");
+        let c = lit_case(ctx, seed, index);
+        let depth = c.frame.side.trailing_zeros() - 1;
+        let frags =
+            grid_fragments(&c.radiance, SCALE).expect("generated radiance fits the fixed point");
         let octree = build(depth, capacity_bound(depth, frags.len()) as u32, &frags);
-        let settings = ConeSettings {
-            step_factor: [0.5, 0.75, 1.0][index % 3],
-            mip_clamp: if index % 5 == 4 { 0.0 } else { 2.0 },
-            ..ConeSettings::from(&scene.render)
-        };
-        let params = svo_cone_params(&frame, &settings);
+        let params = svo_cone_params(&c.frame, &c.settings);
+        let label = format!("{}, octree depth {depth}", c.label);
         case_for(
-            ctx,
-            &data,
-            &gb,
-            &octree,
-            SCALE,
-            &params,
-            format!("{label}, octree depth {depth} ({side}^3 voxels)"),
-            seed,
+            ctx, &c.data, &c.gbuffer, &octree, SCALE, &params, label, seed,
         )
     }
     fn mirror(
@@ -177,13 +158,6 @@ impl Kernel for SvoConeTrace {
         data: &Resources,
         _mode: FloatMode,
     ) -> BTreeMap<String, HostBuffer> {
-        let [ind, ao, ind_b, ao_b] = mirror_cones(data);
-        let f = |v: &[[f32; 4]]| HostBuffer::f32(bytemuck::cast_slice(v));
-        BTreeMap::from([
-            ("indirect".to_string(), f(&ind)),
-            (bound_name("indirect"), f(&ind_b)),
-            ("ao".to_string(), f(&ao)),
-            (bound_name("ao"), f(&ao_b)),
-        ])
+        bounded_outputs(mirror_cones(data))
     }
 }
