@@ -393,8 +393,10 @@ fn ring_node(gid: vec3<u32>, groups: vec3<u32>) -> u32 {
     return list_ring[i];
 }
 
-@compute @workgroup_size(64)
-fn transfer_add(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+// Brick border transfer along params.variant (Fig. 9 left): pass 1 (`add`) adds each ring node's +axis
+// face into its +axis neighbour's -axis face, pass 2 copies that face (now the sum) back. Each face has
+// one writer per pass: no atomic read-modify-write (the atomic type is the splat's).
+fn transfer(gid: vec3<u32>, groups: vec3<u32>, add: bool) {
     let n = ring_node(gid, groups);
     if (n == NONE) {
         return;
@@ -406,36 +408,28 @@ fn transfer_add(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
     }
     for (var v = 0u; v < 3u; v = v + 1u) {
         for (var u = 0u; u < 3u; u = u + 1u) {
-            let src_w = n * BRICK_WORDS + face_voxel(axis, 2u, u, v) * 4u;
-            let dst_w = r * BRICK_WORDS + face_voxel(axis, 0u, u, v) * 4u;
+            let hi = n * BRICK_WORDS + face_voxel(axis, 2u, u, v) * 4u;
+            let lo = r * BRICK_WORDS + face_voxel(axis, 0u, u, v) * 4u;
             for (var ch = 0u; ch < 4u; ch = ch + 1u) {
-                let s = add_checked(atomicLoad(&bricks[dst_w + ch]), atomicLoad(&bricks[src_w + ch]));
-                atomicStore(&bricks[dst_w + ch], s);
+                if (add) {
+                    let s = add_checked(atomicLoad(&bricks[lo + ch]), atomicLoad(&bricks[hi + ch]));
+                    atomicStore(&bricks[lo + ch], s);
+                } else {
+                    atomicStore(&bricks[hi + ch], atomicLoad(&bricks[lo + ch]));
+                }
             }
         }
     }
 }
 
 @compute @workgroup_size(64)
+fn transfer_add(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    transfer(gid, groups, true);
+}
+
+@compute @workgroup_size(64)
 fn transfer_copy(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let n = ring_node(gid, groups);
-    if (n == NONE) {
-        return;
-    }
-    let axis = params.variant;
-    let r = nodes[n].neighbours[2u * axis + 1u];
-    if (r == NONE) {
-        return;
-    }
-    for (var v = 0u; v < 3u; v = v + 1u) {
-        for (var u = 0u; u < 3u; u = u + 1u) {
-            let dst_w = n * BRICK_WORDS + face_voxel(axis, 2u, u, v) * 4u;
-            let src_w = r * BRICK_WORDS + face_voxel(axis, 0u, u, v) * 4u;
-            for (var ch = 0u; ch < 4u; ch = ch + 1u) {
-                atomicStore(&bricks[dst_w + ch], atomicLoad(&bricks[src_w + ch]));
-            }
-        }
-    }
+    transfer(gid, groups, false);
 }
 
 @compute @workgroup_size(64)
