@@ -221,25 +221,23 @@ fn run_render(
     if frames == 0 || !orbit.is_finite() {
         bail!("--frames must be at least 1 and --orbit finite");
     }
-    if plan_only && matches!(pipeline, Pipeline::VctSvo) {
-        print!("{}", vxgi::plan::FramePlan::vct_svo(&scene, &cones));
-        return Ok(());
-    }
     if plan_only {
-        print!("{}", vxgi::plan::FramePlan::vct_dense(&scene, &cones));
+        let plan = |cached| match pipeline {
+            Pipeline::VctDense => vxgi::plan::FramePlan::vct_dense_after(&scene, &cones, cached),
+            Pipeline::VctSvo => vxgi::plan::FramePlan::vct_svo_after(&scene, &cones, cached),
+        };
+        print!("{}", plan(false));
         if frames > 1 {
             println!("frames 2..{frames} (only the camera moves):");
-            print!(
-                "{}",
-                vxgi::plan::FramePlan::vct_dense_after(&scene, &cones, true)
-            );
+            print!("{}", plan(true));
         }
         return Ok(());
     }
     create_out(&out)?;
     let ctx = GpuContext::new().context("creating the GPU context")?;
     eprintln!("adapter: {}", ctx.describe());
-    let mut renderer = vxgi::render::VctDense::new(true);
+    let mut dense = vxgi::render::VctDense::new(true);
+    let mut svo = vxgi::render::VctSvo::new(true);
     for k in 0..frames {
         let view = scene.orbited(orbit * k as f32);
         let dir = if frames == 1 {
@@ -251,9 +249,9 @@ fn run_render(
         let bar = spinner();
         let message = |stage: &str| bar.set_message(format!("frame {}/{frames}: {stage}", k + 1));
         let r = match pipeline {
-            Pipeline::VctDense => renderer.render(&ctx, &view, &cones, message)?,
+            Pipeline::VctDense => dense.render(&ctx, &view, &cones, message)?,
             Pipeline::VctSvo => {
-                let (r, m) = vxgi::render::render_svo(&ctx, &view, &cones, message)?;
+                let (r, m) = svo.render(&ctx, &view, &cones, message)?;
                 println!(
                     "octree: {} nodes and bricks, {:.1} MB (vct-dense's pyramids at this resolution: {:.1} MB)",
                     m.nodes,

@@ -129,7 +129,13 @@ impl FramePlan {
     /// The vct-svo frame: vct-dense's G-buffer, direct light, voxelization and voxel light, then the
     /// sparse voxel octree instead of the mip chain and the octree's cone tracer.
     pub fn vct_svo(scene: &Scene, cones: &ConeSettings) -> Self {
-        let dense = Self::vct_dense(scene, cones);
+        Self::vct_svo_after(scene, cones, false)
+    }
+
+    /// The vct-svo frame when `octree_cached` says the last frame's octree came from the same geometry,
+    /// materials, lights and grid (vct-dense's reuse rule, see [`FramePlan::vct_dense_after`]).
+    pub fn vct_svo_after(scene: &Scene, cones: &ConeSettings, octree_cached: bool) -> Self {
+        let dense = Self::vct_dense_after(scene, cones, octree_cached);
         let side = scene.render.voxels;
         let depth = side.trailing_zeros().saturating_sub(1);
         let passes = dense
@@ -141,12 +147,17 @@ impl FramePlan {
                         p.stage = "sparse_voxel_octree";
                         p.kernel = "sparse_voxel_octree";
                         p.size = format!("depth {depth} over {side}^3 voxels, {} levels", depth + 1);
-                        p.why = "build, splat, border transfer, distribution over levels; work lists skip empty nodes".into();
+                        if p.runs {
+                            p.why = "build, splat, border transfer, distribution over levels; work lists skip empty nodes".into();
+                        } else {
+                            p.why = p.why.replace("radiance pyramid", "octree");
+                        }
                     }
                     "cone_trace" => {
                         p.stage = "svo_cone_trace";
                         p.kernel = "svo_cone_trace";
                     }
+                    "voxelize" | "voxel_light" => p.why = p.why.replace("radiance pyramid", "octree"),
                     _ => {}
                 }
                 p

@@ -376,35 +376,74 @@ pub fn render_svo(
     cones: &ConeSettings,
     progress: impl Fn(&str),
 ) -> Result<(Rendered, crate::kernels::sparse_voxel_octree::MemoryReport)> {
-    use crate::kernels::{sparse_voxel_octree as svo, svo_cone_trace};
-    let plan = FramePlan::vct_svo(scene, cones);
-    let data = SceneData::new(scene);
-    let mut stages = Vec::new();
-    let (gb, direct) = gbuffer_and_direct(ctx, &data, &plan, &mut stages, &progress)?;
-    let (rad, _, frame) = lit_voxels(ctx, scene, &data, &plan, &mut stages, &progress)?;
-    progress("sparse voxel octree");
-    let t = std::time::Instant::now();
-    let depth = frame.side.trailing_zeros() - 1;
-    let frags = svo_cone_trace::grid_fragments(&rad, svo_cone_trace::SCALE)?;
-    let built = svo::build_on_gpu(ctx, depth, &frags, None).context("sparse voxel octree")?;
-    stages.push(("sparse_voxel_octree", t.elapsed().as_secs_f64()));
-    let memory = svo::MemoryReport::of(&built.octree);
+    VctSvo::new(false).render(ctx, scene, cones, progress)
+}
 
-    progress("cone tracing");
-    let t = std::time::Instant::now();
-    let params = svo_cone_trace::svo_cone_params(&frame, cones);
-    let case = svo_cone_trace::case_for(
-        ctx,
-        &data,
-        &gb,
-        &built.octree,
-        svo_cone_trace::SCALE,
-        &params,
-        "render".into(),
-        0,
-    );
-    let frame = cone_pass_frame(ctx, &svo_cone_trace::DECL, &case, direct, stages, plan, t)?;
-    Ok((frame, memory))
+/// The vct-svo pipeline over a sequence of frames, with vct-dense's reuse rule: a frame whose geometry,
+/// materials, lights and voxel grid equal the last frame's skips voxelize, voxel_light and the octree
+/// and cone-traces the last frame's octree (the same octree a rebuild would make: the same image).
+pub struct VctSvo {
+    reuse: bool,
+    cache: Option<(
+        PyramidKey,
+        crate::kernels::sparse_voxel_octree::GpuOctree,
+        voxelize::VoxelFrame,
+    )>,
+}
+
+impl VctSvo {
+    /// `reuse`: the planner's rule on (true) or every pass every frame (false).
+    pub fn new(reuse: bool) -> Self {
+        Self { reuse, cache: None }
+    }
+
+    /// Render one frame (see [`render_svo`]); its plan says what was skipped and why.
+    pub fn render(
+        &mut self,
+        ctx: &crate::harness::GpuContext,
+        scene: &Scene,
+        cones: &ConeSettings,
+        progress: impl Fn(&str),
+    ) -> Result<(Rendered, crate::kernels::sparse_voxel_octree::MemoryReport)> {
+        use crate::kernels::{sparse_voxel_octree as svo, svo_cone_trace};
+        let key = PyramidKey::of(scene);
+        let cached = self.reuse && self.cache.as_ref().is_some_and(|c| c.0 == key);
+        let plan = FramePlan::vct_svo_after(scene, cones, cached);
+        let data = SceneData::new(scene);
+        let mut stages = Vec::new();
+        let (gb, direct) = gbuffer_and_direct(ctx, &data, &plan, &mut stages, &progress)?;
+        if cached {
+            progress("octree: reused");
+        } else {
+            self.cache = None;
+            let (rad, _, frame) = lit_voxels(ctx, scene, &data, &plan, &mut stages, &progress)?;
+            progress("sparse voxel octree");
+            let t = std::time::Instant::now();
+            let depth = frame.side.trailing_zeros() - 1;
+            let frags = svo_cone_trace::grid_fragments(&rad, svo_cone_trace::SCALE)?;
+            let built =
+                svo::build_on_gpu(ctx, depth, &frags, None).context("sparse voxel octree")?;
+            stages.push(("sparse_voxel_octree", t.elapsed().as_secs_f64()));
+            self.cache = Some((key, built, frame));
+        }
+        let (_, built, frame) = self.cache.as_ref().expect("built or reused above");
+        let memory = svo::MemoryReport::of(&built.octree);
+        progress("cone tracing");
+        let t = std::time::Instant::now();
+        let params = svo_cone_trace::svo_cone_params(frame, cones);
+        let case = svo_cone_trace::case_for(
+            ctx,
+            &data,
+            &gb,
+            &built.octree,
+            svo_cone_trace::SCALE,
+            &params,
+            "render".into(),
+            0,
+        );
+        let frame = cone_pass_frame(ctx, &svo_cone_trace::DECL, &case, direct, stages, plan, t)?;
+        Ok((frame, memory))
+    }
 }
 
 /// Run a cone pass (`decl`: a kernel on common/cone_march.wgsl, `case` from its case_for, started at

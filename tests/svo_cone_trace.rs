@@ -167,3 +167,41 @@ fn thin_wall_leak_of_vct_svo_is_reported() {
     println!("thin_wall leak: vct-svo {leak_svo:.4}, vct-dense {leak_dense:.4} (reference: 0)");
     assert!(leak_svo.is_finite() && leak_svo >= 0.0);
 }
+
+/// vct-svo follows vct-dense's reuse rule: a second frame of the same scene from another camera skips
+/// voxelize, voxel_light and the octree, and its image equals a full rebuild's.
+#[test]
+fn octree_is_reused_when_only_the_camera_moves() {
+    use vxgi::kernels::cone_trace::ConeSettings;
+    use vxgi::scene::Scene;
+    let mut scene = Scene::cornell_box();
+    scene.camera.width = 48;
+    scene.camera.height = 48;
+    scene.render.voxels = 32;
+    let cones = ConeSettings::default();
+    let mut renderer = vxgi::render::VctSvo::new(true);
+    let (first, _) = renderer.render(gpu(), &scene, &cones, |_| {}).unwrap();
+    assert!(first.plan.skipped().is_empty(), "{}", first.plan);
+    let moved = scene.orbited(10.0);
+    let (second, mem) = renderer.render(gpu(), &moved, &cones, |_| {}).unwrap();
+    assert_eq!(
+        second.plan.skipped(),
+        vec!["voxelize", "voxel_light", "sparse_voxel_octree"],
+        "{}",
+        second.plan
+    );
+    assert!(second.plan.to_string().contains("its octree is reused"));
+    let (fresh, fresh_mem) = vxgi::render::render_svo(gpu(), &moved, &cones, |_| {}).unwrap();
+    assert_eq!(second.indirect.pixels, fresh.indirect.pixels);
+    assert_eq!(second.ao.pixels, fresh.ao.pixels);
+    assert_eq!(mem, fresh_mem);
+    // A changed light invalidates it.
+    let mut relit = moved.clone();
+    if let vxgi::scene::Light::Point { intensity, .. } = &mut relit.lights[0] {
+        intensity[0] *= 0.5;
+    } else {
+        panic!("the Cornell box's light is a point light");
+    }
+    let (third, _) = renderer.render(gpu(), &relit, &cones, |_| {}).unwrap();
+    assert!(third.plan.skipped().is_empty());
+}
