@@ -205,3 +205,43 @@ fn octree_is_reused_when_only_the_camera_moves() {
     let (third, _) = renderer.render(gpu(), &relit, &cones, |_| {}).unwrap();
     assert!(third.plan.skipped().is_empty());
 }
+
+/// scenes/thin_wall_glossy.toml: thin_wall with a glossy floor. Both pipelines plan and run the glossy
+/// cone there, and it changes the indirect light of the floor.
+#[test]
+fn glossy_thin_wall_runs_the_glossy_cone() {
+    use vxgi::kernels::cone_trace::ConeSettings;
+    use vxgi::scene::Scene;
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let load = |name: &str| {
+        let mut s = Scene::load(dir.join(name)).unwrap();
+        s.camera.width = 64;
+        s.camera.height = 32;
+        s.render.voxels = 64;
+        s
+    };
+    let (glossy, diffuse) = (load("thin_wall_glossy.toml"), load("thin_wall.toml"));
+    let cones = ConeSettings::default();
+    let (g, _) = vxgi::render::render_svo(gpu(), &glossy, &cones, |_| {}).unwrap();
+    let (d, _) = vxgi::render::render_svo(gpu(), &diffuse, &cones, |_| {}).unwrap();
+    assert!(
+        g.plan
+            .to_string()
+            .contains("glossy cone for the 1 glossy material"),
+        "{}",
+        g.plan
+    );
+    assert!(d.plan.to_string().contains("no glossy cone"), "{}", d.plan);
+    assert_ne!(g.indirect.pixels, d.indirect.pixels);
+    assert!(g
+        .indirect
+        .pixels
+        .iter()
+        .flatten()
+        .all(|v| v.is_finite() && *v >= 0.0));
+    let dense = vxgi::render::render(gpu(), &glossy, &cones, |_| {}).unwrap();
+    assert!(dense
+        .plan
+        .to_string()
+        .contains("glossy cone for the 1 glossy material"));
+}
