@@ -12,15 +12,7 @@ use anyhow::{Context, Result};
 use std::fmt::Write as _;
 use std::path::Path;
 
-/// The stages of a vct-dense frame, in order (the columns of the per-stage times).
-pub const STAGES: [&str; 6] = [
-    "gbuffer",
-    "direct_light",
-    "voxelize",
-    "voxel_light",
-    "surface_coverage_mip",
-    "cone_trace",
-];
+use crate::render::Pipeline;
 
 /// One configuration's result.
 #[derive(Clone, Debug, serde::Serialize)]
@@ -32,7 +24,7 @@ pub struct BenchRow {
     pub cone_step: f32,
     /// Wall-clock seconds of the whole frame (stages, transfers between them included).
     pub seconds: f64,
-    /// Wall-clock seconds per stage, in [`STAGES`] order (0 where the plan skipped the stage).
+    /// Wall-clock seconds per stage, in [`Pipeline::stages`] order (0 where the plan skipped the stage).
     #[serde(skip)]
     pub stage_seconds: [f64; 6],
     pub indirect_rel_mse: f64,
@@ -101,6 +93,7 @@ pub struct PlannerRow {
 /// Measure the reuse rule on `scene` (see [`PlannerRow`]); times are the minimum over `repeats`.
 pub fn planner_comparison(
     ctx: &crate::harness::GpuContext,
+    pipeline: Pipeline,
     scene: &Scene,
     spp: u32,
     repeats: usize,
@@ -112,9 +105,9 @@ pub fn planner_comparison(
     let mut skipped = Vec::new();
     for (k, reuse) in [false, true].into_iter().enumerate() {
         for _ in 0..repeats.max(1) {
-            let mut r = crate::render::VctDense::new(reuse);
+            let mut r = crate::render::Renderer::new(pipeline, reuse);
             r.render(ctx, scene, &cones, |_| {})?;
-            let f = r.render(ctx, &second, &cones, |_| {})?;
+            let (f, _) = r.render(ctx, &second, &cones, |_| {})?;
             best[k] = best[k].min(f.stages.iter().map(|s| s.1).sum());
             if reuse {
                 skipped = f.plan.skipped();
@@ -155,7 +148,7 @@ pub fn planner_comparison(
 /// The planner section of the table.
 pub fn planner_table(p: &PlannerRow) -> String {
     format!(
-        "\n## Planner: reuse the radiance pyramid when only the view changed\n\n\
+        "\n## Planner: reuse the voxel volume (pyramid or octree) when only the view changed\n\n\
          Second of two frames (camera orbited 10 degrees, `[render]` settings of the scene), rule off \
          (every pass) vs on (skips {}).\n\n\
          | rule | frame time | combined FLIP (reference of that view) |\n\
@@ -193,6 +186,7 @@ pub fn pareto(points: &[(f64, f64)]) -> Vec<bool> {
 /// `progress(done, total, what)` is called before each step (the reference is step 0).
 pub fn bench(
     ctx: &crate::harness::GpuContext,
+    pipeline: Pipeline,
     scene: &Scene,
     spp: u32,
     quick: bool,
@@ -213,7 +207,9 @@ pub fn bench(
             render: settings.clone(),
             ..scene.clone()
         };
-        crate::render::render(ctx, &s, &ConeSettings::from(settings), |_| {})
+        crate::render::Renderer::new(pipeline, false)
+            .render(ctx, &s, &ConeSettings::from(settings), |_| {})
+            .map(|(f, _)| f)
             .with_context(|| format!("rendering with {settings:?}"))
     };
     frame(&configs[0])?;
@@ -232,7 +228,7 @@ pub fn bench(
             let f = frame(settings)?;
             let mut t = [0.0; 6];
             for (name, secs) in &f.stages {
-                if let Some(k) = STAGES.iter().position(|s| s == name) {
+                if let Some(k) = pipeline.stages().iter().position(|s| s == name) {
                     t[k] += secs;
                 }
             }
@@ -268,17 +264,17 @@ pub fn bench(
         r.pareto = p;
     }
     progress(total - 1, total, "planner: reuse rule off vs on");
-    let planner = planner_comparison(ctx, scene, spp, repeats)?;
+    let planner = planner_comparison(ctx, pipeline, scene, spp, repeats)?;
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-    write_csv(&out.join("bench.csv"), &rows)?;
-    let md = table(&rows, spp, w, h) + &planner_table(&planner);
+    write_csv(&out.join("bench.csv"), pipeline, &rows)?;
+    let md = table(&rows, pipeline, spp, w, h) + &planner_table(&planner);
     std::fs::write(out.join("bench.md"), md)
         .with_context(|| format!("writing {}", out.join("bench.md").display()))?;
     plot(&out.join("bench.svg"), &rows)?;
     Ok((rows, planner))
 }
 
-fn write_csv(path: &Path, rows: &[BenchRow]) -> Result<()> {
+fn write_csv(path: &Path, pipeline: Pipeline, rows: &[BenchRow]) -> Result<()> {
     let mut w =
         csv::Writer::from_path(path).with_context(|| format!("writing {}", path.display()))?;
     // Header by hand: the flattened per-stage columns follow the serialised fields.
@@ -298,7 +294,7 @@ fn write_csv(path: &Path, rows: &[BenchRow]) -> Result<()> {
     .iter()
     .map(|s| s.to_string())
     .collect();
-    header.extend(STAGES.iter().map(|s| format!("{s}_seconds")));
+    header.extend(pipeline.stages().iter().map(|s| format!("{s}_seconds")));
     w.write_record(&header)?;
     for r in rows {
         let mut rec = vec![
@@ -322,12 +318,13 @@ fn write_csv(path: &Path, rows: &[BenchRow]) -> Result<()> {
 }
 
 /// The Markdown table (rows by time, Pareto-optimal ones marked).
-pub fn table(rows: &[BenchRow], spp: u32, w: u32, h: u32) -> String {
+pub fn table(rows: &[BenchRow], pipeline: Pipeline, spp: u32, w: u32, h: u32) -> String {
     let mut sorted: Vec<&BenchRow> = rows.iter().collect();
     sorted.sort_by(|a, b| a.seconds.total_cmp(&b.seconds));
+    let (name, cones) = (pipeline.name(), pipeline.stages()[5]);
     let mut md = format!(
-        "# vxgi bench (vct-dense, {w}x{h}, reference {spp} spp)\n\n\
-         | voxels | cones | half-angle | mip clamp | step | time | cone_trace | voxelize | indirect FLIP | combined FLIP | combined rel. MSE | Pareto |\n\
+        "# vxgi bench ({name}, {w}x{h}, reference {spp} spp)\n\n\
+         | voxels | cones | half-angle | mip clamp | step | time | {cones} | voxelize | indirect FLIP | combined FLIP | combined rel. MSE | Pareto |\n\
          |---|---|---|---|---|---|---|---|---|---|---|---|\n"
     );
     for r in sorted {

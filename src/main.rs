@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 use vxgi::harness::{kernel::verify, run::copy_bandwidth, GpuContext, VerifyOptions};
 use vxgi::images::{read_exr, write_frame, write_heatmap, RgbImage};
 use vxgi::kernels::cone_trace::ConeSettings;
+use vxgi::render::Pipeline;
 
 #[derive(Parser)]
 #[command(
@@ -104,6 +105,9 @@ enum Command {
         spp: Option<u32>,
         #[arg(long, default_value = "bench")]
         out: PathBuf,
+        /// Which pipeline the sweep renders.
+        #[arg(long, value_enum, default_value_t = Pipeline::VctDense)]
+        pipeline: Pipeline,
         /// The keys the sweep does not vary (e.g. --ao-range) apply to every configuration.
         #[command(flatten)]
         render: RenderFlags,
@@ -116,15 +120,6 @@ enum Command {
         #[arg(long)]
         heatmap: Option<PathBuf>,
     },
-}
-
-#[derive(clap::ValueEnum, Clone, Copy, Debug)]
-enum Pipeline {
-    /// Dense voxel grid + surface-coverage mips + cone tracing (Crassin 2011 / Rehfeld 2014 section 4).
-    VctDense,
-    /// Sparse voxel octree (3x3x3 vertex-centred bricks, border transfer, Gaussian distribution over
-    /// levels) + cone tracing through it (Crassin 2011). Octree depth log2(voxels) - 1.
-    VctSvo,
 }
 
 /// Flags overriding the scene file's `[render]` keys (same names).
@@ -222,22 +217,17 @@ fn run_render(
         bail!("--frames must be at least 1 and --orbit finite");
     }
     if plan_only {
-        let plan = |cached| match pipeline {
-            Pipeline::VctDense => vxgi::plan::FramePlan::vct_dense_after(&scene, &cones, cached),
-            Pipeline::VctSvo => vxgi::plan::FramePlan::vct_svo_after(&scene, &cones, cached),
-        };
-        print!("{}", plan(false));
+        print!("{}", pipeline.plan(&scene, &cones, false));
         if frames > 1 {
             println!("frames 2..{frames} (only the camera moves):");
-            print!("{}", plan(true));
+            print!("{}", pipeline.plan(&scene, &cones, true));
         }
         return Ok(());
     }
     create_out(&out)?;
     let ctx = GpuContext::new().context("creating the GPU context")?;
     eprintln!("adapter: {}", ctx.describe());
-    let mut dense = vxgi::render::VctDense::new(true);
-    let mut svo = vxgi::render::VctSvo::new(true);
+    let mut renderer = vxgi::render::Renderer::new(pipeline, true);
     for k in 0..frames {
         let view = scene.orbited(orbit * k as f32);
         let dir = if frames == 1 {
@@ -248,19 +238,15 @@ fn run_render(
         create_out(&dir)?;
         let bar = spinner();
         let message = |stage: &str| bar.set_message(format!("frame {}/{frames}: {stage}", k + 1));
-        let r = match pipeline {
-            Pipeline::VctDense => dense.render(&ctx, &view, &cones, message)?,
-            Pipeline::VctSvo => {
-                let (r, m) = svo.render(&ctx, &view, &cones, message)?;
-                println!(
-                    "octree: {} nodes and bricks, {:.1} MB (vct-dense's pyramids at this resolution: {:.1} MB)",
-                    m.nodes,
-                    m.bytes as f64 / 1e6,
-                    m.vct_dense_bytes as f64 / 1e6
-                );
-                r
-            }
-        };
+        let (r, memory) = renderer.render(&ctx, &view, &cones, message)?;
+        if let Some(m) = memory {
+            println!(
+                "octree: {} nodes and bricks, {:.1} MB (vct-dense's pyramids at this resolution: {:.1} MB)",
+                m.nodes,
+                m.bytes as f64 / 1e6,
+                m.vct_dense_bytes as f64 / 1e6
+            );
+        }
         bar.finish_and_clear();
         write_frame(&dir, [&r.direct, &r.indirect, &r.combined, &r.ao])?;
         let stages: Vec<String> = r
@@ -321,6 +307,7 @@ fn run_reference(
 
 fn run_bench(
     scene: Option<PathBuf>,
+    pipeline: Pipeline,
     quick: bool,
     spp: Option<u32>,
     out: PathBuf,
@@ -339,16 +326,29 @@ fn run_bench(
         ProgressStyle::with_template("{bar:30} {pos}/{len} {elapsed} {msg}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
-    let (rows, planner) =
-        vxgi::bench::bench(&ctx, &scene, spp, quick, &out, |done, total, what| {
+    let (rows, planner) = vxgi::bench::bench(
+        &ctx,
+        pipeline,
+        &scene,
+        spp,
+        quick,
+        &out,
+        |done, total, what| {
             bar.set_length(total as u64);
             bar.set_position(done as u64);
             bar.set_message(what.to_string());
-        })?;
+        },
+    )?;
     bar.finish_and_clear();
     print!(
         "{}",
-        vxgi::bench::table(&rows, spp, scene.camera.width, scene.camera.height)
+        vxgi::bench::table(
+            &rows,
+            pipeline,
+            spp,
+            scene.camera.width,
+            scene.camera.height
+        )
     );
     print!("{}", vxgi::bench::planner_table(&planner));
     println!("wrote bench.csv, bench.md, bench.svg to {}", out.display());
@@ -483,8 +483,9 @@ fn real_main() -> Result<()> {
             quick,
             spp,
             out,
+            pipeline,
             render,
-        } => run_bench(scene, quick, spp, out, render),
+        } => run_bench(scene, pipeline, quick, spp, out, render),
     }
 }
 

@@ -379,6 +379,84 @@ pub fn render_svo(
     VctSvo::new(false).render(ctx, scene, cones, progress)
 }
 
+/// The pipelines `vxgi render --pipeline` (and `vxgi bench --pipeline`) choose from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Pipeline {
+    /// Dense voxel grid + surface-coverage mips + cone tracing (Crassin 2011 / Rehfeld 2014 section 4).
+    VctDense,
+    /// Sparse voxel octree (3x3x3 vertex-centred bricks, border transfer, Gaussian distribution over
+    /// levels) + cone tracing through it (Crassin 2011). Octree depth log2(voxels) - 1.
+    VctSvo,
+}
+
+impl Pipeline {
+    pub fn name(self) -> &'static str {
+        match self {
+            Pipeline::VctDense => "vct-dense",
+            Pipeline::VctSvo => "vct-svo",
+        }
+    }
+
+    /// The stages of a frame, in order: G-buffer, direct light, voxelization, voxel light, the volume
+    /// (mips or octree), the cone pass.
+    pub fn stages(self) -> [&'static str; 6] {
+        let (volume, cones) = match self {
+            Pipeline::VctDense => ("surface_coverage_mip", "cone_trace"),
+            Pipeline::VctSvo => ("sparse_voxel_octree", "svo_cone_trace"),
+        };
+        [
+            "gbuffer",
+            "direct_light",
+            "voxelize",
+            "voxel_light",
+            volume,
+            cones,
+        ]
+    }
+
+    /// The frame plan of a first frame (`cached` false) or of a frame after an unchanged one.
+    pub fn plan(self, scene: &Scene, cones: &ConeSettings, cached: bool) -> FramePlan {
+        match self {
+            Pipeline::VctDense => FramePlan::vct_dense_after(scene, cones, cached),
+            Pipeline::VctSvo => FramePlan::vct_svo_after(scene, cones, cached),
+        }
+    }
+}
+
+/// Frames of either pipeline, with the planner's reuse rule on or off.
+pub enum Renderer {
+    Dense(VctDense),
+    Svo(VctSvo),
+}
+
+impl Renderer {
+    pub fn new(pipeline: Pipeline, reuse: bool) -> Self {
+        match pipeline {
+            Pipeline::VctDense => Renderer::Dense(VctDense::new(reuse)),
+            Pipeline::VctSvo => Renderer::Svo(VctSvo::new(reuse)),
+        }
+    }
+
+    /// One frame, and for vct-svo the octree's memory report.
+    pub fn render(
+        &mut self,
+        ctx: &crate::harness::GpuContext,
+        scene: &Scene,
+        cones: &ConeSettings,
+        progress: impl Fn(&str),
+    ) -> Result<(
+        Rendered,
+        Option<crate::kernels::sparse_voxel_octree::MemoryReport>,
+    )> {
+        match self {
+            Renderer::Dense(r) => Ok((r.render(ctx, scene, cones, progress)?, None)),
+            Renderer::Svo(r) => r
+                .render(ctx, scene, cones, progress)
+                .map(|(f, m)| (f, Some(m))),
+        }
+    }
+}
+
 /// The vct-svo pipeline over a sequence of frames, with vct-dense's reuse rule: a frame whose geometry,
 /// materials, lights and voxel grid equal the last frame's skips voxelize, voxel_light and the octree
 /// and cone-traces the last frame's octree (the same octree a rebuild would make: the same image).

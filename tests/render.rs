@@ -355,6 +355,26 @@ fn bench_quick_writes_csv_table_and_plot() {
     );
     assert!(stdout.contains("combined FLIP"), "{stdout}");
 
+    // The same sweep through vct-svo: its own stage columns, the octree skipped by the planner.
+    let o2 = dir.join("bench-svo").display().to_string();
+    let (code, stdout, err) = vxgi(&[
+        "bench",
+        &scene,
+        "--quick",
+        "--spp",
+        "2",
+        "--pipeline",
+        "vct-svo",
+        "--out",
+        &o2,
+    ]);
+    assert_eq!(code, 0, "{stdout}\n{err}");
+    let csv = std::fs::read_to_string(dir.join("bench-svo/bench.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 5, "{csv}");
+    assert!(csv.contains("sparse_voxel_octree_seconds") && csv.contains("svo_cone_trace_seconds"));
+    let md = std::fs::read_to_string(dir.join("bench-svo/bench.md")).unwrap();
+    assert!(md.contains("vct-svo") && md.contains("sparse_voxel_octree"), "{md}");
+
     for (bad, key) in [
         ("--cones=0", "cones"),
         ("--cone-half-angle=90", "cone_half_angle"),
