@@ -156,7 +156,7 @@ pub fn planner_table(p: &PlannerRow) -> String {
          | off | {:.0} ms | {:.3} |\n\
          | on | {:.0} ms | {:.3} |\n\n\
          Saved {:.0}% of the frame; largest difference between the two frames: {:e} (the reused \
-         pyramid is the one a rebuild makes).\n",
+         volume is the one a rebuild makes).\n",
         p.skipped.join(", "),
         p.off_seconds * 1e3,
         p.off_flip,

@@ -160,30 +160,24 @@ fn load_scene(path: &Option<PathBuf>, flags: &RenderFlags) -> Result<vxgi::scene
     for w in &scene.warnings {
         eprintln!("warning: {w}");
     }
-    if let Some(v) = flags.voxels {
-        scene.render.voxels = v;
+    // Every flag overrides the `[render]` key of the same name.
+    macro_rules! override_keys {
+        ($($key:ident),*) => {
+            $(if let Some(v) = flags.$key {
+                scene.render.$key = v;
+            })*
+        };
     }
-    if let Some(v) = flags.ao_range {
-        scene.render.ao_range = v;
-    }
-    if let Some(v) = flags.ao_lambda {
-        scene.render.ao_lambda = v;
-    }
-    if let Some(v) = flags.cones {
-        scene.render.cones = v;
-    }
-    if let Some(v) = flags.cone_half_angle {
-        scene.render.cone_half_angle = v;
-    }
-    if let Some(v) = flags.cone_offset {
-        scene.render.cone_offset = v;
-    }
-    if let Some(v) = flags.mip_clamp {
-        scene.render.mip_clamp = v;
-    }
-    if let Some(v) = flags.cone_step {
-        scene.render.cone_step = v;
-    }
+    override_keys!(
+        voxels,
+        ao_range,
+        ao_lambda,
+        cones,
+        cone_half_angle,
+        cone_offset,
+        mip_clamp,
+        cone_step
+    );
     scene.render.validate().map_err(anyhow::Error::msg)?;
     Ok(scene)
 }

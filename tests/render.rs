@@ -373,7 +373,10 @@ fn bench_quick_writes_csv_table_and_plot() {
     assert_eq!(csv.lines().count(), 5, "{csv}");
     assert!(csv.contains("sparse_voxel_octree_seconds") && csv.contains("svo_cone_trace_seconds"));
     let md = std::fs::read_to_string(dir.join("bench-svo/bench.md")).unwrap();
-    assert!(md.contains("vct-svo") && md.contains("sparse_voxel_octree"), "{md}");
+    assert!(
+        md.contains("vct-svo") && md.contains("sparse_voxel_octree"),
+        "{md}"
+    );
 
     for (bad, key) in [
         ("--cones=0", "cones"),
