@@ -118,7 +118,7 @@ fn params(
 }
 
 /// Resources and the pass sequence of a whole build: structure, splat, then transfer and distribution
-/// level by level from the leaves up. `phases` receives, per pass, which phase it belongs to (for timing).
+/// level by level from the leaves up ([`phase_of`] names the phase of each pass, for timing).
 pub fn case_for(
     ctx: &GpuContext,
     depth: u32,
