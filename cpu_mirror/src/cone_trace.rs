@@ -117,6 +117,25 @@ pub struct SampleError {
     pub a: f32,
 }
 
+impl SampleError {
+    /// The sample point's coordinate error in cells of the sampled level (`dq` above): 8 ULP of the
+    /// magnitudes in `q = (x - origin) * inv - offset`.
+    pub fn coordinate_error(x: Vec3, origin: Vec3, inv: f32, q: Vec3) -> f32 {
+        8.0 * f32::EPSILON
+            * ((x.abs().max_element() + origin.abs().max_element()) * inv
+                + q.abs().max_element()
+                + 1.0)
+    }
+
+    /// Add one trilinear corner of value `v` and weights `w` (per axis): its value moves by `dq`
+    /// times its partial derivative, at most `|v|` times the product of the other two axes' weights.
+    pub fn add_corner(&mut self, dq: f32, w: [f32; 3], v: Vec4) {
+        let slope = dq * (w[1] * w[2] + w[0] * w[2] + w[0] * w[1]);
+        self.rgb += slope * v.x.abs().max(v.y.abs()).max(v.z.abs());
+        self.a += slope * v.w.abs();
+    }
+}
+
 impl Pyramid<'_> {
     /// Quadrilinear sample at mip level `lf`, and its error from the sample point's rounding.
     pub fn sample(&self, x: Vec3, lf: f32) -> (Vec4, SampleError) {
@@ -134,11 +153,7 @@ impl Volume for Pyramid<'_> {
         let inv = self.p.inv_s0 * (1.0 / (1u32 << l) as f32);
         let origin = Vec3::from_slice(&self.p.origin[..3]);
         let q = (x - origin) * inv - Vec3::splat(0.5);
-        let dq = 8.0
-            * f32::EPSILON
-            * ((x.abs().max_element() + origin.abs().max_element()) * inv
-                + q.abs().max_element()
-                + 1.0);
+        let dq = SampleError::coordinate_error(x, origin, inv, q);
         let fl = q.floor();
         let f = q - fl;
         let i0 = [fl.x as i32, fl.y as i32, fl.z as i32];
@@ -154,11 +169,11 @@ impl Volume for Pyramid<'_> {
             if ix < 0 || iy < 0 || iz < 0 || ix >= n || iy >= n || iz >= n {
                 continue;
             }
-            let v = self.voxels[off + morton::encode(ix as u32, iy as u32, iz as u32) as usize];
-            acc += Vec4::from_array(v) * (wx * wy * wz);
-            let slope = dq * (wy * wz + wx * wz + wx * wy);
-            err.rgb += slope * v[0].abs().max(v[1].abs()).max(v[2].abs());
-            err.a += slope * v[3].abs();
+            let v = Vec4::from_array(
+                self.voxels[off + morton::encode(ix as u32, iy as u32, iz as u32) as usize],
+            );
+            acc += v * (wx * wy * wz);
+            err.add_corner(dq, [wx, wy, wz], v);
         }
         (acc, err)
     }

@@ -165,6 +165,21 @@ pub fn flag_box(p: [u32; 3], depth: u32, level: u32) -> ([u32; 3], [u32; 3]) {
     (lo, hi)
 }
 
+/// The node at (level, c) in `nodes`, descending from the root along child pointers (the kernels'
+/// `find` in kernels/common/svo_node.wgsl); NONE where a tile is missing.
+pub fn find(nodes: &[Node], level: u32, c: [u32; 3]) -> u32 {
+    let mut n = 0u32;
+    for k in 1..=level {
+        let t = nodes[n as usize].child;
+        if t == NONE {
+            return NONE;
+        }
+        let s = level - k;
+        n = t * 8 + ((c[0] >> s) & 1) + 2 * ((c[1] >> s) & 1) + 4 * ((c[2] >> s) & 1);
+    }
+    n
+}
+
 /// Weight of child lattice point `q` (0..=4 per axis within a parent node at `parent`, level `level`)
 /// towards parent brick voxel `v` (0..=2 per axis): per axis 1 at distance one, 2 at distance zero
 /// unless the point lies on a face the node shares with another node of its level (then 1: the other
@@ -261,17 +276,7 @@ impl Octree {
 
     /// The node at (level, c), found by descending from the root along child pointers.
     pub fn find(&self, level: u32, c: [u32; 3]) -> u32 {
-        let mut n = 0u32;
-        for k in 1..=level {
-            let t = self.nodes[n as usize].child;
-            if t == NONE {
-                return NONE;
-            }
-            let s = level - k;
-            let ci = ((c[0] >> s) & 1) + 2 * ((c[1] >> s) & 1) + 4 * ((c[2] >> s) & 1);
-            n = t * 8 + ci;
-        }
-        n
+        find(&self.nodes, level, c)
     }
 
     fn brick(&self, n: u32, v: usize, ch: usize) -> u32 {

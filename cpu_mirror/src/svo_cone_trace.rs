@@ -5,8 +5,7 @@
 //! the cell holding the point, quadrilinear across levels as the pyramid. Outside the lattice and in
 //! missing nodes: empty.
 use crate::cone_trace::{ConeParams, SampleError, Volume};
-use crate::sparse_voxel_octree::{voxel_index, Node, BRICK_WORDS, CHANNELS, NONE};
-use crate::svo_sample::find;
+use crate::sparse_voxel_octree::{find, voxel_index, Node, BRICK_WORDS, CHANNELS, NONE};
 use glam::{Vec3, Vec4};
 
 /// The kernel's `struct SvoParams`.
@@ -37,11 +36,7 @@ impl Volume for SvoVolume<'_> {
         let origin = Vec3::from_slice(&self.p.origin[..3]);
         let q = (x - origin) * inv - Vec3::splat(0.5 / (1u32 << l) as f32);
         // The sample point's rounding, as cone_trace's Pyramid::level (see SampleError).
-        let dq = 8.0
-            * f32::EPSILON
-            * ((x.abs().max_element() + origin.abs().max_element()) * inv
-                + q.abs().max_element()
-                + 1.0);
+        let dq = SampleError::coordinate_error(x, origin, inv, q);
         let fl = q.floor();
         let f = q - fl;
         let i0 = [fl.x as i32, fl.y as i32, fl.z as i32];
@@ -70,9 +65,7 @@ impl Volume for SvoVolume<'_> {
                 self.bricks[b + 3] as f32,
             ) * self.svo.inv_scale;
             acc += v * (w[0] * w[1] * w[2]);
-            let slope = dq * (w[1] * w[2] + w[0] * w[2] + w[0] * w[1]);
-            err.rgb += slope * v.x.abs().max(v.y.abs()).max(v.z.abs());
-            err.a += slope * v.w.abs();
+            err.add_corner(dq, w, v);
         }
         (acc, err)
     }

@@ -12,7 +12,7 @@
 //! The position arithmetic is exact (scaling by a power of two, subtracting nearby integers: Sterbenz),
 //! so GPU and mirror pick the same node, cell and weights; only the interpolation's roundings (and their
 //! FMA contraction, which WGSL allows) differ.
-use crate::sparse_voxel_octree::{Node, BRICK_WORDS, CHANNELS, NONE};
+use crate::sparse_voxel_octree::{find, Node, BRICK_WORDS, CHANNELS, NONE};
 
 /// The kernel's uniform block (`struct SampleParams`).
 #[repr(C)]
@@ -23,20 +23,6 @@ pub struct SampleParams {
     /// 1 / the fixed-point scale of the brick values.
     pub inv_scale: f32,
     pub _pad: u32,
-}
-
-/// The node at (level, c), descending from the root (the kernel's `find`).
-pub fn find(nodes: &[Node], level: u32, c: [u32; 3]) -> u32 {
-    let mut n = 0u32;
-    for k in 1..=level {
-        let t = nodes[n as usize].child;
-        if t == NONE {
-            return NONE;
-        }
-        let s = level - k;
-        n = t * 8 + ((c[0] >> s) & 1) + 2 * ((c[1] >> s) & 1) + 4 * ((c[2] >> s) & 1);
-    }
-    n
 }
 
 /// Trilinear sample of level `level` at unit-volume point `x` (clamped to [0, 1]).
