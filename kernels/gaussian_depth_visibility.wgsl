@@ -17,7 +17,9 @@
 // contract (the partition kernel refuses NaN at the API boundary).
 // Accuracy: a per-element bound from the WGSL rules of every operation on the path (division 2.5 ULP,
 // sqrt via inverseSqrt, exp 3 + 2|x| ULP, FMA contraction allowed), propagated through dV/dt = phi(t):
-// see visibility_bound in the mirror.
+// see visibility_bound in the mirror. WGSL's division rule stops at divisors of 2^126: for A above it
+// (outside the contract's [0, 1]) V is only promised finite and in [0, 1] (measured on an H100:
+// Az / A = 0 there).
 // The arithmetic lives in kernels/common/lrsm_math.wgsl (shared with sample_lrsm.wgsl).
 
 struct VisibilityParams {

@@ -399,3 +399,96 @@ fn included_helpers_report_their_own_file_and_line() {
     .unwrap_err();
     assert!(err.to_string().starts_with("kernels/k.wgsl:4:"), "{err}");
 }
+
+const ZERO_WGSL: &str = r#"
+@group(0) @binding(0) var<storage, read_write> dst: array<f32>;
+
+// Writes 0 everywhere: what a GPU that flushes subnormal results writes for a subnormal value.
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    if (gid.x < arrayLength(&dst)) {
+        dst[gid.x] = 0.0;
+    }
+}
+"#;
+
+static ZERO: KernelDecl = KernelDecl {
+    name: "flush_test",
+    wgsl_path: "tests/harness.rs (ZERO_WGSL)",
+    wgsl: ZERO_WGSL,
+    includes: &[],
+    entry: "main",
+    inputs: &[],
+    outputs: &[Output {
+        binding: "dst",
+        tolerance: Tolerance::Exact,
+    }],
+    dispatch: DispatchRule::PerElement { binding: "dst" },
+    mirror: "tests/harness.rs::Flush::mirror",
+    summary: "harness self-test: a subnormal result flushed by the GPU",
+};
+
+/// A mirror that ignores `FloatMode` and expects `value` in every element.
+struct Flush {
+    value: f32,
+}
+
+impl Kernel for Flush {
+    fn decl(&self) -> &'static KernelDecl {
+        &ZERO
+    }
+    fn case(
+        &self,
+        shader: &Shader,
+        ctx: &vxgi::harness::GpuContext,
+        seed: u64,
+        _index: usize,
+    ) -> Case {
+        let mut resources = Resources::new();
+        resources.insert(
+            "dst".into(),
+            HostResource::Buffer(HostBuffer::f32(&[1.0; 100])),
+        );
+        let all = vxgi::harness::run::bind_same_names(["dst"]);
+        let pass = ZERO.pass(shader, ctx, "zero".into(), all, 100);
+        Case {
+            label: format!("value {:e}", self.value),
+            seed,
+            resources,
+            passes: vec![pass],
+            checks: vec![Check {
+                resource: "dst".into(),
+                output: "dst",
+                indexing: Indexing::Linear,
+            }],
+            effective_bytes: 0,
+        }
+    }
+    fn mirror(
+        &self,
+        _case: &Case,
+        _data: &Resources,
+        _mode: FloatMode,
+    ) -> BTreeMap<String, HostBuffer> {
+        BTreeMap::from([("dst".to_string(), HostBuffer::f32(&[self.value; 100]))])
+    }
+}
+
+#[test]
+fn a_gpu_may_flush_a_subnormal_result_even_where_the_mirror_ignores_flush_mode() {
+    let shader = ZERO.shader().unwrap();
+    // 1.7e-42 is subnormal: WGSL lets the GPU write 0 (an H100 did, in direct_light).
+    let flushed = Flush { value: 1.7e-42 };
+    let case = flushed.case(&shader, gpu(), 1, 0);
+    let (comps, ..) = verify_case(gpu(), &shader, &flushed, &case, None).unwrap();
+    assert!(comps[0].passed(), "{}", comps[0].report());
+    assert_eq!(comps[0].flushed, 100);
+    // The smallest normal is not flushable: the same zeros must fail.
+    let normal = Flush {
+        value: f32::MIN_POSITIVE,
+    };
+    let case = normal.case(&shader, gpu(), 1, 0);
+    let (comps, ..) = verify_case(gpu(), &shader, &normal, &case, None).unwrap();
+    assert!(!comps[0].passed());
+    assert_eq!(comps[0].failures, 100);
+}

@@ -110,6 +110,46 @@ pub fn incident(light: &GpuLight, p: Vec3) -> Incident {
     }
 }
 
+/// How far a conforming GPU's [`incident`] at `p` may be from the mirror's when its point may differ by
+/// `dp` (absolute, per component; 0 where `p` is an input): `(irradiance, direction)`, bounds on
+/// |Δ irradiance| per channel and on |Δ wi| per component (so on any cosine with a unit vector).
+/// * direction: `lv / r` with `lv = light - p` carries `dp / r`, plus 8 ULP for `sqrt` (via
+///   inverseSqrt) and WGSL's 2.5-ULP division (an H100 computes `lv * rcp(r)`);
+/// * `I / r^2`: relative `2 dp / r` from the point (the rounding of `r^2` and the division sit in the
+///   term's 64-ULP budget);
+/// * spot: the cosine to the axis moves by the direction's error, and the smoothstep's change over
+///   that interval is taken exactly (it is monotone): near the cone's edge the factor `3t^2` has a large
+///   *relative* error, and past it the mirror's 0 may be the GPU's `3t^2` (both seen on an H100: 2358
+///   ULP where t ~ 1e-2, 3e-9 against 0).
+///
+/// Each part is doubled, since it is first order.
+pub fn incident_error(light: &GpuLight, p: Vec3, dp: f32) -> (Vec3, f32) {
+    let u = f32::EPSILON;
+    if light.position[3] == DIRECTIONAL {
+        return (Vec3::ZERO, 0.0);
+    }
+    let lv = v3(light.position) - p;
+    let r2 = lv.dot(lv);
+    let r = r2.sqrt();
+    if r2 <= 0.0 || !r2.is_finite() {
+        return (Vec3::ZERO, 0.0);
+    }
+    let e_dir = 2.0 * (dp / r + 8.0 * u);
+    let i = v3(light.intensity) / r2;
+    let mut e = i * (2.0 * 2.0 * dp / r);
+    if light.position[3] == SPOT {
+        let dir = v3(light.direction);
+        let cos_a = -(lv / r).dot(dir);
+        let (cc, cf) = (light.direction[3], light.intensity[3]);
+        let f = spot_factor(cos_a, cc, cf);
+        let df = (spot_factor(cos_a + e_dir, cc, cf) - f)
+            .abs()
+            .max((f - spot_factor(cos_a - e_dir, cc, cf)).abs());
+        e = e * f + i * (2.0 * df);
+    }
+    (e, e_dir)
+}
+
 /// BRDF value for light from `wi`, seen from `wo`, shading normal `n` (cos = n . wi > 0).
 pub fn brdf(m: &GpuMaterial, n: Vec3, wi: Vec3, wo: Vec3, cos: f32) -> Vec3 {
     let kd = v3(m.diffuse) * (1.0 / PI);
@@ -194,6 +234,8 @@ pub fn face_normal(tri: &GpuTriangle) -> Vec3 {
 /// propagated error of x). Terms whose visibility or spot edge is decided by rounding (a shadow ray
 /// within 1e-4 barycentric of an occluder's edge, a light within 1e-5 of grazing the geometric surface,
 /// a point within 1e-5 in cosine of a hard spot edge) add their whole value: the GPU may have either.
+/// Plus [`incident_error`]: the spot factor's change over the cosine's error (near a soft edge, and
+/// just past it where the mirror has 0).
 #[allow(clippy::too_many_arguments)]
 pub fn shade_with_bound(
     frame: &Frame,
@@ -224,6 +266,7 @@ pub fn shade_with_bound(
     let mut bound = Vec3::ZERO;
     for light in lights {
         let inc = incident(light, p);
+        let (e_irr, e_dir) = incident_error(light, p, 0.0);
         let cos = n.dot(inc.wi);
         let geo = ng.dot(inc.wi);
         // Full term without the cut-offs, for the ambiguity allowance.
@@ -233,6 +276,14 @@ pub fn shade_with_bound(
         if cos <= 0.0 || geo <= 0.0 || inc.irradiance == Vec3::ZERO {
             if ambiguous_geo || ambiguous_edge {
                 bound += scale(cos) * cos.max(0.0) + scale(1.0) * (8.0 * u);
+            }
+            // Past a soft spot's edge the GPU's factor may be a small 3t^2 instead of 0; cosines
+            // within their error of 0 may be the GPU's small positive ones.
+            let e_cos = e_dir + 8.0 * u;
+            if cos > -e_cos && geo > -e_cos {
+                bound += brdf(m, n, inc.wi, wo, cos.max(0.0))
+                    * (e_irr + inc.irradiance)
+                    * (cos.max(0.0) + e_cos);
             }
             continue;
         }
@@ -260,7 +311,9 @@ pub fn shade_with_bound(
         // Arithmetic error of the term.
         let shin = m.diffuse[3];
         let ks = v3(m.specular);
-        let mut b = term * (64.0 * u) + scale(1.0) * (8.0 * u);
+        let mut b = term * (64.0 * u)
+            + scale(1.0) * (8.0 * u)
+            + brdf(m, n, inc.wi, wo, cos) * e_irr * (cos + e_dir);
         if ks != Vec3::ZERO {
             let r = n * (2.0 * cos) - inc.wi;
             let x = r.dot(wo);

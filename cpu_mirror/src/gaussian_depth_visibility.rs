@@ -56,11 +56,16 @@ impl Default for VisibilityParams {
     }
 }
 
+/// 2^126: the largest divisor WGSL's 2.5-ULP division rule covers.
+const MAX_DIVISOR: f64 = 8.507_059_173_023_462e37;
+
 const FRAC_1_SQRT_2: f32 = std::f32::consts::FRAC_1_SQRT_2;
 
-/// erfc(x) for x >= 0, in the kernel's operation order.
+/// erfc(x) for x >= 0, in the kernel's operation order; x capped at 16 (0 in f32 for 7.1.26,
+/// 1.4e-15 for 7.1.27) so 7.1.27's divisor stays below 2^126, inside WGSL's division rule.
 pub fn erfc_approx(x: f32, cdf: Cdf, flush: bool) -> f32 {
     let f = |v: f32| ftz(v, flush);
+    let x = x.min(16.0);
     match cdf {
         Cdf::AS7126 => {
             let t = f(1.0 / f(1.0 + f(0.327_591_1 * x)));
@@ -144,12 +149,20 @@ pub fn visibility(moments: [f32; 4], zc: f32, rc: f32, p: &VisibilityParams, flu
 ///   subtraction.
 ///
 /// Returned doubled, since it is first order; never below 4e-7 (a few ULP of 1).
+///
+/// WGSL's division rule holds only for divisors in [2^-126, 2^126]; an opacity A above 2^126 (outside
+/// the contract's [0, 1], reachable with arbitrary bit patterns) leaves `Az / A` unbounded — the
+/// H100 returns 0 there, as `x * rcp(A)` with rcp flushed — so V is promised only finite and in
+/// [0, 1]: bound 1.
 pub fn visibility_bound(moments: [f32; 4], zc: f32, rc: f32, p: &VisibilityParams) -> f32 {
     let u = f64::from(f32::EPSILON) / 2.0;
     let [az, az2, a, _] = moments.map(f64::from);
     #[allow(clippy::neg_cmp_op_on_partial_ord)]
     if !(a > p.min_alpha as f64) {
         return 0.0;
+    }
+    if a > MAX_DIVISOR {
+        return 1.0;
     }
     let lim = DEPTH_LIMIT as f64;
     let mu = (az / a).clamp(-lim, lim);

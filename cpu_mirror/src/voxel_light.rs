@@ -8,7 +8,7 @@
 //! the centre along n (or towards the light) and ending at the light. Output `(L * alpha, alpha)`: the
 //! pre-multiplied input of `surface_coverage_mip`. Unlisted voxels stay 0.
 use crate::bvh_trace::{all_hits, occluded, GpuNode, GpuTriangle};
-use crate::direct_light::{incident, GpuLight};
+use crate::direct_light::{incident, incident_error, GpuLight};
 use crate::morton;
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
@@ -38,8 +38,10 @@ fn v3(a: [f32; 4]) -> Vec3 {
 
 /// Radiance (pre-multiplied, alpha) of voxel `v` and its bound |GPU - mirror| (per channel; alpha
 /// exact). Bound per light term: 64 ULP of the term plus 8 ULP absolute on the cosine times the term's
-/// scale (as in `direct_light`); a term whose shadow ray passes within 1e-4 barycentric of an occluder's
-/// edge (or ends within 1e-5 of one) adds its value — rounding decides it.
+/// scale (as in `direct_light`), and `direct_light::incident_error` with the centre's rounding (a spot's
+/// factor near its soft edge; the distance and direction from a centre far from the origin); a term
+/// whose shadow ray passes within 1e-4 barycentric of an occluder's edge (or ends within 1e-5 of one)
+/// adds its value — rounding decides it.
 #[allow(clippy::too_many_arguments)]
 pub fn light_voxel(
     grid: &VoxelGrid,
@@ -57,10 +59,14 @@ pub fn light_voxel(
     let c = grid.centre(v);
     let s = grid.origin[3];
     let u = f32::EPSILON;
+    // The centre `origin + (xyz + 0.5) s` may be fused on the GPU: up to one ULP of its largest
+    // coordinate from the mirror's (seen on an H100 with the grid 1000 units from the origin).
+    let dp = 2.0 * u * c.abs().max_element();
     let mut sum = Vec3::ZERO;
     let mut bound = Vec3::ZERO;
     for light in lights {
         let inc = incident(light, c);
+        let (e_irr, e_dir) = incident_error(light, c, dp);
         let (n, cos) = if len > 1e-3 {
             let n = m * (1.0 / len);
             (n, n.dot(inc.wi))
@@ -68,6 +74,13 @@ pub fn light_voxel(
             (inc.wi, 1.0)
         };
         if cos <= 0.0 || inc.irradiance == Vec3::ZERO {
+            // Past a soft spot's edge the GPU's factor may be a small 3t^2 instead of 0; a cosine
+            // within its error of 0 may be the GPU's small positive one (seen on an H100: a normal
+            // exactly perpendicular to a directional light, cos 0 here, ~1e-9 there).
+            let e_cos = e_dir + 8.0 * u;
+            if cos > -e_cos {
+                bound += albedo * (1.0 / PI) * (e_irr + inc.irradiance) * (cos.max(0.0) + e_cos);
+            }
             continue;
         }
         let o = c + n * s;
@@ -81,7 +94,9 @@ pub fn light_voxel(
         if wide != narrow || inc.edge < 1e-5 {
             bound += term;
         }
-        bound += term * (64.0 * u) + albedo * (1.0 / PI) * inc.irradiance * (8.0 * u);
+        bound += term * (64.0 * u)
+            + albedo * (1.0 / PI) * inc.irradiance * (8.0 * u)
+            + albedo * (1.0 / PI) * (e_irr * (cos + e_dir) + inc.irradiance * e_dir);
     }
     (
         [sum.x * alpha, sum.y * alpha, sum.z * alpha, alpha],

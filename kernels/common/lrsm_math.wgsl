@@ -6,8 +6,11 @@
 const LRSM_DEPTH_LIMIT: f32 = 1.0e6;
 const LRSM_FRAC_1_SQRT_2: f32 = 0.70710677;
 
-// erfc(x) for x >= 0: cdf 0 = Abramowitz & Stegun 7.1.26, cdf 1 = 7.1.27.
-fn lrsm_erfc(x: f32, cdf: u32) -> f32 {
+// erfc(x) for x >= 0: cdf 0 = Abramowitz & Stegun 7.1.26, cdf 1 = 7.1.27. x is capped at 16 (erfc(16)
+// ~ 1e-113, 0 in f32; 7.1.27 gives 1.4e-15 there) so 1 / (d2 d2) keeps its divisor below 2^126, inside
+// WGSL's division rule (past it a GPU may return anything: the H100 returns 0).
+fn lrsm_erfc(x_in: f32, cdf: u32) -> f32 {
+    let x = min(x_in, 16.0);
     if (cdf == 1u) {
         var d = 0.078108;
         d = 0.000972 + x * d;
