@@ -363,8 +363,9 @@ fn sizes_past_device_limits_are_errors_naming_the_limit() {
         "{err}"
     );
 
-    // One vec4 more than one storage binding may hold (the buffer itself is within max_buffer_size).
-    let too_big = limits.max_storage_buffer_binding_size as usize + 16;
+    // One vec4 more than one storage binding may hold (the buffer itself is within max_buffer_size),
+    // in whole vec4s: NVIDIA's limit is 2^31 - 4, not a multiple of the stride.
+    let too_big = (limits.max_storage_buffer_binding_size as usize / 16 + 1) * 16;
     if (too_big as u64) < limits.max_buffer_size {
         let mut c = case.clone();
         c.resources.insert(
