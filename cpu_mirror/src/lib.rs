@@ -21,6 +21,7 @@ pub mod layer_decay;
 pub mod lrsm_partition;
 pub mod lrsm_prefilter;
 pub mod morton;
+pub mod occlusion_voxels;
 pub mod octahedral;
 pub mod radix_sort;
 pub mod sample_lrsm;

@@ -13,6 +13,7 @@ pub mod histogram_axes;
 pub mod layer_decay;
 pub mod lrsm_partition;
 pub mod lrsm_prefilter;
+pub mod occlusion_voxels;
 pub mod radix_sort;
 pub mod sample_lrsm;
 pub mod sparse_voxel_octree;
@@ -59,6 +60,7 @@ pub fn all() -> Vec<&'static dyn Kernel> {
         &layer_decay::LayerDecay,
         &lrsm_partition::LrsmPartition,
         &lrsm_prefilter::LrsmPrefilter,
+        &occlusion_voxels::OcclusionVoxels,
         &sample_lrsm::SampleLrsm,
         &tile_normal_histogram::TileNormalHistogram,
         &histogram_axes::HistogramAxes,
