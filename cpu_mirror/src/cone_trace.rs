@@ -96,6 +96,13 @@ pub trait Volume {
         };
         (s0 * (1.0 - a) + s1 * a, err)
     }
+
+    /// What the march reads at sample point `x` (level `lf`, cone diameter `diam`, cone direction `d`):
+    /// the volume's own sample unless the volume takes radiance from elsewhere (lrsm_cone_trace: the
+    /// LRSMs, at the sample's diameter, seen along -d).
+    fn sample_cone(&self, x: Vec3, lf: f32, _diam: f32, _d: Vec3) -> (Vec4, SampleError) {
+        self.sample(x, lf)
+    }
 }
 
 pub struct Pyramid<'a> {
@@ -217,7 +224,7 @@ pub fn march(pyr: &impl Volume, o: Vec3, d: Vec3, tan: f32, cos_n: f32, lmax: f3
             let plane = off + t * cos_n.max(0.0);
             l = l.min((plane * inv_s0 / p.mip_clamp).log2());
         }
-        let (s, serr) = pyr.sample(o + d * t, l);
+        let (s, serr) = pyr.sample_cone(o + d * t, l, diam, d);
         let step = diam * sf;
         // step / cell, cell = s0 * 2^max(l, 0) (= diam while the level follows the diameter).
         let ratio = if l < lf {

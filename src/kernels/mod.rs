@@ -32,6 +32,12 @@ pub const LRSM_MATH: (&str, &str) = (
     include_str!("../../kernels/common/lrsm_math.wgsl"),
 );
 
+/// Algorithm 1 (Sample LRSM) for one cone sample, included by sample_lrsm and lrsm_cone_trace.
+pub const LRSM_SAMPLE: (&str, &str) = (
+    "kernels/common/lrsm_sample.wgsl",
+    include_str!("../../kernels/common/lrsm_sample.wgsl"),
+);
+
 /// What reaches a point from one light (point, spot, directional), included by direct_light and
 /// voxel_light.
 pub const LIGHTS: (&str, &str) = (

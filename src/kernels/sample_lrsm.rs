@@ -2,7 +2,7 @@
 //! LRSM built from a synthetic RSM by the partition and pre-filter mirrors, for batches of cone samples
 //! including the hard ones (depths on layer bounds, normals perpendicular to the view direction, mip
 //! levels below 0 and past the chain, coordinates outside [0, 1]).
-use super::LRSM_MATH;
+use super::{LRSM_MATH, LRSM_SAMPLE};
 use crate::lrsm::{synthetic_rsm, PartitionConfig};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -22,7 +22,7 @@ pub static DECL: KernelDecl = KernelDecl {
     name: "sample_lrsm",
     wgsl_path: "kernels/sample_lrsm.wgsl",
     wgsl: WGSL,
-    includes: &[LRSM_MATH],
+    includes: &[LRSM_SAMPLE, LRSM_MATH],
     entry: "main",
     inputs: &["params", "depth_ranges", "lrsm_radiance", "lrsm_normal", "lrsm_moments", "cone_pos", "cone_dir"],
     outputs: &[
