@@ -42,6 +42,8 @@ pub enum LrsmError {
         depth: usize,
         side: u32,
     },
+    #[error("light {0} is directional: the lrsm pipeline renders RSMs from point lights (six cube faces) and spot lights (their cone); a directional light needs an orthographic RSM, not implemented yet")]
+    Directional(usize),
 }
 
 /// The static partition (section 4.3): `depth_splits` (a) and `normal_splits` (b) give (a+1) depth slices
@@ -245,4 +247,87 @@ pub fn lrsm_bytes(config: &PartitionConfig) -> u64 {
         .map(|k| (side0 >> k).pow(2))
         .sum();
     texels * config.layers() as u64 * 3 * 16
+}
+
+/// One light view of the lrsm pipeline: the G-buffer frame its RSM is ray-cast with (gbuffer.wgsl) and
+/// the view the RSM and the gather kernels project with.
+#[derive(Clone, Copy, Debug)]
+pub struct LightView {
+    pub frame: vxgi_cpu_mirror::gbuffer::Frame,
+    pub view: vxgi_cpu_mirror::reflective_shadow_map::GpuView,
+}
+
+/// The views of `lights` (scene `bounds`, G-buffer `eps` as the camera frame's eye.w): a spot light
+/// whose cone is at most 60 degrees wide (half-angle) gets one view along its axis, fitted to the cone;
+/// a point light, or a wider spot, six 90-degree cube faces (+x, -x, +y, -y, +z, -z). Depth runs from
+/// the light (near 0) to the farthest corner of the bounds (far). `info[2]` (the view's first LRSM
+/// texel) is left 0 for the caller.
+pub fn light_views(
+    lights: &[vxgi_cpu_mirror::direct_light::GpuLight],
+    bounds: (glam::Vec3, glam::Vec3),
+    rsm_side: u32,
+    eps: f32,
+) -> Result<Vec<LightView>, LrsmError> {
+    use glam::Vec3;
+    use vxgi_cpu_mirror::direct_light::{DIRECTIONAL, SPOT};
+    let mut views = Vec::new();
+    for (i, l) in lights.iter().enumerate() {
+        if l.position[3] == DIRECTIONAL {
+            return Err(LrsmError::Directional(i));
+        }
+        let eye = Vec3::new(l.position[0], l.position[1], l.position[2]);
+        let far = (0..8)
+            .map(|c| {
+                let corner = Vec3::new(
+                    if c & 1 == 0 { bounds.0.x } else { bounds.1.x },
+                    if c & 2 == 0 { bounds.0.y } else { bounds.1.y },
+                    if c & 4 == 0 { bounds.0.z } else { bounds.1.z },
+                );
+                (corner - eye).length()
+            })
+            .fold(0.0f32, f32::max)
+            * 1.001
+            + 1e-6;
+        let cos_cone = l.direction[3];
+        let axes: Vec<(Vec3, f32)> = if l.position[3] == SPOT && cos_cone >= 0.5 {
+            let tan = (1.0 - cos_cone * cos_cone).max(0.0).sqrt() / cos_cone;
+            vec![(
+                Vec3::new(l.direction[0], l.direction[1], l.direction[2]),
+                tan.max(1e-3),
+            )]
+        } else {
+            [Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z]
+                .into_iter()
+                .map(|a| (a, 1.0))
+                .collect()
+        };
+        for (forward, tan) in axes {
+            let forward = forward.normalize();
+            let helper = if forward.y.abs() > 0.9 {
+                Vec3::Z
+            } else {
+                Vec3::Y
+            };
+            let right = forward.cross(helper).normalize();
+            let up = right.cross(forward);
+            let v4 = |v: Vec3, w: f32| [v.x, v.y, v.z, w];
+            views.push(LightView {
+                frame: vxgi_cpu_mirror::gbuffer::Frame {
+                    eye: v4(eye, eps),
+                    forward: v4(forward, 0.0),
+                    right: v4(right * tan, 0.0),
+                    up: v4(up * tan, 0.0),
+                    size: [rsm_side, rsm_side, lights.len() as u32, 0],
+                },
+                view: vxgi_cpu_mirror::reflective_shadow_map::GpuView {
+                    eye: v4(eye, 0.0),
+                    forward: v4(forward, 1.0 / far),
+                    right: v4(right / tan, (rsm_side / 2) as f32 / (2.0 * tan)),
+                    up: v4(up / tan, 0.0),
+                    info: [rsm_side, i as u32, 0, 0],
+                },
+            });
+        }
+    }
+    Ok(views)
 }

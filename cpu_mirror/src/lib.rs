@@ -24,6 +24,7 @@ pub mod morton;
 pub mod occlusion_voxels;
 pub mod octahedral;
 pub mod radix_sort;
+pub mod reflective_shadow_map;
 pub mod sample_lrsm;
 pub mod sparse_voxel_octree;
 pub mod surface_coverage_mip;

@@ -235,17 +235,23 @@ impl KernelReport {
     }
 }
 
+/// An f32 buffer with its subnormals flushed, read byte-wise (a buffer's bytes need not be 4-aligned:
+/// a struct uploaded through `HostBuffer::f32` of a byte copy, an empty Vec).
+fn flush_buffer(b: &HostBuffer) -> HostBuffer {
+    let flushed: Vec<f32> = b
+        .bytes
+        .chunks_exact(4)
+        .map(|c| flush_subnormal(f32::from_le_bytes([c[0], c[1], c[2], c[3]])))
+        .collect();
+    HostBuffer::f32(&flushed)
+}
+
 fn flush_resources(r: &Resources) -> Resources {
     r.iter()
         .map(|(k, v)| {
             let v = match v {
                 HostResource::Buffer(b) if b.scalar == ScalarKind::F32 => {
-                    HostResource::Buffer(HostBuffer::f32(
-                        &b.as_f32()
-                            .iter()
-                            .map(|&x| flush_subnormal(x))
-                            .collect::<Vec<_>>(),
-                    ))
+                    HostResource::Buffer(flush_buffer(b))
                 }
                 other => other.clone(),
             };
@@ -314,8 +320,12 @@ pub fn verify_case(
     let t0 = Instant::now();
     let mut expected = kernel.mirror(case, &data, FloatMode::Ieee);
     let mirror_ns = t0.elapsed().as_nanos() as f64;
-    let has_subnormal =
-        |b: &HostBuffer| b.scalar == ScalarKind::F32 && b.as_f32().iter().any(|x| x.is_subnormal());
+    let has_subnormal = |b: &HostBuffer| {
+        b.scalar == ScalarKind::F32
+            && b.bytes
+                .chunks_exact(4)
+                .any(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]).is_subnormal())
+    };
     let ftz_needed = data
         .values()
         .filter_map(HostResource::buffer)
@@ -329,9 +339,7 @@ pub fn verify_case(
             .into_iter()
             .map(|(k, b)| {
                 let b = if b.scalar == ScalarKind::F32 {
-                    let flushed: Vec<f32> =
-                        b.as_f32().iter().map(|&x| flush_subnormal(x)).collect();
-                    HostBuffer::f32(&flushed)
+                    flush_buffer(&b)
                 } else {
                     b
                 };

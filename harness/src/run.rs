@@ -39,10 +39,17 @@ impl HostBuffer {
             scalar,
         }
     }
+    /// The bytes as f32 (an empty buffer gives an empty slice: an empty Vec's pointer is not aligned).
     pub fn as_f32(&self) -> &[f32] {
+        if self.bytes.is_empty() {
+            return &[];
+        }
         bytemuck::cast_slice(&self.bytes)
     }
     pub fn as_u32(&self) -> &[u32] {
+        if self.bytes.is_empty() {
+            return &[];
+        }
         bytemuck::cast_slice(&self.bytes)
     }
 }

@@ -15,6 +15,7 @@ pub mod lrsm_partition;
 pub mod lrsm_prefilter;
 pub mod occlusion_voxels;
 pub mod radix_sort;
+pub mod reflective_shadow_map;
 pub mod sample_lrsm;
 pub mod sparse_voxel_octree;
 pub mod surface_coverage_mip;
@@ -68,6 +69,7 @@ pub fn all() -> Vec<&'static dyn Kernel> {
         &lrsm_prefilter::LrsmPrefilter,
         &occlusion_voxels::OcclusionVoxels,
         &sample_lrsm::SampleLrsm,
+        &reflective_shadow_map::ReflectiveShadowMap,
         &tile_normal_histogram::TileNormalHistogram,
         &histogram_axes::HistogramAxes,
         &radix_sort::RadixSort,

@@ -1,0 +1,19 @@
+// common/lrsm_view.wgsl — one light view of the lrsm pipeline (a spot light's cone, or one of a point
+// light's six 90-degree cube faces): a pinhole at the light. Mirror: GpuView in
+// cpu_mirror/src/reflective_shadow_map.rs. Included by reflective_shadow_map.wgsl and lrsm_cone_trace.wgsl.
+
+struct LrsmView {
+    eye: vec4<f32>,      // light position; w = near
+    forward: vec4<f32>,  // unit view axis; w = 1 / (far - near)
+    right: vec4<f32>,    // unit right / tan(half fov); w = LRSM level-0 texels per unit diameter at depth 1
+    up: vec4<f32>,       // unit up / tan(half fov) (rows run down); w unused
+    info: vec4<u32>,     // RSM side, light index, first texel of this view's LRSM, 0
+}
+
+// Light-space depth of p normalised by the view's near and far (unclamped).
+fn view_depth(v: LrsmView, p: vec3<f32>) -> f32 {
+    let rel = p - v.eye.xyz;
+    let f = v.forward.xyz;
+    let zv = (rel.x * f.x + rel.y * f.y) + rel.z * f.z;
+    return (zv - v.eye.w) * v.forward.w;
+}

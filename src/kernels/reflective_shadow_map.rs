@@ -1,0 +1,225 @@
+//! Declaration of `kernels/reflective_shadow_map.wgsl` (mirror:
+//! `vxgi_cpu_mirror::reflective_shadow_map`): one light view's RSM from a G-buffer the GPU ray-cast from
+//! that view, in the Morton order lrsm_partition reads.
+use super::direct_light::gpu_gbuffer;
+use super::gbuffer::generated_scene;
+use crate::lrsm::{light_views, LightView, Rsm};
+use crate::trace::SceneData;
+use std::collections::BTreeMap;
+use vxgi_cpu_mirror::direct_light::GpuLight;
+use vxgi_cpu_mirror::reflective_shadow_map::{rsm, GpuView};
+use vxgi_harness::compare::bound_name;
+use vxgi_harness::run::run;
+use vxgi_harness::{
+    Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
+    KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
+};
+
+/// The light view's struct and projection, included by reflective_shadow_map and lrsm_cone_trace.
+pub const LRSM_VIEW: (&str, &str) = (
+    "kernels/common/lrsm_view.wgsl",
+    include_str!("../../kernels/common/lrsm_view.wgsl"),
+);
+
+pub static DECL: KernelDecl = KernelDecl {
+    name: "reflective_shadow_map",
+    wgsl_path: "kernels/reflective_shadow_map.wgsl",
+    wgsl: include_str!("../../kernels/reflective_shadow_map.wgsl"),
+    includes: &[super::LIGHTS, LRSM_VIEW],
+    entry: "main",
+    inputs: &["view", "lights", "gb_position", "gb_normal", "gb_albedo"],
+    // Radiance and <n.l>: the light contract's arithmetic (sqrt, divisions, a spot's smoothstep) within
+    // the mirror's per-texel bound; depth a dot product within 8 ULP of its magnitudes; coverage and the
+    // normal's xyz are copies (bound 0).
+    outputs: &[
+        Output {
+            binding: "rsm_radiance",
+            tolerance: Tolerance::MirrorBound,
+        },
+        Output {
+            binding: "rsm_normal",
+            tolerance: Tolerance::MirrorBound,
+        },
+        Output {
+            binding: "rsm_depth",
+            tolerance: Tolerance::MirrorBound,
+        },
+    ],
+    dispatch: DispatchRule::PerElement {
+        binding: "rsm_depth",
+    },
+    mirror: "vxgi_cpu_mirror::reflective_shadow_map::rsm",
+    summary: "reflective shadow map of one light view (spot cone or point-light cube face): albedo/pi E <n.l>, normal, <n.l>, normalised light-space depth, 2D Morton order (LRSM 5)",
+};
+
+/// The RSM pass of `view` over the G-buffer `gb` the GPU ray-cast with `view.frame`.
+pub fn case_for(
+    shader: &Shader,
+    ctx: &GpuContext,
+    lights: &[GpuLight],
+    view: &LightView,
+    gb: &Resources,
+    label: String,
+    seed: u64,
+) -> Case {
+    let side = view.view.info[0];
+    let n = (side * side) as usize;
+    let mut resources = Resources::new();
+    // Mixed: its u32 fields must not be flushed as if they were subnormal f32s.
+    resources.insert(
+        "view".into(),
+        HostResource::Buffer(HostBuffer {
+            bytes: bytemuck::bytes_of(&view.view).to_vec(),
+            scalar: ScalarKind::Mixed,
+        }),
+    );
+    let lights = if lights.is_empty() {
+        vec![GpuLight::default()]
+    } else {
+        lights.to_vec()
+    };
+    resources.insert(
+        "lights".into(),
+        HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(&lights))),
+    );
+    for name in ["gb_position", "gb_normal", "gb_albedo"] {
+        resources.insert(name.into(), gb[name].clone());
+    }
+    for (name, bytes) in [("rsm_radiance", 16), ("rsm_normal", 16), ("rsm_depth", 4)] {
+        resources.insert(
+            name.into(),
+            HostResource::Buffer(HostBuffer::zeroed(n * bytes, ScalarKind::F32)),
+        );
+    }
+    let bindings = DECL.bind_by_name();
+    let checks = [("rsm_radiance", 4), ("rsm_normal", 4), ("rsm_depth", 1)]
+        .into_iter()
+        .map(|(name, components)| Check {
+            resource: name.into(),
+            output: name,
+            indexing: Indexing::Grid {
+                dims: [n as u32, 1, 1],
+                components,
+            },
+        })
+        .collect();
+    Case {
+        label,
+        seed,
+        passes: vec![DECL.pass(shader, ctx, "rsm".into(), bindings, n as u64)],
+        resources,
+        checks,
+        effective_bytes: n as u64 * (48 + 36),
+    }
+}
+
+/// The G-buffer of `view` on the GPU (the scene's data with the view's frame).
+pub fn view_gbuffer(ctx: &GpuContext, data: &SceneData, view: &LightView) -> Resources {
+    let mut d = data.clone();
+    d.frame = view.frame;
+    gpu_gbuffer(ctx, &d)
+}
+
+/// The RSM of `view` on the GPU: G-buffer from the view, then this kernel.
+pub fn rsm_on_gpu(ctx: &GpuContext, data: &SceneData, view: &LightView) -> anyhow::Result<Rsm> {
+    let gb = view_gbuffer(ctx, data, view);
+    let shader = DECL.shader()?;
+    let case = case_for(&shader, ctx, &data.lights, view, &gb, "rsm".into(), 0);
+    let out = run(
+        ctx,
+        &shader,
+        DECL.name,
+        &case.resources,
+        &case.passes,
+        &["rsm_radiance", "rsm_normal", "rsm_depth"],
+    )?;
+    let f4 = |n: &str| bytemuck::cast_slice::<u8, [f32; 4]>(&out.buffer(n).bytes).to_vec();
+    Ok(Rsm {
+        side: view.view.info[0],
+        radiance: f4("rsm_radiance"),
+        normal: f4("rsm_normal"),
+        depth: out.buffer("rsm_depth").as_f32().to_vec(),
+    })
+}
+
+pub struct ReflectiveShadowMap;
+
+impl Kernel for ReflectiveShadowMap {
+    fn decl(&self) -> &'static KernelDecl {
+        &DECL
+    }
+
+    /// A generated scene's lights; one of their views (every cube face comes round), RSM side 16..64.
+    fn case(&self, shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
+        let (mut scene, label) = generated_scene(seed, index);
+        scene
+            .lights
+            .retain(|l| !matches!(l, crate::scene::Light::Directional { .. }));
+        let data = SceneData::new(&scene);
+        let side = [16u32, 32, 64][index % 3];
+        let views = light_views(&data.lights, data.bounds, side, data.frame.eye[3])
+            .expect("no directional lights left");
+        if views.is_empty() {
+            // No light left: the RSM of a point light that is not in the scene's list still
+            // exercises the kernel (texels lit by light 0 = the default, zero intensity).
+            let l = [GpuLight::default()];
+            let v = light_views(&l, data.bounds, side, data.frame.eye[3]).expect("point light");
+            let gb = view_gbuffer(ctx, &data, &v[0]);
+            return case_for(
+                shader,
+                ctx,
+                &l,
+                &v[0],
+                &gb,
+                format!("{label}, no light"),
+                seed,
+            );
+        }
+        let view = views[(index / 3) % views.len()];
+        let gb = view_gbuffer(ctx, &data, &view);
+        let face = (index / 3) % views.len();
+        case_for(
+            shader,
+            ctx,
+            &data.lights,
+            &view,
+            &gb,
+            format!(
+                "{label}, light {} view {face} of {}, {side}^2",
+                view.view.info[1],
+                views.len()
+            ),
+            seed,
+        )
+    }
+
+    fn mirror(
+        &self,
+        _case: &Case,
+        data: &Resources,
+        _mode: FloatMode,
+    ) -> BTreeMap<String, HostBuffer> {
+        // Scene-scale arithmetic: no subnormals arise; one mode serves both (subnormal results are
+        // accepted flushed by the harness anyway).
+        let b = |n: &str| data[n].buffer().expect("buffer");
+        let view: GpuView = bytemuck::cast_slice::<u8, GpuView>(&b("view").bytes)[0];
+        let lights: &[GpuLight] = bytemuck::cast_slice(&b("lights").bytes);
+        let f4 = |n: &str| -> &[[f32; 4]] { bytemuck::cast_slice(&b(n).bytes) };
+        let r = rsm(
+            &view,
+            lights,
+            f4("gb_position"),
+            f4("gb_normal"),
+            f4("gb_albedo"),
+        );
+        let v4 = |v: &[[f32; 4]]| HostBuffer::f32(bytemuck::cast_slice(v));
+        BTreeMap::from([
+            ("rsm_radiance".to_string(), v4(&r.radiance)),
+            (bound_name("rsm_radiance"), v4(&r.radiance_bound)),
+            ("rsm_normal".to_string(), v4(&r.normal)),
+            (bound_name("rsm_normal"), v4(&r.normal_bound)),
+            ("rsm_depth".to_string(), HostBuffer::f32(&r.depth)),
+            (bound_name("rsm_depth"), HostBuffer::f32(&r.depth_bound)),
+        ])
+    }
+}
