@@ -18,6 +18,7 @@ pub mod gaussian_depth_visibility;
 pub mod gbuffer;
 pub mod histogram_axes;
 pub mod layer_decay;
+pub mod lrsm_cone_trace;
 pub mod lrsm_partition;
 pub mod lrsm_prefilter;
 pub mod morton;

@@ -40,10 +40,28 @@ impl GpuView {
     /// Light-space depth of `p` normalised by the view's near and far, unclamped, in the kernels'
     /// operation order.
     pub fn depth(&self, p: Vec3) -> f32 {
+        (self.axis_depth(p) - self.eye[3]) * self.forward[3]
+    }
+
+    /// Distance of `p` along the view's axis (`view_axis_depth`).
+    pub fn axis_depth(&self, p: Vec3) -> f32 {
         let rel = p - v3(self.eye);
         let f = v3(self.forward);
-        let zv = (rel.x * f.x + rel.y * f.y) + rel.z * f.z;
-        (zv - self.eye[3]) * self.forward[3]
+        (rel.x * f.x + rel.y * f.y) + rel.z * f.z
+    }
+
+    /// `(nx, ny, zv)` of `p` (the gather's projection), or None outside the frustum.
+    pub fn project(&self, p: Vec3) -> Option<(f32, f32, f32)> {
+        let zv = self.axis_depth(p);
+        #[allow(clippy::neg_cmp_op_on_partial_ord)]
+        if !(zv > 0.0) {
+            return None;
+        }
+        let rel = p - v3(self.eye);
+        let (r, u) = (self.right, self.up);
+        let nx = ((rel.x * r[0] + rel.y * r[1]) + rel.z * r[2]) / zv;
+        let ny = ((rel.x * u[0] + rel.y * u[1]) + rel.z * u[2]) / zv;
+        Some((nx, ny, zv))
     }
 }
 

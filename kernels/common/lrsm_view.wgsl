@@ -10,10 +10,14 @@ struct LrsmView {
     info: vec4<u32>,     // RSM side, light index, first texel of this view's LRSM, 0
 }
 
-// Light-space depth of p normalised by the view's near and far (unclamped).
-fn view_depth(v: LrsmView, p: vec3<f32>) -> f32 {
+// Distance of p along the view's axis (unnormalised light-space depth), in a fixed order.
+fn view_axis_depth(v: LrsmView, p: vec3<f32>) -> f32 {
     let rel = p - v.eye.xyz;
     let f = v.forward.xyz;
-    let zv = (rel.x * f.x + rel.y * f.y) + rel.z * f.z;
-    return (zv - v.eye.w) * v.forward.w;
+    return (rel.x * f.x + rel.y * f.y) + rel.z * f.z;
+}
+
+// Light-space depth of p normalised by the view's near and far (unclamped).
+fn view_depth(v: LrsmView, p: vec3<f32>) -> f32 {
+    return (view_axis_depth(v, p) - v.eye.w) * v.forward.w;
 }

@@ -11,6 +11,7 @@ pub mod gaussian_depth_visibility;
 pub mod gbuffer;
 pub mod histogram_axes;
 pub mod layer_decay;
+pub mod lrsm_cone_trace;
 pub mod lrsm_partition;
 pub mod lrsm_prefilter;
 pub mod occlusion_voxels;
@@ -85,6 +86,7 @@ pub fn all() -> Vec<&'static dyn Kernel> {
         &sparse_voxel_octree::SparseVoxelOctree,
         &svo_sample::SvoSample,
         &svo_cone_trace::SvoConeTrace,
+        &lrsm_cone_trace::LrsmConeTrace,
     ]
 }
 

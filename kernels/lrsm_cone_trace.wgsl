@@ -1,0 +1,90 @@
+// lrsm_cone_trace — the lrsm pipeline's final gathering (Sugihara et al. 2014, sections 3.2 and 5, eq. 1,
+// Algorithm 1): per G-buffer pixel, the cones of common/cone_march.wgsl, whose samples take occlusion
+// from the binary occlusion voxels' mips and outgoing radiance from every light view's LRSM.
+// Mirror: cpu_mirror/src/lrsm_cone_trace.rs (`LrsmVolume`, a cone_trace `Volume`). Declaration:
+// src/kernels/lrsm_cone_trace.rs. Uses common/cone_march.wgsl, common/lrsm_sample.wgsl,
+// common/lrsm_math.wgsl and common/lrsm_view.wgsl.
+//
+// Occlusion: level l of the occlusion pyramid starts at word occ_offsets[l] of `occ` (bytes, four per
+// word, Morton order: occlusion_voxels.wgsl); alpha = byte / 255, trilinear within a level, blended
+// between levels by cone_march's sample_volume (so the march's alpha is the paper's alpha_i).
+// Radiance of a sample (x, diameter D, cone direction d), where alpha > 0 (a sample with no occlusion
+// adds nothing, eq. 1, so its LRSMs are not read): for every view whose frustum holds x
+//   zv = (x - eye) . forward > 0,  nx = (x - eye) . right / zv,  ny = (x - eye) . up / zv,  |nx|, |ny| <= 1,
+//   Sample LRSM (common/lrsm_sample.wgsl) at u = (nx + 1) / 2, v = (1 - ny) / 2 (the RSM's pixel rows),
+//   mip = log2(D * right.w / zv) (the projected diameter in LRSM level-0 texels), zc = (zv - near) / (far
+//   - near), vc = -d (towards the view sample), rc = D / 2 / (far - near), on the view's LRSM (first
+//   texel info.z); L = sum over views. The march then reads (L * alpha, alpha): its colour step
+//   C += (1 - A) a' (L alpha) / alpha is eq. 1's alpha_i L_i with cone_march's step correction.
+// Accuracy: per-element bound from the mirror (the march's, with each sample's LRSM bound: Sample LRSM's
+// arithmetic, and the texel, mip level, depth and view choices that the sample point's rounding may
+// change, evaluated at the perturbed inputs).
+
+@group(0) @binding(8) var<storage, read> occ: array<u32>;
+@group(0) @binding(12) var<storage, read> occ_offsets: array<u32>;
+@group(0) @binding(13) var<uniform> params: SampleParams;
+@group(0) @binding(14) var<storage, read> depth_ranges: array<vec4<f32>>;
+@group(0) @binding(15) var<storage, read> lrsm_radiance: array<vec4<f32>>;
+@group(0) @binding(16) var<storage, read> lrsm_normal: array<vec4<f32>>;
+@group(0) @binding(17) var<storage, read> lrsm_moments: array<vec4<f32>>;
+@group(0) @binding(18) var<storage, read> views: array<LrsmView>;
+
+fn spread3(v: u32) -> u32 {
+    var x = v & 0x3ffu;
+    x = (x | (x << 16u)) & 0x030000ffu;
+    x = (x | (x << 8u)) & 0x0300f00fu;
+    x = (x | (x << 4u)) & 0x030c30c3u;
+    x = (x | (x << 2u)) & 0x09249249u;
+    return x;
+}
+
+// (0, 0, 0, occlusion) at x, trilinear in occlusion level l.
+fn sample_level(x: vec3<f32>, l: u32) -> vec4<f32> {
+    let n = i32(cone.side >> l);
+    let inv = cone.inv_s0 * (1.0 / f32(1u << l));
+    let q = (x - cone.origin.xyz) * inv - vec3<f32>(0.5);
+    let fl = floor(q);
+    let f = q - fl;
+    let i0 = vec3<i32>(fl);
+    let off = occ_offsets[l];
+    var acc = 0.0;
+    for (var corner = 0u; corner < 8u; corner++) {
+        let cc = vec3<u32>(corner & 1u, (corner >> 1u) & 1u, (corner >> 2u) & 1u);
+        let w = select(vec3<f32>(1.0) - f, f, cc == vec3<u32>(1u));
+        let i = i0 + vec3<i32>(cc);
+        if (any(i < vec3<i32>(0)) || any(i >= vec3<i32>(n))) {
+            continue;
+        }
+        let u = vec3<u32>(i);
+        let m = spread3(u.x) | (spread3(u.y) << 1u) | (spread3(u.z) << 2u);
+        let b = (occ[off + (m >> 2u)] >> (8u * (m & 3u))) & 255u;
+        acc += (f32(b) * (1.0 / 255.0)) * (w.x * w.y * w.z);
+    }
+    return vec4<f32>(0.0, 0.0, 0.0, acc);
+}
+
+// The march's sample: occlusion from the voxels, radiance from the LRSMs (see the header).
+fn sample_cone(x: vec3<f32>, l: f32, diam: f32, d: vec3<f32>) -> vec4<f32> {
+    let s = sample_volume(x, l);
+    if (!(s.w > 0.0)) {
+        return s;
+    }
+    var lsum = vec3<f32>(0.0);
+    for (var k = 0u; k < arrayLength(&views); k++) {
+        let v = views[k];
+        let zv = view_axis_depth(v, x);
+        if (!(zv > 0.0)) {
+            continue;
+        }
+        let rel = x - v.eye.xyz;
+        let nx = ((rel.x * v.right.x + rel.y * v.right.y) + rel.z * v.right.z) / zv;
+        let ny = ((rel.x * v.up.x + rel.y * v.up.y) + rel.z * v.up.z) / zv;
+        if (!(abs(nx) <= 1.0 && abs(ny) <= 1.0)) {
+            continue;
+        }
+        let pos = vec4<f32>((nx + 1.0) * 0.5, (1.0 - ny) * 0.5, log2(diam * v.right.w / zv), (zv - v.eye.w) * v.forward.w);
+        let dir = vec4<f32>(-d, (0.5 * diam) * v.forward.w);
+        lsum += lrsm_sample(pos, dir, v.info.z).xyz;
+    }
+    return vec4<f32>(lsum * s.w, s.w);
+}

@@ -1,0 +1,411 @@
+//! Declaration of `kernels/lrsm_cone_trace.wgsl` (mirror: `vxgi_cpu_mirror::lrsm_cone_trace`): the lrsm
+//! pipeline's final gathering, and the chain that feeds it ([`LrsmFrame::build`]): voxelize ->
+//! occlusion_voxels; per light view gbuffer -> reflective_shadow_map -> lrsm_partition ->
+//! lrsm_prefilter, every stage a verified kernel run on the GPU.
+use super::cone_trace::{bounded_outputs, cone_params, shade_all, tracer_case, ConeSettings};
+use super::occlusion_voxels::occlusion_on_gpu;
+use super::reflective_shadow_map::{rsm_on_gpu, LRSM_VIEW};
+use super::voxelize::{voxelize_on_gpu, VoxelFrame};
+use super::{lrsm_partition, lrsm_prefilter, CONE_MARCH, LRSM_MATH, LRSM_SAMPLE};
+use crate::lrsm::{light_views, PartitionConfig, Rsm};
+use crate::scene::Scene;
+use crate::trace::SceneData;
+use anyhow::Context;
+use std::collections::BTreeMap;
+use vxgi_cpu_mirror::cone_trace::ConeParams;
+use vxgi_cpu_mirror::lrsm_cone_trace::LrsmVolume;
+use vxgi_cpu_mirror::reflective_shadow_map::GpuView;
+use vxgi_cpu_mirror::sample_lrsm::{Lrsm, SampleParams};
+use vxgi_harness::run::run;
+use vxgi_harness::{
+    Case, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Kernel, KernelDecl,
+    Output, Resources, ScalarKind, Shader, Tolerance,
+};
+
+pub static DECL: KernelDecl = KernelDecl {
+    name: "lrsm_cone_trace",
+    wgsl_path: "kernels/lrsm_cone_trace.wgsl",
+    wgsl: include_str!("../../kernels/lrsm_cone_trace.wgsl"),
+    includes: &[CONE_MARCH, LRSM_SAMPLE, LRSM_MATH, LRSM_VIEW],
+    entry: "main",
+    inputs: &[
+        "frame",
+        "triangles",
+        "materials",
+        "gb_position",
+        "gb_normal",
+        "gb_triangle",
+        "gb_albedo",
+        "cone",
+        "cone_dirs",
+        "occ",
+        "occ_offsets",
+        "params",
+        "depth_ranges",
+        "lrsm_radiance",
+        "lrsm_normal",
+        "lrsm_moments",
+        "views",
+    ],
+    // The march's bound (cone_trace's) with each sample's LRSM bound, computed per pixel by the mirror.
+    outputs: &[
+        Output {
+            binding: "indirect",
+            tolerance: Tolerance::MirrorBound,
+        },
+        Output {
+            binding: "ao",
+            tolerance: Tolerance::MirrorBound,
+        },
+    ],
+    dispatch: DispatchRule::PerElement { binding: "indirect" },
+    mirror: "vxgi_cpu_mirror::cone_trace::shade_pixel over vxgi_cpu_mirror::lrsm_cone_trace::LrsmVolume",
+    summary: "LRSM final gathering: cones through the occlusion voxels' mips, each sample's radiance from every light view's LRSM (LRSM eq. 1, Algorithm 1)",
+};
+
+/// The lrsm pipeline's knobs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LrsmSettings {
+    /// RSM side per light view (LRSM level 0 is half of it).
+    pub rsm_side: u32,
+    pub depth_splits: u32,
+    pub normal_splits: u32,
+    pub overlap: f32,
+}
+
+impl Default for LrsmSettings {
+    /// 4 layers (2 x 2, the paper's Sibenik/Sponza setting), 128^2 RSM per view.
+    fn default() -> Self {
+        Self {
+            rsm_side: 128,
+            depth_splits: 1,
+            normal_splits: 1,
+            overlap: 0.05,
+        }
+    }
+}
+
+/// Everything the gather reads, built on the GPU.
+#[derive(Clone, Debug)]
+pub struct LrsmFrame {
+    pub voxels: VoxelFrame,
+    /// Occlusion pyramid words, levels concatenated, and each level's first word.
+    pub occ: Vec<u32>,
+    pub occ_offsets: Vec<u32>,
+    pub views: Vec<GpuView>,
+    pub params: SampleParams,
+    pub depth_ranges: Vec<[f32; 4]>,
+    /// Every view's LRSM (all levels), concatenated: radiance, normal, moments.
+    pub streams: [Vec<[f32; 4]>; 3],
+    /// Bytes of each structure: occlusion voxels, RSMs (one view at a time), LRSMs.
+    pub memory: LrsmMemory,
+}
+
+/// Bytes held per data structure (the paper's Table 2).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct LrsmMemory {
+    pub occlusion: u64,
+    /// One RSM (radiance + normal: 2 x 16 bytes, depth 4 bytes per texel).
+    pub rsm: u64,
+    /// All views' LRSMs (3 streams of 16 bytes per texel, every level).
+    pub lrsm: u64,
+    pub views: u32,
+}
+
+/// A view's RSM partitioned and pre-filtered on the GPU: the three streams, levels concatenated.
+pub fn lrsm_on_gpu(
+    ctx: &GpuContext,
+    rsm: &Rsm,
+    config: &PartitionConfig,
+) -> anyhow::Result<[Vec<[f32; 4]>; 3]> {
+    let pshader = lrsm_partition::DECL.shader()?;
+    let pcase = lrsm_partition::case_for(&pshader, ctx, rsm, config, "partition".into(), 0)?;
+    let out = run(
+        ctx,
+        &pshader,
+        lrsm_partition::DECL.name,
+        &pcase.resources,
+        &pcase.passes,
+        &["out_radiance", "out_normal", "out_moments"],
+    )?;
+    let f4 = |b: &HostBuffer| bytemuck::cast_slice::<u8, [f32; 4]>(&b.bytes).to_vec();
+    let level0 = [
+        f4(out.buffer("out_radiance")),
+        f4(out.buffer("out_normal")),
+        f4(out.buffer("out_moments")),
+    ];
+    let side0 = config.rsm_side / 2;
+    let levels = side0.trailing_zeros() + 1;
+    let mut streams = level0.clone();
+    if levels > 1 {
+        let fshader = lrsm_prefilter::DECL.shader()?;
+        let fcase = lrsm_prefilter::chain_case(
+            &fshader,
+            ctx,
+            &level0,
+            config.layers(),
+            side0,
+            "prefilter".into(),
+            0,
+        );
+        let names: Vec<String> = (1..levels)
+            .flat_map(|k| (0..3).map(move |s| lrsm_prefilter::stream_name(s, k)))
+            .collect();
+        let refs: Vec<&str> = names.iter().map(String::as_str).collect();
+        let out = run(
+            ctx,
+            &fshader,
+            lrsm_prefilter::DECL.name,
+            &fcase.resources,
+            &fcase.passes,
+            &refs,
+        )?;
+        for k in 1..levels {
+            for (s, stream) in streams.iter_mut().enumerate() {
+                stream.extend(f4(out.buffer(&lrsm_prefilter::stream_name(s, k))));
+            }
+        }
+    }
+    Ok(streams)
+}
+
+impl LrsmFrame {
+    /// Voxelize `scene` at `side`^3 into occlusion voxels, and build every light view's LRSM.
+    pub fn build(
+        ctx: &GpuContext,
+        scene: &Scene,
+        data: &SceneData,
+        side: u32,
+        settings: &LrsmSettings,
+        progress: &dyn Fn(&str),
+    ) -> anyhow::Result<Self> {
+        progress("occlusion voxels");
+        let (grid, _, voxels) = voxelize_on_gpu(ctx, scene, side)?;
+        let levels = occlusion_on_gpu(ctx, &grid).context("occlusion voxels")?;
+        let mut occ_offsets = Vec::new();
+        let mut occ = Vec::new();
+        for l in &levels {
+            occ_offsets.push(occ.len() as u32);
+            occ.extend_from_slice(l);
+        }
+        let config = PartitionConfig {
+            rsm_side: settings.rsm_side,
+            depth_splits: settings.depth_splits,
+            normal_splits: settings.normal_splits,
+            overlap: settings.overlap,
+        };
+        config.validate(ctx.limits().max_storage_buffer_binding_size)?;
+        let mut views = light_views(&data.lights, data.bounds, settings.rsm_side, data.frame.eye[3])?;
+        let mut streams: [Vec<[f32; 4]>; 3] = Default::default();
+        for (k, v) in views.iter_mut().enumerate() {
+            progress(&format!("LRSM view {} of {}", k + 1, data.lights.len().max(1)));
+            v.view.info[2] = streams[0].len() as u32;
+            let rsm = rsm_on_gpu(ctx, data, v).context("reflective shadow map")?;
+            let s = lrsm_on_gpu(ctx, &rsm, &config).context("LRSM")?;
+            for (acc, part) in streams.iter_mut().zip(s) {
+                acc.extend(part);
+            }
+        }
+        let side0 = settings.rsm_side / 2;
+        let params = SampleParams {
+            depth_slices: config.depth_slices(),
+            normal_slices: config.normal_slices(),
+            levels: side0.trailing_zeros() + 1,
+            side0,
+            cdf: 0,
+            min_variance: 1.0e-4,
+            min_alpha: 1.0e-6,
+            overlap: config.overlap,
+        };
+        let memory = LrsmMemory {
+            occlusion: occ.len() as u64 * 4,
+            rsm: (settings.rsm_side as u64).pow(2) * 36,
+            lrsm: streams[0].len() as u64 * 48,
+            views: views.len() as u32,
+        };
+        Ok(Self {
+            voxels,
+            occ,
+            occ_offsets,
+            views: views.iter().map(|v| v.view).collect(),
+            params,
+            depth_ranges: config.depth_ranges(),
+            streams,
+            memory,
+        })
+    }
+
+    /// Bound on any cone sample's radiance: per view, the sum over layers of the largest opacity-
+    /// weighted radiance (V, N and the decay are at most 1), summed over views.
+    pub fn lmax(&self) -> f32 {
+        let layers = (self.params.depth_slices * self.params.normal_slices) as usize;
+        let texels = (self.params.side0 as usize).pow(2);
+        let per_view: usize = self.streams[0].len() / self.views.len().max(1);
+        let mut total = 0.0f32;
+        for v in 0..self.views.len() {
+            for layer in 0..layers {
+                let start = v * per_view + layer * texels;
+                let m = self.streams[0][start..start + texels]
+                    .iter()
+                    .map(|r| r[0].max(r[1]).max(r[2]))
+                    .fold(0.0f32, f32::max);
+                total += m;
+            }
+        }
+        total
+    }
+
+    /// The mirror's view of it.
+    pub fn volume<'a>(&'a self, p: &'a ConeParams) -> LrsmVolume<'a> {
+        LrsmVolume {
+            p,
+            occ: &self.occ,
+            occ_offsets: &self.occ_offsets,
+            sp: &self.params,
+            lrsm: Lrsm {
+                depth_ranges: &self.depth_ranges,
+                radiance: &self.streams[0],
+                normal: &self.streams[1],
+                moments: &self.streams[2],
+            },
+            views: &self.views,
+            lmax: self.lmax(),
+        }
+    }
+}
+
+/// The gather over a scene whose G-buffer and LRSM frame are given.
+pub fn case_for(
+    ctx: &GpuContext,
+    data: &SceneData,
+    gbuffer: &Resources,
+    frame: &LrsmFrame,
+    params: &ConeParams,
+    label: String,
+    seed: u64,
+) -> Case {
+    let f4 = |v: &[[f32; 4]]| HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(v)));
+    let mixed = |bytes: &[u8]| {
+        HostResource::Buffer(HostBuffer {
+            bytes: bytes.to_vec(),
+            scalar: ScalarKind::Mixed,
+        })
+    };
+    // Bindings cannot be empty: a scene without lights binds one view that sees nothing (behind it).
+    let views = if frame.views.is_empty() {
+        vec![GpuView::default()]
+    } else {
+        frame.views.clone()
+    };
+    let streams: Vec<Vec<[f32; 4]>> = frame
+        .streams
+        .iter()
+        .map(|s| if s.is_empty() { vec![[0.0; 4]] } else { s.clone() })
+        .collect();
+    let volume = Resources::from([
+        ("occ".to_string(), HostResource::Buffer(HostBuffer::u32(&frame.occ))),
+        (
+            "occ_offsets".to_string(),
+            HostResource::Buffer(HostBuffer::u32(&frame.occ_offsets)),
+        ),
+        ("params".to_string(), mixed(bytemuck::bytes_of(&frame.params))),
+        ("depth_ranges".to_string(), f4(&frame.depth_ranges)),
+        ("lrsm_radiance".to_string(), f4(&streams[0])),
+        ("lrsm_normal".to_string(), f4(&streams[1])),
+        ("lrsm_moments".to_string(), f4(&streams[2])),
+        ("views".to_string(), mixed(bytemuck::cast_slice(&views))),
+    ]);
+    tracer_case(ctx, &DECL, data, gbuffer, params, volume, label, seed)
+}
+
+/// Mirror outputs of a gather case (indirect, ao and their bounds).
+pub fn mirror_gather(data: &Resources) -> [Vec<[f32; 4]>; 4] {
+    let b = |n: &str| data[n].buffer().expect("buffer");
+    let params: ConeParams = *bytemuck::from_bytes(&b("cone").bytes);
+    let sp: SampleParams = *bytemuck::from_bytes(&b("params").bytes);
+    let f4 = |n: &str| -> Vec<[f32; 4]> { bytemuck::cast_slice(&b(n).bytes).to_vec() };
+    let views: Vec<GpuView> = bytemuck::cast_slice(&b("views").bytes).to_vec();
+    let (ranges, rad, nrm, mom) = (
+        f4("depth_ranges"),
+        f4("lrsm_radiance"),
+        f4("lrsm_normal"),
+        f4("lrsm_moments"),
+    );
+    let occ = b("occ").as_u32().to_vec();
+    let occ_offsets = b("occ_offsets").as_u32().to_vec();
+    let frame = LrsmFrame {
+        voxels: VoxelFrame {
+            origin: glam::Vec3::ZERO,
+            voxel: params.origin[3],
+            side: params.side,
+        },
+        occ,
+        occ_offsets,
+        views,
+        params: sp,
+        depth_ranges: ranges,
+        streams: [rad, nrm, mom],
+        memory: LrsmMemory::default(),
+    };
+    let vol = frame.volume(&params);
+    shade_all(data, &vol, vol.lmax)
+}
+
+pub struct LrsmConeTrace;
+
+impl Kernel for LrsmConeTrace {
+    fn decl(&self) -> &'static KernelDecl {
+        &DECL
+    }
+
+    /// A generated scene (directional lights dropped: the pipeline refuses them), 16^3 or 32^3 voxels,
+    /// RSMs of 16^2 or 32^2 per view, 1 or 4 layers.
+    fn case(&self, _shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
+        let (mut scene, label) = super::gbuffer::generated_scene(seed, index);
+        scene
+            .lights
+            .retain(|l| !matches!(l, crate::scene::Light::Directional { .. }));
+        let side = [16u32, 32][(index / 4) % 2];
+        let data = SceneData::new(&scene);
+        // Marching varied as cone_trace's cases: step factor 0.5, 0.75, 1; mip clamp on and off.
+        let cones = ConeSettings {
+            step_factor: [0.5, 0.75, 1.0][index % 3],
+            mip_clamp: if index % 5 == 4 { 0.0 } else { 2.0 },
+            ..ConeSettings::from(&scene.render)
+        };
+        let settings = LrsmSettings {
+            rsm_side: [16, 32][index % 2],
+            depth_splits: (index / 2 % 2) as u32,
+            normal_splits: (index / 2 % 2) as u32,
+            overlap: 0.05,
+        };
+        let frame = LrsmFrame::build(ctx, &scene, &data, side, &settings, &|_| {})
+            .expect("generated scenes build");
+        let params = cone_params(&frame.voxels, &cones);
+        let gb = super::direct_light::gpu_gbuffer(ctx, &data);
+        case_for(
+            ctx,
+            &data,
+            &gb,
+            &frame,
+            &params,
+            format!(
+                "{label}, {side}^3, RSM {}^2, {} layers, {} views",
+                settings.rsm_side,
+                frame.params.depth_slices * frame.params.normal_slices,
+                frame.views.len()
+            ),
+            seed,
+        )
+    }
+
+    fn mirror(
+        &self,
+        _case: &Case,
+        data: &Resources,
+        _mode: FloatMode,
+    ) -> BTreeMap<String, HostBuffer> {
+        // Radiance-scale arithmetic, as cone_trace: one mode serves both.
+        bounded_outputs(mirror_gather(data))
+    }
+}
