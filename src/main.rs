@@ -150,6 +150,18 @@ struct RenderFlags {
     /// Cone step as a fraction of the cone's diameter, (0, 1] [default 0.5, the paper's].
     #[arg(long = "cone-step", alias = "cone_step")]
     cone_step: Option<f32>,
+    /// lrsm: RSM side per light view (power of two, 4..=1024) [default 128].
+    #[arg(long = "rsm-side", alias = "rsm_side")]
+    rsm_side: Option<u32>,
+    /// lrsm: depth splits (layers = (a + 1) x (b + 1)) [default 1].
+    #[arg(long = "lrsm-depth-splits", alias = "lrsm_depth_splits")]
+    lrsm_depth_splits: Option<u32>,
+    /// lrsm: <n.l> splits [default 1].
+    #[arg(long = "lrsm-normal-splits", alias = "lrsm_normal_splits")]
+    lrsm_normal_splits: Option<u32>,
+    /// lrsm: overlap of neighbouring depth layers [default 0.05].
+    #[arg(long = "lrsm-overlap", alias = "lrsm_overlap")]
+    lrsm_overlap: Option<f32>,
 }
 
 fn load_scene(path: &Option<PathBuf>, flags: &RenderFlags) -> Result<vxgi::scene::Scene> {
@@ -176,7 +188,11 @@ fn load_scene(path: &Option<PathBuf>, flags: &RenderFlags) -> Result<vxgi::scene
         cone_half_angle,
         cone_offset,
         mip_clamp,
-        cone_step
+        cone_step,
+        rsm_side,
+        lrsm_depth_splits,
+        lrsm_normal_splits,
+        lrsm_overlap
     );
     scene.render.validate().map_err(anyhow::Error::msg)?;
     Ok(scene)
@@ -233,13 +249,21 @@ fn run_render(
         let bar = spinner();
         let message = |stage: &str| bar.set_message(format!("frame {}/{frames}: {stage}", k + 1));
         let (r, memory) = renderer.render(&ctx, &view, &cones, message)?;
-        if let Some(m) = memory {
-            println!(
+        match memory {
+            Some(vxgi::render::VolumeMemory::Octree(m)) => println!(
                 "octree: {} nodes and bricks, {:.1} MB (vct-dense's pyramids at this resolution: {:.1} MB)",
                 m.nodes,
                 m.bytes as f64 / 1e6,
                 m.vct_dense_bytes as f64 / 1e6
-            );
+            ),
+            Some(vxgi::render::VolumeMemory::Lrsm(m)) => println!(
+                "lrsm: occlusion voxels {:.1} MB, one RSM {:.1} MB, {} LRSMs {:.1} MB",
+                m.occlusion as f64 / 1e6,
+                m.rsm as f64 / 1e6,
+                m.views,
+                m.lrsm as f64 / 1e6
+            ),
+            None => {}
         }
         bar.finish_and_clear();
         write_frame(&dir, [&r.direct, &r.indirect, &r.combined, &r.ao])?;

@@ -169,13 +169,112 @@ impl FramePlan {
         }
     }
 
+    /// The lrsm frame (Sugihara et al. 2014): G-buffer and direct light as vct-dense; the voxel grid
+    /// becomes binary occlusion voxels and their mips; every light view gets an RSM, split into layers
+    /// and pre-filtered (the `reflective_shadow_map` stage times all three); the gather cone-traces
+    /// occlusion from the voxels and radiance from the LRSMs. `cached`: the last frame's occlusion
+    /// voxels and LRSMs came from the same geometry, materials, lights and settings (reused as they are).
+    pub fn lrsm_after(
+        scene: &Scene,
+        cones: &ConeSettings,
+        lrsm: &crate::kernels::lrsm_cone_trace::LrsmSettings,
+        cached: bool,
+    ) -> Self {
+        let dense = Self::vct_dense_after(scene, cones, cached);
+        let side = scene.render.voxels;
+        let lights = scene.lights.len();
+        let views: usize = scene
+            .lights
+            .iter()
+            .map(|l| match l {
+                crate::scene::Light::Spot { cone_deg, .. } if *cone_deg <= 60.0 => 1,
+                _ => 6,
+            })
+            .sum();
+        let layers = (lrsm.depth_splits + 1) * (lrsm.normal_splits + 1);
+        const CACHED: &str = "skipped: geometry, materials, lights and settings unchanged since the last frame (its occlusion voxels and LRSMs are reused)";
+        let mut passes = Vec::new();
+        for mut p in dense.passes {
+            match p.stage {
+                "voxelize" => {
+                    if p.runs {
+                        p.why = "the occlusion voxels' geometry".into();
+                    } else {
+                        p.why = CACHED.into();
+                    }
+                    passes.push(p);
+                }
+                "voxel_light" => {
+                    passes.push(PlannedPass {
+                        stage: "occlusion_voxels",
+                        kernel: "occlusion_voxels",
+                        size: format!(
+                            "{side}^3 voxels, 1 byte each, {} levels",
+                            side.trailing_zeros() + 1
+                        ),
+                        runs: !cached,
+                        why: if cached {
+                            CACHED.into()
+                        } else {
+                            "binary occlusion and its averaged mips (no radiance in the voxels)"
+                                .into()
+                        },
+                    });
+                }
+                "surface_coverage_mip" => {
+                    let size = format!(
+                        "{views} light views x {}^2 RSM, {layers} layers",
+                        lrsm.rsm_side
+                    );
+                    let why = if cached {
+                        CACHED.to_string()
+                    } else if lights == 0 {
+                        "skipped: no lights, no RSM (indirect is 0)".to_string()
+                    } else {
+                        "each view's RSM from the light (point lights: six cube faces)".to_string()
+                    };
+                    for (stage, kernel) in [
+                        ("reflective_shadow_map", "reflective_shadow_map"),
+                        ("reflective_shadow_map", "lrsm_partition"),
+                        ("reflective_shadow_map", "lrsm_prefilter"),
+                    ] {
+                        passes.push(PlannedPass {
+                            stage,
+                            kernel,
+                            size: size.clone(),
+                            runs: !cached && lights > 0,
+                            why: why.clone(),
+                        });
+                    }
+                }
+                "cone_trace" => {
+                    p.stage = "lrsm_cone_trace";
+                    p.kernel = "lrsm_cone_trace";
+                    p.why = format!(
+                        "{}; radiance from {views} LRSM views, read only where a sample has occlusion",
+                        p.why
+                    );
+                    passes.push(p);
+                }
+                _ => passes.push(p),
+            }
+        }
+        Self {
+            pipeline: "lrsm",
+            passes,
+        }
+    }
+
     /// The stages the plan skips, in order.
     pub fn skipped(&self) -> Vec<&'static str> {
-        self.passes
+        let mut s: Vec<&'static str> = self
+            .passes
             .iter()
             .filter(|p| !p.runs)
             .map(|p| p.stage)
-            .collect()
+            .collect();
+        s.dedup(); // a stage of several kernels (lrsm's reflective_shadow_map) once
+        s
     }
 
     pub fn runs(&self, stage: &str) -> bool {

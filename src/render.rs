@@ -3,6 +3,7 @@
 //! another renderer); [`render`] runs the whole vct-dense pipeline for the CLI (own context, images).
 use crate::images::RgbImage;
 use crate::kernels::cone_trace::{self, ConeSettings};
+use crate::kernels::lrsm_cone_trace::{self, LrsmFrame, LrsmMemory, LrsmSettings};
 use crate::kernels::{direct_light, gbuffer, voxel_light, voxelize};
 use crate::plan::FramePlan;
 use crate::scene::Scene;
@@ -387,6 +388,9 @@ pub enum Pipeline {
     /// Sparse voxel octree (3x3x3 vertex-centred bricks, border transfer, Gaussian distribution over
     /// levels) + cone tracing through it (Crassin 2011). Octree depth log2(voxels) - 1.
     VctSvo,
+    /// Binary occlusion voxels + layered reflective shadow maps per light view (Sugihara 2014): cones
+    /// take occlusion from the voxels and radiance from the LRSMs. Point and spot lights.
+    Lrsm,
 }
 
 impl Pipeline {
@@ -394,24 +398,23 @@ impl Pipeline {
         match self {
             Pipeline::VctDense => "vct-dense",
             Pipeline::VctSvo => "vct-svo",
+            Pipeline::Lrsm => "lrsm",
         }
     }
 
     /// The stages of a frame, in order: G-buffer, direct light, voxelization, voxel light, the volume
     /// (mips or octree), the cone pass.
     pub fn stages(self) -> [&'static str; 6] {
-        let (volume, cones) = match self {
-            Pipeline::VctDense => ("surface_coverage_mip", "cone_trace"),
-            Pipeline::VctSvo => ("sparse_voxel_octree", "svo_cone_trace"),
+        let (voxels, volume, cones) = match self {
+            Pipeline::VctDense => ("voxel_light", "surface_coverage_mip", "cone_trace"),
+            Pipeline::VctSvo => ("voxel_light", "sparse_voxel_octree", "svo_cone_trace"),
+            Pipeline::Lrsm => (
+                "occlusion_voxels",
+                "reflective_shadow_map",
+                "lrsm_cone_trace",
+            ),
         };
-        [
-            "gbuffer",
-            "direct_light",
-            "voxelize",
-            "voxel_light",
-            volume,
-            cones,
-        ]
+        ["gbuffer", "direct_light", "voxelize", voxels, volume, cones]
     }
 
     /// The frame plan of a first frame (`cached` false) or of a frame after an unchanged one.
@@ -419,14 +422,25 @@ impl Pipeline {
         match self {
             Pipeline::VctDense => FramePlan::vct_dense_after(scene, cones, cached),
             Pipeline::VctSvo => FramePlan::vct_svo_after(scene, cones, cached),
+            Pipeline::Lrsm => {
+                FramePlan::lrsm_after(scene, cones, &LrsmSettings::from(&scene.render), cached)
+            }
         }
     }
+}
+
+/// What a frame's volume holds, for the pipelines that report it.
+#[derive(Clone, Debug)]
+pub enum VolumeMemory {
+    Octree(crate::kernels::sparse_voxel_octree::MemoryReport),
+    Lrsm(LrsmMemory),
 }
 
 /// Frames of either pipeline, with the planner's reuse rule on or off.
 pub enum Renderer {
     Dense(VctDense),
     Svo(VctSvo),
+    Lrsm(VctLrsm),
 }
 
 impl Renderer {
@@ -434,25 +448,26 @@ impl Renderer {
         match pipeline {
             Pipeline::VctDense => Renderer::Dense(VctDense::new(reuse)),
             Pipeline::VctSvo => Renderer::Svo(VctSvo::new(reuse)),
+            Pipeline::Lrsm => Renderer::Lrsm(VctLrsm::new(reuse)),
         }
     }
 
-    /// One frame, and for vct-svo the octree's memory report.
+    /// One frame, and for vct-svo and lrsm what their volume holds.
     pub fn render(
         &mut self,
         ctx: &crate::harness::GpuContext,
         scene: &Scene,
         cones: &ConeSettings,
         progress: impl Fn(&str),
-    ) -> Result<(
-        Rendered,
-        Option<crate::kernels::sparse_voxel_octree::MemoryReport>,
-    )> {
+    ) -> Result<(Rendered, Option<VolumeMemory>)> {
         match self {
             Renderer::Dense(r) => Ok((r.render(ctx, scene, cones, progress)?, None)),
             Renderer::Svo(r) => r
                 .render(ctx, scene, cones, progress)
-                .map(|(f, m)| (f, Some(m))),
+                .map(|(f, m)| (f, Some(VolumeMemory::Octree(m)))),
+            Renderer::Lrsm(r) => r
+                .render(ctx, scene, cones, progress)
+                .map(|(f, m)| (f, Some(VolumeMemory::Lrsm(m)))),
         }
     }
 }
@@ -524,6 +539,76 @@ impl VctSvo {
     }
 }
 
+/// The lrsm pipeline (Sugihara et al. 2014): G-buffer and direct light as vct-dense; voxelize into
+/// binary occlusion voxels and their mips (`occlusion_voxels`); per light view (a spot's cone, a point
+/// light's six cube faces) an RSM ray-cast from the light (`gbuffer` + `reflective_shadow_map`), split
+/// into depth x <n.l> layers (`lrsm_partition`) and pre-filtered (`lrsm_prefilter`); then the gather
+/// (`lrsm_cone_trace`). Returns the frame and the bytes of each structure.
+pub fn render_lrsm(
+    ctx: &crate::harness::GpuContext,
+    scene: &Scene,
+    cones: &ConeSettings,
+    progress: impl Fn(&str),
+) -> Result<(Rendered, LrsmMemory)> {
+    VctLrsm::new(false).render(ctx, scene, cones, progress)
+}
+
+/// The lrsm pipeline over a sequence of frames, with the reuse rule of the others: a frame whose
+/// geometry, materials, lights and voxel grid equal the last frame's reuses its occlusion voxels and
+/// LRSMs (the same ones a rebuild would make).
+pub struct VctLrsm {
+    reuse: bool,
+    cache: Option<(PyramidKey, LrsmSettings, LrsmFrame)>,
+}
+
+impl VctLrsm {
+    pub fn new(reuse: bool) -> Self {
+        Self { reuse, cache: None }
+    }
+
+    pub fn render(
+        &mut self,
+        ctx: &crate::harness::GpuContext,
+        scene: &Scene,
+        cones: &ConeSettings,
+        progress: impl Fn(&str),
+    ) -> Result<(Rendered, LrsmMemory)> {
+        let key = PyramidKey::of(scene);
+        let settings = LrsmSettings::from(&scene.render);
+        let cached = self.reuse
+            && self
+                .cache
+                .as_ref()
+                .is_some_and(|c| c.0 == key && c.1 == settings);
+        let plan = FramePlan::lrsm_after(scene, cones, &settings, cached);
+        let data = SceneData::new(scene);
+        let mut stages = Vec::new();
+        let (gb, direct) = gbuffer_and_direct(ctx, &data, &plan, &mut stages, &progress)?;
+        if cached {
+            progress("occlusion voxels and LRSMs: reused");
+        } else {
+            self.cache = None;
+            let built = LrsmFrame::build(
+                ctx,
+                scene,
+                &data,
+                scene.render.voxels,
+                &settings,
+                &progress,
+                &mut stages,
+            )?;
+            self.cache = Some((key, settings, built));
+        }
+        let (_, _, built) = self.cache.as_ref().expect("built or reused above");
+        progress("cone tracing");
+        let t = std::time::Instant::now();
+        let params = cone_trace::cone_params(&built.voxels, cones);
+        let case = lrsm_cone_trace::case_for(ctx, &data, &gb, built, &params, "render".into(), 0);
+        let frame = cone_pass_frame(ctx, &lrsm_cone_trace::DECL, &case, direct, stages, plan, t)?;
+        Ok((frame, built.memory))
+    }
+}
+
 /// Run a cone pass (`decl`: a kernel on common/cone_march.wgsl, `case` from its case_for, started at
 /// `started`) and assemble the frame: indirect and AO from it, combined = direct + indirect.
 fn cone_pass_frame(
@@ -589,6 +674,22 @@ pub fn render_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendered> {
     };
     let lmax = cone_trace::max_radiance(&pyramid, m.frame.side);
     Ok(m.shade(&pyr, lmax, FramePlan::vct_dense(scene, cones)))
+}
+
+/// lrsm computed by the scalar mirrors alone (the snapshot tests' lrsm images): occlusion voxels of
+/// the mirror's voxelization, the mirrors' RSMs and LRSMs of every light view, the gather's mirror.
+pub fn render_lrsm_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendered> {
+    let m = MirrorFrame::new(scene)?;
+    let settings = LrsmSettings::from(&scene.render);
+    let built = lrsm_cone_trace::mirror_frame(&m.data, &m.lit, m.frame, &settings)?;
+    let params = cone_trace::cone_params(&built.voxels, cones);
+    let vol = built.volume(&params);
+    let lmax = vol.lmax;
+    Ok(m.shade(
+        &vol,
+        lmax,
+        FramePlan::lrsm_after(scene, cones, &settings, false),
+    ))
 }
 
 /// vct-svo computed by the scalar mirrors alone (the snapshot tests' vct-svo images): the mirror's

@@ -38,8 +38,8 @@ pub fn vct_dense_memory(scene: &Scene) -> u64 {
         + pyramid * 32
 }
 
-/// Render every scene with the reference (`spp`), vct-dense and vct-svo, write the images under `out`
-/// (`<scene>/reference/`, `<scene>/vct-dense/`, `<scene>/vct-svo/`) and report.md; return the rows.
+/// Render every scene with the reference (`spp`), vct-dense, vct-svo and lrsm, write the images under
+/// `out` (`<scene>/reference/`, `<scene>/<pipeline>/`) and report.md; return the rows.
 pub fn report(
     ctx: &crate::harness::GpuContext,
     scenes: &[(String, Scene)],
@@ -72,11 +72,20 @@ pub fn report(
         )?;
 
         let cones = ConeSettings::from(&scene.render);
-        for pipeline in ["vct-dense", "vct-svo"] {
+        for pipeline in ["vct-dense", "vct-svo", "lrsm"] {
             progress(&format!("{name}: {pipeline}"));
             let (r, memory) = if pipeline == "vct-dense" {
                 let r = crate::render::render(ctx, scene, &cones, |_| {})?;
                 (r, vct_dense_memory(scene))
+            } else if pipeline == "lrsm" {
+                let (r, m) = crate::render::render_lrsm(ctx, scene, &cones, |_| {})?;
+                // vct-dense's buffers without the radiance pyramid, with the occlusion voxels and
+                // every view's LRSM (and the one RSM alive at a time).
+                let pyramid = pyramid_len(scene.render.voxels) as u64 * 32;
+                (
+                    r,
+                    vct_dense_memory(scene) - pyramid + m.occlusion + m.rsm + m.lrsm,
+                )
             } else {
                 let (r, m) = crate::render::render_svo(ctx, scene, &cones, |_| {})?;
                 // vct-dense's buffers with the octree (its actual allocation) for the pyramid.
@@ -119,7 +128,7 @@ pub fn report(
         }
         let _ = writeln!(
             images,
-            "\n### {name}\n\nreference ({spp} spp) | vct-dense | vct-svo\n---|---|---\n![]({name}/reference/combined.png) | ![]({name}/vct-dense/combined.png) | ![]({name}/vct-svo/combined.png)\n![]({name}/reference/indirect.png) | ![]({name}/vct-dense/indirect.png) | ![]({name}/vct-svo/indirect.png)\n![]({name}/reference/ao.png) | ![]({name}/vct-dense/ao.png) | ![]({name}/vct-svo/ao.png)"
+            "\n### {name}\n\nreference ({spp} spp) | vct-dense | vct-svo | lrsm\n---|---|---|---\n![]({name}/reference/combined.png) | ![]({name}/vct-dense/combined.png) | ![]({name}/vct-svo/combined.png) | ![]({name}/lrsm/combined.png)\n![]({name}/reference/indirect.png) | ![]({name}/vct-dense/indirect.png) | ![]({name}/vct-svo/indirect.png) | ![]({name}/lrsm/indirect.png)\n![]({name}/reference/ao.png) | ![]({name}/vct-dense/ao.png) | ![]({name}/vct-svo/ao.png) | ![]({name}/lrsm/ao.png)"
         );
     }
     md.push_str("\ntime: wall clock of the pipeline's stages, transfers between stages included; FLIP: mean LDR-FLIP against the reference (`vxgi compare`); leak: thin_wall only.\n");

@@ -155,6 +155,13 @@ pub struct RenderSettings {
     pub mip_clamp: f32,
     /// Cone step as a fraction of the cone's diameter, (0, 1] (CPRC 4: 0.5).
     pub cone_step: f32,
+    /// lrsm: RSM side per light view (a power of two, 4..=1024; the LRSM is half of it).
+    pub rsm_side: u32,
+    /// lrsm: depth splits a and <n.l> splits b: (a + 1) x (b + 1) layers (at most 64).
+    pub lrsm_depth_splits: u32,
+    pub lrsm_normal_splits: u32,
+    /// lrsm: overlap of neighbouring depth layers (delta of eq. 15), in [0, 1 / (a + 1)].
+    pub lrsm_overlap: f32,
 }
 
 impl RenderSettings {
@@ -194,6 +201,26 @@ impl RenderSettings {
         if !(self.cone_step > 0.0 && self.cone_step <= 1.0) {
             return Err(format!("cone_step = {} must be in (0, 1]", self.cone_step));
         }
+        if !(4..=1024).contains(&self.rsm_side) || !self.rsm_side.is_power_of_two() {
+            return Err(format!(
+                "rsm_side = {} must be a power of two in 4..=1024",
+                self.rsm_side
+            ));
+        }
+        let layers = (self.lrsm_depth_splits as u64 + 1) * (self.lrsm_normal_splits as u64 + 1);
+        if layers > 64 {
+            return Err(format!(
+                "lrsm_depth_splits = {} and lrsm_normal_splits = {} give {layers} layers; at most 64",
+                self.lrsm_depth_splits, self.lrsm_normal_splits
+            ));
+        }
+        let slice = 1.0 / (self.lrsm_depth_splits as f32 + 1.0);
+        if !(self.lrsm_overlap >= 0.0 && self.lrsm_overlap <= slice) {
+            return Err(format!(
+                "lrsm_overlap = {} must be in [0, {slice}] (one depth layer)",
+                self.lrsm_overlap
+            ));
+        }
         if !(self.mip_clamp >= 0.0 && self.mip_clamp.is_finite()) {
             return Err(format!(
                 "mip_clamp = {} must be finite and >= 0",
@@ -217,6 +244,12 @@ impl Default for RenderSettings {
             // 0.287 without the clamp, 0.237 with 2; AO FLIP 0.85 -> 0.42.
             mip_clamp: 2.0,
             cone_step: 0.5,
+            // 2 x 2 layers as the paper's Sibenik and Sponza; 128^2 per view keeps six cube faces
+            // cheap on a software GPU.
+            rsm_side: 128,
+            lrsm_depth_splits: 1,
+            lrsm_normal_splits: 1,
+            lrsm_overlap: 0.05,
         }
     }
 }

@@ -293,9 +293,11 @@ fn report_and_plan_commands() {
     let md = std::fs::read_to_string(out.join("report.md")).unwrap();
     assert!(md.contains("| vct-dense | small |"), "{md}");
     assert!(md.contains("| vct-svo | small |"), "{md}");
+    assert!(md.contains("| lrsm | small |"), "{md}");
     assert!(
         out.join("small/vct-dense/combined.png").exists()
             && out.join("small/vct-svo/combined.png").exists()
+            && out.join("small/lrsm/combined.png").exists()
             && out.join("small/reference/combined.exr").exists()
     );
     let (code, stdout, _) = vxgi(&["render", "--plan", "--pipeline", "vct-svo"]);

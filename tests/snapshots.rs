@@ -108,3 +108,30 @@ fn cornell_box_64_vct_svo_snapshots_and_gpu_agreement() {
         ],
     );
 }
+
+/// lrsm: the same 64x64 Cornell box, occlusion voxels at 64^3, six 32^2 RSMs of 2 x 2 layers (the
+/// point light's cube faces), by the mirrors alone; and the GPU's frame against it.
+#[test]
+fn cornell_box_64_lrsm_snapshots_and_gpu_agreement() {
+    let mut scene = Scene::cornell_box();
+    scene.camera.width = 64;
+    scene.camera.height = 64;
+    scene.render.voxels = 64;
+    scene.render.rsm_side = 32;
+    let cones = ConeSettings::default();
+    let mirror = vxgi::render::render_lrsm_mirror(&scene, &cones).unwrap();
+    insta::with_settings!({ snapshot_path => "../snapshots", prepend_module_to_snapshot => false }, {
+        insta::assert_binary_snapshot!("cornell_64_lrsm_indirect.png", png(&mirror.indirect));
+        insta::assert_binary_snapshot!("cornell_64_lrsm_combined.png", png(&mirror.combined));
+        insta::assert_binary_snapshot!("cornell_64_lrsm_ao.png", png(&mirror.ao));
+    });
+    let (ours, _) = vxgi::render::render_lrsm(gpu(), &scene, &cones, |_| {}).unwrap();
+    assert_gpu_agrees(
+        "lrsm",
+        &[
+            ("indirect", &mirror.indirect, &ours.indirect),
+            ("combined", &mirror.combined, &ours.combined),
+            ("ao", &mirror.ao, &ours.ao),
+        ],
+    );
+}

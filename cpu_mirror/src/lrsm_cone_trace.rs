@@ -88,7 +88,8 @@ impl LrsmVolume<'_> {
                 let t = c * s;
                 (t - t.round()).abs() <= d_ndc * 0.5 * s
             };
-            let mut alts: Vec<[f32; 4]> = vec![at(nx, ny, mip, zc + d_z), at(nx, ny, mip, zc - d_z)];
+            let mut alts: Vec<[f32; 4]> =
+                vec![at(nx, ny, mip, zc + d_z), at(nx, ny, mip, zc - d_z)];
             if near_edge((nx + 1.0) * 0.5) {
                 alts.push(at(nx + d_ndc, ny, mip, zc));
                 alts.push(at(nx - d_ndc, ny, mip, zc));
@@ -171,7 +172,9 @@ impl Volume for LrsmVolume<'_> {
         (
             Vec4::new(rgb.x, rgb.y, rgb.z, s.w),
             SampleError {
-                rgb: s.w * l_err + (l.abs().max_element() + l_err) * serr.a + 8.0 * f32::EPSILON * rgb.abs().max_element(),
+                rgb: s.w * l_err
+                    + (l.abs().max_element() + l_err) * serr.a
+                    + 8.0 * f32::EPSILON * rgb.abs().max_element(),
                 a: serr.a,
             },
         )

@@ -372,15 +372,25 @@ fn keep_worst(v: &mut Vec<(bool, Mismatch)>) {
 }
 
 /// Compare integer outputs: always exact.
+/// Exact comparison of integer outputs; `alt`, when given, is the flush-to-zero mirror's result (an
+/// integer computed from float inputs a GPU may flush), accepted element by element as for floats.
 pub fn compare_u32(
     meta: (&str, &str, &str, u64),
     gpu: &[u32],
     mirror: &[u32],
+    alt: Option<&[u32]>,
     indexing: Indexing,
 ) -> Comparison {
-    let g: Vec<f32> = gpu.iter().map(|&x| f32::from_bits(x)).collect();
-    let m: Vec<f32> = mirror.iter().map(|&x| f32::from_bits(x)).collect();
-    compare_f32(meta, &g, &m, None, Tolerance::Exact, indexing)
+    let bits = |v: &[u32]| -> Vec<f32> { v.iter().map(|&x| f32::from_bits(x)).collect() };
+    let a = alt.map(bits);
+    compare_f32(
+        meta,
+        &bits(gpu),
+        &bits(mirror),
+        a.as_deref(),
+        Tolerance::Exact,
+        indexing,
+    )
 }
 
 #[cfg(test)]
@@ -418,6 +428,18 @@ mod tests {
             Indexing::Linear,
         );
         assert!(!c.passed());
+    }
+
+    #[test]
+    fn integer_outputs_accept_the_flush_to_zero_mirrors_words_only() {
+        let meta = ("k", "o", "c", 0);
+        // A subnormal alpha: solid (255) under IEEE, empty (0) where the GPU flushed it.
+        let c = compare_u32(meta, &[0, 7], &[255, 7], Some(&[0, 7]), Indexing::Linear);
+        assert!(c.passed());
+        assert_eq!(c.flushed, 1);
+        let c = compare_u32(meta, &[1, 7], &[255, 7], Some(&[0, 7]), Indexing::Linear);
+        assert!(!c.passed());
+        assert!(!compare_u32(meta, &[0], &[255], None, Indexing::Linear).passed());
     }
 
     #[test]

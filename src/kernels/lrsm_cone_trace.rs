@@ -73,15 +73,21 @@ pub struct LrsmSettings {
     pub overlap: f32,
 }
 
-impl Default for LrsmSettings {
-    /// 4 layers (2 x 2, the paper's Sibenik/Sponza setting), 128^2 RSM per view.
-    fn default() -> Self {
+impl From<&crate::scene::RenderSettings> for LrsmSettings {
+    fn from(r: &crate::scene::RenderSettings) -> Self {
         Self {
-            rsm_side: 128,
-            depth_splits: 1,
-            normal_splits: 1,
-            overlap: 0.05,
+            rsm_side: r.rsm_side,
+            depth_splits: r.lrsm_depth_splits,
+            normal_splits: r.lrsm_normal_splits,
+            overlap: r.lrsm_overlap,
         }
+    }
+}
+
+impl Default for LrsmSettings {
+    /// The `[render]` defaults: 4 layers (2 x 2, the paper's Sibenik/Sponza setting), 128^2 RSM per view.
+    fn default() -> Self {
+        Self::from(&crate::scene::RenderSettings::default())
     }
 }
 
@@ -178,10 +184,17 @@ impl LrsmFrame {
         side: u32,
         settings: &LrsmSettings,
         progress: &dyn Fn(&str),
+        stages: &mut Vec<(&'static str, f64)>,
     ) -> anyhow::Result<Self> {
-        progress("occlusion voxels");
+        progress("voxelize");
+        let t = std::time::Instant::now();
         let (grid, _, voxels) = voxelize_on_gpu(ctx, scene, side)?;
+        stages.push(("voxelize", t.elapsed().as_secs_f64()));
+        progress("occlusion voxels");
+        let t = std::time::Instant::now();
         let levels = occlusion_on_gpu(ctx, &grid).context("occlusion voxels")?;
+        stages.push(("occlusion_voxels", t.elapsed().as_secs_f64()));
+        let t = std::time::Instant::now();
         let mut occ_offsets = Vec::new();
         let mut occ = Vec::new();
         for l in &levels {
@@ -195,10 +208,16 @@ impl LrsmFrame {
             overlap: settings.overlap,
         };
         config.validate(ctx.limits().max_storage_buffer_binding_size)?;
-        let mut views = light_views(&data.lights, data.bounds, settings.rsm_side, data.frame.eye[3])?;
+        let mut views = light_views(
+            &data.lights,
+            data.bounds,
+            settings.rsm_side,
+            data.frame.eye[3],
+        )?;
         let mut streams: [Vec<[f32; 4]>; 3] = Default::default();
+        let count = views.len();
         for (k, v) in views.iter_mut().enumerate() {
-            progress(&format!("LRSM view {} of {}", k + 1, data.lights.len().max(1)));
+            progress(&format!("RSM and LRSM of light view {} of {count}", k + 1));
             v.view.info[2] = streams[0].len() as u32;
             let rsm = rsm_on_gpu(ctx, data, v).context("reflective shadow map")?;
             let s = lrsm_on_gpu(ctx, &rsm, &config).context("LRSM")?;
@@ -206,17 +225,10 @@ impl LrsmFrame {
                 acc.extend(part);
             }
         }
-        let side0 = settings.rsm_side / 2;
-        let params = SampleParams {
-            depth_slices: config.depth_slices(),
-            normal_slices: config.normal_slices(),
-            levels: side0.trailing_zeros() + 1,
-            side0,
-            cdf: 0,
-            min_variance: 1.0e-4,
-            min_alpha: 1.0e-6,
-            overlap: config.overlap,
-        };
+        if !views.is_empty() {
+            stages.push(("reflective_shadow_map", t.elapsed().as_secs_f64()));
+        }
+        let params = super::sample_lrsm::sample_params(&config, 0);
         let memory = LrsmMemory {
             occlusion: occ.len() as u64 * 4,
             rsm: (settings.rsm_side as u64).pow(2) * 36,
@@ -274,6 +286,84 @@ impl LrsmFrame {
     }
 }
 
+/// The same frame data computed by the mirrors alone (no GPU): occlusion pyramid of the voxelized grid
+/// `colour` (alpha > 0 = solid), every view's RSM from a mirror G-buffer ray-cast from the light, then
+/// partition and pre-filter. For the snapshot tests' lrsm images.
+pub fn mirror_frame(
+    data: &SceneData,
+    colour: &[[f32; 4]],
+    voxels: VoxelFrame,
+    settings: &LrsmSettings,
+) -> anyhow::Result<LrsmFrame> {
+    use rayon::prelude::*;
+    use vxgi_cpu_mirror::gbuffer as gbm;
+    let levels = vxgi_cpu_mirror::occlusion_voxels::pyramid(colour, voxels.side, false);
+    let mut occ_offsets = Vec::new();
+    let mut occ = Vec::new();
+    for l in &levels {
+        occ_offsets.push(occ.len() as u32);
+        occ.extend_from_slice(l);
+    }
+    let config = PartitionConfig {
+        rsm_side: settings.rsm_side,
+        depth_splits: settings.depth_splits,
+        normal_splits: settings.normal_splits,
+        overlap: settings.overlap,
+    };
+    let mut views = light_views(
+        &data.lights,
+        data.bounds,
+        settings.rsm_side,
+        data.frame.eye[3],
+    )?;
+    let tex = data.textures();
+    let side = settings.rsm_side;
+    let mut streams: [Vec<[f32; 4]>; 3] = Default::default();
+    for v in views.iter_mut() {
+        v.view.info[2] = streams[0].len() as u32;
+        let texels: Vec<gbm::Texel> = (0..side * side)
+            .into_par_iter()
+            .map(|i| gbm::shade_pixel(&v.frame, &data.nodes, &data.triangles, i % side, i / side))
+            .collect();
+        let pos: Vec<[f32; 4]> = texels.iter().map(|t| t.position).collect();
+        let nrm: Vec<[f32; 4]> = texels.iter().map(|t| t.normal).collect();
+        let alb: Vec<[f32; 4]> = texels
+            .iter()
+            .map(|t| gbm::albedo(&data.materials, &data.triangles, &tex, t))
+            .collect();
+        let r =
+            vxgi_cpu_mirror::reflective_shadow_map::rsm(&v.view, &data.lights, &pos, &nrm, &alb);
+        let rsm = Rsm {
+            side,
+            radiance: r.radiance,
+            normal: r.normal,
+            depth: r.depth,
+        };
+        for (acc, part) in streams
+            .iter_mut()
+            .zip(super::sample_lrsm::lrsm_mirror(&rsm, &config))
+        {
+            acc.extend(part);
+        }
+    }
+    let memory = LrsmMemory {
+        occlusion: occ.len() as u64 * 4,
+        rsm: (side as u64).pow(2) * 36,
+        lrsm: streams[0].len() as u64 * 48,
+        views: views.len() as u32,
+    };
+    Ok(LrsmFrame {
+        voxels,
+        occ,
+        occ_offsets,
+        views: views.iter().map(|v| v.view).collect(),
+        params: super::sample_lrsm::sample_params(&config, 0),
+        depth_ranges: config.depth_ranges(),
+        streams,
+        memory,
+    })
+}
+
 /// The gather over a scene whose G-buffer and LRSM frame are given.
 pub fn case_for(
     ctx: &GpuContext,
@@ -300,15 +390,27 @@ pub fn case_for(
     let streams: Vec<Vec<[f32; 4]>> = frame
         .streams
         .iter()
-        .map(|s| if s.is_empty() { vec![[0.0; 4]] } else { s.clone() })
+        .map(|s| {
+            if s.is_empty() {
+                vec![[0.0; 4]]
+            } else {
+                s.clone()
+            }
+        })
         .collect();
     let volume = Resources::from([
-        ("occ".to_string(), HostResource::Buffer(HostBuffer::u32(&frame.occ))),
+        (
+            "occ".to_string(),
+            HostResource::Buffer(HostBuffer::u32(&frame.occ)),
+        ),
         (
             "occ_offsets".to_string(),
             HostResource::Buffer(HostBuffer::u32(&frame.occ_offsets)),
         ),
-        ("params".to_string(), mixed(bytemuck::bytes_of(&frame.params))),
+        (
+            "params".to_string(),
+            mixed(bytemuck::bytes_of(&frame.params)),
+        ),
         ("depth_ranges".to_string(), f4(&frame.depth_ranges)),
         ("lrsm_radiance".to_string(), f4(&streams[0])),
         ("lrsm_normal".to_string(), f4(&streams[1])),
@@ -379,8 +481,16 @@ impl Kernel for LrsmConeTrace {
             normal_splits: (index / 2 % 2) as u32,
             overlap: 0.05,
         };
-        let frame = LrsmFrame::build(ctx, &scene, &data, side, &settings, &|_| {})
-            .expect("generated scenes build");
+        let frame = LrsmFrame::build(
+            ctx,
+            &scene,
+            &data,
+            side,
+            &settings,
+            &|_| {},
+            &mut Vec::new(),
+        )
+        .expect("generated scenes build");
         let params = cone_params(&frame.voxels, &cones);
         let gb = super::direct_light::gpu_gbuffer(ctx, &data);
         case_for(

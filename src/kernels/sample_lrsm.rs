@@ -45,11 +45,9 @@ pub struct BuiltLrsm {
     pub streams: [Vec<[f32; 4]>; 3],
 }
 
-/// Partition a synthetic RSM and pre-filter it, on the CPU (the GPU kernels for these are verified
-/// against exactly these mirrors).
-pub fn build_lrsm(config: PartitionConfig, seed: u64, cdf: u32) -> BuiltLrsm {
-    let rsm = synthetic_rsm(config.rsm_side, &config, seed);
-    let ranges = config.depth_ranges();
+/// An RSM partitioned and pre-filtered by the mirrors (every level, concatenated): what
+/// lrsm_partition and lrsm_prefilter compute on the GPU.
+pub fn lrsm_mirror(rsm: &crate::lrsm::Rsm, config: &PartitionConfig) -> [Vec<[f32; 4]>; 3] {
     let pp = PartitionParams {
         depth_slices: config.depth_slices(),
         normal_slices: config.normal_slices(),
@@ -58,12 +56,11 @@ pub fn build_lrsm(config: PartitionConfig, seed: u64, cdf: u32) -> BuiltLrsm {
     };
     let level0 = partition(
         (&rsm.radiance, &rsm.normal, &rsm.depth),
-        &ranges,
+        &config.depth_ranges(),
         &pp,
         false,
     );
-    let side0 = config.rsm_side / 2;
-    let levels = side0.trailing_zeros() + 1;
+    let levels = (config.rsm_side / 2).trailing_zeros() + 1;
     let mut streams = level0.clone();
     let mut level = level0;
     for _ in 1..levels {
@@ -72,16 +69,32 @@ pub fn build_lrsm(config: PartitionConfig, seed: u64, cdf: u32) -> BuiltLrsm {
             s.extend_from_slice(l);
         }
     }
-    let params = SampleParams {
+    streams
+}
+
+/// Sample LRSM's parameters for LRSMs made with `config` (variance floor 1e-4: sigma >= 1% of a layer;
+/// opacity floor 1e-6).
+pub fn sample_params(config: &PartitionConfig, cdf: u32) -> SampleParams {
+    let side0 = config.rsm_side / 2;
+    SampleParams {
         depth_slices: config.depth_slices(),
         normal_slices: config.normal_slices(),
-        levels,
+        levels: side0.trailing_zeros() + 1,
         side0,
         cdf,
         min_variance: 1.0e-4,
         min_alpha: 1.0e-6,
         overlap: config.overlap,
-    };
+    }
+}
+
+/// Partition a synthetic RSM and pre-filter it, on the CPU (the GPU kernels for these are verified
+/// against exactly these mirrors).
+pub fn build_lrsm(config: PartitionConfig, seed: u64, cdf: u32) -> BuiltLrsm {
+    let rsm = synthetic_rsm(config.rsm_side, &config, seed);
+    let ranges = config.depth_ranges();
+    let streams = lrsm_mirror(&rsm, &config);
+    let params = sample_params(&config, cdf);
     BuiltLrsm {
         config,
         params,

@@ -1,0 +1,80 @@
+//! GPU vs mirror for `kernels/lrsm_cone_trace.wgsl` on generated scenes (the whole chain voxelize ->
+//! occlusion_voxels, gbuffer -> reflective_shadow_map -> lrsm_partition -> lrsm_prefilter run on the
+//! GPU first); the lrsm pipeline end to end: light reaches the Cornell box's floor indirectly, the plan
+//! says what runs, a directional light is refused with the reason.
+mod common;
+
+use common::gpu;
+use vxgi::harness::kernel::verify;
+use vxgi::harness::VerifyOptions;
+use vxgi::kernels::cone_trace::ConeSettings;
+use vxgi::kernels::lrsm_cone_trace::LrsmConeTrace;
+use vxgi::render::{render_lrsm, Pipeline};
+use vxgi::scene::{Light, Scene};
+
+#[test]
+fn generated_gathers_are_within_the_mirrors_bounds() {
+    let rep = verify(
+        gpu(),
+        &LrsmConeTrace,
+        &VerifyOptions {
+            cases: 8,
+            seed: 7,
+            corrupt: None,
+        },
+        &mut |_| {},
+    )
+    .unwrap();
+    assert!(rep.passed(), "{}", rep.failures[0].report());
+}
+
+#[test]
+fn the_cornell_box_gathers_indirect_light_and_reports_its_memory() {
+    let mut scene = Scene::cornell_box();
+    scene.camera.width = 48;
+    scene.camera.height = 48;
+    scene.render.voxels = 32;
+    scene.render.rsm_side = 32;
+    let (frame, memory) = render_lrsm(gpu(), &scene, &ConeSettings::default(), |_| {}).unwrap();
+    let lit = frame
+        .indirect
+        .pixels
+        .iter()
+        .filter(|p| p.iter().all(|c| c.is_finite() && *c >= 0.0) && p[0] + p[1] + p[2] > 1e-3)
+        .count();
+    assert!(
+        lit > 48 * 48 / 4,
+        "only {lit} pixels receive indirect light"
+    );
+    // One 32^2 RSM of 36 bytes a texel; six LRSMs of 4 layers, 16^2 .. 1^2, 48 bytes a texel.
+    assert_eq!(memory.views, 6);
+    assert_eq!(memory.rsm, 32 * 32 * 36);
+    let texels: u64 = (0..5).map(|k| 4 * (16u64 >> k).pow(2)).sum();
+    assert_eq!(memory.lrsm, 6 * texels * 48);
+    let names: Vec<&str> = frame.stages.iter().map(|s| s.0).collect();
+    assert_eq!(names, Pipeline::Lrsm.stages());
+}
+
+#[test]
+fn the_plan_skips_rsms_without_lights_and_directional_lights_are_refused() {
+    let mut scene = Scene::cornell_box();
+    scene.lights.clear();
+    let plan = Pipeline::Lrsm.plan(&scene, &ConeSettings::default(), false);
+    assert!(!plan.runs("reflective_shadow_map"));
+    assert!(plan.runs("occlusion_voxels") && plan.runs("lrsm_cone_trace"));
+    let again = Pipeline::Lrsm.plan(&Scene::cornell_box(), &ConeSettings::default(), true);
+    assert!(!again.runs("occlusion_voxels") && !again.runs("reflective_shadow_map"));
+
+    let mut scene = Scene::cornell_box();
+    scene.camera.width = 16;
+    scene.camera.height = 16;
+    scene.render.voxels = 16;
+    scene.lights.push(Light::Directional {
+        direction: [0.0, -1.0, 0.0],
+        intensity: [1.0; 3],
+    });
+    let err = render_lrsm(gpu(), &scene, &ConeSettings::default(), |_| {})
+        .err()
+        .unwrap();
+    assert!(format!("{err:#}").contains("directional"), "{err:#}");
+}
