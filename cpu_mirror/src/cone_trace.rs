@@ -156,34 +156,45 @@ impl Volume for Pyramid<'_> {
     }
 
     fn level(&self, x: Vec3, l: u32) -> (Vec4, SampleError) {
-        let n = (self.p.side >> l) as i32;
-        let inv = self.p.inv_s0 * (1.0 / (1u32 << l) as f32);
-        let origin = Vec3::from_slice(&self.p.origin[..3]);
-        let q = (x - origin) * inv - Vec3::splat(0.5);
-        let dq = SampleError::coordinate_error(x, origin, inv, q);
-        let fl = q.floor();
-        let f = q - fl;
-        let i0 = [fl.x as i32, fl.y as i32, fl.z as i32];
         let off = level_offset(self.p.side, l);
-        let mut acc = Vec4::ZERO;
-        let mut err = SampleError::default();
-        for corner in 0..8u32 {
-            let (cx, cy, cz) = (corner & 1, (corner >> 1) & 1, (corner >> 2) & 1);
-            let wx = if cx == 1 { f.x } else { 1.0 - f.x };
-            let wy = if cy == 1 { f.y } else { 1.0 - f.y };
-            let wz = if cz == 1 { f.z } else { 1.0 - f.z };
-            let (ix, iy, iz) = (i0[0] + cx as i32, i0[1] + cy as i32, i0[2] + cz as i32);
-            if ix < 0 || iy < 0 || iz < 0 || ix >= n || iy >= n || iz >= n {
-                continue;
-            }
-            let v = Vec4::from_array(
-                self.voxels[off + morton::encode(ix as u32, iy as u32, iz as u32) as usize],
-            );
-            acc += v * (wx * wy * wz);
-            err.add_corner(dq, [wx, wy, wz], v);
-        }
-        (acc, err)
+        trilinear_level(self.p, x, l, |m| Vec4::from_array(self.voxels[off + m]))
     }
+}
+
+/// Trilinear sample of whole level `l` (side `p.side >> l`, Morton order) at world point `x`, with
+/// `fetch(morton index)` reading a voxel of that level; voxels outside the grid are empty. Its error
+/// from the sample point's rounding ([`SampleError`]). The dense pyramid's and lrsm_cone_trace's
+/// occlusion levels.
+pub fn trilinear_level(
+    p: &ConeParams,
+    x: Vec3,
+    l: u32,
+    fetch: impl Fn(usize) -> Vec4,
+) -> (Vec4, SampleError) {
+    let n = (p.side >> l) as i32;
+    let inv = p.inv_s0 * (1.0 / (1u32 << l) as f32);
+    let origin = Vec3::from_slice(&p.origin[..3]);
+    let q = (x - origin) * inv - Vec3::splat(0.5);
+    let dq = SampleError::coordinate_error(x, origin, inv, q);
+    let fl = q.floor();
+    let f = q - fl;
+    let i0 = [fl.x as i32, fl.y as i32, fl.z as i32];
+    let mut acc = Vec4::ZERO;
+    let mut err = SampleError::default();
+    for corner in 0..8u32 {
+        let (cx, cy, cz) = (corner & 1, (corner >> 1) & 1, (corner >> 2) & 1);
+        let wx = if cx == 1 { f.x } else { 1.0 - f.x };
+        let wy = if cy == 1 { f.y } else { 1.0 - f.y };
+        let wz = if cz == 1 { f.z } else { 1.0 - f.z };
+        let (ix, iy, iz) = (i0[0] + cx as i32, i0[1] + cy as i32, i0[2] + cz as i32);
+        if ix < 0 || iy < 0 || iz < 0 || ix >= n || iy >= n || iz >= n {
+            continue;
+        }
+        let v = fetch(morton::encode(ix as u32, iy as u32, iz as u32) as usize);
+        acc += v * (wx * wy * wz);
+        err.add_corner(dq, [wx, wy, wz], v);
+    }
+    (acc, err)
 }
 
 /// Result of one cone: radiance, AO occlusion, and the mirror's bound on the radiance.

@@ -10,8 +10,7 @@
 //! view's L); plus 1e-4 of |L| for the direction vc = -d (a few ULP off the mirror's; N = <n, vc> moves
 //! L by as little relatively). The input errors come from the sample point's: 16 ULP of the magnitudes of
 //! x and the eye, through the projection's divisions (2.5 ULP) and log2 (absolute 2^-21).
-use crate::cone_trace::{ConeParams, SampleError, Volume};
-use crate::morton;
+use crate::cone_trace::{trilinear_level, ConeParams, SampleError, Volume};
 use crate::occlusion_voxels::byte;
 use crate::reflective_shadow_map::GpuView;
 use crate::sample_lrsm::{sample, sample_bound, Lrsm, SampleParams};
@@ -122,35 +121,18 @@ impl Volume for LrsmVolume<'_> {
         self.p
     }
 
-    /// (0, 0, 0, occlusion) at `x`, trilinear in occlusion level `l`.
+    /// (0, 0, 0, occlusion) at `x`, trilinear in occlusion level `l` (byte / 255; the kernel computes
+    /// `(f32(b) * (1 / 255)) * weight`, the same products in the same order).
     fn level(&self, x: Vec3, l: u32) -> (Vec4, SampleError) {
-        let n = (self.p.side >> l) as i32;
-        let inv = self.p.inv_s0 * (1.0 / (1u32 << l) as f32);
-        let origin = Vec3::from_slice(&self.p.origin[..3]);
-        let q = (x - origin) * inv - Vec3::splat(0.5);
-        let dq = SampleError::coordinate_error(x, origin, inv, q);
-        let fl = q.floor();
-        let f = q - fl;
-        let i0 = [fl.x as i32, fl.y as i32, fl.z as i32];
         let off = self.occ_offsets[l as usize] as usize;
-        let mut acc = 0.0f32;
-        let mut err = SampleError::default();
-        for corner in 0..8u32 {
-            let (cx, cy, cz) = (corner & 1, (corner >> 1) & 1, (corner >> 2) & 1);
-            let wx = if cx == 1 { f.x } else { 1.0 - f.x };
-            let wy = if cy == 1 { f.y } else { 1.0 - f.y };
-            let wz = if cz == 1 { f.z } else { 1.0 - f.z };
-            let (ix, iy, iz) = (i0[0] + cx as i32, i0[1] + cy as i32, i0[2] + cz as i32);
-            if ix < 0 || iy < 0 || iz < 0 || ix >= n || iy >= n || iz >= n {
-                continue;
-            }
-            let m = morton::encode(ix as u32, iy as u32, iz as u32) as usize;
-            let b = byte(&self.occ[off..], m);
-            let a = b as f32 * (1.0 / 255.0);
-            acc += a * (wx * wy * wz);
-            err.add_corner(dq, [wx, wy, wz], Vec4::new(0.0, 0.0, 0.0, a));
-        }
-        (Vec4::new(0.0, 0.0, 0.0, acc), err)
+        trilinear_level(self.p, x, l, |m| {
+            Vec4::new(
+                0.0,
+                0.0,
+                0.0,
+                byte(&self.occ[off..], m) as f32 * (1.0 / 255.0),
+            )
+        })
     }
 
     /// `(L * alpha, alpha)`; where the mirror's alpha is 0 the LRSMs are not read (as in the kernel) and

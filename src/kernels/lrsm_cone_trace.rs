@@ -118,6 +118,28 @@ pub struct LrsmMemory {
     pub views: u32,
 }
 
+impl LrsmMemory {
+    fn of(occ: &[u32], rsm_side: u32, streams: &[Vec<[f32; 4]>; 3], views: usize) -> Self {
+        Self {
+            occlusion: occ.len() as u64 * 4,
+            rsm: (rsm_side as u64).pow(2) * 36,
+            lrsm: streams[0].len() as u64 * 48,
+            views: views as u32,
+        }
+    }
+}
+
+/// The occlusion levels concatenated, and each level's first word.
+fn concat_levels(levels: &[Vec<u32>]) -> (Vec<u32>, Vec<u32>) {
+    let mut occ = Vec::new();
+    let mut offsets = Vec::new();
+    for l in levels {
+        offsets.push(occ.len() as u32);
+        occ.extend_from_slice(l);
+    }
+    (occ, offsets)
+}
+
 /// A view's RSM partitioned and pre-filtered on the GPU: the three streams, levels concatenated.
 pub fn lrsm_on_gpu(
     ctx: &GpuContext,
@@ -195,12 +217,7 @@ impl LrsmFrame {
         let levels = occlusion_on_gpu(ctx, &grid).context("occlusion voxels")?;
         stages.push(("occlusion_voxels", t.elapsed().as_secs_f64()));
         let t = std::time::Instant::now();
-        let mut occ_offsets = Vec::new();
-        let mut occ = Vec::new();
-        for l in &levels {
-            occ_offsets.push(occ.len() as u32);
-            occ.extend_from_slice(l);
-        }
+        let (occ, occ_offsets) = concat_levels(&levels);
         let config = PartitionConfig {
             rsm_side: settings.rsm_side,
             depth_splits: settings.depth_splits,
@@ -229,12 +246,7 @@ impl LrsmFrame {
             stages.push(("reflective_shadow_map", t.elapsed().as_secs_f64()));
         }
         let params = super::sample_lrsm::sample_params(&config, 0);
-        let memory = LrsmMemory {
-            occlusion: occ.len() as u64 * 4,
-            rsm: (settings.rsm_side as u64).pow(2) * 36,
-            lrsm: streams[0].len() as u64 * 48,
-            views: views.len() as u32,
-        };
+        let memory = LrsmMemory::of(&occ, settings.rsm_side, &streams, views.len());
         Ok(Self {
             voxels,
             occ,
@@ -298,12 +310,7 @@ pub fn mirror_frame(
     use rayon::prelude::*;
     use vxgi_cpu_mirror::gbuffer as gbm;
     let levels = vxgi_cpu_mirror::occlusion_voxels::pyramid(colour, voxels.side, false);
-    let mut occ_offsets = Vec::new();
-    let mut occ = Vec::new();
-    for l in &levels {
-        occ_offsets.push(occ.len() as u32);
-        occ.extend_from_slice(l);
-    }
+    let (occ, occ_offsets) = concat_levels(&levels);
     let config = PartitionConfig {
         rsm_side: settings.rsm_side,
         depth_splits: settings.depth_splits,
@@ -346,12 +353,7 @@ pub fn mirror_frame(
             acc.extend(part);
         }
     }
-    let memory = LrsmMemory {
-        occlusion: occ.len() as u64 * 4,
-        rsm: (side as u64).pow(2) * 36,
-        lrsm: streams[0].len() as u64 * 48,
-        views: views.len() as u32,
-    };
+    let memory = LrsmMemory::of(&occ, side, &streams, views.len());
     Ok(LrsmFrame {
         voxels,
         occ,
