@@ -4,7 +4,8 @@
 // Inputs: frame (eye, forward, right, up pre-scaled by fov and aspect; size = width, height), the
 // flattened BVH nodes and triangles (vertex positions, a.w = material, vertex normals).
 // Pixel (x, y), y down: ndc = ((x + 0.5) / w * 2 - 1, 1 - (y + 0.5) / h * 2),
-//   d = normalize(forward + right * ndc.x + up * ndc.y), origin = eye.
+//   d = normalize(forward + right * ndc.x + up * ndc.y), origin = eye; or, orthographic (size.w = 1, a
+//   directional light's RSM): d = forward (unit), origin = eye + right * ndc.x + up * ndc.y.
 // Outputs per pixel (row-major): gb_position = (p, t) or (0, 0, 0, -1) for no hit;
 //   gb_normal = (normalize(na (1-u-v) + nb u + nc v), side) with side 1 front, -1 back, 0 none (the
 //   face normal where the interpolated one has squared length <= 1e-12);
@@ -25,7 +26,7 @@ struct Frame {
     forward: vec4<f32>,
     right: vec4<f32>,
     up: vec4<f32>,
-    size: vec4<u32>,     // width, height, light count, 0
+    size: vec4<u32>,     // width, height, light count, projection (0 perspective, 1 orthographic)
 }
 
 @group(0) @binding(0) var<storage, read> frame: Frame;
@@ -65,9 +66,15 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let pix = gid.y * w + gid.x;
     let nx = (f32(gid.x) + 0.5) / f32(w) * 2.0 - 1.0;
     let ny = 1.0 - (f32(gid.y) + 0.5) / f32(h) * 2.0;
-    let dd = frame.forward.xyz + frame.right.xyz * nx + frame.up.xyz * ny;
-    let d = dd * (1.0 / sqrt(dot(dd, dd)));
-    let o = frame.eye.xyz;
+    var o = frame.eye.xyz;
+    var d = frame.forward.xyz;
+    if (frame.size.w == 1u) {
+        // Orthographic (a directional light's RSM): parallel rays from the image plane.
+        o = frame.eye.xyz + frame.right.xyz * nx + frame.up.xyz * ny;
+    } else {
+        let dd = frame.forward.xyz + frame.right.xyz * nx + frame.up.xyz * ny;
+        d = dd * (1.0 / sqrt(dot(dd, dd)));
+    }
     let hit = trace_closest(o, d, 0.0, 3.0e38);
     if (hit.tri == NONE) {
         gb_position[pix] = vec4<f32>(0.0, 0.0, 0.0, -1.0);

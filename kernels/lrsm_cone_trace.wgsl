@@ -10,7 +10,8 @@
 // between levels by cone_march's sample_volume (so the march's alpha is the paper's alpha_i).
 // Radiance of a sample (x, diameter D, cone direction d), where alpha > 0 (a sample with no occlusion
 // adds nothing, eq. 1, so its LRSMs are not read): for every view whose frustum holds x
-//   zv = (x - eye) . forward > 0,  nx = (x - eye) . right / zv,  ny = (x - eye) . up / zv,  |nx|, |ny| <= 1,
+//   zv = (x - eye) . forward > 0,  nx = (x - eye) . right / zv,  ny = (x - eye) . up / zv,  |nx|, |ny| <= 1
+//   (orthographic views, info.w = 1, a directional light's: no division by zv, here or in the mip),
 //   Sample LRSM (common/lrsm_sample.wgsl) at u = (nx + 1) / 2, v = (1 - ny) / 2 (the RSM's pixel rows),
 //   mip = log2(D * right.w / zv) (the projected diameter in LRSM level-0 texels), zc = (zv - near) / (far
 //   - near), vc = -d (towards the view sample), rc = D / 2 / (far - near), on the view's LRSM (first
@@ -77,12 +78,19 @@ fn sample_cone(x: vec3<f32>, l: f32, diam: f32, d: vec3<f32>) -> vec4<f32> {
             continue;
         }
         let rel = x - v.eye.xyz;
-        let nx = ((rel.x * v.right.x + rel.y * v.right.y) + rel.z * v.right.z) / zv;
-        let ny = ((rel.x * v.up.x + rel.y * v.up.y) + rel.z * v.up.z) / zv;
+        var nx = (rel.x * v.right.x + rel.y * v.right.y) + rel.z * v.right.z;
+        var ny = (rel.x * v.up.x + rel.y * v.up.y) + rel.z * v.up.z;
+        var texels = diam * v.right.w;
+        if (v.info.w == 0u) {
+            // Perspective: divide by depth (an orthographic view, a directional light's, does not).
+            nx = nx / zv;
+            ny = ny / zv;
+            texels = texels / zv;
+        }
         if (!(abs(nx) <= 1.0 && abs(ny) <= 1.0)) {
             continue;
         }
-        let pos = vec4<f32>((nx + 1.0) * 0.5, (1.0 - ny) * 0.5, log2(diam * v.right.w / zv), (zv - v.eye.w) * v.forward.w);
+        let pos = vec4<f32>((nx + 1.0) * 0.5, (1.0 - ny) * 0.5, log2(texels), (zv - v.eye.w) * v.forward.w);
         let dir = vec4<f32>(-d, (0.5 * diam) * v.forward.w);
         lsum += lrsm_sample(pos, dir, v.info.z).xyz;
     }

@@ -42,8 +42,6 @@ pub enum LrsmError {
         depth: usize,
         side: u32,
     },
-    #[error("light {0} is directional: the lrsm pipeline renders RSMs from point lights (six cube faces) and spot lights (their cone); a directional light needs an orthographic RSM, not implemented yet")]
-    Directional(usize),
 }
 
 /// The static partition (section 4.3): `depth_splits` (a) and `normal_splits` (b) give (a+1) depth slices
@@ -259,8 +257,9 @@ pub struct LightView {
 
 /// The views of `lights` (scene `bounds`, G-buffer `eps` as the camera frame's eye.w): a spot light
 /// whose cone is at most 60 degrees wide (half-angle) gets one view along its axis, fitted to the cone;
-/// a point light, or a wider spot, six 90-degree cube faces (+x, -x, +y, -y, +z, -z). Depth runs from
-/// the light (near 0) to the farthest corner of the bounds (far). `info[2]` (the view's first LRSM
+/// a point light, or a wider spot, six 90-degree cube faces (+x, -x, +y, -y, +z, -z); a directional
+/// light one orthographic view of the whole bounds along its direction. Depth runs from the light (near
+/// 0; a directional light's image plane sits outside the bounds) to the farthest corner (far). `info[2]` (the view's first LRSM
 /// texel) is left 0 for the caller.
 pub fn light_views(
     lights: &[vxgi_cpu_mirror::direct_light::GpuLight],
@@ -273,7 +272,8 @@ pub fn light_views(
     let mut views = Vec::new();
     for (i, l) in lights.iter().enumerate() {
         if l.position[3] == DIRECTIONAL {
-            return Err(LrsmError::Directional(i));
+            views.push(orthographic_view(l, i, lights.len(), bounds, rsm_side, eps));
+            continue;
         }
         let eye = Vec3::new(l.position[0], l.position[1], l.position[2]);
         let far = (0..8)
@@ -330,4 +330,46 @@ pub fn light_views(
         }
     }
     Ok(views)
+}
+
+/// A directional light's view: orthographic along its direction, square, covering the bounds' bounding
+/// sphere, the image plane one radius (plus a margin) before the centre.
+pub fn orthographic_view(
+    l: &vxgi_cpu_mirror::direct_light::GpuLight,
+    index: usize,
+    light_count: usize,
+    bounds: (glam::Vec3, glam::Vec3),
+    rsm_side: u32,
+    eps: f32,
+) -> LightView {
+    use glam::Vec3;
+    let forward = Vec3::new(l.direction[0], l.direction[1], l.direction[2]).normalize();
+    let centre = (bounds.0 + bounds.1) * 0.5;
+    let radius = (bounds.1 - bounds.0).length() * 0.5 * 1.001 + 1e-6;
+    let eye = centre - forward * (radius * 1.01);
+    let far = radius * 2.02;
+    let helper = if forward.y.abs() > 0.9 {
+        Vec3::Z
+    } else {
+        Vec3::Y
+    };
+    let right = forward.cross(helper).normalize();
+    let up = right.cross(forward);
+    let v4 = |v: Vec3, w: f32| [v.x, v.y, v.z, w];
+    LightView {
+        frame: vxgi_cpu_mirror::gbuffer::Frame {
+            eye: v4(eye, eps),
+            forward: v4(forward, 0.0),
+            right: v4(right * radius, 0.0),
+            up: v4(up * radius, 0.0),
+            size: [rsm_side, rsm_side, light_count as u32, 1],
+        },
+        view: vxgi_cpu_mirror::reflective_shadow_map::GpuView {
+            eye: v4(eye, 0.0),
+            forward: v4(forward, 1.0 / far),
+            right: v4(right / radius, (rsm_side / 2) as f32 / (2.0 * radius)),
+            up: v4(up / radius, 0.0),
+            info: [rsm_side, index as u32, 0, 1],
+        },
+    }
 }

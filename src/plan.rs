@@ -188,6 +188,7 @@ impl FramePlan {
             .iter()
             .map(|l| match l {
                 crate::scene::Light::Spot { cone_deg, .. } if *cone_deg <= 60.0 => 1,
+                crate::scene::Light::Directional { .. } => 1,
                 _ => 6,
             })
             .sum();
@@ -231,7 +232,7 @@ impl FramePlan {
                     } else if lights == 0 {
                         "skipped: no lights, no RSM (indirect is 0)".to_string()
                     } else {
-                        "each view's RSM from the light (point lights: six cube faces)".to_string()
+                        "each view's RSM from the light (point lights: six cube faces; directional: orthographic)".to_string()
                     };
                     for (stage, kernel) in [
                         ("reflective_shadow_map", "reflective_shadow_map"),

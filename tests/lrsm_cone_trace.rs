@@ -1,7 +1,7 @@
 //! GPU vs mirror for `kernels/lrsm_cone_trace.wgsl` on generated scenes (the whole chain voxelize ->
 //! occlusion_voxels, gbuffer -> reflective_shadow_map -> lrsm_partition -> lrsm_prefilter run on the
 //! GPU first); the lrsm pipeline end to end: light reaches the Cornell box's floor indirectly, the plan
-//! says what runs, a directional light is refused with the reason.
+//! says what runs, a directional light is rendered through its orthographic view.
 mod common;
 
 use common::gpu;
@@ -56,7 +56,7 @@ fn the_cornell_box_gathers_indirect_light_and_reports_its_memory() {
 }
 
 #[test]
-fn the_plan_skips_rsms_without_lights_and_directional_lights_are_refused() {
+fn the_plan_skips_rsms_without_lights_and_directional_lights_get_an_orthographic_view() {
     let mut scene = Scene::cornell_box();
     scene.lights.clear();
     let plan = Pipeline::Lrsm.plan(&scene, &ConeSettings::default(), false);
@@ -65,16 +65,23 @@ fn the_plan_skips_rsms_without_lights_and_directional_lights_are_refused() {
     let again = Pipeline::Lrsm.plan(&Scene::cornell_box(), &ConeSettings::default(), true);
     assert!(!again.runs("occlusion_voxels") && !again.runs("reflective_shadow_map"));
 
+    // A directional light through the open front: one orthographic view, and indirect light.
     let mut scene = Scene::cornell_box();
-    scene.camera.width = 16;
-    scene.camera.height = 16;
-    scene.render.voxels = 16;
-    scene.lights.push(Light::Directional {
-        direction: [0.0, -1.0, 0.0],
-        intensity: [1.0; 3],
-    });
-    let err = render_lrsm(gpu(), &scene, &ConeSettings::default(), |_| {})
-        .err()
-        .unwrap();
-    assert!(format!("{err:#}").contains("directional"), "{err:#}");
+    scene.camera.width = 24;
+    scene.camera.height = 24;
+    scene.render.voxels = 32;
+    scene.render.rsm_side = 32;
+    scene.lights = vec![Light::Directional {
+        direction: [0.0, -0.3, -1.0],
+        intensity: [2.0; 3],
+    }];
+    let (frame, memory) = render_lrsm(gpu(), &scene, &ConeSettings::default(), |_| {}).unwrap();
+    assert_eq!(memory.views, 1);
+    let lit = frame
+        .indirect
+        .pixels
+        .iter()
+        .filter(|p| p[0] + p[1] + p[2] > 1e-4)
+        .count();
+    assert!(lit > 24 * 24 / 4, "{lit}");
 }

@@ -7,7 +7,7 @@ use common::gpu;
 use vxgi::harness::kernel::verify;
 use vxgi::harness::VerifyOptions;
 use vxgi::kernels::reflective_shadow_map::{rsm_on_gpu, ReflectiveShadowMap};
-use vxgi::lrsm::{light_views, LrsmError};
+use vxgi::lrsm::light_views;
 use vxgi::scene::{Light, Scene};
 use vxgi::trace::SceneData;
 
@@ -57,7 +57,7 @@ fn the_cornell_box_light_sees_the_room_through_six_faces() {
 }
 
 #[test]
-fn a_narrow_spot_gets_one_view_and_a_directional_light_is_refused() {
+fn a_narrow_spot_gets_one_view_and_a_directional_light_an_orthographic_one() {
     let mut scene = Scene::cornell_box();
     scene.lights = vec![Light::Spot {
         position: [0.0, 0.9, 0.0],
@@ -73,13 +73,24 @@ fn a_narrow_spot_gets_one_view_and_a_directional_light_is_refused() {
             .len(),
         1
     );
-    scene.lights.push(Light::Directional {
-        direction: [0.0, -1.0, 0.0],
+    // Straight down, the orthographic view would see the ceiling's outside (a back face: coverage 0):
+    // light the box through its open front instead, along -z and a little down.
+    scene.lights = vec![Light::Directional {
+        direction: [0.0, -0.3, -1.0],
         intensity: [1.0; 3],
-    });
+    }];
     let data = SceneData::new(&scene);
-    assert_eq!(
-        light_views(&data.lights, data.bounds, 16, 1e-4).unwrap_err(),
-        LrsmError::Directional(1)
-    );
+    let views = light_views(&data.lights, data.bounds, 32, 1e-4).unwrap();
+    assert_eq!(views.len(), 1);
+    assert!(views[0].view.orthographic() && views[0].frame.size[3] == 1);
+    let rsm = rsm_on_gpu(gpu(), &data, &views[0]).unwrap();
+    // Parallel rays: the back wall (normal +z, facing the light) is seen and lit head-on.
+    let lit_back = rsm
+        .radiance
+        .iter()
+        .zip(&rsm.normal)
+        .filter(|(r, n)| r[3] > 0.0 && n[2] > 0.99 && n[3] > 0.9)
+        .count();
+    assert!(lit_back > 32 * 32 / 10, "{lit_back}");
+    assert!(rsm.depth.iter().all(|d| (0.0..=1.0).contains(d)));
 }

@@ -24,7 +24,8 @@ pub struct Frame {
     pub forward: [f32; 4],
     pub right: [f32; 4],
     pub up: [f32; 4],
-    /// width, height, light count, 0.
+    /// width, height, light count, projection (0 perspective; 1 orthographic: rays along `forward`
+    /// from `eye + right * ndc.x + up * ndc.y`).
     pub size: [u32; 4],
 }
 
@@ -44,6 +45,13 @@ pub fn ray_through(frame: &Frame, fx: f32, fy: f32) -> (Vec3, Vec3) {
     let h = frame.size[1] as f32;
     let nx = fx / w * 2.0 - 1.0;
     let ny = 1.0 - fy / h * 2.0;
+    if frame.size[3] == 1 {
+        // Orthographic (a directional light's RSM): parallel rays from the image plane.
+        return (
+            v3(frame.eye) + v3(frame.right) * nx + v3(frame.up) * ny,
+            v3(frame.forward),
+        );
+    }
     let d = v3(frame.forward) + v3(frame.right) * nx + v3(frame.up) * ny;
     let d = d * (1.0 / d.dot(d).sqrt());
     (v3(frame.eye), d)

@@ -54,14 +54,20 @@ impl LrsmVolume<'_> {
             let Some((nx, ny, zv)) = v.project(x) else {
                 continue;
             };
+            // Orthographic views do not divide by depth: their errors do not grow with 1 / zv.
+            let div = if v.orthographic() { 1.0 } else { zv };
             let rnorm = Vec3::new(v.right[0], v.right[1], v.right[2]).length();
-            let d_ndc = 2.0 * dx * rnorm / zv + 8.0 * u * (nx.abs().max(ny.abs()) + 1.0);
+            let d_ndc = 2.0 * dx * rnorm / div + 8.0 * u * (nx.abs().max(ny.abs()) + 1.0);
             let at = |nx: f32, ny: f32, mip: f32, zc: f32| -> [f32; 4] {
                 let pos = [(nx + 1.0) * 0.5, (1.0 - ny) * 0.5, mip, zc];
                 let dr = [dir[0], dir[1], dir[2], (0.5 * diam) * v.forward[3]];
                 sample(&lrsm, self.sp, pos, dr, false)
             };
-            let mip = (diam * v.right[3] / zv).log2();
+            let mip = if v.orthographic() {
+                (diam * v.right[3]).log2()
+            } else {
+                (diam * v.right[3] / zv).log2()
+            };
             let zc = (zv - v.eye[3]) * v.forward[3];
             let inside = nx.abs() <= 1.0 && ny.abs() <= 1.0;
             let l0 = at(nx, ny, mip, zc);
@@ -81,7 +87,7 @@ impl LrsmVolume<'_> {
             // Discrete choices within the inputs' errors.
             let level = (mip.max(0.0) as u32).min(self.sp.levels - 1);
             let s = (self.sp.side0 >> level) as f32;
-            let d_mip = (2.0 * dx / zv + 8.0 * u) / std::f32::consts::LN_2 + 2f32.powi(-20);
+            let d_mip = (2.0 * dx / div + 8.0 * u) / std::f32::consts::LN_2 + 2f32.powi(-20);
             let d_z = 2.0 * dx * v.forward[3] + 8.0 * u * zc.abs();
             let near_edge = |c: f32| {
                 let t = c * s;

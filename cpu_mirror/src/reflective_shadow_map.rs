@@ -19,16 +19,18 @@ use std::f32::consts::PI;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuView {
-    /// Light position; w = near.
+    /// Light position (orthographic: the image plane's centre); w = near.
     pub eye: [f32; 4],
     /// Unit view axis; w = 1 / (far - near).
     pub forward: [f32; 4],
     /// Unit right / tan(half fov): x in [-1, 1] is `dot(p - eye, right) / depth`; w = LRSM level-0
-    /// texels per unit of diameter at depth 1, `side0 / (2 tan)`.
+    /// texels per unit of diameter at depth 1, `side0 / (2 tan)`. Orthographic: unit right / half
+    /// width, x = `dot(p - eye, right)`, w = `side0 / (2 half width)`.
     pub right: [f32; 4],
     /// Unit up / tan(half fov) (image rows run down: v = (1 - y) / 2); w unused.
     pub up: [f32; 4],
-    /// RSM side, light index, first texel of this view's LRSM in the concatenated streams, 0.
+    /// RSM side, light index, first texel of this view's LRSM in the concatenated streams, projection
+    /// (0 perspective, 1 orthographic).
     pub info: [u32; 4],
 }
 
@@ -50,7 +52,13 @@ impl GpuView {
         (rel.x * f.x + rel.y * f.y) + rel.z * f.z
     }
 
-    /// `(nx, ny, zv)` of `p` (the gather's projection), or None outside the frustum.
+    /// Whether the view is orthographic (a directional light's).
+    pub fn orthographic(&self) -> bool {
+        self.info[3] == 1
+    }
+
+    /// `(nx, ny, zv)` of `p` (the gather's projection), or None behind the view. Perspective views
+    /// divide by `zv`, orthographic ones do not.
     pub fn project(&self, p: Vec3) -> Option<(f32, f32, f32)> {
         let zv = self.axis_depth(p);
         #[allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -59,9 +67,13 @@ impl GpuView {
         }
         let rel = p - v3(self.eye);
         let (r, u) = (self.right, self.up);
-        let nx = ((rel.x * r[0] + rel.y * r[1]) + rel.z * r[2]) / zv;
-        let ny = ((rel.x * u[0] + rel.y * u[1]) + rel.z * u[2]) / zv;
-        Some((nx, ny, zv))
+        let nx = (rel.x * r[0] + rel.y * r[1]) + rel.z * r[2];
+        let ny = (rel.x * u[0] + rel.y * u[1]) + rel.z * u[2];
+        if self.orthographic() {
+            Some((nx, ny, zv))
+        } else {
+            Some((nx / zv, ny / zv, zv))
+        }
     }
 }
 

@@ -1,13 +1,15 @@
-// common/lrsm_view.wgsl — one light view of the lrsm pipeline (a spot light's cone, or one of a point
-// light's six 90-degree cube faces): a pinhole at the light. Mirror: GpuView in
-// cpu_mirror/src/reflective_shadow_map.rs. Included by reflective_shadow_map.wgsl and lrsm_cone_trace.wgsl.
+// common/lrsm_view.wgsl — one light view of the lrsm pipeline (a spot light's cone, one of a point
+// light's six 90-degree cube faces, or a directional light's orthographic view of the scene).
+// Mirror: GpuView in cpu_mirror/src/reflective_shadow_map.rs. Included by reflective_shadow_map.wgsl and lrsm_cone_trace.wgsl.
 
 struct LrsmView {
-    eye: vec4<f32>,      // light position; w = near
+    eye: vec4<f32>,      // light position (orthographic: the image plane's centre); w = near
     forward: vec4<f32>,  // unit view axis; w = 1 / (far - near)
-    right: vec4<f32>,    // unit right / tan(half fov); w = LRSM level-0 texels per unit diameter at depth 1
+    right: vec4<f32>,    // unit right / tan(half fov) (orthographic: / half width); w = LRSM level-0
+                         // texels per unit diameter at depth 1 (orthographic: at any depth)
     up: vec4<f32>,       // unit up / tan(half fov) (rows run down); w unused
-    info: vec4<u32>,     // RSM side, light index, first texel of this view's LRSM, 0
+    info: vec4<u32>,     // RSM side, light index, first texel of this view's LRSM, projection (0
+                         // perspective, 1 orthographic: a directional light)
 }
 
 // Distance of p along the view's axis (unnormalised light-space depth), in a fixed order.

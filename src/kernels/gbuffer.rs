@@ -437,9 +437,31 @@ impl Kernel for Gbuffer {
     fn decl(&self) -> &'static KernelDecl {
         &DECL
     }
+    /// Generated scenes; every fourth through an orthographic frame (parallel rays along the camera's
+    /// axis, over the scene's bounding sphere: what a directional light's RSM uses).
     fn case(&self, _shader: &Shader, _ctx: &GpuContext, seed: u64, index: usize) -> Case {
         let (scene, label) = generated_scene(seed, index);
-        case_for(&SceneData::new(&scene), label, seed)
+        let mut data = SceneData::new(&scene);
+        if index % 4 == 3 {
+            let f = data.frame.forward;
+            let light = vxgi_cpu_mirror::direct_light::GpuLight {
+                direction: [f[0], f[1], f[2], 0.0],
+                ..Default::default()
+            };
+            let (w, h) = (data.width(), data.height());
+            let view = crate::lrsm::orthographic_view(
+                &light,
+                0,
+                data.lights.len(),
+                data.bounds,
+                w,
+                data.frame.eye[3],
+            );
+            data.frame = view.frame;
+            data.frame.size = [w, h, data.lights.len() as u32, 1];
+            return case_for(&data, format!("{label}, orthographic"), seed);
+        }
+        case_for(&data, label, seed)
     }
     fn mirror(
         &self,

@@ -462,13 +462,10 @@ impl Kernel for LrsmConeTrace {
         &DECL
     }
 
-    /// A generated scene (directional lights dropped: the pipeline refuses them), 16^3 or 32^3 voxels,
+    /// A generated scene (point, spot and directional lights), 16^3 or 32^3 voxels,
     /// RSMs of 16^2 or 32^2 per view, 1 or 4 layers.
     fn case(&self, _shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
-        let (mut scene, label) = super::gbuffer::generated_scene(seed, index);
-        scene
-            .lights
-            .retain(|l| !matches!(l, crate::scene::Light::Directional { .. }));
+        let (scene, label) = super::gbuffer::generated_scene(seed, index);
         let side = [16u32, 32][(index / 4) % 2];
         let data = SceneData::new(&scene);
         // Marching varied as cone_trace's cases: step factor 0.5, 0.75, 1; mip clamp on and off.

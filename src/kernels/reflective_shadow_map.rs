@@ -151,14 +151,11 @@ impl Kernel for ReflectiveShadowMap {
 
     /// A generated scene's lights; one of their views (every cube face comes round), RSM side 16..64.
     fn case(&self, shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
-        let (mut scene, label) = generated_scene(seed, index);
-        scene
-            .lights
-            .retain(|l| !matches!(l, crate::scene::Light::Directional { .. }));
+        let (scene, label) = generated_scene(seed, index);
         let data = SceneData::new(&scene);
         let side = [16u32, 32, 64][index % 3];
         let views = light_views(&data.lights, data.bounds, side, data.frame.eye[3])
-            .expect("no directional lights left");
+            .expect("every light kind has views");
         if views.is_empty() {
             // No light left: the RSM of a point light that is not in the scene's list still
             // exercises the kernel (texels lit by light 0 = the default, zero intensity).
