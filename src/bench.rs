@@ -22,6 +22,9 @@ pub struct BenchRow {
     pub cone_half_angle: f32,
     pub mip_clamp: f32,
     pub cone_step: f32,
+    /// lrsm: RSM side per light view and layers (depth x <n.l>); swept for that pipeline only.
+    pub rsm_side: u32,
+    pub lrsm_layers: String,
     /// Wall-clock seconds of the whole frame (stages, transfers between them included).
     pub seconds: f64,
     /// Wall-clock seconds per stage, in [`Pipeline::stages`] order (0 where the plan skipped the stage).
@@ -38,7 +41,11 @@ pub struct BenchRow {
 /// The configurations of a sweep around `base` (its other keys, e.g. AO, kept). Full: voxels
 /// {32, 64, 128} x cones {1, 5, 9} x half-angle {20, 30, 45} x mip clamp {0, 2} x cone step {0.5, 1}
 /// = 108. Quick (for CI): voxels {32, 64} x cones {1, 5} at 30 degrees, clamp 2, step 0.5 = 4.
-pub fn sweep(base: &RenderSettings, quick: bool) -> Vec<RenderSettings> {
+/// lrsm sweeps its own knobs instead ([`lrsm_sweep`]).
+pub fn sweep(base: &RenderSettings, quick: bool, pipeline: Pipeline) -> Vec<RenderSettings> {
+    if pipeline == Pipeline::Lrsm {
+        return lrsm_sweep(base, quick);
+    }
     type Axes<'a> = (&'a [u32], &'a [u32], &'a [f32], &'a [f32], &'a [f32]);
     let (voxels, cones, angles, clamps, steps): Axes = if quick {
         (&[32, 64], &[1, 5], &[30.0], &[2.0], &[0.5])
@@ -66,6 +73,41 @@ pub fn sweep(base: &RenderSettings, quick: bool) -> Vec<RenderSettings> {
                             ..base.clone()
                         });
                     }
+                }
+            }
+        }
+    }
+    out
+}
+
+/// lrsm's sweep: voxels {32, 64, 128} x cones {1, 5} x RSM side {64, 128, 256} x layers {1 x 1, 2 x 2,
+/// 3 x 2} = 54 (the cone angle, clamp and step at `base`'s). Quick: 32^3, 5 cones, RSM {32, 64} x layers
+/// {1 x 1, 2 x 2} = 4.
+pub fn lrsm_sweep(base: &RenderSettings, quick: bool) -> Vec<RenderSettings> {
+    type Axes<'a> = (&'a [u32], &'a [u32], &'a [u32], &'a [(u32, u32)]);
+    let (voxels, cones, sides, layers): Axes = if quick {
+        (&[32], &[5], &[32, 64], &[(0, 0), (1, 1)])
+    } else {
+        (
+            &[32, 64, 128],
+            &[1, 5],
+            &[64, 128, 256],
+            &[(0, 0), (1, 1), (2, 1)],
+        )
+    };
+    let mut out = Vec::new();
+    for &v in voxels {
+        for &c in cones {
+            for &r in sides {
+                for &(d, n) in layers {
+                    out.push(RenderSettings {
+                        voxels: v,
+                        cones: c,
+                        rsm_side: r,
+                        lrsm_depth_splits: d,
+                        lrsm_normal_splits: n,
+                        ..base.clone()
+                    });
                 }
             }
         }
@@ -193,7 +235,7 @@ pub fn bench(
     out: &Path,
     mut progress: impl FnMut(usize, usize, &str),
 ) -> Result<(Vec<BenchRow>, PlannerRow)> {
-    let configs = sweep(&scene.render, quick);
+    let configs = sweep(&scene.render, quick, pipeline);
     let repeats = if quick { 1 } else { 2 };
     let total = configs.len() + 2;
     progress(0, total, &format!("reference ({spp} spp)"));
@@ -218,8 +260,12 @@ pub fn bench(
             i + 1,
             total,
             &format!(
-                "{}^3 voxels, {} cones of {} deg, clamp {}",
-                settings.voxels, settings.cones, settings.cone_half_angle, settings.mip_clamp
+                "{}^3 voxels, {} cones of {} deg, clamp {}, RSM {}^2",
+                settings.voxels,
+                settings.cones,
+                settings.cone_half_angle,
+                settings.mip_clamp,
+                settings.rsm_side
             ),
         );
         let mut stage_seconds = [f64::INFINITY; 6];
@@ -247,6 +293,12 @@ pub fn bench(
             cone_half_angle: settings.cone_half_angle,
             mip_clamp: settings.mip_clamp,
             cone_step: settings.cone_step,
+            rsm_side: settings.rsm_side,
+            lrsm_layers: format!(
+                "{}x{}",
+                settings.lrsm_depth_splits + 1,
+                settings.lrsm_normal_splits + 1
+            ),
             seconds: stage_seconds.iter().sum(),
             stage_seconds,
             indirect_rel_mse: ind.rel_mse,
@@ -270,7 +322,7 @@ pub fn bench(
     let md = table(&rows, pipeline, spp, w, h) + &planner_table(&planner);
     std::fs::write(out.join("bench.md"), md)
         .with_context(|| format!("writing {}", out.join("bench.md").display()))?;
-    plot(&out.join("bench.svg"), &rows)?;
+    plot(&out.join("bench.svg"), &rows, pipeline)?;
     Ok((rows, planner))
 }
 
@@ -284,6 +336,8 @@ fn write_csv(path: &Path, pipeline: Pipeline, rows: &[BenchRow]) -> Result<()> {
         "cone_half_angle",
         "mip_clamp",
         "cone_step",
+        "rsm_side",
+        "lrsm_layers",
         "seconds",
         "indirect_rel_mse",
         "indirect_flip",
@@ -303,6 +357,8 @@ fn write_csv(path: &Path, pipeline: Pipeline, rows: &[BenchRow]) -> Result<()> {
             r.cone_half_angle.to_string(),
             r.mip_clamp.to_string(),
             r.cone_step.to_string(),
+            r.rsm_side.to_string(),
+            r.lrsm_layers.clone(),
             format!("{:.4}", r.seconds),
             format!("{:.5}", r.indirect_rel_mse),
             format!("{:.4}", r.indirect_flip),
@@ -324,18 +380,21 @@ pub fn table(rows: &[BenchRow], pipeline: Pipeline, spp: u32, w: u32, h: u32) ->
     let (name, cones) = (pipeline.name(), pipeline.stages()[5]);
     let mut md = format!(
         "# vxgi bench ({name}, {w}x{h}, reference {spp} spp)\n\n\
-         | voxels | cones | half-angle | mip clamp | step | time | {cones} | voxelize | indirect FLIP | combined FLIP | combined rel. MSE | Pareto |\n\
-         |---|---|---|---|---|---|---|---|---|---|---|---|\n"
+         | voxels | cones | half-angle | mip clamp | step | RSM | layers | time | {cones} | voxelize | indirect FLIP | combined FLIP | combined rel. MSE | Pareto |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n"
     );
+    let lrsm = pipeline == Pipeline::Lrsm;
     for r in sorted {
         let _ = writeln!(
             md,
-            "| {}^3 | {} | {} | {} | {} | {:.0} ms | {:.0} ms | {:.0} ms | {:.3} | {:.3} | {:.4} | {} |",
+            "| {}^3 | {} | {} | {} | {} | {} | {} | {:.0} ms | {:.0} ms | {:.0} ms | {:.3} | {:.3} | {:.4} | {} |",
             r.voxels,
             r.cones,
             r.cone_half_angle,
             r.mip_clamp,
             r.cone_step,
+            if lrsm { format!("{}^2", r.rsm_side) } else { "-".into() },
+            if lrsm { r.lrsm_layers.as_str() } else { "-" },
             r.seconds * 1e3,
             r.stage_seconds[5] * 1e3,
             r.stage_seconds[2] * 1e3,
@@ -353,7 +412,7 @@ pub fn table(rows: &[BenchRow], pipeline: Pipeline, spp: u32, w: u32, h: u32) ->
     md
 }
 
-fn plot(path: &Path, rows: &[BenchRow]) -> Result<()> {
+fn plot(path: &Path, rows: &[BenchRow], pipeline: Pipeline) -> Result<()> {
     use plotters::prelude::*;
     let root = SVGBackend::new(path, (800, 500)).into_drawing_area();
     let err = |e: DrawingAreaErrorKind<_>| anyhow::anyhow!("plotting {}: {e:?}", path.display());
@@ -365,7 +424,10 @@ fn plot(path: &Path, rows: &[BenchRow]) -> Result<()> {
     let pad = ((e_hi - e_lo) * 0.1).max(0.005);
     let (e_min, e_max) = ((e_lo - pad).max(0.0), e_hi + pad);
     let mut chart = ChartBuilder::on(&root)
-        .caption("vct-dense: time vs error", ("sans-serif", 22))
+        .caption(
+            format!("{}: time vs error", pipeline.name()),
+            ("sans-serif", 22),
+        )
         .margin(15)
         .x_label_area_size(45)
         .y_label_area_size(60)
@@ -428,11 +490,17 @@ mod tests {
             ao_range: 0.25,
             ..Default::default()
         };
-        let full = sweep(&base, false);
+        let full = sweep(&base, false, Pipeline::VctDense);
         assert_eq!(full.len(), 108);
         assert!(full
             .iter()
             .all(|s| s.ao_range == 0.25 && s.validate().is_ok()));
-        assert_eq!(sweep(&base, true).len(), 4);
+        assert_eq!(sweep(&base, true, Pipeline::VctSvo).len(), 4);
+        let lrsm = sweep(&base, false, Pipeline::Lrsm);
+        assert_eq!(lrsm.len(), 54);
+        assert!(lrsm
+            .iter()
+            .all(|s| s.ao_range == 0.25 && s.validate().is_ok()));
+        assert_eq!(sweep(&base, true, Pipeline::Lrsm).len(), 4);
     }
 }

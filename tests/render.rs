@@ -334,19 +334,21 @@ fn bench_quick_writes_csv_table_and_plot() {
     let csv = std::fs::read_to_string(out.join("bench.csv")).unwrap();
     let lines: Vec<&str> = csv.lines().collect();
     assert_eq!(lines.len(), 5, "{csv}");
-    assert!(lines[0].starts_with("voxels,cones,cone_half_angle,mip_clamp,cone_step,seconds,"));
+    assert!(lines[0].starts_with(
+        "voxels,cones,cone_half_angle,mip_clamp,cone_step,rsm_side,lrsm_layers,seconds,"
+    ));
     assert!(lines[0].contains("combined_flip") && lines[0].contains("cone_trace_seconds"));
     // Every row: a positive time and a finite FLIP in [0, 1]; at least one row is Pareto-optimal.
     for l in &lines[1..] {
         let f: Vec<&str> = l.split(',').collect();
-        let secs: f64 = f[5].parse().unwrap();
-        let flip: f64 = f[9].parse().unwrap();
+        let secs: f64 = f[7].parse().unwrap();
+        let flip: f64 = f[11].parse().unwrap();
         assert!(secs > 0.0 && (0.0..=1.0).contains(&flip), "{l}");
     }
     assert!(lines[1..].iter().any(|l| l.contains(",true,")), "{csv}");
     let md = std::fs::read_to_string(out.join("bench.md")).unwrap();
     assert!(
-        md.contains("| 32^3 | 1 | 30 | 2 | 0.5 |") && md.contains("**yes**"),
+        md.contains("| 32^3 | 1 | 30 | 2 | 0.5 | - | - |") && md.contains("**yes**"),
         "{md}"
     );
     assert!(md.contains("## Planner") && md.contains("| on |"), "{md}");
@@ -380,10 +382,33 @@ fn bench_quick_writes_csv_table_and_plot() {
         "{md}"
     );
 
+    // lrsm sweeps its own knobs: RSM sides and layer counts.
+    let o3 = dir.join("bench-lrsm").display().to_string();
+    let (code, stdout, err) = vxgi(&[
+        "bench",
+        &scene,
+        "--quick",
+        "--spp",
+        "2",
+        "--pipeline",
+        "lrsm",
+        "--out",
+        &o3,
+    ]);
+    assert_eq!(code, 0, "{stdout}\n{err}");
+    let csv = std::fs::read_to_string(dir.join("bench-lrsm/bench.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 5, "{csv}");
+    assert!(
+        csv.contains("reflective_shadow_map_seconds") && csv.contains(",64,2x2,"),
+        "{csv}"
+    );
+
     for (bad, key) in [
         ("--cones=0", "cones"),
         ("--cone-half-angle=90", "cone_half_angle"),
         ("--mip-clamp=-1", "mip_clamp"),
+        ("--rsm-side=100", "rsm_side"),
+        ("--lrsm-overlap=0.9", "lrsm_overlap"),
     ] {
         let (code, _, err) = vxgi(&["render", "--plan", bad]);
         assert_ne!(code, 0, "{bad} accepted");
