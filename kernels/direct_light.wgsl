@@ -34,22 +34,6 @@ struct Frame {
 
 const PI: f32 = 3.14159265358979;
 
-fn brdf(m: Material, n: vec3<f32>, wi: vec3<f32>, wo: vec3<f32>, cos: f32) -> vec3<f32> {
-    let kd = m.diffuse.xyz * (1.0 / PI);
-    let ks = m.specular.xyz;
-    if (all(ks == vec3<f32>(0.0))) {
-        return kd;
-    }
-    let shin = m.diffuse.w;
-    let r = n * (2.0 * cos) - wi;
-    let x = dot(r, wo);
-    var lobe = 0.0;
-    if (x > 0.0) {
-        lobe = pow(x, shin);
-    }
-    return kd + ks * ((shin + 2.0) * (0.5 / PI) * lobe);
-}
-
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let pix = gid.x + gid.y * groups.x * 64u;

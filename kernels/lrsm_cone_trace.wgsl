@@ -17,6 +17,12 @@
 //   - near), vc = -d (towards the view sample), rc = D / 2 / (far - near), on the view's LRSM (first
 //   texel info.z); L = sum over views. The march then reads (L * alpha, alpha): its colour step
 //   C += (1 - A) a' (L alpha) / alpha is eq. 1's alpha_i L_i with cone_march's step correction.
+// Shadow cones (entry `shadow`, the option `[render] shadow_cone_angle` > 0; the default direct light is
+// direct_light's exact rays): per G-buffer pixel, direct light as direct_light.wgsl computes it (same
+// incident light, BRDF and cut-offs) with each light's visibility V = 1 - A of one cone of half-angle
+// atan(shadow_params.tan_half) from p + ng * offset towards the light, marched through the occlusion mips with the
+// gather's rules (diameter, steps, step-corrected alpha, no mip clamp) up to the light (at most the
+// grid's diagonal); soft_direct = (sum brdf E cos V, 0).
 // Accuracy: per-element bound from the mirror (the march's, with each sample's LRSM bound: Sample LRSM's
 // arithmetic, and the texel, mip level, depth and view choices that the sample point's rounding may
 // change, evaluated at the perturbed inputs).
@@ -29,6 +35,18 @@
 @group(0) @binding(16) var<storage, read> lrsm_normal: array<vec4<f32>>;
 @group(0) @binding(17) var<storage, read> lrsm_moments: array<vec4<f32>>;
 @group(0) @binding(18) var<storage, read> views: array<LrsmView>;
+@group(0) @binding(19) var<storage, read> lights: array<Light>;
+@group(0) @binding(20) var<storage, read> shadow_params: ShadowParams;
+@group(0) @binding(21) var<storage, read_write> soft_direct: array<vec4<f32>>;
+
+struct ShadowParams {
+    tan_half: f32,      // tan of the shadow cones' half-angle
+    light_count: u32,
+    _pad0: u32,
+    _pad1: u32,
+}
+
+const PI: f32 = 3.14159265358979;
 
 fn spread3(v: u32) -> u32 {
     var x = v & 0x3ffu;
@@ -95,4 +113,71 @@ fn sample_cone(x: vec3<f32>, l: f32, diam: f32, d: vec3<f32>) -> vec4<f32> {
         lsum += lrsm_sample(pos, dir, v.info.z).xyz;
     }
     return vec4<f32>(lsum * s.w, s.w);
+}
+
+// Visibility 1 - A of a shadow cone from o along d up to t_end (the gather's march rules).
+fn shadow_visibility(o: vec3<f32>, d: vec3<f32>, tan_half: f32, t_end: f32) -> f32 {
+    let s0 = cone.origin.w;
+    let sf = cone.step_factor;
+    let grow = 1.0 + 2.0 * sf * tan_half;
+    let dl = log2(grow);
+    let t_stop = min(t_end, f32(cone.side) * s0 * 1.7320508);
+    var diam = 0.75 * s0;
+    var lf = -0.4150375;
+    var t = diam * (0.5 * sf);
+    var a_acc = 0.0;
+    while (t <= t_stop && a_acc < OPAQUE) {
+        let s = sample_volume(o + d * t, lf);
+        let ratio = sf * min(diam * cone.inv_s0, 1.0);
+        let a = clamp(s.w, 0.0, 1.0);
+        var a2 = 0.0;
+        if (a > 0.0) {
+            let keep = 1.0 - a;
+            var kept = 0.0;
+            if (keep > 0.0) {
+                kept = pow(keep, ratio);
+            }
+            a2 = 1.0 - kept;
+        }
+        a_acc += (1.0 - a_acc) * a2;
+        t += diam * sf;
+        diam *= grow;
+        lf += dl;
+    }
+    return clamp(1.0 - a_acc, 0.0, 1.0);
+}
+
+@compute @workgroup_size(64)
+fn shadow_main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let pix = gid.x + gid.y * groups.x * 64u;
+    if (pix >= arrayLength(&soft_direct)) {
+        return;
+    }
+    let nrm = gb_normal[pix];
+    let ti = gb_triangle[pix];
+    if (nrm.w <= 0.0 || ti >= arrayLength(&triangles)) {
+        soft_direct[pix] = vec4<f32>(0.0);
+        return;
+    }
+    let tri = triangles[ti];
+    var m = materials[min(u32(tri.a.w), arrayLength(&materials) - 1u)];
+    m.diffuse = vec4<f32>(gb_albedo[pix].xyz, m.diffuse.w);
+    let p = gb_position[pix].xyz;
+    let n = nrm.xyz;
+    let fc = cross(tri.b.xyz - tri.a.xyz, tri.c.xyz - tri.a.xyz);
+    let ng = fc * (1.0 / sqrt(dot(fc, fc)));
+    let wv = frame.eye.xyz - p;
+    let wo = wv * (1.0 / sqrt(dot(wv, wv)));
+    let o = p + ng * (cone.offset_voxels * cone.origin.w);
+    var sum = vec3<f32>(0.0);
+    for (var l = 0u; l < shadow_params.light_count; l++) {
+        let inc = incident(lights[l], p);
+        let cos = dot(n, inc.wi);
+        if (cos <= 0.0 || dot(ng, inc.wi) <= 0.0 || all(inc.e == vec3<f32>(0.0))) {
+            continue;
+        }
+        let vis = shadow_visibility(o, inc.wi, shadow_params.tan_half, inc.t_max);
+        sum += brdf(m, n, inc.wi, wo, cos) * inc.e * cos * vis;
+    }
+    soft_direct[pix] = vec4<f32>(sum, 0.0);
 }

@@ -162,6 +162,10 @@ struct RenderFlags {
     /// lrsm: overlap of neighbouring depth layers [default 0.05].
     #[arg(long = "lrsm-overlap", alias = "lrsm_overlap")]
     lrsm_overlap: Option<f32>,
+    /// lrsm: soft shadows from shadow cones of this half-angle through the occlusion voxels, degrees
+    /// (0 = exact shadow rays) [default 0].
+    #[arg(long = "shadow-cone-angle", alias = "shadow_cone_angle")]
+    shadow_cone_angle: Option<f32>,
 }
 
 fn load_scene(path: &Option<PathBuf>, flags: &RenderFlags) -> Result<vxgi::scene::Scene> {
@@ -192,7 +196,8 @@ fn load_scene(path: &Option<PathBuf>, flags: &RenderFlags) -> Result<vxgi::scene
         rsm_side,
         lrsm_depth_splits,
         lrsm_normal_splits,
-        lrsm_overlap
+        lrsm_overlap,
+        shadow_cone_angle
     );
     scene.render.validate().map_err(anyhow::Error::msg)?;
     Ok(scene)

@@ -195,8 +195,17 @@ impl FramePlan {
         let layers = (lrsm.depth_splits + 1) * (lrsm.normal_splits + 1);
         const CACHED: &str = "skipped: geometry, materials, lights and settings unchanged since the last frame (its occlusion voxels and LRSMs are reused)";
         let mut passes = Vec::new();
+        let soft = lrsm.shadow_cone_angle > 0.0;
         for mut p in dense.passes {
             match p.stage {
+                "direct_light" if soft && p.runs => {
+                    p.runs = false;
+                    p.why = format!(
+                        "skipped: shadow cones of {} deg through the occlusion voxels replace the exact shadow rays (lrsm_cone_trace's shadow pass)",
+                        lrsm.shadow_cone_angle
+                    );
+                    passes.push(p);
+                }
                 "voxelize" => {
                     if p.runs {
                         p.why = "the occlusion voxels' geometry".into();
@@ -252,8 +261,13 @@ impl FramePlan {
                     p.stage = "lrsm_cone_trace";
                     p.kernel = "lrsm_cone_trace";
                     p.why = format!(
-                        "{}; radiance from {views} LRSM views, read only where a sample has occlusion",
-                        p.why
+                        "{}; radiance from {views} LRSM views, read only where a sample has occlusion{}",
+                        p.why,
+                        if soft && lights > 0 {
+                            "; + direct light with one shadow cone per light"
+                        } else {
+                            ""
+                        }
                     );
                     passes.push(p);
                 }

@@ -188,6 +188,8 @@ pub struct Rendered {
     pub stages: Vec<(&'static str, f64)>,
     /// What the frame ran and skipped.
     pub plan: FramePlan,
+    /// lrsm with shadow cones: the soft direct light (moved into `direct` by the pipeline).
+    pub soft_direct: Option<RgbImage>,
 }
 
 /// The vct-dense pipeline: G-buffer and direct light with exact shadows, voxelization, voxel lighting,
@@ -603,8 +605,19 @@ impl VctLrsm {
         progress("cone tracing");
         let t = std::time::Instant::now();
         let params = cone_trace::cone_params(&built.voxels, cones);
-        let case = lrsm_cone_trace::case_for(ctx, &data, &gb, built, &params, "render".into(), 0);
-        let frame = cone_pass_frame(ctx, &lrsm_cone_trace::DECL, &case, direct, stages, plan, t)?;
+        let tan = settings.shadow_cone_angle.to_radians().tan();
+        let case =
+            lrsm_cone_trace::case_for(ctx, &data, &gb, built, &params, tan, "render".into(), 0);
+        let mut frame =
+            cone_pass_frame(ctx, &lrsm_cone_trace::DECL, &case, direct, stages, plan, t)?;
+        if let Some(soft) = frame.soft_direct.take() {
+            frame.direct = soft;
+            frame.combined = RgbImage::new(
+                frame.direct.width,
+                frame.direct.height,
+                crate::images::add(&frame.direct.pixels, &frame.indirect.pixels),
+            );
+        }
         Ok((frame, built.memory))
     }
 }
@@ -621,17 +634,24 @@ fn cone_pass_frame(
     started: std::time::Instant,
 ) -> Result<Rendered> {
     let (w, h) = (direct.width, direct.height);
+    // A case with lrsm's shadow-cone pass also returns its soft direct light.
+    let soft = case.checks.iter().any(|c| c.resource == "soft_direct");
+    let mut names = vec!["indirect", "ao"];
+    if soft {
+        names.push("soft_direct");
+    }
     let out = crate::harness::run::run(
         ctx,
         &decl.shader()?,
         decl.name,
         &case.resources,
         &case.passes,
-        &["indirect", "ao"],
+        &names,
     )
     .context("cone tracing")?;
     let indirect = image_of(w, h, &out.buffer("indirect").bytes);
     let ao = image_of(w, h, &out.buffer("ao").bytes);
+    let soft_direct = soft.then(|| image_of(w, h, &out.buffer("soft_direct").bytes));
     stages.push((decl.name, started.elapsed().as_secs_f64()));
     let combined = RgbImage::new(w, h, crate::images::add(&direct.pixels, &indirect.pixels));
     Ok(Rendered {
@@ -641,6 +661,7 @@ fn cone_pass_frame(
         ao,
         stages,
         plan,
+        soft_direct,
     })
 }
 
@@ -842,6 +863,7 @@ impl MirrorFrame {
             ao: RgbImage::new(w, h, rgb(1)),
             stages: vec![],
             plan,
+            soft_direct: None,
         }
     }
 }

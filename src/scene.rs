@@ -162,6 +162,10 @@ pub struct RenderSettings {
     pub lrsm_normal_splits: u32,
     /// lrsm: overlap of neighbouring depth layers (delta of eq. 15), in [0, 1 / (a + 1)].
     pub lrsm_overlap: f32,
+    /// lrsm: soft shadows — direct light's visibility from one cone of this half-angle (degrees) per
+    /// light through the occlusion voxels instead of an exact shadow ray; 0 (the default) = exact rays,
+    /// the light-transport contract. In [0, 45].
+    pub shadow_cone_angle: f32,
 }
 
 impl RenderSettings {
@@ -221,6 +225,12 @@ impl RenderSettings {
                 self.lrsm_overlap
             ));
         }
+        if !(self.shadow_cone_angle >= 0.0 && self.shadow_cone_angle <= 45.0) {
+            return Err(format!(
+                "shadow_cone_angle = {} must be in [0, 45] degrees (0 = exact shadow rays)",
+                self.shadow_cone_angle
+            ));
+        }
         if !(self.mip_clamp >= 0.0 && self.mip_clamp.is_finite()) {
             return Err(format!(
                 "mip_clamp = {} must be finite and >= 0",
@@ -250,6 +260,7 @@ impl Default for RenderSettings {
             lrsm_depth_splits: 1,
             lrsm_normal_splits: 1,
             lrsm_overlap: 0.05,
+            shadow_cone_angle: 0.0,
         }
     }
 }

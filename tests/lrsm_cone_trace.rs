@@ -85,3 +85,41 @@ fn the_plan_skips_rsms_without_lights_and_directional_lights_get_an_orthographic
         .count();
     assert!(lit > 24 * 24 / 4, "{lit}");
 }
+
+/// The shadow-cone option: direct light from one cone per light through the occlusion voxels replaces
+/// direct_light's exact rays (the plan says so); lit where the exact rays light (cones only dim).
+#[test]
+fn shadow_cones_replace_the_exact_shadow_rays_when_asked() {
+    let mut scene = Scene::cornell_box();
+    scene.camera.width = 32;
+    scene.camera.height = 32;
+    scene.render.voxels = 32;
+    scene.render.rsm_side = 16;
+    let (exact, _) = render_lrsm(gpu(), &scene, &ConeSettings::default(), |_| {}).unwrap();
+    scene.render.shadow_cone_angle = 5.0;
+    let plan = Pipeline::Lrsm.plan(&scene, &ConeSettings::default(), false);
+    assert!(!plan.runs("direct_light") && plan.runs("lrsm_cone_trace"));
+    let (soft, _) = render_lrsm(gpu(), &scene, &ConeSettings::default(), |_| {}).unwrap();
+    assert!(soft.plan.skipped().contains(&"direct_light"));
+    let sum = |img: &vxgi::images::RgbImage| -> f64 {
+        img.pixels.iter().map(|p| (p[0] + p[1] + p[2]) as f64).sum()
+    };
+    let (s, e) = (sum(&soft.direct), sum(&exact.direct));
+    assert!(s > 0.5 * e && s.is_finite(), "soft {s} exact {e}");
+    // Visibility only scales the same terms: lit by the exact rays -> lit by the cones almost
+    // everywhere (cones only dim), and finite, non-negative everywhere.
+    let (mut lit, mut both) = (0, 0);
+    for (a, b) in exact.direct.pixels.iter().zip(&soft.direct.pixels) {
+        assert!(b.iter().all(|c| c.is_finite() && *c >= 0.0));
+        if a.iter().any(|c| *c > 0.0) {
+            lit += 1;
+            both += usize::from(b.iter().any(|c| *c > 0.0));
+        }
+    }
+    assert!(both * 10 >= lit * 9, "{both} of {lit}");
+    assert!(soft
+        .combined
+        .pixels
+        .iter()
+        .all(|p| p.iter().all(|c| c.is_finite())));
+}

@@ -164,6 +164,29 @@ pub fn brdf(m: &GpuMaterial, n: Vec3, wi: Vec3, wo: Vec3, cos: f32) -> Vec3 {
     kd + ks * ((shin + 2.0) * (0.5 / PI) * lobe)
 }
 
+/// Bound on the specular lobe's error in [`brdf`] (per channel; 0 without Ks): `pow`'s rule,
+/// inherited from exp2(y log2 x) (log2 absolute 2^-21 near 1, exp2 3 + 2|y log2 x| ULP), plus the
+/// propagated error of x.
+pub fn brdf_error(m: &GpuMaterial, n: Vec3, wi: Vec3, wo: Vec3, cos: f32) -> Vec3 {
+    let u = f32::EPSILON;
+    let ks = v3(m.specular);
+    if ks == Vec3::ZERO {
+        return Vec3::ZERO;
+    }
+    let shin = m.diffuse[3];
+    let r = n * (2.0 * cos) - wi;
+    let x = r.dot(wo);
+    if x <= 0.0 {
+        return Vec3::ZERO;
+    }
+    let xn = x.powf(shin);
+    let pow_err = xn
+        * (std::f32::consts::LN_2 * shin * 2f32.powi(-21)
+            + (3.0 + 2.0 * (shin * x.log2()).abs()) * u)
+        + shin * x.powf((shin - 1.0).max(0.0)) * 8.0 * u;
+    ks * ((shin + 2.0) * (0.5 / PI) * pow_err)
+}
+
 /// Reflected direct radiance at `p` (shading normal `n`, geometric front normal `ng`) towards `wo`,
 /// with shadow rays through the flattened BVH.
 #[allow(clippy::too_many_arguments)]
@@ -309,23 +332,10 @@ pub fn shade_with_bound(
             bound += term;
         }
         // Arithmetic error of the term.
-        let shin = m.diffuse[3];
-        let ks = v3(m.specular);
-        let mut b = term * (64.0 * u)
+        let b = term * (64.0 * u)
             + scale(1.0) * (8.0 * u)
-            + brdf(m, n, inc.wi, wo, cos) * e_irr * (cos + e_dir);
-        if ks != Vec3::ZERO {
-            let r = n * (2.0 * cos) - inc.wi;
-            let x = r.dot(wo);
-            if x > 0.0 {
-                let xn = x.powf(shin);
-                let pow_err = xn
-                    * (std::f32::consts::LN_2 * shin * 2f32.powi(-21)
-                        + (3.0 + 2.0 * (shin * x.log2()).abs()) * u)
-                    + shin * x.powf((shin - 1.0).max(0.0)) * 8.0 * u;
-                b += ks * ((shin + 2.0) * (0.5 / PI) * pow_err) * inc.irradiance * cos;
-            }
-        }
+            + brdf(m, n, inc.wi, wo, cos) * e_irr * (cos + e_dir)
+            + brdf_error(m, n, inc.wi, wo, cos) * inc.irradiance * cos;
         bound += b;
     }
     (sum, bound)

@@ -168,3 +168,133 @@ impl Volume for LrsmVolume<'_> {
         )
     }
 }
+
+/// The shadow cones' parameters (the WGSL `ShadowParams`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct ShadowParams {
+    pub tan_half: f32,
+    pub light_count: u32,
+    pub _pad: [u32; 2],
+}
+
+/// Visibility `1 - A` of a shadow cone from `o` along `d` up to `t_end` (the kernel's
+/// `shadow_visibility`), and a bound on |GPU - mirror|: per sample the alpha error carried exactly
+/// through the step correction (the sample point's error, 8 ULP of the blend, the level's drift of
+/// 2^-21 per step from log2), pow's absolute error, 4e-4 of the accumulated alpha; plus the rest of
+/// the cone where a stop (opacity, the end) is within that error of its threshold.
+pub fn shadow_visibility(vol: &LrsmVolume, o: Vec3, d: Vec3, tan: f32, t_end: f32) -> (f32, f32) {
+    use crate::cone_trace::{MAG, OPAQUE};
+    let p = vol.p;
+    let s0 = p.origin[3];
+    let sf = p.step_factor;
+    let grow = 1.0 + 2.0 * sf * tan;
+    let dl = grow.log2();
+    let t_stop = t_end.min(p.side as f32 * s0 * 1.732_050_8);
+    let mut diam = 0.75 * s0;
+    let mut lf: f32 = -0.415_037_5;
+    let mut t = diam * (0.5 * sf);
+    let mut a_acc = 0.0f32;
+    let mut a_err = 0.0f32;
+    let mut allowance = 0.0f32;
+    let mut step = 0u32;
+    while t <= t_stop && a_acc < OPAQUE {
+        let (s, serr) = vol.sample(o + d * t, lf);
+        let ratio = sf * (diam * p.inv_s0).min(1.0);
+        let a = s.w.clamp(0.0, 1.0);
+        let step_alpha = |x: f32| {
+            let x = x.clamp(0.0, 1.0);
+            if x <= 0.0 {
+                0.0
+            } else if x >= 1.0 {
+                1.0
+            } else {
+                1.0 - (1.0 - x).powf(ratio)
+            }
+        };
+        let a2 = step_alpha(a);
+        let vis = 1.0 - a_acc;
+        let da = serr.a + 8.0 * f32::EPSILON + step as f32 * 2f32.powi(-21);
+        let da2 = (step_alpha(a + da) - a2)
+            .abs()
+            .max((a2 - step_alpha(a - da)).abs());
+        let e_pow = if a > 0.0 && a < 1.0 {
+            ratio.max(1.0) * 2f32.powi(-21) + 8.0 * f32::EPSILON
+        } else {
+            0.0
+        };
+        a_acc += vis * a2;
+        a_err += vis * (da2 + 2.0 * e_pow) + MAG * vis * a2;
+        if (a_acc - OPAQUE).abs() < 1e-4 + a_err || (t - t_stop).abs() < 1e-5 * t_stop.max(s0) {
+            allowance += vis.max(1.0 - a_acc) + a_err;
+        }
+        t += diam * sf;
+        diam *= grow;
+        lf += dl;
+        step += 1;
+    }
+    ((1.0 - a_acc).clamp(0.0, 1.0), (a_err + allowance).min(1.0))
+}
+
+/// Direct light at one G-buffer texel with shadow cones instead of shadow rays (the kernel's
+/// `shadow_main`) and its bound: per light term `T V` with `T` direct_light's term (its bound as
+/// there: 64 ULP, the cosines' and the incident light's errors, pow's) and `V` [`shadow_visibility`]
+/// (its bound); terms whose cut-offs rounding decides (a light within 1e-5 of grazing, a hard spot
+/// edge) add their whole value.
+#[allow(clippy::too_many_arguments)]
+pub fn soft_direct(
+    vol: &LrsmVolume,
+    frame: &crate::gbuffer::Frame,
+    tris: &[crate::bvh_trace::GpuTriangle],
+    lights: &[crate::direct_light::GpuLight],
+    materials: &[crate::direct_light::GpuMaterial],
+    texel: ([f32; 4], [f32; 4], u32, [f32; 4]),
+    tan: f32,
+) -> (Vec3, Vec3) {
+    use crate::direct_light::{brdf, brdf_error, face_normal, incident, incident_error};
+    let (position, normal, triangle, albedo) = texel;
+    if normal[3] <= 0.0 || triangle as usize >= tris.len() {
+        return (Vec3::ZERO, Vec3::ZERO);
+    }
+    let u = f32::EPSILON;
+    let tri = &tris[triangle as usize];
+    let m = &materials[(tri.material() as usize).min(materials.len() - 1)].with_albedo(albedo);
+    let p = Vec3::new(position[0], position[1], position[2]);
+    let n = Vec3::new(normal[0], normal[1], normal[2]);
+    let ng = face_normal(tri);
+    let eye = Vec3::new(frame.eye[0], frame.eye[1], frame.eye[2]);
+    let wv = eye - p;
+    let wo = wv * (1.0 / wv.dot(wv).sqrt());
+    let o = p + ng * (vol.p.offset_voxels * vol.p.origin[3]);
+    let mut sum = Vec3::ZERO;
+    let mut bound = Vec3::ZERO;
+    for light in lights {
+        let inc = incident(light, p);
+        let (e_irr, e_dir) = incident_error(light, p, 0.0);
+        let e_cos = e_dir + 8.0 * u;
+        let cos = n.dot(inc.wi);
+        let geo = ng.dot(inc.wi);
+        let ambiguous = geo.abs() < 1e-5 || inc.edge < 1e-5;
+        if cos <= 0.0 || geo <= 0.0 || inc.irradiance == Vec3::ZERO {
+            if (cos > -e_cos && geo > -e_cos) || ambiguous {
+                bound += brdf(m, n, inc.wi, wo, cos.max(0.0))
+                    * (e_irr + inc.irradiance)
+                    * (cos.max(0.0) + e_cos);
+            }
+            continue;
+        }
+        let (v, bv) = shadow_visibility(vol, o, inc.wi, tan, inc.t_max);
+        let f = brdf(m, n, inc.wi, wo, cos);
+        let term = f * inc.irradiance * cos;
+        sum += term * v;
+        let bt = term * (64.0 * u)
+            + f * inc.irradiance * (8.0 * u)
+            + f * e_irr * (cos + e_dir)
+            + brdf_error(m, n, inc.wi, wo, cos) * inc.irradiance * cos;
+        bound += (term + bt) * bv + bt * v + term * v * (4.0 * u);
+        if ambiguous {
+            bound += term;
+        }
+    }
+    (sum, bound)
+}

@@ -18,7 +18,7 @@ pub static DECL: KernelDecl = KernelDecl {
     name: "direct_light",
     wgsl_path: "kernels/direct_light.wgsl",
     wgsl: include_str!("../../kernels/direct_light.wgsl"),
-    includes: &[super::gbuffer::BVH_TRACE, super::LIGHTS],
+    includes: &[super::gbuffer::BVH_TRACE, super::LIGHTS, super::BRDF],
     entry: "main",
     inputs: &[
         "frame",

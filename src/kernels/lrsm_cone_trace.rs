@@ -6,14 +6,14 @@ use super::cone_trace::{bounded_outputs, cone_params, shade_all, tracer_case, Co
 use super::occlusion_voxels::occlusion_on_gpu;
 use super::reflective_shadow_map::{rsm_on_gpu, LRSM_VIEW};
 use super::voxelize::{voxelize_on_gpu, VoxelFrame};
-use super::{lrsm_partition, lrsm_prefilter, CONE_MARCH, LRSM_MATH, LRSM_SAMPLE};
+use super::{lrsm_partition, lrsm_prefilter, BRDF, CONE_MARCH, LIGHTS, LRSM_MATH, LRSM_SAMPLE};
 use crate::lrsm::{light_views, PartitionConfig, Rsm};
 use crate::scene::Scene;
 use crate::trace::SceneData;
 use anyhow::Context;
 use std::collections::BTreeMap;
 use vxgi_cpu_mirror::cone_trace::ConeParams;
-use vxgi_cpu_mirror::lrsm_cone_trace::LrsmVolume;
+use vxgi_cpu_mirror::lrsm_cone_trace::{soft_direct, LrsmVolume, ShadowParams};
 use vxgi_cpu_mirror::reflective_shadow_map::GpuView;
 use vxgi_cpu_mirror::sample_lrsm::{Lrsm, SampleParams};
 use vxgi_harness::run::run;
@@ -26,7 +26,7 @@ pub static DECL: KernelDecl = KernelDecl {
     name: "lrsm_cone_trace",
     wgsl_path: "kernels/lrsm_cone_trace.wgsl",
     wgsl: include_str!("../../kernels/lrsm_cone_trace.wgsl"),
-    includes: &[CONE_MARCH, LRSM_SAMPLE, LRSM_MATH, LRSM_VIEW],
+    includes: &[CONE_MARCH, LRSM_SAMPLE, LRSM_MATH, LRSM_VIEW, LIGHTS, BRDF],
     entry: "main",
     inputs: &[
         "frame",
@@ -46,6 +46,8 @@ pub static DECL: KernelDecl = KernelDecl {
         "lrsm_normal",
         "lrsm_moments",
         "views",
+        "lights",
+        "shadow_params",
     ],
     // The march's bound (cone_trace's) with each sample's LRSM bound, computed per pixel by the mirror.
     outputs: &[
@@ -57,15 +59,22 @@ pub static DECL: KernelDecl = KernelDecl {
             binding: "ao",
             tolerance: Tolerance::MirrorBound,
         },
+        // Shadow cones: direct_light's term bound times the cone's visibility bound.
+        Output {
+            binding: "soft_direct",
+            tolerance: Tolerance::MirrorBound,
+        },
     ],
     dispatch: DispatchRule::PerElement { binding: "indirect" },
-    mirror: "vxgi_cpu_mirror::cone_trace::shade_pixel over vxgi_cpu_mirror::lrsm_cone_trace::LrsmVolume",
+    mirror: "vxgi_cpu_mirror::cone_trace::shade_pixel over vxgi_cpu_mirror::lrsm_cone_trace::LrsmVolume; lrsm_cone_trace::soft_direct",
     summary: "LRSM final gathering: cones through the occlusion voxels' mips, each sample's radiance from every light view's LRSM (LRSM eq. 1, Algorithm 1)",
 };
 
 /// The lrsm pipeline's knobs.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LrsmSettings {
+    /// Shadow cones' half-angle in degrees (0 = exact shadow rays, direct_light).
+    pub shadow_cone_angle: f32,
     /// RSM side per light view (LRSM level 0 is half of it).
     pub rsm_side: u32,
     pub depth_splits: u32,
@@ -76,6 +85,7 @@ pub struct LrsmSettings {
 impl From<&crate::scene::RenderSettings> for LrsmSettings {
     fn from(r: &crate::scene::RenderSettings) -> Self {
         Self {
+            shadow_cone_angle: r.shadow_cone_angle,
             rsm_side: r.rsm_side,
             depth_splits: r.lrsm_depth_splits,
             normal_splits: r.lrsm_normal_splits,
@@ -366,13 +376,16 @@ pub fn mirror_frame(
     })
 }
 
-/// The gather over a scene whose G-buffer and LRSM frame are given.
+/// The gather over a scene whose G-buffer and LRSM frame are given; with `shadow_tan` > 0 also the
+/// shadow-cone pass (`shadow_main`, cones of that tan of the half-angle) into `soft_direct`.
+#[allow(clippy::too_many_arguments)]
 pub fn case_for(
     ctx: &GpuContext,
     data: &SceneData,
     gbuffer: &Resources,
     frame: &LrsmFrame,
     params: &ConeParams,
+    shadow_tan: f32,
     label: String,
     seed: u64,
 ) -> Case {
@@ -419,40 +432,109 @@ pub fn case_for(
         ("lrsm_moments".to_string(), f4(&streams[2])),
         ("views".to_string(), mixed(bytemuck::cast_slice(&views))),
     ]);
-    tracer_case(ctx, &DECL, data, gbuffer, params, volume, label, seed)
+    let lights = if data.lights.is_empty() {
+        vec![Default::default()]
+    } else {
+        data.lights.clone()
+    };
+    let shadow = ShadowParams {
+        tan_half: shadow_tan,
+        light_count: data.lights.len() as u32,
+        _pad: [0; 2],
+    };
+    let mut volume = volume;
+    volume.insert(
+        "lights".to_string(),
+        f4(bytemuck::cast_slice::<_, [f32; 4]>(&lights)),
+    );
+    volume.insert(
+        "shadow_params".to_string(),
+        mixed(bytemuck::bytes_of(&shadow)),
+    );
+    let n = (data.width() * data.height()) as usize;
+    volume.insert(
+        "soft_direct".to_string(),
+        HostResource::Buffer(HostBuffer::zeroed(n * 16, ScalarKind::F32)),
+    );
+    let mut case = tracer_case(ctx, &DECL, data, gbuffer, params, volume, label, seed);
+    if shadow_tan > 0.0 {
+        let mut pass = case.passes[0].clone();
+        pass.label = "shadow cones".into();
+        pass.entry = "shadow_main".into();
+        case.passes.push(pass);
+        let indexing = case.checks[0].indexing.clone();
+        case.checks.push(vxgi_harness::Check {
+            resource: "soft_direct".into(),
+            output: "soft_direct",
+            indexing,
+        });
+    }
+    case
 }
 
-/// Mirror outputs of a gather case (indirect, ao and their bounds).
-pub fn mirror_gather(data: &Resources) -> [Vec<[f32; 4]>; 4] {
+/// The LRSM frame a gather case binds (for the mirrors).
+fn frame_of(data: &Resources, params: &ConeParams) -> LrsmFrame {
     let b = |n: &str| data[n].buffer().expect("buffer");
-    let params: ConeParams = *bytemuck::from_bytes(&b("cone").bytes);
     let sp: SampleParams = *bytemuck::from_bytes(&b("params").bytes);
     let f4 = |n: &str| -> Vec<[f32; 4]> { bytemuck::cast_slice(&b(n).bytes).to_vec() };
-    let views: Vec<GpuView> = bytemuck::cast_slice(&b("views").bytes).to_vec();
-    let (ranges, rad, nrm, mom) = (
-        f4("depth_ranges"),
-        f4("lrsm_radiance"),
-        f4("lrsm_normal"),
-        f4("lrsm_moments"),
-    );
-    let occ = b("occ").as_u32().to_vec();
-    let occ_offsets = b("occ_offsets").as_u32().to_vec();
-    let frame = LrsmFrame {
+    LrsmFrame {
         voxels: VoxelFrame {
             origin: glam::Vec3::ZERO,
             voxel: params.origin[3],
             side: params.side,
         },
-        occ,
-        occ_offsets,
-        views,
+        occ: b("occ").as_u32().to_vec(),
+        occ_offsets: b("occ_offsets").as_u32().to_vec(),
+        views: bytemuck::cast_slice(&b("views").bytes).to_vec(),
         params: sp,
-        depth_ranges: ranges,
-        streams: [rad, nrm, mom],
+        depth_ranges: f4("depth_ranges"),
+        streams: [f4("lrsm_radiance"), f4("lrsm_normal"), f4("lrsm_moments")],
         memory: LrsmMemory::default(),
-    };
+    }
+}
+
+/// Mirror outputs of a gather case (indirect, ao and their bounds).
+pub fn mirror_gather(data: &Resources) -> [Vec<[f32; 4]>; 4] {
+    let params: ConeParams = *bytemuck::from_bytes(&data["cone"].buffer().expect("cone").bytes);
+    let frame = frame_of(data, &params);
     let vol = frame.volume(&params);
     shade_all(data, &vol, vol.lmax)
+}
+
+/// Mirror of the shadow-cone pass: soft direct light and its bound per pixel.
+pub fn mirror_soft_direct(data: &Resources) -> (Vec<[f32; 4]>, Vec<[f32; 4]>) {
+    use rayon::prelude::*;
+    let b = |n: &str| data[n].buffer().expect("buffer");
+    let params: ConeParams = *bytemuck::from_bytes(&b("cone").bytes);
+    let shadow: ShadowParams = *bytemuck::from_bytes(&b("shadow_params").bytes);
+    let f4 = |n: &str| -> Vec<[f32; 4]> { bytemuck::cast_slice(&b(n).bytes).to_vec() };
+    let frame = frame_of(data, &params);
+    let vol = frame.volume(&params);
+    let sframe: vxgi_cpu_mirror::gbuffer::Frame = *bytemuck::from_bytes(&b("frame").bytes);
+    let tris: Vec<vxgi_cpu_mirror::bvh_trace::GpuTriangle> =
+        bytemuck::cast_slice(&b("triangles").bytes).to_vec();
+    let lights: Vec<vxgi_cpu_mirror::direct_light::GpuLight> =
+        bytemuck::cast_slice(&b("lights").bytes).to_vec();
+    let lights = &lights[..shadow.light_count as usize];
+    let materials: Vec<vxgi_cpu_mirror::direct_light::GpuMaterial> =
+        bytemuck::cast_slice(&b("materials").bytes).to_vec();
+    let (pos, nrm, alb) = (f4("gb_position"), f4("gb_normal"), f4("gb_albedo"));
+    let tri = b("gb_triangle").as_u32().to_vec();
+    (0..tri.len())
+        .into_par_iter()
+        .map(|i| {
+            let (l, e) = soft_direct(
+                &vol,
+                &sframe,
+                &tris,
+                lights,
+                &materials,
+                (pos[i], nrm[i], tri[i], alb[i]),
+                shadow.tan_half,
+            );
+            ([l.x, l.y, l.z, 0.0], [e.x, e.y, e.z, 0.0])
+        })
+        .unzip()
 }
 
 pub struct LrsmConeTrace;
@@ -475,6 +557,7 @@ impl Kernel for LrsmConeTrace {
             ..ConeSettings::from(&scene.render)
         };
         let settings = LrsmSettings {
+            shadow_cone_angle: 0.0,
             rsm_side: [16, 32][index % 2],
             depth_splits: (index / 2 % 2) as u32,
             normal_splits: (index / 2 % 2) as u32,
@@ -492,12 +575,15 @@ impl Kernel for LrsmConeTrace {
         .expect("generated scenes build");
         let params = cone_params(&frame.voxels, &cones);
         let gb = super::direct_light::gpu_gbuffer(ctx, &data);
+        // Shadow cones of 2, 5 and 10 degrees (half-angle).
+        let shadow_tan = [2.0f32, 5.0, 10.0][index % 3].to_radians().tan();
         case_for(
             ctx,
             &data,
             &gb,
             &frame,
             &params,
+            shadow_tan,
             format!(
                 "{label}, {side}^3, RSM {}^2, {} layers, {} views",
                 settings.rsm_side,
@@ -510,11 +596,18 @@ impl Kernel for LrsmConeTrace {
 
     fn mirror(
         &self,
-        _case: &Case,
+        case: &Case,
         data: &Resources,
         _mode: FloatMode,
     ) -> BTreeMap<String, HostBuffer> {
         // Radiance-scale arithmetic, as cone_trace: one mode serves both.
-        bounded_outputs(mirror_gather(data))
+        let mut out = bounded_outputs(mirror_gather(data));
+        if case.checks.iter().any(|c| c.resource == "soft_direct") {
+            let (l, e) = mirror_soft_direct(data);
+            let f = |v: &[[f32; 4]]| HostBuffer::f32(bytemuck::cast_slice(v));
+            out.insert("soft_direct".to_string(), f(&l));
+            out.insert(vxgi_harness::compare::bound_name("soft_direct"), f(&e));
+        }
+        out
     }
 }

@@ -47,6 +47,12 @@ pub const LIGHTS: (&str, &str) = (
     include_str!("../../kernels/common/lights.wgsl"),
 );
 
+/// The contract's BRDF, included by direct_light and lrsm_cone_trace (shadow cones).
+pub const BRDF: (&str, &str) = (
+    "kernels/common/brdf.wgsl",
+    include_str!("../../kernels/common/brdf.wgsl"),
+);
+
 /// The cone tracer (bindings, march, pixel entry), included by cone_trace and svo_cone_trace, which
 /// each define the volume it samples (`sample_volume`).
 pub const CONE_MARCH: (&str, &str) = (
