@@ -188,8 +188,6 @@ pub struct Rendered {
     pub stages: Vec<(&'static str, f64)>,
     /// What the frame ran and skipped.
     pub plan: FramePlan,
-    /// lrsm with shadow cones: the soft direct light (moved into `direct` by the pipeline).
-    pub soft_direct: Option<RgbImage>,
 }
 
 /// The vct-dense pipeline: G-buffer and direct light with exact shadows, voxelization, voxel lighting,
@@ -608,22 +606,15 @@ impl VctLrsm {
         let tan = settings.shadow_cone_angle.to_radians().tan();
         let case =
             lrsm_cone_trace::case_for(ctx, &data, &gb, built, &params, tan, "render".into(), 0);
-        let mut frame =
-            cone_pass_frame(ctx, &lrsm_cone_trace::DECL, &case, direct, stages, plan, t)?;
-        if let Some(soft) = frame.soft_direct.take() {
-            frame.direct = soft;
-            frame.combined = RgbImage::new(
-                frame.direct.width,
-                frame.direct.height,
-                crate::images::add(&frame.direct.pixels, &frame.indirect.pixels),
-            );
-        }
+        let frame = cone_pass_frame(ctx, &lrsm_cone_trace::DECL, &case, direct, stages, plan, t)?;
         Ok((frame, built.memory))
     }
 }
 
 /// Run a cone pass (`decl`: a kernel on common/cone_march.wgsl, `case` from its case_for, started at
-/// `started`) and assemble the frame: indirect and AO from it, combined = direct + indirect.
+/// `started`) and assemble the frame: indirect and AO from it, combined = direct + indirect. A case
+/// with lrsm's shadow-cone pass replaces `direct` (the plan skipped direct_light) by its soft direct
+/// light.
 fn cone_pass_frame(
     ctx: &crate::harness::GpuContext,
     decl: &'static crate::harness::KernelDecl,
@@ -651,7 +642,11 @@ fn cone_pass_frame(
     .context("cone tracing")?;
     let indirect = image_of(w, h, &out.buffer("indirect").bytes);
     let ao = image_of(w, h, &out.buffer("ao").bytes);
-    let soft_direct = soft.then(|| image_of(w, h, &out.buffer("soft_direct").bytes));
+    let direct = if soft {
+        image_of(w, h, &out.buffer("soft_direct").bytes)
+    } else {
+        direct
+    };
     stages.push((decl.name, started.elapsed().as_secs_f64()));
     let combined = RgbImage::new(w, h, crate::images::add(&direct.pixels, &indirect.pixels));
     Ok(Rendered {
@@ -661,7 +656,6 @@ fn cone_pass_frame(
         ao,
         stages,
         plan,
-        soft_direct,
     })
 }
 
@@ -863,7 +857,6 @@ impl MirrorFrame {
             ao: RgbImage::new(w, h, rgb(1)),
             stages: vec![],
             plan,
-            soft_direct: None,
         }
     }
 }

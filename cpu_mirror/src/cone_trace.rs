@@ -210,6 +210,27 @@ pub struct ConeResult {
     pub occ_allowance: f32,
 }
 
+/// The step-corrected alpha `1 - (1 - a)^ratio` of a sample alpha `a` (clamped to [0, 1]), in the
+/// kernels' operation order (cone_march.wgsl, lrsm_cone_trace.wgsl's shadow cones).
+pub fn step_alpha(a: f32, ratio: f32) -> f32 {
+    let a = a.clamp(0.0, 1.0);
+    if a > 0.0 {
+        let keep = 1.0 - a;
+        1.0 - if keep > 0.0 { keep.powf(ratio) } else { 0.0 }
+    } else {
+        0.0
+    }
+}
+
+/// How far [`step_alpha`] moves when `a` moves by up to `da`: taken exactly over the interval (it is
+/// monotone), since its slope is unbounded as a -> 1 when ratio < 1.
+pub fn step_alpha_error(a: f32, ratio: f32, da: f32) -> f32 {
+    let a2 = step_alpha(a, ratio);
+    (step_alpha(a + da, ratio) - a2)
+        .abs()
+        .max((a2 - step_alpha(a - da, ratio)).abs())
+}
+
 /// `cos_n`: cosine between the cone and the origin surface's normal (for the mip clamp).
 pub fn march(pyr: &impl Volume, o: Vec3, d: Vec3, tan: f32, cos_n: f32, lmax: f32) -> ConeResult {
     let p = pyr.params();
@@ -244,12 +265,7 @@ pub fn march(pyr: &impl Volume, o: Vec3, d: Vec3, tan: f32, cos_n: f32, lmax: f3
             sf * (diam * inv_s0).min(1.0)
         };
         let a = s.w.clamp(0.0, 1.0);
-        let a2 = if a > 0.0 {
-            let keep = 1.0 - a;
-            1.0 - if keep > 0.0 { keep.powf(ratio) } else { 0.0 }
-        } else {
-            0.0
-        };
+        let a2 = step_alpha(a, ratio);
         let c2 = if a > 0.0 {
             s.truncate() * (a2 / a)
         } else {
@@ -272,18 +288,7 @@ pub fn march(pyr: &impl Volume, o: Vec3, d: Vec3, tan: f32, cos_n: f32, lmax: f3
         // when ratio < 1, so there the alpha error (the sample point's plus 8 ULP of the trilinear
         // blend) is carried through a2 exactly, over the interval (a2 is monotone in a). Seen on an
         // H100: a = 1 - 2^-24 there, 1 here, ratio 1/3: a2 = 1 - 2^-8 against 1.
-        let da = serr.a + 8.0 * f32::EPSILON;
-        let step_alpha = |x: f32| {
-            let x = x.clamp(0.0, 1.0);
-            if x >= 1.0 {
-                1.0
-            } else {
-                1.0 - (1.0 - x).powf(ratio)
-            }
-        };
-        let da2 = (step_alpha(a + da) - a2)
-            .abs()
-            .max((a2 - step_alpha(a - da)).abs());
+        let da2 = step_alpha_error(a, ratio, serr.a + 8.0 * f32::EPSILON);
         r.allowance += vis * (g * serr.rgb + 2.0 * g * g * lmax * serr.a + 2.0 * lmax * da2);
         r.occ_allowance += vis * (2.0 * g * serr.a + da2);
         a_err += vis * (2.0 * g * serr.a + da2) + MAG * vis * a2;

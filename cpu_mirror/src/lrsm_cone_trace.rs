@@ -184,7 +184,7 @@ pub struct ShadowParams {
 /// 2^-21 per step from log2), pow's absolute error, 4e-4 of the accumulated alpha; plus the rest of
 /// the cone where a stop (opacity, the end) is within that error of its threshold.
 pub fn shadow_visibility(vol: &LrsmVolume, o: Vec3, d: Vec3, tan: f32, t_end: f32) -> (f32, f32) {
-    use crate::cone_trace::{MAG, OPAQUE};
+    use crate::cone_trace::{step_alpha, step_alpha_error, MAG, OPAQUE};
     let p = vol.p;
     let s0 = p.origin[3];
     let sf = p.step_factor;
@@ -202,22 +202,10 @@ pub fn shadow_visibility(vol: &LrsmVolume, o: Vec3, d: Vec3, tan: f32, t_end: f3
         let (s, serr) = vol.sample(o + d * t, lf);
         let ratio = sf * (diam * p.inv_s0).min(1.0);
         let a = s.w.clamp(0.0, 1.0);
-        let step_alpha = |x: f32| {
-            let x = x.clamp(0.0, 1.0);
-            if x <= 0.0 {
-                0.0
-            } else if x >= 1.0 {
-                1.0
-            } else {
-                1.0 - (1.0 - x).powf(ratio)
-            }
-        };
-        let a2 = step_alpha(a);
+        let a2 = step_alpha(a, ratio);
         let vis = 1.0 - a_acc;
         let da = serr.a + 8.0 * f32::EPSILON + step as f32 * 2f32.powi(-21);
-        let da2 = (step_alpha(a + da) - a2)
-            .abs()
-            .max((a2 - step_alpha(a - da)).abs());
+        let da2 = step_alpha_error(a, ratio, da);
         let e_pow = if a > 0.0 && a < 1.0 {
             ratio.max(1.0) * 2f32.powi(-21) + 8.0 * f32::EPSILON
         } else {
