@@ -1,5 +1,6 @@
-//! GPU vs mirror for `kernels/gather_caches.wgsl` (CPRC 3.3), and the distribution's quality as the
-//! paper's Fig. 6 argues it: clustered placement vs an equidistant grid of caches.
+//! GPU vs mirror for `kernels/gather_caches.wgsl` (CPRC 3.3: weights and cache evaluation), the
+//! evaluation's meaning on known maps, and the distribution's quality as the paper's Fig. 6 argues it:
+//! clustered placement vs an equidistant grid of caches.
 mod common;
 
 use common::gpu;
@@ -7,7 +8,7 @@ use vxgi::gbuffers::GPattern;
 use vxgi::harness::kernel::{verify, verify_case};
 use vxgi::harness::{Corruption, VerifyOptions};
 use vxgi::kernels::cluster_extract::{distribution_inputs, DistributionInputs};
-use vxgi::kernels::gather_caches::{case_for, place_caches, GatherCaches, DECL};
+use vxgi::kernels::gather_caches::{case_for, generated_data, place_caches, GatherCaches, DECL};
 use vxgi_cpu_mirror::octahedral::unpack;
 
 #[test]
@@ -30,10 +31,11 @@ proptest::proptest! {
     #![proptest_config(proptest::prelude::ProptestConfig { cases: 8, ..proptest::prelude::ProptestConfig::default() })]
 
     #[test]
-    fn proptest_g_buffers(w in 1u32..120, h in 1u32..80, tile in 4u32..=32, family in 0usize..8, seed in proptest::prelude::any::<u64>()) {
+    fn proptest_g_buffers(w in 1u32..120, h in 1u32..80, tile in 4u32..=32, family in 0usize..8, log_res in 0u32..6, log_irr in 0u32..4, seed in proptest::prelude::any::<u64>()) {
         let shader = DECL.shader().unwrap();
         let inp = distribution_inputs(w, h, tile, 16, GPattern::family(family), seed);
-        let case = case_for(&shader, gpu(), &inp, "prop".into(), seed);
+        let d = generated_data(&inp, 1 << log_res, 1 << log_irr, seed);
+        let case = case_for(&shader, gpu(), &d, "prop".into(), seed);
         let (comps, ..) = verify_case(gpu(), &shader, &GatherCaches, &case, None).unwrap();
         for c in comps {
             proptest::prop_assert!(c.passed(), "{}", c.report());
@@ -55,6 +57,67 @@ fn a_corrupted_weight_fails_verification() {
     assert!(!verify(gpu(), &GatherCaches, &opts, &mut |_| {})
         .unwrap()
         .passed());
+}
+
+/// A pixel whose caches all hold the same maps reads them back: the irradiance map's value at the
+/// pixel normal (a constant map: exactly it), and the mip chain's level at the reflection vector.
+#[test]
+fn uniform_caches_gather_their_own_values() {
+    use vxgi::harness::run::run;
+    let inp = distribution_inputs(64, 48, 16, 4, GPattern::family(0), 3);
+    let mut d = generated_data(&inp, 8, 4, 3);
+    let count = d.cache_pos.len();
+    assert!(count > 0);
+    for v in d.cache_irradiance.iter_mut() {
+        *v = [3.0, 2.0, 1.0, 0.0];
+    }
+    // Level l of every chain holds l + 1: a glossy level lf reads 1 + lf (blended), up to the top.
+    let res = d.params.res;
+    for c in 0..count {
+        for l in 0..d.params.levels {
+            let off = c * vxgi_cpu_mirror::cache_preconvolve::mip_len(res)
+                + vxgi_cpu_mirror::cache_preconvolve::mip_offset(res, l);
+            for k in 0..((res >> l) * (res >> l)) as usize {
+                d.cache_mips[off + k] = [l as f32 + 1.0; 4];
+            }
+        }
+    }
+    let shader = DECL.shader().unwrap();
+    let case = case_for(&shader, gpu(), &d, "uniform".into(), 3);
+    let out = run(
+        gpu(),
+        &shader,
+        "gather",
+        &case.resources,
+        &case.passes,
+        &["diffuse", "glossy", "weight_sum"],
+    )
+    .unwrap();
+    let diffuse: &[[f32; 4]] = bytemuck::cast_slice(&out.buffer("diffuse").bytes);
+    let glossy: &[[f32; 4]] = bytemuck::cast_slice(&out.buffer("glossy").bytes);
+    let ws = out.buffer("weight_sum").as_f32();
+    let top = d.params.levels as f32 - 1.0;
+    let mut checked = 0;
+    for i in 0..diffuse.len() {
+        if ws[i] <= 1e-3 {
+            continue;
+        }
+        checked += 1;
+        // One division of sum w v by sum w, v constant: a few ULP.
+        assert!(
+            (diffuse[i][0] - 3.0).abs() < 1e-5 && (diffuse[i][2] - 1.0).abs() < 1e-5,
+            "{i}: {:?}",
+            diffuse[i]
+        );
+        let lf = d.pixel_dirs[2 * i + 1][3];
+        let want = if lf < 0.0 { 0.0 } else { lf.min(top) + 1.0 };
+        assert!(
+            (glossy[i][0] - want).abs() < 1e-5 * want.max(1.0),
+            "{i}: lf {lf} -> {:?}",
+            glossy[i]
+        );
+    }
+    assert!(checked > 100, "{checked} pixels with weight");
 }
 
 /// Fraction of geometry pixels with at least one cache of non-zero weight min(w_w, w_s) whose normal

@@ -8,7 +8,9 @@
 //!
 //! No wgpu, no naga: a mirror can be used (and read) without a GPU.
 pub mod bvh_trace;
+pub mod cache_creation;
 pub mod cache_placement;
+pub mod cache_preconvolve;
 pub mod cluster_extract;
 pub mod cluster_keys;
 pub mod cone_trace;

@@ -1,9 +1,10 @@
 //! Declaration of `kernels/gather_caches.wgsl` (mirror: `vxgi_cpu_mirror::gather_caches`): CPRC 3.3
-//! gathering weights. Cases place caches with the distribution mirrors (histograms, axes, keys, sort,
-//! clusters, placement) on generated G-buffers.
+//! evaluation by gathering. Cases place caches with the distribution mirrors (histograms, axes, keys,
+//! sort, clusters, placement) on generated G-buffers and fill their maps with generated radiance.
 use super::cluster_extract::DistributionInputs;
 use std::collections::BTreeMap;
 use vxgi_cpu_mirror::cache_placement::{best_pixels, score};
+use vxgi_cpu_mirror::cache_preconvolve::mip_len;
 use vxgi_cpu_mirror::cluster_extract::extract;
 use vxgi_cpu_mirror::gather_caches::{
     gather, gather_bound, payload_max, GatherInputs, GatherParams,
@@ -21,17 +22,21 @@ pub static DECL: KernelDecl = KernelDecl {
     wgsl: include_str!("../../kernels/gather_caches.wgsl"),
     includes: &[],
     entry: "main",
-    inputs: &["params", "positions", "cache_pos", "cache_pixel", "cache_payload", "tile_ranges"],
+    inputs: &[
+        "params", "positions", "pixel_dirs", "cache_pos", "cache_pixel", "cache_normal", "cache_irradiance",
+        "cache_mips", "tile_ranges",
+    ],
     outputs: &[
-        // Per element from the WGSL rules along the weight sums (see `gather_bound`).
-        Output { binding: "gathered", tolerance: Tolerance::MirrorBound },
+        // Per element from the WGSL rules along the weight sums and the lookups (see `gather_bound`).
+        Output { binding: "diffuse", tolerance: Tolerance::MirrorBound },
+        Output { binding: "glossy", tolerance: Tolerance::MirrorBound },
         Output { binding: "weight_sum", tolerance: Tolerance::MirrorBound },
         // Integer pixel-distance test: exact.
         Output { binding: "in_radius", tolerance: Tolerance::Exact },
     ],
     dispatch: DispatchRule::PerElement { binding: "weight_sum" },
     mirror: "vxgi_cpu_mirror::gather_caches::gather",
-    summary: "per pixel, caches within the screen radius weighted min(w_w, w_s), normalised gather (CPRC 3.3)",
+    summary: "per pixel, caches within the screen radius evaluated (irradiance by normal, mips by reflection) and weighted min(w_w, w_s) (CPRC 3.3)",
 };
 
 /// Caches placed on a G-buffer by the distribution mirrors: positions, pixels, normals (payload), and the
@@ -102,70 +107,137 @@ pub fn geometry_positions(inp: &DistributionInputs) -> Vec<[f32; 4]> {
         .collect()
 }
 
-pub fn case_for(
-    shader: &Shader,
-    ctx: &GpuContext,
-    inp: &DistributionInputs,
-    label: String,
-    seed: u64,
-) -> Case {
+/// Everything the gather reads (owned), by binding.
+pub struct GatherData {
+    pub params: GatherParams,
+    pub positions: Vec<[f32; 4]>,
+    pub pixel_dirs: Vec<[f32; 4]>,
+    pub cache_pos: Vec<[f32; 4]>,
+    pub cache_pixel: Vec<[u32; 2]>,
+    pub cache_normal: Vec<[f32; 4]>,
+    pub cache_irradiance: Vec<[f32; 4]>,
+    pub cache_mips: Vec<[f32; 4]>,
+    pub tile_ranges: Vec<[u32; 2]>,
+}
+
+/// A generated gather over caches placed on a generated G-buffer: maps of generated radiance (cache
+/// side `res`, irradiance side `irr`), pixel normals from the G-buffer, reflection vectors of the
+/// view from the origin, glossy levels varied per pixel (none, whole levels, fractions, past the top).
+pub fn generated_data(inp: &DistributionInputs, res: u32, irr: u32, seed: u64) -> GatherData {
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let caches = place_caches(inp);
-    let n = inp.normals.len();
-    let p = GatherParams {
+    let count = caches.pos.len();
+    let levels = res.trailing_zeros() + 1;
+    let params = GatherParams {
         width: inp.width,
         height: inp.height,
         tile: inp.tile,
         tiles_x: inp.width.div_ceil(inp.tile),
         tiles_y: inp.height.div_ceil(inp.tile),
         radius_px: 2 * inp.tile,
-        _pad: [0; 2],
+        res,
+        levels,
+        irr,
+        _pad: [0; 3],
     };
-    let nonempty = |v: &[[f32; 4]]| {
-        if v.is_empty() {
+    let mut pixel_dirs = Vec::with_capacity(2 * inp.normals.len());
+    for (n, p) in inp.normals.iter().zip(&inp.positions) {
+        let q = unpack(*n).unwrap_or([0, 0, 32767]);
+        let v = glam::Vec3::new(q[0] as f32, q[1] as f32, q[2] as f32).normalize_or(glam::Vec3::Z);
+        let e = -glam::Vec3::new(p[0], p[1], p[2]).normalize_or(glam::Vec3::Z);
+        let r = v * (2.0 * v.dot(e)) - e;
+        let lf = match rng.random_range(0..5) {
+            0 => -1.0,
+            1 => rng.random_range(0..=levels) as f32,
+            2 => levels as f32 + 0.5,
+            _ => rng.random::<f32>() * levels as f32,
+        };
+        pixel_dirs.push([v.x, v.y, v.z, 0.0]);
+        pixel_dirs.push([r.x, r.y, r.z, lf]);
+    }
+    let mut map = |n: usize| -> Vec<[f32; 4]> {
+        (0..n)
+            .map(|_| {
+                [
+                    rng.random::<f32>() * 4.0,
+                    rng.random::<f32>(),
+                    rng.random::<f32>() * 0.25,
+                    0.0,
+                ]
+            })
+            .collect()
+    };
+    let cache_irradiance = map(count * (irr * irr) as usize);
+    let cache_mips = map(count * mip_len(res));
+    GatherData {
+        params,
+        positions: geometry_positions(inp),
+        pixel_dirs,
+        cache_pos: caches.pos,
+        cache_pixel: caches.pixel,
+        cache_normal: caches.normal,
+        cache_irradiance,
+        cache_mips,
+        tile_ranges: caches.tile_ranges,
+    }
+}
+
+pub fn case_for(
+    shader: &Shader,
+    ctx: &GpuContext,
+    d: &GatherData,
+    label: String,
+    seed: u64,
+) -> Case {
+    let n = (d.params.width * d.params.height) as usize;
+    let f4 = |v: &[[f32; 4]]| {
+        let v = if v.is_empty() {
             vec![[0.0; 4]]
         } else {
             v.to_vec()
-        }
+        };
+        HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(&v)))
     };
-    let f4 =
-        |v: &[[f32; 4]]| HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(&nonempty(v))));
+    let u2 = |v: &[[u32; 2]]| {
+        let v = if v.is_empty() {
+            vec![[0u32; 2]]
+        } else {
+            v.to_vec()
+        };
+        HostResource::Buffer(HostBuffer::u32(bytemuck::cast_slice(&v)))
+    };
     let mut resources = Resources::new();
-    resources.insert("params".into(), HostResource::Buffer(HostBuffer::pod(&p)));
-    resources.insert("positions".into(), f4(&geometry_positions(inp)));
-    resources.insert("cache_pos".into(), f4(&caches.pos));
-    let pixels = if caches.pixel.is_empty() {
-        vec![[0u32; 2]]
-    } else {
-        caches.pixel.clone()
-    };
     resources.insert(
-        "cache_pixel".into(),
-        HostResource::Buffer(HostBuffer::u32(bytemuck::cast_slice(&pixels))),
+        "params".into(),
+        HostResource::Buffer(HostBuffer::pod(&d.params)),
     );
-    resources.insert("cache_payload".into(), f4(&caches.normal));
-    resources.insert(
-        "tile_ranges".into(),
-        HostResource::Buffer(HostBuffer::u32(bytemuck::cast_slice(&caches.tile_ranges))),
-    );
-    resources.insert(
-        "gathered".into(),
-        HostResource::Buffer(HostBuffer::zeroed(n * 16, ScalarKind::F32)),
-    );
-    resources.insert(
-        "weight_sum".into(),
-        HostResource::Buffer(HostBuffer::zeroed(n * 4, ScalarKind::F32)),
-    );
-    resources.insert(
-        "in_radius".into(),
-        HostResource::Buffer(HostBuffer::zeroed(n * 4, ScalarKind::U32)),
-    );
+    resources.insert("positions".into(), f4(&d.positions));
+    resources.insert("pixel_dirs".into(), f4(&d.pixel_dirs));
+    resources.insert("cache_pos".into(), f4(&d.cache_pos));
+    resources.insert("cache_pixel".into(), u2(&d.cache_pixel));
+    resources.insert("cache_normal".into(), f4(&d.cache_normal));
+    resources.insert("cache_irradiance".into(), f4(&d.cache_irradiance));
+    resources.insert("cache_mips".into(), f4(&d.cache_mips));
+    resources.insert("tile_ranges".into(), u2(&d.tile_ranges));
+    for (name, bytes, kind) in [
+        ("diffuse", 16, ScalarKind::F32),
+        ("glossy", 16, ScalarKind::F32),
+        ("weight_sum", 4, ScalarKind::F32),
+        ("in_radius", 4, ScalarKind::U32),
+    ] {
+        resources.insert(
+            name.into(),
+            HostResource::Buffer(HostBuffer::zeroed(n * bytes, kind)),
+        );
+    }
     let bindings = DECL.bind_by_name();
     Case {
         label,
         seed,
         passes: vec![DECL.pass(shader, ctx, "gather".into(), bindings, n as u64)],
         resources,
-        checks: ["gathered", "weight_sum", "in_radius"]
+        checks: ["diffuse", "glossy", "weight_sum", "in_radius"]
             .iter()
             .map(|r| Check {
                 resource: r.to_string(),
@@ -173,11 +245,14 @@ pub fn case_for(
                 indexing: Indexing::Linear,
             })
             .collect(),
-        effective_bytes: n as u64 * 40,
+        effective_bytes: n as u64 * 72,
     }
 }
 
 pub struct GatherCaches;
+
+/// (cache side, irradiance side) of the generated cases.
+const SIZES: [(u32, u32); 3] = [(8, 4), (16, 8), (1, 1)];
 
 impl Kernel for GatherCaches {
     fn decl(&self) -> &'static KernelDecl {
@@ -185,7 +260,15 @@ impl Kernel for GatherCaches {
     }
     fn case(&self, shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
         let (inp, label) = super::cluster_extract::generated_distribution(seed, index);
-        case_for(shader, ctx, &inp, label, seed)
+        let (res, irr) = SIZES[index % SIZES.len()];
+        let d = generated_data(&inp, res, irr, seed ^ index as u64);
+        case_for(
+            shader,
+            ctx,
+            &d,
+            format!("{label}, caches {res}^2 / {irr}^2"),
+            seed,
+        )
     }
     fn mirror(
         &self,
@@ -193,41 +276,66 @@ impl Kernel for GatherCaches {
         data: &Resources,
         _mode: FloatMode,
     ) -> BTreeMap<String, HostBuffer> {
-        let b = |n: &str| data[n].buffer().expect("buffer");
-        let p: GatherParams = *bytemuck::from_bytes(&b("params").bytes);
-        let inp = GatherInputs {
-            positions: bytemuck::cast_slice(&b("positions").bytes),
-            cache_pos: bytemuck::cast_slice(&b("cache_pos").bytes),
-            cache_pixel: bytemuck::cast_slice(&b("cache_pixel").bytes),
-            cache_payload: bytemuck::cast_slice(&b("cache_payload").bytes),
-            tile_ranges: bytemuck::cast_slice(&b("tile_ranges").bytes),
-        };
-        let n = (p.width * p.height) as usize;
-        let (mut g, mut ws, mut cnt, mut gb, mut wb) =
-            (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
-        let vmax = payload_max(inp.cache_payload);
-        for i in 0..n {
-            let r = gather(&p, &inp, i);
-            let (gi, wi, ci) = r;
-            let (gbi, wbi) = gather_bound(r, vmax);
-            g.push(gi);
-            ws.push(wi);
-            cnt.push(ci);
-            gb.push(gbi);
-            wb.push(wbi);
-        }
-        BTreeMap::from([
-            (
-                "gathered".to_string(),
-                HostBuffer::f32(bytemuck::cast_slice(&g)),
-            ),
-            (
-                bound_name("gathered"),
-                HostBuffer::f32(bytemuck::cast_slice(&gb)),
-            ),
-            ("weight_sum".to_string(), HostBuffer::f32(&ws)),
-            (bound_name("weight_sum"), HostBuffer::f32(&wb)),
-            ("in_radius".to_string(), HostBuffer::u32(&cnt)),
-        ])
+        mirror_outputs(data)
     }
+}
+
+/// The mirror's outputs and bounds for a gather's resources.
+pub fn mirror_outputs(data: &Resources) -> BTreeMap<String, HostBuffer> {
+    use rayon::prelude::*;
+    let b = |n: &str| data[n].buffer().expect("buffer");
+    let p: GatherParams = *bytemuck::from_bytes(&b("params").bytes);
+    let inp = GatherInputs {
+        positions: bytemuck::cast_slice(&b("positions").bytes),
+        pixel_dirs: bytemuck::cast_slice(&b("pixel_dirs").bytes),
+        cache_pos: bytemuck::cast_slice(&b("cache_pos").bytes),
+        cache_pixel: bytemuck::cast_slice(&b("cache_pixel").bytes),
+        cache_normal: bytemuck::cast_slice(&b("cache_normal").bytes),
+        cache_irradiance: bytemuck::cast_slice(&b("cache_irradiance").bytes),
+        cache_mips: bytemuck::cast_slice(&b("cache_mips").bytes),
+        tile_ranges: bytemuck::cast_slice(&b("tile_ranges").bytes),
+    };
+    let n = (p.width * p.height) as usize;
+    let vmax = [
+        payload_max(inp.cache_irradiance),
+        payload_max(inp.cache_mips),
+    ];
+    let px: Vec<_> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let r = gather(&p, &inp, i, vmax);
+            (r, gather_bound(&r, vmax))
+        })
+        .collect();
+    let f4 = |v: Vec<[f32; 4]>| HostBuffer::f32(bytemuck::cast_slice(&v));
+    BTreeMap::from([
+        (
+            "diffuse".to_string(),
+            f4(px.iter().map(|p| p.0.diffuse).collect()),
+        ),
+        (
+            bound_name("diffuse"),
+            f4(px.iter().map(|p| p.1 .0).collect()),
+        ),
+        (
+            "glossy".to_string(),
+            f4(px.iter().map(|p| p.0.glossy).collect()),
+        ),
+        (
+            bound_name("glossy"),
+            f4(px.iter().map(|p| p.1 .1).collect()),
+        ),
+        (
+            "weight_sum".to_string(),
+            HostBuffer::f32(&px.iter().map(|p| p.0.weight_sum).collect::<Vec<_>>()),
+        ),
+        (
+            bound_name("weight_sum"),
+            HostBuffer::f32(&px.iter().map(|p| p.1 .2).collect::<Vec<_>>()),
+        ),
+        (
+            "in_radius".to_string(),
+            HostBuffer::u32(&px.iter().map(|p| p.0.in_radius).collect::<Vec<_>>()),
+        ),
+    ])
 }

@@ -1,7 +1,9 @@
 //! Kernel declarations: each pairs a WGSL file in `kernels/` with its mirror module in `cpu_mirror/`.
 //! To add a kernel: `kernels/<name>.wgsl`, `cpu_mirror/src/<name>.rs`, `src/kernels/<name>.rs` with a
 //! `DECL` and a `Kernel` impl, one line in [`all`], and tests in `tests/<name>.rs`.
+pub mod cache_creation;
 pub mod cache_placement;
+pub mod cache_preconvolve;
 pub mod cluster_extract;
 pub mod cluster_keys;
 pub mod cone_trace;
@@ -60,6 +62,12 @@ pub const CONE_MARCH: (&str, &str) = (
     include_str!("../../kernels/common/cone_march.wgsl"),
 );
 
+/// The dense radiance pyramid as cone_march's volume, included by cone_trace and cache_creation.
+pub const PYRAMID: (&str, &str) = (
+    "kernels/common/pyramid.wgsl",
+    include_str!("../../kernels/common/pyramid.wgsl"),
+);
+
 /// The sparse voxel octree's node layout and descent, included by sparse_voxel_octree and svo_sample.
 pub const SVO_NODE: (&str, &str) = (
     "kernels/common/svo_node.wgsl",
@@ -84,6 +92,8 @@ pub fn all() -> Vec<&'static dyn Kernel> {
         &cluster_extract::ClusterExtract,
         &cache_placement::CachePlacement,
         &gather_caches::GatherCaches,
+        &cache_creation::CacheCreation,
+        &cache_preconvolve::CachePreconvolve,
         &gbuffer::Gbuffer,
         &direct_light::DirectLight,
         &voxelize::Voxelize,

@@ -1,0 +1,207 @@
+//! Declaration of `kernels/cache_preconvolve.wgsl` (mirror: `vxgi_cpu_mirror::cache_preconvolve`): each
+//! radiance cache's mip chain (exact) and cosine-folded irradiance map. Cases are generated caches of
+//! radiance: smooth skies, single bright texels, zeros, large and subnormal values.
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::collections::BTreeMap;
+use vxgi_cpu_mirror::cache_preconvolve::{
+    irradiance_texel, irradiance_weights, mip_len, mip_texel, PreconvolveParams,
+};
+use vxgi_harness::compare::bound_name;
+use vxgi_harness::run::{grid_for, Pass, Workgroups};
+use vxgi_harness::{
+    Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
+    KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
+};
+
+pub static DECL: KernelDecl = KernelDecl {
+    name: "cache_preconvolve",
+    wgsl_path: "kernels/cache_preconvolve.wgsl",
+    wgsl: include_str!("../../kernels/cache_preconvolve.wgsl"),
+    includes: &[],
+    entry: "mips",
+    inputs: &["params", "cache_radiance", "irr_weights"],
+    outputs: &[
+        // Adds in the mirror's order and a power-of-two ldexp: exact (WGSL forbids reassociation;
+        // flush-to-zero GPUs are the harness's FTZ alternative).
+        Output {
+            binding: "cache_mips",
+            tolerance: Tolerance::Exact,
+        },
+        // n multiply-adds per texel, one rounding each, fused or not: (n + 1) u sum |L W|, doubled
+        // (see `irradiance_texel`).
+        Output {
+            binding: "cache_irradiance",
+            tolerance: Tolerance::MirrorBound,
+        },
+    ],
+    dispatch: DispatchRule::PerElement {
+        binding: "cache_mips",
+    },
+    mirror: "vxgi_cpu_mirror::cache_preconvolve::mip_texel",
+    summary: "radiance caches' mip chains and cosine-folded irradiance maps (CPRC 3.1, PCRC)",
+};
+
+/// Both passes over `radiance` (count caches of res^2 texels) with irradiance maps of irr^2 texels.
+pub fn case_for(
+    ctx: &GpuContext,
+    radiance: &[[f32; 4]],
+    res: u32,
+    irr: u32,
+    label: String,
+    seed: u64,
+) -> Case {
+    let count = radiance.len() / (res * res) as usize;
+    let p = PreconvolveParams {
+        count: count as u32,
+        res,
+        levels: res.trailing_zeros() + 1,
+        irr_texels: irr * irr,
+    };
+    let (n_mips, n_irr) = (count * mip_len(res), count * (irr * irr) as usize);
+    let mut resources = Resources::new();
+    resources.insert("params".into(), HostResource::Buffer(HostBuffer::pod(&p)));
+    let rad = if radiance.is_empty() {
+        vec![[0.0; 4]]
+    } else {
+        radiance.to_vec()
+    };
+    resources.insert(
+        "cache_radiance".into(),
+        HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(&rad))),
+    );
+    resources.insert(
+        "irr_weights".into(),
+        HostResource::Buffer(HostBuffer::f32(&irradiance_weights(res, irr))),
+    );
+    for (name, len) in [("cache_mips", n_mips), ("cache_irradiance", n_irr)] {
+        resources.insert(
+            name.into(),
+            HostResource::Buffer(HostBuffer::zeroed(len.max(1) * 16, ScalarKind::F32)),
+        );
+    }
+    let max = ctx.limits().max_compute_workgroups_per_dimension;
+    let pass = |entry: &str, n: usize| Pass {
+        label: entry.into(),
+        entry: entry.into(),
+        bindings: DECL.bind_by_name(),
+        workgroups: Workgroups::Direct(grid_for(n as u64, 64, max)),
+    };
+    let check = |name: &str, per: usize| Check {
+        resource: name.into(),
+        output: if name == "cache_mips" {
+            "cache_mips"
+        } else {
+            "cache_irradiance"
+        },
+        indexing: Indexing::Grid {
+            dims: [per as u32, count.max(1) as u32, 1],
+            components: 4,
+        },
+    };
+    Case {
+        label,
+        seed,
+        passes: vec![pass("mips", n_mips), pass("irradiance", n_irr)],
+        resources,
+        checks: vec![
+            check("cache_mips", mip_len(res)),
+            check("cache_irradiance", (irr * irr) as usize),
+        ],
+        effective_bytes: (rad.len() as u64) * 16 * 2 + (n_mips + n_irr) as u64 * 16,
+    }
+}
+
+/// Generated caches: `count` caches of res^2 texels, per cache one of: a smooth sky, one bright texel
+/// on black, all zeros, random magnitudes over 2^-20..2^20, subnormals.
+pub fn generated_radiance(count: usize, res: u32, seed: u64) -> Vec<[f32; 4]> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let t = (res * res) as usize;
+    let mut out = Vec::with_capacity(count * t);
+    for c in 0..count {
+        let bright = rng.random_range(0..t);
+        for k in 0..t {
+            let v = match c % 5 {
+                0 => {
+                    let s = 1.0 + (k as f32 / t as f32);
+                    [s, 0.5 * s, 0.25, 0.0]
+                }
+                1 => {
+                    if k == bright {
+                        [100.0, 50.0, 1.0, 0.0]
+                    } else {
+                        [0.0; 4]
+                    }
+                }
+                2 => [0.0; 4],
+                3 => {
+                    let m =
+                        |r: &mut ChaCha8Rng| r.random::<f32>() * 2f32.powi(r.random_range(-20..20));
+                    [m(&mut rng), m(&mut rng), m(&mut rng), 0.0]
+                }
+                _ => [
+                    f32::from_bits(rng.random_range(1..0x007f_ffff)),
+                    rng.random::<f32>(),
+                    f32::MIN_POSITIVE,
+                    0.0,
+                ],
+            };
+            out.push(v);
+        }
+    }
+    out
+}
+
+pub struct CachePreconvolve;
+
+/// (cache side, irradiance side) of the generated cases.
+const SIZES: [(u32, u32); 4] = [(16, 8), (4, 4), (32, 8), (1, 1)];
+
+impl Kernel for CachePreconvolve {
+    fn decl(&self) -> &'static KernelDecl {
+        &DECL
+    }
+    fn case(&self, _shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
+        let (res, irr) = SIZES[index % SIZES.len()];
+        let count = [7, 20, 3, 10][index % 4];
+        let rad = generated_radiance(count, res, seed.wrapping_add(index as u64));
+        let label = format!("#{index} {count} caches {res}^2, irradiance {irr}^2");
+        case_for(ctx, &rad, res, irr, label, seed)
+    }
+    fn mirror(
+        &self,
+        _case: &Case,
+        data: &Resources,
+        mode: FloatMode,
+    ) -> BTreeMap<String, HostBuffer> {
+        let b = |n: &str| data[n].buffer().expect("buffer");
+        let p: PreconvolveParams = *bytemuck::from_bytes(&b("params").bytes);
+        let rad: &[[f32; 4]] = bytemuck::cast_slice(&b("cache_radiance").bytes);
+        let w: &[f32] = bytemuck::cast_slice(&b("irr_weights").bytes);
+        let t = (p.res * p.res) as usize;
+        let flush = mode == FloatMode::FlushToZero;
+        let (mut mips, mut irr, mut irr_b) = (Vec::new(), Vec::new(), Vec::new());
+        for c in 0..p.count as usize {
+            let tex = &rad[c * t..(c + 1) * t];
+            for j in 0..mip_len(p.res) {
+                mips.push(mip_texel(tex, p.res, j, flush));
+            }
+            for k in 0..p.irr_texels as usize {
+                let (e, eb) = irradiance_texel(tex, w, k);
+                irr.push(e);
+                irr_b.push(eb);
+            }
+        }
+        for v in [&mut mips, &mut irr, &mut irr_b] {
+            if v.is_empty() {
+                v.push([0.0; 4]);
+            }
+        }
+        let f = |v: &[[f32; 4]]| HostBuffer::f32(bytemuck::cast_slice(v));
+        BTreeMap::from([
+            ("cache_mips".to_string(), f(&mips)),
+            ("cache_irradiance".to_string(), f(&irr)),
+            (bound_name("cache_irradiance"), f(&irr_b)),
+        ])
+    }
+}
