@@ -2,6 +2,7 @@
 //! mirror on generated inputs. See README.md for the layout and how to add a kernel.
 pub mod bench;
 pub mod coverage;
+pub mod cprc;
 pub mod gbuffers;
 pub mod grids;
 pub mod images;

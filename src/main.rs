@@ -166,6 +166,21 @@ struct RenderFlags {
     /// (0 = exact shadow rays) [default 0].
     #[arg(long = "shadow-cone-angle", alias = "shadow_cone_angle")]
     shadow_cone_angle: Option<f32>,
+    /// cprc: radiance-cache side in texels (power of two, 1..=64) [default 16].
+    #[arg(long = "cache-resolution", alias = "cache_resolution")]
+    cache_resolution: Option<u32>,
+    /// cprc: irradiance map side per cache (power of two) [default 8].
+    #[arg(long = "irradiance-resolution", alias = "irradiance_resolution")]
+    irradiance_resolution: Option<u32>,
+    /// cprc: screen tile of the cache distribution, pixels (4..=64) [default 16].
+    #[arg(long = "cache-tile", alias = "cache_tile")]
+    cache_tile: Option<u32>,
+    /// cprc: depth slices of the cluster keys (1..=64) [default 16].
+    #[arg(long = "cache-depth-slices", alias = "cache_depth_slices")]
+    cache_depth_slices: Option<u32>,
+    /// cprc: gathering radius in tiles [default 2].
+    #[arg(long = "gather-radius", alias = "gather_radius")]
+    gather_radius: Option<f32>,
 }
 
 fn load_scene(path: &Option<PathBuf>, flags: &RenderFlags) -> Result<vxgi::scene::Scene> {
@@ -197,7 +212,12 @@ fn load_scene(path: &Option<PathBuf>, flags: &RenderFlags) -> Result<vxgi::scene
         lrsm_depth_splits,
         lrsm_normal_splits,
         lrsm_overlap,
-        shadow_cone_angle
+        shadow_cone_angle,
+        cache_resolution,
+        irradiance_resolution,
+        cache_tile,
+        cache_depth_slices,
+        gather_radius
     );
     scene.render.validate().map_err(anyhow::Error::msg)?;
     Ok(scene)
@@ -267,6 +287,13 @@ fn run_render(
                 m.rsm as f64 / 1e6,
                 m.views,
                 m.lrsm as f64 / 1e6
+            ),
+            Some(vxgi::render::VolumeMemory::Caches(c)) => println!(
+                "cprc: {} radiance caches; {} of {} front-facing pixels without a valid cache ({:.2}%)",
+                c.caches,
+                c.uncovered,
+                c.pixels,
+                100.0 * c.uncovered as f64 / c.pixels.max(1) as f64
             ),
             None => {}
         }

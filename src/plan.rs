@@ -280,6 +280,78 @@ impl FramePlan {
         }
     }
 
+    /// The cprc frame (Rehfeld et al. 2014): vct-dense's stages up to the radiance pyramid (with its
+    /// reuse rule: `cached`), then the cache distribution, creation, pre-convolution and the gather
+    /// instead of per-pixel cones. The caches follow the view, so they are rebuilt every frame.
+    pub fn cprc_after(
+        scene: &Scene,
+        cones: &ConeSettings,
+        s: &crate::cprc::CprcSettings,
+        cached: bool,
+    ) -> Self {
+        let dense = Self::vct_dense_after(scene, cones, cached);
+        let (w, h) = (scene.camera.width, scene.camera.height);
+        let tiles = w.div_ceil(s.tile) * h.div_ceil(s.tile);
+        let glossy = scene.materials.iter().filter(|m| m.is_glossy()).count();
+        let levels = s.res.trailing_zeros() + 1;
+        let mut passes = Vec::new();
+        for p in dense.passes {
+            if p.stage != "cone_trace" {
+                passes.push(p);
+                continue;
+            }
+            for kernel in [
+                "tile_normal_histogram",
+                "histogram_axes",
+                "cluster_keys",
+                "radix_sort",
+                "cluster_extract",
+                "cache_placement",
+            ] {
+                passes.push(PlannedPass {
+                    stage: "cache_distribution",
+                    kernel,
+                    size: format!("{w}x{h} pixels, {tiles} tiles of {}^2, {} depth slices", s.tile, s.slices),
+                    runs: true,
+                    why: "one cache per cluster of the view's pixels (tile x normal axis x depth slice)".into(),
+                });
+            }
+            passes.push(PlannedPass {
+                stage: "cache_creation",
+                kernel: "cache_creation",
+                size: format!("caches x {}^2 texels", s.res),
+                runs: true,
+                why: "one cone per cache texel through the radiance pyramid".into(),
+            });
+            passes.push(PlannedPass {
+                stage: "cache_preconvolve",
+                kernel: "cache_preconvolve",
+                size: format!("caches x ({levels} mip levels + {}^2 irradiance)", s.irr),
+                runs: true,
+                why: if glossy > 0 {
+                    format!("mip chain for the {glossy} glossy material(s); cosine-folded irradiance for diffuse")
+                } else {
+                    "cosine-folded irradiance for diffuse (the mip chain is built though no material is glossy)".into()
+                },
+            });
+            passes.push(PlannedPass {
+                stage: "gather_caches",
+                kernel: "gather_caches",
+                size: format!("{w}x{h} pixels, radius {} px", s.radius_px),
+                runs: true,
+                why: if glossy > 0 {
+                    "irradiance by normal; glossy lookups only for pixels with Ks".into()
+                } else {
+                    "irradiance by normal; no glossy lookups: no material has Ks".into()
+                },
+            });
+        }
+        Self {
+            pipeline: "cprc",
+            passes,
+        }
+    }
+
     /// The stages the plan skips, in order.
     pub fn skipped(&self) -> Vec<&'static str> {
         let mut s: Vec<&'static str> = self

@@ -269,19 +269,8 @@ fn render_frame(
     let data = SceneData::new(scene);
     let mut stages = Vec::new();
     let (gb, direct) = gbuffer_and_direct(ctx, &data, &plan, &mut stages, &progress)?;
-
-    if !plan.runs("voxelize") {
-        progress("radiance pyramid: reused");
-    } else {
-        let (rad, normal, frame) = lit_voxels(ctx, scene, &data, &plan, &mut stages, &progress)?;
-        progress("mip chain");
-        let t = std::time::Instant::now();
-        let pyramid = cone_trace::gpu_pyramid(ctx, &rad, &normal, frame.side)?;
-        stages.push(("surface_coverage_mip", t.elapsed().as_secs_f64()));
-        *cache = Some((key, pyramid, frame));
-    }
-    let (_, pyramid, frame) = cache.as_ref().expect("built or reused above");
-
+    let (_, pyramid, frame) =
+        radiance_pyramid(ctx, scene, &data, &plan, cache, key, &mut stages, &progress)?;
     progress("cone tracing");
     let t = std::time::Instant::now();
     let params = cone_trace::cone_params(frame, cones);
@@ -290,6 +279,32 @@ fn render_frame(
 }
 
 type Stages = Vec<(&'static str, f64)>;
+
+/// The radiance pyramid of vct-dense and cprc: built (voxelize, voxel light, surface-coverage mips)
+/// where the plan runs voxelize, else the cached one.
+#[allow(clippy::too_many_arguments)]
+fn radiance_pyramid<'c>(
+    ctx: &crate::harness::GpuContext,
+    scene: &Scene,
+    data: &SceneData,
+    plan: &FramePlan,
+    cache: &'c mut Option<(PyramidKey, Vec<[f32; 4]>, voxelize::VoxelFrame)>,
+    key: PyramidKey,
+    stages: &mut Stages,
+    progress: &impl Fn(&str),
+) -> Result<&'c (PyramidKey, Vec<[f32; 4]>, voxelize::VoxelFrame)> {
+    if !plan.runs("voxelize") {
+        progress("radiance pyramid: reused");
+    } else {
+        let (rad, normal, frame) = lit_voxels(ctx, scene, data, plan, stages, progress)?;
+        progress("mip chain");
+        let t = std::time::Instant::now();
+        let pyramid = cone_trace::gpu_pyramid(ctx, &rad, &normal, frame.side)?;
+        stages.push(("surface_coverage_mip", t.elapsed().as_secs_f64()));
+        *cache = Some((key, pyramid, frame));
+    }
+    Ok(cache.as_ref().expect("built or reused above"))
+}
 
 /// The lit voxel grid `(L * alpha, alpha)` (Morton order), its normals, its frame.
 type LitVoxels = (Vec<[f32; 4]>, Vec<[f32; 4]>, voxelize::VoxelFrame);
@@ -391,6 +406,9 @@ pub enum Pipeline {
     /// Binary occlusion voxels + layered reflective shadow maps per light view (Sugihara 2014): cones
     /// take occlusion from the voxels and radiance from the LRSMs. Point and spot lights.
     Lrsm,
+    /// Clustered pre-convolved radiance caching (Rehfeld 2014): caches placed on clusters of the
+    /// view's pixels, filled by cones through the radiance pyramid, pre-convolved, gathered.
+    Cprc,
 }
 
 impl Pipeline {
@@ -399,22 +417,36 @@ impl Pipeline {
             Pipeline::VctDense => "vct-dense",
             Pipeline::VctSvo => "vct-svo",
             Pipeline::Lrsm => "lrsm",
+            Pipeline::Cprc => "cprc",
         }
     }
 
     /// The stages of a frame, in order: G-buffer, direct light, voxelization, voxel light, the volume
-    /// (mips or octree), the cone pass.
-    pub fn stages(self) -> [&'static str; 6] {
-        let (voxels, volume, cones) = match self {
-            Pipeline::VctDense => ("voxel_light", "surface_coverage_mip", "cone_trace"),
-            Pipeline::VctSvo => ("voxel_light", "sparse_voxel_octree", "svo_cone_trace"),
+    /// (mips or octree), then the cone pass (cprc: its four cache stages); the last is the stage that
+    /// shades the pixels.
+    pub fn stages(self) -> Vec<&'static str> {
+        let (voxels, volume, cones): (_, _, &[&'static str]) = match self {
+            Pipeline::VctDense => ("voxel_light", "surface_coverage_mip", &["cone_trace"]),
+            Pipeline::VctSvo => ("voxel_light", "sparse_voxel_octree", &["svo_cone_trace"]),
             Pipeline::Lrsm => (
                 "occlusion_voxels",
                 "reflective_shadow_map",
-                "lrsm_cone_trace",
+                &["lrsm_cone_trace"],
+            ),
+            Pipeline::Cprc => (
+                "voxel_light",
+                "surface_coverage_mip",
+                &[
+                    "cache_distribution",
+                    "cache_creation",
+                    "cache_preconvolve",
+                    "gather_caches",
+                ],
             ),
         };
-        ["gbuffer", "direct_light", "voxelize", voxels, volume, cones]
+        let mut s = vec!["gbuffer", "direct_light", "voxelize", voxels, volume];
+        s.extend_from_slice(cones);
+        s
     }
 
     /// The frame plan of a first frame (`cached` false) or of a frame after an unchanged one.
@@ -425,6 +457,12 @@ impl Pipeline {
             Pipeline::Lrsm => {
                 FramePlan::lrsm_after(scene, cones, &LrsmSettings::from(&scene.render), cached)
             }
+            Pipeline::Cprc => FramePlan::cprc_after(
+                scene,
+                cones,
+                &crate::cprc::CprcSettings::from(&scene.render),
+                cached,
+            ),
         }
     }
 }
@@ -434,6 +472,8 @@ impl Pipeline {
 pub enum VolumeMemory {
     Octree(crate::kernels::sparse_voxel_octree::MemoryReport),
     Lrsm(LrsmMemory),
+    /// cprc: what its caches did (count, pixels without a valid cache).
+    Caches(crate::cprc::CprcStats),
 }
 
 /// Frames of either pipeline, with the planner's reuse rule on or off.
@@ -441,6 +481,7 @@ pub enum Renderer {
     Dense(VctDense),
     Svo(VctSvo),
     Lrsm(VctLrsm),
+    Cprc(VctCprc),
 }
 
 impl Renderer {
@@ -449,6 +490,7 @@ impl Renderer {
             Pipeline::VctDense => Renderer::Dense(VctDense::new(reuse)),
             Pipeline::VctSvo => Renderer::Svo(VctSvo::new(reuse)),
             Pipeline::Lrsm => Renderer::Lrsm(VctLrsm::new(reuse)),
+            Pipeline::Cprc => Renderer::Cprc(VctCprc::new(reuse)),
         }
     }
 
@@ -468,6 +510,9 @@ impl Renderer {
             Renderer::Lrsm(r) => r
                 .render(ctx, scene, cones, progress)
                 .map(|(f, m)| (f, Some(VolumeMemory::Lrsm(m)))),
+            Renderer::Cprc(r) => r
+                .render(ctx, scene, cones, progress)
+                .map(|(f, m)| (f, Some(VolumeMemory::Caches(m)))),
         }
     }
 }
@@ -611,6 +656,92 @@ impl VctLrsm {
     }
 }
 
+/// The cprc pipeline (Rehfeld et al. 2014, see [`crate::cprc`]): one frame, nothing kept.
+pub fn render_cprc(
+    ctx: &crate::harness::GpuContext,
+    scene: &Scene,
+    cones: &ConeSettings,
+    progress: impl Fn(&str),
+) -> Result<(Rendered, crate::cprc::CprcStats)> {
+    VctCprc::new(false).render(ctx, scene, cones, progress)
+}
+
+/// The cprc pipeline over a sequence of frames, with vct-dense's reuse rule for the radiance pyramid
+/// (the caches follow the view and are rebuilt every frame).
+pub struct VctCprc {
+    reuse: bool,
+    cache: Option<(PyramidKey, Vec<[f32; 4]>, voxelize::VoxelFrame)>,
+}
+
+impl VctCprc {
+    pub fn new(reuse: bool) -> Self {
+        Self { reuse, cache: None }
+    }
+
+    pub fn render(
+        &mut self,
+        ctx: &crate::harness::GpuContext,
+        scene: &Scene,
+        cones: &ConeSettings,
+        progress: impl Fn(&str),
+    ) -> Result<(Rendered, crate::cprc::CprcStats)> {
+        use crate::cprc;
+        let key = PyramidKey::of(scene);
+        let cached = self.reuse && self.cache.as_ref().is_some_and(|c| c.0 == key);
+        let settings = cprc::CprcSettings::from(&scene.render);
+        let plan = FramePlan::cprc_after(scene, cones, &settings, cached);
+        if !cached {
+            self.cache = None;
+        }
+        let data = SceneData::new(scene);
+        let mut stages = Vec::new();
+        let (gb, direct) = gbuffer_and_direct(ctx, &data, &plan, &mut stages, &progress)?;
+        let (_, pyramid, frame) = radiance_pyramid(
+            ctx,
+            scene,
+            &data,
+            &plan,
+            &mut self.cache,
+            key,
+            &mut stages,
+            &progress,
+        )?;
+        let params = cone_trace::cone_params(frame, cones);
+        let (pos, nrm, tri, alb) = cprc::gbuffer_arrays(&gb);
+        let px = cprc::pixel_inputs(&data, &pos, &nrm, &tri, &alb, settings.res);
+        progress("cache distribution");
+        let t = std::time::Instant::now();
+        let offset = params.offset_voxels * params.origin[3];
+        let set = cprc::distribute_gpu(ctx, &px, &settings, offset)?;
+        stages.push(("cache_distribution", t.elapsed().as_secs_f64()));
+        let (diffuse, glossy, ws) = cprc::evaluate_gpu(
+            ctx,
+            &px,
+            &set,
+            &settings,
+            pyramid,
+            &params,
+            &mut stages,
+            &progress,
+        )?;
+        let (indirect, ao, stats) =
+            cprc::compose(&px, &diffuse, &glossy, &ws, set.caches.pos.len());
+        let (w, h) = (direct.width, direct.height);
+        let combined = RgbImage::new(w, h, crate::images::add(&direct.pixels, &indirect.pixels));
+        Ok((
+            Rendered {
+                direct,
+                indirect,
+                combined,
+                ao,
+                stages,
+                plan,
+            },
+            stats,
+        ))
+    }
+}
+
 /// Run a cone pass (`decl`: a kernel on common/cone_march.wgsl, `case` from its case_for, started at
 /// `started`) and assemble the frame: indirect and AO from it, combined = direct + indirect. A case
 /// with lrsm's shadow-cone pass replaces `direct` (the plan skipped direct_light) by its soft direct
@@ -668,20 +799,7 @@ fn image_of(w: u32, h: u32, bytes: &[u8]) -> RgbImage {
 /// snapshot tests store; the GPU image is then compared to it numerically (DESIGN.md section 8).
 pub fn render_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendered> {
     let m = MirrorFrame::new(scene)?;
-    let mut level = m.lit.clone();
-    let mut pyramid = level.clone();
-    let mut nrm = m.normal.clone();
-    while level.len() > 1 {
-        let (c, n) = vxgi_cpu_mirror::surface_coverage_mip::reduce_level(
-            &level,
-            &nrm,
-            vxgi_cpu_mirror::surface_coverage_mip::Coverage::Surface,
-            false,
-        );
-        pyramid.extend_from_slice(&c);
-        level = c;
-        nrm = n;
-    }
+    let pyramid = m.pyramid();
     let params = cone_trace::cone_params(&m.frame, cones);
     let pyr = vxgi_cpu_mirror::cone_trace::Pyramid {
         p: &params,
@@ -704,6 +822,41 @@ pub fn render_lrsm_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendere
         &vol,
         lmax,
         FramePlan::lrsm_after(scene, cones, &settings, false),
+    ))
+}
+
+/// cprc computed by the scalar mirrors alone (the snapshot tests' cprc images): the mirror's pyramid,
+/// distribution, cache creation, pre-convolution and gather.
+pub fn render_cprc_mirror(
+    scene: &Scene,
+    cones: &ConeSettings,
+) -> Result<(Rendered, crate::cprc::CprcStats)> {
+    use crate::cprc;
+    let m = MirrorFrame::new(scene)?;
+    let pyramid = m.pyramid();
+    let settings = cprc::CprcSettings::from(&scene.render);
+    let params = cone_trace::cone_params(&m.frame, cones);
+    let pos: Vec<[f32; 4]> = m.texels.iter().map(|t| t.position).collect();
+    let nrm: Vec<[f32; 4]> = m.texels.iter().map(|t| t.normal).collect();
+    let tri: Vec<u32> = m.texels.iter().map(|t| t.triangle).collect();
+    let px = cprc::pixel_inputs(&m.data, &pos, &nrm, &tri, &m.albedo, settings.res);
+    let offset = params.offset_voxels * params.origin[3];
+    let set = cprc::distribute_mirror(&px, &settings, offset)?;
+    let (diffuse, glossy, ws) = cprc::evaluate_mirror(&px, &set, &settings, &pyramid, &params);
+    let (indirect, ao, stats) = cprc::compose(&px, &diffuse, &glossy, &ws, set.caches.pos.len());
+    let (w, h) = (m.data.width(), m.data.height());
+    let combined = RgbImage::new(w, h, crate::images::add(&m.direct, &indirect.pixels));
+    let cached = false;
+    Ok((
+        Rendered {
+            direct: RgbImage::new(w, h, m.direct),
+            indirect,
+            combined,
+            ao,
+            stages: vec![],
+            plan: FramePlan::cprc_after(scene, cones, &settings, cached),
+        },
+        stats,
     ))
 }
 
@@ -809,6 +962,25 @@ impl MirrorFrame {
             normal,
             frame,
         })
+    }
+
+    /// The surface-coverage pyramid of the lit voxels (surface_coverage_mip's mirror, level by level).
+    fn pyramid(&self) -> Vec<[f32; 4]> {
+        let mut level = self.lit.clone();
+        let mut pyramid = level.clone();
+        let mut nrm = self.normal.clone();
+        while level.len() > 1 {
+            let (c, n) = vxgi_cpu_mirror::surface_coverage_mip::reduce_level(
+                &level,
+                &nrm,
+                vxgi_cpu_mirror::surface_coverage_mip::Coverage::Surface,
+                false,
+            );
+            pyramid.extend_from_slice(&c);
+            level = c;
+            nrm = n;
+        }
+        pyramid
     }
 
     /// Cone-trace every texel through `volume` and assemble the frame.

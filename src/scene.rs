@@ -166,6 +166,18 @@ pub struct RenderSettings {
     /// light through the occlusion voxels instead of an exact shadow ray; 0 (the default) = exact rays,
     /// the light-transport contract. In [0, 45].
     pub shadow_cone_angle: f32,
+    /// cprc: radiance-cache side in texels (hemi-octahedral; a power of two, 1..=64).
+    pub cache_resolution: u32,
+    /// cprc: side of each cache's cosine-folded irradiance map (a power of two, 1..=64; capped at
+    /// cache_resolution).
+    pub irradiance_resolution: u32,
+    /// cprc: screen tile of the cache distribution, pixels (4..=64); about 3 caches per tile and
+    /// depth slice it covers.
+    pub cache_tile: u32,
+    /// cprc: depth slices of the cluster keys (1..=64; exponential between 0.1 and 100 units).
+    pub cache_depth_slices: u32,
+    /// cprc: gathering radius in tiles (the paper's f; > 0, at most 8).
+    pub gather_radius: f32,
 }
 
 impl RenderSettings {
@@ -231,6 +243,38 @@ impl RenderSettings {
                 self.shadow_cone_angle
             ));
         }
+        if !(1..=64).contains(&self.cache_resolution) || !self.cache_resolution.is_power_of_two() {
+            return Err(format!(
+                "cache_resolution = {} must be a power of two in 1..=64",
+                self.cache_resolution
+            ));
+        }
+        if !(1..=64).contains(&self.irradiance_resolution)
+            || !self.irradiance_resolution.is_power_of_two()
+        {
+            return Err(format!(
+                "irradiance_resolution = {} must be a power of two in 1..=64",
+                self.irradiance_resolution
+            ));
+        }
+        if !(4..=64).contains(&self.cache_tile) {
+            return Err(format!(
+                "cache_tile = {} must be in 4..=64",
+                self.cache_tile
+            ));
+        }
+        if !(1..=64).contains(&self.cache_depth_slices) {
+            return Err(format!(
+                "cache_depth_slices = {} must be in 1..=64",
+                self.cache_depth_slices
+            ));
+        }
+        if !(self.gather_radius > 0.0 && self.gather_radius <= 8.0) {
+            return Err(format!(
+                "gather_radius = {} must be in (0, 8] tiles",
+                self.gather_radius
+            ));
+        }
         if !(self.mip_clamp >= 0.0 && self.mip_clamp.is_finite()) {
             return Err(format!(
                 "mip_clamp = {} must be finite and >= 0",
@@ -261,6 +305,13 @@ impl Default for RenderSettings {
             lrsm_normal_splits: 1,
             lrsm_overlap: 0.05,
             shadow_cone_angle: 0.0,
+            // The paper's 16^2 caches and two-tile gathering radius; 16-pixel tiles give ~1000
+            // caches at 256x256.
+            cache_resolution: 16,
+            irradiance_resolution: 8,
+            cache_tile: 16,
+            cache_depth_slices: 16,
+            gather_radius: 2.0,
         }
     }
 }

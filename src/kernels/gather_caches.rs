@@ -62,17 +62,40 @@ pub fn place_caches(inp: &DistributionInputs) -> Caches {
         })
         .collect();
     let best = best_pixels(&clusters, &inp.sorted_pixels, &scores);
-    let tiles_x = inp.width.div_ceil(inp.tile);
-    let tiles = (tiles_x * inp.height.div_ceil(inp.tile)) as usize;
+    caches_at(
+        inp.width,
+        inp.height,
+        inp.tile,
+        &inp.normals,
+        &inp.positions,
+        &clusters,
+        &best,
+    )
+}
+
+/// One cache per cluster at its picked pixel (`picks[c]`, from cache_placement): position, pixel,
+/// normal (the pixel's snorm16 normal, normalised) and world radius r_w; caches are in cluster order,
+/// which is tile-major (keys start with the tile), so each tile's caches form one range.
+pub fn caches_at(
+    width: u32,
+    height: u32,
+    tile: u32,
+    normals: &[[u32; 2]],
+    positions: &[[f32; 4]],
+    clusters: &[vxgi_cpu_mirror::cluster_extract::Cluster],
+    picks: &[u32],
+) -> Caches {
+    let tiles_x = width.div_ceil(tile);
+    let tiles = (tiles_x * height.div_ceil(tile)) as usize;
     let mut c = Caches {
         pos: Vec::new(),
         pixel: Vec::new(),
         normal: Vec::new(),
         tile_ranges: vec![[0, 0]; tiles],
     };
-    for (i, &p) in best.iter().enumerate() {
-        let (x, y) = (p % inp.width, p / inp.width);
-        let q = unpack(inp.normals[p as usize]).unwrap_or([0, 0, 32767]);
+    for (i, &p) in picks.iter().enumerate() {
+        let (x, y) = (p % width, p / width);
+        let q = unpack(normals[p as usize]).unwrap_or([0, 0, 32767]);
         // r_w: 1.5 x the cluster's bounding-box diagonal (every pixel of the cluster lies within the
         // diagonal of the cache, which is one of them), at least 1e-3 scene units.
         let cl = &clusters[i];
@@ -80,16 +103,12 @@ pub fn place_caches(inp: &DistributionInputs) -> Caches {
             .map(|a| (cl.bbox_max[a] - cl.bbox_min[a]).powi(2))
             .sum::<f32>()
             .sqrt();
-        let wp = inp.positions[p as usize];
+        let wp = positions[p as usize];
         c.pos.push([wp[0], wp[1], wp[2], (1.5 * diag).max(1.0e-3)]);
         c.pixel.push([x, y]);
-        c.normal.push([
-            q[0] as f32 / 32767.0,
-            q[1] as f32 / 32767.0,
-            q[2] as f32 / 32767.0,
-            1.0,
-        ]);
-        let t = ((y / inp.tile) * tiles_x + x / inp.tile) as usize;
+        let n = glam::Vec3::new(q[0] as f32, q[1] as f32, q[2] as f32).normalize_or(glam::Vec3::Z);
+        c.normal.push([n.x, n.y, n.z, 0.0]);
+        let t = ((y / tile) * tiles_x + x / tile) as usize;
         if c.tile_ranges[t][1] == 0 {
             c.tile_ranges[t][0] = i as u32;
         }

@@ -1,0 +1,612 @@
+//! The cprc pipeline (Rehfeld et al. 2014, "Clustered Pre-convolved Radiance Caching"): vct-dense's
+//! G-buffer, direct light, lit voxels and surface-coverage pyramid; then
+//! 1. cache distribution (3.2) on the G-buffer: `tile_normal_histogram`, `histogram_axes`,
+//!    `cluster_keys`, `radix_sort`, `cluster_extract`, `cache_placement` — one cache per cluster;
+//! 2. cache creation (3.1): `cache_creation`, one cone per cache texel through the pyramid;
+//! 3. pre-convolution: `cache_preconvolve`, each cache's mip chain and cosine-folded irradiance map;
+//! 4. evaluation by gathering (3.3): `gather_caches`, diffuse by the pixel normal, glossy by the
+//!    reflection vector at the mip level of the Phong lobe's solid angle at 1%, weights min(w_w, w_s).
+//!
+//! Indirect = albedo / pi * E + Ks * G (E the gathered irradiance, G the gathered glossy radiance);
+//! the caches hold one bounce of the voxels' direct light, as vct-dense's cones do. cprc has no AO
+//! pass: its AO image is 1 (unoccluded) on geometry. Stages hand over through host memory like the
+//! other pipelines (each hand-over is what `vxgi verify` checks); the GPU's outputs feed the next GPU
+//! stage, the mirrors only size the placement pass and check the cluster count.
+use crate::images::RgbImage;
+use crate::kernels::{
+    cache_creation, cache_placement, cache_preconvolve, cluster_extract, cluster_keys,
+    gather_caches, histogram_axes, radix_sort, tile_normal_histogram,
+};
+use crate::scene::RenderSettings;
+use crate::trace::SceneData;
+use anyhow::{bail, Context, Result};
+use vxgi_cpu_mirror::cluster_extract::Cluster;
+use vxgi_cpu_mirror::gather_caches::{GatherParams, MIN_WEIGHT_SUM};
+use vxgi_harness::{GpuContext, HostBuffer, HostResource, Resources};
+
+/// cprc's `[render]` knobs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CprcSettings {
+    /// Cache side in texels (hemi-octahedral, power of two).
+    pub res: u32,
+    /// Irradiance map side (power of two, <= res).
+    pub irr: u32,
+    /// Screen tile of the distribution, pixels.
+    pub tile: u32,
+    /// Depth slices of the cluster keys.
+    pub slices: u32,
+    /// Gathering radius in pixels (the paper's f x tile size).
+    pub radius_px: u32,
+}
+
+impl From<&RenderSettings> for CprcSettings {
+    fn from(r: &RenderSettings) -> Self {
+        Self {
+            res: r.cache_resolution,
+            irr: r.irradiance_resolution.min(r.cache_resolution),
+            tile: r.cache_tile,
+            slices: r.cache_depth_slices,
+            radius_px: ((r.gather_radius * r.cache_tile as f32).round() as u32).max(1),
+        }
+    }
+}
+
+/// Depth-slice bounds of the cluster keys: exponential between these, as cluster_keys' cases.
+const NEAR: f32 = 0.1;
+const FAR: f32 = 100.0;
+
+/// What the distribution and the gather read per pixel, from a G-buffer.
+pub struct PixelInputs {
+    pub width: u32,
+    pub height: u32,
+    /// snorm16-packed normals (background and back faces: geometry 0).
+    pub normals: Vec<[u32; 2]>,
+    /// View depth along the camera's forward axis.
+    pub depth: Vec<f32>,
+    /// World position, w = 1 where the pixel gathers (front-facing geometry), else 0.
+    pub positions: Vec<[f32; 4]>,
+    /// Two per pixel: (normal, 0), (reflection vector, glossy mip level; -1 without Ks).
+    pub pixel_dirs: Vec<[f32; 4]>,
+    /// Per pixel: (albedo rgb, 0) and (Ks rgb, 0), for composing the indirect image.
+    pub albedo: Vec<[f32; 4]>,
+    pub specular: Vec<[f32; 4]>,
+    /// Any geometry (front or back face): where the AO image is 1.
+    pub geometry: Vec<bool>,
+}
+
+/// Mip level of a Phong lobe of exponent `e` in a cache of `res^2` texels: the lobe's solid angle at 1%
+/// (cos^e theta = 0.01: 2 pi (1 - 0.01^(1/e))) over the mean texel's (2 pi / res^2), as a side ratio
+/// (each level quadruples a texel's solid angle); 0 at least.
+pub fn glossy_level(e: f32, res: u32) -> f32 {
+    let c = 0.01f64.powf(1.0 / e.max(1e-3) as f64);
+    let ratio = (1.0 - c) * (res as f64 * res as f64);
+    (0.5 * ratio.max(1.0).log2()) as f32
+}
+
+/// The per-pixel inputs from a G-buffer's positions, normals (w: 1 front, -1 back, 0 none), triangles
+/// and albedos.
+pub fn pixel_inputs(
+    data: &SceneData,
+    pos: &[[f32; 4]],
+    nrm: &[[f32; 4]],
+    tri: &[u32],
+    albedo: &[[f32; 4]],
+    res: u32,
+) -> PixelInputs {
+    let f = &data.frame;
+    let eye = glam::Vec3::new(f.eye[0], f.eye[1], f.eye[2]);
+    let fwd = glam::Vec3::new(f.forward[0], f.forward[1], f.forward[2]);
+    let n = pos.len();
+    let mut normals = Vec::with_capacity(n);
+    let mut px = PixelInputs {
+        width: data.width(),
+        height: data.height(),
+        normals: Vec::new(),
+        depth: Vec::with_capacity(n),
+        positions: Vec::with_capacity(n),
+        pixel_dirs: Vec::with_capacity(2 * n),
+        albedo: Vec::with_capacity(n),
+        specular: Vec::with_capacity(n),
+        geometry: nrm.iter().map(|v| v[3] != 0.0).collect(),
+    };
+    for i in 0..n {
+        let p = glam::Vec3::new(pos[i][0], pos[i][1], pos[i][2]);
+        let t = tri[i] as usize;
+        let front = nrm[i][3] > 0.0 && t < data.triangles.len() && p.is_finite();
+        if !front {
+            normals.push(None);
+            px.depth.push(0.0);
+            px.positions.push([0.0; 4]);
+            px.pixel_dirs.extend([[0.0; 4], [0.0, 0.0, 0.0, -1.0]]);
+            px.albedo.push([0.0; 4]);
+            px.specular.push([0.0; 4]);
+            continue;
+        }
+        let nv = glam::Vec3::new(nrm[i][0], nrm[i][1], nrm[i][2]).normalize_or(glam::Vec3::Z);
+        let m =
+            &data.materials[(data.triangles[t].material() as usize).min(data.materials.len() - 1)];
+        let wo = (eye - p).normalize_or(nv);
+        let r = nv * (2.0 * nv.dot(wo)) - wo;
+        let glossy = m.specular[..3].iter().any(|&k| k != 0.0);
+        let lf = if glossy {
+            glossy_level(m.diffuse[3], res)
+        } else {
+            -1.0
+        };
+        normals.push(Some([nv.x, nv.y, nv.z]));
+        px.depth.push((p - eye).dot(fwd));
+        px.positions.push([p.x, p.y, p.z, 1.0]);
+        px.pixel_dirs
+            .extend([[nv.x, nv.y, nv.z, 0.0], [r.x, r.y, r.z, lf]]);
+        px.albedo.push(albedo[i]);
+        px.specular
+            .push([m.specular[0], m.specular[1], m.specular[2], 0.0]);
+    }
+    px.normals = crate::gbuffers::packed(&normals);
+    cluster_keys::sanitise(&mut px.normals, &px.depth);
+    px
+}
+
+/// The caches a distribution placed, ready for creation and the gather.
+pub struct CacheSet {
+    pub caches: gather_caches::Caches,
+    /// Two vec4s per cache for cache_creation: (origin = position + offset along the normal, 0),
+    /// (normal, 0).
+    pub creation: Vec<[f32; 4]>,
+}
+
+impl CacheSet {
+    fn new(caches: gather_caches::Caches, offset: f32) -> Self {
+        let mut creation = Vec::with_capacity(2 * caches.pos.len());
+        for (p, n) in caches.pos.iter().zip(&caches.normal) {
+            creation.push([
+                p[0] + n[0] * offset,
+                p[1] + n[1] * offset,
+                p[2] + n[2] * offset,
+                0.0,
+            ]);
+            creation.push(*n);
+        }
+        Self { caches, creation }
+    }
+}
+
+/// Key bits the sort needs: every real key is below tiles * 3 * slices, and the background key
+/// (all ones) must stay above them in the low bits.
+fn key_bits(tiles: u32, slices: u32) -> u32 {
+    let m = tiles as u64 * 3 * slices as u64;
+    (64 - m.leading_zeros()).clamp(1, 32)
+}
+
+fn read<T: bytemuck::Pod>(out: &vxgi_harness::run::RunOutput, name: &str) -> Vec<T> {
+    bytemuck::cast_slice(&out.buffer(name).bytes).to_vec()
+}
+
+/// Cache distribution on the GPU: every kernel's output is the next kernel's input.
+pub fn distribute_gpu(
+    ctx: &GpuContext,
+    px: &PixelInputs,
+    s: &CprcSettings,
+    offset: f32,
+) -> Result<CacheSet> {
+    use vxgi_harness::run::run;
+    let (w, h) = (px.width, px.height);
+    let hp = tile_normal_histogram::params(w, h, s.tile)?;
+    let case = tile_normal_histogram::case_for(&px.normals, hp, "cprc".into(), 0)?;
+    let decl = &tile_normal_histogram::DECL;
+    let out = run(
+        ctx,
+        &decl.shader()?,
+        decl.name,
+        &case.resources,
+        &case.passes,
+        &["histogram", "blurred"],
+    )
+    .context("tile_normal_histogram")?;
+    let (raw, blurred): (Vec<u32>, Vec<u32>) = (read(&out, "histogram"), read(&out, "blurred"));
+
+    let decl = &histogram_axes::DECL;
+    let shader = decl.shader()?;
+    let case = histogram_axes::axes_case(&shader, ctx, &raw, &blurred, "cprc".into(), 0);
+    let out = run(
+        ctx,
+        &shader,
+        decl.name,
+        &case.resources,
+        &case.passes,
+        &["axes"],
+    )
+    .context("histogram_axes")?;
+    let axes: Vec<u32> = read(&out, "axes");
+
+    let decl = &cluster_keys::DECL;
+    let shader = decl.shader()?;
+    let mut case = cluster_keys::case_for(
+        &shader,
+        ctx,
+        &px.normals,
+        &px.depth,
+        w,
+        h,
+        s.tile,
+        s.slices,
+        "cprc".into(),
+        0,
+    );
+    case.resources.insert(
+        "tile_axes".into(),
+        HostResource::Buffer(HostBuffer::u32(&axes)),
+    );
+    let mut bounds = vxgi_cpu_mirror::cluster_keys::slice_bounds(NEAR, FAR, s.slices);
+    bounds.push(f32::INFINITY);
+    case.resources.insert(
+        "slice_bounds".into(),
+        HostResource::Buffer(HostBuffer::f32(&bounds)),
+    );
+    let out = run(
+        ctx,
+        &shader,
+        decl.name,
+        &case.resources,
+        &case.passes,
+        &["keys"],
+    )
+    .context("cluster_keys")?;
+    let keys: Vec<u32> = read(&out, "keys");
+
+    let tiles = hp.tiles_x * h.div_ceil(s.tile);
+    let values: Vec<u32> = (0..keys.len() as u32).collect();
+    let (case, [kname, vname]) = radix_sort::case_for(
+        ctx,
+        &keys,
+        &values,
+        key_bits(tiles, s.slices),
+        "cprc".into(),
+        0,
+    )?;
+    let decl = &radix_sort::DECL;
+    let out = run(
+        ctx,
+        &decl.shader()?,
+        decl.name,
+        &case.resources,
+        &case.passes,
+        &[&kname, &vname],
+    )
+    .context("radix_sort")?;
+    let inp = cluster_extract::DistributionInputs {
+        width: w,
+        height: h,
+        tile: s.tile,
+        normals: px.normals.clone(),
+        positions: px
+            .positions
+            .iter()
+            .map(|p| [p[0], p[1], p[2], 1.0])
+            .collect(),
+        sorted_keys: read(&out, &kname),
+        sorted_pixels: read(&out, &vname),
+    };
+
+    let decl = &cluster_extract::DECL;
+    let case = cluster_extract::case_for(ctx, &inp, "cprc".into(), 0);
+    let out = run(
+        ctx,
+        &decl.shader()?,
+        decl.name,
+        &case.resources,
+        &case.passes,
+        &["cluster_count", "clusters", "pixel_cluster"],
+    )
+    .context("cluster_extract")?;
+    let count = read::<u32>(&out, "cluster_count")[0] as usize;
+    let clusters_buf = out.buffer("clusters").clone();
+    let pixel_cluster = out.buffer("pixel_cluster").clone();
+    let clusters: Vec<Cluster> =
+        bytemuck::cast_slice::<u8, Cluster>(&clusters_buf.bytes)[..count].to_vec();
+
+    // The placement case sizes its pick pass by the mirror's clusters: the same ones (exact kernels),
+    // checked.
+    let decl = &cache_placement::DECL;
+    let mut case = cache_placement::case_for(ctx, &inp, "cprc".into(), 0);
+    let mirror_count = case.resources["cluster_count"]
+        .buffer()
+        .expect("buffer")
+        .as_u32()[0] as usize;
+    if mirror_count != count {
+        bail!("cache distribution: the GPU found {count} clusters, the mirror {mirror_count}");
+    }
+    case.resources
+        .insert("clusters".into(), HostResource::Buffer(clusters_buf));
+    case.resources
+        .insert("pixel_cluster".into(), HostResource::Buffer(pixel_cluster));
+    let out = run(
+        ctx,
+        &decl.shader()?,
+        decl.name,
+        &case.resources,
+        &case.passes,
+        &["picks"],
+    )
+    .context("cache_placement")?;
+    let picks: Vec<u32> = read::<u32>(&out, "picks")[..count].to_vec();
+    let caches =
+        gather_caches::caches_at(w, h, s.tile, &px.normals, &inp.positions, &clusters, &picks);
+    Ok(CacheSet::new(caches, offset))
+}
+
+/// The same distribution by the mirrors (the mirror pipeline's).
+pub fn distribute_mirror(px: &PixelInputs, s: &CprcSettings, offset: f32) -> Result<CacheSet> {
+    use vxgi_cpu_mirror::{
+        cluster_keys as ck, histogram_axes, octahedral, radix_sort as rs,
+        tile_normal_histogram as th,
+    };
+    let (w, h) = (px.width, px.height);
+    let hp = tile_normal_histogram::params(w, h, s.tile)?;
+    let (raw, blurred) = th::histograms(&px.normals, &hp);
+    let axes = histogram_axes::all_axes(&blurred, &raw, &octahedral::reweight_table());
+    let mut bounds = ck::slice_bounds(NEAR, FAR, s.slices);
+    bounds.push(f32::INFINITY);
+    let p = ck::KeyParams {
+        width: w,
+        height: h,
+        tile: s.tile,
+        tiles_x: hp.tiles_x,
+        slices: s.slices,
+        _pad: [0; 3],
+    };
+    let dirs = ck::axis_directions();
+    let keys = ck::keys(
+        &p,
+        &ck::KeyInputs {
+            normals: &px.normals,
+            depth: &px.depth,
+            tile_axes: &axes,
+            axis_dirs: &dirs,
+            slice_bounds: &bounds,
+        },
+    );
+    let tiles = hp.tiles_x * h.div_ceil(s.tile);
+    let values: Vec<u32> = (0..keys.len() as u32).collect();
+    let (sorted_keys, sorted_pixels) = rs::sort(&keys, &values, key_bits(tiles, s.slices));
+    let inp = cluster_extract::DistributionInputs {
+        width: w,
+        height: h,
+        tile: s.tile,
+        normals: px.normals.clone(),
+        positions: px
+            .positions
+            .iter()
+            .map(|p| [p[0], p[1], p[2], 1.0])
+            .collect(),
+        sorted_keys,
+        sorted_pixels,
+    };
+    Ok(CacheSet::new(gather_caches::place_caches(&inp), offset))
+}
+
+/// The gather's inputs from a frame's pixels, its caches and their pre-convolved maps.
+pub fn gather_data(
+    px: &PixelInputs,
+    set: &CacheSet,
+    s: &CprcSettings,
+    irradiance: Vec<[f32; 4]>,
+    mips: Vec<[f32; 4]>,
+) -> gather_caches::GatherData {
+    let c = &set.caches;
+    gather_caches::GatherData {
+        params: GatherParams {
+            width: px.width,
+            height: px.height,
+            tile: s.tile,
+            tiles_x: px.width.div_ceil(s.tile),
+            tiles_y: px.height.div_ceil(s.tile),
+            radius_px: s.radius_px,
+            res: s.res,
+            levels: s.res.trailing_zeros() + 1,
+            irr: s.irr,
+            _pad: [0; 3],
+        },
+        positions: px.positions.clone(),
+        pixel_dirs: px.pixel_dirs.clone(),
+        cache_pos: c.pos.clone(),
+        cache_pixel: c.pixel.clone(),
+        cache_normal: c.normal.clone(),
+        cache_irradiance: irradiance,
+        cache_mips: mips,
+        tile_ranges: c.tile_ranges.clone(),
+    }
+}
+
+/// What a cprc frame reports beyond its images.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CprcStats {
+    pub caches: usize,
+    /// Front-facing geometry pixels, and those left without a valid cache (weight sum <= 1e-6: the
+    /// paper's Fig. 6 measure).
+    pub pixels: usize,
+    pub uncovered: usize,
+}
+
+/// Indirect (albedo / pi * E + Ks * G) and AO (1 on geometry) images from the gather's outputs.
+pub fn compose(
+    px: &PixelInputs,
+    diffuse: &[[f32; 4]],
+    glossy: &[[f32; 4]],
+    weight_sum: &[f32],
+    caches: usize,
+) -> (RgbImage, RgbImage, CprcStats) {
+    let inv_pi = std::f32::consts::FRAC_1_PI;
+    let mut stats = CprcStats {
+        caches,
+        ..Default::default()
+    };
+    let mut ind = Vec::with_capacity(diffuse.len());
+    let mut ao = Vec::with_capacity(diffuse.len());
+    for i in 0..diffuse.len() {
+        if px.positions[i][3] != 1.0 {
+            ind.push([0.0; 3]);
+            ao.push([px.geometry[i] as u8 as f32; 3]);
+            continue;
+        }
+        stats.pixels += 1;
+        stats.uncovered += (weight_sum[i] <= MIN_WEIGHT_SUM) as usize;
+        let (a, k) = (px.albedo[i], px.specular[i]);
+        ind.push([0, 1, 2].map(|c| a[c] * inv_pi * diffuse[i][c] + k[c] * glossy[i][c]));
+        ao.push([1.0; 3]);
+    }
+    let (w, h) = (px.width, px.height);
+    (RgbImage::new(w, h, ind), RgbImage::new(w, h, ao), stats)
+}
+
+/// Run creation, pre-convolution and the gather on the GPU for a frame's caches; push their stage
+/// timings. Returns the gather's (diffuse, glossy, weight sum).
+#[allow(clippy::type_complexity, clippy::too_many_arguments)]
+pub fn evaluate_gpu(
+    ctx: &GpuContext,
+    px: &PixelInputs,
+    set: &CacheSet,
+    s: &CprcSettings,
+    pyramid: &[[f32; 4]],
+    cone: &vxgi_cpu_mirror::cone_trace::ConeParams,
+    stages: &mut Vec<(&'static str, f64)>,
+    progress: &impl Fn(&str),
+) -> Result<(Vec<[f32; 4]>, Vec<[f32; 4]>, Vec<f32>)> {
+    use vxgi_harness::run::run;
+    let count = set.caches.pos.len();
+    progress("cache creation");
+    let t = std::time::Instant::now();
+    let (mips, irr) = if count == 0 {
+        (Vec::new(), Vec::new())
+    } else {
+        let case =
+            cache_creation::case_for(ctx, pyramid, cone, &set.creation, s.res, "cprc".into(), 0);
+        let decl = &cache_creation::DECL;
+        let out = run(
+            ctx,
+            &decl.shader()?,
+            decl.name,
+            &case.resources,
+            &case.passes,
+            &["cache_radiance"],
+        )
+        .context("cache creation")?;
+        let radiance: Vec<[f32; 4]> = read(&out, "cache_radiance");
+        stages.push(("cache_creation", t.elapsed().as_secs_f64()));
+        progress("pre-convolution");
+        let t = std::time::Instant::now();
+        let case = cache_preconvolve::case_for(ctx, &radiance, s.res, s.irr, "cprc".into(), 0);
+        let decl = &cache_preconvolve::DECL;
+        let out = run(
+            ctx,
+            &decl.shader()?,
+            decl.name,
+            &case.resources,
+            &case.passes,
+            &["cache_mips", "cache_irradiance"],
+        )
+        .context("pre-convolution")?;
+        stages.push(("cache_preconvolve", t.elapsed().as_secs_f64()));
+        (read(&out, "cache_mips"), read(&out, "cache_irradiance"))
+    };
+    progress("gathering");
+    let t = std::time::Instant::now();
+    let data = gather_data(px, set, s, irr, mips);
+    let decl = &gather_caches::DECL;
+    let shader = decl.shader()?;
+    let case = gather_caches::case_for(&shader, ctx, &data, "cprc".into(), 0);
+    let out = run(
+        ctx,
+        &shader,
+        decl.name,
+        &case.resources,
+        &case.passes,
+        &["diffuse", "glossy", "weight_sum"],
+    )
+    .context("gathering")?;
+    stages.push(("gather_caches", t.elapsed().as_secs_f64()));
+    Ok((
+        read(&out, "diffuse"),
+        read(&out, "glossy"),
+        read(&out, "weight_sum"),
+    ))
+}
+
+/// Creation, pre-convolution and the gather by the mirrors.
+#[allow(clippy::type_complexity)]
+pub fn evaluate_mirror(
+    px: &PixelInputs,
+    set: &CacheSet,
+    s: &CprcSettings,
+    pyramid: &[[f32; 4]],
+    cone: &vxgi_cpu_mirror::cone_trace::ConeParams,
+) -> (Vec<[f32; 4]>, Vec<[f32; 4]>, Vec<f32>) {
+    use rayon::prelude::*;
+    use vxgi_cpu_mirror::{cache_creation as cc, cache_preconvolve as cp, gather_caches as gm};
+    let pyr = vxgi_cpu_mirror::cone_trace::Pyramid {
+        p: cone,
+        voxels: pyramid,
+    };
+    let lmax = crate::kernels::cone_trace::max_radiance(pyramid, cone.side);
+    let dirs = cc::texel_directions(s.res);
+    let tan = cc::cone_tan(s.res);
+    let t = (s.res * s.res) as usize;
+    let count = set.caches.pos.len();
+    let radiance: Vec<[f32; 4]> = (0..count * t)
+        .into_par_iter()
+        .map(|i| {
+            let c = i / t;
+            cc::create_texel(
+                &pyr,
+                [set.creation[2 * c], set.creation[2 * c + 1]],
+                dirs[i % t],
+                tan,
+                lmax,
+            )
+            .0
+        })
+        .collect();
+    let weights = cp::irradiance_weights(s.res, s.irr);
+    let (mut mips, mut irr) = (Vec::new(), Vec::new());
+    for c in 0..count {
+        let tex = &radiance[c * t..(c + 1) * t];
+        mips.extend((0..cp::mip_len(s.res)).map(|j| cp::mip_texel(tex, s.res, j, false)));
+        irr.extend((0..(s.irr * s.irr) as usize).map(|k| cp::irradiance_texel(tex, &weights, k).0));
+    }
+    let data = gather_data(px, set, s, irr, mips);
+    let inp = gm::GatherInputs {
+        positions: &data.positions,
+        pixel_dirs: &data.pixel_dirs,
+        cache_pos: &data.cache_pos,
+        cache_pixel: &data.cache_pixel,
+        cache_normal: &data.cache_normal,
+        cache_irradiance: &data.cache_irradiance,
+        cache_mips: &data.cache_mips,
+        tile_ranges: &data.tile_ranges,
+    };
+    let vmax = [
+        gm::payload_max(inp.cache_irradiance),
+        gm::payload_max(inp.cache_mips),
+    ];
+    let r: Vec<gm::Gathered> = (0..data.positions.len())
+        .into_par_iter()
+        .map(|i| gm::gather(&data.params, &inp, i, vmax))
+        .collect();
+    (
+        r.iter().map(|g| g.diffuse).collect(),
+        r.iter().map(|g| g.glossy).collect(),
+        r.iter().map(|g| g.weight_sum).collect(),
+    )
+}
+
+/// The G-buffer of a GPU frame as host arrays: positions, normals, triangles, albedos.
+#[allow(clippy::type_complexity)]
+pub fn gbuffer_arrays(gb: &Resources) -> (Vec<[f32; 4]>, Vec<[f32; 4]>, Vec<u32>, Vec<[f32; 4]>) {
+    let b = |n: &str| gb[n].buffer().expect("G-buffer buffer");
+    (
+        bytemuck::cast_slice(&b("gb_position").bytes).to_vec(),
+        bytemuck::cast_slice(&b("gb_normal").bytes).to_vec(),
+        b("gb_triangle").as_u32().to_vec(),
+        bytemuck::cast_slice(&b("gb_albedo").bytes).to_vec(),
+    )
+}
