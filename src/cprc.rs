@@ -51,6 +51,17 @@ impl From<&RenderSettings> for CprcSettings {
     }
 }
 
+impl CprcSettings {
+    /// Bytes of `caches` caches: texels, mip chain (level 0 included) and irradiance map, vec4<f32>
+    /// each.
+    pub fn cache_bytes(&self, caches: usize) -> u64 {
+        let per = (self.res * self.res) as usize
+            + vxgi_cpu_mirror::cache_preconvolve::mip_len(self.res)
+            + (self.irr * self.irr) as usize;
+        (caches * per * 16) as u64
+    }
+}
+
 /// Depth-slice bounds of the cluster keys: exponential between these, as cluster_keys' cases.
 const NEAR: f32 = 0.1;
 const FAR: f32 = 100.0;

@@ -38,7 +38,7 @@ pub fn vct_dense_memory(scene: &Scene) -> u64 {
         + pyramid * 32
 }
 
-/// Render every scene with the reference (`spp`), vct-dense, vct-svo and lrsm, write the images under
+/// Render every scene with the reference (`spp`), vct-dense, vct-svo, lrsm and cprc, write the images under
 /// `out` (`<scene>/reference/`, `<scene>/<pipeline>/`) and report.md; return the rows.
 pub fn report(
     ctx: &crate::harness::GpuContext,
@@ -72,7 +72,7 @@ pub fn report(
         )?;
 
         let cones = ConeSettings::from(&scene.render);
-        for pipeline in ["vct-dense", "vct-svo", "lrsm"] {
+        for pipeline in ["vct-dense", "vct-svo", "lrsm", "cprc"] {
             progress(&format!("{name}: {pipeline}"));
             let (r, memory) = if pipeline == "vct-dense" {
                 let r = crate::render::render(ctx, scene, &cones, |_| {})?;
@@ -86,6 +86,12 @@ pub fn report(
                     r,
                     vct_dense_memory(scene) - pyramid + m.occlusion + m.rsm + m.lrsm,
                 )
+            } else if pipeline == "cprc" {
+                let (r, stats) = crate::render::render_cprc(ctx, scene, &cones, |_| {})?;
+                // vct-dense's buffers (the pyramid included) and the caches' texels, mips and
+                // irradiance maps.
+                let s = crate::cprc::CprcSettings::from(&scene.render);
+                (r, vct_dense_memory(scene) + s.cache_bytes(stats.caches))
             } else {
                 let (r, m) = crate::render::render_svo(ctx, scene, &cones, |_| {})?;
                 // vct-dense's buffers with the octree (its actual allocation) for the pyramid.
@@ -128,7 +134,7 @@ pub fn report(
         }
         let _ = writeln!(
             images,
-            "\n### {name}\n\nreference ({spp} spp) | vct-dense | vct-svo | lrsm\n---|---|---|---\n![]({name}/reference/combined.png) | ![]({name}/vct-dense/combined.png) | ![]({name}/vct-svo/combined.png) | ![]({name}/lrsm/combined.png)\n![]({name}/reference/indirect.png) | ![]({name}/vct-dense/indirect.png) | ![]({name}/vct-svo/indirect.png) | ![]({name}/lrsm/indirect.png)\n![]({name}/reference/ao.png) | ![]({name}/vct-dense/ao.png) | ![]({name}/vct-svo/ao.png) | ![]({name}/lrsm/ao.png)"
+            "\n### {name}\n\nreference ({spp} spp) | vct-dense | vct-svo | lrsm | cprc\n---|---|---|---|---\n![]({name}/reference/combined.png) | ![]({name}/vct-dense/combined.png) | ![]({name}/vct-svo/combined.png) | ![]({name}/lrsm/combined.png) | ![]({name}/cprc/combined.png)\n![]({name}/reference/indirect.png) | ![]({name}/vct-dense/indirect.png) | ![]({name}/vct-svo/indirect.png) | ![]({name}/lrsm/indirect.png) | ![]({name}/cprc/indirect.png)\n![]({name}/reference/ao.png) | ![]({name}/vct-dense/ao.png) | ![]({name}/vct-svo/ao.png) | ![]({name}/lrsm/ao.png) | ![]({name}/cprc/ao.png)"
         );
     }
     md.push_str("\ntime: wall clock of the pipeline's stages, transfers between stages included; FLIP: mean LDR-FLIP against the reference (`vxgi compare`); leak: thin_wall only.\n");

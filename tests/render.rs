@@ -294,10 +294,12 @@ fn report_and_plan_commands() {
     assert!(md.contains("| vct-dense | small |"), "{md}");
     assert!(md.contains("| vct-svo | small |"), "{md}");
     assert!(md.contains("| lrsm | small |"), "{md}");
+    assert!(md.contains("| cprc | small |"), "{md}");
     assert!(
         out.join("small/vct-dense/combined.png").exists()
             && out.join("small/vct-svo/combined.png").exists()
             && out.join("small/lrsm/combined.png").exists()
+            && out.join("small/cprc/combined.png").exists()
             && out.join("small/reference/combined.exr").exists()
     );
     let (code, stdout, _) = vxgi(&["render", "--plan", "--pipeline", "vct-svo"]);
@@ -314,6 +316,16 @@ fn report_and_plan_commands() {
     assert_eq!(code, 0);
     assert!(
         stdout.contains("frame plan (vct-dense)") && stdout.contains("no glossy cone"),
+        "{stdout}"
+    );
+    let (code, stdout, _) = vxgi(&["render", "--plan", "--pipeline", "cprc"]);
+    assert_eq!(code, 0);
+    assert!(
+        stdout.contains("frame plan (cprc)")
+            && stdout.contains("cluster_keys")
+            && stdout.contains("cache_creation")
+            && stdout.contains("gather_caches")
+            && !stdout.contains("cone_trace "),
         "{stdout}"
     );
     std::fs::remove_dir_all(&dir).ok();
@@ -574,4 +586,59 @@ fn direct_renderer_writes_into_caller_owned_buffers() {
     for (a, b) in px.iter().zip(&cli.pixels) {
         assert_eq!([a[0], a[1], a[2]], *b);
     }
+}
+
+/// `vxgi render --pipeline cprc` on a tobj scene file: four images, the cache count and the pixels left
+/// without a valid cache printed, every stage timed; a cache resolution that is not a power of two is
+/// refused with the key's name.
+#[test]
+fn cprc_renders_a_tobj_scene_and_refuses_bad_cache_settings() {
+    let dir = std::env::temp_dir().join(format!("vxgi-cli-cprc-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = small_scene_file(&dir);
+    let out = dir.join("cprc");
+    let s = out.display().to_string();
+    let (code, stdout, err) = vxgi(&[
+        "render",
+        &scene,
+        "--pipeline",
+        "cprc",
+        "--cache-tile",
+        "8",
+        "--out",
+        &s,
+    ]);
+    assert_eq!(code, 0, "{stdout}\n{err}");
+    for name in ["direct", "indirect", "combined", "ao"] {
+        let img = read_exr(&out.join(format!("{name}.exr"))).unwrap();
+        assert_eq!((img.width, img.height), (32, 32), "{name}");
+        assert!(img.first_non_finite().is_none(), "{name}");
+    }
+    let ind = read_exr(&out.join("indirect.exr")).unwrap();
+    assert!(ind.pixels.iter().any(|p| p[0] > 0.0), "some indirect light");
+    assert!(
+        stdout.contains("radiance caches;") && stdout.contains("without a valid cache"),
+        "{stdout}"
+    );
+    for stage in [
+        "cache_distribution",
+        "cache_creation",
+        "cache_preconvolve",
+        "gather_caches",
+    ] {
+        assert!(stdout.contains(stage), "{stage}: {stdout}");
+    }
+    let (code, _, err) = vxgi(&[
+        "render",
+        &scene,
+        "--pipeline",
+        "cprc",
+        "--cache-resolution",
+        "12",
+        "--out",
+        &s,
+    ]);
+    assert_ne!(code, 0);
+    assert!(err.contains("cache_resolution = 12"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
 }

@@ -135,3 +135,38 @@ fn cornell_box_64_lrsm_snapshots_and_gpu_agreement() {
         ],
     );
 }
+
+/// cprc: the same 64x64 Cornell box at 64^3 voxels, 8-pixel tiles, caches of 8^2 texels (4^2
+/// irradiance), by the mirrors alone; and the GPU's frame against it (every stage on the GPU, the
+/// distribution's outputs feeding creation and the gather).
+#[test]
+fn cornell_box_64_cprc_snapshots_and_gpu_agreement() {
+    let mut scene = Scene::cornell_box();
+    scene.camera.width = 64;
+    scene.camera.height = 64;
+    scene.render.voxels = 64;
+    scene.render.cache_tile = 8;
+    scene.render.cache_resolution = 8;
+    scene.render.irradiance_resolution = 4;
+    let cones = ConeSettings::default();
+    let (mirror, mstats) = vxgi::render::render_cprc_mirror(&scene, &cones).unwrap();
+    insta::with_settings!({ snapshot_path => "../snapshots", prepend_module_to_snapshot => false }, {
+        insta::assert_binary_snapshot!("cornell_64_cprc_indirect.png", png(&mirror.indirect));
+        insta::assert_binary_snapshot!("cornell_64_cprc_combined.png", png(&mirror.combined));
+    });
+    let (ours, stats) = vxgi::render::render_cprc(gpu(), &scene, &cones, |_| {}).unwrap();
+    println!("cprc: mirror {mstats:?}, GPU {stats:?}");
+    assert_eq!(
+        stats.caches, mstats.caches,
+        "the same clusters, one cache each"
+    );
+    assert!(stats.caches > 30 && stats.uncovered == 0, "{stats:?}");
+    assert_gpu_agrees(
+        "cprc",
+        &[
+            ("indirect", &mirror.indirect, &ours.indirect),
+            ("combined", &mirror.combined, &ours.combined),
+            ("ao", &mirror.ao, &ours.ao),
+        ],
+    );
+}
