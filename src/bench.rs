@@ -25,11 +25,15 @@ pub struct BenchRow {
     /// lrsm: RSM side per light view and layers (depth x <n.l>); swept for that pipeline only.
     pub rsm_side: u32,
     pub lrsm_layers: String,
+    /// cprc: cache side in texels, distribution tile, and the caches the frame placed (0 elsewhere).
+    pub cache_resolution: u32,
+    pub cache_tile: u32,
+    pub caches: usize,
     /// Wall-clock seconds of the whole frame (stages, transfers between them included).
     pub seconds: f64,
     /// Wall-clock seconds per stage, in [`Pipeline::stages`] order (0 where the plan skipped the stage).
     #[serde(skip)]
-    pub stage_seconds: [f64; 6],
+    pub stage_seconds: Vec<f64>,
     pub indirect_rel_mse: f64,
     pub indirect_flip: f32,
     pub combined_rel_mse: f64,
@@ -45,6 +49,9 @@ pub struct BenchRow {
 pub fn sweep(base: &RenderSettings, quick: bool, pipeline: Pipeline) -> Vec<RenderSettings> {
     if pipeline == Pipeline::Lrsm {
         return lrsm_sweep(base, quick);
+    }
+    if pipeline == Pipeline::Cprc {
+        return cprc_sweep(base, quick);
     }
     type Axes<'a> = (&'a [u32], &'a [u32], &'a [f32], &'a [f32], &'a [f32]);
     let (voxels, cones, angles, clamps, steps): Axes = if quick {
@@ -110,6 +117,28 @@ pub fn lrsm_sweep(base: &RenderSettings, quick: bool) -> Vec<RenderSettings> {
                     });
                 }
             }
+        }
+    }
+    out
+}
+
+/// cprc's sweep, the paper's Fig. 5 trade-off: cache tile {4, 8, 16} pixels (the cache count follows:
+/// about 1.7 caches per tile at 256x256 in the Cornell box) x cache resolution {16, 32} = 6, the
+/// voxels and cones at `base`'s. Quick: tile {8, 16} x resolution {8, 16} = 4.
+pub fn cprc_sweep(base: &RenderSettings, quick: bool) -> Vec<RenderSettings> {
+    let (tiles, res): (&[u32], &[u32]) = if quick {
+        (&[8, 16], &[8, 16])
+    } else {
+        (&[4, 8, 16], &[16, 32])
+    };
+    let mut out = Vec::new();
+    for &t in tiles {
+        for &r in res {
+            out.push(RenderSettings {
+                cache_tile: t,
+                cache_resolution: r,
+                ..base.clone()
+            });
         }
     }
     out
@@ -251,7 +280,6 @@ pub fn bench(
         };
         crate::render::Renderer::new(pipeline, false)
             .render(ctx, &s, &ConeSettings::from(settings), |_| {})
-            .map(|(f, _)| f)
             .with_context(|| format!("rendering with {settings:?}"))
     };
     frame(&configs[0])?;
@@ -268,13 +296,18 @@ pub fn bench(
                 settings.rsm_side
             ),
         );
-        let mut stage_seconds = [f64::INFINITY; 6];
+        let names = pipeline.stages();
+        let mut stage_seconds = vec![f64::INFINITY; names.len()];
         let mut r = None;
+        let mut caches = 0;
         for _ in 0..repeats {
-            let f = frame(settings)?;
-            let mut t = [0.0; 6];
+            let (f, memory) = frame(settings)?;
+            if let Some(crate::render::VolumeMemory::Caches(c)) = memory {
+                caches = c.caches;
+            }
+            let mut t = vec![0.0; names.len()];
             for (name, secs) in &f.stages {
-                if let Some(k) = pipeline.stages().iter().position(|s| s == name) {
+                if let Some(k) = names.iter().position(|s| s == name) {
                     t[k] += secs;
                 }
             }
@@ -299,6 +332,9 @@ pub fn bench(
                 settings.lrsm_depth_splits + 1,
                 settings.lrsm_normal_splits + 1
             ),
+            cache_resolution: settings.cache_resolution,
+            cache_tile: settings.cache_tile,
+            caches,
             seconds: stage_seconds.iter().sum(),
             stage_seconds,
             indirect_rel_mse: ind.rel_mse,
@@ -338,6 +374,9 @@ fn write_csv(path: &Path, pipeline: Pipeline, rows: &[BenchRow]) -> Result<()> {
         "cone_step",
         "rsm_side",
         "lrsm_layers",
+        "cache_resolution",
+        "cache_tile",
+        "caches",
         "seconds",
         "indirect_rel_mse",
         "indirect_flip",
@@ -359,6 +398,9 @@ fn write_csv(path: &Path, pipeline: Pipeline, rows: &[BenchRow]) -> Result<()> {
             r.cone_step.to_string(),
             r.rsm_side.to_string(),
             r.lrsm_layers.clone(),
+            r.cache_resolution.to_string(),
+            r.cache_tile.to_string(),
+            r.caches.to_string(),
             format!("{:.4}", r.seconds),
             format!("{:.5}", r.indirect_rel_mse),
             format!("{:.4}", r.indirect_flip),
@@ -377,17 +419,29 @@ fn write_csv(path: &Path, pipeline: Pipeline, rows: &[BenchRow]) -> Result<()> {
 pub fn table(rows: &[BenchRow], pipeline: Pipeline, spp: u32, w: u32, h: u32) -> String {
     let mut sorted: Vec<&BenchRow> = rows.iter().collect();
     sorted.sort_by(|a, b| a.seconds.total_cmp(&b.seconds));
-    let (name, cones) = (pipeline.name(), pipeline.stages()[5]);
+    let stages = pipeline.stages();
+    let (name, last) = (pipeline.name(), stages.len() - 1);
+    // The pixel-shading stage (cprc: its cache stages together, from distribution on).
+    let first_shading = stages
+        .iter()
+        .position(|s| *s == "cache_distribution")
+        .unwrap_or(last);
+    let shading = if first_shading < last {
+        "caches"
+    } else {
+        stages[last]
+    };
     let mut md = format!(
         "# vxgi bench ({name}, {w}x{h}, reference {spp} spp)\n\n\
-         | voxels | cones | half-angle | mip clamp | step | RSM | layers | time | {cones} | voxelize | indirect FLIP | combined FLIP | combined rel. MSE | Pareto |\n\
-         |---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n"
+         | voxels | cones | half-angle | mip clamp | step | RSM | layers | caches | cache res | time | {shading} | voxelize | indirect FLIP | combined FLIP | combined rel. MSE | Pareto |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n"
     );
     let lrsm = pipeline == Pipeline::Lrsm;
+    let cprc = pipeline == Pipeline::Cprc;
     for r in sorted {
         let _ = writeln!(
             md,
-            "| {}^3 | {} | {} | {} | {} | {} | {} | {:.0} ms | {:.0} ms | {:.0} ms | {:.3} | {:.3} | {:.4} | {} |",
+            "| {}^3 | {} | {} | {} | {} | {} | {} | {} | {} | {:.0} ms | {:.0} ms | {:.0} ms | {:.3} | {:.3} | {:.4} | {} |",
             r.voxels,
             r.cones,
             r.cone_half_angle,
@@ -395,8 +449,18 @@ pub fn table(rows: &[BenchRow], pipeline: Pipeline, spp: u32, w: u32, h: u32) ->
             r.cone_step,
             if lrsm { format!("{}^2", r.rsm_side) } else { "-".into() },
             if lrsm { r.lrsm_layers.as_str() } else { "-" },
+            if cprc {
+                format!("{} (tile {})", r.caches, r.cache_tile)
+            } else {
+                "-".into()
+            },
+            if cprc {
+                format!("{}^2", r.cache_resolution)
+            } else {
+                "-".into()
+            },
             r.seconds * 1e3,
-            r.stage_seconds[5] * 1e3,
+            r.stage_seconds[first_shading..].iter().sum::<f64>() * 1e3,
             r.stage_seconds[2] * 1e3,
             r.indirect_flip,
             r.combined_flip,
@@ -502,5 +566,9 @@ mod tests {
             .iter()
             .all(|s| s.ao_range == 0.25 && s.validate().is_ok()));
         assert_eq!(sweep(&base, true, Pipeline::Lrsm).len(), 4);
+        let cprc = sweep(&base, false, Pipeline::Cprc);
+        assert_eq!(cprc.len(), 6);
+        assert!(cprc.iter().all(|s| s.validate().is_ok()));
+        assert_eq!(sweep(&base, true, Pipeline::Cprc).len(), 4);
     }
 }

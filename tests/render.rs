@@ -347,20 +347,20 @@ fn bench_quick_writes_csv_table_and_plot() {
     let lines: Vec<&str> = csv.lines().collect();
     assert_eq!(lines.len(), 5, "{csv}");
     assert!(lines[0].starts_with(
-        "voxels,cones,cone_half_angle,mip_clamp,cone_step,rsm_side,lrsm_layers,seconds,"
+        "voxels,cones,cone_half_angle,mip_clamp,cone_step,rsm_side,lrsm_layers,cache_resolution,cache_tile,caches,seconds,"
     ));
     assert!(lines[0].contains("combined_flip") && lines[0].contains("cone_trace_seconds"));
     // Every row: a positive time and a finite FLIP in [0, 1]; at least one row is Pareto-optimal.
     for l in &lines[1..] {
         let f: Vec<&str> = l.split(',').collect();
-        let secs: f64 = f[7].parse().unwrap();
-        let flip: f64 = f[11].parse().unwrap();
+        let secs: f64 = f[10].parse().unwrap();
+        let flip: f64 = f[14].parse().unwrap();
         assert!(secs > 0.0 && (0.0..=1.0).contains(&flip), "{l}");
     }
     assert!(lines[1..].iter().any(|l| l.contains(",true,")), "{csv}");
     let md = std::fs::read_to_string(out.join("bench.md")).unwrap();
     assert!(
-        md.contains("| 32^3 | 1 | 30 | 2 | 0.5 | - | - |") && md.contains("**yes**"),
+        md.contains("| 32^3 | 1 | 30 | 2 | 0.5 | - | - | - | - |") && md.contains("**yes**"),
         "{md}"
     );
     assert!(md.contains("## Planner") && md.contains("| on |"), "{md}");
@@ -371,49 +371,51 @@ fn bench_quick_writes_csv_table_and_plot() {
     );
     assert!(stdout.contains("combined FLIP"), "{stdout}");
 
-    // The same sweep through vct-svo: its own stage columns, the octree skipped by the planner.
-    let o2 = dir.join("bench-svo").display().to_string();
-    let (code, stdout, err) = vxgi(&[
-        "bench",
-        &scene,
-        "--quick",
-        "--spp",
-        "2",
-        "--pipeline",
-        "vct-svo",
-        "--out",
-        &o2,
-    ]);
-    assert_eq!(code, 0, "{stdout}\n{err}");
-    let csv = std::fs::read_to_string(dir.join("bench-svo/bench.csv")).unwrap();
-    assert_eq!(csv.lines().count(), 5, "{csv}");
+    // The quick sweep of another pipeline: 4 configurations; its CSV.
+    let quick = |pipeline: &str| {
+        let o = dir.join(format!("bench-{pipeline}")).display().to_string();
+        let (code, stdout, err) = vxgi(&[
+            "bench",
+            &scene,
+            "--quick",
+            "--spp",
+            "2",
+            "--pipeline",
+            pipeline,
+            "--out",
+            &o,
+        ]);
+        assert_eq!(code, 0, "{stdout}\n{err}");
+        let csv = std::fs::read_to_string(dir.join(format!("bench-{pipeline}/bench.csv"))).unwrap();
+        assert_eq!(csv.lines().count(), 5, "{csv}");
+        csv
+    };
+    // vct-svo: its own stage columns, the octree skipped by the planner.
+    let csv = quick("vct-svo");
     assert!(csv.contains("sparse_voxel_octree_seconds") && csv.contains("svo_cone_trace_seconds"));
-    let md = std::fs::read_to_string(dir.join("bench-svo/bench.md")).unwrap();
+    let md = std::fs::read_to_string(dir.join("bench-vct-svo/bench.md")).unwrap();
     assert!(
         md.contains("vct-svo") && md.contains("sparse_voxel_octree"),
         "{md}"
     );
-
     // lrsm sweeps its own knobs: RSM sides and layer counts.
-    let o3 = dir.join("bench-lrsm").display().to_string();
-    let (code, stdout, err) = vxgi(&[
-        "bench",
-        &scene,
-        "--quick",
-        "--spp",
-        "2",
-        "--pipeline",
-        "lrsm",
-        "--out",
-        &o3,
-    ]);
-    assert_eq!(code, 0, "{stdout}\n{err}");
-    let csv = std::fs::read_to_string(dir.join("bench-lrsm/bench.csv")).unwrap();
-    assert_eq!(csv.lines().count(), 5, "{csv}");
+    let csv = quick("lrsm");
     assert!(
         csv.contains("reflective_shadow_map_seconds") && csv.contains(",64,2x2,"),
         "{csv}"
     );
+    // cprc sweeps cache tiles and resolutions (Fig. 5), with the caches each frame placed.
+    let csv = quick("cprc");
+    assert!(
+        csv.contains("cache_creation_seconds") && csv.contains("gather_caches_seconds"),
+        "{csv}"
+    );
+    for l in csv.lines().skip(1) {
+        let f: Vec<&str> = l.split(',').collect();
+        assert!(f[9].parse::<usize>().unwrap() > 0, "caches placed: {l}");
+    }
+    let md = std::fs::read_to_string(dir.join("bench-cprc/bench.md")).unwrap();
+    assert!(md.contains("(tile 8)") && md.contains("| 16^2 |"), "{md}");
 
     for (bad, key) in [
         ("--cones=0", "cones"),
