@@ -21,7 +21,7 @@ use crate::scene::RenderSettings;
 use crate::trace::SceneData;
 use anyhow::{bail, Context, Result};
 use vxgi_cpu_mirror::cluster_extract::Cluster;
-use vxgi_cpu_mirror::gather_caches::{GatherParams, MIN_WEIGHT_SUM};
+use vxgi_cpu_mirror::gather_caches::GatherParams;
 use vxgi_harness::{GpuContext, HostBuffer, HostResource, Resources};
 
 /// cprc's `[render]` knobs.
@@ -433,24 +433,25 @@ pub fn gather_data(
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct CprcStats {
     pub caches: usize,
-    /// Front-facing geometry pixels, and those left without a valid cache (weight sum <= 1e-6: the
-    /// paper's Fig. 6 measure).
+    /// Front-facing geometry pixels, and those left without a valid cache ([`coverage`]: the paper's
+    /// Fig. 6 measure).
     pub pixels: usize,
     pub uncovered: usize,
 }
 
-/// Indirect (albedo / pi * E + Ks * G) and AO (1 on geometry) images from the gather's outputs.
+/// Indirect (albedo / pi * E + Ks * G) and AO (1 on geometry) images from the gather's outputs;
+/// the stats count the pixels without a valid cache by [`coverage`].
 pub fn compose(
     px: &PixelInputs,
-    diffuse: &[[f32; 4]],
-    glossy: &[[f32; 4]],
-    weight_sum: &[f32],
-    caches: usize,
+    gathered: &(Vec<[f32; 4]>, Vec<[f32; 4]>, gather_caches::GatherData),
 ) -> (RgbImage, RgbImage, CprcStats) {
+    let (diffuse, glossy, data) = gathered;
     let inv_pi = std::f32::consts::FRAC_1_PI;
-    let mut stats = CprcStats {
-        caches,
-        ..Default::default()
+    let (pixels, uncovered) = coverage(data);
+    let stats = CprcStats {
+        caches: data.cache_pos.len(),
+        pixels,
+        uncovered,
     };
     let mut ind = Vec::with_capacity(diffuse.len());
     let mut ao = Vec::with_capacity(diffuse.len());
@@ -460,8 +461,6 @@ pub fn compose(
             ao.push([px.geometry[i] as u8 as f32; 3]);
             continue;
         }
-        stats.pixels += 1;
-        stats.uncovered += (weight_sum[i] <= MIN_WEIGHT_SUM) as usize;
         let (a, k) = (px.albedo[i], px.specular[i]);
         ind.push([0, 1, 2].map(|c| a[c] * inv_pi * diffuse[i][c] + k[c] * glossy[i][c]));
         ao.push([1.0; 3]);
@@ -471,7 +470,7 @@ pub fn compose(
 }
 
 /// Run creation, pre-convolution and the gather on the GPU for a frame's caches; push their stage
-/// timings. Returns the gather's (diffuse, glossy, weight sum).
+/// timings. Returns the gather's (diffuse, glossy) and what it read.
 #[allow(clippy::type_complexity, clippy::too_many_arguments)]
 pub fn evaluate_gpu(
     ctx: &GpuContext,
@@ -482,7 +481,7 @@ pub fn evaluate_gpu(
     cone: &vxgi_cpu_mirror::cone_trace::ConeParams,
     stages: &mut Vec<(&'static str, f64)>,
     progress: &impl Fn(&str),
-) -> Result<(Vec<[f32; 4]>, Vec<[f32; 4]>, Vec<f32>)> {
+) -> Result<(Vec<[f32; 4]>, Vec<[f32; 4]>, gather_caches::GatherData)> {
     use vxgi_harness::run::run;
     let count = set.caches.pos.len();
     progress("cache creation");
@@ -532,15 +531,11 @@ pub fn evaluate_gpu(
         decl.name,
         &case.resources,
         &case.passes,
-        &["diffuse", "glossy", "weight_sum"],
+        &["diffuse", "glossy"],
     )
     .context("gathering")?;
     stages.push(("gather_caches", t.elapsed().as_secs_f64()));
-    Ok((
-        read(&out, "diffuse"),
-        read(&out, "glossy"),
-        read(&out, "weight_sum"),
-    ))
+    Ok((read(&out, "diffuse"), read(&out, "glossy"), data))
 }
 
 /// Creation, pre-convolution and the gather by the mirrors.
@@ -551,7 +546,7 @@ pub fn evaluate_mirror(
     s: &CprcSettings,
     pyramid: &[[f32; 4]],
     cone: &vxgi_cpu_mirror::cone_trace::ConeParams,
-) -> (Vec<[f32; 4]>, Vec<[f32; 4]>, Vec<f32>) {
+) -> (Vec<[f32; 4]>, Vec<[f32; 4]>, gather_caches::GatherData) {
     use rayon::prelude::*;
     use vxgi_cpu_mirror::{cache_creation as cc, cache_preconvolve as cp, gather_caches as gm};
     let pyr = vxgi_cpu_mirror::cone_trace::Pyramid {
@@ -606,7 +601,7 @@ pub fn evaluate_mirror(
     (
         r.iter().map(|g| g.diffuse).collect(),
         r.iter().map(|g| g.glossy).collect(),
-        r.iter().map(|g| g.weight_sum).collect(),
+        data,
     )
 }
 
@@ -620,4 +615,98 @@ pub fn gbuffer_arrays(gb: &Resources) -> (Vec<[f32; 4]>, Vec<[f32; 4]>, Vec<u32>
         b("gb_triangle").as_u32().to_vec(),
         bytemuck::cast_slice(&b("gb_albedo").bytes).to_vec(),
     )
+}
+
+/// Pixels that gather (front-facing geometry) and those among them without a valid cache: none of the
+/// caches the gather visits has weight min(w_w, w_s) > 0 *and* faces the pixel's hemisphere
+/// (n_p . n_c > 0: a cache holds only its upper hemisphere) — the paper's Fig. 6 measure.
+pub fn coverage(d: &gather_caches::GatherData) -> (usize, usize) {
+    use rayon::prelude::*;
+    let p = &d.params;
+    let reach = p.radius_px.div_ceil(p.tile) as i32;
+    let r2 = (p.radius_px * p.radius_px) as i32;
+    let valid: Vec<Option<bool>> = (0..d.positions.len())
+        .into_par_iter()
+        .map(|i| {
+            let pos = d.positions[i];
+            if pos[3] != 1.0 {
+                return None;
+            }
+            let n = d.pixel_dirs[2 * i];
+            let (x, y) = ((i as u32 % p.width) as i32, (i as u32 / p.width) as i32);
+            let (tx, ty) = (x / p.tile as i32, y / p.tile as i32);
+            for ny in (ty - reach).max(0)..=(ty + reach).min(p.tiles_y as i32 - 1) {
+                for nx in (tx - reach).max(0)..=(tx + reach).min(p.tiles_x as i32 - 1) {
+                    let [a, b] = d.tile_ranges[(ny as u32 * p.tiles_x + nx as u32) as usize];
+                    for c in a as usize..b as usize {
+                        let [cx, cy] = d.cache_pixel[c];
+                        let ds2 = (cx as i32 - x).pow(2) + (cy as i32 - y).pow(2);
+                        if ds2 >= r2 {
+                            continue;
+                        }
+                        let cp = d.cache_pos[c];
+                        let dw2: f32 = (0..3).map(|k| (pos[k] - cp[k]).powi(2)).sum();
+                        let w = (1.0 - dw2 / (cp[3] * cp[3])).min(1.0 - ds2 as f32 / r2 as f32);
+                        let cn = d.cache_normal[c];
+                        if w > 0.0 && n[0] * cn[0] + n[1] * cn[1] + n[2] * cn[2] > 0.0 {
+                            return Some(true);
+                        }
+                    }
+                }
+            }
+            Some(false)
+        })
+        .collect();
+    let pixels = valid.iter().filter(|v| v.is_some()).count();
+    let uncovered = valid.iter().filter(|v| **v == Some(false)).count();
+    (pixels, uncovered)
+}
+
+/// The equidistant distribution Fig. 6 compares against: about as many caches as `like` holds, on a
+/// square grid of pixels (one per cell centre that sees front-facing geometry), with the pixel's normal
+/// and the mean world radius of `like`'s caches (so both spend the same reach); stored tile by tile.
+pub fn distribute_equidistant(
+    px: &PixelInputs,
+    like: &CacheSet,
+    s: &CprcSettings,
+    offset: f32,
+) -> CacheSet {
+    let (w, h) = (px.width, px.height);
+    let n = like.caches.pos.len().max(1);
+    let r_w = like.caches.pos.iter().map(|p| p[3] as f64).sum::<f64>() as f32 / n as f32;
+    let step = ((w * h) as f64 / n as f64).sqrt().max(1.0);
+    let mut picks = Vec::new();
+    let mut gy = step / 2.0;
+    while gy < h as f64 {
+        let mut gx = step / 2.0;
+        while gx < w as f64 {
+            let i = gy as u32 * w + gx as u32;
+            if px.positions[i as usize][3] == 1.0 {
+                picks.push(i);
+            }
+            gx += step;
+        }
+        gy += step;
+    }
+    let tiles_x = w.div_ceil(s.tile);
+    picks.sort_by_key(|&i| ((i / w) / s.tile * tiles_x + (i % w) / s.tile, i));
+    let mut c = gather_caches::Caches {
+        pos: Vec::new(),
+        pixel: Vec::new(),
+        normal: Vec::new(),
+        tile_ranges: vec![[0, 0]; (tiles_x * h.div_ceil(s.tile)) as usize],
+    };
+    for (k, &i) in picks.iter().enumerate() {
+        let p = px.positions[i as usize];
+        let nv = px.pixel_dirs[2 * i as usize];
+        c.pos.push([p[0], p[1], p[2], r_w]);
+        c.pixel.push([i % w, i / w]);
+        c.normal.push([nv[0], nv[1], nv[2], 0.0]);
+        let t = ((i / w) / s.tile * tiles_x + (i % w) / s.tile) as usize;
+        if c.tile_ranges[t][1] == 0 {
+            c.tile_ranges[t][0] = k as u32;
+        }
+        c.tile_ranges[t][1] = k as u32 + 1;
+    }
+    CacheSet::new(c, offset)
 }

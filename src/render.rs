@@ -714,7 +714,7 @@ impl VctCprc {
         let offset = params.offset_voxels * params.origin[3];
         let set = cprc::distribute_gpu(ctx, &px, &settings, offset)?;
         stages.push(("cache_distribution", t.elapsed().as_secs_f64()));
-        let (diffuse, glossy, ws) = cprc::evaluate_gpu(
+        let gathered = cprc::evaluate_gpu(
             ctx,
             &px,
             &set,
@@ -724,8 +724,7 @@ impl VctCprc {
             &mut stages,
             &progress,
         )?;
-        let (indirect, ao, stats) =
-            cprc::compose(&px, &diffuse, &glossy, &ws, set.caches.pos.len());
+        let (indirect, ao, stats) = cprc::compose(&px, &gathered);
         let (w, h) = (direct.width, direct.height);
         let combined = RgbImage::new(w, h, crate::images::add(&direct.pixels, &indirect.pixels));
         Ok((
@@ -842,8 +841,8 @@ pub fn render_cprc_mirror(
     let px = cprc::pixel_inputs(&m.data, &pos, &nrm, &tri, &m.albedo, settings.res);
     let offset = params.offset_voxels * params.origin[3];
     let set = cprc::distribute_mirror(&px, &settings, offset)?;
-    let (diffuse, glossy, ws) = cprc::evaluate_mirror(&px, &set, &settings, &pyramid, &params);
-    let (indirect, ao, stats) = cprc::compose(&px, &diffuse, &glossy, &ws, set.caches.pos.len());
+    let gathered = cprc::evaluate_mirror(&px, &set, &settings, &pyramid, &params);
+    let (indirect, ao, stats) = cprc::compose(&px, &gathered);
     let (w, h) = (m.data.width(), m.data.height());
     let combined = RgbImage::new(w, h, crate::images::add(&m.direct, &indirect.pixels));
     let cached = false;
