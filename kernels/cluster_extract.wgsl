@@ -6,8 +6,8 @@
 // 0xffffffff last), normals (snorm16 packed), positions (world position per pixel, xyz).
 // Entry points, in order:
 //   mark_heads:     heads[i] = 1 where i == 0 or keys[i] != keys[i - 1], and keys[i] is not background
-//   scan_heads:     one invocation: heads -> exclusive prefix sum in place; cluster_count[0] = total
-//                   (serial: simple and exact; a block-parallel scan is the obvious next step)
+//   scan_blocks, scan_partials_serial, scan_add_partials (kernels/common/block_scan.wgsl): heads ->
+//                   exclusive prefix sum in place; cluster_count[0] = total
 //   build_clusters: one invocation per sorted position that starts a cluster: walks the run of equal
 //                   keys, writes clusters[c] = (start, count, key), sum of snorm16 normals (i32: exact,
 //                   |sum| <= 4096 * 32767 for tiles up to 64 x 64), bbox min/max of positions (exact),
@@ -53,15 +53,21 @@ fn mark_heads(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
     heads[i] = select(0u, 1u, head);
 }
 
-@compute @workgroup_size(1)
-fn scan_heads() {
-    var acc = 0u;
-    for (var i = 0u; i < params.count; i = i + 1u) {
-        let h = heads[i];
-        heads[i] = acc;
-        acc = acc + h;
-    }
-    cluster_count[0] = acc;
+// The scan of heads (common/block_scan.wgsl).
+fn scan_len() -> u32 {
+    return params.count;
+}
+
+fn scan_load(i: u32) -> u32 {
+    return heads[i];
+}
+
+fn scan_store(i: u32, v: u32) {
+    heads[i] = v;
+}
+
+fn scan_total(total: u32) {
+    cluster_count[0] = total;
 }
 
 @compute @workgroup_size(64)

@@ -5,8 +5,8 @@
 // One pass over the digit at bit params.shift:
 //   count_digits: one invocation per block of 256 elements counts its digits in order:
 //                 counts[d * blocks + b] (digit-major)
-//   scan_counts:  one invocation: exclusive prefix sum of counts, in place (serial; the scan of
-//                 16 * ceil(n / 256) counts is small next to the passes over the elements)
+//   scan_blocks, scan_partials_serial, scan_add_partials (kernels/common/block_scan.wgsl): exclusive
+//                 prefix sum of the 16 * ceil(n / 256) counts, in place
 //   scatter:      one invocation per block walks its elements in order and writes each to the next
 //                 slot of its digit: dst[counts[d * blocks + b]++] — stable, hence a unique result
 // Digits are taken of key & params.key_mask (the low key_bits bits), so the sort is by exactly those
@@ -50,15 +50,20 @@ fn count_digits(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
     }
 }
 
-@compute @workgroup_size(1)
-fn scan_counts() {
-    var acc = 0u;
-    let n = 16u * params.blocks;
-    for (var i = 0u; i < n; i = i + 1u) {
-        let c = counts[i];
-        counts[i] = acc;
-        acc = acc + c;
-    }
+// The scan of counts (common/block_scan.wgsl).
+fn scan_len() -> u32 {
+    return 16u * params.blocks;
+}
+
+fn scan_load(i: u32) -> u32 {
+    return counts[i];
+}
+
+fn scan_store(i: u32, v: u32) {
+    counts[i] = v;
+}
+
+fn scan_total(total: u32) {
 }
 
 @compute @workgroup_size(64)

@@ -427,7 +427,7 @@ pub fn table(rows: &[BenchRow], pipeline: Pipeline, spp: u32, w: u32, h: u32) ->
         .position(|s| *s == "cache_distribution")
         .unwrap_or(last);
     let shading = if first_shading < last {
-        "caches"
+        "cache stages"
     } else {
         stages[last]
     };

@@ -94,3 +94,31 @@ fn a_corrupted_cluster_fails_verification() {
         .unwrap()
         .passed());
 }
+
+/// More pixels than one invocation may loop over on lavapipe (65535 iterations: llvmpipe's
+/// LP_MAX_TGSI_LOOP_ITERATIONS; the heads were once scanned serially and silently truncated there,
+/// 390 clusters for 1402 at 512x512): 512x384 pixels, exactly the mirror's clusters.
+#[test]
+fn more_pixels_than_one_invocation_may_loop_over() {
+    let inp = vxgi::kernels::cluster_extract::distribution_inputs(
+        512,
+        384,
+        16,
+        16,
+        vxgi::gbuffers::GPattern::family(1),
+        4,
+    );
+    let case = vxgi::kernels::cluster_extract::case_for(gpu(), &inp, "large".into(), 0);
+    let shader = vxgi::kernels::cluster_extract::DECL.shader().unwrap();
+    let (comps, ..) = vxgi::harness::kernel::verify_case(
+        gpu(),
+        &shader,
+        &vxgi::kernels::cluster_extract::ClusterExtract,
+        &case,
+        None,
+    )
+    .unwrap();
+    for c in comps {
+        assert!(c.passed(), "{}", c.report());
+    }
+}

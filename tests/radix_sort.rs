@@ -100,3 +100,21 @@ fn params_struct_matches_the_reflected_wgsl_layout() {
     .collect();
     assert_eq!(members, want);
 }
+
+/// More digit counts than one invocation may loop over on lavapipe (65535 iterations: llvmpipe's
+/// LP_MAX_TGSI_LOOP_ITERATIONS; the counts were once scanned serially and silently truncated there):
+/// 1.1M keys have 16 x 4297 = 68752 counts. Sorted exactly like the mirror.
+#[test]
+fn more_counts_than_one_invocation_may_loop_over() {
+    let n = 1_100_000u32;
+    let keys: Vec<u32> = (0..n)
+        .map(|i| i.wrapping_mul(2_654_435_761) >> 12)
+        .collect();
+    let values: Vec<u32> = (0..n).collect();
+    let shader = DECL.shader().unwrap();
+    let (case, _) = case_for(gpu(), &keys, &values, 20, "large".into(), 0).unwrap();
+    let (comps, ..) = verify_case(gpu(), &shader, &RadixSort, &case, None).unwrap();
+    for c in comps {
+        assert!(c.passed(), "{}", c.report());
+    }
+}

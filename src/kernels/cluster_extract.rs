@@ -20,7 +20,7 @@ pub static DECL: KernelDecl = KernelDecl {
     name: "cluster_extract",
     wgsl_path: "kernels/cluster_extract.wgsl",
     wgsl: include_str!("../../kernels/cluster_extract.wgsl"),
-    includes: &[super::tile_normal_histogram::OCTAHEDRAL_BINS],
+    includes: &[super::tile_normal_histogram::OCTAHEDRAL_BINS, super::BLOCK_SCAN],
     entry: "mark_heads",
     inputs: &["params", "keys", "pixels", "normals", "positions"],
     // Comparisons, integer sums and min/max: exact.
@@ -187,25 +187,23 @@ pub fn case_for(ctx: &GpuContext, inp: &DistributionInputs, label: String, seed:
         "pixel_cluster".into(),
         HostResource::Buffer(HostBuffer::u32(&vec![u32::MAX; n])),
     );
-    let bindings = DECL.bind_by_name();
-    let grid = grid_for(
-        n as u64,
-        64,
-        ctx.limits().max_compute_workgroups_per_dimension,
-    );
-    let passes = [
-        ("mark_heads", grid),
-        ("scan_heads", [1, 1, 1]),
-        ("build_clusters", grid),
-    ]
-    .iter()
-    .map(|(e, g)| Pass {
-        label: e.to_string(),
-        entry: e.to_string(),
+    resources.insert("scan_partials".into(), super::scan_partials(n));
+    let mut bindings = DECL.bind_by_name();
+    bindings.push((
+        "scan_partials".into(),
+        vxgi_harness::View::Buffer("scan_partials".into()),
+    ));
+    let max = ctx.limits().max_compute_workgroups_per_dimension;
+    let grid = grid_for(n as u64, 64, max);
+    let pass = |entry: &str| Pass {
+        label: entry.into(),
+        entry: entry.into(),
         bindings: bindings.clone(),
-        workgroups: Workgroups::Direct(*g),
-    })
-    .collect();
+        workgroups: Workgroups::Direct(grid),
+    };
+    let mut passes = vec![pass("mark_heads")];
+    passes.extend(super::scan_passes(&bindings, n, max, "heads"));
+    passes.push(pass("build_clusters"));
     Case {
         label,
         seed,

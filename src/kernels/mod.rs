@@ -68,6 +68,51 @@ pub const PYRAMID: (&str, &str) = (
     include_str!("../../kernels/common/pyramid.wgsl"),
 );
 
+/// The three-pass exclusive prefix sum of u32, included by cluster_extract and radix_sort.
+pub const BLOCK_SCAN: (&str, &str) = (
+    "kernels/common/block_scan.wgsl",
+    include_str!("../../kernels/common/block_scan.wgsl"),
+);
+
+/// Elements per block of common/block_scan.wgsl (its `SCAN_BLOCK`).
+pub const SCAN_BLOCK: usize = 1024;
+
+/// The resource common/block_scan.wgsl needs for a scan of `len` elements: its `scan_partials`
+/// scratch, one u32 per block (at least one).
+pub fn scan_partials(len: usize) -> vxgi_harness::HostResource {
+    vxgi_harness::HostResource::Buffer(vxgi_harness::HostBuffer::zeroed(
+        len.div_ceil(SCAN_BLOCK).max(1) * 4,
+        vxgi_harness::ScalarKind::U32,
+    ))
+}
+
+/// The passes of common/block_scan.wgsl over `len` elements, with the including kernel's `bindings`
+/// (which must bind `scan_partials`).
+pub fn scan_passes(
+    bindings: &[(String, vxgi_harness::View)],
+    len: usize,
+    max_groups: u32,
+    label: &str,
+) -> Vec<vxgi_harness::run::Pass> {
+    use vxgi_harness::run::{grid_for, Pass, Workgroups};
+    [
+        (
+            "scan_blocks",
+            grid_for(len.div_ceil(SCAN_BLOCK) as u64, 64, max_groups),
+        ),
+        ("scan_partials_serial", [1, 1, 1]),
+        ("scan_add_partials", grid_for(len as u64, 64, max_groups)),
+    ]
+    .into_iter()
+    .map(|(entry, groups)| Pass {
+        label: format!("{label} {entry}"),
+        entry: entry.into(),
+        bindings: bindings.to_vec(),
+        workgroups: Workgroups::Direct(groups),
+    })
+    .collect()
+}
+
 /// The sparse voxel octree's node layout and descent, included by sparse_voxel_octree and svo_sample.
 pub const SVO_NODE: (&str, &str) = (
     "kernels/common/svo_node.wgsl",

@@ -16,7 +16,7 @@ pub static DECL: KernelDecl = KernelDecl {
     name: "radix_sort",
     wgsl_path: "kernels/radix_sort.wgsl",
     wgsl: include_str!("../../kernels/radix_sort.wgsl"),
-    includes: &[],
+    includes: &[super::BLOCK_SCAN],
     entry: "count_digits",
     inputs: &["src_keys", "src_values"],
     // A stable sort has one answer; integers: exact.
@@ -24,7 +24,7 @@ pub static DECL: KernelDecl = KernelDecl {
         Output { binding: "dst_keys", tolerance: Tolerance::Exact },
         Output { binding: "dst_values", tolerance: Tolerance::Exact },
     ],
-    dispatch: DispatchRule::PerItem { what: "block of 256 elements (count_digits, scatter); one invocation (scan_counts)" },
+    dispatch: DispatchRule::PerItem { what: "block of 256 elements (count_digits, scatter); the counts' block scan between them" },
     mirror: "vxgi_cpu_mirror::radix_sort::sort",
     summary: "stable LSD radix sort of (key, value) pairs, 4-bit digits, passes only for the key bits used",
 };
@@ -87,6 +87,10 @@ pub fn case_for(
         64,
         ctx.limits().max_compute_workgroups_per_dimension,
     );
+    resources.insert(
+        "scan_partials".into(),
+        super::scan_partials(16 * blocks as usize),
+    );
     let mut pass_list = Vec::new();
     let total = passes(key_bits);
     for p in 0..total {
@@ -115,19 +119,25 @@ pub fn case_for(
                 View::Buffer(format!("values_{dst}")),
             ),
             ("counts".to_string(), View::Buffer("counts".into())),
+            (
+                "scan_partials".to_string(),
+                View::Buffer("scan_partials".into()),
+            ),
         ];
-        for (entry, groups) in [
-            ("count_digits", grid),
-            ("scan_counts", [1, 1, 1]),
-            ("scatter", grid),
-        ] {
-            pass_list.push(Pass {
-                label: format!("digit {p} {entry}"),
-                entry: entry.into(),
-                bindings: bindings.clone(),
-                workgroups: Workgroups::Direct(groups),
-            });
-        }
+        let pass = |entry: &str| Pass {
+            label: format!("digit {p} {entry}"),
+            entry: entry.into(),
+            bindings: bindings.clone(),
+            workgroups: Workgroups::Direct(grid),
+        };
+        pass_list.push(pass("count_digits"));
+        pass_list.extend(super::scan_passes(
+            &bindings,
+            16 * blocks as usize,
+            ctx.limits().max_compute_workgroups_per_dimension,
+            &format!("digit {p}"),
+        ));
+        pass_list.push(pass("scatter"));
     }
     let fin = if total % 2 == 1 { "b" } else { "a" };
     let out = [format!("keys_{fin}"), format!("values_{fin}")];
