@@ -52,8 +52,10 @@ enum Command {
         /// Print the frame plan (what runs, what is skipped and why) and exit.
         #[arg(long)]
         plan: bool,
-        /// Render this many frames along a camera orbit (into DIR/frame_000, ...): frames after the
-        /// first reuse the radiance pyramid (the planner's reuse rule).
+        /// Render this many frames (into DIR/frame_000, ...): frame k has the scene's dynamic
+        /// instances at their keyframes' transform of frame k and the camera orbited k x --orbit
+        /// degrees; a frame whose geometry did not change reuses the last one's voxel volume (the
+        /// planner's reuse rule).
         #[arg(long, default_value_t = 1)]
         frames: u32,
         /// Degrees the camera orbits about its target between frames.
@@ -254,8 +256,14 @@ fn run_render(
     if plan_only {
         print!("{}", pipeline.plan(&scene, &cones, false));
         if frames > 1 {
-            println!("frames 2..{frames} (only the camera moves):");
-            print!("{}", pipeline.plan(&scene, &cones, true));
+            // Frame 2 reuses frame 1's volume unless a dynamic instance moved.
+            let moved = scene.at_frame(1).mesh != scene.mesh;
+            if moved {
+                println!("frame 2 (a dynamic instance moved: everything rebuilt):");
+            } else {
+                println!("frames 2..{frames} (only the camera moves):");
+            }
+            print!("{}", pipeline.plan(&scene, &cones, !moved));
         }
         return Ok(());
     }
@@ -264,7 +272,7 @@ fn run_render(
     eprintln!("adapter: {}", ctx.describe());
     let mut renderer = vxgi::render::Renderer::new(pipeline, true);
     for k in 0..frames {
-        let view = scene.orbited(orbit * k as f32);
+        let view = scene.at_frame(k).orbited(orbit * k as f32);
         let dir = if frames == 1 {
             out.clone()
         } else {
@@ -548,6 +556,18 @@ fn run_scene(path: Option<std::path::PathBuf>) -> Result<()> {
         eprintln!("warning: {w}");
     }
     let c = &scene.camera;
+    for (k, i) in scene.instances.list.iter().enumerate() {
+        println!(
+            "instance {k}: {} ({} triangles){}",
+            i.name,
+            i.local.triangles.len(),
+            if i.dynamic {
+                format!(", dynamic, {} keyframes", i.keyframes.len())
+            } else {
+                String::new()
+            }
+        );
+    }
     println!(
         "{} triangles, {} vertices, {} materials ({} glossy), {} lights, camera {}x{} fov {} deg, voxels {}",
         scene.mesh.triangles.len(),

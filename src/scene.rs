@@ -52,6 +52,14 @@ pub enum SceneError {
     },
     #[error("{path}: [render] {message}")]
     Render { path: String, message: String },
+    #[error("{path}: instance {index}: {message}")]
+    Instance {
+        path: String,
+        index: usize,
+        message: String,
+    },
+    #[error("{path}: the scene has neither a [mesh] nor [[instances]]")]
+    NoGeometry { path: String },
     #[error("{path}: texture coordinate of vertex {index} is not finite: {value:?}")]
     NonFiniteUv {
         path: String,
@@ -322,10 +330,54 @@ struct MeshDesc {
     obj: String,
 }
 
+/// A rigid transform as written in a scene file: `translate`, `rotate_deg` (Euler angles about x, then
+/// y, then z, degrees), `scale` (one factor or three), applied scale first; or a row-major 4x4
+/// `matrix` (its last row 0 0 0 1), exclusive with the others.
+#[derive(Clone, Debug, Default, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct TransformDesc {
+    pub translate: Option<[f32; 3]>,
+    pub rotate_deg: Option<[f32; 3]>,
+    pub scale: Option<Scale>,
+    pub matrix: Option<[[f32; 4]; 4]>,
+}
+
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq)]
+#[serde(untagged)]
+pub enum Scale {
+    Uniform(f32),
+    Axes([f32; 3]),
+}
+
+/// A keyframe of a dynamic instance: at `frame`, these transform parts (missing ones: identity);
+/// between keyframes each part is interpolated linearly, before the first and after the last held.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Keyframe {
+    pub frame: u32,
+    pub translate: Option<[f32; 3]>,
+    pub rotate_deg: Option<[f32; 3]>,
+    pub scale: Option<Scale>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct InstanceDesc {
+    obj: String,
+    #[serde(default)]
+    transform: TransformDesc,
+    #[serde(default)]
+    dynamic: bool,
+    #[serde(default)]
+    keyframes: Vec<Keyframe>,
+}
+
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct SceneFile {
-    mesh: MeshDesc,
+    mesh: Option<MeshDesc>,
+    #[serde(default)]
+    instances: Vec<InstanceDesc>,
     camera: CameraDesc,
     #[serde(default)]
     lights: Vec<Light>,
@@ -380,6 +432,193 @@ pub struct Scene {
     pub render: RenderSettings,
     /// Things worth telling the user that do not stop loading (e.g. no .mtl).
     pub warnings: Vec<String>,
+    /// `[[instances]]`: rigid instances of OBJ meshes; `mesh` holds them placed at `frame`.
+    pub instances: Instances,
+}
+
+/// A scene's rigid instances and what they are placed on: `mesh` = `base` + every instance's local
+/// mesh transformed at the current frame ([`Scene::at_frame`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Instances {
+    /// The `[mesh]` part (empty without one).
+    pub base: Mesh,
+    pub list: Vec<Instance>,
+    /// The frame `mesh` shows.
+    pub frame: u32,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Instance {
+    /// The OBJ it came from.
+    pub name: String,
+    /// In its own frame, material indices into the scene's materials.
+    pub local: Mesh,
+    pub transform: Transform,
+    pub dynamic: bool,
+    pub keyframes: Vec<Keyframe>,
+}
+
+/// A rigid transform: scale, then rotation (Euler x, y, z in degrees), then translation; or a matrix.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Transform {
+    Parts {
+        translate: Vec3,
+        rotate_deg: Vec3,
+        scale: Vec3,
+    },
+    Matrix(glam::Mat4),
+}
+
+impl Transform {
+    pub fn matrix(&self) -> glam::Mat4 {
+        match self {
+            Transform::Parts {
+                translate,
+                rotate_deg,
+                scale,
+            } => {
+                let r = rotate_deg.to_array().map(f32::to_radians);
+                glam::Mat4::from_scale_rotation_translation(
+                    *scale,
+                    glam::Quat::from_euler(glam::EulerRot::ZYX, r[2], r[1], r[0]),
+                    *translate,
+                )
+            }
+            Transform::Matrix(m) => *m,
+        }
+    }
+
+    fn parts(
+        translate: Option<[f32; 3]>,
+        rotate_deg: Option<[f32; 3]>,
+        scale: Option<Scale>,
+    ) -> Self {
+        Transform::Parts {
+            translate: Vec3::from(translate.unwrap_or([0.0; 3])),
+            rotate_deg: Vec3::from(rotate_deg.unwrap_or([0.0; 3])),
+            scale: match scale {
+                None => Vec3::ONE,
+                Some(Scale::Uniform(s)) => Vec3::splat(s),
+                Some(Scale::Axes(a)) => Vec3::from(a),
+            },
+        }
+    }
+
+    fn from_desc(d: &TransformDesc) -> Result<Self, String> {
+        let t = match d.matrix {
+            Some(m) => {
+                if d.translate.is_some() || d.rotate_deg.is_some() || d.scale.is_some() {
+                    return Err("transform: matrix excludes translate, rotate_deg and scale".into());
+                }
+                if m[3] != [0.0, 0.0, 0.0, 1.0] {
+                    return Err(format!(
+                        "transform: the matrix's last row {:?} must be [0, 0, 0, 1]",
+                        m[3]
+                    ));
+                }
+                Transform::Matrix(glam::Mat4::from_cols_array_2d(&m).transpose())
+            }
+            None => Self::parts(d.translate, d.rotate_deg, d.scale),
+        };
+        t.check()?;
+        Ok(t)
+    }
+
+    fn check(&self) -> Result<(), String> {
+        let m = self.matrix();
+        if !m.is_finite() {
+            return Err("transform: not finite".into());
+        }
+        let det = glam::Mat3::from_mat4(m).determinant();
+        if det.is_nan() || det.abs() <= 1e-12 {
+            return Err(format!("transform: singular (determinant {det})"));
+        }
+        Ok(())
+    }
+
+    /// Linear interpolation of two keyframes' parts at fraction `a`.
+    fn lerp(a: &Keyframe, b: &Keyframe, f: f32) -> Self {
+        let (ta, tb) = (
+            Self::parts(a.translate, a.rotate_deg, a.scale),
+            Self::parts(b.translate, b.rotate_deg, b.scale),
+        );
+        match (ta, tb) {
+            (
+                Transform::Parts {
+                    translate: t0,
+                    rotate_deg: r0,
+                    scale: s0,
+                },
+                Transform::Parts {
+                    translate: t1,
+                    rotate_deg: r1,
+                    scale: s1,
+                },
+            ) => Transform::Parts {
+                translate: t0.lerp(t1, f),
+                rotate_deg: r0.lerp(r1, f),
+                scale: s0.lerp(s1, f),
+            },
+            _ => unreachable!("keyframes are parts"),
+        }
+    }
+}
+
+impl Instance {
+    /// The transform at `frame`: its keyframes' (interpolated, held at the ends) where it has any,
+    /// else its own.
+    pub fn transform_at(&self, frame: u32) -> Transform {
+        let k = &self.keyframes;
+        if !self.dynamic || k.is_empty() {
+            return self.transform.clone();
+        }
+        let i = k.partition_point(|kf| kf.frame <= frame);
+        if i == 0 {
+            return Transform::lerp(&k[0], &k[0], 0.0);
+        }
+        if i == k.len() {
+            return Transform::lerp(&k[i - 1], &k[i - 1], 0.0);
+        }
+        let (a, b) = (&k[i - 1], &k[i]);
+        Transform::lerp(a, b, (frame - a.frame) as f32 / (b.frame - a.frame) as f32)
+    }
+
+    /// Its mesh in the scene at `frame`: positions by the matrix, normals by its inverse transpose,
+    /// winding reversed where the matrix mirrors (so front faces stay front faces).
+    pub fn placed(&self, frame: u32) -> Mesh {
+        let m = self.transform_at(frame).matrix();
+        let nm = glam::Mat3::from_mat4(m).inverse().transpose();
+        let mirror = glam::Mat3::from_mat4(m).determinant() < 0.0;
+        let l = &self.local;
+        Mesh {
+            positions: l.positions.iter().map(|&p| m.transform_point3(p)).collect(),
+            normals: l
+                .normals
+                .iter()
+                .map(|&n| (nm * n).normalize_or_zero())
+                .collect(),
+            uvs: l.uvs.clone(),
+            triangles: if mirror {
+                l.triangles.iter().map(|t| [t[0], t[2], t[1]]).collect()
+            } else {
+                l.triangles.clone()
+            },
+            material: l.material.clone(),
+        }
+    }
+}
+
+impl Mesh {
+    /// Append `other` (its vertex indices shifted).
+    pub fn append(&mut self, other: &Mesh) {
+        let base = self.positions.len() as u32;
+        self.positions.extend_from_slice(&other.positions);
+        self.normals.extend_from_slice(&other.normals);
+        self.uvs.extend_from_slice(&other.uvs);
+        self.triangles
+            .extend(other.triangles.iter().map(|t| t.map(|v| v + base)));
+        self.material.extend_from_slice(&other.material);
+    }
 }
 
 const CORNELL_OBJ: &str = include_str!("../scenes/cornell_box.obj");
@@ -429,12 +668,17 @@ impl Scene {
         let loaded = tobj::load_obj_buf(&mut reader, &load_options(), |_| {
             tobj::load_mtl_buf(&mut std::io::BufReader::new(mtl.as_bytes()))
         });
+        let label = format!("built-in {name}");
         Self::assemble(
-            &format!("built-in {name}"),
+            &label,
             file,
-            loaded,
-            obj,
-            Path::new("."),
+            Some(ObjSource {
+                label: label.clone(),
+                loaded,
+                text: obj.to_string(),
+                dir: PathBuf::from("."),
+            }),
+            Vec::new(),
         )
         .expect("built-in scene is valid")
     }
@@ -457,22 +701,31 @@ impl Scene {
             }
         })?;
         let dir = path.parent().unwrap_or(Path::new("."));
-        let obj_path = dir.join(&file.mesh.obj);
-        let obj_text = std::fs::read_to_string(&obj_path).map_err(|e| SceneError::Obj {
-            path: p.clone(),
-            obj: obj_path.display().to_string(),
-            message: e.to_string(),
-        })?;
-        let loaded = tobj::load_obj(&obj_path, &load_options());
-        let obj_dir = obj_path.parent().unwrap_or(Path::new(".")).to_path_buf();
-        Self::assemble(
-            &obj_path.display().to_string(),
-            file,
-            loaded,
-            &obj_text,
-            &obj_dir,
-        )
-        .map_err(|e| match e {
+        let read_obj = |obj: &str| -> Result<ObjSource, SceneError> {
+            let obj_path = dir.join(obj);
+            let text = std::fs::read_to_string(&obj_path).map_err(|e| SceneError::Obj {
+                path: p.clone(),
+                obj: obj_path.display().to_string(),
+                message: e.to_string(),
+            })?;
+            Ok(ObjSource {
+                label: obj_path.display().to_string(),
+                loaded: tobj::load_obj(&obj_path, &load_options()),
+                text,
+                dir: obj_path.parent().unwrap_or(Path::new(".")).to_path_buf(),
+            })
+        };
+        let base = file.mesh.as_ref().map(|m| read_obj(&m.obj)).transpose()?;
+        let instances = file
+            .instances
+            .iter()
+            .map(|i| read_obj(&i.obj))
+            .collect::<Result<Vec<_>, _>>()?;
+        let label = base
+            .as_ref()
+            .map(|b| b.label.clone())
+            .unwrap_or_else(|| p.clone());
+        Self::assemble(&label, file, base, instances).map_err(|e| match e {
             SceneError::Camera { message, .. } => SceneError::Camera {
                 path: p.clone(),
                 message,
@@ -486,23 +739,156 @@ impl Scene {
                 path: p.clone(),
                 message,
             },
+            SceneError::Instance { index, message, .. } => SceneError::Instance {
+                path: p.clone(),
+                index,
+                message,
+            },
+            SceneError::NoGeometry { .. } => SceneError::NoGeometry { path: p.clone() },
             other => other,
         })
     }
 
+    /// The scene from its file and OBJs: the `[mesh]` (if any) and every instance's mesh, placed at
+    /// frame 0; materials of each OBJ one after another.
     fn assemble(
         obj_label: &str,
         file: SceneFile,
-        loaded: tobj::LoadResult,
-        obj_text: &str,
-        obj_dir: &Path,
+        base: Option<ObjSource>,
+        instance_objs: Vec<ObjSource>,
     ) -> Result<Self, SceneError> {
-        let (models, mtl) = loaded.map_err(|e| SceneError::Obj {
+        let mut warnings = Vec::new();
+        let (base, mut materials) = match base {
+            Some(src) => obj_mesh(src, &mut warnings)?,
+            None => (Mesh::default(), Vec::new()),
+        };
+        let mut list = Vec::new();
+        for (index, (desc, src)) in file.instances.iter().zip(instance_objs).enumerate() {
+            let err = |message: String| SceneError::Instance {
+                path: obj_label.into(),
+                index,
+                message,
+            };
+            let name = src.label.clone();
+            let (mut local, mats) = obj_mesh(src, &mut warnings)?;
+            let offset = materials.len() as u32;
+            for m in &mut local.material {
+                *m += offset;
+            }
+            materials.extend(mats);
+            let transform = Transform::from_desc(&desc.transform).map_err(err)?;
+            if !desc.keyframes.is_empty() && !desc.dynamic {
+                return Err(err("keyframes need dynamic = true".into()));
+            }
+            for w in desc.keyframes.windows(2) {
+                if w[1].frame <= w[0].frame {
+                    return Err(err(format!(
+                        "keyframe frames must increase ({} then {})",
+                        w[0].frame, w[1].frame
+                    )));
+                }
+            }
+            for k in &desc.keyframes {
+                Transform::parts(k.translate, k.rotate_deg, k.scale)
+                    .check()
+                    .map_err(|m| err(format!("keyframe {}: {m}", k.frame)))?;
+            }
+            list.push(Instance {
+                name,
+                local,
+                transform,
+                dynamic: desc.dynamic,
+                keyframes: desc.keyframes.clone(),
+            });
+        }
+        let instances = Instances {
+            base,
+            list,
+            frame: 0,
+        };
+        let mesh = instances.mesh_at(0);
+        if mesh.triangles.is_empty() {
+            return Err(SceneError::NoGeometry {
+                path: obj_label.into(),
+            });
+        }
+        validate_camera(&file.camera).map_err(|message| SceneError::Camera {
+            path: obj_label.into(),
+            message,
+        })?;
+        for (index, l) in file.lights.iter().enumerate() {
+            validate_light(l).map_err(|message| SceneError::Light {
+                path: obj_label.into(),
+                index,
+                message,
+            })?;
+        }
+        file.render
+            .validate()
+            .map_err(|message| SceneError::Render {
+                path: obj_label.into(),
+                message,
+            })?;
+        if file.lights.is_empty() {
+            warnings.push("the scene has no lights: every image will be black".into());
+        }
+        Ok(Scene {
+            mesh,
+            materials,
+            camera: file.camera,
+            lights: file.lights,
+            render: file.render,
+            warnings,
+            instances,
+        })
+    }
+
+    /// This scene at animation frame `frame`: dynamic instances moved to their keyframes' transform
+    /// there (everything else unchanged; a scene without instances is returned as it is).
+    pub fn at_frame(&self, frame: u32) -> Self {
+        let mut s = self.clone();
+        if !self.instances.list.is_empty() {
+            s.mesh = self.instances.mesh_at(frame);
+            s.instances.frame = frame;
+        }
+        s
+    }
+}
+
+impl Instances {
+    /// `base` and every instance placed at `frame`.
+    pub fn mesh_at(&self, frame: u32) -> Mesh {
+        let mut mesh = self.base.clone();
+        for i in &self.list {
+            mesh.append(&i.placed(frame));
+        }
+        mesh
+    }
+}
+
+/// One OBJ to load: its label (path), tobj's result, its text (for line numbers) and folder.
+struct ObjSource {
+    label: String,
+    loaded: tobj::LoadResult,
+    text: String,
+    dir: PathBuf,
+}
+
+/// An OBJ's mesh (triangulated, checked, flat normals where it has none) and its materials (the .mtl's,
+/// then grey for triangles without one).
+fn obj_mesh(
+    src: ObjSource,
+    warnings: &mut Vec<String>,
+) -> Result<(Mesh, Vec<Material>), SceneError> {
+    let obj_label = src.label.as_str();
+    let obj_text = src.text.as_str();
+    let obj_dir = src.dir.as_path();
+    {
+        let (models, mtl) = src.loaded.map_err(|e| SceneError::Obj {
             path: obj_label.into(),
             obj: obj_label.into(),
             message: e.to_string(),
         })?;
-        let mut warnings = Vec::new();
         let mut materials: Vec<Material> = match mtl {
             Ok(m) => m
                 .into_iter()
@@ -664,34 +1050,7 @@ impl Scene {
             mesh.uvs.extend(tri.map(|v| mesh.uvs[v as usize]));
             mesh.triangles[t] = [base, base + 1, base + 2];
         }
-        validate_camera(&file.camera).map_err(|message| SceneError::Camera {
-            path: obj_label.into(),
-            message,
-        })?;
-        for (index, l) in file.lights.iter().enumerate() {
-            validate_light(l).map_err(|message| SceneError::Light {
-                path: obj_label.into(),
-                index,
-                message,
-            })?;
-        }
-        file.render
-            .validate()
-            .map_err(|message| SceneError::Render {
-                path: obj_label.into(),
-                message,
-            })?;
-        if file.lights.is_empty() {
-            warnings.push("the scene has no lights: every image will be black".into());
-        }
-        Ok(Scene {
-            mesh,
-            materials,
-            camera: file.camera,
-            lights: file.lights,
-            render: file.render,
-            warnings,
-        })
+        Ok((mesh, materials))
     }
 }
 

@@ -245,3 +245,109 @@ fn map_kd_textures_are_loaded_and_sampled_by_the_gbuffer() {
         approx::assert_abs_diff_eq!(at(23, 23)[c], grey, epsilon = 1e-6);
     }
 }
+
+/// `[[instances]]`: the shipped instance scene loads (room as `[mesh]`, a static and a dynamic box);
+/// the instances equal the Cornell box's boxes in kind (12 triangles each, their own materials); a
+/// dynamic instance follows its keyframes (held before the first and after the last, linear between);
+/// a static one never moves; frame k's mesh is `[mesh]` + every instance placed at k.
+#[test]
+fn instances_load_and_follow_their_keyframes() {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let s = Scene::load(root.join("scenes/instances.toml")).unwrap();
+    assert_eq!(s.instances.list.len(), 2);
+    assert_eq!(s.mesh.triangles.len(), 10 + 12 + 12);
+    let (a, b) = (&s.instances.list[0], &s.instances.list[1]);
+    assert!(!a.dynamic && b.dynamic && b.keyframes.len() == 2);
+    // Materials: the room's (white, red, green, grey) then each box OBJ's (yellow, grey).
+    assert_eq!(s.materials.len(), 8);
+    assert_eq!(s.materials[s.mesh.material[10] as usize].name, "yellow");
+    let centre = |frame: u32| {
+        let m = b.placed(frame);
+        m.positions.iter().copied().sum::<glam::Vec3>() / m.positions.len() as f32
+    };
+    let close = |p: glam::Vec3, q: [f32; 3]| (p - glam::Vec3::from(q)).length() < 1e-5;
+    assert!(close(centre(0), [-0.45, 0.45, -0.45]));
+    assert!(close(centre(3), [-0.45, 0.45, 0.0]), "{}", centre(3));
+    assert!(close(centre(6), [-0.45, 0.45, 0.45]));
+    assert!(
+        close(centre(60), [-0.45, 0.45, 0.45]),
+        "held after the last keyframe"
+    );
+    assert_eq!(a.placed(0), a.placed(5), "static");
+    let f3 = s.at_frame(3);
+    assert_eq!(f3.instances.frame, 3);
+    assert_ne!(f3.mesh, s.mesh);
+    assert_eq!(f3.mesh.triangles, s.mesh.triangles);
+    assert_eq!(s.at_frame(0).mesh, s.mesh);
+    // A scene without instances is every frame the same.
+    let c = Scene::cornell_box();
+    assert_eq!(c.at_frame(4).mesh, c.mesh);
+}
+
+/// A 4x4 matrix transform (row-major as written) places the instance like the equivalent parts; a
+/// mirroring matrix keeps the faces' fronts (winding reversed) and its normals unit length.
+#[test]
+fn matrix_transforms_and_mirrors() {
+    let d = dir("matrix");
+    std::fs::write(d.join("mesh.obj"), TRI_OBJ).unwrap();
+    std::fs::write(d.join("inst.obj"), TRI_OBJ).unwrap();
+    let load = |t: &str| {
+        let p = d.join("scene.toml");
+        let extra = format!("\n[[instances]]\nobj = \"inst.obj\"\ntransform = {t}\n");
+        std::fs::write(&p, scene_toml("mesh.obj", &extra)).unwrap();
+        Scene::load(&p)
+    };
+    let m = load("{ matrix = [[1.0, 0.0, 0.0, 2.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]] }").unwrap();
+    let p = load("{ translate = [2.0, 0.0, 0.0] }").unwrap();
+    assert_eq!(m.mesh.positions, p.mesh.positions);
+    let mirrored = load("{ scale = [-1.0, 1.0, 1.0] }").unwrap();
+    let t = mirrored.mesh.triangles[1];
+    let [a, b, c] = t.map(|v| mirrored.mesh.positions[v as usize]);
+    let face = (b - a).cross(c - a).normalize();
+    let n = mirrored.mesh.normals[t[0] as usize];
+    assert!(
+        (face - n).length() < 1e-5,
+        "front kept: face {face} normal {n}"
+    );
+}
+
+/// Every way an instance can be wrong is an error naming the instance: a matrix with parts, a last row
+/// that is not 0 0 0 1, a singular transform, keyframes on a static instance, keyframes out of order,
+/// a missing OBJ, unknown keys; and a scene with neither a mesh nor instances.
+#[test]
+fn bad_instances_are_errors() {
+    let d = dir("bad-instances");
+    std::fs::write(d.join("mesh.obj"), TRI_OBJ).unwrap();
+    let cam = "[camera]\neye = [0.0, 0.5, 3.0]\ntarget = [0.0, 0.5, 0.0]\nup = [0.0, 1.0, 0.0]\nfov_y_deg = 40.0\nwidth = 32\nheight = 32\n";
+    let cases = [
+        ("transform = { translate = [1.0, 0.0, 0.0], matrix = [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]] }", "matrix excludes"),
+        ("transform = { matrix = [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 1.0, 0.0, 1.0]] }", "last row"),
+        ("transform = { scale = 0.0 }", "singular"),
+        ("keyframes = [{ frame = 0 }]", "dynamic = true"),
+        ("dynamic = true\nkeyframes = [{ frame = 3 }, { frame = 1 }]", "must increase"),
+        ("dynamic = true\nkeyframes = [{ frame = 0 }, { frame = 2, scale = 0.0 }]", "keyframe 2"),
+        ("colour = 1", "unknown field"),
+    ];
+    for (i, (body, want)) in cases.iter().enumerate() {
+        let p = d.join(format!("s{i}.toml"));
+        std::fs::write(
+            &p,
+            format!(
+                "[mesh]\nobj = \"mesh.obj\"\n\n[[instances]]\nobj = \"mesh.obj\"\n{body}\n\n{cam}"
+            ),
+        )
+        .unwrap();
+        let e = Scene::load(&p).unwrap_err().to_string();
+        assert!(e.contains(want), "{body}: {e}");
+        assert!(e.contains(&p.display().to_string()), "{e}");
+    }
+    let p = d.join("missing.toml");
+    std::fs::write(&p, format!("[[instances]]\nobj = \"nope.obj\"\n\n{cam}")).unwrap();
+    assert!(matches!(Scene::load(&p), Err(SceneError::Obj { .. })));
+    let p = d.join("empty.toml");
+    std::fs::write(&p, cam).unwrap();
+    assert!(matches!(
+        Scene::load(&p),
+        Err(SceneError::NoGeometry { .. })
+    ));
+}

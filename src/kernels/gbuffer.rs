@@ -281,6 +281,7 @@ pub fn generated_scene(seed: u64, index: usize) -> (Scene, String) {
         lights: random_lights(&mut rng, centre, size),
         render: RenderSettings::default(),
         warnings: vec![],
+        instances: Default::default(),
     };
     (scene, label)
 }
