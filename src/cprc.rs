@@ -158,6 +158,11 @@ pub fn pixel_inputs(
     px
 }
 
+/// Whether any pixel reads the caches' mip chains (a glossy material in view).
+pub fn any_glossy(px: &PixelInputs) -> bool {
+    px.pixel_dirs.iter().skip(1).step_by(2).any(|d| d[3] >= 0.0)
+}
+
 /// The caches a distribution placed, ready for creation and the gather.
 pub struct CacheSet {
     pub caches: gather_caches::Caches,
@@ -505,7 +510,19 @@ pub fn evaluate_gpu(
         stages.push(("cache_creation", t.elapsed().as_secs_f64()));
         progress("pre-convolution");
         let t = std::time::Instant::now();
-        let case = cache_preconvolve::case_for(ctx, &radiance, s.res, s.irr, "cprc".into(), 0);
+        let mut case = cache_preconvolve::case_for(ctx, &radiance, s.res, s.irr, "cprc".into(), 0);
+        let glossy = any_glossy(px);
+        let mut names = vec!["cache_irradiance"];
+        if glossy {
+            names.push("cache_mips");
+        } else {
+            // No pixel reads a mip chain: the plan skips the `mips` pass (and its buffer).
+            case.passes.retain(|p| p.entry != "mips");
+            case.resources.insert(
+                "cache_mips".into(),
+                HostResource::Buffer(HostBuffer::zeroed(16, vxgi_harness::ScalarKind::F32)),
+            );
+        }
         let decl = &cache_preconvolve::DECL;
         let out = run(
             ctx,
@@ -513,11 +530,16 @@ pub fn evaluate_gpu(
             decl.name,
             &case.resources,
             &case.passes,
-            &["cache_mips", "cache_irradiance"],
+            &names,
         )
         .context("pre-convolution")?;
         stages.push(("cache_preconvolve", t.elapsed().as_secs_f64()));
-        (read(&out, "cache_mips"), read(&out, "cache_irradiance"))
+        let mips = if glossy {
+            read(&out, "cache_mips")
+        } else {
+            Vec::new()
+        };
+        (mips, read(&out, "cache_irradiance"))
     };
     progress("gathering");
     let t = std::time::Instant::now();
@@ -574,9 +596,12 @@ pub fn evaluate_mirror(
         .collect();
     let weights = cp::irradiance_weights(s.res, s.irr);
     let (mut mips, mut irr) = (Vec::new(), Vec::new());
+    let glossy = any_glossy(px);
     for c in 0..count {
         let tex = &radiance[c * t..(c + 1) * t];
-        mips.extend((0..cp::mip_len(s.res)).map(|j| cp::mip_texel(tex, s.res, j, false)));
+        if glossy {
+            mips.extend((0..cp::mip_len(s.res)).map(|j| cp::mip_texel(tex, s.res, j, false)));
+        }
         irr.extend((0..(s.irr * s.irr) as usize).map(|k| cp::irradiance_texel(tex, &weights, k).0));
     }
     let data = gather_data(px, set, s, irr, mips);

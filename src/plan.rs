@@ -326,12 +326,21 @@ impl FramePlan {
             passes.push(PlannedPass {
                 stage: "cache_preconvolve",
                 kernel: "cache_preconvolve",
-                size: format!("caches x ({levels} mip levels + {}^2 irradiance)", s.irr),
+                size: format!("caches x {}^2 irradiance texels", s.irr),
                 runs: true,
+                why: "cosine-folded irradiance for diffuse (entry irradiance)".into(),
+            });
+            passes.push(PlannedPass {
+                // Its own stage name so that skipping it does not read as skipping pre-convolution
+                // (timed within cache_preconvolve).
+                stage: "cache_mips",
+                kernel: "cache_preconvolve",
+                size: format!("caches x {levels} mip levels"),
+                runs: glossy > 0,
                 why: if glossy > 0 {
-                    format!("mip chain for the {glossy} glossy material(s); cosine-folded irradiance for diffuse")
+                    format!("mip chain for the {glossy} glossy material(s) (entry mips; skipped at run time if none is in view)")
                 } else {
-                    "cosine-folded irradiance for diffuse (the mip chain is built though no material is glossy)".into()
+                    "skipped: no material has Ks, no pixel reads a mip chain (entry mips)".into()
                 },
             });
             passes.push(PlannedPass {

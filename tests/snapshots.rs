@@ -170,3 +170,36 @@ fn cornell_box_64_cprc_snapshots_and_gpu_agreement() {
         ],
     );
 }
+
+/// cprc with a glossy floor (scenes/thin_wall_glossy.toml at 64x32, 32^3 voxels, 8-pixel tiles, caches of
+/// 8^2): the pixels with Ks read the caches' mip chains, so this is the pipeline's glossy path by the
+/// mirrors, and the GPU's frame against it.
+#[test]
+fn thin_wall_glossy_cprc_snapshot_and_gpu_agreement() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/thin_wall_glossy.toml");
+    let mut scene = Scene::load(path).unwrap();
+    scene.camera.width = 64;
+    scene.camera.height = 32;
+    scene.render.voxels = 32;
+    scene.render.cache_tile = 8;
+    scene.render.cache_resolution = 8;
+    scene.render.irradiance_resolution = 4;
+    let cones = ConeSettings::from(&scene.render);
+    let (mirror, _) = vxgi::render::render_cprc_mirror(&scene, &cones).unwrap();
+    insta::with_settings!({ snapshot_path => "../snapshots", prepend_module_to_snapshot => false }, {
+        insta::assert_binary_snapshot!("thin_wall_glossy_cprc_combined.png", png(&mirror.combined));
+    });
+    let (ours, stats) = vxgi::render::render_cprc(gpu(), &scene, &cones, |_| {}).unwrap();
+    assert!(stats.caches > 10, "{stats:?}");
+    assert!(
+        !ours.plan.skipped().contains(&"cache_mips"),
+        "glossy: mips built"
+    );
+    assert_gpu_agrees(
+        "cprc glossy",
+        &[
+            ("indirect", &mirror.indirect, &ours.indirect),
+            ("combined", &mirror.combined, &ours.combined),
+        ],
+    );
+}
