@@ -6,30 +6,15 @@
 //! 31 ms distribution, 39 ms creation, 33.5 ms evaluation at 2 Mpx with 4096 caches on a GTX 670.
 //!
 //! `cargo bench --bench cprc_stages`
-use std::time::Instant;
+mod common;
+
+use common::{gpu_ms, timed};
 use vxgi::cprc::{self, CprcSettings};
-use vxgi::harness::{prepare, Case, GpuContext, KernelDecl};
+use vxgi::harness::GpuContext;
 use vxgi::kernels::cone_trace::{cone_params, gpu_pyramid, ConeSettings};
 use vxgi::kernels::{cache_creation, cache_preconvolve, gather_caches, voxel_light, voxelize};
 use vxgi::scene::Scene;
 use vxgi::trace::SceneData;
-
-fn gpu_ms(ctx: &GpuContext, decl: &KernelDecl, case: &Case) -> f64 {
-    let shader = decl.shader().expect("WGSL validates");
-    let prepared =
-        prepare(ctx, &shader, decl.name, &case.resources, &case.passes).expect("prepare");
-    prepared.dispatch().expect("warm-up");
-    (0..3)
-        .map(|_| prepared.dispatch().expect("dispatch").1)
-        .fold(f64::INFINITY, f64::min)
-        * 1e-6
-}
-
-fn timed<T>(f: impl FnOnce() -> T) -> (T, f64) {
-    let t = Instant::now();
-    let r = f();
-    (r, t.elapsed().as_secs_f64() * 1e3)
-}
 
 fn main() {
     let ctx = GpuContext::new().expect("GPU adapter (see README: install mesa-vulkan-drivers)");

@@ -4,31 +4,16 @@
 //! distribution at 2 Mpx on a GTX 670.
 //!
 //! `cargo bench --bench distribution`
-use std::time::Instant;
+mod common;
+
+use common::{gpu_ms, timed};
 use vxgi::gbuffers::GPattern;
-use vxgi::harness::{prepare, Case, GpuContext, KernelDecl};
+use vxgi::harness::GpuContext;
 use vxgi::kernels::{
     cache_placement, cluster_extract, cluster_keys, gather_caches, histogram_axes, radix_sort,
     tile_normal_histogram,
 };
 use vxgi_cpu_mirror as m;
-
-fn gpu_ms(ctx: &GpuContext, decl: &KernelDecl, case: &Case) -> f64 {
-    let shader = decl.shader().expect("WGSL validates");
-    let prepared =
-        prepare(ctx, &shader, decl.name, &case.resources, &case.passes).expect("prepare");
-    prepared.dispatch().expect("warm-up");
-    (0..3)
-        .map(|_| prepared.dispatch().expect("dispatch").1)
-        .fold(f64::INFINITY, f64::min)
-        * 1e-6
-}
-
-fn timed<T>(f: impl FnOnce() -> T) -> (T, f64) {
-    let t = Instant::now();
-    let r = f();
-    (r, t.elapsed().as_secs_f64() * 1e3)
-}
 
 fn main() {
     let ctx = GpuContext::new().expect("GPU adapter (see README: install mesa-vulkan-drivers)");

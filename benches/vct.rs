@@ -3,30 +3,15 @@
 //! frame's error against a Monte Carlo reference (combined FLIP) beside its time.
 //!
 //! `cargo bench --bench vct`
-use std::time::Instant;
-use vxgi::harness::{prepare, Case, GpuContext, KernelDecl};
+mod common;
+
+use common::{gpu_ms, timed};
+use vxgi::harness::GpuContext;
 use vxgi::kernels::cone_trace::{self, ConeSettings};
 use vxgi::kernels::{direct_light, surface_coverage_mip, voxel_light, voxelize};
 use vxgi::scene::Scene;
 use vxgi::trace::SceneData;
 use vxgi_cpu_mirror::surface_coverage_mip::Coverage;
-
-fn gpu_ms(ctx: &GpuContext, decl: &KernelDecl, case: &Case) -> f64 {
-    let shader = decl.shader().expect("WGSL validates");
-    let prepared =
-        prepare(ctx, &shader, decl.name, &case.resources, &case.passes).expect("prepare");
-    prepared.dispatch().expect("warm-up");
-    (0..3)
-        .map(|_| prepared.dispatch().expect("dispatch").1)
-        .fold(f64::INFINITY, f64::min)
-        * 1e-6
-}
-
-fn timed<T>(f: impl FnOnce() -> T) -> (T, f64) {
-    let t = Instant::now();
-    let r = f();
-    (r, t.elapsed().as_secs_f64() * 1e3)
-}
 
 fn main() {
     let ctx = GpuContext::new().expect("GPU adapter (see README: install mesa-vulkan-drivers)");

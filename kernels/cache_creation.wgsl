@@ -34,13 +34,9 @@ fn create(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
     let td = texel_dirs[i % cache_params.texels];
     let o = caches[2u * c].xyz;
     let n = caches[2u * c + 1u].xyz;
-    var up = vec3<f32>(0.0, 0.0, 1.0);
-    if (abs(n.z) >= 0.999) {
-        up = vec3<f32>(1.0, 0.0, 0.0);
-    }
-    let tt = cross(up, n);
-    let bt = tt * (1.0 / sqrt(dot(tt, tt)));
-    let bb = cross(n, bt);
+    let basis = tangent_basis(n);
+    let bt = basis.t;
+    let bb = basis.b;
     let d = bt * td.x + bb * td.y + n * td.z;
     let r = march(o, d, cache_params.tan_half, td.z);
     cache_radiance[i] = vec4<f32>(r.radiance, 0.0);

@@ -47,13 +47,9 @@ const MIN_WEIGHT_SUM: f32 = 1.0e-6;
 
 // (u, v) of direction d in the hemi-octahedral frame of cache normal n.
 fn hemi_uv(n: vec3<f32>, d: vec3<f32>) -> vec2<f32> {
-    var up = vec3<f32>(0.0, 0.0, 1.0);
-    if (abs(n.z) >= 0.999) {
-        up = vec3<f32>(1.0, 0.0, 0.0);
-    }
-    let tt = cross(up, n);
-    let bt = tt * (1.0 / sqrt(dot(tt, tt)));
-    let bb = cross(n, bt);
+    let basis = tangent_basis(n);
+    let bt = basis.t;
+    let bb = basis.b;
     let x = dot(d, bt);
     let y = dot(d, bb);
     let z = max(dot(d, n), 0.0);

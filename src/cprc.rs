@@ -194,6 +194,28 @@ fn key_bits(tiles: u32, slices: u32) -> u32 {
     (64 - m.leading_zeros()).clamp(1, 32)
 }
 
+/// What cluster_extract and cache_placement read: the pixels and their key-sorted order.
+fn sorted_inputs(
+    px: &PixelInputs,
+    s: &CprcSettings,
+    sorted_keys: Vec<u32>,
+    sorted_pixels: Vec<u32>,
+) -> cluster_extract::DistributionInputs {
+    cluster_extract::DistributionInputs {
+        width: px.width,
+        height: px.height,
+        tile: s.tile,
+        normals: px.normals.clone(),
+        positions: px
+            .positions
+            .iter()
+            .map(|p| [p[0], p[1], p[2], 1.0])
+            .collect(),
+        sorted_keys,
+        sorted_pixels,
+    }
+}
+
 fn read<T: bytemuck::Pod>(out: &vxgi_harness::run::RunOutput, name: &str) -> Vec<T> {
     bytemuck::cast_slice(&out.buffer(name).bytes).to_vec()
 }
@@ -290,19 +312,7 @@ pub fn distribute_gpu(
         &[&kname, &vname],
     )
     .context("radix_sort")?;
-    let inp = cluster_extract::DistributionInputs {
-        width: w,
-        height: h,
-        tile: s.tile,
-        normals: px.normals.clone(),
-        positions: px
-            .positions
-            .iter()
-            .map(|p| [p[0], p[1], p[2], 1.0])
-            .collect(),
-        sorted_keys: read(&out, &kname),
-        sorted_pixels: read(&out, &vname),
-    };
+    let inp = sorted_inputs(px, s, read(&out, &kname), read(&out, &vname));
 
     let decl = &cluster_extract::DECL;
     let case = cluster_extract::case_for(ctx, &inp, "cprc".into(), 0);
@@ -385,19 +395,7 @@ pub fn distribute_mirror(px: &PixelInputs, s: &CprcSettings, offset: f32) -> Res
     let tiles = hp.tiles_x * h.div_ceil(s.tile);
     let values: Vec<u32> = (0..keys.len() as u32).collect();
     let (sorted_keys, sorted_pixels) = rs::sort(&keys, &values, key_bits(tiles, s.slices));
-    let inp = cluster_extract::DistributionInputs {
-        width: w,
-        height: h,
-        tile: s.tile,
-        normals: px.normals.clone(),
-        positions: px
-            .positions
-            .iter()
-            .map(|p| [p[0], p[1], p[2], 1.0])
-            .collect(),
-        sorted_keys,
-        sorted_pixels,
-    };
+    let inp = sorted_inputs(px, s, sorted_keys, sorted_pixels);
     Ok(CacheSet::new(gather_caches::place_caches(&inp), offset))
 }
 

@@ -10,6 +10,7 @@
 // also the including kernel's: the dense and octree tracers return sample_volume(x, l); lrsm_cone_trace
 // takes its radiance from the LRSMs at the sample's diameter, seen along -d. Mirror: cpu_mirror/src/cone_trace.rs (`march`,
 // `shade_pixel`, generic over `Volume`). See cone_trace.wgsl's header for the full definition.
+// Needs common/tangent_basis.wgsl (the pixel entry's cone frame).
 
 struct Frame {
     eye: vec4<f32>,
@@ -154,13 +155,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
     let pos = gb_position[pix].xyz;
     let s0 = cone.origin.w;
     let o = pos + ng * (cone.offset_voxels * s0);
-    var up = vec3<f32>(0.0, 0.0, 1.0);
-    if (abs(n.z) >= 0.999) {
-        up = vec3<f32>(1.0, 0.0, 0.0);
-    }
-    let tt = cross(up, n);
-    let bt = tt * (1.0 / sqrt(dot(tt, tt)));
-    let bb = cross(n, bt);
+    let basis = tangent_basis(n);
+    let bt = basis.t;
+    let bb = basis.b;
     var diffuse = vec3<f32>(0.0);
     var occ = 0.0;
     for (var k = 0u; k < cone.diffuse_cones; k++) {

@@ -16,7 +16,7 @@ pub static DECL: KernelDecl = KernelDecl {
     name: "cache_creation",
     wgsl_path: "kernels/cache_creation.wgsl",
     wgsl: include_str!("../../kernels/cache_creation.wgsl"),
-    includes: &[super::CONE_MARCH, super::PYRAMID],
+    includes: &[super::TANGENT_BASIS, super::CONE_MARCH, super::PYRAMID],
     entry: "create",
     inputs: &["cone", "pyramid", "cache_params", "caches", "texel_dirs"],
     outputs: &[

@@ -20,7 +20,7 @@ pub static DECL: KernelDecl = KernelDecl {
     name: "gather_caches",
     wgsl_path: "kernels/gather_caches.wgsl",
     wgsl: include_str!("../../kernels/gather_caches.wgsl"),
-    includes: &[],
+    includes: &[super::TANGENT_BASIS],
     entry: "main",
     inputs: &[
         "params", "positions", "pixel_dirs", "cache_pos", "cache_pixel", "cache_normal", "cache_irradiance",

@@ -55,11 +55,18 @@ pub const BRDF: (&str, &str) = (
     include_str!("../../kernels/common/brdf.wgsl"),
 );
 
-/// The cone tracer (bindings, march, pixel entry), included by cone_trace and svo_cone_trace, which
-/// each define the volume it samples (`sample_volume`).
+/// The cone tracer (bindings, march, pixel entry), included (after TANGENT_BASIS) by cone_trace,
+/// svo_cone_trace, lrsm_cone_trace and cache_creation, which each define the volume it samples.
 pub const CONE_MARCH: (&str, &str) = (
     "kernels/common/cone_march.wgsl",
     include_str!("../../kernels/common/cone_march.wgsl"),
+);
+
+/// The tangent frame around a normal (cones, radiance caches), included with CONE_MARCH and by
+/// gather_caches.
+pub const TANGENT_BASIS: (&str, &str) = (
+    "kernels/common/tangent_basis.wgsl",
+    include_str!("../../kernels/common/tangent_basis.wgsl"),
 );
 
 /// The dense radiance pyramid as cone_march's volume, included by cone_trace and cache_creation.

@@ -21,7 +21,7 @@ pub static DECL: KernelDecl = KernelDecl {
     name: "svo_cone_trace",
     wgsl_path: "kernels/svo_cone_trace.wgsl",
     wgsl: include_str!("../../kernels/svo_cone_trace.wgsl"),
-    includes: &[super::SVO_NODE, super::CONE_MARCH],
+    includes: &[super::SVO_NODE, super::TANGENT_BASIS, super::CONE_MARCH],
     entry: "main",
     inputs: &[
         "frame", "triangles", "materials", "gb_position", "gb_normal", "gb_triangle", "gb_albedo", "cone", "cone_dirs",
