@@ -714,6 +714,16 @@ impl VctCprc {
         let offset = params.offset_voxels * params.origin[3];
         let set = cprc::distribute_gpu(ctx, &px, &settings, offset)?;
         stages.push(("cache_distribution", t.elapsed().as_secs_f64()));
+        let count = set.caches.pos.len() as u64;
+        let need = count * (settings.res * settings.res) as u64 * 16;
+        let limit = ctx.limits().max_storage_buffer_binding_size;
+        if need > limit {
+            anyhow::bail!(
+                "{count} caches of {r}^2 texels need {need} bytes in one binding, past the device's \
+                 max_storage_buffer_binding_size ({limit}): lower cache_resolution or raise cache_tile",
+                r = settings.res
+            );
+        }
         let gathered = cprc::evaluate_gpu(
             ctx,
             &px,
