@@ -472,8 +472,11 @@ pub fn compose(
     (RgbImage::new(w, h, ind), RgbImage::new(w, h, ao), stats)
 }
 
-/// Run creation, pre-convolution and the gather on the GPU for a frame's caches; push their stage
-/// timings. Returns the gather's (diffuse, glossy) and what it read.
+/// Run creation, pre-convolution and the gather on the GPU for a frame's caches as one chain on one set
+/// of GPU buffers: the caches' texels, mips and irradiance maps never leave the GPU (DESIGN 7 / issue
+/// 11's device-side chaining); each stage is its own submission, timed alone (wall clock) and pushed
+/// to `stages`. Returns the gather's (diffuse, glossy) and what it read (its maps left empty: they
+/// stayed on the GPU).
 #[allow(clippy::type_complexity, clippy::too_many_arguments)]
 pub fn evaluate_gpu(
     ctx: &GpuContext,
@@ -485,77 +488,105 @@ pub fn evaluate_gpu(
     stages: &mut Vec<(&'static str, f64)>,
     progress: &impl Fn(&str),
 ) -> Result<(Vec<[f32; 4]>, Vec<[f32; 4]>, gather_caches::GatherData)> {
-    use vxgi_harness::run::run;
+    use vxgi_harness::{prepare_chain, Stage, View};
     let count = set.caches.pos.len();
-    progress("cache creation");
-    let t = std::time::Instant::now();
-    let (mips, irr) = if count == 0 {
-        (Vec::new(), Vec::new())
-    } else {
-        let case =
-            cache_creation::case_for(ctx, pyramid, cone, &set.creation, s.res, "cprc".into(), 0);
-        let decl = &cache_creation::DECL;
-        let out = run(
-            ctx,
-            &decl.shader()?,
-            decl.name,
-            &case.resources,
-            &case.passes,
-            &["cache_radiance"],
-        )
-        .context("cache creation")?;
-        let radiance: Vec<[f32; 4]> = read(&out, "cache_radiance");
-        stages.push(("cache_creation", t.elapsed().as_secs_f64()));
-        progress("pre-convolution");
-        let t = std::time::Instant::now();
-        let mut case = cache_preconvolve::case_for(ctx, &radiance, s.res, s.irr, "cprc".into(), 0);
-        let glossy = any_glossy(px);
-        let mut names = vec!["cache_irradiance"];
-        if glossy {
-            names.push("cache_mips");
-        } else {
-            // No pixel reads a mip chain: the plan skips the `mips` pass (and its buffer).
-            case.passes.retain(|p| p.entry != "mips");
-            case.resources.insert(
-                "cache_mips".into(),
-                HostResource::Buffer(HostBuffer::zeroed(16, vxgi_harness::ScalarKind::F32)),
-            );
+    let data = gather_data(px, set, s, Vec::new(), Vec::new());
+    let (cshader, pshader, gshader) = (
+        cache_creation::DECL.shader()?,
+        cache_preconvolve::DECL.shader()?,
+        gather_caches::DECL.shader()?,
+    );
+    let mut gcase = gather_caches::case_for(&gshader, ctx, &data, "cprc".into(), 0);
+    let ccase =
+        cache_creation::case_for(ctx, pyramid, cone, &set.creation, s.res, "cprc".into(), 0);
+    let mut pcase =
+        cache_preconvolve::case_for_count(ctx, count, None, s.res, s.irr, "cprc".into(), 0);
+    if !any_glossy(px) {
+        // No pixel reads a mip chain: the plan skips the `mips` pass (and its buffer).
+        pcase.passes.retain(|p| p.entry != "mips");
+        pcase.resources.insert(
+            "cache_mips".into(),
+            HostResource::Buffer(HostBuffer::zeroed(16, vxgi_harness::ScalarKind::F32)),
+        );
+    }
+    if count == 0 {
+        // Nothing to create: the gather alone (it reads no map without caches).
+        pcase.passes.clear();
+    }
+    // One set of resources: creation's, pre-convolution's (its cache_radiance is creation's), the
+    // gather's (its maps are pre-convolution's; its uniform block renamed: both call it `params`).
+    let mut resources = ccase.resources;
+    for (k, v) in pcase.resources {
+        if k != "cache_radiance" || count == 0 {
+            resources.insert(k, v);
         }
-        let decl = &cache_preconvolve::DECL;
-        let out = run(
-            ctx,
-            &decl.shader()?,
-            decl.name,
-            &case.resources,
-            &case.passes,
-            &names,
-        )
-        .context("pre-convolution")?;
-        stages.push(("cache_preconvolve", t.elapsed().as_secs_f64()));
-        let mips = if glossy {
-            read(&out, "cache_mips")
-        } else {
-            Vec::new()
-        };
-        (mips, read(&out, "cache_irradiance"))
-    };
-    progress("gathering");
-    let t = std::time::Instant::now();
-    let data = gather_data(px, set, s, irr, mips);
-    let decl = &gather_caches::DECL;
-    let shader = decl.shader()?;
-    let case = gather_caches::case_for(&shader, ctx, &data, "cprc".into(), 0);
-    let out = run(
-        ctx,
-        &shader,
-        decl.name,
-        &case.resources,
-        &case.passes,
-        &["diffuse", "glossy"],
-    )
-    .context("gathering")?;
-    stages.push(("gather_caches", t.elapsed().as_secs_f64()));
-    Ok((read(&out, "diffuse"), read(&out, "glossy"), data))
+    }
+    for k in ["cache_irradiance", "cache_mips"] {
+        gcase.resources.remove(k);
+    }
+    let gparams = gcase
+        .resources
+        .remove("params")
+        .expect("the gather's params");
+    resources.insert("gather_params".into(), gparams);
+    resources.extend(gcase.resources);
+    for pass in &mut gcase.passes {
+        for (name, view) in &mut pass.bindings {
+            if name == "params" {
+                *view = View::Buffer("gather_params".into());
+            }
+        }
+    }
+    let creation_passes = if count == 0 { Vec::new() } else { ccase.passes };
+    let chain = [
+        Stage {
+            shader: &cshader,
+            kernel: cache_creation::DECL.name,
+            passes: &creation_passes,
+        },
+        Stage {
+            shader: &pshader,
+            kernel: cache_preconvolve::DECL.name,
+            passes: &pcase.passes,
+        },
+        Stage {
+            shader: &gshader,
+            kernel: gather_caches::DECL.name,
+            passes: &gcase.passes,
+        },
+    ];
+    // Wall clock per stage, transfers included: the upload counts to the first stage that runs, the
+    // readback to the gather.
+    progress("cache creation");
+    let mut t = std::time::Instant::now();
+    let prepared = prepare_chain(ctx, &chain, &resources).context("cache stages")?;
+    let mut first = 0;
+    for (stage, what, st) in [
+        ("cache_creation", "cache creation", &chain[0]),
+        ("cache_preconvolve", "pre-convolution", &chain[1]),
+        ("gather_caches", "gathering", &chain[2]),
+    ] {
+        let n = st.passes.len();
+        if n == 0 {
+            continue;
+        }
+        progress(what);
+        prepared
+            .dispatch_steps(first..first + n)
+            .with_context(|| what.to_string())?;
+        first += n;
+        if stage == "gather_caches" {
+            let out = prepared.read(&["diffuse", "glossy"]).context("gathering")?;
+            stages.push((stage, t.elapsed().as_secs_f64()));
+            let f4 = |name: &str| -> Vec<[f32; 4]> {
+                bytemuck::cast_slice(&out[name].buffer().expect("buffer").bytes).to_vec()
+            };
+            return Ok((f4("diffuse"), f4("glossy"), data));
+        }
+        stages.push((stage, t.elapsed().as_secs_f64()));
+        t = std::time::Instant::now();
+    }
+    unreachable!("the gather always runs")
 }
 
 /// Creation, pre-convolution and the gather by the mirrors.

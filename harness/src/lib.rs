@@ -23,7 +23,7 @@ pub use kernel::{
     VerifyOptions,
 };
 pub use run::{
-    prepare, HostBuffer, HostResource, HostTexture, Pass, Prepared, Resources, RunOutput,
-    TimingSource, View, Workgroups,
+    prepare, prepare_chain, run_chain, HostBuffer, HostResource, HostTexture, Pass, Prepared,
+    Resources, RunOutput, Stage, TimingSource, View, Workgroups,
 };
 pub use shader::{Binding, BindingKind, ScalarKind, Shader};

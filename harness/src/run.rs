@@ -604,12 +604,50 @@ pub fn prepare<'a>(
     resources: &Resources,
     passes: &[Pass],
 ) -> Result<Prepared<'a>> {
-    Checker {
+    prepare_chain(
         ctx,
-        shader,
-        kernel,
+        &[Stage {
+            shader,
+            kernel,
+            passes,
+        }],
+        resources,
+    )
+}
+
+/// One kernel's passes in a [`prepare_chain`]: its shader, its name (for messages) and its passes.
+pub struct Stage<'s> {
+    pub shader: &'s Shader,
+    pub kernel: &'s str,
+    pub passes: &'s [Pass],
+}
+
+/// [`prepare`] for several kernels run one after another in one submission over one set of GPU
+/// resources: a resource one stage writes is what a later stage reads (by name, through each pass's
+/// bindings), never copied through the host. Each stage is checked against its own shader.
+pub fn prepare_chain<'a>(
+    ctx: &'a GpuContext,
+    stages: &[Stage],
+    resources: &Resources,
+) -> Result<Prepared<'a>> {
+    for st in stages {
+        Checker {
+            ctx,
+            shader: st.shader,
+            kernel: st.kernel,
+        }
+        .check(resources, st.passes)?;
     }
-    .check(resources, passes)?;
+    let kernel = stages
+        .iter()
+        .map(|s| s.kernel)
+        .collect::<Vec<_>>()
+        .join(" + ");
+    let kernel = kernel.as_str();
+    let passes: Vec<(&Shader, &Pass)> = stages
+        .iter()
+        .flat_map(|st| st.passes.iter().map(move |p| (st.shader, p)))
+        .collect();
     scoped(ctx, kernel, || {
         let device = &ctx.device;
         let mut gpu = BTreeMap::new();
@@ -716,7 +754,7 @@ pub fn prepare<'a>(
         });
 
         let mut steps = Vec::new();
-        for pass in passes {
+        for &(shader, pass) in &passes {
             let pipeline = ctx.pipeline(&shader.source, &pass.entry, kernel);
             let entry = shader.entry(&pass.entry).expect("checked");
             let mut groups: BTreeMap<u32, Vec<(u32, wgpu::BindingResource)>> = BTreeMap::new();
@@ -849,14 +887,37 @@ pub fn prepare<'a>(
 impl Prepared<'_> {
     /// Run every pass once, in order, in one submission; returns (per-pass ns, total GPU ns, timing source).
     pub fn dispatch(&self) -> Result<(Vec<f64>, f64, TimingSource)> {
+        self.dispatch_steps(0..self.steps.len())
+    }
+
+    /// How many passes (of every stage of a chain, in order) this runs.
+    pub fn step_count(&self) -> usize {
+        self.steps.len()
+    }
+
+    /// Run the passes `range` once, in order, in one submission (a chain's stages one by one, each
+    /// timed alone, on the same GPU resources); returns as [`Prepared::dispatch`] for those passes.
+    pub fn dispatch_steps(
+        &self,
+        range: std::ops::Range<usize>,
+    ) -> Result<(Vec<f64>, f64, TimingSource)> {
         let ctx = self.ctx;
+        if range.is_empty() {
+            let source = if self.queries.is_some() {
+                TimingSource::Timestamps
+            } else {
+                TimingSource::WallClock
+            };
+            return Ok((Vec::new(), 0.0, source));
+        }
         scoped(ctx, &self.kernel, || {
             let mut encoder = ctx
                 .device
                 .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                     label: Some(&self.kernel),
                 });
-            for (pi, step) in self.steps.iter().enumerate() {
+            for pi in range.clone() {
+                let step = &self.steps[pi];
                 let timestamp_writes =
                     self.queries
                         .as_ref()
@@ -883,10 +944,11 @@ impl Prepared<'_> {
                     }
                 }
             }
-            let ts_staging = self.queries.as_ref().map(|(set, resolve, n)| {
-                encoder.resolve_query_set(set, 0..*n, resolve, 0);
-                let st = staging(&ctx.device, *n as u64 * 8);
-                encoder.copy_buffer_to_buffer(resolve, 0, &st, 0, *n as u64 * 8);
+            let ts_staging = self.queries.as_ref().map(|(set, resolve, _)| {
+                let (first, n) = (range.start as u32 * 2, range.len() as u32 * 2);
+                encoder.resolve_query_set(set, first..first + n, resolve, 0);
+                let st = staging(&ctx.device, n as u64 * 8);
+                encoder.copy_buffer_to_buffer(resolve, 0, &st, 0, n as u64 * 8);
                 st
             });
             let start = Instant::now();
@@ -1024,6 +1086,24 @@ impl Prepared<'_> {
             Ok(out)
         })
     }
+}
+
+/// [`run`] for a chain of kernels ([`prepare_chain`]): one upload, one submission, one readback.
+pub fn run_chain(
+    ctx: &GpuContext,
+    stages: &[Stage],
+    resources: &Resources,
+    readback: &[&str],
+) -> Result<RunOutput> {
+    let prepared = prepare_chain(ctx, stages, resources)?;
+    let (pass_ns, gpu_ns, timing) = prepared.dispatch()?;
+    let resources = prepared.read(readback)?;
+    Ok(RunOutput {
+        resources,
+        pass_ns,
+        gpu_ns,
+        timing,
+    })
 }
 
 /// Check, upload, run `passes` once and read back the resources named in `readback`.

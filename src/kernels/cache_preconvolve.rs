@@ -52,6 +52,20 @@ pub fn case_for(
     seed: u64,
 ) -> Case {
     let count = radiance.len() / (res * res) as usize;
+    case_for_count(ctx, count, Some(radiance), res, irr, label, seed)
+}
+
+/// [`case_for`] for `count` caches whose texels are `radiance`, or (None) a zeroed `cache_radiance`
+/// that an earlier stage of a chain fills on the GPU.
+pub fn case_for_count(
+    ctx: &GpuContext,
+    count: usize,
+    radiance: Option<&[[f32; 4]]>,
+    res: u32,
+    irr: u32,
+    label: String,
+    seed: u64,
+) -> Case {
     let p = PreconvolveParams {
         count: count as u32,
         res,
@@ -61,15 +75,12 @@ pub fn case_for(
     let (n_mips, n_irr) = (count * mip_len(res), count * (irr * irr) as usize);
     let mut resources = Resources::new();
     resources.insert("params".into(), HostResource::Buffer(HostBuffer::pod(&p)));
-    let rad = if radiance.is_empty() {
-        vec![[0.0; 4]]
-    } else {
-        radiance.to_vec()
+    let texels = (count * (res * res) as usize).max(1);
+    let rad = match radiance {
+        Some(r) if !r.is_empty() => HostBuffer::f32(bytemuck::cast_slice(r)),
+        _ => HostBuffer::zeroed(texels * 16, ScalarKind::F32),
     };
-    resources.insert(
-        "cache_radiance".into(),
-        HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(&rad))),
-    );
+    resources.insert("cache_radiance".into(), HostResource::Buffer(rad));
     resources.insert(
         "irr_weights".into(),
         HostResource::Buffer(HostBuffer::f32(&irradiance_weights(res, irr))),
@@ -108,7 +119,7 @@ pub fn case_for(
             check("cache_mips", mip_len(res)),
             check("cache_irradiance", (irr * irr) as usize),
         ],
-        effective_bytes: (rad.len() as u64) * 16 * 2 + (n_mips + n_irr) as u64 * 16,
+        effective_bytes: texels as u64 * 16 * 2 + (n_mips + n_irr) as u64 * 16,
     }
 }
 
