@@ -1,8 +1,9 @@
 //! The cprc stages like the paper's Fig. 4 (distribution, creation, evaluation) on the Cornell box at
 //! 256x256 and 512x512 (16-pixel tiles, 16^2 caches): for creation, pre-convolution and the gather,
 //! the GPU's kernel time (timestamps where the adapter has them) against the mirror's (rayon) on the
-//! same inputs; for the distribution (six kernels with host hand-overs), wall clock of the GPU chain
-//! against the mirrors' (`cargo bench --bench distribution` times its kernels one by one). The paper:
+//! same inputs; for the distribution (six kernels chained on GPU-resident buffers), wall clock of the
+//! chain (upload and readback included) against the mirrors' (`cargo bench --bench distribution` times
+//! its kernels one by one). The paper:
 //! 31 ms distribution, 39 ms creation, 33.5 ms evaluation at 2 Mpx with 4096 caches on a GTX 670.
 //!
 //! `cargo bench --bench cprc_stages`

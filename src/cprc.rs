@@ -9,9 +9,9 @@
 //!
 //! Indirect = albedo / pi * E + Ks * G (E the gathered irradiance, G the gathered glossy radiance);
 //! the caches hold one bounce of the voxels' direct light, as vct-dense's cones do. cprc has no AO
-//! pass: its AO image is 1 (unoccluded) on geometry. Stages hand over through host memory like the
-//! other pipelines (each hand-over is what `vxgi verify` checks); the GPU's outputs feed the next GPU
-//! stage, the mirrors only size the placement pass and check the cluster count.
+//! pass: its AO image is 1 (unoccluded) on geometry. The distribution (six kernels) and the cache
+//! stages (three) each run as one chain on GPU-resident buffers (`vxgi_harness::prepare_chain`); the
+//! pyramid before them still comes through the host like the other pipelines' stages.
 use crate::images::RgbImage;
 use crate::kernels::{
     cache_creation, cache_placement, cache_preconvolve, cluster_extract, cluster_keys,
@@ -19,7 +19,7 @@ use crate::kernels::{
 };
 use crate::scene::RenderSettings;
 use crate::trace::SceneData;
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result};
 use vxgi_cpu_mirror::cluster_extract::Cluster;
 use vxgi_cpu_mirror::gather_caches::GatherParams;
 use vxgi_harness::{GpuContext, HostBuffer, HostResource, Resources};
@@ -216,51 +216,61 @@ fn sorted_inputs(
     }
 }
 
-fn read<T: bytemuck::Pod>(out: &vxgi_harness::run::RunOutput, name: &str) -> Vec<T> {
-    bytemuck::cast_slice(&out.buffer(name).bytes).to_vec()
+/// Point every binding of `case` that views resource `from` at `to` instead, and move the resource
+/// (if the case has it) to that name. With `shared`, the case's own copy is dropped: an earlier stage
+/// of the chain provides `to`.
+fn rename(case: &mut vxgi_harness::Case, from: &str, to: &str, shared: bool) {
+    use vxgi_harness::View;
+    if let Some(r) = case.resources.remove(from) {
+        if !shared {
+            case.resources.insert(to.into(), r);
+        }
+    }
+    for p in &mut case.passes {
+        for (_, v) in &mut p.bindings {
+            if let View::Buffer(n) | View::BufferRange { name: n, .. } = v {
+                if n == from {
+                    *n = to.into();
+                }
+            }
+        }
+    }
 }
 
-/// Cache distribution on the GPU: every kernel's output is the next kernel's input.
+/// Cache distribution on the GPU as one chain of kernels on one set of GPU resources (histograms,
+/// axes, keys, radix sort, clusters, placement): each kernel reads what the previous wrote, nothing
+/// goes through the host until the clusters and picks are read back. The resources shared by name are
+/// renamed where two kernels use one name for different things (`params`, `scan_partials`).
 pub fn distribute_gpu(
     ctx: &GpuContext,
     px: &PixelInputs,
     s: &CprcSettings,
     offset: f32,
 ) -> Result<CacheSet> {
-    use vxgi_harness::run::run;
+    use vxgi_harness::run::{grid_for, Pass, Workgroups};
+    use vxgi_harness::{prepare_chain, ScalarKind, Stage};
     let (w, h) = (px.width, px.height);
+    let n = (w * h) as usize;
     let hp = tile_normal_histogram::params(w, h, s.tile)?;
-    let case = tile_normal_histogram::case_for(&px.normals, hp, "cprc".into(), 0)?;
-    let decl = &tile_normal_histogram::DECL;
-    let out = run(
-        ctx,
-        &decl.shader()?,
-        decl.name,
-        &case.resources,
-        &case.passes,
-        &["histogram", "blurred"],
-    )
-    .context("tile_normal_histogram")?;
-    let (raw, blurred): (Vec<u32>, Vec<u32>) = (read(&out, "histogram"), read(&out, "blurred"));
-
-    let decl = &histogram_axes::DECL;
-    let shader = decl.shader()?;
-    let case = histogram_axes::axes_case(&shader, ctx, &raw, &blurred, "cprc".into(), 0);
-    let out = run(
-        ctx,
-        &shader,
-        decl.name,
-        &case.resources,
-        &case.passes,
-        &["axes"],
-    )
-    .context("histogram_axes")?;
-    let axes: Vec<u32> = read(&out, "axes");
-
-    let decl = &cluster_keys::DECL;
-    let shader = decl.shader()?;
-    let mut case = cluster_keys::case_for(
-        &shader,
+    let tiles = (hp.tiles_x * h.div_ceil(s.tile)) as usize;
+    let shaders = [
+        tile_normal_histogram::DECL.shader()?,
+        histogram_axes::DECL.shader()?,
+        cluster_keys::DECL.shader()?,
+        radix_sort::DECL.shader()?,
+        cluster_extract::DECL.shader()?,
+        cache_placement::DECL.shader()?,
+    ];
+    let mut hist = tile_normal_histogram::case_for(&px.normals, hp, "cprc".into(), 0)?;
+    rename(&mut hist, "params", "hist_params", false);
+    let empty = vec![0u32; tiles * 64];
+    let mut axes = histogram_axes::axes_case(&shaders[1], ctx, &empty, &empty, "cprc".into(), 0);
+    rename(&mut axes, "params", "axes_params", false);
+    for r in ["histogram", "blurred"] {
+        axes.resources.remove(r);
+    }
+    let mut keys = cluster_keys::case_for(
+        &shaders[2],
         ctx,
         &px.normals,
         &px.depth,
@@ -271,93 +281,111 @@ pub fn distribute_gpu(
         "cprc".into(),
         0,
     );
-    case.resources.insert(
-        "tile_axes".into(),
-        HostResource::Buffer(HostBuffer::u32(&axes)),
-    );
+    rename(&mut keys, "params", "key_params", false);
+    rename(&mut keys, "tile_axes", "axes", true);
     let mut bounds = vxgi_cpu_mirror::cluster_keys::slice_bounds(NEAR, FAR, s.slices);
     bounds.push(f32::INFINITY);
-    case.resources.insert(
+    keys.resources.insert(
         "slice_bounds".into(),
         HostResource::Buffer(HostBuffer::f32(&bounds)),
     );
-    let out = run(
+    let values: Vec<u32> = (0..n as u32).collect();
+    let (mut sort, [kname, vname]) = radix_sort::case_for(
         ctx,
-        &shader,
-        decl.name,
-        &case.resources,
-        &case.passes,
-        &["keys"],
-    )
-    .context("cluster_keys")?;
-    let keys: Vec<u32> = read(&out, "keys");
-
-    let tiles = hp.tiles_x * h.div_ceil(s.tile);
-    let values: Vec<u32> = (0..keys.len() as u32).collect();
-    let (case, [kname, vname]) = radix_sort::case_for(
-        ctx,
-        &keys,
+        &vec![0; n],
         &values,
-        key_bits(tiles, s.slices),
+        key_bits(tiles as u32, s.slices),
         "cprc".into(),
         0,
     )?;
-    let decl = &radix_sort::DECL;
-    let out = run(
-        ctx,
-        &decl.shader()?,
-        decl.name,
-        &case.resources,
-        &case.passes,
-        &[&kname, &vname],
-    )
-    .context("radix_sort")?;
-    let inp = sorted_inputs(px, s, read(&out, &kname), read(&out, &vname));
-
-    let decl = &cluster_extract::DECL;
-    let case = cluster_extract::case_for(ctx, &inp, "cprc".into(), 0);
-    let out = run(
-        ctx,
-        &decl.shader()?,
-        decl.name,
-        &case.resources,
-        &case.passes,
-        &["cluster_count", "clusters", "pixel_cluster"],
-    )
-    .context("cluster_extract")?;
-    let count = read::<u32>(&out, "cluster_count")[0] as usize;
-    let clusters_buf = out.buffer("clusters").clone();
-    let pixel_cluster = out.buffer("pixel_cluster").clone();
-    let clusters: Vec<Cluster> =
-        bytemuck::cast_slice::<u8, Cluster>(&clusters_buf.bytes)[..count].to_vec();
-
-    // The placement case sizes its pick pass by the mirror's clusters: the same ones (exact kernels),
-    // checked.
-    let decl = &cache_placement::DECL;
-    let mut case = cache_placement::case_for(ctx, &inp, "cprc".into(), 0);
-    let mirror_count = case.resources["cluster_count"]
-        .buffer()
-        .expect("buffer")
-        .as_u32()[0] as usize;
-    if mirror_count != count {
-        bail!("cache distribution: the GPU found {count} clusters, the mirror {mirror_count}");
+    // The sort starts from the keys kernel's output (and ping-pongs through it).
+    rename(&mut sort, "keys_a", "keys", true);
+    rename(&mut sort, "scan_partials", "sort_scan_partials", false);
+    let kname = if kname == "keys_a" {
+        "keys".to_string()
+    } else {
+        kname
+    };
+    let inp = sorted_inputs(px, s, vec![0; n], vec![0; n]);
+    let mut extract = cluster_extract::case_for(ctx, &inp, "cprc".into(), 0);
+    rename(&mut extract, "params", "extract_params", false);
+    rename(
+        &mut extract,
+        "scan_partials",
+        "extract_scan_partials",
+        false,
+    );
+    rename(&mut extract, "keys", &kname, true);
+    rename(&mut extract, "pixels", &vname, true);
+    // Placement: one invocation per pixel for the scores, and per pixel for the picks (no more
+    // clusters than pixels; pick_caches stops at the GPU's cluster count).
+    let mut resources = hist.resources;
+    resources.extend(axes.resources);
+    resources.extend(keys.resources);
+    resources.extend(sort.resources);
+    resources.extend(extract.resources);
+    resources.insert(
+        "scores".into(),
+        HostResource::Buffer(HostBuffer::zeroed(n * 4, ScalarKind::F32)),
+    );
+    resources.insert(
+        "picks".into(),
+        HostResource::Buffer(HostBuffer::zeroed(n * 4, ScalarKind::U32)),
+    );
+    let mut place_bindings = cache_placement::DECL.bind_by_name();
+    for (binding, view) in &mut place_bindings {
+        if binding == "pixels" {
+            *view = vxgi_harness::View::Buffer(vname.clone());
+        }
     }
-    case.resources
-        .insert("clusters".into(), HostResource::Buffer(clusters_buf));
-    case.resources
-        .insert("pixel_cluster".into(), HostResource::Buffer(pixel_cluster));
-    let out = run(
-        ctx,
-        &decl.shader()?,
-        decl.name,
-        &case.resources,
-        &case.passes,
-        &["picks"],
-    )
-    .context("cache_placement")?;
-    let picks: Vec<u32> = read::<u32>(&out, "picks")[..count].to_vec();
+    let grid = grid_for(
+        n as u64,
+        64,
+        ctx.limits().max_compute_workgroups_per_dimension,
+    );
+    let place: Vec<Pass> = ["score_pixels", "pick_caches"]
+        .iter()
+        .map(|e| Pass {
+            label: e.to_string(),
+            entry: e.to_string(),
+            bindings: place_bindings.clone(),
+            workgroups: Workgroups::Direct(grid),
+        })
+        .collect();
+    let names = [
+        tile_normal_histogram::DECL.name,
+        histogram_axes::DECL.name,
+        cluster_keys::DECL.name,
+        radix_sort::DECL.name,
+        cluster_extract::DECL.name,
+        cache_placement::DECL.name,
+    ];
+    let passes = [
+        &hist.passes,
+        &axes.passes,
+        &keys.passes,
+        &sort.passes,
+        &extract.passes,
+        &place,
+    ];
+    let chain: Vec<Stage> = (0..6)
+        .map(|k| Stage {
+            shader: &shaders[k],
+            kernel: names[k],
+            passes: passes[k],
+        })
+        .collect();
+    let prepared = prepare_chain(ctx, &chain, &resources).context("cache distribution")?;
+    prepared.dispatch().context("cache distribution")?;
+    let out = prepared
+        .read(&["cluster_count", "clusters", "picks"])
+        .context("cache distribution")?;
+    let b = |name: &str| &out[name].buffer().expect("buffer").bytes;
+    let count = bytemuck::cast_slice::<u8, u32>(b("cluster_count"))[0] as usize;
+    let clusters = &bytemuck::cast_slice::<u8, Cluster>(b("clusters"))[..count];
+    let picks = &bytemuck::cast_slice::<u8, u32>(b("picks"))[..count];
     let caches =
-        gather_caches::caches_at(w, h, s.tile, &px.normals, &inp.positions, &clusters, &picks);
+        gather_caches::caches_at(w, h, s.tile, &px.normals, &inp.positions, clusters, picks);
     Ok(CacheSet::new(caches, offset))
 }
 
