@@ -172,6 +172,19 @@ pub struct CacheSet {
 }
 
 impl CacheSet {
+    /// No caches (a frame whose plan skips them).
+    pub fn empty() -> Self {
+        Self::new(
+            gather_caches::Caches {
+                pos: Vec::new(),
+                pixel: Vec::new(),
+                normal: Vec::new(),
+                tile_ranges: Vec::new(),
+            },
+            0.0,
+        )
+    }
+
     fn new(caches: gather_caches::Caches, offset: f32) -> Self {
         let mut creation = Vec::with_capacity(2 * caches.pos.len());
         for (p, n) in caches.pos.iter().zip(&caches.normal) {
@@ -719,7 +732,9 @@ pub fn coverage(d: &gather_caches::GatherData) -> (usize, usize) {
             let (tx, ty) = (x / p.tile as i32, y / p.tile as i32);
             for ny in (ty - reach).max(0)..=(ty + reach).min(p.tiles_y as i32 - 1) {
                 for nx in (tx - reach).max(0)..=(tx + reach).min(p.tiles_x as i32 - 1) {
-                    let [a, b] = d.tile_ranges[(ny as u32 * p.tiles_x + nx as u32) as usize];
+                    let t = (ny as u32 * p.tiles_x + nx as u32) as usize;
+                    // A tile without a range (no caches at all) holds none.
+                    let [a, b] = d.tile_ranges.get(t).copied().unwrap_or([0, 0]);
                     for c in a as usize..b as usize {
                         let [cx, cy] = d.cache_pixel[c];
                         let ds2 = (cx as i32 - x).pow(2) + (cy as i32 - y).pow(2);

@@ -296,6 +296,9 @@ fn run_render(
                 m.views,
                 m.lrsm as f64 / 1e6
             ),
+            Some(vxgi::render::VolumeMemory::Caches(_)) if !r.plan.runs("gather_caches") => {
+                println!("cprc: no radiance caches (the plan skipped them, see below)")
+            }
             Some(vxgi::render::VolumeMemory::Caches(c)) => println!(
                 "cprc: {} radiance caches; {} of {} front-facing pixels without a valid cache ({:.2}%)",
                 c.caches,

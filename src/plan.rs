@@ -300,6 +300,23 @@ impl FramePlan {
                 passes.push(p);
                 continue;
             }
+            if scene.lights.is_empty() {
+                // Without lights the pyramid holds no radiance and cprc has no AO pass: indirect is 0
+                // whatever the caches would hold, so nothing after direct light runs.
+                for p in &mut passes {
+                    if matches!(p.stage, "voxelize" | "surface_coverage_mip") {
+                        p.runs = false;
+                        p.why = "skipped: no lights, the caches would hold no radiance (cprc has no AO)".into();
+                    }
+                }
+            }
+            let no_light = |mut p: PlannedPass| {
+                if scene.lights.is_empty() {
+                    p.runs = false;
+                    p.why = "skipped: no lights, indirect is 0".into();
+                }
+                p
+            };
             for kernel in [
                 "tile_normal_histogram",
                 "histogram_axes",
@@ -308,29 +325,29 @@ impl FramePlan {
                 "cluster_extract",
                 "cache_placement",
             ] {
-                passes.push(PlannedPass {
+                passes.push(no_light(PlannedPass {
                     stage: "cache_distribution",
                     kernel,
                     size: format!("{w}x{h} pixels, {tiles} tiles of {}^2, {} depth slices", s.tile, s.slices),
                     runs: true,
                     why: "one cache per cluster of the view's pixels (tile x normal axis x depth slice)".into(),
-                });
+                }));
             }
-            passes.push(PlannedPass {
+            passes.push(no_light(PlannedPass {
                 stage: "cache_creation",
                 kernel: "cache_creation",
                 size: format!("caches x {}^2 texels", s.res),
                 runs: true,
                 why: "one cone per cache texel through the radiance pyramid".into(),
-            });
-            passes.push(PlannedPass {
+            }));
+            passes.push(no_light(PlannedPass {
                 stage: "cache_preconvolve",
                 kernel: "cache_preconvolve",
                 size: format!("caches x {}^2 irradiance texels", s.irr),
                 runs: true,
                 why: "cosine-folded irradiance for diffuse (entry irradiance)".into(),
-            });
-            passes.push(PlannedPass {
+            }));
+            passes.push(no_light(PlannedPass {
                 // Its own stage name so that skipping it does not read as skipping pre-convolution
                 // (timed within cache_preconvolve).
                 stage: "cache_mips",
@@ -342,8 +359,8 @@ impl FramePlan {
                 } else {
                     "skipped: no material has Ks, no pixel reads a mip chain (entry mips)".into()
                 },
-            });
-            passes.push(PlannedPass {
+            }));
+            passes.push(no_light(PlannedPass {
                 stage: "gather_caches",
                 kernel: "gather_caches",
                 size: format!("{w}x{h} pixels, radius {} px", s.radius_px),
@@ -353,7 +370,7 @@ impl FramePlan {
                 } else {
                     "irradiance by normal; no glossy lookups: no material has Ks".into()
                 },
-            });
+            }));
         }
         Self {
             pipeline: "cprc",

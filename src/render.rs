@@ -696,6 +696,27 @@ impl VctCprc {
         let data = SceneData::new(scene);
         let mut stages = Vec::new();
         let (gb, direct) = gbuffer_and_direct(ctx, &data, &plan, &mut stages, &progress)?;
+        let (pos, nrm, tri, alb) = cprc::gbuffer_arrays(&gb);
+        let px = cprc::pixel_inputs(&data, &pos, &nrm, &tri, &alb, settings.res);
+        if !plan.runs("gather_caches") {
+            // No lights: indirect is 0 (the plan says why); the AO image as cprc's always is.
+            let empty = cprc::gather_data(&px, &cprc::CacheSet::empty(), &settings, vec![], vec![]);
+            let n = px.positions.len();
+            let zeros = vec![[0.0f32; 4]; n];
+            let (indirect, ao, stats) = cprc::compose(&px, &(zeros.clone(), zeros, empty));
+            let (w, h) = (direct.width, direct.height);
+            let combined =
+                RgbImage::new(w, h, crate::images::add(&direct.pixels, &indirect.pixels));
+            let frame = Rendered {
+                direct,
+                indirect,
+                combined,
+                ao,
+                stages,
+                plan,
+            };
+            return Ok((frame, stats));
+        }
         let (_, pyramid, frame) = radiance_pyramid(
             ctx,
             scene,
@@ -707,8 +728,6 @@ impl VctCprc {
             &progress,
         )?;
         let params = cone_trace::cone_params(frame, cones);
-        let (pos, nrm, tri, alb) = cprc::gbuffer_arrays(&gb);
-        let px = cprc::pixel_inputs(&data, &pos, &nrm, &tri, &alb, settings.res);
         progress("cache distribution");
         let t = std::time::Instant::now();
         let offset = params.offset_voxels * params.origin[3];

@@ -102,3 +102,29 @@ fn clustered_placement_leaves_fewer_pixels_without_a_cache_than_a_grid() {
         }
     }
 }
+
+/// Without lights cprc's caches would hold no radiance and it has no AO pass: the plan skips
+/// voxelization, the pyramid and every cache stage, and the frame's indirect light is 0.
+#[test]
+fn without_lights_nothing_after_direct_light_runs() {
+    let mut scene = Scene::cornell_box();
+    scene.camera.width = 32;
+    scene.camera.height = 32;
+    scene.lights.clear();
+    let (r, stats) =
+        vxgi::render::render_cprc(gpu(), &scene, &ConeSettings::default(), |_| {}).unwrap();
+    let skipped = r.plan.skipped();
+    for stage in [
+        "voxelize",
+        "surface_coverage_mip",
+        "cache_distribution",
+        "cache_creation",
+        "cache_preconvolve",
+        "gather_caches",
+    ] {
+        assert!(skipped.contains(&stage), "{stage}: {skipped:?}");
+    }
+    assert_eq!(r.stages.len(), 1, "only the G-buffer ran: {:?}", r.stages);
+    assert!(r.indirect.pixels.iter().all(|p| *p == [0.0; 3]));
+    assert_eq!(stats.caches, 0);
+}
