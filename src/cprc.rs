@@ -229,27 +229,6 @@ fn sorted_inputs(
     }
 }
 
-/// Point every binding of `case` that views resource `from` at `to` instead, and move the resource
-/// (if the case has it) to that name. With `shared`, the case's own copy is dropped: an earlier stage
-/// of the chain provides `to`.
-fn rename(case: &mut vxgi_harness::Case, from: &str, to: &str, shared: bool) {
-    use vxgi_harness::View;
-    if let Some(r) = case.resources.remove(from) {
-        if !shared {
-            case.resources.insert(to.into(), r);
-        }
-    }
-    for p in &mut case.passes {
-        for (_, v) in &mut p.bindings {
-            if let View::Buffer(n) | View::BufferRange { name: n, .. } = v {
-                if n == from {
-                    *n = to.into();
-                }
-            }
-        }
-    }
-}
-
 /// Cache distribution on the GPU as one chain of kernels on one set of GPU resources (histograms,
 /// axes, keys, radix sort, clusters, placement): each kernel reads what the previous wrote, nothing
 /// goes through the host until the clusters and picks are read back. The resources shared by name are
@@ -275,10 +254,10 @@ pub fn distribute_gpu(
         cache_placement::DECL.shader()?,
     ];
     let mut hist = tile_normal_histogram::case_for(&px.normals, hp, "cprc".into(), 0)?;
-    rename(&mut hist, "params", "hist_params", false);
+    hist.rename_resource("params", "hist_params", false);
     let empty = vec![0u32; tiles * 64];
     let mut axes = histogram_axes::axes_case(&shaders[1], ctx, &empty, &empty, "cprc".into(), 0);
-    rename(&mut axes, "params", "axes_params", false);
+    axes.rename_resource("params", "axes_params", false);
     for r in ["histogram", "blurred"] {
         axes.resources.remove(r);
     }
@@ -294,8 +273,8 @@ pub fn distribute_gpu(
         "cprc".into(),
         0,
     );
-    rename(&mut keys, "params", "key_params", false);
-    rename(&mut keys, "tile_axes", "axes", true);
+    keys.rename_resource("params", "key_params", false);
+    keys.rename_resource("tile_axes", "axes", true);
     let mut bounds = vxgi_cpu_mirror::cluster_keys::slice_bounds(NEAR, FAR, s.slices);
     bounds.push(f32::INFINITY);
     keys.resources.insert(
@@ -312,8 +291,8 @@ pub fn distribute_gpu(
         0,
     )?;
     // The sort starts from the keys kernel's output (and ping-pongs through it).
-    rename(&mut sort, "keys_a", "keys", true);
-    rename(&mut sort, "scan_partials", "sort_scan_partials", false);
+    sort.rename_resource("keys_a", "keys", true);
+    sort.rename_resource("scan_partials", "sort_scan_partials", false);
     let kname = if kname == "keys_a" {
         "keys".to_string()
     } else {
@@ -321,15 +300,10 @@ pub fn distribute_gpu(
     };
     let inp = sorted_inputs(px, s, vec![0; n], vec![0; n]);
     let mut extract = cluster_extract::case_for(ctx, &inp, "cprc".into(), 0);
-    rename(&mut extract, "params", "extract_params", false);
-    rename(
-        &mut extract,
-        "scan_partials",
-        "extract_scan_partials",
-        false,
-    );
-    rename(&mut extract, "keys", &kname, true);
-    rename(&mut extract, "pixels", &vname, true);
+    extract.rename_resource("params", "extract_params", false);
+    extract.rename_resource("scan_partials", "extract_scan_partials", false);
+    extract.rename_resource("keys", &kname, true);
+    extract.rename_resource("pixels", &vname, true);
     // Placement: one invocation per pixel for the scores, and per pixel for the picks (no more
     // clusters than pixels; pick_caches stops at the GPU's cluster count).
     let mut resources = hist.resources;

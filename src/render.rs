@@ -9,6 +9,7 @@ use crate::plan::FramePlan;
 use crate::scene::Scene;
 use crate::trace::SceneData;
 use anyhow::{Context, Result};
+use vxgi_cpu_mirror::surface_coverage_mip::Coverage;
 use wgpu::util::DeviceExt;
 
 /// G-buffer and radiance buffers sized for a frame (row-major pixels), owned by whoever renders.
@@ -253,10 +254,20 @@ impl VctDense {
         if !cached {
             self.cache = None;
         }
-        render_frame(ctx, scene, cones, plan, &mut self.cache, key, progress)
+        render_frame(
+            ctx,
+            scene,
+            cones,
+            plan,
+            &mut self.cache,
+            key,
+            self.reuse,
+            progress,
+        )
     }
 }
 
+#[allow(clippy::too_many_arguments)]
 fn render_frame(
     ctx: &crate::harness::GpuContext,
     scene: &Scene,
@@ -264,11 +275,20 @@ fn render_frame(
     plan: FramePlan,
     cache: &mut Option<(PyramidKey, Vec<[f32; 4]>, voxelize::VoxelFrame)>,
     key: PyramidKey,
+    keep: bool,
     progress: impl Fn(&str),
 ) -> Result<Rendered> {
     let data = SceneData::new(scene);
     let mut stages = Vec::new();
     let (gb, direct) = gbuffer_and_direct(ctx, &data, &plan, &mut stages, &progress)?;
+    if plan.runs("voxelize") && plan.runs("voxel_light") {
+        // The whole pyramid and the cone pass on the GPU in one chain.
+        let (frame, built) = chained_frame(
+            ctx, scene, cones, &data, &gb, direct, stages, plan, keep, &progress,
+        )?;
+        *cache = built.map(|(pyramid, vf)| (key, pyramid, vf));
+        return Ok(frame);
+    }
     let (_, pyramid, frame) =
         radiance_pyramid(ctx, scene, &data, &plan, cache, key, &mut stages, &progress)?;
     progress("cone tracing");
@@ -279,6 +299,181 @@ fn render_frame(
 }
 
 type Stages = Vec<(&'static str, f64)>;
+
+/// vct-dense's frame with voxelize, voxel_light, the surface-coverage mips and the cone pass as one
+/// chain on GPU-resident buffers (`vxgi_harness::prepare_chain`): the voxel grid, its radiance and its
+/// mips never travel through the host; the mip levels are copied into the pyramid buffer on the GPU.
+/// The same kernels on the same inputs as the stage-by-stage path, so the same image. With `keep`
+/// (the reuse rule on) the pyramid is read back for the next frames. Stage times are wall clock: the
+/// upload counts to voxelize, the readback to cone_trace.
+#[allow(clippy::too_many_arguments, clippy::type_complexity)]
+fn chained_frame(
+    ctx: &crate::harness::GpuContext,
+    scene: &Scene,
+    cones: &ConeSettings,
+    data: &SceneData,
+    gb: &crate::harness::Resources,
+    direct: RgbImage,
+    mut stages: Stages,
+    plan: FramePlan,
+    keep: bool,
+    progress: &impl Fn(&str),
+) -> Result<(Rendered, Option<(Vec<[f32; 4]>, voxelize::VoxelFrame)>)> {
+    use crate::harness::run::{grid_for, Pass, Workgroups};
+    use crate::harness::{prepare_chain, HostBuffer, HostResource, ScalarKind, Stage};
+    use crate::kernels::surface_coverage_mip::{self as scm, colour_name};
+    use vxgi_cpu_mirror::cone_trace::{level_offset, pyramid_len};
+    progress("voxelize");
+    let mut t = std::time::Instant::now();
+    let side = scene.render.voxels;
+    let v = (side as u64).pow(3);
+    let max = ctx.limits().max_compute_workgroups_per_dimension;
+    let (input, vframe) = voxelize::prepare(scene, side)?;
+    let mut vox = voxelize::case_for(ctx, &input, side, "render".into(), 0)?;
+    vox.rename_resource("params", "vox_params", false);
+    // voxel_light over every entry the list could hold: the kernel stops at the GPU's count.
+    let mut light_res = crate::kernels::gbuffer::scene_resources(data);
+    light_res.remove("frame");
+    light_res.remove("materials");
+    light_res.insert(
+        "grid".into(),
+        HostResource::Buffer(HostBuffer::pod(&voxel_light::voxel_grid(
+            &vframe,
+            data.lights.len(),
+        ))),
+    );
+    light_res.insert(
+        "vox_radiance".into(),
+        HostResource::Buffer(HostBuffer::zeroed(v as usize * 16, ScalarKind::F32)),
+    );
+    let light_passes = vec![Pass {
+        label: "voxel_light".into(),
+        entry: "main".into(),
+        bindings: voxel_light::DECL.bind_by_name(),
+        workgroups: Workgroups::Direct(grid_for(v, 64, max)),
+    }];
+    // The mip chain from voxel_light's radiance and voxelize's normals.
+    let mip_shader = scm::DECL.shader()?;
+    let shell = crate::grids::Grid {
+        n: side,
+        colour: Vec::new(),
+        normal: Vec::new(),
+    };
+    let mut mips = scm::chain_case(
+        &mip_shader,
+        ctx,
+        &shell,
+        Coverage::Surface,
+        "render".into(),
+        0,
+    );
+    mips.rename_resource("params", "mip_params", false);
+    mips.rename_resource(&colour_name(0), "vox_radiance", true);
+    mips.rename_resource(&scm::normal_name(0), "vox_normal", true);
+    let params = cone_trace::cone_params(&vframe, cones);
+    let mut cone = cone_trace::case_for(ctx, data, gb, &[], &params, "render".into(), 0);
+    cone.resources.insert(
+        "pyramid".into(),
+        HostResource::Buffer(HostBuffer::zeroed(pyramid_len(side) * 16, ScalarKind::F32)),
+    );
+    let mut resources = vox.resources;
+    resources.extend(light_res);
+    resources.extend(mips.resources);
+    resources.extend(cone.resources);
+    let (vs, ls, cs) = (
+        voxelize::DECL.shader()?,
+        voxel_light::DECL.shader()?,
+        cone_trace::DECL.shader()?,
+    );
+    let chain = [
+        Stage {
+            shader: &vs,
+            kernel: voxelize::DECL.name,
+            passes: &vox.passes,
+        },
+        Stage {
+            shader: &ls,
+            kernel: voxel_light::DECL.name,
+            passes: &light_passes,
+        },
+        Stage {
+            shader: &mip_shader,
+            kernel: scm::DECL.name,
+            passes: &mips.passes,
+        },
+        Stage {
+            shader: &cs,
+            kernel: cone_trace::DECL.name,
+            passes: &cone.passes,
+        },
+    ];
+    let prepared = prepare_chain(ctx, &chain, &resources).context("vct-dense chain")?;
+    let mut first = 0;
+    let mut run_stage = |k: usize| -> Result<()> {
+        let n = chain[k].passes.len();
+        prepared.dispatch_steps(first..first + n)?;
+        first += n;
+        Ok(())
+    };
+    run_stage(0).context("voxelize")?;
+    stages.push(("voxelize", t.elapsed().as_secs_f64()));
+    progress("voxel light");
+    t = std::time::Instant::now();
+    run_stage(1).context("voxel light")?;
+    stages.push(("voxel_light", t.elapsed().as_secs_f64()));
+    progress("mip chain");
+    t = std::time::Instant::now();
+    run_stage(2).context("mip chain")?;
+    let levels = side.trailing_zeros() + 1;
+    let names: Vec<String> = (0..levels)
+        .map(|l| {
+            if l == 0 {
+                "vox_radiance".to_string()
+            } else {
+                colour_name(l)
+            }
+        })
+        .collect();
+    let copies: Vec<(&str, &str, u64)> = names
+        .iter()
+        .enumerate()
+        .map(|(l, n)| {
+            (
+                n.as_str(),
+                "pyramid",
+                level_offset(side, l as u32) as u64 * 16,
+            )
+        })
+        .collect();
+    prepared.copy_into(&copies).context("mip chain")?;
+    stages.push(("surface_coverage_mip", t.elapsed().as_secs_f64()));
+    progress("cone tracing");
+    t = std::time::Instant::now();
+    run_stage(3).context("cone tracing")?;
+    let mut names = vec!["indirect", "ao"];
+    if keep {
+        names.push("pyramid");
+    }
+    let out = prepared.read(&names).context("cone tracing")?;
+    stages.push(("cone_trace", t.elapsed().as_secs_f64()));
+    let bytes = |n: &str| &out[n].buffer().expect("buffer").bytes;
+    let (w, h) = (direct.width, direct.height);
+    let indirect = image_of(w, h, bytes("indirect"));
+    let ao = image_of(w, h, bytes("ao"));
+    let combined = RgbImage::new(w, h, crate::images::add(&direct.pixels, &indirect.pixels));
+    let kept = keep.then(|| (bytemuck::cast_slice(bytes("pyramid")).to_vec(), vframe));
+    Ok((
+        Rendered {
+            direct,
+            indirect,
+            combined,
+            ao,
+            stages,
+            plan,
+        },
+        kept,
+    ))
+}
 
 /// The radiance pyramid of vct-dense and cprc: built (voxelize, voxel light, surface-coverage mips)
 /// where the plan runs voxelize, else the cached one.

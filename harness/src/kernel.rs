@@ -155,6 +155,30 @@ pub struct Case {
     pub effective_bytes: u64,
 }
 
+impl Case {
+    /// Point every binding of the passes that views resource `from` at `to` instead, and move the
+    /// resource (if the case has it) to that name — how a case joins a chain (`prepare_chain`) whose
+    /// other stages use the name for something else. With `shared`, the case's own copy is dropped:
+    /// an earlier stage of the chain provides `to`.
+    pub fn rename_resource(&mut self, from: &str, to: &str, shared: bool) {
+        use crate::run::View;
+        if let Some(r) = self.resources.remove(from) {
+            if !shared {
+                self.resources.insert(to.into(), r);
+            }
+        }
+        for p in &mut self.passes {
+            for (_, v) in &mut p.bindings {
+                if let View::Buffer(n) | View::BufferRange { name: n, .. } = v {
+                    if n == from {
+                        *n = to.into();
+                    }
+                }
+            }
+        }
+    }
+}
+
 /// A declared kernel with its case generator and mirror.
 pub trait Kernel: Sync {
     fn decl(&self) -> &'static KernelDecl;

@@ -662,17 +662,30 @@ pub fn prepare_chain<'a>(
                             scalar: b.scalar,
                         }),
                     );
-                    GpuRes::Buffer(
+                    let usage = wgpu::BufferUsages::STORAGE
+                        | wgpu::BufferUsages::UNIFORM
+                        | wgpu::BufferUsages::COPY_SRC
+                        | wgpu::BufferUsages::COPY_DST
+                        | wgpu::BufferUsages::INDIRECT;
+                    // wgpu zero-initialises new buffers: an all-zero host buffer (outputs,
+                    // accumulators) need not be copied up.
+                    let zero = !b.bytes.is_empty()
+                        && b.bytes.len() % 4 == 0
+                        && b.bytes.iter().all(|&x| x == 0);
+                    GpuRes::Buffer(if zero {
+                        device.create_buffer(&wgpu::BufferDescriptor {
+                            label: Some(name),
+                            size: b.bytes.len() as u64,
+                            usage,
+                            mapped_at_creation: false,
+                        })
+                    } else {
                         device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                             label: Some(name),
                             contents: &b.bytes,
-                            usage: wgpu::BufferUsages::STORAGE
-                                | wgpu::BufferUsages::UNIFORM
-                                | wgpu::BufferUsages::COPY_SRC
-                                | wgpu::BufferUsages::COPY_DST
-                                | wgpu::BufferUsages::INDIRECT,
-                        }),
-                    )
+                            usage,
+                        })
+                    })
                 }
                 HostResource::Texture(t) => {
                     shapes.insert(
@@ -888,6 +901,47 @@ impl Prepared<'_> {
     /// Run every pass once, in order, in one submission; returns (per-pass ns, total GPU ns, timing source).
     pub fn dispatch(&self) -> Result<(Vec<f64>, f64, TimingSource)> {
         self.dispatch_steps(0..self.steps.len())
+    }
+
+    /// Copy whole buffer resources into others at byte offsets (`(src, dst, dst_offset)`), in one
+    /// submission: a chain's stages hand over on the GPU where one kernel's outputs are separate
+    /// buffers and the next reads them as one (a mip chain's levels into a pyramid). Sizes and offsets
+    /// are checked (multiples of 4, inside `dst`).
+    pub fn copy_into(&self, copies: &[(&str, &str, u64)]) -> Result<()> {
+        let ctx = self.ctx;
+        let buffer = |name: &str| -> Result<&wgpu::Buffer> {
+            match self.gpu.get(name) {
+                Some(GpuRes::Buffer(b)) => Ok(b),
+                _ => Err(HarnessError::UnknownResource {
+                    kernel: self.kernel.clone(),
+                    pass: "copy".into(),
+                    resource: name.to_string(),
+                }),
+            }
+        };
+        let mut enc = ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("copies"),
+            });
+        for &(src, dst, offset) in copies {
+            let (s, d) = (buffer(src)?, buffer(dst)?);
+            if offset % 4 != 0 || s.size() % 4 != 0 || offset + s.size() > d.size() {
+                return Err(HarnessError::Gpu {
+                    kernel: self.kernel.clone(),
+                    message: format!(
+                        "copy of `{src}` ({} bytes) into `{dst}` ({} bytes) at {offset}: misaligned or out of range",
+                        s.size(),
+                        d.size()
+                    ),
+                });
+            }
+            enc.copy_buffer_to_buffer(s, 0, d, offset, s.size());
+        }
+        scoped(ctx, &self.kernel, || {
+            ctx.queue.submit([enc.finish()]);
+            wait(ctx, &self.kernel)
+        })
     }
 
     /// How many passes (of every stage of a chain, in order) this runs.
