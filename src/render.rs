@@ -230,14 +230,37 @@ impl PyramidKey {
 /// settings changed) skips voxelize, voxel_light and the mips and cone-traces the last frame's
 /// radiance pyramid: the same pyramid a rebuild would make, so the same image, sooner.
 pub struct VctDense {
+    pyramid: PyramidCache,
+}
+
+/// The last frame's radiance pyramid and what it was built from, kept while the reuse rule is on
+/// (vct-dense and cprc).
+struct PyramidCache {
     reuse: bool,
-    cache: Option<(PyramidKey, Vec<[f32; 4]>, voxelize::VoxelFrame)>,
+    last: Option<(PyramidKey, Vec<[f32; 4]>, voxelize::VoxelFrame)>,
+}
+
+impl PyramidCache {
+    fn new(reuse: bool) -> Self {
+        Self { reuse, last: None }
+    }
+
+    /// Whether the kept pyramid was built from `key` (the rule on); if not, it is dropped.
+    fn holds(&mut self, key: &PyramidKey) -> bool {
+        let cached = self.reuse && self.last.as_ref().is_some_and(|c| &c.0 == key);
+        if !cached {
+            self.last = None;
+        }
+        cached
+    }
 }
 
 impl VctDense {
     /// `reuse`: the planner's rule on (true) or every pass every frame (false).
     pub fn new(reuse: bool) -> Self {
-        Self { reuse, cache: None }
+        Self {
+            pyramid: PyramidCache::new(reuse),
+        }
     }
 
     /// Render one frame (see [`render`]); its plan says what was skipped and why.
@@ -249,19 +272,16 @@ impl VctDense {
         progress: impl Fn(&str),
     ) -> Result<Rendered> {
         let key = PyramidKey::of(scene);
-        let cached = self.reuse && self.cache.as_ref().is_some_and(|c| c.0 == key);
+        let cached = self.pyramid.holds(&key);
         let plan = FramePlan::vct_dense_after(scene, cones, cached);
-        if !cached {
-            self.cache = None;
-        }
         render_frame(
             ctx,
             scene,
             cones,
             plan,
-            &mut self.cache,
+            &mut self.pyramid.last,
             key,
-            self.reuse,
+            self.pyramid.reuse,
             progress,
         )
     }
@@ -864,13 +884,14 @@ pub fn render_cprc(
 /// The cprc pipeline over a sequence of frames, with vct-dense's reuse rule for the radiance pyramid
 /// (the caches follow the view and are rebuilt every frame).
 pub struct VctCprc {
-    reuse: bool,
-    cache: Option<(PyramidKey, Vec<[f32; 4]>, voxelize::VoxelFrame)>,
+    pyramid: PyramidCache,
 }
 
 impl VctCprc {
     pub fn new(reuse: bool) -> Self {
-        Self { reuse, cache: None }
+        Self {
+            pyramid: PyramidCache::new(reuse),
+        }
     }
 
     pub fn render(
@@ -882,12 +903,9 @@ impl VctCprc {
     ) -> Result<(Rendered, crate::cprc::CprcStats)> {
         use crate::cprc;
         let key = PyramidKey::of(scene);
-        let cached = self.reuse && self.cache.as_ref().is_some_and(|c| c.0 == key);
+        let cached = self.pyramid.holds(&key);
         let settings = cprc::CprcSettings::from(&scene.render);
         let plan = FramePlan::cprc_after(scene, cones, &settings, cached);
-        if !cached {
-            self.cache = None;
-        }
         let data = SceneData::new(scene);
         let mut stages = Vec::new();
         let (gb, direct) = gbuffer_and_direct(ctx, &data, &plan, &mut stages, &progress)?;
@@ -917,7 +935,7 @@ impl VctCprc {
             scene,
             &data,
             &plan,
-            &mut self.cache,
+            &mut self.pyramid.last,
             key,
             &mut stages,
             &progress,

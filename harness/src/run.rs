@@ -1169,15 +1169,12 @@ pub fn run(
     passes: &[Pass],
     readback: &[&str],
 ) -> Result<RunOutput> {
-    let prepared = prepare(ctx, shader, kernel, resources, passes)?;
-    let (pass_ns, gpu_ns, timing) = prepared.dispatch()?;
-    let resources = prepared.read(readback)?;
-    Ok(RunOutput {
-        resources,
-        pass_ns,
-        gpu_ns,
-        timing,
-    })
+    let stage = Stage {
+        shader,
+        kernel,
+        passes,
+    };
+    run_chain(ctx, &[stage], resources, readback)
 }
 
 fn staging(device: &wgpu::Device, size: u64) -> wgpu::Buffer {
