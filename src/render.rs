@@ -321,11 +321,8 @@ fn render_frame(
 type Stages = Vec<(&'static str, f64)>;
 
 /// vct-dense's frame with voxelize, voxel_light, the surface-coverage mips and the cone pass as one
-/// chain on GPU-resident buffers (`vxgi_harness::prepare_chain`): the voxel grid, its radiance and its
-/// mips never travel through the host; the mip levels are copied into the pyramid buffer on the GPU.
-/// The same kernels on the same inputs as the stage-by-stage path, so the same image. With `keep`
-/// (the reuse rule on) the pyramid is read back for the next frames. Stage times are wall clock: the
-/// upload counts to voxelize, the readback to cone_trace.
+/// chain on GPU-resident buffers ([`chained_pyramid`]). With `keep` (the reuse rule on) the pyramid is
+/// read back for the next frames.
 #[allow(clippy::too_many_arguments, clippy::type_complexity)]
 fn chained_frame(
     ctx: &crate::harness::GpuContext,
@@ -339,6 +336,63 @@ fn chained_frame(
     keep: bool,
     progress: &impl Fn(&str),
 ) -> Result<(Rendered, Option<(Vec<[f32; 4]>, voxelize::VoxelFrame)>)> {
+    let out = chained_pyramid(
+        ctx,
+        scene,
+        data,
+        Some((gb, cones)),
+        keep,
+        &mut stages,
+        progress,
+    )?;
+    let bytes = |n: &str| &out.read[n].buffer().expect("buffer").bytes;
+    let (w, h) = (direct.width, direct.height);
+    let indirect = image_of(w, h, bytes("indirect"));
+    let ao = image_of(w, h, bytes("ao"));
+    let combined = RgbImage::new(w, h, crate::images::add(&direct.pixels, &indirect.pixels));
+    let kept = keep.then(|| (out.pyramid(), out.frame));
+    Ok((
+        Rendered {
+            direct,
+            indirect,
+            combined,
+            ao,
+            stages,
+            plan,
+        },
+        kept,
+    ))
+}
+
+/// What [`chained_pyramid`] read back, and the voxel grid's frame.
+struct ChainOut {
+    read: crate::harness::Resources,
+    frame: voxelize::VoxelFrame,
+}
+
+impl ChainOut {
+    fn pyramid(&self) -> Vec<[f32; 4]> {
+        bytemuck::cast_slice(&self.read["pyramid"].buffer().expect("buffer").bytes).to_vec()
+    }
+}
+
+/// Voxelize, voxel_light and the surface-coverage mips as one chain on GPU-resident buffers
+/// (`vxgi_harness::prepare_chain`): the voxel grid, its radiance and its mips never travel through the
+/// host; the mip levels are copied into the pyramid buffer on the GPU. With `cone_pass` (a G-buffer and
+/// the cone settings) cone_trace follows in the same chain and its `indirect` and `ao` are read back;
+/// the pyramid is read back with `keep_pyramid`. The same kernels on the same inputs as the stage-by-
+/// stage path, so the same results. Stage times are wall clock: the upload counts to voxelize, the
+/// readback to the last stage. Needs lights (voxel_light runs).
+#[allow(clippy::too_many_arguments)]
+fn chained_pyramid(
+    ctx: &crate::harness::GpuContext,
+    scene: &Scene,
+    data: &SceneData,
+    cone_pass: Option<(&crate::harness::Resources, &ConeSettings)>,
+    keep_pyramid: bool,
+    stages: &mut Stages,
+    progress: &impl Fn(&str),
+) -> Result<ChainOut> {
     use crate::harness::run::{grid_for, Pass, Workgroups};
     use crate::harness::{prepare_chain, HostBuffer, HostResource, ScalarKind, Stage};
     use crate::kernels::surface_coverage_mip::{self as scm, colour_name};
@@ -390,16 +444,22 @@ fn chained_frame(
     mips.rename_resource("params", "mip_params", false);
     mips.rename_resource(&colour_name(0), "vox_radiance", true);
     mips.rename_resource(&scm::normal_name(0), "vox_normal", true);
-    let params = cone_trace::cone_params(&vframe, cones);
-    let mut cone = cone_trace::case_for(ctx, data, gb, &[], &params, "render".into(), 0);
-    cone.resources.insert(
-        "pyramid".into(),
-        HostResource::Buffer(HostBuffer::zeroed(pyramid_len(side) * 16, ScalarKind::F32)),
-    );
     let mut resources = vox.resources;
     resources.extend(light_res);
     resources.extend(mips.resources);
-    resources.extend(cone.resources);
+    let cone = match cone_pass {
+        Some((gb, cones)) => {
+            let params = cone_trace::cone_params(&vframe, cones);
+            let c = cone_trace::case_for(ctx, data, gb, &[], &params, "render".into(), 0);
+            resources.extend(c.resources);
+            c.passes
+        }
+        None => Vec::new(),
+    };
+    resources.insert(
+        "pyramid".into(),
+        HostResource::Buffer(HostBuffer::zeroed(pyramid_len(side) * 16, ScalarKind::F32)),
+    );
     let (vs, ls, cs) = (
         voxelize::DECL.shader()?,
         voxel_light::DECL.shader()?,
@@ -424,10 +484,10 @@ fn chained_frame(
         Stage {
             shader: &cs,
             kernel: cone_trace::DECL.name,
-            passes: &cone.passes,
+            passes: &cone,
         },
     ];
-    let prepared = prepare_chain(ctx, &chain, &resources).context("vct-dense chain")?;
+    let prepared = prepare_chain(ctx, &chain, &resources).context("voxel chain")?;
     let mut first = 0;
     let mut run_stage = |k: usize| -> Result<()> {
         let n = chain[k].passes.len();
@@ -466,33 +526,29 @@ fn chained_frame(
         })
         .collect();
     prepared.copy_into(&copies).context("mip chain")?;
+    let mut names = Vec::new();
+    if keep_pyramid {
+        names.push("pyramid");
+    }
+    if cone.is_empty() {
+        let read = prepared.read(&names).context("mip chain")?;
+        stages.push(("surface_coverage_mip", t.elapsed().as_secs_f64()));
+        return Ok(ChainOut {
+            read,
+            frame: vframe,
+        });
+    }
     stages.push(("surface_coverage_mip", t.elapsed().as_secs_f64()));
     progress("cone tracing");
     t = std::time::Instant::now();
     run_stage(3).context("cone tracing")?;
-    let mut names = vec!["indirect", "ao"];
-    if keep {
-        names.push("pyramid");
-    }
-    let out = prepared.read(&names).context("cone tracing")?;
+    names.extend(["indirect", "ao"]);
+    let read = prepared.read(&names).context("cone tracing")?;
     stages.push(("cone_trace", t.elapsed().as_secs_f64()));
-    let bytes = |n: &str| &out[n].buffer().expect("buffer").bytes;
-    let (w, h) = (direct.width, direct.height);
-    let indirect = image_of(w, h, bytes("indirect"));
-    let ao = image_of(w, h, bytes("ao"));
-    let combined = RgbImage::new(w, h, crate::images::add(&direct.pixels, &indirect.pixels));
-    let kept = keep.then(|| (bytemuck::cast_slice(bytes("pyramid")).to_vec(), vframe));
-    Ok((
-        Rendered {
-            direct,
-            indirect,
-            combined,
-            ao,
-            stages,
-            plan,
-        },
-        kept,
-    ))
+    Ok(ChainOut {
+        read,
+        frame: vframe,
+    })
 }
 
 /// The radiance pyramid of vct-dense and cprc: built (voxelize, voxel light, surface-coverage mips)
@@ -510,6 +566,10 @@ fn radiance_pyramid<'c>(
 ) -> Result<&'c (PyramidKey, Vec<[f32; 4]>, voxelize::VoxelFrame)> {
     if !plan.runs("voxelize") {
         progress("radiance pyramid: reused");
+    } else if plan.runs("voxel_light") {
+        // Built on the GPU in one chain, read back once.
+        let out = chained_pyramid(ctx, scene, data, None, true, stages, progress)?;
+        *cache = Some((key, out.pyramid(), out.frame));
     } else {
         let (rad, normal, frame) = lit_voxels(ctx, scene, data, plan, stages, progress)?;
         progress("mip chain");
