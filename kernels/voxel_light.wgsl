@@ -5,18 +5,24 @@
 // common/lights.wgsl.
 //
 // One invocation per entry of `list` (the voxelize kernel's non-empty voxels; entries past
-// list_count[0] return). Voxel v (Morton index) has centre origin + (xyz + 0.5) * size, albedo and alpha
-// in vox_colour, mean normal m in vox_normal: n = m / |m| when |m| > 1e-3, else the voxel is lit as if
+// list_count[0] return). Voxel v (Morton index) has centre origin + (xyz + 0.5) * size in the grid's
+// frame, placed in the world by grid.model (identity for a world-space grid: then every product is by 1
+// or 0, exactly the untransformed arithmetic; a rigid placement lights an instance's own grid where it
+// stands, CPRC 3.1), albedo and alpha in vox_colour, mean normal m = normal_model * vox_normal (the
+// inverse transpose): n = m / |m| when |m| > 1e-3, else the voxel is lit as if
 // facing each light (cos = 1). L = albedo / pi * sum over lights of E * max(n . wi, 0) * visible, where
 // E and wi are the direct_light kernel's (point: I / r^2, spot: times its smoothstep, directional: I)
-// taken at the centre, and the shadow ray starts one voxel from the centre along n and runs to one voxel
-// short of the light. vox_radiance[v] = (L * alpha, alpha); unlisted voxels are left as they are (0).
+// taken at the centre, and the shadow ray starts one voxel (world.x) from the centre along n and runs to
+// one voxel short of the light. vox_radiance[v] = (L * alpha, alpha); unlisted voxels are left as they are (0).
 // Accuracy: per-element bound as direct_light's (64 ULP per term, 8 ULP absolute on the cosine); a
 // term whose shadow ray rounding decides adds its value.
 
 struct VoxelGrid {
-    origin: vec4<f32>,   // xyz, w = voxel size
+    origin: vec4<f32>,   // xyz, w = voxel size (in the grid's own frame)
     size: vec4<u32>,     // side, light count, 0, 0
+    model: array<vec4<f32>, 3>,          // rows of world-from-grid (3x4); identity: a world-space grid
+    normal_model: array<vec4<f32>, 3>,   // rows of its inverse transpose (xyz)
+    world: vec4<f32>,    // x = voxel size in world units (the shadow ray's offsets)
 }
 
 @group(0) @binding(0) var<storage, read> grid: VoxelGrid;
@@ -49,11 +55,17 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
     let v = list[k];
     let col = vox_colour[v];
     let alpha = col.w;
-    let m = vox_normal[v].xyz;
+    let ml = vox_normal[v].xyz;
+    let m = vec3<f32>(dot(grid.normal_model[0].xyz, ml), dot(grid.normal_model[1].xyz, ml), dot(grid.normal_model[2].xyz, ml));
     let len = sqrt(dot(m, m));
-    let s = grid.origin.w;
     let cell = vec3<f32>(f32(compact3(v)), f32(compact3(v >> 1u)), f32(compact3(v >> 2u)));
-    let c = grid.origin.xyz + (cell + vec3<f32>(0.5)) * s;
+    let cl = grid.origin.xyz + (cell + vec3<f32>(0.5)) * grid.origin.w;
+    let c = vec3<f32>(
+        dot(grid.model[0].xyz, cl) + grid.model[0].w,
+        dot(grid.model[1].xyz, cl) + grid.model[1].w,
+        dot(grid.model[2].xyz, cl) + grid.model[2].w,
+    );
+    let s = grid.world.x;
     var sum = vec3<f32>(0.0);
     for (var l = 0u; l < grid.size.y; l++) {
         let light = lights[l];

@@ -36,10 +36,11 @@ pub static DECL: KernelDecl = KernelDecl {
 };
 
 pub fn voxel_grid(frame: &VoxelFrame, lights: usize) -> VoxelGrid {
-    VoxelGrid {
-        origin: [frame.origin.x, frame.origin.y, frame.origin.z, frame.voxel],
-        size: [frame.side, lights as u32, 0, 0],
-    }
+    VoxelGrid::in_world(
+        [frame.origin.x, frame.origin.y, frame.origin.z, frame.voxel],
+        frame.side,
+        lights as u32,
+    )
 }
 
 /// Lighting pass over a voxelized scene.
@@ -165,7 +166,7 @@ impl Kernel for VoxelLight {
         let (grid, list, frame) =
             voxelize_on_gpu(ctx, &scene, side).expect("generated grids voxelize");
         let data = SceneData::new(&scene);
-        case_for(
+        let mut case = case_for(
             ctx,
             &data,
             &grid,
@@ -173,7 +174,39 @@ impl Kernel for VoxelLight {
             &frame,
             format!("{label}, {side}^3"),
             seed,
-        )
+        );
+        if index % 4 == 3 {
+            // The grid placed by a rigid transform about its centre (rotation up to ~30 degrees about
+            // a seeded axis, uniform scale 0.9-1.1, a shift of up to a tenth of the grid): an
+            // instance's own hierarchy lit where it stands.
+            use rand::{Rng, SeedableRng};
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0x51ac ^ index as u64);
+            let extent = frame.voxel * frame.side as f32;
+            let centre = frame.origin + glam::Vec3::splat(0.5 * extent);
+            let axis = glam::Vec3::new(
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+                rng.random_range(0.1..1.0),
+            )
+            .normalize();
+            let m = glam::Mat4::from_translation(
+                centre
+                    + glam::Vec3::new(
+                        rng.random_range(-0.1..0.1),
+                        rng.random_range(-0.1..0.1),
+                        rng.random_range(-0.1..0.1),
+                    ) * extent,
+            ) * glam::Mat4::from_axis_angle(axis, rng.random_range(0.1..0.5))
+                * glam::Mat4::from_scale(glam::Vec3::splat(rng.random_range(0.9..1.1)))
+                * glam::Mat4::from_translation(-centre);
+            let placed = voxel_grid(&frame, data.lights.len()).placed(m);
+            case.resources.insert(
+                "grid".into(),
+                HostResource::Buffer(HostBuffer::pod(&placed)),
+            );
+            case.label.push_str(", placed by a rigid transform");
+        }
+        case
     }
     fn mirror(
         &self,
