@@ -5,8 +5,10 @@ mod common;
 use common::gpu;
 use vxgi::harness::kernel::verify;
 use vxgi::harness::{Corruption, VerifyOptions};
-use vxgi::kernels::cache_creation::{mirror_texels, CacheCreation};
-use vxgi_cpu_mirror::cache_creation::{cone_tan, create_texel, texel_directions};
+use vxgi::kernels::cache_creation::{mirror_texels, CacheCreation, CacheCreationInstanced};
+use vxgi_cpu_mirror::cache_creation::{
+    cone_tan, create_texel, texel_directions, Placed, PlacedPyramids,
+};
 use vxgi_cpu_mirror::cone_trace::{level_offset, pyramid_len, ConeParams, Pyramid};
 
 #[test]
@@ -51,11 +53,9 @@ fn a_corrupted_texel_is_caught() {
         .passed());
 }
 
-/// A cache in an 8^3 grid whose top layer is an emitting ceiling (radiance 1, opaque) and nothing else:
-/// the texels that look up see it, those along the horizon do not, and the cosine-weighted sum over
-/// the hemisphere (the irradiance / pi the gather will use) is the ceiling's view factor-ish share.
-#[test]
-fn a_cache_under_a_lit_ceiling_sees_it_above_and_not_below() {
+/// An 8^3 grid whose top layer is an emitting ceiling (radiance 1, opaque), its surface-coverage mips,
+/// and the march parameters of that grid (voxel size 1 at the origin).
+fn ceiling() -> (Vec<[f32; 4]>, ConeParams) {
     let side = 8u32;
     let mut vox = vec![[0.0f32; 4]; pyramid_len(side)];
     for x in 0..side {
@@ -94,6 +94,15 @@ fn a_cache_under_a_lit_ceiling_sees_it_above_and_not_below() {
         step_factor: 0.5,
         _pad: [0; 2],
     };
+    (vox, p)
+}
+
+/// A cache in an 8^3 grid whose top layer is an emitting ceiling (radiance 1, opaque) and nothing else:
+/// the texels that look up see it, those along the horizon do not, and the cosine-weighted sum over
+/// the hemisphere (the irradiance / pi the gather will use) is the ceiling's view factor-ish share.
+#[test]
+fn a_cache_under_a_lit_ceiling_sees_it_above_and_not_below() {
+    let (vox, p) = ceiling();
     let pyr = Pyramid {
         p: &p,
         voxels: &vox,
@@ -119,4 +128,123 @@ fn a_cache_under_a_lit_ceiling_sees_it_above_and_not_below() {
     // upper hemisphere's cosine weight (pi): E / pi between 0.3 and 1.
     let e = cosine_sum / std::f32::consts::PI;
     assert!(e > 0.3 && e < 1.0, "{e}");
+}
+
+#[test]
+fn instanced_hierarchies_match_the_mirror() {
+    let rep = verify(
+        gpu(),
+        &CacheCreationInstanced,
+        &VerifyOptions {
+            cases: 6,
+            seed: 5,
+            corrupt: None,
+        },
+        &mut |_| {},
+    )
+    .unwrap();
+    assert!(rep.passed(), "{}", rep.failures[0].report());
+}
+
+/// The placed hierarchies mean what they say: one hierarchy in place reads like the plain pyramid;
+/// the pyramid shifted by three voxels reads at a cache shifted by the same as the plain one at the
+/// original cache; and a second copy turned upside down under the first is seen looking down, where
+/// the ceiling alone leaves those texels dark.
+#[test]
+fn placed_hierarchies_move_what_the_caches_see() {
+    use vxgi_cpu_mirror::cone_trace::Volume;
+    let (vox, p) = ceiling();
+    let plain = Pyramid {
+        p: &p,
+        voxels: &vox,
+    };
+    let place = |m: glam::Mat4| Placed::new([0.0; 3], 1.0, 8, 0, m, 1.0);
+    let res = 8;
+    let dirs = texel_directions(res);
+    let tan = cone_tan(res);
+    let texels = |vol: &dyn Volume, cache: [[f32; 4]; 2]| -> Vec<[f32; 4]> {
+        dirs.iter()
+            .map(|d| create_texel(&Dyn(vol), cache, *d, tan, 1.0).0)
+            .collect()
+    };
+    let at = |o: [f32; 3]| [[o[0], o[1], o[2], 0.0], [0.0, 0.0, 1.0, 0.0]];
+    let close = |a: &[[f32; 4]], b: &[[f32; 4]]| {
+        a.iter()
+            .zip(b)
+            .all(|(x, y)| (0..3).all(|k| (x[k] - y[k]).abs() <= 1e-5 * (1.0 + y[k].abs())))
+    };
+    let cache = at([4.0, 4.0, 2.0]);
+    let reference = texels(&plain, cache);
+    assert!(reference.iter().any(|t| t[0] > 0.5), "the ceiling is seen");
+    let one = [place(glam::Mat4::IDENTITY)];
+    let in_place = PlacedPyramids {
+        p: &p,
+        placed: &one,
+        voxels: &vox,
+    };
+    assert!(
+        close(&texels(&in_place, cache), &reference),
+        "identity placement"
+    );
+    // Shifted by 3 voxels along x and read 3 voxels further along x, the march's grid shifted too
+    // (so its steps and far end fall where they fell).
+    let moved = [place(glam::Mat4::from_translation(glam::Vec3::new(
+        3.0, 0.0, 0.0,
+    )))];
+    let mut p3 = p;
+    p3.origin[0] += 3.0;
+    let shifted = PlacedPyramids {
+        p: &p3,
+        placed: &moved,
+        voxels: &vox,
+    };
+    assert!(
+        close(&texels(&shifted, at([7.0, 4.0, 2.0])), &reference),
+        "translation"
+    );
+    // The copy turned upside down about the grid's mid-height plane z = 4 (the ceiling at z 7-8 becomes
+    // a floor at z 0-1): looking down from z = 4 now finds light.
+    let flip = glam::Mat4::from_translation(glam::Vec3::new(0.0, 8.0, 8.0))
+        * glam::Mat4::from_rotation_x(std::f32::consts::PI);
+    let two = [place(glam::Mat4::IDENTITY), place(flip)];
+    let both = PlacedPyramids {
+        p: &p,
+        placed: &two,
+        voxels: &vox,
+    };
+    let down = [[4.0, 4.0, 4.0, 0.0], [0.0, 0.0, -1.0, 0.0]];
+    let seen = |vol: &dyn Volume| {
+        dirs.iter()
+            .filter(|d| d[2] > 0.9)
+            .map(|d| create_texel(&Dyn(vol), down, *d, tan, 1.0).0[0])
+            .fold(0.0f32, f32::max)
+    };
+    let (alone, with_floor) = (seen(&plain), seen(&both));
+    assert!(
+        alone < 0.05 && with_floor > 0.5,
+        "ceiling alone {alone}, with the floor {with_floor}"
+    );
+}
+
+/// A `&dyn Volume` as a Volume (create_texel takes `impl Volume`).
+struct Dyn<'a>(&'a dyn vxgi_cpu_mirror::cone_trace::Volume);
+
+impl vxgi_cpu_mirror::cone_trace::Volume for Dyn<'_> {
+    fn params(&self) -> &ConeParams {
+        self.0.params()
+    }
+    fn level(
+        &self,
+        x: glam::Vec3,
+        l: u32,
+    ) -> (glam::Vec4, vxgi_cpu_mirror::cone_trace::SampleError) {
+        self.0.level(x, l)
+    }
+    fn sample(
+        &self,
+        x: glam::Vec3,
+        lf: f32,
+    ) -> (glam::Vec4, vxgi_cpu_mirror::cone_trace::SampleError) {
+        self.0.sample(x, lf)
+    }
 }

@@ -13,7 +13,9 @@
 //! normal, 0), (normal xyz, 0). Texel t of cache c (output index c * res^2 + t) marches one cone from
 //! the origin along texel t's direction with half-angle tan = `cone_tan(res)` (a cone of the mean
 //! texel solid angle 2 pi / res^2). Output: (radiance rgb, 0).
-use crate::cone_trace::{basis, march, Volume, MAG};
+use crate::cone_trace::{
+    basis, level_offset, march, trilinear_level_moved, ConeParams, SampleError, Volume, MAG,
+};
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
@@ -103,6 +105,132 @@ pub fn create_texel(
         [r.radiance.x, r.radiance.y, r.radiance.z, 0.0],
         [b, b, b, 0.0],
     )
+}
+
+/// One pyramid of [`PlacedPyramids`] (the WGSL `Placed`): `to_local` = rows of grid-from-world (3x4),
+/// `origin` = the grid's origin (xyz) and 1 / s0 (w), side / levels / first element in the shared
+/// pyramid buffer, `shift[0]` = log2(the march's s0 / this grid's s0 in world units).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct Placed {
+    pub to_local: [[f32; 4]; 3],
+    pub origin: [f32; 4],
+    pub side_levels_base: [u32; 4],
+    pub shift: [f32; 4],
+}
+
+impl Placed {
+    /// A grid of `side` (origin xyz, voxel size s0 in its own units) stored from `base`, placed in the
+    /// world by `world_from_grid` (rigid, uniform scale), marched with steps of `march_s0` (world).
+    pub fn new(
+        origin: [f32; 3],
+        s0: f32,
+        side: u32,
+        base: u32,
+        world_from_grid: glam::Mat4,
+        march_s0: f32,
+    ) -> Self {
+        let r = world_from_grid.inverse().transpose().to_cols_array_2d();
+        let scale = glam::Mat3::from_mat4(world_from_grid)
+            .determinant()
+            .abs()
+            .cbrt();
+        Self {
+            to_local: [r[0], r[1], r[2]],
+            origin: [origin[0], origin[1], origin[2], 1.0 / s0],
+            side_levels_base: [side, side.trailing_zeros() + 1, base, 0],
+            shift: [
+                (march_s0 as f64 / (s0 as f64 * scale as f64)).log2() as f32,
+                0.0,
+                0.0,
+                0.0,
+            ],
+        }
+    }
+}
+
+/// Several pyramids placed in the world by rigid transforms, as one [`Volume`] (the mirror of
+/// kernels/common/placed_pyramids.wgsl): a world point reads every hierarchy at its local point
+/// (quadrilinear at the march's level plus the hierarchy's shift, clamped to its levels) and the
+/// samples combine as alpha 1 - prod(1 - a_h), premultiplied radiance sum c_h. `p` is the march's
+/// (its grid covers all hierarchies); `voxels` holds every pyramid (`Placed::side_levels_base.z`).
+pub struct PlacedPyramids<'a> {
+    pub p: &'a ConeParams,
+    pub placed: &'a [Placed],
+    pub voxels: &'a [[f32; 4]],
+}
+
+impl PlacedPyramids<'_> {
+    fn one(&self, h: &Placed, xw: Vec3, lf_in: f32) -> (glam::Vec4, SampleError) {
+        let row = |r: [f32; 4]| Vec3::new(r[0], r[1], r[2]).dot(xw) + r[3];
+        let x = Vec3::new(row(h.to_local[0]), row(h.to_local[1]), row(h.to_local[2]));
+        // The local point's rounding beyond the sampler's own: each coordinate is a 3-term dot plus
+        // an offset (any order, fused or not): 4 ULP of the terms' magnitudes, doubled.
+        let mag = h
+            .to_local
+            .iter()
+            .map(|r| Vec3::new(r[0].abs(), r[1].abs(), r[2].abs()).dot(xw.abs()) + r[3].abs())
+            .fold(0.0f32, f32::max);
+        let dx = 8.0 * f32::EPSILON * mag;
+        let [side, levels, base, _] = h.side_levels_base;
+        let hp = ConeParams {
+            origin: [h.origin[0], h.origin[1], h.origin[2], 1.0 / h.origin[3]],
+            inv_s0: h.origin[3],
+            side,
+            levels,
+            ..*self.p
+        };
+        let level = |l: u32| {
+            let off = base as usize + level_offset(side, l);
+            trilinear_level_moved(&hp, x, l, dx, |m| {
+                glam::Vec4::from_array(self.voxels[off + m])
+            })
+        };
+        let top = levels - 1;
+        let lf = (lf_in + h.shift[0]).max(0.0);
+        let l0 = lf.floor();
+        if l0 >= top as f32 {
+            return level(top);
+        }
+        let a = lf - l0;
+        let l0 = l0 as u32;
+        let ((s0, e0), (s1, e1)) = (level(l0), level(l0 + 1));
+        let err = SampleError {
+            rgb: e0.rgb * (1.0 - a) + e1.rgb * a,
+            a: e0.a * (1.0 - a) + e1.a * a,
+        };
+        (s0 * (1.0 - a) + s1 * a, err)
+    }
+
+    fn combined(&self, x: Vec3, lf: f32) -> (glam::Vec4, SampleError) {
+        let mut c = Vec3::ZERO;
+        let mut keep = 1.0f32;
+        let mut err = SampleError::default();
+        for h in self.placed {
+            let (s, e) = self.one(h, x, lf);
+            c += s.truncate();
+            keep *= 1.0 - s.w.clamp(0.0, 1.0);
+            // alpha's error through 1 - prod(1 - a): at most the sum of the parts' (each factor <= 1),
+            // plus a rounding per factor; radiance adds.
+            err.rgb += e.rgb + 4.0 * f32::EPSILON * s.truncate().abs().max_element();
+            err.a += e.a + 4.0 * f32::EPSILON;
+        }
+        (c.extend(1.0 - keep), err)
+    }
+}
+
+impl Volume for PlacedPyramids<'_> {
+    fn params(&self) -> &ConeParams {
+        self.p
+    }
+
+    fn level(&self, x: Vec3, l: u32) -> (glam::Vec4, SampleError) {
+        self.combined(x, l as f32)
+    }
+
+    fn sample(&self, x: Vec3, lf: f32) -> (glam::Vec4, SampleError) {
+        self.combined(x, lf)
+    }
 }
 
 #[cfg(test)]

@@ -171,11 +171,23 @@ pub fn trilinear_level(
     l: u32,
     fetch: impl Fn(usize) -> Vec4,
 ) -> (Vec4, SampleError) {
+    trilinear_level_moved(p, x, l, 0.0, fetch)
+}
+
+/// [`trilinear_level`] at a point `x` that is itself computed (a world point taken into a placed
+/// grid's frame: `PlacedPyramids`), off by up to `dx` in the grid's units beyond its own rounding.
+pub fn trilinear_level_moved(
+    p: &ConeParams,
+    x: Vec3,
+    l: u32,
+    dx: f32,
+    fetch: impl Fn(usize) -> Vec4,
+) -> (Vec4, SampleError) {
     let n = (p.side >> l) as i32;
     let inv = p.inv_s0 * (1.0 / (1u32 << l) as f32);
     let origin = Vec3::from_slice(&p.origin[..3]);
     let q = (x - origin) * inv - Vec3::splat(0.5);
-    let dq = SampleError::coordinate_error(x, origin, inv, q);
+    let dq = SampleError::coordinate_error(x, origin, inv, q) + dx * inv;
     let fl = q.floor();
     let f = q - fl;
     let i0 = [fl.x as i32, fl.y as i32, fl.z as i32];

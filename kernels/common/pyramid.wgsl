@@ -1,46 +1,10 @@
 // common/pyramid.wgsl — the dense radiance pyramid as the volume common/cone_march.wgsl samples: the
-// levels of a Morton grid of side 2^L concatenated (level l at (8^(L+1) - 8^(L-l+1)) / 7), each voxel
-// (L * alpha, alpha), trilinear within a level (outside the grid = empty). Included by cone_trace
-// (per pixel) and cache_creation (per radiance-cache texel). Mirror: cpu_mirror/src/cone_trace.rs
-// (`Pyramid`).
-
-@group(0) @binding(8) var<storage, read> pyramid: array<vec4<f32>>;
-
-fn spread3(v: u32) -> u32 {
-    var x = v & 0x3ffu;
-    x = (x | (x << 16u)) & 0x030000ffu;
-    x = (x | (x << 8u)) & 0x0300f00fu;
-    x = (x | (x << 4u)) & 0x030c30c3u;
-    x = (x | (x << 2u)) & 0x09249249u;
-    return x;
-}
-
-fn level_offset(l: u32) -> u32 {
-    let big = countTrailingZeros(cone.side);
-    return ((1u << (3u * (big + 1u))) - (1u << (3u * (big + 1u - l)))) / 7u;
-}
+// cone's grid (cone.origin, cone.inv_s0, cone.side), trilinear within a level via
+// common/pyramid_grid.wgsl. Included by cone_trace (per pixel) and cache_creation (per radiance-cache
+// texel). Mirror: cpu_mirror/src/cone_trace.rs (`Pyramid`).
 
 fn sample_level(x: vec3<f32>, l: u32) -> vec4<f32> {
-    let n = i32(cone.side >> l);
-    let inv = cone.inv_s0 * (1.0 / f32(1u << l));
-    let q = (x - cone.origin.xyz) * inv - vec3<f32>(0.5);
-    let fl = floor(q);
-    let f = q - fl;
-    let i0 = vec3<i32>(fl);
-    let off = level_offset(l);
-    var acc = vec4<f32>(0.0);
-    for (var corner = 0u; corner < 8u; corner++) {
-        let cc = vec3<u32>(corner & 1u, (corner >> 1u) & 1u, (corner >> 2u) & 1u);
-        let w = select(vec3<f32>(1.0) - f, f, cc == vec3<u32>(1u));
-        let i = i0 + vec3<i32>(cc);
-        if (any(i < vec3<i32>(0)) || any(i >= vec3<i32>(n))) {
-            continue;
-        }
-        let u = vec3<u32>(i);
-        let v = pyramid[off + (spread3(u.x) | (spread3(u.y) << 1u) | (spread3(u.z) << 2u))];
-        acc += v * (w.x * w.y * w.z);
-    }
-    return acc;
+    return sample_grid(x, l, cone.origin.xyz, cone.inv_s0, cone.side, 0u);
 }
 
 // The march's sample: the volume's own radiance (see common/cone_march.wgsl).

@@ -4,8 +4,10 @@
 //! places caches on every k-th geometry pixel, plus caches whose normals are the basis's branch points.
 use super::cone_trace::{cone_params, gpu_pyramid, lit_case, max_radiance};
 use std::collections::BTreeMap;
-use vxgi_cpu_mirror::cache_creation::{cone_tan, create_texel, texel_directions, CacheParams};
-use vxgi_cpu_mirror::cone_trace::{ConeParams, Pyramid};
+use vxgi_cpu_mirror::cache_creation::{
+    cone_tan, create_texel, texel_directions, CacheParams, Placed, PlacedPyramids,
+};
+use vxgi_cpu_mirror::cone_trace::{ConeParams, Pyramid, Volume};
 use vxgi_harness::compare::bound_name;
 use vxgi_harness::{
     Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
@@ -16,7 +18,7 @@ pub static DECL: KernelDecl = KernelDecl {
     name: "cache_creation",
     wgsl_path: "kernels/cache_creation.wgsl",
     wgsl: include_str!("../../kernels/cache_creation.wgsl"),
-    includes: &[super::TANGENT_BASIS, super::CONE_MARCH, super::PYRAMID],
+    includes: &[super::TANGENT_BASIS, super::CONE_MARCH, super::PYRAMID_GRID, super::PYRAMID],
     entry: "create",
     inputs: &["cone", "pyramid", "cache_params", "caches", "texel_dirs"],
     outputs: &[
@@ -29,6 +31,30 @@ pub static DECL: KernelDecl = KernelDecl {
     summary: "one cone per radiance-cache texel (hemi-octahedral) through the radiance pyramid (CPRC 3.1)",
 };
 
+/// cache_creation with the per-instance hierarchies of CPRC 3.1 as its volume: the same kernel file and
+/// entry, the pyramids placed by rigid transforms (common/placed_pyramids.wgsl) instead of one.
+pub static INSTANCED_DECL: KernelDecl = KernelDecl {
+    name: "cache_creation_instanced",
+    wgsl_path: "kernels/cache_creation.wgsl",
+    wgsl: include_str!("../../kernels/cache_creation.wgsl"),
+    includes: &[
+        super::TANGENT_BASIS,
+        super::CONE_MARCH,
+        super::PYRAMID_GRID,
+        super::PLACED_PYRAMIDS,
+    ],
+    entry: "create",
+    inputs: &["cone", "pyramid", "placed", "cache_params", "caches", "texel_dirs"],
+    outputs: &[
+        // cone_trace's march bound, each sample's error the sum of its hierarchies' (their local
+        // points' rounding included) plus a rounding per combined factor.
+        Output { binding: "cache_radiance", tolerance: Tolerance::MirrorBound },
+    ],
+    dispatch: DispatchRule::PerElement { binding: "cache_radiance" },
+    mirror: "vxgi_cpu_mirror::cache_creation::create_texel (PlacedPyramids)",
+    summary: "cache_creation through several voxel hierarchies placed by rigid transforms (CPRC 3.1 multiple hierarchies)",
+};
+
 /// The creation pass over `caches` (two vec4s each: origin, normal) at `res x res` texels.
 pub fn case_for(
     ctx: &GpuContext,
@@ -39,7 +65,48 @@ pub fn case_for(
     label: String,
     seed: u64,
 ) -> Case {
-    let shader = DECL.shader().expect("cache_creation.wgsl is valid");
+    case_with(ctx, &DECL, pyramid, None, cone, caches, res, label, seed)
+}
+
+/// The creation pass through several hierarchies (`INSTANCED_DECL`): `pyramid` holds them all,
+/// `placed` says where each is and where its levels start.
+#[allow(clippy::too_many_arguments)]
+pub fn instanced_case_for(
+    ctx: &GpuContext,
+    pyramid: &[[f32; 4]],
+    placed: &[Placed],
+    cone: &ConeParams,
+    caches: &[[f32; 4]],
+    res: u32,
+    label: String,
+    seed: u64,
+) -> Case {
+    case_with(
+        ctx,
+        &INSTANCED_DECL,
+        pyramid,
+        Some(placed),
+        cone,
+        caches,
+        res,
+        label,
+        seed,
+    )
+}
+
+#[allow(clippy::too_many_arguments)]
+fn case_with(
+    ctx: &GpuContext,
+    decl: &'static KernelDecl,
+    pyramid: &[[f32; 4]],
+    placed: Option<&[Placed]>,
+    cone: &ConeParams,
+    caches: &[[f32; 4]],
+    res: u32,
+    label: String,
+    seed: u64,
+) -> Case {
+    let shader = decl.shader().expect("cache_creation.wgsl is valid");
     let count = caches.len() / 2;
     let texels = res * res;
     let p = CacheParams {
@@ -64,6 +131,15 @@ pub fn case_for(
     };
     resources.insert("caches".into(), f4(&nonempty));
     resources.insert("texel_dirs".into(), f4(&texel_directions(res)));
+    if let Some(placed) = placed {
+        resources.insert(
+            "placed".into(),
+            HostResource::Buffer(HostBuffer {
+                bytes: bytemuck::cast_slice(placed).to_vec(),
+                scalar: ScalarKind::Mixed,
+            }),
+        );
+    }
     resources.insert(
         "cache_radiance".into(),
         HostResource::Buffer(HostBuffer::zeroed(n.max(1) * 16, ScalarKind::F32)),
@@ -71,7 +147,7 @@ pub fn case_for(
     Case {
         label,
         seed,
-        passes: vec![DECL.pass(&shader, ctx, "create".into(), DECL.bind_by_name(), n as u64)],
+        passes: vec![decl.pass(&shader, ctx, "create".into(), decl.bind_by_name(), n as u64)],
         resources,
         checks: vec![Check {
             resource: "cache_radiance".into(),
@@ -156,17 +232,115 @@ impl Kernel for CacheCreation {
     }
 }
 
+pub struct CacheCreationInstanced;
+
+impl Kernel for CacheCreationInstanced {
+    fn decl(&self) -> &'static KernelDecl {
+        &INSTANCED_DECL
+    }
+    /// cache_creation's cases with the scene's pyramid as hierarchy 0 (in place) and again as one or
+    /// two more placed by rigid transforms about the grid's centre (a rotation of 10-40 degrees about
+    /// a seeded axis, a shift of up to a third of the grid, scale 1 or 0.8): instances of one mesh.
+    fn case(&self, _shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
+        use rand::{Rng, SeedableRng};
+        let c = lit_case(ctx, seed, index);
+        let pyr = gpu_pyramid(ctx, &c.radiance, &c.normal, c.frame.side).expect("mip chain runs");
+        let params = cone_params(&c.frame, &c.settings);
+        let res = RES[index % RES.len()];
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0xca5e ^ index as u64);
+        let (s0, side) = (c.frame.voxel, c.frame.side);
+        let origin = c.frame.origin;
+        let extent = s0 * side as f32;
+        let centre = origin + glam::Vec3::splat(0.5 * extent);
+        let mut placed = vec![Placed::new(
+            origin.to_array(),
+            s0,
+            side,
+            0,
+            glam::Mat4::IDENTITY,
+            s0,
+        )];
+        for _ in 0..1 + index % 2 {
+            let axis = glam::Vec3::new(
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+                rng.random_range(0.1..1.0),
+            )
+            .normalize();
+            let scale = if rng.random_bool(0.5) { 1.0 } else { 0.8 };
+            let shift = glam::Vec3::new(
+                rng.random_range(-0.33..0.33),
+                rng.random_range(-0.33..0.33),
+                rng.random_range(-0.33..0.33),
+            ) * extent;
+            let m = glam::Mat4::from_translation(centre + shift)
+                * glam::Mat4::from_axis_angle(axis, rng.random_range(0.17..0.7))
+                * glam::Mat4::from_scale(glam::Vec3::splat(scale))
+                * glam::Mat4::from_translation(-centre);
+            placed.push(Placed::new(origin.to_array(), s0, side, 0, m, s0));
+        }
+        let caches = caches_on_pixels(&c.gbuffer, &params, 97);
+        let label = format!(
+            "{}, {} hierarchies, {} caches of {res}^2",
+            c.label,
+            placed.len(),
+            caches.len() / 2
+        );
+        instanced_case_for(ctx, &pyr, &placed, &params, &caches, res, label, seed)
+    }
+    fn mirror(
+        &self,
+        _case: &Case,
+        data: &Resources,
+        _mode: FloatMode,
+    ) -> BTreeMap<String, HostBuffer> {
+        let (out, bound) = mirror_texels(data);
+        let f = |v: &[[f32; 4]]| HostBuffer::f32(bytemuck::cast_slice(v));
+        BTreeMap::from([
+            ("cache_radiance".to_string(), f(&out)),
+            (bound_name("cache_radiance"), f(&bound)),
+        ])
+    }
+}
+
 /// Every texel of a creation case's resources by the mirror: radiance and bound.
 pub fn mirror_texels(data: &Resources) -> (Vec<[f32; 4]>, Vec<[f32; 4]>) {
-    use rayon::prelude::*;
     let b = |n: &str| data[n].buffer().expect("buffer");
     let cone: ConeParams = *bytemuck::from_bytes(&b("cone").bytes);
-    let p: CacheParams = *bytemuck::from_bytes(&b("cache_params").bytes);
     let voxels: &[[f32; 4]] = bytemuck::cast_slice(&b("pyramid").bytes);
+    let lmax = max_radiance(voxels, cone.side);
+    match data.get("placed") {
+        None => texels_through(data, &Pyramid { p: &cone, voxels }, lmax),
+        Some(r) => {
+            let placed: &[Placed] = bytemuck::cast_slice(&r.buffer().expect("buffer").bytes);
+            let vol = PlacedPyramids {
+                p: &cone,
+                placed,
+                voxels,
+            };
+            // The largest radiance of any hierarchy's level 0.
+            let lmax = placed
+                .iter()
+                .map(|h| {
+                    let [side, _, base, _] = h.side_levels_base;
+                    max_radiance(&voxels[base as usize..], side)
+                })
+                .fold(0.0, f32::max);
+            texels_through(data, &vol, lmax)
+        }
+    }
+}
+
+fn texels_through(
+    data: &Resources,
+    pyr: &(impl Volume + Sync),
+    lmax: f32,
+) -> (Vec<[f32; 4]>, Vec<[f32; 4]>) {
+    use rayon::prelude::*;
+    let b = |n: &str| data[n].buffer().expect("buffer");
+    let p: CacheParams = *bytemuck::from_bytes(&b("cache_params").bytes);
     let caches: &[[f32; 4]] = bytemuck::cast_slice(&b("caches").bytes);
     let dirs: &[[f32; 4]] = bytemuck::cast_slice(&b("texel_dirs").bytes);
-    let pyr = Pyramid { p: &cone, voxels };
-    let lmax = max_radiance(voxels, cone.side);
     let n = (p.count * p.texels) as usize;
     let texels: Vec<([f32; 4], [f32; 4])> = (0..n)
         .into_par_iter()
@@ -174,7 +348,7 @@ pub fn mirror_texels(data: &Resources) -> (Vec<[f32; 4]>, Vec<[f32; 4]>) {
             let c = i / p.texels as usize;
             let t = i % p.texels as usize;
             create_texel(
-                &pyr,
+                pyr,
                 [caches[2 * c], caches[2 * c + 1]],
                 dirs[t],
                 p.tan_half,

@@ -69,6 +69,20 @@ pub const TANGENT_BASIS: (&str, &str) = (
     include_str!("../../kernels/common/tangent_basis.wgsl"),
 );
 
+/// Trilinear sampling of a pyramid level in the `pyramid` binding, included before PYRAMID or
+/// PLACED_PYRAMIDS.
+pub const PYRAMID_GRID: (&str, &str) = (
+    "kernels/common/pyramid_grid.wgsl",
+    include_str!("../../kernels/common/pyramid_grid.wgsl"),
+);
+
+/// Several pyramids placed by rigid transforms as cone_march's volume (per-instance hierarchies),
+/// included by cache_creation's instanced declaration.
+pub const PLACED_PYRAMIDS: (&str, &str) = (
+    "kernels/common/placed_pyramids.wgsl",
+    include_str!("../../kernels/common/placed_pyramids.wgsl"),
+);
+
 /// The dense radiance pyramid as cone_march's volume, included by cone_trace and cache_creation.
 pub const PYRAMID: (&str, &str) = (
     "kernels/common/pyramid.wgsl",
@@ -145,6 +159,7 @@ pub fn all() -> Vec<&'static dyn Kernel> {
         &cache_placement::CachePlacement,
         &gather_caches::GatherCaches,
         &cache_creation::CacheCreation,
+        &cache_creation::CacheCreationInstanced,
         &cache_preconvolve::CachePreconvolve,
         &gbuffer::Gbuffer,
         &direct_light::DirectLight,

@@ -1,0 +1,66 @@
+// common/placed_pyramids.wgsl — several radiance pyramids, each placed in the world by a rigid
+// transform, as one volume for common/cone_march.wgsl (CPRC 3.1 "Multiple Voxel Hierarchies": one
+// hierarchy per instance, cones marched through all of them). Mirror: cpu_mirror/src/cache_creation.rs
+// (`PlacedPyramids`).
+//
+// placed[h]: to_local = rows of grid-from-world (3x4); origin (xyz, w = 1 / s0, computed on the host
+// like cone.inv_s0) and side / levels / base
+// (first element of its pyramid in `pyramid`); shift = log2 of (the march's s0, cone.origin.w, over
+// this grid's s0 in world units): the march's level lf reads this grid's level lf + shift.
+// A sample at world point x reads every hierarchy at its local point (quadrilinear, clamped to its
+// levels as sample_volume) and combines them front to back in the march's own order: alpha
+// 1 - prod(1 - a_h), premultiplied radiance sum_h c_h (one hierarchy holds a point almost always;
+// where two overlap their light adds, as two surfaces in one voxel would). The march's stepping (start
+// diameter, steps, the alpha's step correction, the far end) follows `cone`: set it to a grid covering
+// all hierarchies.
+
+struct Placed {
+    to_local: array<vec4<f32>, 3>,
+    origin: vec4<f32>,
+    side_levels_base: vec4<u32>,
+    shift: vec4<f32>,
+}
+
+@group(0) @binding(16) var<storage, read> placed: array<Placed>;
+
+fn placed_level(h: Placed, x: vec3<f32>, l: u32) -> vec4<f32> {
+    return sample_grid(x, l, h.origin.xyz, h.origin.w, h.side_levels_base.x, h.side_levels_base.z);
+}
+
+fn placed_sample(h: Placed, xw: vec3<f32>, lf_in: f32) -> vec4<f32> {
+    let x = vec3<f32>(
+        dot(h.to_local[0].xyz, xw) + h.to_local[0].w,
+        dot(h.to_local[1].xyz, xw) + h.to_local[1].w,
+        dot(h.to_local[2].xyz, xw) + h.to_local[2].w,
+    );
+    let top = h.side_levels_base.y - 1u;
+    let lf = max(lf_in + h.shift.x, 0.0);
+    let l0 = floor(lf);
+    if (l0 >= f32(top)) {
+        return placed_level(h, x, top);
+    }
+    let a = lf - l0;
+    let l = u32(l0);
+    return placed_level(h, x, l) * (1.0 - a) + placed_level(h, x, l + 1u) * a;
+}
+
+fn placed_combined(x: vec3<f32>, lf: f32) -> vec4<f32> {
+    var c = vec3<f32>(0.0);
+    var keep = 1.0;
+    for (var k = 0u; k < arrayLength(&placed); k++) {
+        let s = placed_sample(placed[k], x, lf);
+        c += s.xyz;
+        keep *= 1.0 - clamp(s.w, 0.0, 1.0);
+    }
+    return vec4<f32>(c, 1.0 - keep);
+}
+
+// sample_volume (common/cone_march.wgsl) reads whole levels through this; the march itself reads
+// sample_cone.
+fn sample_level(x: vec3<f32>, l: u32) -> vec4<f32> {
+    return placed_combined(x, f32(l));
+}
+
+fn sample_cone(x: vec3<f32>, l: f32, diam: f32, d: vec3<f32>) -> vec4<f32> {
+    return placed_combined(x, l);
+}

@@ -1,0 +1,46 @@
+// common/pyramid_grid.wgsl — trilinear sampling of one level of a dense radiance pyramid stored in the
+// `pyramid` binding: the levels of a Morton grid of side 2^L concatenated from element `base` (level l
+// at base + (8^(L+1) - 8^(L-l+1)) / 7), each voxel (L * alpha, alpha); outside the grid = empty.
+// Used by common/pyramid.wgsl (one pyramid, the cone's grid) and common/placed_pyramids.wgsl (several
+// pyramids placed by rigid transforms). Mirror: cpu_mirror/src/cone_trace.rs (`trilinear_level`).
+
+@group(0) @binding(8) var<storage, read> pyramid: array<vec4<f32>>;
+
+fn spread3(v: u32) -> u32 {
+    var x = v & 0x3ffu;
+    x = (x | (x << 16u)) & 0x030000ffu;
+    x = (x | (x << 8u)) & 0x0300f00fu;
+    x = (x | (x << 4u)) & 0x030c30c3u;
+    x = (x | (x << 2u)) & 0x09249249u;
+    return x;
+}
+
+fn grid_level_offset(side: u32, l: u32) -> u32 {
+    let big = countTrailingZeros(side);
+    return ((1u << (3u * (big + 1u))) - (1u << (3u * (big + 1u - l)))) / 7u;
+}
+
+// Level l of the grid with this origin, 1 / s0 and side, stored from `base`, at point x (the grid's
+// own frame).
+fn sample_grid(x: vec3<f32>, l: u32, origin: vec3<f32>, inv_s0: f32, side: u32, base: u32) -> vec4<f32> {
+    let n = i32(side >> l);
+    let inv = inv_s0 * (1.0 / f32(1u << l));
+    let q = (x - origin) * inv - vec3<f32>(0.5);
+    let fl = floor(q);
+    let f = q - fl;
+    let i0 = vec3<i32>(fl);
+    let off = base + grid_level_offset(side, l);
+    var acc = vec4<f32>(0.0);
+    for (var corner = 0u; corner < 8u; corner++) {
+        let cc = vec3<u32>(corner & 1u, (corner >> 1u) & 1u, (corner >> 2u) & 1u);
+        let w = select(vec3<f32>(1.0) - f, f, cc == vec3<u32>(1u));
+        let i = i0 + vec3<i32>(cc);
+        if (any(i < vec3<i32>(0)) || any(i >= vec3<i32>(n))) {
+            continue;
+        }
+        let u = vec3<u32>(i);
+        let v = pyramid[off + (spread3(u.x) | (spread3(u.y) << 1u) | (spread3(u.z) << 2u))];
+        acc += v * (w.x * w.y * w.z);
+    }
+    return acc;
+}
