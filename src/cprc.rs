@@ -158,6 +158,17 @@ pub fn pixel_inputs(
     px
 }
 
+/// What the caches are created from: one radiance pyramid (the scene's), or several concatenated, each
+/// placed by a rigid transform (CPRC 3.1's per-instance hierarchies).
+#[derive(Clone, Copy)]
+pub enum CacheVolume<'a> {
+    One(&'a [[f32; 4]]),
+    Placed(
+        &'a [[f32; 4]],
+        &'a [vxgi_cpu_mirror::cache_creation::Placed],
+    ),
+}
+
 /// Whether any pixel reads the caches' mip chains (a glossy material in view).
 pub fn any_glossy(px: &PixelInputs) -> bool {
     px.pixel_dirs.iter().skip(1).step_by(2).any(|d| d[3] >= 0.0)
@@ -498,7 +509,7 @@ pub fn evaluate_gpu(
     px: &PixelInputs,
     set: &CacheSet,
     s: &CprcSettings,
-    pyramid: &[[f32; 4]],
+    volume: CacheVolume,
     cone: &vxgi_cpu_mirror::cone_trace::ConeParams,
     stages: &mut Vec<(&'static str, f64)>,
     progress: &impl Fn(&str),
@@ -506,14 +517,31 @@ pub fn evaluate_gpu(
     use vxgi_harness::{prepare_chain, Stage, View};
     let count = set.caches.pos.len();
     let data = gather_data(px, set, s, Vec::new(), Vec::new());
+    let cdecl = match volume {
+        CacheVolume::One(_) => &cache_creation::DECL,
+        CacheVolume::Placed(..) => &cache_creation::INSTANCED_DECL,
+    };
     let (cshader, pshader, gshader) = (
-        cache_creation::DECL.shader()?,
+        cdecl.shader()?,
         cache_preconvolve::DECL.shader()?,
         gather_caches::DECL.shader()?,
     );
     let mut gcase = gather_caches::case_for(&gshader, ctx, &data, "cprc".into(), 0);
-    let ccase =
-        cache_creation::case_for(ctx, pyramid, cone, &set.creation, s.res, "cprc".into(), 0);
+    let ccase = match volume {
+        CacheVolume::One(pyramid) => {
+            cache_creation::case_for(ctx, pyramid, cone, &set.creation, s.res, "cprc".into(), 0)
+        }
+        CacheVolume::Placed(pyramids, placed) => cache_creation::instanced_case_for(
+            ctx,
+            pyramids,
+            placed,
+            cone,
+            &set.creation,
+            s.res,
+            "cprc".into(),
+            0,
+        ),
+    };
     let mut pcase =
         cache_preconvolve::case_for_count(ctx, count, None, s.res, s.irr, "cprc".into(), 0);
     if !any_glossy(px) {
@@ -556,7 +584,7 @@ pub fn evaluate_gpu(
     let chain = [
         Stage {
             shader: &cshader,
-            kernel: cache_creation::DECL.name,
+            kernel: cdecl.name,
             passes: &creation_passes,
         },
         Stage {

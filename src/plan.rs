@@ -378,6 +378,35 @@ impl FramePlan {
         }
     }
 
+    /// This cprc plan for a scene of `hierarchies` voxel hierarchies (CPRC 3.1), `voxelized` of them
+    /// voxelized this frame (the rest kept from earlier frames: instances are never re-voxelized).
+    pub fn with_hierarchies(mut self, hierarchies: usize, voxelized: usize) -> Self {
+        for p in &mut self.passes {
+            match p.stage {
+                "voxelize" => {
+                    p.runs = voxelized > 0;
+                    p.size = format!("{hierarchies} hierarchies, each in its own frame");
+                    p.why = if voxelized > 0 {
+                        format!("{voxelized} hierarchies not voxelized before (once each; moving an instance does not re-voxelize it)")
+                    } else {
+                        "skipped: every hierarchy was voxelized in an earlier frame (instances are lit where they stand)".into()
+                    };
+                }
+                "voxel_light" => {
+                    p.runs = true;
+                    p.size = format!("{hierarchies} hierarchies' non-empty voxels");
+                    p.why = "each hierarchy lit where its instance stands now (shadows from the whole scene)".into();
+                }
+                "surface_coverage_mip" => {
+                    p.runs = true;
+                    p.why = format!("{hierarchies} pyramids, one per hierarchy");
+                }
+                _ => {}
+            }
+        }
+        self
+    }
+
     /// The stages the plan skips, in order.
     pub fn skipped(&self) -> Vec<&'static str> {
         let mut s: Vec<&'static str> = self

@@ -945,13 +945,131 @@ pub fn render_cprc(
 /// (the caches follow the view and are rebuilt every frame).
 pub struct VctCprc {
     pyramid: PyramidCache,
+    /// Per-instance hierarchies' voxelizations, in their own frames, kept across frames (an
+    /// instance's mesh and grid side are its key): (local mesh, side, grid, list, frame).
+    voxelized: Vec<(
+        crate::scene::Mesh,
+        u32,
+        crate::grids::Grid,
+        Vec<u32>,
+        voxelize::VoxelFrame,
+    )>,
+    /// How many hierarchies the last frame voxelized (the rest were kept).
+    voxelized_now: usize,
 }
+
+/// A hierarchy's pyramids concatenated, where each is placed, and the march's world grid.
+type Hierarchies = (
+    Vec<[f32; 4]>,
+    Vec<vxgi_cpu_mirror::cache_creation::Placed>,
+    voxelize::VoxelFrame,
+);
 
 impl VctCprc {
     pub fn new(reuse: bool) -> Self {
         Self {
             pyramid: PyramidCache::new(reuse),
+            voxelized: Vec::new(),
+            voxelized_now: 0,
         }
+    }
+
+    /// The scene's voxel hierarchies for this frame: `[mesh]` (in place) and every instance (placed
+    /// by its transform at the scene's frame), each voxelized once in its own frame at the world
+    /// voxel size (grid side the power of two that covers it, 8 to `voxels`), re-lit where it stands
+    /// (voxel_light with the placement: shadows from the whole scene as it is now), its mips built;
+    /// the pyramids concatenated.
+    fn hierarchies(
+        &mut self,
+        ctx: &crate::harness::GpuContext,
+        scene: &Scene,
+        data: &SceneData,
+        stages: &mut Stages,
+        progress: &impl Fn(&str),
+    ) -> Result<Hierarchies> {
+        use vxgi_cpu_mirror::cache_creation::Placed;
+        let world = voxelize::frame_of(&scene.mesh, scene.render.voxels);
+        let inst = &scene.instances;
+        let mut parts: Vec<(crate::scene::Mesh, glam::Mat4)> = Vec::new();
+        if !inst.base.triangles.is_empty() {
+            parts.push((inst.base.clone(), glam::Mat4::IDENTITY));
+        }
+        for i in &inst.list {
+            parts.push((i.local.clone(), i.transform_at(inst.frame).matrix()));
+        }
+        let (mut vox_t, mut light_t, mut mip_t) = (0.0, 0.0, 0.0);
+        self.voxelized_now = 0;
+        let mut pyramids = Vec::new();
+        let mut placed = Vec::new();
+        for (mesh, m) in parts {
+            // The side at the world's voxel size (its scale applied), a power of two in 8..=voxels.
+            let (lo, hi) = mesh.positions.iter().fold(
+                (
+                    glam::Vec3::splat(f32::INFINITY),
+                    glam::Vec3::splat(f32::NEG_INFINITY),
+                ),
+                |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+            );
+            let scale = glam::Mat3::from_mat4(m).determinant().abs().cbrt();
+            let cells = ((hi - lo).max_element() * scale / world.voxel)
+                .ceil()
+                .max(8.0) as u32;
+            let side = cells.next_power_of_two().min(scene.render.voxels);
+            progress("voxelize (per instance, once)");
+            let t = std::time::Instant::now();
+            let k = match self
+                .voxelized
+                .iter()
+                .position(|v| v.0 == mesh && v.1 == side)
+            {
+                Some(k) => k,
+                None => {
+                    let local = Scene {
+                        mesh: mesh.clone(),
+                        instances: Default::default(),
+                        ..scene.clone()
+                    };
+                    let (grid, list, frame) = voxelize::voxelize_on_gpu(ctx, &local, side)?;
+                    self.voxelized.push((mesh, side, grid, list, frame));
+                    self.voxelized_now += 1;
+                    self.voxelized.len() - 1
+                }
+            };
+            vox_t += t.elapsed().as_secs_f64();
+            let (_, _, grid, list, frame) = &self.voxelized[k];
+            progress("voxel light (placed)");
+            let t = std::time::Instant::now();
+            let rad = voxel_light::light_placed_on_gpu(ctx, data, grid, list, frame, m)
+                .context("voxel light")?;
+            light_t += t.elapsed().as_secs_f64();
+            let t = std::time::Instant::now();
+            let pyr = cone_trace::gpu_pyramid(ctx, &rad, &grid.normal, frame.side)?;
+            mip_t += t.elapsed().as_secs_f64();
+            placed.push(Placed::new(
+                frame.origin.to_array(),
+                frame.voxel,
+                frame.side,
+                pyramids.len() as u32,
+                m,
+                world.voxel,
+            ));
+            pyramids.extend(pyr);
+        }
+        let limit = ctx.limits().max_storage_buffer_binding_size;
+        if pyramids.len() as u64 * 16 > limit {
+            anyhow::bail!(
+                "the {} voxel hierarchies need {} bytes in one binding, past the device's \
+                 max_storage_buffer_binding_size ({limit}): lower voxels",
+                placed.len(),
+                pyramids.len() * 16
+            );
+        }
+        if self.voxelized_now > 0 {
+            stages.push(("voxelize", vox_t));
+        }
+        stages.push(("voxel_light", light_t));
+        stages.push(("surface_coverage_mip", mip_t));
+        Ok((pyramids, placed, world))
     }
 
     pub fn render(
@@ -990,17 +1108,39 @@ impl VctCprc {
             };
             return Ok((frame, stats));
         }
-        let (_, pyramid, frame) = radiance_pyramid(
-            ctx,
-            scene,
-            &data,
-            &plan,
-            &mut self.pyramid.last,
-            key,
-            &mut stages,
-            &progress,
-        )?;
-        let params = cone_trace::cone_params(frame, cones);
+        // With [[instances]]: one voxel hierarchy per instance (and one for [mesh]), voxelized once
+        // in its own frame and re-lit where it stands every frame (CPRC 3.1); else the one pyramid.
+        let instanced = if scene.instances.list.is_empty() {
+            None
+        } else {
+            Some(self.hierarchies(ctx, scene, &data, &mut stages, &progress)?)
+        };
+        let (volume, params) = match &instanced {
+            Some((pyramids, placed, world)) => (
+                cprc::CacheVolume::Placed(pyramids, placed),
+                cone_trace::cone_params(world, cones),
+            ),
+            None => {
+                let (_, pyramid, frame) = radiance_pyramid(
+                    ctx,
+                    scene,
+                    &data,
+                    &plan,
+                    &mut self.pyramid.last,
+                    key,
+                    &mut stages,
+                    &progress,
+                )?;
+                (
+                    cprc::CacheVolume::One(pyramid),
+                    cone_trace::cone_params(frame, cones),
+                )
+            }
+        };
+        let plan = match &instanced {
+            Some((_, placed, _)) => plan.with_hierarchies(placed.len(), self.voxelized_now),
+            None => plan,
+        };
         progress("cache distribution");
         let t = std::time::Instant::now();
         let offset = params.offset_voxels * params.origin[3];
@@ -1021,7 +1161,7 @@ impl VctCprc {
             &px,
             &set,
             &settings,
-            pyramid,
+            volume,
             &params,
             &mut stages,
             &progress,

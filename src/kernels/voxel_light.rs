@@ -123,6 +123,33 @@ pub fn light_on_gpu(
     Ok(bytemuck::cast_slice(&out.buffer("vox_radiance").bytes).to_vec())
 }
 
+/// [`light_on_gpu`] for a grid placed in the world by `world_from_grid` (an instance's own hierarchy,
+/// lit where it stands without re-voxelizing).
+pub fn light_placed_on_gpu(
+    ctx: &GpuContext,
+    data: &SceneData,
+    grid: &Grid,
+    list: &[u32],
+    frame: &VoxelFrame,
+    world_from_grid: glam::Mat4,
+) -> anyhow::Result<Vec<[f32; 4]>> {
+    let mut case = case_for(ctx, data, grid, list, frame, "voxel_light".into(), 0);
+    let placed = voxel_grid(frame, data.lights.len()).placed(world_from_grid);
+    case.resources.insert(
+        "grid".into(),
+        HostResource::Buffer(HostBuffer::pod(&placed)),
+    );
+    let out = run(
+        ctx,
+        &DECL.shader()?,
+        DECL.name,
+        &case.resources,
+        &case.passes,
+        &["vox_radiance"],
+    )?;
+    Ok(bytemuck::cast_slice(&out.buffer("vox_radiance").bytes).to_vec())
+}
+
 /// Mirror radiance grid and bounds.
 pub fn mirror_radiance(data: &Resources) -> (Vec<[f32; 4]>, Vec<[f32; 4]>) {
     let b = |n: &str| data[n].buffer().expect("buffer");

@@ -95,6 +95,21 @@ pub fn fixed_lut() -> Vec<u32> {
 }
 
 /// The scene's triangles on the kernel's lattice with the texture atlas, and the grid's frame.
+/// The grid `prepare` puts around `mesh` at `side`: origin at the bounding box's low corner, a cube of
+/// the box's largest extent.
+pub fn frame_of(mesh: &crate::scene::Mesh, side: u32) -> VoxelFrame {
+    let (lo, hi) = mesh.positions.iter().fold(
+        (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+        |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+    );
+    let extent = (hi - lo).max_element().max(1e-6);
+    VoxelFrame {
+        origin: lo,
+        voxel: extent / side as f32,
+        side,
+    }
+}
+
 pub fn prepare(scene: &Scene, side: u32) -> Result<(VoxInput, VoxelFrame), VoxelizeError> {
     if !(8..=512).contains(&side) || !side.is_power_of_two() {
         return Err(VoxelizeError::Side(side));
