@@ -223,12 +223,7 @@ impl Kernel for CacheCreation {
         _mode: FloatMode,
     ) -> BTreeMap<String, HostBuffer> {
         // Radiance-scale arithmetic, as cone_trace's: one mode serves both.
-        let (out, bound) = mirror_texels(data);
-        let f = |v: &[[f32; 4]]| HostBuffer::f32(bytemuck::cast_slice(v));
-        BTreeMap::from([
-            ("cache_radiance".to_string(), f(&out)),
-            (bound_name("cache_radiance"), f(&bound)),
-        ])
+        mirror_outputs(data)
     }
 }
 
@@ -294,13 +289,18 @@ impl Kernel for CacheCreationInstanced {
         data: &Resources,
         _mode: FloatMode,
     ) -> BTreeMap<String, HostBuffer> {
-        let (out, bound) = mirror_texels(data);
-        let f = |v: &[[f32; 4]]| HostBuffer::f32(bytemuck::cast_slice(v));
-        BTreeMap::from([
-            ("cache_radiance".to_string(), f(&out)),
-            (bound_name("cache_radiance"), f(&bound)),
-        ])
+        mirror_outputs(data)
     }
+}
+
+/// The mirror's outputs (radiance and bound by resource name) for a creation case, either volume.
+fn mirror_outputs(data: &Resources) -> BTreeMap<String, HostBuffer> {
+    let (out, bound) = mirror_texels(data);
+    let f = |v: &[[f32; 4]]| HostBuffer::f32(bytemuck::cast_slice(v));
+    BTreeMap::from([
+        ("cache_radiance".to_string(), f(&out)),
+        (bound_name("cache_radiance"), f(&bound)),
+    ])
 }
 
 /// Every texel of a creation case's resources by the mirror: radiance and bound.

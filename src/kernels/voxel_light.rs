@@ -111,20 +111,11 @@ pub fn light_on_gpu(
     list: &[u32],
     frame: &VoxelFrame,
 ) -> anyhow::Result<Vec<[f32; 4]>> {
-    let case = case_for(ctx, data, grid, list, frame, "voxel_light".into(), 0);
-    let out = run(
-        ctx,
-        &DECL.shader()?,
-        DECL.name,
-        &case.resources,
-        &case.passes,
-        &["vox_radiance"],
-    )?;
-    Ok(bytemuck::cast_slice(&out.buffer("vox_radiance").bytes).to_vec())
+    light_placed_on_gpu(ctx, data, grid, list, frame, glam::Mat4::IDENTITY)
 }
 
 /// [`light_on_gpu`] for a grid placed in the world by `world_from_grid` (an instance's own hierarchy,
-/// lit where it stands without re-voxelizing).
+/// lit where it stands without re-voxelizing); the identity is a world-space grid.
 pub fn light_placed_on_gpu(
     ctx: &GpuContext,
     data: &SceneData,
@@ -134,11 +125,13 @@ pub fn light_placed_on_gpu(
     world_from_grid: glam::Mat4,
 ) -> anyhow::Result<Vec<[f32; 4]>> {
     let mut case = case_for(ctx, data, grid, list, frame, "voxel_light".into(), 0);
-    let placed = voxel_grid(frame, data.lights.len()).placed(world_from_grid);
-    case.resources.insert(
-        "grid".into(),
-        HostResource::Buffer(HostBuffer::pod(&placed)),
-    );
+    if world_from_grid != glam::Mat4::IDENTITY {
+        let placed = voxel_grid(frame, data.lights.len()).placed(world_from_grid);
+        case.resources.insert(
+            "grid".into(),
+            HostResource::Buffer(HostBuffer::pod(&placed)),
+        );
+    }
     let out = run(
         ctx,
         &DECL.shader()?,
