@@ -191,6 +191,28 @@ pub struct Rendered {
     pub plan: FramePlan,
 }
 
+impl Rendered {
+    /// A frame from its direct and indirect light and AO: combined = direct + indirect.
+    pub fn assemble(
+        direct: RgbImage,
+        indirect: RgbImage,
+        ao: RgbImage,
+        stages: Vec<(&'static str, f64)>,
+        plan: FramePlan,
+    ) -> Self {
+        let (w, h) = (direct.width, direct.height);
+        let combined = RgbImage::new(w, h, crate::images::add(&direct.pixels, &indirect.pixels));
+        Self {
+            direct,
+            indirect,
+            combined,
+            ao,
+            stages,
+            plan,
+        }
+    }
+}
+
 /// The vct-dense pipeline: G-buffer and direct light with exact shadows, voxelization, voxel lighting,
 /// surface-coverage mips, cone tracing (AO, diffuse, glossy). Every stage is a verified kernel; stages
 /// hand over through host memory for now (simple, and each hand-over is what `vxgi verify` checks).
@@ -349,19 +371,8 @@ fn chained_frame(
     let (w, h) = (direct.width, direct.height);
     let indirect = image_of(w, h, bytes("indirect"));
     let ao = image_of(w, h, bytes("ao"));
-    let combined = RgbImage::new(w, h, crate::images::add(&direct.pixels, &indirect.pixels));
     let kept = keep.then(|| (out.pyramid(), out.frame));
-    Ok((
-        Rendered {
-            direct,
-            indirect,
-            combined,
-            ao,
-            stages,
-            plan,
-        },
-        kept,
-    ))
+    Ok((Rendered::assemble(direct, indirect, ao, stages, plan), kept))
 }
 
 /// What [`chained_pyramid`] read back, and the voxel grid's frame.
@@ -1095,18 +1106,10 @@ impl VctCprc {
             let n = px.positions.len();
             let zeros = vec![[0.0f32; 4]; n];
             let (indirect, ao, stats) = cprc::compose(&px, &(zeros.clone(), zeros, empty));
-            let (w, h) = (direct.width, direct.height);
-            let combined =
-                RgbImage::new(w, h, crate::images::add(&direct.pixels, &indirect.pixels));
-            let frame = Rendered {
-                direct,
-                indirect,
-                combined,
-                ao,
-                stages,
-                plan,
-            };
-            return Ok((frame, stats));
+            return Ok((
+                Rendered::assemble(direct, indirect, ao, stages, plan),
+                stats,
+            ));
         }
         // With [[instances]]: one voxel hierarchy per instance (and one for [mesh]), voxelized once
         // in its own frame and re-lit where it stands every frame (CPRC 3.1); else the one pyramid.
@@ -1167,17 +1170,8 @@ impl VctCprc {
             &progress,
         )?;
         let (indirect, ao, stats) = cprc::compose(&px, &gathered);
-        let (w, h) = (direct.width, direct.height);
-        let combined = RgbImage::new(w, h, crate::images::add(&direct.pixels, &indirect.pixels));
         Ok((
-            Rendered {
-                direct,
-                indirect,
-                combined,
-                ao,
-                stages,
-                plan,
-            },
+            Rendered::assemble(direct, indirect, ao, stages, plan),
             stats,
         ))
     }
@@ -1220,15 +1214,7 @@ fn cone_pass_frame(
         direct
     };
     stages.push((decl.name, started.elapsed().as_secs_f64()));
-    let combined = RgbImage::new(w, h, crate::images::add(&direct.pixels, &indirect.pixels));
-    Ok(Rendered {
-        direct,
-        indirect,
-        combined,
-        ao,
-        stages,
-        plan,
-    })
+    Ok(Rendered::assemble(direct, indirect, ao, stages, plan))
 }
 
 fn image_of(w: u32, h: u32, bytes: &[u8]) -> RgbImage {
@@ -1286,17 +1272,10 @@ pub fn render_cprc_mirror(
     let gathered = cprc::evaluate_mirror(&px, &set, &settings, &pyramid, &params);
     let (indirect, ao, stats) = cprc::compose(&px, &gathered);
     let (w, h) = (m.data.width(), m.data.height());
-    let combined = RgbImage::new(w, h, crate::images::add(&m.direct, &indirect.pixels));
-    let cached = false;
+    let direct = RgbImage::new(w, h, m.direct);
+    let plan = FramePlan::cprc_after(scene, cones, &settings, false);
     Ok((
-        Rendered {
-            direct: RgbImage::new(w, h, m.direct),
-            indirect,
-            combined,
-            ao,
-            stages: vec![],
-            plan: FramePlan::cprc_after(scene, cones, &settings, cached),
-        },
+        Rendered::assemble(direct, indirect, ao, vec![], plan),
         stats,
     ))
 }
