@@ -253,6 +253,7 @@ impl PyramidKey {
 /// radiance pyramid: the same pyramid a rebuild would make, so the same image, sooner.
 pub struct VctDense {
     pyramid: PyramidCache,
+    instances: InstanceVoxels,
 }
 
 /// The last frame's radiance pyramid and what it was built from, kept while the reuse rule is on
@@ -282,6 +283,7 @@ impl VctDense {
     pub fn new(reuse: bool) -> Self {
         Self {
             pyramid: PyramidCache::new(reuse),
+            instances: InstanceVoxels::default(),
         }
     }
 
@@ -296,6 +298,38 @@ impl VctDense {
         let key = PyramidKey::of(scene);
         let cached = self.pyramid.holds(&key);
         let plan = FramePlan::vct_dense_after(scene, cones, cached);
+        if !scene.instances.list.is_empty() && plan.runs("voxel_light") {
+            // One voxel hierarchy per instance (CPRC 3.1), cones through all of them.
+            let data = SceneData::new(scene);
+            let mut stages = Vec::new();
+            let (gb, direct) = gbuffer_and_direct(ctx, &data, &plan, &mut stages, &progress)?;
+            let (pyramids, placed, world) =
+                self.instances
+                    .hierarchies(ctx, scene, &data, &mut stages, &progress)?;
+            let plan = plan.with_hierarchies(placed.len(), self.instances.voxelized_now);
+            progress("cone tracing");
+            let t = std::time::Instant::now();
+            let params = cone_trace::cone_params(&world, cones);
+            let case = cone_trace::instanced_case_for(
+                ctx,
+                &data,
+                &gb,
+                &pyramids,
+                &placed,
+                &params,
+                "render".into(),
+                0,
+            );
+            return cone_pass_frame(
+                ctx,
+                &cone_trace::INSTANCED_DECL,
+                &case,
+                direct,
+                stages,
+                plan,
+                t,
+            );
+        }
         render_frame(
             ctx,
             scene,
@@ -956,8 +990,14 @@ pub fn render_cprc(
 /// (the caches follow the view and are rebuilt every frame).
 pub struct VctCprc {
     pyramid: PyramidCache,
-    /// Per-instance hierarchies' voxelizations, in their own frames, kept across frames (an
-    /// instance's mesh and grid side are its key): (local mesh, side, grid, list, frame).
+    instances: InstanceVoxels,
+}
+
+/// The per-instance voxel hierarchies of a scene with `[[instances]]` (CPRC 3.1), kept across frames.
+#[derive(Default)]
+struct InstanceVoxels {
+    /// Voxelizations in their own frames (an instance's mesh and grid side are its key): (local
+    /// mesh, side, grid, list, frame).
     voxelized: Vec<(
         crate::scene::Mesh,
         u32,
@@ -969,22 +1009,7 @@ pub struct VctCprc {
     voxelized_now: usize,
 }
 
-/// A hierarchy's pyramids concatenated, where each is placed, and the march's world grid.
-type Hierarchies = (
-    Vec<[f32; 4]>,
-    Vec<vxgi_cpu_mirror::cache_creation::Placed>,
-    voxelize::VoxelFrame,
-);
-
-impl VctCprc {
-    pub fn new(reuse: bool) -> Self {
-        Self {
-            pyramid: PyramidCache::new(reuse),
-            voxelized: Vec::new(),
-            voxelized_now: 0,
-        }
-    }
-
+impl InstanceVoxels {
     /// The scene's voxel hierarchies for this frame: `[mesh]` (in place) and every instance (placed
     /// by its transform at the scene's frame), each voxelized once in its own frame at the world
     /// voxel size (grid side the power of two that covers it, 8 to `voxels`), re-lit where it stands
@@ -1082,6 +1107,22 @@ impl VctCprc {
         stages.push(("surface_coverage_mip", mip_t));
         Ok((pyramids, placed, world))
     }
+}
+
+/// A hierarchy's pyramids concatenated, where each is placed, and the march's world grid.
+type Hierarchies = (
+    Vec<[f32; 4]>,
+    Vec<vxgi_cpu_mirror::cache_creation::Placed>,
+    voxelize::VoxelFrame,
+);
+
+impl VctCprc {
+    pub fn new(reuse: bool) -> Self {
+        Self {
+            pyramid: PyramidCache::new(reuse),
+            instances: InstanceVoxels::default(),
+        }
+    }
 
     pub fn render(
         &mut self,
@@ -1116,7 +1157,10 @@ impl VctCprc {
         let instanced = if scene.instances.list.is_empty() {
             None
         } else {
-            Some(self.hierarchies(ctx, scene, &data, &mut stages, &progress)?)
+            Some(
+                self.instances
+                    .hierarchies(ctx, scene, &data, &mut stages, &progress)?,
+            )
         };
         let (volume, params) = match &instanced {
             Some((pyramids, placed, world)) => (
@@ -1141,7 +1185,9 @@ impl VctCprc {
             }
         };
         let plan = match &instanced {
-            Some((_, placed, _)) => plan.with_hierarchies(placed.len(), self.voxelized_now),
+            Some((_, placed, _)) => {
+                plan.with_hierarchies(placed.len(), self.instances.voxelized_now)
+            }
             None => plan,
         };
         progress("cache distribution");
@@ -1213,7 +1259,13 @@ fn cone_pass_frame(
     } else {
         direct
     };
-    stages.push((decl.name, started.elapsed().as_secs_f64()));
+    // The instanced cone pass is the frame's cone_trace stage (the plan's and the bench's name).
+    let stage = if decl.name == cone_trace::INSTANCED_DECL.name {
+        cone_trace::DECL.name
+    } else {
+        decl.name
+    };
+    stages.push((stage, started.elapsed().as_secs_f64()));
     Ok(Rendered::assemble(direct, indirect, ao, stages, plan))
 }
 

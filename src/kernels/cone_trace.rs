@@ -42,6 +42,34 @@ pub static DECL: KernelDecl = KernelDecl {
     summary: "AO + diffuse cones + one glossy cone per pixel, quadrilinear marching of the radiance pyramid (CPRC 4, VCT 5-7)",
 };
 
+/// cone_trace through several voxel hierarchies placed by rigid transforms (an instance's own, CPRC 3.1):
+/// the same kernel file and pixel entry with common/placed_pyramids.wgsl as the volume.
+pub static INSTANCED_DECL: KernelDecl = KernelDecl {
+    name: "cone_trace_instanced",
+    wgsl_path: "kernels/cone_trace.wgsl",
+    wgsl: include_str!("../../kernels/cone_trace.wgsl"),
+    includes: &[
+        super::TANGENT_BASIS,
+        super::CONE_MARCH,
+        super::PYRAMID_GRID,
+        super::PLACED_PYRAMIDS,
+    ],
+    entry: "main",
+    inputs: &[
+        "frame", "triangles", "materials", "gb_position", "gb_normal", "gb_triangle", "gb_albedo", "cone", "cone_dirs",
+        "pyramid", "placed",
+    ],
+    outputs: &[
+        // As cone_trace's, each sample's error the sum of its hierarchies' (their local points'
+        // rounding included).
+        Output { binding: "indirect", tolerance: Tolerance::MirrorBound },
+        Output { binding: "ao", tolerance: Tolerance::MirrorBound },
+    ],
+    dispatch: DispatchRule::PerElement { binding: "indirect" },
+    mirror: "vxgi_cpu_mirror::cone_trace::shade_pixel (PlacedPyramids)",
+    summary: "cone_trace through several voxel hierarchies placed by rigid transforms (instances, CPRC 3.1)",
+};
+
 /// Cone settings (the `[render]`-level knobs of the vct-dense pipeline).
 #[derive(Clone, Copy, Debug)]
 pub struct ConeSettings {
@@ -149,6 +177,42 @@ pub fn case_for(
     tracer_case(ctx, &DECL, data, gbuffer, params, volume, label, seed)
 }
 
+/// The instanced cone pass (`INSTANCED_DECL`): `pyramid` holds every hierarchy, `placed` says where each
+/// stands and where its levels start; `params` is the march's grid (covering them all).
+#[allow(clippy::too_many_arguments)]
+pub fn instanced_case_for(
+    ctx: &GpuContext,
+    data: &SceneData,
+    gbuffer: &Resources,
+    pyramid: &[[f32; 4]],
+    placed: &[vxgi_cpu_mirror::cache_creation::Placed],
+    params: &ConeParams,
+    label: String,
+    seed: u64,
+) -> Case {
+    let f4 = |v: &[[f32; 4]]| HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(v)));
+    let volume = Resources::from([
+        ("pyramid".to_string(), f4(pyramid)),
+        (
+            "placed".to_string(),
+            HostResource::Buffer(HostBuffer {
+                bytes: bytemuck::cast_slice(placed).to_vec(),
+                scalar: ScalarKind::Mixed,
+            }),
+        ),
+    ]);
+    tracer_case(
+        ctx,
+        &INSTANCED_DECL,
+        data,
+        gbuffer,
+        params,
+        volume,
+        label,
+        seed,
+    )
+}
+
 /// The cone pass of a kernel built on `kernels/common/cone_march.wgsl` (`decl`): the scene, G-buffer
 /// and cone bindings, plus the resources of its volume (`volume`, by binding name).
 #[allow(clippy::too_many_arguments)]
@@ -218,12 +282,34 @@ pub fn max_radiance(pyramid: &[[f32; 4]], side: u32) -> f32 {
 }
 
 pub fn mirror_cones(data: &Resources) -> [Vec<[f32; 4]>; 4] {
+    use vxgi_cpu_mirror::cache_creation::{Placed, PlacedPyramids};
     let b = |n: &str| data[n].buffer().expect("buffer");
     let params: ConeParams = *bytemuck::from_bytes(&b("cone").bytes);
     let voxels: &[[f32; 4]] = bytemuck::cast_slice(&b("pyramid").bytes);
-    let pyr = Pyramid { p: &params, voxels };
-    let lmax = max_radiance(voxels, params.side);
-    shade_all(data, &pyr, lmax)
+    match data.get("placed") {
+        None => {
+            let pyr = Pyramid { p: &params, voxels };
+            shade_all(data, &pyr, max_radiance(voxels, params.side))
+        }
+        Some(r) => {
+            let placed: &[Placed] = bytemuck::cast_slice(&r.buffer().expect("buffer").bytes);
+            let lmax = placed
+                .iter()
+                .map(|h| {
+                    max_radiance(
+                        &voxels[h.side_levels_base[2] as usize..],
+                        h.side_levels_base[0],
+                    )
+                })
+                .fold(0.0, f32::max);
+            let vol = PlacedPyramids {
+                p: &params,
+                placed,
+                voxels,
+            };
+            shade_all(data, &vol, lmax)
+        }
+    }
 }
 
 /// Every pixel of a cone pass's resources through `volume`: indirect, AO and their bounds. `lmax`: the
@@ -308,6 +394,66 @@ pub fn bounded_outputs([ind, ao, ind_b, ao_b]: [Vec<[f32; 4]>; 4]) -> BTreeMap<S
         ("ao".to_string(), f(&ao)),
         (bound_name("ao"), f(&ao_b)),
     ])
+}
+
+pub struct ConeTraceInstanced;
+
+impl Kernel for ConeTraceInstanced {
+    fn decl(&self) -> &'static KernelDecl {
+        &INSTANCED_DECL
+    }
+    /// cone_trace's cases with the scene's pyramid as hierarchy 0 (in place) and once more placed by a
+    /// rigid transform about the grid's centre (10-40 degrees about a seeded axis, a shift of up to a
+    /// third of the grid, scale 1 or 0.8).
+    fn case(&self, _shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
+        use rand::{Rng, SeedableRng};
+        use vxgi_cpu_mirror::cache_creation::Placed;
+        let c = lit_case(ctx, seed, index);
+        let pyr = gpu_pyramid(ctx, &c.radiance, &c.normal, c.frame.side).expect("mip chain runs");
+        let params = cone_params(&c.frame, &c.settings);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0xc0e ^ index as u64);
+        let (s0, side, origin) = (c.frame.voxel, c.frame.side, c.frame.origin);
+        let extent = s0 * side as f32;
+        let centre = origin + glam::Vec3::splat(0.5 * extent);
+        let axis = glam::Vec3::new(
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+            rng.random_range(0.1..1.0),
+        )
+        .normalize();
+        let scale = if rng.random_bool(0.5) { 1.0 } else { 0.8 };
+        let shift = glam::Vec3::new(
+            rng.random_range(-0.33..0.33),
+            rng.random_range(-0.33..0.33),
+            rng.random_range(-0.33..0.33),
+        ) * extent;
+        let m = glam::Mat4::from_translation(centre + shift)
+            * glam::Mat4::from_axis_angle(axis, rng.random_range(0.17..0.7))
+            * glam::Mat4::from_scale(glam::Vec3::splat(scale))
+            * glam::Mat4::from_translation(-centre);
+        let placed = [
+            Placed::new(origin.to_array(), s0, side, 0, glam::Mat4::IDENTITY, s0),
+            Placed::new(origin.to_array(), s0, side, 0, m, s0),
+        ];
+        instanced_case_for(
+            ctx,
+            &c.data,
+            &c.gbuffer,
+            &pyr,
+            &placed,
+            &params,
+            format!("{}, 2 hierarchies", c.label),
+            seed,
+        )
+    }
+    fn mirror(
+        &self,
+        _case: &Case,
+        data: &Resources,
+        _mode: FloatMode,
+    ) -> BTreeMap<String, HostBuffer> {
+        bounded_outputs(mirror_cones(data))
+    }
 }
 
 impl Kernel for ConeTrace {

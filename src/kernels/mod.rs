@@ -166,6 +166,7 @@ pub fn all() -> Vec<&'static dyn Kernel> {
         &voxelize::Voxelize,
         &voxel_light::VoxelLight,
         &cone_trace::ConeTrace,
+        &cone_trace::ConeTraceInstanced,
         &sparse_voxel_octree::SparseVoxelOctree,
         &svo_sample::SvoSample,
         &svo_cone_trace::SvoConeTrace,
