@@ -164,7 +164,7 @@ fn placed_hierarchies_move_what_the_caches_see() {
     let tan = cone_tan(res);
     let texels = |vol: &dyn Volume, cache: [[f32; 4]; 2]| -> Vec<[f32; 4]> {
         dirs.iter()
-            .map(|d| create_texel(&Dyn(vol), cache, *d, tan, 1.0).0)
+            .map(|d| create_texel(vol, cache, *d, tan, 1.0).0)
             .collect()
     };
     let at = |o: [f32; 3]| [[o[0], o[1], o[2], 0.0], [0.0, 0.0, 1.0, 0.0]];
@@ -216,7 +216,7 @@ fn placed_hierarchies_move_what_the_caches_see() {
     let seen = |vol: &dyn Volume| {
         dirs.iter()
             .filter(|d| d[2] > 0.9)
-            .map(|d| create_texel(&Dyn(vol), down, *d, tan, 1.0).0[0])
+            .map(|d| create_texel(vol, down, *d, tan, 1.0).0[0])
             .fold(0.0f32, f32::max)
     };
     let (alone, with_floor) = (seen(&plain), seen(&both));
@@ -224,27 +224,4 @@ fn placed_hierarchies_move_what_the_caches_see() {
         alone < 0.05 && with_floor > 0.5,
         "ceiling alone {alone}, with the floor {with_floor}"
     );
-}
-
-/// A `&dyn Volume` as a Volume (create_texel takes `impl Volume`).
-struct Dyn<'a>(&'a dyn vxgi_cpu_mirror::cone_trace::Volume);
-
-impl vxgi_cpu_mirror::cone_trace::Volume for Dyn<'_> {
-    fn params(&self) -> &ConeParams {
-        self.0.params()
-    }
-    fn level(
-        &self,
-        x: glam::Vec3,
-        l: u32,
-    ) -> (glam::Vec4, vxgi_cpu_mirror::cone_trace::SampleError) {
-        self.0.level(x, l)
-    }
-    fn sample(
-        &self,
-        x: glam::Vec3,
-        lf: f32,
-    ) -> (glam::Vec4, vxgi_cpu_mirror::cone_trace::SampleError) {
-        self.0.sample(x, lf)
-    }
 }

@@ -89,7 +89,7 @@ pub fn cone_tan(res: u32) -> f32 {
 /// magnitudes plus the allowances for rounding-decided stops). `cache` = the cache's two vec4s, `dir`
 /// = the texel's table entry, `lmax` = the pyramid's largest radiance.
 pub fn create_texel(
-    pyr: &impl Volume,
+    pyr: &(impl Volume + ?Sized),
     cache: [[f32; 4]; 2],
     dir: [f32; 4],
     tan: f32,

@@ -244,7 +244,14 @@ pub fn step_alpha_error(a: f32, ratio: f32, da: f32) -> f32 {
 }
 
 /// `cos_n`: cosine between the cone and the origin surface's normal (for the mip clamp).
-pub fn march(pyr: &impl Volume, o: Vec3, d: Vec3, tan: f32, cos_n: f32, lmax: f32) -> ConeResult {
+pub fn march(
+    pyr: &(impl Volume + ?Sized),
+    o: Vec3,
+    d: Vec3,
+    tan: f32,
+    cos_n: f32,
+    lmax: f32,
+) -> ConeResult {
     let p = pyr.params();
     let s0 = p.origin[3];
     let inv_s0 = p.inv_s0;
@@ -378,7 +385,7 @@ pub const MAG: f32 = 4e-4;
 /// One pixel: indirect radiance (rgb, 0), AO (a, a, a, 0), and their bounds.
 #[allow(clippy::too_many_arguments)]
 pub fn shade_pixel(
-    pyr: &impl Volume,
+    pyr: &(impl Volume + ?Sized),
     frame: &Frame,
     tris: &[GpuTriangle],
     materials: &[GpuMaterial],

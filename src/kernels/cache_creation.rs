@@ -234,10 +234,9 @@ impl Kernel for CacheCreationInstanced {
         &INSTANCED_DECL
     }
     /// cache_creation's cases with the scene's pyramid as hierarchy 0 (in place) and again as one or
-    /// two more placed by rigid transforms about the grid's centre (a rotation of 10-40 degrees about
-    /// a seeded axis, a shift of up to a third of the grid, scale 1 or 0.8): instances of one mesh.
+    /// two more placed by `cone_trace::random_placement`: instances of one mesh.
     fn case(&self, _shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
-        use rand::{Rng, SeedableRng};
+        use rand::SeedableRng;
         let c = lit_case(ctx, seed, index);
         let pyr = gpu_pyramid(ctx, &c.radiance, &c.normal, c.frame.side).expect("mip chain runs");
         let params = cone_params(&c.frame, &c.settings);
@@ -245,8 +244,6 @@ impl Kernel for CacheCreationInstanced {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0xca5e ^ index as u64);
         let (s0, side) = (c.frame.voxel, c.frame.side);
         let origin = c.frame.origin;
-        let extent = s0 * side as f32;
-        let centre = origin + glam::Vec3::splat(0.5 * extent);
         let mut placed = vec![Placed::new(
             origin.to_array(),
             s0,
@@ -256,22 +253,7 @@ impl Kernel for CacheCreationInstanced {
             s0,
         )];
         for _ in 0..1 + index % 2 {
-            let axis = glam::Vec3::new(
-                rng.random_range(-1.0..1.0),
-                rng.random_range(-1.0..1.0),
-                rng.random_range(0.1..1.0),
-            )
-            .normalize();
-            let scale = if rng.random_bool(0.5) { 1.0 } else { 0.8 };
-            let shift = glam::Vec3::new(
-                rng.random_range(-0.33..0.33),
-                rng.random_range(-0.33..0.33),
-                rng.random_range(-0.33..0.33),
-            ) * extent;
-            let m = glam::Mat4::from_translation(centre + shift)
-                * glam::Mat4::from_axis_angle(axis, rng.random_range(0.17..0.7))
-                * glam::Mat4::from_scale(glam::Vec3::splat(scale))
-                * glam::Mat4::from_translation(-centre);
+            let m = super::cone_trace::random_placement(&mut rng, &c.frame);
             placed.push(Placed::new(origin.to_array(), s0, side, 0, m, s0));
         }
         let caches = caches_on_pixels(&c.gbuffer, &params, 97);

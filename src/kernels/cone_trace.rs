@@ -396,41 +396,46 @@ pub fn bounded_outputs([ind, ao, ind_b, ao_b]: [Vec<[f32; 4]>; 4]) -> BTreeMap<S
     ])
 }
 
+/// A seeded rigid placement of a voxel grid about its centre (an instance of it elsewhere): a rotation
+/// of 10-40 degrees about a random axis, a shift of up to a third of the grid, scale 1 or 0.8.
+pub fn random_placement(rng: &mut impl rand::Rng, frame: &VoxelFrame) -> glam::Mat4 {
+    let extent = frame.voxel * frame.side as f32;
+    let centre = frame.origin + glam::Vec3::splat(0.5 * extent);
+    let axis = glam::Vec3::new(
+        rng.random_range(-1.0..1.0),
+        rng.random_range(-1.0..1.0),
+        rng.random_range(0.1..1.0),
+    )
+    .normalize();
+    let scale = if rng.random_bool(0.5) { 1.0 } else { 0.8 };
+    let shift = glam::Vec3::new(
+        rng.random_range(-0.33..0.33),
+        rng.random_range(-0.33..0.33),
+        rng.random_range(-0.33..0.33),
+    ) * extent;
+    glam::Mat4::from_translation(centre + shift)
+        * glam::Mat4::from_axis_angle(axis, rng.random_range(0.17..0.7))
+        * glam::Mat4::from_scale(glam::Vec3::splat(scale))
+        * glam::Mat4::from_translation(-centre)
+}
+
 pub struct ConeTraceInstanced;
 
 impl Kernel for ConeTraceInstanced {
     fn decl(&self) -> &'static KernelDecl {
         &INSTANCED_DECL
     }
-    /// cone_trace's cases with the scene's pyramid as hierarchy 0 (in place) and once more placed by a
-    /// rigid transform about the grid's centre (10-40 degrees about a seeded axis, a shift of up to a
-    /// third of the grid, scale 1 or 0.8).
+    /// cone_trace's cases with the scene's pyramid as hierarchy 0 (in place) and once more placed by
+    /// [`random_placement`].
     fn case(&self, _shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
-        use rand::{Rng, SeedableRng};
+        use rand::SeedableRng;
         use vxgi_cpu_mirror::cache_creation::Placed;
         let c = lit_case(ctx, seed, index);
         let pyr = gpu_pyramid(ctx, &c.radiance, &c.normal, c.frame.side).expect("mip chain runs");
         let params = cone_params(&c.frame, &c.settings);
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0xc0e ^ index as u64);
         let (s0, side, origin) = (c.frame.voxel, c.frame.side, c.frame.origin);
-        let extent = s0 * side as f32;
-        let centre = origin + glam::Vec3::splat(0.5 * extent);
-        let axis = glam::Vec3::new(
-            rng.random_range(-1.0..1.0),
-            rng.random_range(-1.0..1.0),
-            rng.random_range(0.1..1.0),
-        )
-        .normalize();
-        let scale = if rng.random_bool(0.5) { 1.0 } else { 0.8 };
-        let shift = glam::Vec3::new(
-            rng.random_range(-0.33..0.33),
-            rng.random_range(-0.33..0.33),
-            rng.random_range(-0.33..0.33),
-        ) * extent;
-        let m = glam::Mat4::from_translation(centre + shift)
-            * glam::Mat4::from_axis_angle(axis, rng.random_range(0.17..0.7))
-            * glam::Mat4::from_scale(glam::Vec3::splat(scale))
-            * glam::Mat4::from_translation(-centre);
+        let m = random_placement(&mut rng, &c.frame);
         let placed = [
             Placed::new(origin.to_array(), s0, side, 0, glam::Mat4::IDENTITY, s0),
             Placed::new(origin.to_array(), s0, side, 0, m, s0),
