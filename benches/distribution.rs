@@ -60,7 +60,11 @@ fn main() {
             slices,
             _pad: [0; 3],
         };
-        let mut bounds = m::cluster_keys::slice_bounds(0.1, 100.0, slices);
+        let mut bounds = m::cluster_keys::slice_bounds(
+            cluster_keys::SLICE_NEAR,
+            cluster_keys::SLICE_FAR,
+            slices,
+        );
         bounds.push(f32::INFINITY);
         let dirs = m::cluster_keys::axis_directions();
         let kin = m::cluster_keys::KeyInputs {

@@ -62,10 +62,6 @@ impl CprcSettings {
     }
 }
 
-/// Depth-slice bounds of the cluster keys: exponential between these, as cluster_keys' cases.
-const NEAR: f32 = 0.1;
-const FAR: f32 = 100.0;
-
 /// What the distribution and the gather read per pixel, from a G-buffer.
 pub struct PixelInputs {
     pub width: u32,
@@ -272,7 +268,8 @@ pub fn distribute_gpu(
     for r in ["histogram", "blurred"] {
         axes.resources.remove(r);
     }
-    let mut keys = cluster_keys::case_for(
+    // The axes come from the axes kernel: a placeholder the chain drops.
+    let mut keys = cluster_keys::case_with_axes(
         &shaders[2],
         ctx,
         &px.normals,
@@ -281,17 +278,12 @@ pub fn distribute_gpu(
         h,
         s.tile,
         s.slices,
+        &vec![[0; 4]; tiles],
         "cprc".into(),
         0,
     );
     keys.rename_resource("params", "key_params", false);
     keys.rename_resource("tile_axes", "axes", true);
-    let mut bounds = vxgi_cpu_mirror::cluster_keys::slice_bounds(NEAR, FAR, s.slices);
-    bounds.push(f32::INFINITY);
-    keys.resources.insert(
-        "slice_bounds".into(),
-        HostResource::Buffer(HostBuffer::f32(&bounds)),
-    );
     let values: Vec<u32> = (0..n as u32).collect();
     let (mut sort, [kname, vname]) = radix_sort::case_for(
         ctx,
@@ -397,7 +389,7 @@ pub fn distribute_mirror(px: &PixelInputs, s: &CprcSettings, offset: f32) -> Res
     let hp = tile_normal_histogram::params(w, h, s.tile)?;
     let (raw, blurred) = th::histograms(&px.normals, &hp);
     let axes = histogram_axes::all_axes(&blurred, &raw, &octahedral::reweight_table());
-    let mut bounds = ck::slice_bounds(NEAR, FAR, s.slices);
+    let mut bounds = ck::slice_bounds(cluster_keys::SLICE_NEAR, cluster_keys::SLICE_FAR, s.slices);
     bounds.push(f32::INFINITY);
     let p = ck::KeyParams {
         width: w,

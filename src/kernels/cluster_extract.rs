@@ -103,7 +103,11 @@ pub fn distribution_inputs_with_depth(
         slices,
         _pad: [0; 3],
     };
-    let mut bounds = slice_bounds(0.1, 100.0, slices);
+    let mut bounds = slice_bounds(
+        super::cluster_keys::SLICE_NEAR,
+        super::cluster_keys::SLICE_FAR,
+        slices,
+    );
     bounds.push(f32::INFINITY);
     let dirs = axis_directions();
     let k = keys(

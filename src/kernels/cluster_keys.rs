@@ -65,6 +65,32 @@ pub fn case_for(
     let hp = super::tile_normal_histogram::params(width, height, tile).expect("valid sizes");
     let (raw, blurred) = histograms(normals, &hp);
     let tile_axes = all_axes(&blurred, &raw, &reweight_table());
+    case_with_axes(
+        shader, ctx, normals, depth, width, height, tile, slices, &tile_axes, label, seed,
+    )
+}
+
+/// Depth slices of the keys: exponential between these view depths (`slice_bounds`).
+pub const SLICE_NEAR: f32 = 0.1;
+pub const SLICE_FAR: f32 = 100.0;
+
+/// [`case_for`] with the tile axes given (a chain's earlier stage computes them on the GPU: pass
+/// zeroed placeholders of `tiles` entries and bind that stage's output instead).
+#[allow(clippy::too_many_arguments)]
+pub fn case_with_axes(
+    shader: &Shader,
+    ctx: &GpuContext,
+    normals: &[[u32; 2]],
+    depth: &[f32],
+    width: u32,
+    height: u32,
+    tile: u32,
+    slices: u32,
+    tile_axes: &[[u32; 4]],
+    label: String,
+    seed: u64,
+) -> Case {
+    let hp = super::tile_normal_histogram::params(width, height, tile).expect("valid sizes");
     let p = KeyParams {
         width,
         height,
@@ -73,7 +99,7 @@ pub fn case_for(
         slices,
         _pad: [0; 3],
     };
-    let mut bounds = slice_bounds(0.1, 100.0, slices);
+    let mut bounds = slice_bounds(SLICE_NEAR, SLICE_FAR, slices);
     bounds.push(f32::INFINITY); // never read: keeps the binding non-empty when slices == 1
     let n = (width * height) as usize;
     let mut resources = Resources::new();
@@ -85,7 +111,7 @@ pub fn case_for(
     resources.insert("depth".into(), HostResource::Buffer(HostBuffer::f32(depth)));
     resources.insert(
         "tile_axes".into(),
-        HostResource::Buffer(HostBuffer::u32(bytemuck::cast_slice(&tile_axes))),
+        HostResource::Buffer(HostBuffer::u32(bytemuck::cast_slice(tile_axes))),
     );
     resources.insert(
         "axis_dirs".into(),
@@ -123,7 +149,7 @@ pub fn case_for(
 /// Depths for a generated G-buffer: smooth ramps with steps, exactly on slice bounds, out of range.
 pub fn depths(width: u32, height: u32, slices: u32, seed: u64) -> Vec<f32> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let bounds = slice_bounds(0.1, 100.0, slices);
+    let bounds = slice_bounds(SLICE_NEAR, SLICE_FAR, slices);
     (0..width * height)
         .map(|i| {
             let (x, y) = (i % width, i / width);
