@@ -183,6 +183,10 @@ struct RenderFlags {
     /// cprc: gathering radius in tiles [default 2].
     #[arg(long = "gather-radius", alias = "gather_radius")]
     gather_radius: Option<f32>,
+    /// vct-svo: light-view map side per light view for photon injection (power of two, 16..=2048;
+    /// 0 = voxel_light's per-voxel direct light) [default 256].
+    #[arg(long = "photon-map", alias = "photon_map")]
+    photon_map: Option<u32>,
 }
 
 fn load_scene(path: &Option<PathBuf>, flags: &RenderFlags) -> Result<vxgi::scene::Scene> {
@@ -219,7 +223,8 @@ fn load_scene(path: &Option<PathBuf>, flags: &RenderFlags) -> Result<vxgi::scene
         irradiance_resolution,
         cache_tile,
         cache_depth_slices,
-        gather_radius
+        gather_radius,
+        photon_map
     );
     scene.render.validate().map_err(anyhow::Error::msg)?;
     Ok(scene)

@@ -157,6 +157,17 @@ impl FramePlan {
                         p.stage = "svo_cone_trace";
                         p.kernel = "svo_cone_trace";
                     }
+                    "voxel_light" if scene.render.photon_map > 0 => {
+                        let map = scene.render.photon_map;
+                        p.stage = "svo_photons";
+                        p.kernel = "gbuffer + svo_photons";
+                        p.size = format!("{} light views x {map}^2 texels", light_views(scene));
+                        if p.runs {
+                            p.why = "light injection: a map ray-cast from each light view, one photon per texel splatted into the leaves".into();
+                        } else {
+                            p.why = p.why.replace("radiance pyramid", "octree");
+                        }
+                    }
                     "voxelize" | "voxel_light" => p.why = p.why.replace("radiance pyramid", "octree"),
                     _ => {}
                 }
@@ -183,15 +194,7 @@ impl FramePlan {
         let dense = Self::vct_dense_after(scene, cones, cached);
         let side = scene.render.voxels;
         let lights = scene.lights.len();
-        let views: usize = scene
-            .lights
-            .iter()
-            .map(|l| match l {
-                crate::scene::Light::Spot { cone_deg, .. } if *cone_deg <= 60.0 => 1,
-                crate::scene::Light::Directional { .. } => 1,
-                _ => 6,
-            })
-            .sum();
+        let views = light_views(scene);
         let layers = (lrsm.depth_splits + 1) * (lrsm.normal_splits + 1);
         const CACHED: &str = "skipped: geometry, materials, lights and settings unchanged since the last frame (its occlusion voxels and LRSMs are reused)";
         let mut passes = Vec::new();
@@ -439,4 +442,19 @@ impl fmt::Display for FramePlan {
         }
         Ok(())
     }
+}
+
+/// Light views `lrsm::light_views` gives `scene`'s lights: one per spot of at most 60 degrees and per
+/// directional light, six cube faces per point light or wider spot.
+pub fn light_views(scene: &Scene) -> usize {
+    use crate::scene::Light;
+    scene
+        .lights
+        .iter()
+        .map(|l| match l {
+            Light::Spot { cone_deg, .. } if *cone_deg <= 60.0 => 1,
+            Light::Directional { .. } => 1,
+            _ => 6,
+        })
+        .sum()
 }

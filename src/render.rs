@@ -875,10 +875,26 @@ impl VctSvo {
         } else {
             self.cache = None;
             let (rad, _, frame) = lit_voxels(ctx, scene, &data, &plan, &mut stages, &progress)?;
+            // Geometry fragments: the lit voxels, or with photon injection their coverage alone
+            // (voxel_light did not run) and the photons carrying the light.
+            let mut frags = svo_cone_trace::grid_fragments(&rad, svo_cone_trace::SCALE)?;
+            if plan.runs("svo_photons") {
+                progress("photons");
+                let t = std::time::Instant::now();
+                let (photons, _) = crate::kernels::svo_photons::photon_fragments(
+                    ctx,
+                    &data,
+                    &frame,
+                    scene.render.photon_map,
+                    svo_cone_trace::SCALE,
+                )
+                .context("photon injection")?;
+                frags.extend(photons);
+                stages.push(("svo_photons", t.elapsed().as_secs_f64()));
+            }
             progress("sparse voxel octree");
             let t = std::time::Instant::now();
             let depth = frame.side.trailing_zeros() - 1;
-            let frags = svo_cone_trace::grid_fragments(&rad, svo_cone_trace::SCALE)?;
             let built =
                 svo::build_on_gpu(ctx, depth, &frags, None).context("sparse voxel octree")?;
             stages.push(("sparse_voxel_octree", t.elapsed().as_secs_f64()));
@@ -1339,7 +1355,18 @@ pub fn render_svo_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendered
     use vxgi_cpu_mirror::sparse_voxel_octree::{build, capacity_bound};
     let m = MirrorFrame::new(scene)?;
     let depth = m.frame.side.trailing_zeros() - 1;
-    let frags = grid_fragments(&m.lit, SCALE)?;
+    let map = scene.render.photon_map;
+    let frags = if map > 0 && !scene.lights.is_empty() {
+        // Photon injection: the voxels' coverage, the light from the photons.
+        let coverage: Vec<[f32; 4]> = m.lit.iter().map(|v| [0.0, 0.0, 0.0, v[3]]).collect();
+        let mut frags = grid_fragments(&coverage, SCALE)?;
+        frags.extend(crate::kernels::svo_photons::mirror_photon_fragments(
+            &m.data, &m.frame, map, SCALE,
+        )?);
+        frags
+    } else {
+        grid_fragments(&m.lit, SCALE)?
+    };
     let octree = build(depth, capacity_bound(depth, frags.len()) as u32, &frags);
     let params = svo_cone_params(&m.frame, cones);
     let svo = vxgi_cpu_mirror::svo_cone_trace::SvoParams {

@@ -186,6 +186,10 @@ pub struct RenderSettings {
     pub cache_depth_slices: u32,
     /// cprc: gathering radius in tiles (the paper's f; > 0, at most 8).
     pub gather_radius: f32,
+    /// vct-svo: light injection. The side of the light-view map rendered per light view (a power of
+    /// two, 16..=2048), one photon per texel splatted into the octree's leaves (VCT 8.2); 0 lights
+    /// the voxels with voxel_light's per-voxel direct light instead.
+    pub photon_map: u32,
 }
 
 impl RenderSettings {
@@ -283,6 +287,14 @@ impl RenderSettings {
                 self.gather_radius
             ));
         }
+        if self.photon_map != 0
+            && (!(16..=2048).contains(&self.photon_map) || !self.photon_map.is_power_of_two())
+        {
+            return Err(format!(
+                "photon_map = {} must be 0 (voxel_light injection) or a power of two in 16..=2048",
+                self.photon_map
+            ));
+        }
         if !(self.mip_clamp >= 0.0 && self.mip_clamp.is_finite()) {
             return Err(format!(
                 "mip_clamp = {} must be finite and >= 0",
@@ -320,6 +332,7 @@ impl Default for RenderSettings {
             cache_tile: 16,
             cache_depth_slices: 16,
             gather_radius: 2.0,
+            photon_map: 256,
         }
     }
 }

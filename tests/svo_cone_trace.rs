@@ -186,7 +186,7 @@ fn octree_is_reused_when_only_the_camera_moves() {
     let (second, mem) = renderer.render(gpu(), &moved, &cones, |_| {}).unwrap();
     assert_eq!(
         second.plan.skipped(),
-        vec!["voxelize", "voxel_light", "sparse_voxel_octree"],
+        vec!["voxelize", "svo_photons", "sparse_voxel_octree"],
         "{}",
         second.plan
     );

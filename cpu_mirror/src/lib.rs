@@ -32,6 +32,7 @@ pub mod sample_lrsm;
 pub mod sparse_voxel_octree;
 pub mod surface_coverage_mip;
 pub mod svo_cone_trace;
+pub mod svo_photons;
 pub mod svo_sample;
 pub mod tile_normal_histogram;
 pub mod voxel_light;

@@ -317,8 +317,6 @@ pub fn mirror_frame(
     voxels: VoxelFrame,
     settings: &LrsmSettings,
 ) -> anyhow::Result<LrsmFrame> {
-    use rayon::prelude::*;
-    use vxgi_cpu_mirror::gbuffer as gbm;
     let levels = vxgi_cpu_mirror::occlusion_voxels::pyramid(colour, voxels.side, false);
     let (occ, occ_offsets) = concat_levels(&levels);
     let config = PartitionConfig {
@@ -333,21 +331,11 @@ pub fn mirror_frame(
         settings.rsm_side,
         data.frame.eye[3],
     )?;
-    let tex = data.textures();
     let side = settings.rsm_side;
     let mut streams: [Vec<[f32; 4]>; 3] = Default::default();
     for v in views.iter_mut() {
         v.view.info[2] = streams[0].len() as u32;
-        let texels: Vec<gbm::Texel> = (0..side * side)
-            .into_par_iter()
-            .map(|i| gbm::shade_pixel(&v.frame, &data.nodes, &data.triangles, i % side, i / side))
-            .collect();
-        let pos: Vec<[f32; 4]> = texels.iter().map(|t| t.position).collect();
-        let nrm: Vec<[f32; 4]> = texels.iter().map(|t| t.normal).collect();
-        let alb: Vec<[f32; 4]> = texels
-            .iter()
-            .map(|t| gbm::albedo(&data.materials, &data.triangles, &tex, t))
-            .collect();
+        let [pos, nrm, alb] = super::reflective_shadow_map::view_gbuffer_mirror(data, v);
         let r =
             vxgi_cpu_mirror::reflective_shadow_map::rsm(&v.view, &data.lights, &pos, &nrm, &alb);
         let rsm = Rsm {

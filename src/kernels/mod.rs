@@ -23,6 +23,7 @@ pub mod sample_lrsm;
 pub mod sparse_voxel_octree;
 pub mod surface_coverage_mip;
 pub mod svo_cone_trace;
+pub mod svo_photons;
 pub mod svo_sample;
 pub mod tile_normal_histogram;
 pub mod voxel_light;
@@ -169,6 +170,7 @@ pub fn all() -> Vec<&'static dyn Kernel> {
         &cone_trace::ConeTraceInstanced,
         &sparse_voxel_octree::SparseVoxelOctree,
         &svo_sample::SvoSample,
+        &svo_photons::SvoPhotons,
         &svo_cone_trace::SvoConeTrace,
         &lrsm_cone_trace::LrsmConeTrace,
     ]

@@ -120,6 +120,34 @@ pub fn view_gbuffer(ctx: &GpuContext, data: &SceneData, view: &LightView) -> Res
     gpu_gbuffer(ctx, &d)
 }
 
+/// The G-buffer of `view` by the mirror: (position, normal, albedo) per pixel, row-major.
+pub fn view_gbuffer_mirror(data: &SceneData, view: &LightView) -> [Vec<[f32; 4]>; 3] {
+    use rayon::prelude::*;
+    use vxgi_cpu_mirror::gbuffer as gbm;
+    let tex = data.textures();
+    let side = view.frame.size[0];
+    let texels: Vec<gbm::Texel> = (0..side * side)
+        .into_par_iter()
+        .map(|i| {
+            gbm::shade_pixel(
+                &view.frame,
+                &data.nodes,
+                &data.triangles,
+                i % side,
+                i / side,
+            )
+        })
+        .collect();
+    [
+        texels.iter().map(|t| t.position).collect(),
+        texels.iter().map(|t| t.normal).collect(),
+        texels
+            .iter()
+            .map(|t| gbm::albedo(&data.materials, &data.triangles, &tex, t))
+            .collect(),
+    ]
+}
+
 /// The RSM of `view` on the GPU: G-buffer from the view, then this kernel.
 pub fn rsm_on_gpu(ctx: &GpuContext, data: &SceneData, view: &LightView) -> anyhow::Result<Rsm> {
     let gb = view_gbuffer(ctx, data, view);

@@ -1,0 +1,289 @@
+//! Declaration of `kernels/svo_photons.wgsl` (mirror: `vxgi_cpu_mirror::svo_photons`): vct-svo's light
+//! injection, one photon per texel of a light-view map (the G-buffer ray-cast from the light's view,
+//! the views lrsm uses: a spot's cone, a point light's six cube faces, a directional light's
+//! orthographic view of the scene), landing in the voxel grid the octree's leaves cover.
+use super::reflective_shadow_map::view_gbuffer;
+use super::sparse_voxel_octree::{to_fixed, SvoError};
+use super::voxelize::VoxelFrame;
+use crate::lrsm::{light_views, LightView};
+use crate::trace::SceneData;
+use std::collections::BTreeMap;
+use vxgi_cpu_mirror::direct_light::GpuLight;
+use vxgi_cpu_mirror::sparse_voxel_octree::Fragment;
+use vxgi_cpu_mirror::svo_photons::{photons, PhotonParams};
+use vxgi_harness::compare::bound_name;
+use vxgi_harness::run::run;
+use vxgi_harness::{
+    Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
+    KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
+};
+
+pub static DECL: KernelDecl = KernelDecl {
+    name: "svo_photons",
+    wgsl_path: "kernels/svo_photons.wgsl",
+    wgsl: include_str!("../../kernels/svo_photons.wgsl"),
+    includes: &[super::LIGHTS],
+    entry: "main",
+    inputs: &["params", "lights", "gb_position", "gb_normal", "gb_albedo"],
+    outputs: &[
+        // The voxel: (p - origin) * inv_h, one correctly rounded subtraction and multiplication per
+        // axis (nothing to contract), floor and clamp: exact.
+        Output {
+            binding: "photon_pos",
+            tolerance: Tolerance::Exact,
+        },
+        // The value: the light contract's arithmetic, a dot product and a cube over a sqrt, within
+        // the mirror's per-texel bound (64 ULP + the depth's cancellation + a spot's soft edge).
+        Output {
+            binding: "photon_value",
+            tolerance: Tolerance::MirrorBound,
+        },
+    ],
+    dispatch: DispatchRule::PerElement {
+        binding: "photon_pos",
+    },
+    mirror: "vxgi_cpu_mirror::svo_photons::photons",
+    summary: "light injection of vct-svo: one photon per light-view texel, its reflected flux as radiance of the voxel it lands in (VCT 8.2)",
+};
+
+/// The photon pass's parameters for `view` (its G-buffer frame) over the voxel grid `frame`.
+pub fn params_for(view: &LightView, frame: &VoxelFrame) -> PhotonParams {
+    let f = &view.frame;
+    let side = f.size[0];
+    // The G-buffer's right vector spans half the image: tan(half fov) (perspective) or the half width
+    // (orthographic); a texel is 2 |right| / side wide.
+    let half = glam::Vec3::new(f.right[0], f.right[1], f.right[2]).length();
+    let s = 2.0 * half / side as f32;
+    PhotonParams {
+        eye: [f.eye[0], f.eye[1], f.eye[2], s * s],
+        forward: [f.forward[0], f.forward[1], f.forward[2], 0.0],
+        grid: [
+            frame.origin.x,
+            frame.origin.y,
+            frame.origin.z,
+            1.0 / frame.voxel,
+        ],
+        info: [side, view.view.info[1], frame.side, view.view.info[3]],
+    }
+}
+
+/// The photon pass over the light-view G-buffer `gb`.
+pub fn case_for(
+    ctx: &GpuContext,
+    lights: &[GpuLight],
+    params: &PhotonParams,
+    gb: &Resources,
+    label: String,
+    seed: u64,
+) -> Case {
+    let n = (params.info[0] * params.info[0]) as usize;
+    let mut resources = Resources::new();
+    // Mixed: its u32 fields must not be flushed as if they were subnormal f32s.
+    resources.insert(
+        "params".into(),
+        HostResource::Buffer(HostBuffer {
+            bytes: bytemuck::bytes_of(params).to_vec(),
+            scalar: ScalarKind::Mixed,
+        }),
+    );
+    let lights = if lights.is_empty() {
+        vec![GpuLight::default()]
+    } else {
+        lights.to_vec()
+    };
+    resources.insert(
+        "lights".into(),
+        HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(&lights))),
+    );
+    for name in ["gb_position", "gb_normal", "gb_albedo"] {
+        resources.insert(name.into(), gb[name].clone());
+    }
+    resources.insert(
+        "photon_pos".into(),
+        HostResource::Buffer(HostBuffer::zeroed(n * 16, ScalarKind::U32)),
+    );
+    resources.insert(
+        "photon_value".into(),
+        HostResource::Buffer(HostBuffer::zeroed(n * 16, ScalarKind::F32)),
+    );
+    let shader = DECL.shader().expect("svo_photons validates");
+    let checks = ["photon_pos", "photon_value"]
+        .into_iter()
+        .map(|name| Check {
+            resource: name.into(),
+            output: name,
+            indexing: Indexing::Grid {
+                dims: [n as u32, 1, 1],
+                components: 4,
+            },
+        })
+        .collect();
+    Case {
+        label,
+        seed,
+        passes: vec![DECL.pass(
+            &shader,
+            ctx,
+            "photons".into(),
+            DECL.bind_by_name(),
+            n as u64,
+        )],
+        resources,
+        checks,
+        effective_bytes: n as u64 * (48 + 32),
+    }
+}
+
+/// Photon fragments of every light of `data` (light-view maps `map_side`^2 per view) on the GPU, in the
+/// octree's fixed point (`scale` steps per unit): one per texel that hit a front face and carries
+/// light. Also returns the number of texels cast.
+pub fn photon_fragments(
+    ctx: &GpuContext,
+    data: &SceneData,
+    frame: &VoxelFrame,
+    map_side: u32,
+    scale: f32,
+) -> anyhow::Result<(Vec<Fragment>, u64)> {
+    let views = light_views(&data.lights, data.bounds, map_side, data.frame.eye[3])?;
+    let shader = DECL.shader()?;
+    let mut frags = Vec::new();
+    let mut texels = 0;
+    for view in &views {
+        let gb = view_gbuffer(ctx, data, view);
+        let params = params_for(view, frame);
+        let case = case_for(ctx, &data.lights, &params, &gb, "photons".into(), 0);
+        let out = run(
+            ctx,
+            &shader,
+            DECL.name,
+            &case.resources,
+            &case.passes,
+            &["photon_pos", "photon_value"],
+        )?;
+        let pos: &[[u32; 4]] = bytemuck::cast_slice(&out.buffer("photon_pos").bytes);
+        let value: &[[f32; 4]] = bytemuck::cast_slice(&out.buffer("photon_value").bytes);
+        texels += pos.len() as u64;
+        frags.extend(to_fragments(pos, value, scale)?);
+    }
+    Ok((frags, texels))
+}
+
+/// [`photon_fragments`] by the mirrors alone (the light-view G-buffers and the photons).
+pub fn mirror_photon_fragments(
+    data: &SceneData,
+    frame: &VoxelFrame,
+    map_side: u32,
+    scale: f32,
+) -> anyhow::Result<Vec<Fragment>> {
+    let views = light_views(&data.lights, data.bounds, map_side, data.frame.eye[3])?;
+    let mut frags = Vec::new();
+    for view in &views {
+        let [pos, nrm, alb] = super::reflective_shadow_map::view_gbuffer_mirror(data, view);
+        let ph = photons(&params_for(view, frame), &data.lights, &pos, &nrm, &alb);
+        let pos: Vec<[u32; 4]> = ph.iter().map(|p| p.pos).collect();
+        let value: Vec<[f32; 4]> = ph.iter().map(|p| p.value).collect();
+        frags.extend(to_fragments(&pos, &value, scale)?);
+    }
+    Ok(frags)
+}
+
+/// Fragments of the photons that exist and carry light (in fixed point with `scale`).
+pub fn to_fragments(
+    pos: &[[u32; 4]],
+    value: &[[f32; 4]],
+    scale: f32,
+) -> Result<Vec<Fragment>, SvoError> {
+    let mut out = Vec::new();
+    for (p, v) in pos.iter().zip(value) {
+        if p[3] == 0 {
+            continue;
+        }
+        let value = [
+            to_fixed(v[0], scale)?,
+            to_fixed(v[1], scale)?,
+            to_fixed(v[2], scale)?,
+            0,
+        ];
+        if value != [0; 4] {
+            out.push(Fragment {
+                pos: [p[0], p[1], p[2]],
+                _pad: 0,
+                value,
+            });
+        }
+    }
+    Ok(out)
+}
+
+pub struct SvoPhotons;
+
+impl Kernel for SvoPhotons {
+    fn decl(&self) -> &'static KernelDecl {
+        &DECL
+    }
+
+    /// A generated scene's lights, one of their views (every cube face comes round), map side 16..64,
+    /// grids of 16..64 voxels.
+    fn case(&self, _shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
+        let (scene, label) = super::gbuffer::generated_scene(seed, index);
+        let data = SceneData::new(&scene);
+        let side = [16u32, 32, 64][index % 3];
+        let grid = [16u32, 32, 64][(index / 3) % 3];
+        let frame = super::voxelize::frame_of(&scene.mesh, grid);
+        let (lights, views) = match light_views(&data.lights, data.bounds, side, data.frame.eye[3])
+            .expect("every light kind has views")
+        {
+            v if v.is_empty() => {
+                // No light left: a point light of zero intensity still exercises the kernel.
+                let l = vec![GpuLight::default()];
+                let v = light_views(&l, data.bounds, side, data.frame.eye[3]).expect("point light");
+                (l, v)
+            }
+            v => (data.lights.clone(), v),
+        };
+        let face = (index / 9) % views.len();
+        let view = views[face];
+        let gb = view_gbuffer(ctx, &data, &view);
+        let params = params_for(&view, &frame);
+        case_for(
+            ctx,
+            &lights,
+            &params,
+            &gb,
+            format!(
+                "{label}, light {} view {face} of {}, {side}^2 texels, {grid}^3 voxels",
+                view.view.info[1],
+                views.len()
+            ),
+            seed,
+        )
+    }
+
+    fn mirror(
+        &self,
+        _case: &Case,
+        data: &Resources,
+        _mode: FloatMode,
+    ) -> BTreeMap<String, HostBuffer> {
+        // Scene-scale arithmetic: no subnormals arise (accepted flushed by the harness anyway).
+        let b = |n: &str| data[n].buffer().expect("buffer");
+        let params: PhotonParams = *bytemuck::from_bytes(&b("params").bytes);
+        let lights: &[GpuLight] = bytemuck::cast_slice(&b("lights").bytes);
+        let f4 = |n: &str| -> &[[f32; 4]] { bytemuck::cast_slice(&b(n).bytes) };
+        let ph = photons(
+            &params,
+            lights,
+            f4("gb_position"),
+            f4("gb_normal"),
+            f4("gb_albedo"),
+        );
+        let pos: Vec<u32> = ph.iter().flat_map(|p| p.pos).collect();
+        let val: Vec<f32> = ph.iter().flat_map(|p| p.value).collect();
+        let bound: Vec<f32> = ph.iter().flat_map(|p| p.bound).collect();
+        BTreeMap::from([
+            ("photon_pos".to_string(), HostBuffer::u32(&pos)),
+            ("photon_value".to_string(), HostBuffer::f32(&val)),
+            (bound_name("photon_value"), HostBuffer::f32(&bound)),
+        ])
+    }
+}
