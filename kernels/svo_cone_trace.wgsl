@@ -10,26 +10,46 @@
 // sample_level: the level's lattice coordinate q = (x - origin) / (s0 2^l) - 1/2^(l+1), the node holding
 // the cell floor(q) (clamped into the volume), trilinear over the cell's 8 brick voxels (points outside
 // the lattice are empty; a missing node is empty: exact under the octree's halo rule). sample_volume:
-// quadrilinear (common/cone_march.wgsl). Accuracy: the same per-element bound as
-// cone_trace (the mirror's SampleError covers the sample point's rounding).
+// quadrilinear (common/cone_march.wgsl). Anisotropic voxels (svo.anisotropic = 1, VCT 7.1): above the
+// leaves each brick voxel is the mix of its three directional values (svo_anisotropic.wgsl) facing the
+// cone's direction d, weighted d.x^2, d.y^2, d.z^2 (the leaves are isotropic). Accuracy: the same
+// per-element bound as cone_trace (the mirror's SampleError covers the sample point's rounding and the
+// mixing weights').
 
 struct SvoParams {
     depth: u32,
     inv_scale: f32,
-    _pad0: u32,
+    anisotropic: u32,   // 1: directional values from `aniso` above the leaves
     _pad1: u32,
 }
 
 @group(0) @binding(8) var<storage, read> nodes: array<Node>;
 @group(0) @binding(12) var<storage, read> bricks: array<u32>;
 @group(0) @binding(13) var<storage, read> svo: SvoParams;
+// Six directional values per brick voxel of the nodes above the leaves, (n * 27 + voxel) * 6 + dir.
+@group(0) @binding(14) var<storage, read> aniso: array<vec4<f32>>;
 
 fn brick_voxel(n: u32, v: vec3<u32>) -> vec4<f32> {
     let w = n * BRICK_WORDS + voxel_index(v) * 4u;
     return vec4<f32>(f32(bricks[w]), f32(bricks[w + 1u]), f32(bricks[w + 2u]), f32(bricks[w + 3u])) * svo.inv_scale;
 }
 
+// The directional value of brick voxel v of node n for a cone along d: +a or -a by d's sign per axis.
+fn directional(n: u32, v: vec3<u32>, d: vec3<f32>) -> vec4<f32> {
+    let base = (n * 27u + voxel_index(v)) * 6u;
+    let w = d * d;
+    let ax = aniso[base + select(0u, 1u, d.x < 0.0)];
+    let ay = aniso[base + 2u + select(0u, 1u, d.y < 0.0)];
+    let az = aniso[base + 4u + select(0u, 1u, d.z < 0.0)];
+    return (ax * w.x + ay * w.y) + az * w.z;
+}
+
 fn sample_level(x: vec3<f32>, l: u32) -> vec4<f32> {
+    return sample_level_dir(x, l, vec3<f32>(0.0), false);
+}
+
+// Trilinear sample of mip level l; `dir`: the directional values along d where the level has them.
+fn sample_level_dir(x: vec3<f32>, l: u32, d: vec3<f32>, dir_in: bool) -> vec4<f32> {
     let s = svo.depth - l;
     let inv = cone.inv_s0 * (1.0 / f32(1u << l));
     let q = (x - cone.origin.xyz) * inv - vec3<f32>(0.5 / f32(1u << l));
@@ -42,6 +62,7 @@ fn sample_level(x: vec3<f32>, l: u32) -> vec4<f32> {
     if (n == NONE) {
         return vec4<f32>(0.0);
     }
+    let dir = dir_in && s < svo.depth;
     var acc = vec4<f32>(0.0);
     for (var corner = 0u; corner < 8u; corner++) {
         let cc = vec3<u32>(corner & 1u, (corner >> 1u) & 1u, (corner >> 2u) & 1u);
@@ -51,12 +72,30 @@ fn sample_level(x: vec3<f32>, l: u32) -> vec4<f32> {
         if (any(i < vec3<i32>(0)) || any(i > vec3<i32>(points)) || any(local < vec3<i32>(0)) || any(local > vec3<i32>(2))) {
             continue;
         }
-        acc += brick_voxel(n, vec3<u32>(local)) * (w.x * w.y * w.z);
+        var value: vec4<f32>;
+        if (dir) {
+            value = directional(n, vec3<u32>(local), d);
+        } else {
+            value = brick_voxel(n, vec3<u32>(local));
+        }
+        acc += value * (w.x * w.y * w.z);
     }
     return acc;
 }
 
 // The march's sample: the volume's own radiance (see common/cone_march.wgsl).
+// With anisotropic voxels, quadrilinear as sample_volume over the directional levels.
 fn sample_cone(x: vec3<f32>, l: f32, diam: f32, d: vec3<f32>) -> vec4<f32> {
-    return sample_volume(x, l);
+    if (svo.anisotropic == 0u) {
+        return sample_volume(x, l);
+    }
+    let top = cone.levels - 1u;
+    let lf = max(l, 0.0);
+    let l0 = floor(lf);
+    if (l0 >= f32(top)) {
+        return sample_level_dir(x, top, d, true);
+    }
+    let a = lf - l0;
+    let li = u32(l0);
+    return sample_level_dir(x, li, d, true) * (1.0 - a) + sample_level_dir(x, li + 1u, d, true) * a;
 }

@@ -187,6 +187,9 @@ struct RenderFlags {
     /// 0 = voxel_light's per-voxel direct light) [default 256].
     #[arg(long = "photon-map", alias = "photon_map")]
     photon_map: Option<u32>,
+    /// vct-svo: anisotropic voxels (six directional values per voxel above the leaves) [default true].
+    #[arg(long = "anisotropic-voxels", alias = "anisotropic_voxels")]
+    anisotropic_voxels: Option<bool>,
 }
 
 fn load_scene(path: &Option<PathBuf>, flags: &RenderFlags) -> Result<vxgi::scene::Scene> {
@@ -224,7 +227,8 @@ fn load_scene(path: &Option<PathBuf>, flags: &RenderFlags) -> Result<vxgi::scene
         cache_tile,
         cache_depth_slices,
         gather_radius,
-        photon_map
+        photon_map,
+        anisotropic_voxels
     );
     scene.render.validate().map_err(anyhow::Error::msg)?;
     Ok(scene)

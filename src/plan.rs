@@ -138,7 +138,8 @@ impl FramePlan {
         let dense = Self::vct_dense_after(scene, cones, octree_cached);
         let side = scene.render.voxels;
         let depth = side.trailing_zeros().saturating_sub(1);
-        let passes = dense
+        let mut aniso = None;
+        let passes: Vec<PlannedPass> = dense
             .passes
             .into_iter()
             .map(|mut p| {
@@ -152,10 +153,27 @@ impl FramePlan {
                         } else {
                             p.why = p.why.replace("radiance pyramid", "octree");
                         }
+                        let on = scene.render.anisotropic_voxels;
+                        aniso = Some(PlannedPass {
+                            stage: "svo_anisotropic",
+                            kernel: "svo_anisotropic",
+                            size: format!("levels 0..{depth}, 6 directions x 27 voxels per node"),
+                            runs: p.runs && on,
+                            why: if !on {
+                                "skipped: anisotropic_voxels = false (isotropic Gaussian average only)".into()
+                            } else if p.runs {
+                                "six directional values per voxel above the leaves, front to back per direction (VCT 7.1)".into()
+                            } else {
+                                p.why.clone()
+                            },
+                        });
                     }
                     "cone_trace" => {
                         p.stage = "svo_cone_trace";
                         p.kernel = "svo_cone_trace";
+                        if scene.render.anisotropic_voxels {
+                            p.why.push_str("; anisotropic voxels above the leaves");
+                        }
                     }
                     "voxel_light" if scene.render.photon_map > 0 => {
                         let map = scene.render.photon_map;
@@ -174,6 +192,13 @@ impl FramePlan {
                 p
             })
             .collect();
+        let mut passes = passes;
+        if let (Some(a), Some(at)) = (
+            aniso,
+            passes.iter().position(|p| p.stage == "sparse_voxel_octree"),
+        ) {
+            passes.insert(at + 1, a);
+        }
         Self {
             pipeline: "vct-svo",
             passes,

@@ -842,10 +842,14 @@ impl Renderer {
 /// and cone-traces the last frame's octree (the same octree a rebuild would make: the same image).
 pub struct VctSvo {
     reuse: bool,
+    /// The last octree, the key it was built for (with photon_map and anisotropic_voxels), its frame
+    /// and directional values.
+    #[allow(clippy::type_complexity)]
     cache: Option<(
-        PyramidKey,
+        (PyramidKey, u32, bool),
         crate::kernels::sparse_voxel_octree::GpuOctree,
         voxelize::VoxelFrame,
+        Option<Vec<[f32; 4]>>,
     )>,
 }
 
@@ -864,7 +868,8 @@ impl VctSvo {
         progress: impl Fn(&str),
     ) -> Result<(Rendered, crate::kernels::sparse_voxel_octree::MemoryReport)> {
         use crate::kernels::{sparse_voxel_octree as svo, svo_cone_trace};
-        let key = PyramidKey::of(scene);
+        let r = &scene.render;
+        let key = (PyramidKey::of(scene), r.photon_map, r.anisotropic_voxels);
         let cached = self.reuse && self.cache.as_ref().is_some_and(|c| c.0 == key);
         let plan = FramePlan::vct_svo_after(scene, cones, cached);
         let data = SceneData::new(scene);
@@ -898,10 +903,26 @@ impl VctSvo {
             let built =
                 svo::build_on_gpu(ctx, depth, &frags, None).context("sparse voxel octree")?;
             stages.push(("sparse_voxel_octree", t.elapsed().as_secs_f64()));
-            self.cache = Some((key, built, frame));
+            let aniso = if plan.runs("svo_anisotropic") {
+                progress("anisotropic voxels");
+                let t = std::time::Instant::now();
+                let a = crate::kernels::svo_anisotropic::build_on_gpu(
+                    ctx,
+                    &built.octree,
+                    1.0 / svo_cone_trace::SCALE,
+                )
+                .context("anisotropic voxels")?;
+                stages.push(("svo_anisotropic", t.elapsed().as_secs_f64()));
+                Some(a)
+            } else {
+                None
+            };
+            self.cache = Some((key, built, frame, aniso));
         }
-        let (_, built, frame) = self.cache.as_ref().expect("built or reused above");
-        let memory = svo::MemoryReport::of(&built.octree);
+        let (_, built, frame, aniso) = self.cache.as_ref().expect("built or reused above");
+        let mut memory = svo::MemoryReport::of(&built.octree);
+        memory.anisotropic_bytes = aniso.as_ref().map_or(0, |a| a.len() as u64 * 16);
+        memory.bytes += memory.anisotropic_bytes;
         progress("cone tracing");
         let t = std::time::Instant::now();
         let params = svo_cone_trace::svo_cone_params(frame, cones);
@@ -910,6 +931,7 @@ impl VctSvo {
             &data,
             &gb,
             &built.octree,
+            aniso.as_deref(),
             svo_cone_trace::SCALE,
             &params,
             "render".into(),
@@ -1369,16 +1391,30 @@ pub fn render_svo_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendered
     };
     let octree = build(depth, capacity_bound(depth, frags.len()) as u32, &frags);
     let params = svo_cone_params(&m.frame, cones);
+    let anisotropic = scene.render.anisotropic_voxels;
+    let aniso = if anisotropic {
+        vxgi_cpu_mirror::svo_anisotropic::build(
+            &octree.nodes,
+            &octree.bricks,
+            depth,
+            &octree.levels,
+            1.0 / SCALE,
+        )
+    } else {
+        vec![]
+    };
     let svo = vxgi_cpu_mirror::svo_cone_trace::SvoParams {
         depth,
         inv_scale: 1.0 / SCALE,
-        _pad: [0; 2],
+        anisotropic: anisotropic as u32,
+        _pad: 0,
     };
     let volume = vxgi_cpu_mirror::svo_cone_trace::SvoVolume {
         p: &params,
         svo: &svo,
         nodes: &octree.nodes,
         bricks: &octree.bricks,
+        aniso: &aniso,
     };
     let lmax = max_radiance(&octree.bricks, svo.inv_scale);
     Ok(m.shade(&volume, lmax, FramePlan::vct_svo(scene, cones)))

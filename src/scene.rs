@@ -190,6 +190,10 @@ pub struct RenderSettings {
     /// two, 16..=2048), one photon per texel splatted into the octree's leaves (VCT 8.2); 0 lights
     /// the voxels with voxel_light's per-voxel direct light instead.
     pub photon_map: u32,
+    /// vct-svo: anisotropic voxels (VCT 7.1): six directional values per voxel above the leaves,
+    /// composited front to back per direction, read by the three facing the cone; false = the
+    /// isotropic Gaussian average alone.
+    pub anisotropic_voxels: bool,
 }
 
 impl RenderSettings {
@@ -333,6 +337,7 @@ impl Default for RenderSettings {
             cache_depth_slices: 16,
             gather_radius: 2.0,
             photon_map: 256,
+            anisotropic_voxels: true,
         }
     }
 }

@@ -76,13 +76,15 @@ fn level_zero_of_the_octree_is_the_voxel_grid() {
     let svo = SvoParams {
         depth,
         inv_scale: 1.0 / SCALE,
-        _pad: [0; 2],
+        anisotropic: 0,
+        _pad: 0,
     };
     let vol = SvoVolume {
         p: &sp,
         svo: &svo,
         nodes: &octree.nodes,
         bricks: &octree.bricks,
+        aniso: &[],
     };
     let lo = frame.origin;
     let extent = frame.voxel * side as f32;
@@ -108,11 +110,13 @@ fn level_zero_of_the_octree_is_the_voxel_grid() {
     );
 }
 
-/// vct-svo on the Cornell box against the committed 4096-spp reference, beside vct-dense. Printed; the
-/// asserts are regression guards at the measured values plus a margin, not accuracy goals: the
-/// octree's Gaussian-averaged (isotropic) opacity is a volume coverage, so thin surfaces at coarse
-/// levels are mostly transparent and indirect light comes out darker than vct-dense's surface coverage
-/// (measured on lavapipe: combined 0.448, indirect 0.788, AO 0.214; vct-dense 0.238 / 0.419 / 0.417).
+/// vct-svo on the Cornell box against the committed 4096-spp reference, with and without anisotropic
+/// voxels. The isotropic octree's Gaussian-averaged opacity is a volume coverage: thin surfaces at
+/// coarse levels are half transparent, so cones see through walls and indirect light comes out dark;
+/// anisotropic voxels (VCT 7.1, front-to-back per direction) keep walls opaque. Measured on lavapipe:
+/// isotropic combined 0.449, indirect 0.789, AO 0.214; anisotropic 0.236 / 0.437 / 0.313 (vct-dense
+/// 0.238 / 0.419 / 0.417). Guards at the measured values plus a margin, and anisotropic must win on
+/// combined and indirect.
 #[test]
 fn vct_svo_against_the_converged_reference() {
     use vxgi::images::compare;
@@ -121,34 +125,51 @@ fn vct_svo_against_the_converged_reference() {
     let dir =
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("references/cornell_box_256_4096spp");
     let read = |name: &str| vxgi::images::read_exr(&dir.join(format!("{name}.exr"))).unwrap();
-    let scene = Scene::cornell_box();
-    let (r, mem) =
-        vxgi::render::render_svo(gpu(), &scene, &ConeSettings::default(), |_| {}).unwrap();
-    let p = std::path::Path::new("");
-    let comb = compare(&read("combined"), p, &r.combined, p).unwrap();
-    let ind = compare(&read("indirect"), p, &r.indirect, p).unwrap();
-    let ao = compare(&read("ao"), p, &r.ao, p).unwrap();
-    println!(
-        "vct-svo 256x256 Cornell box vs 4096 spp: combined FLIP {:.3} (rel MSE {:.3}), indirect {:.3}, AO {:.3}; octree {} nodes, {:.1} MB (vct-dense pyramids {:.1} MB)",
-        comb.flip_mean,
-        comb.rel_mse,
-        ind.flip_mean,
-        ao.flip_mean,
-        mem.nodes,
-        mem.bytes as f64 / 1e6,
-        mem.vct_dense_bytes as f64 / 1e6
+    let mut results = Vec::new();
+    for anisotropic in [false, true] {
+        let mut scene = Scene::cornell_box();
+        scene.render.anisotropic_voxels = anisotropic;
+        let (r, mem) =
+            vxgi::render::render_svo(gpu(), &scene, &ConeSettings::default(), |_| {}).unwrap();
+        let p = std::path::Path::new("");
+        let comb = compare(&read("combined"), p, &r.combined, p).unwrap();
+        let ind = compare(&read("indirect"), p, &r.indirect, p).unwrap();
+        let ao = compare(&read("ao"), p, &r.ao, p).unwrap();
+        println!(
+            "vct-svo (anisotropic {anisotropic}) 256x256 Cornell box vs 4096 spp: combined FLIP {:.3} (rel MSE {:.3}), indirect {:.3}, AO {:.3}; octree {} nodes, {:.1} MB ({:.1} MB directional values; vct-dense pyramids {:.1} MB)",
+            comb.flip_mean,
+            comb.rel_mse,
+            ind.flip_mean,
+            ao.flip_mean,
+            mem.nodes,
+            mem.bytes as f64 / 1e6,
+            mem.anisotropic_bytes as f64 / 1e6,
+            mem.vct_dense_bytes as f64 / 1e6
+        );
+        assert!(mem.bytes < mem.vct_dense_bytes);
+        assert_eq!(mem.anisotropic_bytes > 0, anisotropic);
+        // The stages it ran: the octree instead of the mip chain.
+        let names: Vec<&str> = r.stages.iter().map(|s| s.0).collect();
+        assert!(names.contains(&"sparse_voxel_octree") && names.contains(&"svo_cone_trace"));
+        assert!(!names.contains(&"surface_coverage_mip"));
+        assert_eq!(names.contains(&"svo_anisotropic"), anisotropic);
+        results.push((comb.flip_mean, ind.flip_mean, ao.flip_mean));
+    }
+    let (iso, aniso) = (results[0], results[1]);
+    assert!(
+        iso.0 < 0.5 && iso.1 < 0.85 && iso.2 < 0.3,
+        "isotropic {iso:?}"
     );
-    assert!(comb.flip_mean < 0.5, "combined FLIP {}", comb.flip_mean);
-    assert!(ind.flip_mean < 0.85, "indirect FLIP {}", ind.flip_mean);
-    assert!(ao.flip_mean < 0.3, "AO FLIP {}", ao.flip_mean);
-    assert!(mem.bytes < mem.vct_dense_bytes);
-    // The stages it ran: the octree instead of the mip chain.
-    let names: Vec<&str> = r.stages.iter().map(|s| s.0).collect();
-    assert!(names.contains(&"sparse_voxel_octree") && names.contains(&"svo_cone_trace"));
-    assert!(!names.contains(&"surface_coverage_mip"));
+    assert!(
+        aniso.0 < 0.27 && aniso.1 < 0.5 && aniso.2 < 0.36,
+        "anisotropic {aniso:?}"
+    );
+    assert!(aniso.0 < iso.0 && aniso.1 < iso.1, "{iso:?} vs {aniso:?}");
 }
 
-/// thin_wall: light leaking through the one-voxel wall, vct-svo beside vct-dense (reference: 0).
+/// thin_wall: light leaking through the one-voxel wall (reference: 0): vct-svo with and without
+/// anisotropic voxels, beside vct-dense. Anisotropic voxels keep the wall opaque at coarse levels, so
+/// they must leak less.
 #[test]
 fn thin_wall_leak_of_vct_svo_is_reported() {
     use vxgi::kernels::cone_trace::ConeSettings;
@@ -159,13 +180,26 @@ fn thin_wall_leak_of_vct_svo_is_reported() {
     scene.camera.width = 128;
     scene.camera.height = 64;
     let pos = vxgi::reference::pixel_positions(&scene);
-    let (svo, _) =
-        vxgi::render::render_svo(gpu(), &scene, &ConeSettings::default(), |_| {}).unwrap();
+    let mut leaks = Vec::new();
+    for anisotropic in [false, true] {
+        scene.render.anisotropic_voxels = anisotropic;
+        let (svo, _) =
+            vxgi::render::render_svo(gpu(), &scene, &ConeSettings::default(), |_| {}).unwrap();
+        leaks.push(vxgi::reference::leak(
+            &svo.indirect.pixels,
+            &pos,
+            0.0,
+            1.0 / 64.0,
+        ));
+    }
     let dense = vxgi::render::render(gpu(), &scene, &ConeSettings::default(), |_| {}).unwrap();
-    let leak_svo = vxgi::reference::leak(&svo.indirect.pixels, &pos, 0.0, 1.0 / 64.0);
     let leak_dense = vxgi::reference::leak(&dense.indirect.pixels, &pos, 0.0, 1.0 / 64.0);
-    println!("thin_wall leak: vct-svo {leak_svo:.4}, vct-dense {leak_dense:.4} (reference: 0)");
-    assert!(leak_svo.is_finite() && leak_svo >= 0.0);
+    println!(
+        "thin_wall leak: vct-svo isotropic {:.4}, anisotropic {:.4}; vct-dense {leak_dense:.4} (reference: 0)",
+        leaks[0], leaks[1]
+    );
+    assert!(leaks.iter().all(|l| l.is_finite() && *l >= 0.0));
+    assert!(leaks[1] < leaks[0], "{leaks:?}");
 }
 
 /// vct-svo follows vct-dense's reuse rule: a second frame of the same scene from another camera skips
@@ -186,7 +220,12 @@ fn octree_is_reused_when_only_the_camera_moves() {
     let (second, mem) = renderer.render(gpu(), &moved, &cones, |_| {}).unwrap();
     assert_eq!(
         second.plan.skipped(),
-        vec!["voxelize", "svo_photons", "sparse_voxel_octree"],
+        vec![
+            "voxelize",
+            "svo_photons",
+            "sparse_voxel_octree",
+            "svo_anisotropic"
+        ],
         "{}",
         second.plan
     );

@@ -81,20 +81,7 @@ pub trait Volume {
     /// Quadrilinear sample at mip level `lf`: levels floor(lf) and floor(lf) + 1 blended by the
     /// fraction; below 0 level 0, from the top level up the top level alone.
     fn sample(&self, x: Vec3, lf: f32) -> (Vec4, SampleError) {
-        let top = self.params().levels - 1;
-        let lf = lf.max(0.0);
-        let l0 = lf.floor();
-        if l0 >= top as f32 {
-            return self.level(x, top);
-        }
-        let a = lf - l0;
-        let l0 = l0 as u32;
-        let ((s0, e0), (s1, e1)) = (self.level(x, l0), self.level(x, l0 + 1));
-        let err = SampleError {
-            rgb: e0.rgb * (1.0 - a) + e1.rgb * a,
-            a: e0.a * (1.0 - a) + e1.a * a,
-        };
-        (s0 * (1.0 - a) + s1 * a, err)
+        quadrilinear(self.params().levels - 1, lf, |l| self.level(x, l))
     }
 
     /// What the march reads at sample point `x` (level `lf`, cone diameter `diam`, cone direction `d`):
@@ -103,6 +90,28 @@ pub trait Volume {
     fn sample_cone(&self, x: Vec3, lf: f32, _diam: f32, _d: Vec3) -> (Vec4, SampleError) {
         self.sample(x, lf)
     }
+}
+
+/// Levels floor(lf) and floor(lf) + 1 of `level` blended by the fraction (the kernels'
+/// `sample_volume`); below 0 level 0, from `top` up `top` alone.
+pub fn quadrilinear(
+    top: u32,
+    lf: f32,
+    level: impl Fn(u32) -> (Vec4, SampleError),
+) -> (Vec4, SampleError) {
+    let lf = lf.max(0.0);
+    let l0 = lf.floor();
+    if l0 >= top as f32 {
+        return level(top);
+    }
+    let a = lf - l0;
+    let l0 = l0 as u32;
+    let ((s0, e0), (s1, e1)) = (level(l0), level(l0 + 1));
+    let err = SampleError {
+        rgb: e0.rgb * (1.0 - a) + e1.rgb * a,
+        a: e0.a * (1.0 - a) + e1.a * a,
+    };
+    (s0 * (1.0 - a) + s1 * a, err)
 }
 
 pub struct Pyramid<'a> {

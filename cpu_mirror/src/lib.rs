@@ -31,6 +31,7 @@ pub mod reflective_shadow_map;
 pub mod sample_lrsm;
 pub mod sparse_voxel_octree;
 pub mod surface_coverage_mip;
+pub mod svo_anisotropic;
 pub mod svo_cone_trace;
 pub mod svo_photons;
 pub mod svo_sample;

@@ -22,6 +22,7 @@ pub mod reflective_shadow_map;
 pub mod sample_lrsm;
 pub mod sparse_voxel_octree;
 pub mod surface_coverage_mip;
+pub mod svo_anisotropic;
 pub mod svo_cone_trace;
 pub mod svo_photons;
 pub mod svo_sample;
@@ -171,6 +172,7 @@ pub fn all() -> Vec<&'static dyn Kernel> {
         &sparse_voxel_octree::SparseVoxelOctree,
         &svo_sample::SvoSample,
         &svo_photons::SvoPhotons,
+        &svo_anisotropic::SvoAnisotropic,
         &svo_cone_trace::SvoConeTrace,
         &lrsm_cone_trace::LrsmConeTrace,
     ]

@@ -491,7 +491,10 @@ pub struct GpuOctree {
 pub struct MemoryReport {
     pub nodes: u64,
     pub bricks: u64,
+    /// Nodes, bricks and the anisotropic voxels' directional values.
     pub bytes: u64,
+    /// The directional values (`svo_anisotropic`; 0 when isotropic), part of `bytes`.
+    pub anisotropic_bytes: u64,
     /// The dense vertex lattices of every level, four u32 channels per point.
     pub dense_bytes: u64,
     /// vct-dense at the same effective resolution: the Morton radiance and normal pyramids (vec4<f32>
@@ -511,6 +514,7 @@ impl MemoryReport {
             nodes,
             bricks: nodes,
             bytes: nodes * (NODE_BYTES + BRICK_BYTES),
+            anisotropic_bytes: 0,
             dense_bytes: dense_points * 16,
             vct_dense_bytes: 2 * 16 * (0..=o.depth + 1).map(|l| 1u64 << (3 * l)).sum::<u64>(),
         }

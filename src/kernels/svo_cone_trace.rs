@@ -25,7 +25,7 @@ pub static DECL: KernelDecl = KernelDecl {
     entry: "main",
     inputs: &[
         "frame", "triangles", "materials", "gb_position", "gb_normal", "gb_triangle", "gb_albedo", "cone", "cone_dirs",
-        "nodes", "bricks", "svo",
+        "nodes", "bricks", "svo", "aniso",
     ],
     outputs: &[
         // cone_trace's bound (see `cone_trace::MAG`): the march is the same code; the octree's sample
@@ -73,13 +73,15 @@ pub fn svo_cone_params(frame: &VoxelFrame, settings: &ConeSettings) -> ConeParam
     p
 }
 
-/// The cone pass over a scene whose G-buffer and octree are given (values in fixed point with `scale`).
+/// The cone pass over a scene whose G-buffer and octree are given (values in fixed point with `scale`);
+/// `aniso`: the octree's directional values (`svo_anisotropic`) for anisotropic voxels, or `None`.
 #[allow(clippy::too_many_arguments)]
 pub fn case_for(
     ctx: &GpuContext,
     data: &SceneData,
     gbuffer: &Resources,
     octree: &Octree,
+    aniso: Option<&[[f32; 4]]>,
     scale: f32,
     params: &ConeParams,
     label: String,
@@ -88,7 +90,13 @@ pub fn case_for(
     let svo = SvoParams {
         depth: octree.depth,
         inv_scale: 1.0 / scale,
-        _pad: [0; 2],
+        anisotropic: aniso.is_some() as u32,
+        _pad: 0,
+    };
+    // Unused when isotropic, but bound: one empty element.
+    let aniso = match aniso {
+        Some(a) if !a.is_empty() => a,
+        _ => &[[0.0f32; 4]][..],
     };
     let volume = Resources::from([
         (
@@ -105,6 +113,10 @@ pub fn case_for(
         (
             "svo".to_string(),
             HostResource::Buffer(HostBuffer::pod(&svo)),
+        ),
+        (
+            "aniso".to_string(),
+            HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(aniso))),
         ),
     ]);
     tracer_case(ctx, &DECL, data, gbuffer, params, volume, label, seed)
@@ -130,6 +142,7 @@ pub fn mirror_cones(data: &Resources) -> [Vec<[f32; 4]>; 4] {
         svo: &svo,
         nodes: bytemuck::cast_slice(&b("nodes").bytes),
         bricks,
+        aniso: bytemuck::cast_slice(&b("aniso").bytes),
     };
     shade_all(data, &volume, max_radiance(bricks, svo.inv_scale))
 }
@@ -147,9 +160,32 @@ impl Kernel for SvoConeTrace {
             grid_fragments(&c.radiance, SCALE).expect("generated radiance fits the fixed point");
         let octree = build(depth, capacity_bound(depth, frags.len()) as u32, &frags);
         let params = svo_cone_params(&c.frame, &c.settings);
-        let label = format!("{}, octree depth {depth}", c.label);
+        // Every other case with anisotropic voxels (the mirror's directional values: the builder is
+        // verified on its own).
+        let aniso = (index % 2 == 1).then(|| {
+            vxgi_cpu_mirror::svo_anisotropic::build(
+                &octree.nodes,
+                &octree.bricks,
+                depth,
+                &octree.levels,
+                1.0 / SCALE,
+            )
+        });
+        let label = format!(
+            "{}, octree depth {depth}{}",
+            c.label,
+            if aniso.is_some() { ", anisotropic" } else { "" }
+        );
         case_for(
-            ctx, &c.data, &c.gbuffer, &octree, SCALE, &params, label, seed,
+            ctx,
+            &c.data,
+            &c.gbuffer,
+            &octree,
+            aniso.as_deref(),
+            SCALE,
+            &params,
+            label,
+            seed,
         )
     }
     fn mirror(

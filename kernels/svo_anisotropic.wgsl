@@ -1,0 +1,107 @@
+// svo_anisotropic — the sparse voxel octree's anisotropic voxels (Crassin et al. 2011, 7.1): six
+// directional values (+x, -x, +y, -y, +z, -z) per brick voxel above the leaves, each the pre-multiplied
+// (L * alpha, alpha) a cone travelling that way sees through the voxel's cell, built one level per pass
+// from level depth - 1 up to the root. Mirror: cpu_mirror/src/svo_anisotropic.rs (the derivation).
+// Declaration: src/kernels/svo_anisotropic.rs. Node layout and descent: common/svo_node.wgsl.
+//
+// One invocation per (node slot of the level, brick voxel): i = gid, node first_node + i / 27, voxel
+// i % 27 (x + 3y + 9z). Unused slots (key NONE) write zeros. For direction +a (or -a) and each of the
+// 9 rows of child lattice points along a (weights [1 2 1]^2 / 16 over the other two axes):
+//   row = over(half(front), over(middle, half(back))), over(f, b) = f + b (1 - f.a),
+//   half(p) = p / (1 + sqrt(1 - p.a))  (an end point shared with the neighbouring parent: half its
+//   thickness), front = the point the cone meets first.
+// Child point q (level l + 1, lattice 0..=2^(l+2)): node min(q / 2, 2^(l+1) - 1) found by descent, the
+// isotropic brick (u32 * inv_scale) when l + 1 = depth, else its directional value; outside the
+// lattice or in a missing node: 0.
+// Accuracy: within 48 ULP of the weighted sum of |front| + |middle| + |back| (mirror bound), given the
+// same deeper level.
+
+struct AnisoParams {
+    depth: u32,
+    level: u32,
+    first_node: u32,
+    nodes: u32,
+    inv_scale: f32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
+
+@group(0) @binding(0) var<storage, read> params: AnisoParams;
+@group(0) @binding(1) var<storage, read> nodes: array<Node>;
+@group(0) @binding(2) var<storage, read> bricks: array<u32>;
+@group(0) @binding(3) var<storage, read_write> aniso: array<vec4<f32>>;
+
+fn half_slab(p: vec4<f32>) -> vec4<f32> {
+    return p / (1.0 + sqrt(max(1.0 - p.w, 0.0)));
+}
+
+fn over(f: vec4<f32>, b: vec4<f32>) -> vec4<f32> {
+    return f + b * (1.0 - f.w);
+}
+
+fn child(q: vec3<i32>, dir: u32) -> vec4<f32> {
+    let cl = params.level + 1u;
+    let points = 2i << cl;
+    if (any(q < vec3<i32>(0)) || any(q > vec3<i32>(points))) {
+        return vec4<f32>(0.0);
+    }
+    let c = min(q >> vec3<u32>(1u), vec3<i32>((1i << cl) - 1i));
+    let n = find(cl, vec3<u32>(c));
+    if (n == NONE) {
+        return vec4<f32>(0.0);
+    }
+    let v = voxel_index(vec3<u32>(q - 2i * c));
+    if (cl == params.depth) {
+        let w = n * BRICK_WORDS + v * 4u;
+        return vec4<f32>(f32(bricks[w]), f32(bricks[w + 1u]), f32(bricks[w + 2u]), f32(bricks[w + 3u])) * params.inv_scale;
+    }
+    return aniso[(n * 27u + v) * 6u + dir];
+}
+
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = gid.x + gid.y * groups.x * 64u;
+    if (i >= params.nodes * 27u) {
+        return;
+    }
+    let n = params.first_node + i / 27u;
+    let vi = i % 27u;
+    let base = (n * 27u + vi) * 6u;
+    let key = nodes[n].key;
+    if (key == NONE) {
+        for (var dir = 0u; dir < 6u; dir++) {
+            aniso[base + dir] = vec4<f32>(0.0);
+        }
+        return;
+    }
+    let v = vec3<i32>(vec3<u32>(vi % 3u, (vi / 3u) % 3u, vi / 9u));
+    let centre = 2i * (2i * vec3<i32>(coords_of(key)) + v);
+    var w = array<f32, 3>(1.0, 2.0, 1.0);
+    for (var dir = 0u; dir < 6u; dir++) {
+        let a = dir / 2u;
+        let b = (a + 1u) % 3u;
+        let c = (a + 2u) % 3u;
+        var ea = vec3<i32>(0);
+        ea[a] = 1i;
+        var acc = vec4<f32>(0.0);
+        for (var ii = 0u; ii < 3u; ii++) {
+            for (var jj = 0u; jj < 3u; jj++) {
+                var q = centre;
+                q[b] += i32(ii) - 1i;
+                q[c] += i32(jj) - 1i;
+                var f = child(q - ea, dir);
+                let m = child(q, dir);
+                var bk = child(q + ea, dir);
+                if (dir % 2u == 1u) {
+                    let t = f;
+                    f = bk;
+                    bk = t;
+                }
+                let r = over(half_slab(f), over(m, half_slab(bk)));
+                acc += r * (w[ii] * w[jj] * (1.0 / 16.0));
+            }
+        }
+        aniso[base + dir] = acc;
+    }
+}
