@@ -28,6 +28,11 @@ struct SvoParams {
 @group(0) @binding(13) var<storage, read> svo: SvoParams;
 // Six directional values per brick voxel of the nodes above the leaves, (n * 27 + voxel) * 6 + dir.
 @group(0) @binding(14) var<storage, read> aniso: array<vec4<f32>>;
+// Entry voxel_main (declaration svo_bounce): the second bounce's gather from the voxels themselves.
+@group(0) @binding(15) var<storage, read> vx_position: array<vec4<f32>>;
+@group(0) @binding(16) var<storage, read> vx_normal: array<vec4<f32>>;
+@group(0) @binding(17) var<storage, read> vx_albedo: array<vec4<f32>>;
+@group(0) @binding(18) var<storage, read_write> vx_indirect: array<vec4<f32>>;
 
 fn brick_voxel(n: u32, v: vec3<u32>) -> vec4<f32> {
     let w = n * BRICK_WORDS + voxel_index(v) * 4u;
@@ -98,4 +103,33 @@ fn sample_cone(x: vec3<f32>, l: f32, diam: f32, d: vec3<f32>) -> vec4<f32> {
     let a = lf - l0;
     let li = u32(l0);
     return sample_level_dir(x, li, d, true) * (1.0 - a) + sample_level_dir(x, li + 1u, d, true) * a;
+}
+
+// Entry voxel_main (declaration svo_bounce; vct-svo's `--bounces 2`): one invocation per non-empty
+// voxel i: its centre vx_position, unit mean normal vx_normal (w = 0: none, the voxel's samples face
+// opposite ways; writes 0), albedo vx_albedo. The pixel entry's diffuse cones from the centre offset
+// along the normal (no glossy cone: no viewer), vx_indirect = (albedo * sum of weighted cone
+// radiance, 0): the light the voxel reflects of what the octree holds. Accuracy: the pixel entry's
+// indirect bound.
+@compute @workgroup_size(64)
+fn voxel_main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = gid.x + gid.y * groups.x * 64u;
+    if (i >= arrayLength(&vx_indirect)) {
+        return;
+    }
+    let nrm = vx_normal[i];
+    if (nrm.w == 0.0) {
+        vx_indirect[i] = vec4<f32>(0.0);
+        return;
+    }
+    let n = nrm.xyz;
+    let o = vx_position[i].xyz + n * (cone.offset_voxels * cone.origin.w);
+    let basis = tangent_basis(n);
+    var diffuse = vec3<f32>(0.0);
+    for (var k = 0u; k < cone.diffuse_cones; k++) {
+        let c = cone_dirs[k];
+        let dir = basis.t * c.x + basis.b * c.y + n * c.z;
+        diffuse += march(o, dir, cone.diffuse_tan, c.z).radiance * c.w;
+    }
+    vx_indirect[i] = vec4<f32>(vx_albedo[i].xyz * diffuse, 0.0);
 }

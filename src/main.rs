@@ -190,6 +190,10 @@ struct RenderFlags {
     /// vct-svo: anisotropic voxels (six directional values per voxel above the leaves) [default true].
     #[arg(long = "anisotropic-voxels", alias = "anisotropic_voxels")]
     anisotropic_voxels: Option<bool>,
+    /// vct-svo: light bounces in the voxels, 1 or 2 (the second gathered from every voxel through the
+    /// octree, which is then rebuilt) [default 1].
+    #[arg(long)]
+    bounces: Option<u32>,
 }
 
 fn load_scene(path: &Option<PathBuf>, flags: &RenderFlags) -> Result<vxgi::scene::Scene> {
@@ -228,7 +232,8 @@ fn load_scene(path: &Option<PathBuf>, flags: &RenderFlags) -> Result<vxgi::scene
         cache_depth_slices,
         gather_radius,
         photon_map,
-        anisotropic_voxels
+        anisotropic_voxels,
+        bounces
     );
     scene.render.validate().map_err(anyhow::Error::msg)?;
     Ok(scene)
@@ -249,6 +254,18 @@ fn create_out(dir: &Path) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))
 }
 
+/// Two bounces are vct-svo's (and the reference's) alone: refuse rather than render one silently.
+fn check_bounces(pipeline: Pipeline, scene: &vxgi::scene::Scene) -> Result<()> {
+    if scene.render.bounces > 1 && pipeline != Pipeline::VctSvo {
+        bail!(
+            "bounces = {} is implemented by --pipeline vct-svo only ({} renders one bounce)",
+            scene.render.bounces,
+            pipeline.name()
+        );
+    }
+    Ok(())
+}
+
 fn run_render(
     plan_only: bool,
     pipeline: Pipeline,
@@ -258,6 +275,7 @@ fn run_render(
     flags: RenderFlags,
 ) -> Result<()> {
     let scene = load_scene(&scene, &flags)?;
+    check_bounces(pipeline, &scene)?;
     let cones = ConeSettings::from(&scene.render);
     if frames == 0 || !orbit.is_finite() {
         bail!("--frames must be at least 1 and --orbit finite");
@@ -388,6 +406,7 @@ fn run_bench(
         bail!("--spp must be at least 1");
     }
     let scene = load_scene(&scene, &flags)?;
+    check_bounces(pipeline, &scene)?;
     create_out(&out)?;
     let ctx = GpuContext::new().context("creating the GPU context")?;
     eprintln!("adapter: {}", ctx.describe());

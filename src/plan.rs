@@ -197,7 +197,31 @@ impl FramePlan {
             aniso,
             passes.iter().position(|p| p.stage == "sparse_voxel_octree"),
         ) {
+            let octree_runs = passes[at].runs;
             passes.insert(at + 1, a);
+            let lights = !scene.lights.is_empty();
+            let two = scene.render.bounces == 2;
+            passes.insert(
+                at + 2,
+                PlannedPass {
+                    stage: "svo_bounce",
+                    kernel: "svo_bounce + sparse_voxel_octree",
+                    size: format!(
+                        "non-empty voxels x {} diffuse cones, then the octree again",
+                        cones.diffuse_cones
+                    ),
+                    runs: octree_runs && two && lights,
+                    why: if !two {
+                        "skipped: bounces = 1".into()
+                    } else if !octree_runs {
+                        "skipped: the octree is reused (it holds both bounces)".into()
+                    } else if !lights {
+                        "skipped: no lights, nothing to bounce".into()
+                    } else {
+                        "second bounce: every voxel gathers the first through the octree, its light added to the fragments, octree rebuilt".into()
+                    },
+                },
+            );
         }
         Self {
             pipeline: "vct-svo",

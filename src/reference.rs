@@ -1,5 +1,6 @@
 //! The yardstick: a CPU Monte Carlo renderer of the light-transport contract (README, "Scenes"),
-//! direct + exactly one bounce, kept separate, plus ambient occlusion.
+//! direct + exactly one bounce (two with `[render] bounces = 2`), kept separate, plus ambient
+//! occlusion.
 //!
 //! Per sample: a primary ray through a uniformly jittered point of the pixel (the pixel centre when
 //! `jitter` is off); at a front-face hit
@@ -7,7 +8,8 @@
 //!   `direct_light` kernel mirrors);
 //! - indirect: one direction drawn from a mixture of a cosine lobe (weight ∝ the diffuse albedo's
 //!   luminance) and the Phong lobe around the mirror direction (∝ the specular's), weighted by the
-//!   mixture pdf; the surface it reaches (front face) contributes its direct radiance;
+//!   mixture pdf; the surface it reaches (front face) contributes its direct radiance (with
+//!   `bounces = 2`, plus its own indirect radiance, drawn the same way one level deeper);
 //! - AO: one cosine-distributed direction; an occluder at distance r < ao_range occludes by
 //!   1 / (1 + ao_lambda r); AO = 1 - mean occlusion (1 = open). AO is geometric: at back faces it is taken
 //!   on the side facing the camera.
@@ -100,6 +102,7 @@ struct Ctx<'a> {
     tracer: Tracer<'a>,
     ao_range: f32,
     ao_lambda: f32,
+    bounces: u32,
 }
 
 struct Surface {
@@ -146,7 +149,9 @@ impl Ctx<'_> {
         )
     }
 
-    fn indirect(&self, s: &Surface, wo: Vec3, rng: &mut ChaCha8Rng) -> Vec3 {
+    /// Indirect radiance at `s` towards `wo`: `bounces` bounces of light (1: the direct light of the
+    /// surfaces it sees).
+    fn indirect(&self, s: &Surface, wo: Vec3, rng: &mut ChaCha8Rng, bounces: u32) -> Vec3 {
         let m = &s.material;
         let kd = Vec3::from_slice(&m.diffuse[..3]);
         let ks = Vec3::from_slice(&m.specular[..3]);
@@ -180,7 +185,10 @@ impl Ctx<'_> {
         let origin = s.p + s.ng * self.data.eps();
         match self.surface(origin, wi) {
             Some(s2) if s2.front => {
-                let l = self.direct(&s2, -wi);
+                let mut l = self.direct(&s2, -wi);
+                if bounces > 1 {
+                    l += self.indirect(&s2, -wi, rng, bounces - 1);
+                }
                 brdf(m, s.n, wi, wo, cos) * l * (cos / pdf)
             }
             _ => Vec3::ZERO,
@@ -218,6 +226,7 @@ pub fn render_reference(
         data: &data,
         ao_range: scene.render.ao_range,
         ao_lambda: scene.render.ao_lambda,
+        bounces: scene.render.bounces,
     };
     let (w, h) = (data.width(), data.height());
     let spp = opts.spp.max(1);
@@ -244,7 +253,7 @@ pub fn render_reference(
                         let wo = -dir;
                         if s.front {
                             d += ctx.direct(&s, wo);
-                            i += ctx.indirect(&s, wo, &mut rng);
+                            i += ctx.indirect(&s, wo, &mut rng, ctx.bounces);
                         }
                         a += 1.0 - ctx.occlusion(&s, wo, &mut rng);
                     }

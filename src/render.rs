@@ -616,7 +616,7 @@ fn radiance_pyramid<'c>(
         let out = chained_pyramid(ctx, scene, data, None, true, stages, progress)?;
         *cache = Some((key, out.pyramid(), out.frame));
     } else {
-        let (rad, normal, frame) = lit_voxels(ctx, scene, data, plan, stages, progress)?;
+        let (rad, normal, _, frame) = lit_voxels(ctx, scene, data, plan, stages, progress)?;
         progress("mip chain");
         let t = std::time::Instant::now();
         let pyramid = cone_trace::gpu_pyramid(ctx, &rad, &normal, frame.side)?;
@@ -627,7 +627,13 @@ fn radiance_pyramid<'c>(
 }
 
 /// The lit voxel grid `(L * alpha, alpha)` (Morton order), its normals, its frame.
-type LitVoxels = (Vec<[f32; 4]>, Vec<[f32; 4]>, voxelize::VoxelFrame);
+/// Lit voxels `(L * alpha, alpha)`, normals, albedo (voxelize's colour), Morton order, and the frame.
+type LitVoxels = (
+    Vec<[f32; 4]>,
+    Vec<[f32; 4]>,
+    Vec<[f32; 4]>,
+    voxelize::VoxelFrame,
+);
 
 /// The G-buffer and, where the plan runs it, direct light (exact shadow rays): the first stages of
 /// every pipeline.
@@ -673,8 +679,8 @@ fn gbuffer_and_direct(
     Ok((gb, direct))
 }
 
-/// Voxelize and light the scene: the lit voxel grid `(L * alpha, alpha)` (Morton order), its normals
-/// and its frame. Without lights (the plan skips voxel_light) the voxels keep their alpha and hold no
+/// Voxelize and light the scene: the lit voxel grid `(L * alpha, alpha)` (Morton order), its normals,
+/// albedo and its frame. Without lights (the plan skips voxel_light) the voxels keep their alpha and hold no
 /// radiance, so AO still sees the geometry.
 fn lit_voxels(
     ctx: &crate::harness::GpuContext,
@@ -698,7 +704,7 @@ fn lit_voxels(
     } else {
         grid.colour.iter().map(|c| [0.0, 0.0, 0.0, c[3]]).collect()
     };
-    Ok((rad, grid.normal, frame))
+    Ok((rad, grid.normal, grid.colour, frame))
 }
 
 /// The vct-svo pipeline (Crassin et al. 2011): G-buffer and direct light as vct-dense; the lit voxels
@@ -842,11 +848,11 @@ impl Renderer {
 /// and cone-traces the last frame's octree (the same octree a rebuild would make: the same image).
 pub struct VctSvo {
     reuse: bool,
-    /// The last octree, the key it was built for (with photon_map and anisotropic_voxels), its frame
-    /// and directional values.
+    /// The last octree, the key it was built for (with photon_map, anisotropic_voxels and bounces),
+    /// its frame and directional values.
     #[allow(clippy::type_complexity)]
     cache: Option<(
-        (PyramidKey, u32, bool),
+        (PyramidKey, u32, bool, u32),
         crate::kernels::sparse_voxel_octree::GpuOctree,
         voxelize::VoxelFrame,
         Option<Vec<[f32; 4]>>,
@@ -869,7 +875,12 @@ impl VctSvo {
     ) -> Result<(Rendered, crate::kernels::sparse_voxel_octree::MemoryReport)> {
         use crate::kernels::{sparse_voxel_octree as svo, svo_cone_trace};
         let r = &scene.render;
-        let key = (PyramidKey::of(scene), r.photon_map, r.anisotropic_voxels);
+        let key = (
+            PyramidKey::of(scene),
+            r.photon_map,
+            r.anisotropic_voxels,
+            r.bounces,
+        );
         let cached = self.reuse && self.cache.as_ref().is_some_and(|c| c.0 == key);
         let plan = FramePlan::vct_svo_after(scene, cones, cached);
         let data = SceneData::new(scene);
@@ -879,7 +890,8 @@ impl VctSvo {
             progress("octree: reused");
         } else {
             self.cache = None;
-            let (rad, _, frame) = lit_voxels(ctx, scene, &data, &plan, &mut stages, &progress)?;
+            let (rad, normal, colour, frame) =
+                lit_voxels(ctx, scene, &data, &plan, &mut stages, &progress)?;
             // Geometry fragments: the lit voxels, or with photon injection their coverage alone
             // (voxel_light did not run) and the photons carrying the light.
             let mut frags = svo_cone_trace::grid_fragments(&rad, svo_cone_trace::SCALE)?;
@@ -903,7 +915,10 @@ impl VctSvo {
             let built =
                 svo::build_on_gpu(ctx, depth, &frags, None).context("sparse voxel octree")?;
             stages.push(("sparse_voxel_octree", t.elapsed().as_secs_f64()));
-            let aniso = if plan.runs("svo_anisotropic") {
+            let directional = |built: &svo::GpuOctree, stages: &mut Stages| -> Result<_> {
+                if !plan.runs("svo_anisotropic") {
+                    return Ok(None);
+                }
                 progress("anisotropic voxels");
                 let t = std::time::Instant::now();
                 let a = crate::kernels::svo_anisotropic::build_on_gpu(
@@ -913,10 +928,36 @@ impl VctSvo {
                 )
                 .context("anisotropic voxels")?;
                 stages.push(("svo_anisotropic", t.elapsed().as_secs_f64()));
-                Some(a)
-            } else {
-                None
+                Ok(Some(a))
             };
+            let mut aniso = directional(&built, &mut stages)?;
+            let mut built = built;
+            if plan.runs("svo_bounce") {
+                // Second bounce: every non-empty voxel gathers through the octree of the first, its
+                // reflected light joins the fragments, and the octree is built again.
+                progress("second bounce");
+                let t = std::time::Instant::now();
+                let voxels = svo_cone_trace::bounce_voxels(&rad, &normal, &colour, &frame);
+                let params = svo_cone_trace::svo_cone_params(&frame, cones);
+                let ind = svo_cone_trace::bounce_on_gpu(
+                    ctx,
+                    &built.octree,
+                    aniso.as_deref(),
+                    &params,
+                    &voxels,
+                )
+                .context("second bounce")?;
+                frags.extend(svo_cone_trace::bounce_fragments(
+                    &voxels,
+                    &ind,
+                    &rad,
+                    svo_cone_trace::SCALE,
+                )?);
+                built =
+                    svo::build_on_gpu(ctx, depth, &frags, None).context("sparse voxel octree")?;
+                stages.push(("svo_bounce", t.elapsed().as_secs_f64()));
+                aniso = directional(&built, &mut stages)?;
+            }
             self.cache = Some((key, built, frame, aniso));
         }
         let (_, built, frame, aniso) = self.cache.as_ref().expect("built or reused above");
@@ -1389,26 +1430,48 @@ pub fn render_svo_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendered
     } else {
         grid_fragments(&m.lit, SCALE)?
     };
-    let octree = build(depth, capacity_bound(depth, frags.len()) as u32, &frags);
     let params = svo_cone_params(&m.frame, cones);
     let anisotropic = scene.render.anisotropic_voxels;
-    let aniso = if anisotropic {
-        vxgi_cpu_mirror::svo_anisotropic::build(
-            &octree.nodes,
-            &octree.bricks,
-            depth,
-            &octree.levels,
-            1.0 / SCALE,
-        )
-    } else {
-        vec![]
-    };
     let svo = vxgi_cpu_mirror::svo_cone_trace::SvoParams {
         depth,
         inv_scale: 1.0 / SCALE,
         anisotropic: anisotropic as u32,
         _pad: 0,
     };
+    let built = |frags: &[vxgi_cpu_mirror::sparse_voxel_octree::Fragment]| {
+        let octree = build(depth, capacity_bound(depth, frags.len()) as u32, frags);
+        let aniso = if anisotropic {
+            vxgi_cpu_mirror::svo_anisotropic::build(
+                &octree.nodes,
+                &octree.bricks,
+                depth,
+                &octree.levels,
+                1.0 / SCALE,
+            )
+        } else {
+            vec![]
+        };
+        (octree, aniso)
+    };
+    let (mut octree, mut aniso) = built(&frags);
+    if scene.render.bounces == 2 && !scene.lights.is_empty() {
+        use crate::kernels::svo_cone_trace as sct;
+        let voxels = sct::bounce_voxels(&m.lit, &m.normal, &m.colour, &m.frame);
+        let ind: Vec<[f32; 4]> = sct::bounce_mirror(
+            &octree.nodes,
+            &octree.bricks,
+            &aniso,
+            &svo,
+            &params,
+            &voxels,
+        )
+        .into_iter()
+        .map(|v| v.0)
+        .collect();
+        let mut frags = frags;
+        frags.extend(sct::bounce_fragments(&voxels, &ind, &m.lit, SCALE)?);
+        (octree, aniso) = built(&frags);
+    }
     let volume = vxgi_cpu_mirror::svo_cone_trace::SvoVolume {
         p: &params,
         svo: &svo,
@@ -1426,9 +1489,10 @@ struct MirrorFrame {
     texels: Vec<vxgi_cpu_mirror::gbuffer::Texel>,
     albedo: Vec<[f32; 4]>,
     direct: Vec<[f32; 3]>,
-    /// Level 0: `(L * alpha, alpha)` per voxel, Morton order.
+    /// Level 0: `(L * alpha, alpha)` per voxel, Morton order; normals and albedo.
     lit: Vec<[f32; 4]>,
     normal: Vec<[f32; 4]>,
+    colour: Vec<[f32; 4]>,
     frame: voxelize::VoxelFrame,
 }
 
@@ -1495,6 +1559,7 @@ impl MirrorFrame {
             direct,
             lit,
             normal,
+            colour,
             frame,
         })
     }

@@ -73,6 +73,10 @@ pub fn report(
 
         let cones = ConeSettings::from(&scene.render);
         for pipeline in ["vct-dense", "vct-svo", "lrsm", "cprc"] {
+            if scene.render.bounces > 1 && pipeline != "vct-svo" {
+                // One bounce against a two-bounce reference would be a wrong row: vct-svo alone.
+                continue;
+            }
             progress(&format!("{name}: {pipeline}"));
             let (r, memory) = if pipeline == "vct-dense" {
                 let r = crate::render::render(ctx, scene, &cones, |_| {})?;

@@ -194,6 +194,11 @@ pub struct RenderSettings {
     /// composited front to back per direction, read by the three facing the cone; false = the
     /// isotropic Gaussian average alone.
     pub anisotropic_voxels: bool,
+    /// Bounces of indirect light, 1 or 2, for the reference and vct-svo (the other pipelines do one
+    /// and refuse 2). vct-svo's second: every non-empty voxel gathers the first bounce through the
+    /// octree with the diffuse cones (`svo_bounce`), its reflected light is added to the fragments and
+    /// the octree rebuilt, so the camera's cones see two bounces.
+    pub bounces: u32,
 }
 
 impl RenderSettings {
@@ -291,6 +296,9 @@ impl RenderSettings {
                 self.gather_radius
             ));
         }
+        if !(1..=2).contains(&self.bounces) {
+            return Err(format!("bounces = {} must be 1 or 2", self.bounces));
+        }
         if self.photon_map != 0
             && (!(16..=2048).contains(&self.photon_map) || !self.photon_map.is_power_of_two())
         {
@@ -338,6 +346,7 @@ impl Default for RenderSettings {
             gather_radius: 2.0,
             photon_map: 256,
             anisotropic_voxels: true,
+            bounces: 1,
         }
     }
 }

@@ -76,3 +76,26 @@ fn scene_summarises_the_built_in_cornell_box_and_reports_bad_files() {
     assert_ne!(code, 0);
     assert!(err.contains("/nonexistent/scene.toml"), "{err}");
 }
+
+#[test]
+fn two_bounces_are_refused_where_a_pipeline_renders_one_and_planned_by_vct_svo() {
+    let (code, _, err) = vxgi(&["render", "--bounces", "2", "--plan"]);
+    assert_ne!(code, 0);
+    assert!(
+        err.contains("bounces = 2") && err.contains("vct-svo"),
+        "{err}"
+    );
+    let (code, out, err) = vxgi(&[
+        "render",
+        "--pipeline",
+        "vct-svo",
+        "--bounces",
+        "2",
+        "--plan",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("run  svo_bounce"), "{out}");
+    let (code, _, err) = vxgi(&["render", "--bounces", "3", "--plan"]);
+    assert_ne!(code, 0);
+    assert!(err.contains("bounces = 3 must be 1 or 2"), "{err}");
+}

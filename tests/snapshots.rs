@@ -203,3 +203,24 @@ fn thin_wall_glossy_cprc_snapshot_and_gpu_agreement() {
         ],
     );
 }
+
+/// vct-svo with two bounces (svo_bounce from every voxel, the octree rebuilt): the mirrors' frame and
+/// the GPU's agree as for one bounce (48x48 Cornell box, 32^3 voxels).
+#[test]
+fn cornell_box_vct_svo_two_bounces_gpu_agrees_with_the_mirrors() {
+    let mut scene = Scene::cornell_box();
+    scene.camera.width = 48;
+    scene.camera.height = 48;
+    scene.render.voxels = 32;
+    scene.render.bounces = 2;
+    let cones = ConeSettings::default();
+    let mirror = vxgi::render::render_svo_mirror(&scene, &cones).unwrap();
+    let (ours, _) = vxgi::render::render_svo(gpu(), &scene, &cones, |_| {}).unwrap();
+    assert_gpu_agrees(
+        "vct-svo, 2 bounces",
+        &[
+            ("indirect", &mirror.indirect, &ours.indirect),
+            ("combined", &mirror.combined, &ours.combined),
+        ],
+    );
+}

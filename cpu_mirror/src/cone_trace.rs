@@ -391,6 +391,38 @@ pub fn diffuse_cones(count: u32, tan: f32) -> Vec<[f32; 4]> {
 /// for pow's absolute error near alpha = 0).
 pub const MAG: f32 = 4e-4;
 
+/// One voxel of a second bounce (svo_cone_trace.wgsl's `voxel_main`): the pixel's diffuse cones from
+/// the voxel's centre `position` offset along its unit mean `normal` (w = 0: none, gives 0), times
+/// `albedo`: (rgb, 0) and its bound.
+pub fn shade_voxel(
+    pyr: &(impl Volume + ?Sized),
+    cones: &[[f32; 4]],
+    position: [f32; 4],
+    normal: [f32; 4],
+    albedo: [f32; 4],
+    lmax: f32,
+) -> ([f32; 4], [f32; 4]) {
+    let p = pyr.params();
+    if normal[3] == 0.0 {
+        return ([0.0; 4], [0.0; 4]);
+    }
+    let n = Vec3::new(normal[0], normal[1], normal[2]);
+    let o = Vec3::from_slice(&position[..3]) + n * (p.offset_voxels * p.origin[3]);
+    let (bt, bb) = basis(n);
+    let mut diffuse = Vec3::ZERO;
+    let mut mag = 0.0f32;
+    for c in &cones[..p.diffuse_cones as usize] {
+        let dir = bt * c[0] + bb * c[1] + n * c[2];
+        let r = march(pyr, o, dir, p.diffuse_tan, c[2], lmax);
+        diffuse += r.radiance * c[3];
+        mag += (r.magnitude * MAG + r.allowance) * c[3];
+    }
+    let kd = Vec3::from_slice(&albedo[..3]);
+    let v = kd * diffuse;
+    let b = kd * mag;
+    ([v.x, v.y, v.z, 0.0], [b.x, b.y, b.z, 0.0])
+}
+
 /// One pixel: indirect radiance (rgb, 0), AO (a, a, a, 0), and their bounds.
 #[allow(clippy::too_many_arguments)]
 pub fn shade_pixel(

@@ -352,9 +352,10 @@ const SIDES: [u32; 2] = [16, 32];
 pub struct LitCase {
     pub data: SceneData,
     pub gbuffer: Resources,
-    /// Level 0 `(L * alpha, alpha)` and normals, Morton order.
+    /// Level 0 `(L * alpha, alpha)`, normals and albedo (voxelize's colour), Morton order.
     pub radiance: Vec<[f32; 4]>,
     pub normal: Vec<[f32; 4]>,
+    pub albedo: Vec<[f32; 4]>,
     pub frame: VoxelFrame,
     pub settings: ConeSettings,
     pub label: String,
@@ -379,6 +380,7 @@ pub fn lit_case(ctx: &GpuContext, seed: u64, index: usize) -> LitCase {
         gbuffer,
         radiance,
         normal: grid.normal,
+        albedo: grid.colour,
         frame,
         settings,
         label: format!("{label}, {side}^3"),

@@ -174,6 +174,7 @@ pub fn all() -> Vec<&'static dyn Kernel> {
         &svo_photons::SvoPhotons,
         &svo_anisotropic::SvoAnisotropic,
         &svo_cone_trace::SvoConeTrace,
+        &svo_cone_trace::SvoBounce,
         &lrsm_cone_trace::LrsmConeTrace,
     ]
 }

@@ -12,9 +12,10 @@ use std::collections::BTreeMap;
 use vxgi_cpu_mirror::cone_trace::ConeParams;
 use vxgi_cpu_mirror::sparse_voxel_octree::{build, capacity_bound, Fragment, Octree};
 use vxgi_cpu_mirror::svo_cone_trace::{SvoParams, SvoVolume};
+use vxgi_harness::compare::bound_name;
 use vxgi_harness::{
-    Case, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Kernel, KernelDecl,
-    Output, Resources, ScalarKind, Shader, Tolerance,
+    Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
+    KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
 };
 
 pub static DECL: KernelDecl = KernelDecl {
@@ -87,6 +88,12 @@ pub fn case_for(
     label: String,
     seed: u64,
 ) -> Case {
+    let volume = octree_resources(octree, aniso, scale);
+    tracer_case(ctx, &DECL, data, gbuffer, params, volume, label, seed)
+}
+
+/// The octree's bindings (nodes, bricks, svo, aniso) for the cone kernels.
+pub fn octree_resources(octree: &Octree, aniso: Option<&[[f32; 4]]>, scale: f32) -> Resources {
     let svo = SvoParams {
         depth: octree.depth,
         inv_scale: 1.0 / scale,
@@ -98,7 +105,7 @@ pub fn case_for(
         Some(a) if !a.is_empty() => a,
         _ => &[[0.0f32; 4]][..],
     };
-    let volume = Resources::from([
+    Resources::from([
         (
             "nodes".to_string(),
             HostResource::Buffer(HostBuffer {
@@ -118,8 +125,7 @@ pub fn case_for(
             "aniso".to_string(),
             HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(aniso))),
         ),
-    ]);
-    tracer_case(ctx, &DECL, data, gbuffer, params, volume, label, seed)
+    ])
 }
 
 /// Largest radiance the octree holds (allowances for rounding-decided stops scale with it).
@@ -195,5 +201,309 @@ impl Kernel for SvoConeTrace {
         _mode: FloatMode,
     ) -> BTreeMap<String, HostBuffer> {
         bounded_outputs(mirror_cones(data))
+    }
+}
+
+pub static BOUNCE_DECL: KernelDecl = KernelDecl {
+    name: "svo_bounce",
+    wgsl_path: "kernels/svo_cone_trace.wgsl",
+    wgsl: include_str!("../../kernels/svo_cone_trace.wgsl"),
+    includes: &[super::SVO_NODE, super::TANGENT_BASIS, super::CONE_MARCH],
+    entry: "voxel_main",
+    inputs: &[
+        "cone", "cone_dirs", "nodes", "bricks", "svo", "aniso", "vx_position", "vx_normal", "vx_albedo",
+    ],
+    // The pixel entry's diffuse cones and their bound (see DECL).
+    outputs: &[Output {
+        binding: "vx_indirect",
+        tolerance: Tolerance::MirrorBound,
+    }],
+    dispatch: DispatchRule::PerElement {
+        binding: "vx_indirect",
+    },
+    mirror: "vxgi_cpu_mirror::cone_trace::shade_voxel (volume: vxgi_cpu_mirror::svo_cone_trace::SvoVolume)",
+    summary: "second bounce of vct-svo: diffuse cones from every non-empty voxel's centre along its mean normal through the octree, times its albedo",
+};
+
+/// The non-empty voxels of a grid as the bounce pass reads them.
+pub struct BounceVoxels {
+    /// Morton index of each voxel.
+    pub index: Vec<u32>,
+    pub position: Vec<[f32; 4]>,
+    pub normal: Vec<[f32; 4]>,
+    pub albedo: Vec<[f32; 4]>,
+}
+
+/// The voxels with alpha > 0 of `radiance` (Morton order, `(L * alpha, alpha)`), with their centres in
+/// `frame`, unit mean normals and albedo (`colour`, voxelize's). A mean normal shorter than 1/2 (the
+/// voxel's samples face opposite ways, e.g. both sides of a thin wall) gives none (w = 0): such a voxel
+/// reflects no second bounce.
+pub fn bounce_voxels(
+    radiance: &[[f32; 4]],
+    normal: &[[f32; 4]],
+    colour: &[[f32; 4]],
+    frame: &VoxelFrame,
+) -> BounceVoxels {
+    let mut out = BounceVoxels {
+        index: vec![],
+        position: vec![],
+        normal: vec![],
+        albedo: vec![],
+    };
+    for (m, v) in radiance.iter().enumerate() {
+        if v[3] <= 0.0 {
+            continue;
+        }
+        let c = vxgi_cpu_mirror::morton::decode(m as u32);
+        let p = frame.origin
+            + (glam::Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32) + 0.5) * frame.voxel;
+        let n = glam::Vec3::from_slice(&normal[m][..3]);
+        let len = n.length();
+        let n = if len >= 0.5 {
+            let u = n / len;
+            [u.x, u.y, u.z, 1.0]
+        } else {
+            [0.0; 4]
+        };
+        out.index.push(m as u32);
+        out.position.push([p.x, p.y, p.z, 1.0]);
+        out.normal.push(n);
+        out.albedo.push(colour[m]);
+    }
+    out
+}
+
+/// The bounce pass over `voxels` through the octree (and its directional values).
+#[allow(clippy::too_many_arguments)]
+pub fn bounce_case(
+    octree: &Octree,
+    aniso: Option<&[[f32; 4]]>,
+    scale: f32,
+    params: &ConeParams,
+    voxels: &BounceVoxels,
+    ctx: &GpuContext,
+    label: String,
+    seed: u64,
+) -> Case {
+    let n = voxels.index.len().max(1);
+    let mut resources = octree_resources(octree, aniso, scale);
+    resources.insert("cone".into(), HostResource::Buffer(HostBuffer::pod(params)));
+    let f4 = |v: &[[f32; 4]]| {
+        let v = if v.is_empty() { &[[0.0f32; 4]][..] } else { v };
+        HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(v)))
+    };
+    resources.insert(
+        "cone_dirs".into(),
+        f4(&vxgi_cpu_mirror::cone_trace::diffuse_cones(
+            params.diffuse_cones,
+            params.diffuse_tan,
+        )),
+    );
+    resources.insert("vx_position".into(), f4(&voxels.position));
+    resources.insert("vx_normal".into(), f4(&voxels.normal));
+    resources.insert("vx_albedo".into(), f4(&voxels.albedo));
+    resources.insert(
+        "vx_indirect".into(),
+        HostResource::Buffer(HostBuffer::zeroed(n * 16, ScalarKind::F32)),
+    );
+    let shader = BOUNCE_DECL.shader().expect("svo_bounce validates");
+    Case {
+        label,
+        seed,
+        passes: vec![BOUNCE_DECL.pass(
+            &shader,
+            ctx,
+            "bounce".into(),
+            BOUNCE_DECL.bind_by_name(),
+            n as u64,
+        )],
+        resources,
+        checks: vec![Check {
+            resource: "vx_indirect".into(),
+            output: "vx_indirect",
+            indexing: Indexing::Grid {
+                dims: [n as u32, 1, 1],
+                components: 4,
+            },
+        }],
+        effective_bytes: n as u64 * 64,
+    }
+}
+
+/// The second bounce's fragments: each voxel's reflected indirect light (from the bounce pass's
+/// `indirect`, times its alpha) at its leaf lattice point, in fixed point with `scale`.
+pub fn bounce_fragments(
+    voxels: &BounceVoxels,
+    indirect: &[[f32; 4]],
+    radiance: &[[f32; 4]],
+    scale: f32,
+) -> Result<Vec<Fragment>, SvoError> {
+    let mut out = Vec::new();
+    for (&m, v) in voxels.index.iter().zip(indirect) {
+        let a = radiance[m as usize][3];
+        let value = [
+            to_fixed(v[0] * a, scale)?,
+            to_fixed(v[1] * a, scale)?,
+            to_fixed(v[2] * a, scale)?,
+            0,
+        ];
+        if value != [0; 4] {
+            out.push(Fragment {
+                pos: vxgi_cpu_mirror::morton::decode(m),
+                _pad: 0,
+                value,
+            });
+        }
+    }
+    Ok(out)
+}
+
+/// [`bounce_case`] on the GPU: each voxel's reflected indirect light.
+pub fn bounce_on_gpu(
+    ctx: &GpuContext,
+    octree: &Octree,
+    aniso: Option<&[[f32; 4]]>,
+    params: &ConeParams,
+    voxels: &BounceVoxels,
+) -> anyhow::Result<Vec<[f32; 4]>> {
+    if voxels.index.is_empty() {
+        return Ok(vec![]);
+    }
+    let case = bounce_case(
+        octree,
+        aniso,
+        SCALE,
+        params,
+        voxels,
+        ctx,
+        "bounce".into(),
+        0,
+    );
+    let shader = BOUNCE_DECL.shader()?;
+    let out = vxgi_harness::run::run(
+        ctx,
+        &shader,
+        BOUNCE_DECL.name,
+        &case.resources,
+        &case.passes,
+        &["vx_indirect"],
+    )?;
+    Ok(bytemuck::cast_slice(&out.buffer("vx_indirect").bytes).to_vec())
+}
+
+/// The bounce pass by the mirror: each voxel's value and bound.
+pub fn bounce_mirror(
+    octree_nodes: &[vxgi_cpu_mirror::sparse_voxel_octree::Node],
+    bricks: &[u32],
+    aniso: &[[f32; 4]],
+    svo: &SvoParams,
+    params: &ConeParams,
+    voxels: &BounceVoxels,
+) -> Vec<([f32; 4], [f32; 4])> {
+    use rayon::prelude::*;
+    let volume = SvoVolume {
+        p: params,
+        svo,
+        nodes: octree_nodes,
+        bricks,
+        aniso,
+    };
+    let dirs = vxgi_cpu_mirror::cone_trace::diffuse_cones(params.diffuse_cones, params.diffuse_tan);
+    let lmax = max_radiance(bricks, svo.inv_scale);
+    (0..voxels.index.len())
+        .into_par_iter()
+        .map(|i| {
+            vxgi_cpu_mirror::cone_trace::shade_voxel(
+                &volume,
+                &dirs,
+                voxels.position[i],
+                voxels.normal[i],
+                voxels.albedo[i],
+                lmax,
+            )
+        })
+        .collect()
+}
+
+pub struct SvoBounce;
+
+impl Kernel for SvoBounce {
+    fn decl(&self) -> &'static KernelDecl {
+        &BOUNCE_DECL
+    }
+
+    /// svo_cone_trace's generated scenes: the octree of their lit voxels (with directional values
+    /// every other case), the bounce from every non-empty voxel.
+    fn case(&self, _shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
+        let c = lit_case(ctx, seed, index);
+        let depth = c.frame.side.trailing_zeros() - 1;
+        let frags =
+            grid_fragments(&c.radiance, SCALE).expect("generated radiance fits the fixed point");
+        let octree = build(depth, capacity_bound(depth, frags.len()) as u32, &frags);
+        let params = svo_cone_params(&c.frame, &c.settings);
+        let aniso = (index % 2 == 1).then(|| {
+            vxgi_cpu_mirror::svo_anisotropic::build(
+                &octree.nodes,
+                &octree.bricks,
+                depth,
+                &octree.levels,
+                1.0 / SCALE,
+            )
+        });
+        let voxels = bounce_voxels(&c.radiance, &c.normal, &c.albedo, &c.frame);
+        let label = format!(
+            "{}, octree depth {depth}, {} voxels{}",
+            c.label,
+            voxels.index.len(),
+            if aniso.is_some() { ", anisotropic" } else { "" }
+        );
+        bounce_case(
+            &octree,
+            aniso.as_deref(),
+            SCALE,
+            &params,
+            &voxels,
+            ctx,
+            label,
+            seed,
+        )
+    }
+
+    fn mirror(
+        &self,
+        _case: &Case,
+        data: &Resources,
+        _mode: FloatMode,
+    ) -> BTreeMap<String, HostBuffer> {
+        let b = |n: &str| data[n].buffer().expect("buffer");
+        let params: ConeParams = *bytemuck::from_bytes(&b("cone").bytes);
+        let svo: SvoParams = *bytemuck::from_bytes(&b("svo").bytes);
+        let f4 = |n: &str| -> Vec<[f32; 4]> { bytemuck::cast_slice(&b(n).bytes).to_vec() };
+        let voxels = BounceVoxels {
+            index: vec![0; f4("vx_position").len()],
+            position: f4("vx_position"),
+            normal: f4("vx_normal"),
+            albedo: f4("vx_albedo"),
+        };
+        let out = bounce_mirror(
+            bytemuck::cast_slice(&b("nodes").bytes),
+            b("bricks").as_u32(),
+            bytemuck::cast_slice(&b("aniso").bytes),
+            &svo,
+            &params,
+            &voxels,
+        );
+        let v: Vec<[f32; 4]> = out.iter().map(|o| o.0).collect();
+        let bd: Vec<[f32; 4]> = out.iter().map(|o| o.1).collect();
+        BTreeMap::from([
+            (
+                "vx_indirect".to_string(),
+                HostBuffer::f32(bytemuck::cast_slice(&v)),
+            ),
+            (
+                bound_name("vx_indirect"),
+                HostBuffer::f32(bytemuck::cast_slice(&bd)),
+            ),
+        ])
     }
 }
