@@ -29,6 +29,9 @@ pub struct BenchRow {
     pub cache_resolution: u32,
     pub cache_tile: u32,
     pub caches: usize,
+    /// vct-svo: directional values above the leaves, and the photon map side (0: voxel_light).
+    pub anisotropic_voxels: bool,
+    pub photon_map: u32,
     /// Wall-clock seconds of the whole frame (stages, transfers between them included).
     pub seconds: f64,
     /// Wall-clock seconds per stage, in [`Pipeline::stages`] order (0 where the plan skipped the stage).
@@ -52,6 +55,9 @@ pub fn sweep(base: &RenderSettings, quick: bool, pipeline: Pipeline) -> Vec<Rend
     }
     if pipeline == Pipeline::Cprc {
         return cprc_sweep(base, quick);
+    }
+    if pipeline == Pipeline::VctSvo {
+        return svo_sweep(base, quick);
     }
     type Axes<'a> = (&'a [u32], &'a [u32], &'a [f32], &'a [f32], &'a [f32]);
     let (voxels, cones, angles, clamps, steps): Axes = if quick {
@@ -80,6 +86,34 @@ pub fn sweep(base: &RenderSettings, quick: bool, pipeline: Pipeline) -> Vec<Rend
                             ..base.clone()
                         });
                     }
+                }
+            }
+        }
+    }
+    out
+}
+
+/// vct-svo's sweep: voxels {32, 64, 128} x cones {1, 5} x anisotropic voxels {off, on} x light
+/// injection {voxel_light, photons 128^2, photons 256^2} = 36 (half-angle, clamp, step at `base`'s).
+/// Quick: 32^3, 5 cones, {isotropic, anisotropic} x {voxel_light, photons 256^2} = 4.
+pub fn svo_sweep(base: &RenderSettings, quick: bool) -> Vec<RenderSettings> {
+    let (voxels, cones, maps): (&[u32], &[u32], &[u32]) = if quick {
+        (&[32], &[5], &[0, 256])
+    } else {
+        (&[32, 64, 128], &[1, 5], &[0, 128, 256])
+    };
+    let mut out = Vec::new();
+    for &v in voxels {
+        for &c in cones {
+            for aniso in [false, true] {
+                for &m in maps {
+                    out.push(RenderSettings {
+                        voxels: v,
+                        cones: c,
+                        anisotropic_voxels: aniso,
+                        photon_map: m,
+                        ..base.clone()
+                    });
                 }
             }
         }
@@ -335,6 +369,8 @@ pub fn bench(
             cache_resolution: settings.cache_resolution,
             cache_tile: settings.cache_tile,
             caches,
+            anisotropic_voxels: settings.anisotropic_voxels,
+            photon_map: settings.photon_map,
             seconds: stage_seconds.iter().sum(),
             stage_seconds,
             indirect_rel_mse: ind.rel_mse,
@@ -377,6 +413,8 @@ fn write_csv(path: &Path, pipeline: Pipeline, rows: &[BenchRow]) -> Result<()> {
         "cache_resolution",
         "cache_tile",
         "caches",
+        "anisotropic_voxels",
+        "photon_map",
         "seconds",
         "indirect_rel_mse",
         "indirect_flip",
@@ -401,6 +439,8 @@ fn write_csv(path: &Path, pipeline: Pipeline, rows: &[BenchRow]) -> Result<()> {
             r.cache_resolution.to_string(),
             r.cache_tile.to_string(),
             r.caches.to_string(),
+            r.anisotropic_voxels.to_string(),
+            r.photon_map.to_string(),
             format!("{:.4}", r.seconds),
             format!("{:.5}", r.indirect_rel_mse),
             format!("{:.4}", r.indirect_flip),
@@ -433,15 +473,16 @@ pub fn table(rows: &[BenchRow], pipeline: Pipeline, spp: u32, w: u32, h: u32) ->
     };
     let mut md = format!(
         "# vxgi bench ({name}, {w}x{h}, reference {spp} spp)\n\n\
-         | voxels | cones | half-angle | mip clamp | step | RSM | layers | caches | cache res | time | {shading} | voxelize | indirect FLIP | combined FLIP | combined rel. MSE | Pareto |\n\
-         |---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n"
+         | voxels | cones | half-angle | mip clamp | step | RSM | layers | caches | cache res | octree | time | {shading} | voxelize | indirect FLIP | combined FLIP | combined rel. MSE | Pareto |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n"
     );
     let lrsm = pipeline == Pipeline::Lrsm;
     let cprc = pipeline == Pipeline::Cprc;
+    let svo = pipeline == Pipeline::VctSvo;
     for r in sorted {
         let _ = writeln!(
             md,
-            "| {}^3 | {} | {} | {} | {} | {} | {} | {} | {} | {:.0} ms | {:.0} ms | {:.0} ms | {:.3} | {:.3} | {:.4} | {} |",
+            "| {}^3 | {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.0} ms | {:.0} ms | {:.0} ms | {:.3} | {:.3} | {:.4} | {} |",
             r.voxels,
             r.cones,
             r.cone_half_angle,
@@ -456,6 +497,22 @@ pub fn table(rows: &[BenchRow], pipeline: Pipeline, spp: u32, w: u32, h: u32) ->
             },
             if cprc {
                 format!("{}^2", r.cache_resolution)
+            } else {
+                "-".into()
+            },
+            if svo {
+                format!(
+                    "{}, {}",
+                    if r.anisotropic_voxels {
+                        "anisotropic"
+                    } else {
+                        "isotropic"
+                    },
+                    match r.photon_map {
+                        0 => "voxel_light".to_string(),
+                        m => format!("photons {m}^2"),
+                    }
+                )
             } else {
                 "-".into()
             },
@@ -560,6 +617,12 @@ mod tests {
             .iter()
             .all(|s| s.ao_range == 0.25 && s.validate().is_ok()));
         assert_eq!(sweep(&base, true, Pipeline::VctSvo).len(), 4);
+        let svo = sweep(&base, false, Pipeline::VctSvo);
+        assert_eq!(svo.len(), 36);
+        assert!(svo
+            .iter()
+            .all(|s| s.ao_range == 0.25 && s.validate().is_ok()));
+        assert_eq!(svo.iter().filter(|s| s.anisotropic_voxels).count(), 18);
         let lrsm = sweep(&base, false, Pipeline::Lrsm);
         assert_eq!(lrsm.len(), 54);
         assert!(lrsm

@@ -751,9 +751,24 @@ impl Pipeline {
     /// (mips or octree), then the cone pass (cprc: its four cache stages); the last is the stage that
     /// shades the pixels.
     pub fn stages(self) -> Vec<&'static str> {
+        if self == Pipeline::VctSvo {
+            // Light injection by voxel_light or photons; directional values and the second bounce
+            // where the settings ask for them.
+            return vec![
+                "gbuffer",
+                "direct_light",
+                "voxelize",
+                "voxel_light",
+                "svo_photons",
+                "sparse_voxel_octree",
+                "svo_anisotropic",
+                "svo_bounce",
+                "svo_cone_trace",
+            ];
+        }
         let (voxels, volume, cones): (_, _, &[&'static str]) = match self {
             Pipeline::VctDense => ("voxel_light", "surface_coverage_mip", &["cone_trace"]),
-            Pipeline::VctSvo => ("voxel_light", "sparse_voxel_octree", &["svo_cone_trace"]),
+            Pipeline::VctSvo => unreachable!("listed above"),
             Pipeline::Lrsm => (
                 "occlusion_voxels",
                 "reflective_shadow_map",

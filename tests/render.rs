@@ -347,17 +347,22 @@ fn bench_quick_writes_csv_table_and_plot() {
     let lines: Vec<&str> = csv.lines().collect();
     assert_eq!(lines.len(), 5, "{csv}");
     assert!(lines[0].starts_with(
-        "voxels,cones,cone_half_angle,mip_clamp,cone_step,rsm_side,lrsm_layers,cache_resolution,cache_tile,caches,seconds,"
+        "voxels,cones,cone_half_angle,mip_clamp,cone_step,rsm_side,lrsm_layers,cache_resolution,cache_tile,caches,anisotropic_voxels,photon_map,seconds,"
     ));
     assert!(lines[0].contains("combined_flip") && lines[0].contains("cone_trace_seconds"));
     // Every row: a positive time and a finite FLIP in [0, 1]; at least one row is Pareto-optimal.
     for l in &lines[1..] {
         let f: Vec<&str> = l.split(',').collect();
-        let secs: f64 = f[10].parse().unwrap();
-        let flip: f64 = f[14].parse().unwrap();
+        let secs: f64 = f[12].parse().unwrap();
+        let flip: f64 = f[16].parse().unwrap();
         assert!(secs > 0.0 && (0.0..=1.0).contains(&flip), "{l}");
     }
-    assert!(lines[1..].iter().any(|l| l.contains(",true,")), "{csv}");
+    assert!(
+        lines[1..]
+            .iter()
+            .any(|l| l.split(',').nth(17) == Some("true")),
+        "{csv}"
+    );
     let md = std::fs::read_to_string(out.join("bench.md")).unwrap();
     assert!(
         md.contains("| 32^3 | 1 | 30 | 2 | 0.5 | - | - | - | - |") && md.contains("**yes**"),
@@ -393,9 +398,16 @@ fn bench_quick_writes_csv_table_and_plot() {
     // vct-svo: its own stage columns, the octree skipped by the planner.
     let csv = quick("vct-svo");
     assert!(csv.contains("sparse_voxel_octree_seconds") && csv.contains("svo_cone_trace_seconds"));
+    assert!(
+        csv.contains("svo_photons_seconds") && csv.contains("svo_anisotropic_seconds"),
+        "{csv}"
+    );
     let md = std::fs::read_to_string(dir.join("bench-vct-svo/bench.md")).unwrap();
     assert!(
-        md.contains("vct-svo") && md.contains("sparse_voxel_octree"),
+        md.contains("vct-svo")
+            && md.contains("sparse_voxel_octree")
+            && md.contains("| anisotropic, photons 256^2 |")
+            && md.contains("| isotropic, voxel_light |"),
         "{md}"
     );
     // lrsm sweeps its own knobs: RSM sides and layer counts.
@@ -423,6 +435,8 @@ fn bench_quick_writes_csv_table_and_plot() {
         ("--mip-clamp=-1", "mip_clamp"),
         ("--rsm-side=100", "rsm_side"),
         ("--lrsm-overlap=0.9", "lrsm_overlap"),
+        ("--photon-map=100", "photon_map"),
+        ("--bounces=0", "bounces"),
     ] {
         let (code, _, err) = vxgi(&["render", "--plan", bad]);
         assert_ne!(code, 0, "{bad} accepted");

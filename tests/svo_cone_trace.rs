@@ -338,3 +338,23 @@ fn second_bounce_against_the_two_bounce_reference() {
         "{flips:?}"
     );
 }
+
+#[test]
+fn svo_params_struct_matches_the_reflected_wgsl_layout() {
+    use vxgi_cpu_mirror::svo_cone_trace::SvoParams;
+    let (size, members) = vxgi::kernels::svo_cone_trace::DECL
+        .shader()
+        .unwrap()
+        .struct_layout("SvoParams")
+        .unwrap();
+    assert_eq!(size as usize, std::mem::size_of::<SvoParams>());
+    let want: Vec<(String, u32)> = [
+        ("depth", std::mem::offset_of!(SvoParams, depth)),
+        ("inv_scale", std::mem::offset_of!(SvoParams, inv_scale)),
+        ("anisotropic", std::mem::offset_of!(SvoParams, anisotropic)),
+    ]
+    .into_iter()
+    .map(|(n, o)| (n.to_string(), o as u32))
+    .collect();
+    assert_eq!(&members[..want.len()], &want[..]);
+}

@@ -1,0 +1,66 @@
+//! GPU vs mirror for `kernels/svo_anisotropic.wgsl` (sparse_voxel_octree's fragment families, one level
+//! per case given the mirror's other levels), and its parameter struct against the reflected WGSL.
+//! What the directional values mean (walls stay opaque, media integrate exactly, the front layer is
+//! what a cone sees) is tested on the mirror (cpu_mirror/src/svo_anisotropic.rs); their effect on
+//! images (leak, accuracy) in tests/svo_cone_trace.rs.
+mod common;
+
+use common::gpu;
+use vxgi::harness::kernel::verify;
+use vxgi::harness::kernel::Corruption;
+use vxgi::harness::VerifyOptions;
+use vxgi::kernels::svo_anisotropic::{SvoAnisotropic, DECL};
+use vxgi_cpu_mirror::svo_anisotropic::AnisoParams;
+
+#[test]
+fn generated_octrees_match_the_mirror() {
+    let rep = verify(
+        gpu(),
+        &SvoAnisotropic,
+        &VerifyOptions {
+            cases: 24,
+            seed: 3,
+            corrupt: None,
+        },
+        &mut |_| {},
+    )
+    .unwrap();
+    assert!(rep.passed(), "{}", rep.failures[0].report());
+}
+
+#[test]
+fn a_corrupted_value_is_caught() {
+    let rep = verify(
+        gpu(),
+        &SvoAnisotropic,
+        &VerifyOptions {
+            cases: 4,
+            seed: 1,
+            // Adds 1 to the first word: past any bound (other levels are compared exactly).
+            corrupt: Some(Corruption {
+                resource: "aniso".into(),
+                index: 0,
+            }),
+        },
+        &mut |_| {},
+    )
+    .unwrap();
+    assert!(!rep.passed(), "a corrupted output must fail the comparison");
+}
+
+#[test]
+fn params_struct_matches_the_reflected_wgsl_layout() {
+    let (size, members) = DECL.shader().unwrap().struct_layout("AnisoParams").unwrap();
+    assert_eq!(size as usize, std::mem::size_of::<AnisoParams>());
+    let want: Vec<(String, u32)> = [
+        ("depth", std::mem::offset_of!(AnisoParams, depth)),
+        ("level", std::mem::offset_of!(AnisoParams, level)),
+        ("first_node", std::mem::offset_of!(AnisoParams, first_node)),
+        ("nodes", std::mem::offset_of!(AnisoParams, nodes)),
+        ("inv_scale", std::mem::offset_of!(AnisoParams, inv_scale)),
+    ]
+    .into_iter()
+    .map(|(n, o)| (n.to_string(), o as u32))
+    .collect();
+    assert_eq!(&members[..want.len()], &want[..]);
+}
