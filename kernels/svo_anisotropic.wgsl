@@ -10,9 +10,10 @@
 //   row = over(half(front), over(middle, half(back))), over(f, b) = f + b (1 - f.a),
 //   half(p) = p / (1 + sqrt(1 - p.a))  (an end point shared with the neighbouring parent: half its
 //   thickness), front = the point the cone meets first.
-// Child point q (level l + 1, lattice 0..=2^(l+2)): node min(q / 2, 2^(l+1) - 1) found by descent, the
-// isotropic brick (u32 * inv_scale) when l + 1 = depth, else its directional value; outside the
-// lattice or in a missing node: 0.
+// Child point q (level l + 1, lattice 0..=2^(l+2)): node min(q / 2, 2^(l+1) - 1) (the parent's own
+// child tile, or found by descent for points in a neighbour's), the isotropic brick (u32 * inv_scale)
+// when l + 1 = depth, else its directional value; outside the lattice or in a missing node: 0. The 27
+// points are located once per invocation.
 // Accuracy: within 48 ULP of the weighted sum of |front| + |middle| + |back| (mirror bound), given the
 // same deeper level.
 
@@ -40,23 +41,42 @@ fn over(f: vec4<f32>, b: vec4<f32>) -> vec4<f32> {
     return f + b * (1.0 - f.w);
 }
 
-fn child(q: vec3<i32>, dir: u32) -> vec4<f32> {
+// Node (NONE: outside the lattice or missing) and brick voxel of child point q, level l + 1 (lattice
+// 0..=2^(l+2)): node min(q / 2, 2^(l+1) - 1), read from the parent's own child tile when it is one of
+// its children (most points), else found by descent from the root (the row ends reaching into a
+// neighbouring parent's children). The same node either way: nodes are unique per level and place.
+fn locate(q: vec3<i32>, parent: u32, pc: vec3<i32>) -> vec2<u32> {
     let cl = params.level + 1u;
     let points = 2i << cl;
     if (any(q < vec3<i32>(0)) || any(q > vec3<i32>(points))) {
-        return vec4<f32>(0.0);
+        return vec2<u32>(NONE, 0u);
     }
     let c = min(q >> vec3<u32>(1u), vec3<i32>((1i << cl) - 1i));
-    let n = find(cl, vec3<u32>(c));
+    var n = NONE;
+    let tile = nodes[parent].child;
+    if (all((c >> vec3<u32>(1u)) == pc)) {
+        if (tile != NONE) {
+            let b = vec3<u32>(c & vec3<i32>(1i));
+            n = tile * 8u + b.x + 2u * b.y + 4u * b.z;
+        }
+    } else {
+        n = find(cl, vec3<u32>(c));
+    }
+    return vec2<u32>(n, voxel_index(vec3<u32>(q - 2i * c)));
+}
+
+// The value of a located child point in direction dir: the isotropic brick (u32 * inv_scale) at the
+// leaves, else its directional value; 0 where there is none.
+fn child(at: vec2<u32>, dir: u32) -> vec4<f32> {
+    let n = at.x;
     if (n == NONE) {
         return vec4<f32>(0.0);
     }
-    let v = voxel_index(vec3<u32>(q - 2i * c));
-    if (cl == params.depth) {
-        let w = n * BRICK_WORDS + v * 4u;
+    if (params.level + 1u == params.depth) {
+        let w = n * BRICK_WORDS + at.y * 4u;
         return vec4<f32>(f32(bricks[w]), f32(bricks[w + 1u]), f32(bricks[w + 2u]), f32(bricks[w + 3u])) * params.inv_scale;
     }
-    return aniso[(n * 27u + v) * 6u + dir];
+    return aniso[(n * 27u + at.y) * 6u + dir];
 }
 
 @compute @workgroup_size(64)
@@ -76,23 +96,29 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
         return;
     }
     let v = vec3<i32>(vec3<u32>(vi % 3u, (vi / 3u) % 3u, vi / 9u));
-    let centre = 2i * (2i * vec3<i32>(coords_of(key)) + v);
+    let pc = vec3<i32>(coords_of(key));
+    let centre = 2i * (2i * pc + v);
+    // The 27 child points around the centre, offset o at 9 (oz + 1) + 3 (oy + 1) + ox + 1, located once
+    // for all six directions.
+    var at: array<vec2<u32>, 27>;
+    for (var k = 0u; k < 27u; k++) {
+        let o = vec3<i32>(vec3<u32>(k % 3u, (k / 3u) % 3u, k / 9u)) - vec3<i32>(1i);
+        at[k] = locate(centre + o, n, pc);
+    }
     var w = array<f32, 3>(1.0, 2.0, 1.0);
     for (var dir = 0u; dir < 6u; dir++) {
         let a = dir / 2u;
         let b = (a + 1u) % 3u;
         let c = (a + 2u) % 3u;
-        var ea = vec3<i32>(0);
-        ea[a] = 1i;
+        var stride = array<u32, 3>(1u, 3u, 9u);
         var acc = vec4<f32>(0.0);
         for (var ii = 0u; ii < 3u; ii++) {
             for (var jj = 0u; jj < 3u; jj++) {
-                var q = centre;
-                q[b] += i32(ii) - 1i;
-                q[c] += i32(jj) - 1i;
-                var f = child(q - ea, dir);
-                let m = child(q, dir);
-                var bk = child(q + ea, dir);
+                // The row's middle point: offset 0 along a, ii - 1 along b, jj - 1 along c.
+                let mid = 13u + (ii * stride[b] + jj * stride[c]) - stride[b] - stride[c];
+                var f = child(at[mid - stride[a]], dir);
+                let m = child(at[mid], dir);
+                var bk = child(at[mid + stride[a]], dir);
                 if (dir % 2u == 1u) {
                     let t = f;
                     f = bk;

@@ -126,6 +126,9 @@ pub struct Comparison {
     pub flip_mean: f32,
     /// FLIP error map coloured with the magma map (RGB8), for a heat-map PNG.
     pub heatmap: Vec<u8>,
+    /// Sum of the test image's channels over the reference's (1 = the same energy; NaN when the
+    /// reference is black): the bias FLIP and MSE do not show as a direction.
+    pub energy_ratio: f64,
 }
 
 fn check_finite(path: &Path, img: &RgbImage) -> Result<(), ImageError> {
@@ -176,10 +179,17 @@ pub fn compare(
     let error = nv_flip::flip(r8, t8, nv_flip::DEFAULT_PIXELS_PER_DEGREE);
     let flip_mean = nv_flip::FlipPool::from_image(&error).mean();
     let heatmap = error.apply_color_lut(&nv_flip::magma_lut()).to_vec();
+    let energy = |img: &RgbImage| {
+        img.pixels
+            .iter()
+            .map(|p| p[0] as f64 + p[1] as f64 + p[2] as f64)
+            .sum::<f64>()
+    };
     Ok(Comparison {
         rel_mse: relative_mse(reference, test),
         flip_mean,
         heatmap,
+        energy_ratio: energy(test) / energy(reference),
     })
 }
 

@@ -499,6 +499,7 @@ fn run_compare(reference: PathBuf, test: PathBuf, heatmap: Option<PathBuf>) -> R
     let c = vxgi::images::compare(&r, &reference, &t, &test)?;
     println!("relative MSE {:.6}", c.rel_mse);
     println!("mean FLIP    {:.6}", c.flip_mean);
+    println!("energy ratio {:.4} (test / reference)", c.energy_ratio);
     if let Some(path) = heatmap {
         write_heatmap(&path, r.width, r.height, &c.heatmap)?;
         println!("wrote {}", path.display());
