@@ -694,11 +694,26 @@ fn lit_voxels(
     let t = std::time::Instant::now();
     let (grid, list, frame) = voxelize::voxelize_on_gpu(ctx, scene, scene.render.voxels)?;
     stages.push(("voxelize", t.elapsed().as_secs_f64()));
+    light_grid(ctx, data, plan, grid, &list, frame, stages, progress)
+}
+
+/// [`lit_voxels`] after voxelization: voxel_light where the plan runs it, else alpha alone.
+#[allow(clippy::too_many_arguments)]
+fn light_grid(
+    ctx: &crate::harness::GpuContext,
+    data: &SceneData,
+    plan: &FramePlan,
+    grid: crate::grids::Grid,
+    list: &[u32],
+    frame: voxelize::VoxelFrame,
+    stages: &mut Stages,
+    progress: &impl Fn(&str),
+) -> Result<LitVoxels> {
     let rad = if plan.runs("voxel_light") {
         progress("voxel light");
         let t = std::time::Instant::now();
         let rad =
-            voxel_light::light_on_gpu(ctx, data, &grid, &list, &frame).context("voxel light")?;
+            voxel_light::light_on_gpu(ctx, data, &grid, list, &frame).context("voxel light")?;
         stages.push(("voxel_light", t.elapsed().as_secs_f64()));
         rad
     } else {
@@ -872,12 +887,131 @@ pub struct VctSvo {
         voxelize::VoxelFrame,
         Option<Vec<[f32; 4]>>,
     )>,
+    statics: StaticVoxels,
+}
+
+/// vct-svo's voxels across the frames of an animation with dynamic instances: the static part (the
+/// `[mesh]` and the static instances) is voxelized once into a grid kept for the sequence (the first
+/// frame's, while every later frame's geometry fits in it) and kept; each frame voxelizes the dynamic
+/// instances alone into the same grid and merges them in (a voxel both fill gets the mean of the two
+/// albedos and of the two normals). The octree is rebuilt from the merged voxels each frame (its GPU
+/// build is one pass chain, so the paper's time stamps, which spare the static nodes, are not needed).
+#[derive(Default)]
+pub struct StaticVoxels {
+    #[allow(clippy::type_complexity)]
+    kept: Option<
+        Box<(
+            crate::scene::Mesh,
+            voxelize::VoxelFrame,
+            crate::grids::Grid,
+            Vec<u32>,
+        )>,
+    >,
+    /// Whether the last frame kept the static part, and how many dynamic triangles it voxelized.
+    pub reused: bool,
+    pub dynamic_triangles: usize,
+}
+
+impl StaticVoxels {
+    /// The merged voxels of `scene` (grid, sorted list, frame, seconds spent), or `None` when it has
+    /// no dynamic instance (voxelized whole, as before).
+    #[allow(clippy::type_complexity)]
+    fn voxels(
+        &mut self,
+        ctx: &crate::harness::GpuContext,
+        scene: &Scene,
+        progress: &impl Fn(&str),
+    ) -> Result<Option<(crate::grids::Grid, Vec<u32>, voxelize::VoxelFrame, f64)>> {
+        let inst = &scene.instances;
+        if !inst.list.iter().any(|i| i.dynamic) {
+            self.kept = None;
+            return Ok(None);
+        }
+        let t = std::time::Instant::now();
+        let mut fixed = inst.base.clone();
+        let mut moving = crate::scene::Mesh::default();
+        for i in &inst.list {
+            let placed = i.placed(inst.frame);
+            if i.dynamic {
+                moving.append(&placed);
+            } else {
+                fixed.append(&placed);
+            }
+        }
+        let side = scene.render.voxels;
+        let fits = |f: &voxelize::VoxelFrame| {
+            let hi = f.origin + glam::Vec3::splat(f.voxel * f.side as f32);
+            let slack = glam::Vec3::splat(f.voxel * 1e-3);
+            scene
+                .mesh
+                .positions
+                .iter()
+                .all(|p| p.cmpge(f.origin - slack).all() && p.cmple(hi + slack).all())
+        };
+        self.reused = matches!(self.kept.as_deref(), Some((m, f, ..)) if *m == fixed && f.side == side && fits(f));
+        let only = |mesh: crate::scene::Mesh| Scene {
+            mesh,
+            instances: Default::default(),
+            ..scene.clone()
+        };
+        if !self.reused {
+            progress("voxelize (static part, kept)");
+            let frame = voxelize::frame_of(&scene.mesh, side);
+            let (grid, list) = if fixed.triangles.is_empty() {
+                let n = (side as usize).pow(3);
+                (
+                    crate::grids::Grid {
+                        n: side,
+                        colour: vec![[0.0; 4]; n],
+                        normal: vec![[0.0; 4]; n],
+                    },
+                    vec![],
+                )
+            } else {
+                let (g, l, _) = voxelize::voxelize_in_on_gpu(ctx, &only(fixed.clone()), frame)?;
+                (g, l)
+            };
+            self.kept = Some(Box::new((fixed, frame, grid, list)));
+        }
+        let (_, frame, grid, list) = self.kept.as_deref().expect("kept above");
+        let (mut grid, mut list, frame) = (grid.clone(), list.clone(), *frame);
+        self.dynamic_triangles = moving.triangles.len();
+        if !moving.triangles.is_empty() {
+            progress("voxelize (dynamic instances)");
+            let (dg, dl, _) = voxelize::voxelize_in_on_gpu(ctx, &only(moving), frame)?;
+            for &v in &dl {
+                let v = v as usize;
+                if grid.colour[v][3] > 0.0 {
+                    let mean = |a: [f32; 4], b: [f32; 4]| {
+                        [
+                            (a[0] + b[0]) * 0.5,
+                            (a[1] + b[1]) * 0.5,
+                            (a[2] + b[2]) * 0.5,
+                            a[3],
+                        ]
+                    };
+                    grid.colour[v] = mean(grid.colour[v], dg.colour[v]);
+                    grid.normal[v] = mean(grid.normal[v], dg.normal[v]);
+                } else {
+                    grid.colour[v] = dg.colour[v];
+                    grid.normal[v] = dg.normal[v];
+                    list.push(v as u32);
+                }
+            }
+            list.sort_unstable();
+        }
+        Ok(Some((grid, list, frame, t.elapsed().as_secs_f64())))
+    }
 }
 
 impl VctSvo {
     /// `reuse`: the planner's rule on (true) or every pass every frame (false).
     pub fn new(reuse: bool) -> Self {
-        Self { reuse, cache: None }
+        Self {
+            reuse,
+            cache: None,
+            statics: StaticVoxels::default(),
+        }
     }
 
     /// Render one frame (see [`render_svo`]); its plan says what was skipped and why.
@@ -897,7 +1031,7 @@ impl VctSvo {
             r.bounces,
         );
         let cached = self.reuse && self.cache.as_ref().is_some_and(|c| c.0 == key);
-        let plan = FramePlan::vct_svo_after(scene, cones, cached);
+        let mut plan = FramePlan::vct_svo_after(scene, cones, cached);
         let data = SceneData::new(scene);
         let mut stages = Vec::new();
         let (gb, direct) = gbuffer_and_direct(ctx, &data, &plan, &mut stages, &progress)?;
@@ -905,8 +1039,37 @@ impl VctSvo {
             progress("octree: reused");
         } else {
             self.cache = None;
-            let (rad, normal, colour, frame) =
-                lit_voxels(ctx, scene, &data, &plan, &mut stages, &progress)?;
+            let split = self.statics.voxels(ctx, scene, &progress)?;
+            let (rad, normal, colour, frame) = match split {
+                Some((grid, list, frame, secs)) => {
+                    stages.push(("voxelize", secs));
+                    let p = plan.passes.iter_mut().find(|p| p.stage == "voxelize");
+                    if let Some(p) = p {
+                        p.size = format!(
+                            "{} dynamic triangles into {}^3 (static part {})",
+                            self.statics.dynamic_triangles,
+                            frame.side,
+                            if self.statics.reused {
+                                "kept"
+                            } else {
+                                "voxelized now"
+                            }
+                        );
+                        p.why = "static part voxelized once into a grid kept for the sequence; dynamic instances each frame, merged in".into();
+                    }
+                    light_grid(
+                        ctx,
+                        &data,
+                        &plan,
+                        grid,
+                        &list,
+                        frame,
+                        &mut stages,
+                        &progress,
+                    )?
+                }
+                None => lit_voxels(ctx, scene, &data, &plan, &mut stages, &progress)?,
+            };
             // Geometry fragments: the lit voxels, or with photon injection their coverage alone
             // (voxel_light did not run) and the photons carrying the light.
             let mut frags = svo_cone_trace::grid_fragments(&rad, svo_cone_trace::SCALE)?;

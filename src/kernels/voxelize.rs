@@ -111,16 +111,21 @@ pub fn frame_of(mesh: &crate::scene::Mesh, side: u32) -> VoxelFrame {
 }
 
 pub fn prepare(scene: &Scene, side: u32) -> Result<(VoxInput, VoxelFrame), VoxelizeError> {
+    prepare_in(scene, frame_of(&scene.mesh, side))
+}
+
+/// [`prepare`] into a given grid (e.g. one fixed across the frames of an animation: geometry outside it
+/// lands in its border voxels).
+pub fn prepare_in(
+    scene: &Scene,
+    frame: VoxelFrame,
+) -> Result<(VoxInput, VoxelFrame), VoxelizeError> {
+    let side = frame.side;
     if !(8..=512).contains(&side) || !side.is_power_of_two() {
         return Err(VoxelizeError::Side(side));
     }
     let mesh = &scene.mesh;
-    let (lo, hi) = mesh.positions.iter().fold(
-        (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
-        |(lo, hi), p| (lo.min(*p), hi.max(*p)),
-    );
-    let extent = (hi - lo).max_element().max(1e-6);
-    let voxel = extent / side as f32;
+    let (lo, voxel) = (frame.origin, frame.voxel);
     let max_q = side as i32 * SUB - 1;
     let lattice = |p: Vec3| -> [i32; 3] {
         ((p - lo) / voxel * SUB as f32)
@@ -323,7 +328,17 @@ pub fn voxelize_on_gpu(
     scene: &Scene,
     side: u32,
 ) -> anyhow::Result<(Grid, Vec<u32>, VoxelFrame)> {
-    let (input, frame) = prepare(scene, side)?;
+    voxelize_in_on_gpu(ctx, scene, frame_of(&scene.mesh, side))
+}
+
+/// [`voxelize_on_gpu`] into a given grid ([`prepare_in`]).
+pub fn voxelize_in_on_gpu(
+    ctx: &GpuContext,
+    scene: &Scene,
+    frame: VoxelFrame,
+) -> anyhow::Result<(Grid, Vec<u32>, VoxelFrame)> {
+    let side = frame.side;
+    let (input, frame) = prepare_in(scene, frame)?;
     let case = case_for(ctx, &input, side, "voxelize".into(), 0)?;
     let out = run(
         ctx,
