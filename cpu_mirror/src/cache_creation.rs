@@ -186,20 +186,7 @@ impl PlacedPyramids<'_> {
                 glam::Vec4::from_array(self.voxels[off + m])
             })
         };
-        let top = levels - 1;
-        let lf = (lf_in + h.shift[0]).max(0.0);
-        let l0 = lf.floor();
-        if l0 >= top as f32 {
-            return level(top);
-        }
-        let a = lf - l0;
-        let l0 = l0 as u32;
-        let ((s0, e0), (s1, e1)) = (level(l0), level(l0 + 1));
-        let err = SampleError {
-            rgb: e0.rgb * (1.0 - a) + e1.rgb * a,
-            a: e0.a * (1.0 - a) + e1.a * a,
-        };
-        (s0 * (1.0 - a) + s1 * a, err)
+        crate::cone_trace::quadrilinear(levels - 1, lf_in + h.shift[0], level)
     }
 
     fn combined(&self, x: Vec3, lf: f32) -> (glam::Vec4, SampleError) {

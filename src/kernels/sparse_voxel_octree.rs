@@ -477,6 +477,15 @@ pub fn octree_buffers(o: &Octree) -> BTreeMap<String, HostBuffer> {
     ])
 }
 
+/// The two buffers the octree's readers bind (svo_anisotropic, svo_cone_trace): `nodes` and `bricks`.
+pub fn reader_resources(o: &Octree) -> Resources {
+    octree_buffers(o)
+        .into_iter()
+        .filter(|(name, _)| name == "nodes" || name == "bricks")
+        .map(|(name, b)| (name, HostResource::Buffer(b)))
+        .collect()
+}
+
 /// What a GPU build produced, with its per-phase GPU time (timestamps, or one wall-clock total).
 #[derive(Debug)]
 pub struct GpuOctree {

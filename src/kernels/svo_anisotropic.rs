@@ -48,23 +48,12 @@ fn params_buffer(p: &AnisoParams) -> HostResource {
 }
 
 fn octree_resources(o: &Octree, aniso: &[[f32; 4]]) -> Resources {
-    Resources::from([
-        (
-            "nodes".to_string(),
-            HostResource::Buffer(HostBuffer {
-                bytes: bytemuck::cast_slice(&o.nodes).to_vec(),
-                scalar: ScalarKind::U32,
-            }),
-        ),
-        (
-            "bricks".to_string(),
-            HostResource::Buffer(HostBuffer::u32(&o.bricks)),
-        ),
-        (
-            "aniso".to_string(),
-            HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(aniso))),
-        ),
-    ])
+    let mut r = super::sparse_voxel_octree::reader_resources(o);
+    r.insert(
+        "aniso".to_string(),
+        HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(aniso))),
+    );
+    r
 }
 
 /// Every level's directional values of `o` on the GPU: one pass per level, depth - 1 first.

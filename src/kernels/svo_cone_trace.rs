@@ -105,27 +105,16 @@ pub fn octree_resources(octree: &Octree, aniso: Option<&[[f32; 4]]>, scale: f32)
         Some(a) if !a.is_empty() => a,
         _ => &[[0.0f32; 4]][..],
     };
-    Resources::from([
-        (
-            "nodes".to_string(),
-            HostResource::Buffer(HostBuffer {
-                bytes: bytemuck::cast_slice(&octree.nodes).to_vec(),
-                scalar: ScalarKind::U32,
-            }),
-        ),
-        (
-            "bricks".to_string(),
-            HostResource::Buffer(HostBuffer::u32(&octree.bricks)),
-        ),
-        (
-            "svo".to_string(),
-            HostResource::Buffer(HostBuffer::pod(&svo)),
-        ),
-        (
-            "aniso".to_string(),
-            HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(aniso))),
-        ),
-    ])
+    let mut r = super::sparse_voxel_octree::reader_resources(octree);
+    r.insert(
+        "svo".to_string(),
+        HostResource::Buffer(HostBuffer::pod(&svo)),
+    );
+    r.insert(
+        "aniso".to_string(),
+        HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(aniso))),
+    );
+    r
 }
 
 /// Largest radiance the octree holds (allowances for rounding-decided stops scale with it).
@@ -153,6 +142,39 @@ pub fn mirror_cones(data: &Resources) -> [Vec<[f32; 4]>; 4] {
     shade_all(data, &volume, max_radiance(bricks, svo.inv_scale))
 }
 
+/// A generated lit scene (cone_trace's `lit_case`), the mirror's octree of its voxels, its cone
+/// parameters, and every other case (odd `index`) the octree's directional values (the mirror's: the
+/// builder is verified on its own).
+#[allow(clippy::type_complexity)]
+fn generated_octree(
+    ctx: &GpuContext,
+    seed: u64,
+    index: usize,
+) -> (
+    super::cone_trace::LitCase,
+    u32,
+    Octree,
+    ConeParams,
+    Option<Vec<[f32; 4]>>,
+) {
+    let c = lit_case(ctx, seed, index);
+    let depth = c.frame.side.trailing_zeros() - 1;
+    let frags =
+        grid_fragments(&c.radiance, SCALE).expect("generated radiance fits the fixed point");
+    let octree = build(depth, capacity_bound(depth, frags.len()) as u32, &frags);
+    let params = svo_cone_params(&c.frame, &c.settings);
+    let aniso = (index % 2 == 1).then(|| {
+        vxgi_cpu_mirror::svo_anisotropic::build(
+            &octree.nodes,
+            &octree.bricks,
+            depth,
+            &octree.levels,
+            1.0 / SCALE,
+        )
+    });
+    (c, depth, octree, params, aniso)
+}
+
 pub struct SvoConeTrace;
 
 impl Kernel for SvoConeTrace {
@@ -160,23 +182,7 @@ impl Kernel for SvoConeTrace {
         &DECL
     }
     fn case(&self, _shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
-        let c = lit_case(ctx, seed, index);
-        let depth = c.frame.side.trailing_zeros() - 1;
-        let frags =
-            grid_fragments(&c.radiance, SCALE).expect("generated radiance fits the fixed point");
-        let octree = build(depth, capacity_bound(depth, frags.len()) as u32, &frags);
-        let params = svo_cone_params(&c.frame, &c.settings);
-        // Every other case with anisotropic voxels (the mirror's directional values: the builder is
-        // verified on its own).
-        let aniso = (index % 2 == 1).then(|| {
-            vxgi_cpu_mirror::svo_anisotropic::build(
-                &octree.nodes,
-                &octree.bricks,
-                depth,
-                &octree.levels,
-                1.0 / SCALE,
-            )
-        });
+        let (c, depth, octree, params, aniso) = generated_octree(ctx, seed, index);
         let label = format!(
             "{}, octree depth {depth}{}",
             c.label,
@@ -435,21 +441,7 @@ impl Kernel for SvoBounce {
     /// svo_cone_trace's generated scenes: the octree of their lit voxels (with directional values
     /// every other case), the bounce from every non-empty voxel.
     fn case(&self, _shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
-        let c = lit_case(ctx, seed, index);
-        let depth = c.frame.side.trailing_zeros() - 1;
-        let frags =
-            grid_fragments(&c.radiance, SCALE).expect("generated radiance fits the fixed point");
-        let octree = build(depth, capacity_bound(depth, frags.len()) as u32, &frags);
-        let params = svo_cone_params(&c.frame, &c.settings);
-        let aniso = (index % 2 == 1).then(|| {
-            vxgi_cpu_mirror::svo_anisotropic::build(
-                &octree.nodes,
-                &octree.bricks,
-                depth,
-                &octree.levels,
-                1.0 / SCALE,
-            )
-        });
+        let (c, depth, octree, params, aniso) = generated_octree(ctx, seed, index);
         let voxels = bounce_voxels(&c.radiance, &c.normal, &c.albedo, &c.frame);
         let label = format!(
             "{}, octree depth {depth}, {} voxels{}",
