@@ -766,32 +766,26 @@ impl Pipeline {
     /// (mips or octree), then the cone pass (cprc: its four cache stages); the last is the stage that
     /// shades the pixels.
     pub fn stages(self) -> Vec<&'static str> {
-        if self == Pipeline::VctSvo {
+        let (volume, cones): (&[&'static str], &[&'static str]) = match self {
+            Pipeline::VctDense => (&["voxel_light", "surface_coverage_mip"], &["cone_trace"]),
             // Light injection by voxel_light or photons; directional values and the second bounce
             // where the settings ask for them.
-            return vec![
-                "gbuffer",
-                "direct_light",
-                "voxelize",
-                "voxel_light",
-                "svo_photons",
-                "sparse_voxel_octree",
-                "svo_anisotropic",
-                "svo_bounce",
-                "svo_cone_trace",
-            ];
-        }
-        let (voxels, volume, cones): (_, _, &[&'static str]) = match self {
-            Pipeline::VctDense => ("voxel_light", "surface_coverage_mip", &["cone_trace"]),
-            Pipeline::VctSvo => unreachable!("listed above"),
+            Pipeline::VctSvo => (
+                &[
+                    "voxel_light",
+                    "svo_photons",
+                    "sparse_voxel_octree",
+                    "svo_anisotropic",
+                    "svo_bounce",
+                ],
+                &["svo_cone_trace"],
+            ),
             Pipeline::Lrsm => (
-                "occlusion_voxels",
-                "reflective_shadow_map",
+                &["occlusion_voxels", "reflective_shadow_map"],
                 &["lrsm_cone_trace"],
             ),
             Pipeline::Cprc => (
-                "voxel_light",
-                "surface_coverage_mip",
+                &["voxel_light", "surface_coverage_mip"],
                 &[
                     "cache_distribution",
                     "cache_creation",
@@ -800,7 +794,8 @@ impl Pipeline {
                 ],
             ),
         };
-        let mut s = vec!["gbuffer", "direct_light", "voxelize", voxels, volume];
+        let mut s = vec!["gbuffer", "direct_light", "voxelize"];
+        s.extend_from_slice(volume);
         s.extend_from_slice(cones);
         s
     }
@@ -1596,8 +1591,9 @@ pub fn render_svo_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendered
     use vxgi_cpu_mirror::sparse_voxel_octree::{build, capacity_bound};
     let m = MirrorFrame::new(scene)?;
     let depth = m.frame.side.trailing_zeros() - 1;
+    let plan = FramePlan::vct_svo(scene, cones);
     let map = scene.render.photon_map;
-    let frags = if map > 0 && !scene.lights.is_empty() {
+    let frags = if plan.runs("svo_photons") {
         // Photon injection: the voxels' coverage, the light from the photons.
         let coverage: Vec<[f32; 4]> = m.lit.iter().map(|v| [0.0, 0.0, 0.0, v[3]]).collect();
         let mut frags = grid_fragments(&coverage, SCALE)?;
@@ -1609,7 +1605,7 @@ pub fn render_svo_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendered
         grid_fragments(&m.lit, SCALE)?
     };
     let params = svo_cone_params(&m.frame, cones);
-    let anisotropic = scene.render.anisotropic_voxels;
+    let anisotropic = plan.runs("svo_anisotropic");
     let svo = vxgi_cpu_mirror::svo_cone_trace::SvoParams {
         depth,
         inv_scale: 1.0 / SCALE,
@@ -1632,7 +1628,7 @@ pub fn render_svo_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendered
         (octree, aniso)
     };
     let (mut octree, mut aniso) = built(&frags);
-    if scene.render.bounces == 2 && !scene.lights.is_empty() {
+    if plan.runs("svo_bounce") {
         use crate::kernels::svo_cone_trace as sct;
         let voxels = sct::bounce_voxels(&m.lit, &m.normal, &m.colour, &m.frame);
         let ind: Vec<[f32; 4]> = sct::bounce_mirror(
@@ -1641,7 +1637,7 @@ pub fn render_svo_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendered
             &aniso,
             &svo,
             &params,
-            &voxels,
+            [&voxels.position, &voxels.normal, &voxels.albedo],
         )
         .into_iter()
         .map(|v| v.0)
@@ -1658,7 +1654,7 @@ pub fn render_svo_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendered
         aniso: &aniso,
     };
     let lmax = max_radiance(&octree.bricks, svo.inv_scale);
-    Ok(m.shade(&volume, lmax, FramePlan::vct_svo(scene, cones)))
+    Ok(m.shade(&volume, lmax, plan))
 }
 
 /// The stages every mirror pipeline shares: G-buffer texels, albedo, direct light, the lit voxel grid.

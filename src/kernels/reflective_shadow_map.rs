@@ -52,6 +52,25 @@ pub static DECL: KernelDecl = KernelDecl {
     summary: "reflective shadow map of one light view (spot cone or point-light cube face): albedo/pi E <n.l>, normal, <n.l>, normalised light-space depth, 2D Morton order (LRSM 5)",
 };
 
+/// The inputs every light-view kernel (this one, svo_photons) reads besides its own parameters:
+/// `lights` (one default light of zero intensity when there is none: a binding cannot be empty) and
+/// the light view's G-buffer `gb_position`, `gb_normal`, `gb_albedo`.
+pub fn light_view_inputs(lights: &[GpuLight], gb: &Resources) -> Resources {
+    let lights = if lights.is_empty() {
+        vec![GpuLight::default()]
+    } else {
+        lights.to_vec()
+    };
+    let mut resources = Resources::from([(
+        "lights".to_string(),
+        HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(&lights))),
+    )]);
+    for name in ["gb_position", "gb_normal", "gb_albedo"] {
+        resources.insert(name.into(), gb[name].clone());
+    }
+    resources
+}
+
 /// The RSM pass of `view` over the G-buffer `gb` the GPU ray-cast with `view.frame`.
 pub fn case_for(
     shader: &Shader,
@@ -73,18 +92,7 @@ pub fn case_for(
             scalar: ScalarKind::Mixed,
         }),
     );
-    let lights = if lights.is_empty() {
-        vec![GpuLight::default()]
-    } else {
-        lights.to_vec()
-    };
-    resources.insert(
-        "lights".into(),
-        HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(&lights))),
-    );
-    for name in ["gb_position", "gb_normal", "gb_albedo"] {
-        resources.insert(name.into(), gb[name].clone());
-    }
+    resources.extend(light_view_inputs(lights, gb));
     for (name, bytes) in [("rsm_radiance", 16), ("rsm_normal", 16), ("rsm_depth", 4)] {
         resources.insert(
             name.into(),

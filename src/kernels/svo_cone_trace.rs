@@ -282,6 +282,7 @@ pub fn bounce_voxels(
 /// The bounce pass over `voxels` through the octree (and its directional values).
 #[allow(clippy::too_many_arguments)]
 pub fn bounce_case(
+    shader: &Shader,
     octree: &Octree,
     aniso: Option<&[[f32; 4]]>,
     scale: f32,
@@ -312,12 +313,11 @@ pub fn bounce_case(
         "vx_indirect".into(),
         HostResource::Buffer(HostBuffer::zeroed(n * 16, ScalarKind::F32)),
     );
-    let shader = BOUNCE_DECL.shader().expect("svo_bounce validates");
     Case {
         label,
         seed,
         passes: vec![BOUNCE_DECL.pass(
-            &shader,
+            shader,
             ctx,
             "bounce".into(),
             BOUNCE_DECL.bind_by_name(),
@@ -375,7 +375,9 @@ pub fn bounce_on_gpu(
     if voxels.index.is_empty() {
         return Ok(vec![]);
     }
+    let shader = BOUNCE_DECL.shader()?;
     let case = bounce_case(
+        &shader,
         octree,
         aniso,
         SCALE,
@@ -385,7 +387,6 @@ pub fn bounce_on_gpu(
         "bounce".into(),
         0,
     );
-    let shader = BOUNCE_DECL.shader()?;
     let out = vxgi_harness::run::run(
         ctx,
         &shader,
@@ -397,14 +398,15 @@ pub fn bounce_on_gpu(
     Ok(bytemuck::cast_slice(&out.buffer("vx_indirect").bytes).to_vec())
 }
 
-/// The bounce pass by the mirror: each voxel's value and bound.
+/// The bounce pass by the mirror over the voxels' (position, normal, albedo): each voxel's value and
+/// bound.
 pub fn bounce_mirror(
     octree_nodes: &[vxgi_cpu_mirror::sparse_voxel_octree::Node],
     bricks: &[u32],
     aniso: &[[f32; 4]],
     svo: &SvoParams,
     params: &ConeParams,
-    voxels: &BounceVoxels,
+    [position, normal, albedo]: [&[[f32; 4]]; 3],
 ) -> Vec<([f32; 4], [f32; 4])> {
     use rayon::prelude::*;
     let volume = SvoVolume {
@@ -416,15 +418,15 @@ pub fn bounce_mirror(
     };
     let dirs = vxgi_cpu_mirror::cone_trace::diffuse_cones(params.diffuse_cones, params.diffuse_tan);
     let lmax = max_radiance(bricks, svo.inv_scale);
-    (0..voxels.index.len())
+    (0..position.len())
         .into_par_iter()
         .map(|i| {
             vxgi_cpu_mirror::cone_trace::shade_voxel(
                 &volume,
                 &dirs,
-                voxels.position[i],
-                voxels.normal[i],
-                voxels.albedo[i],
+                position[i],
+                normal[i],
+                albedo[i],
                 lmax,
             )
         })
@@ -440,7 +442,7 @@ impl Kernel for SvoBounce {
 
     /// svo_cone_trace's generated scenes: the octree of their lit voxels (with directional values
     /// every other case), the bounce from every non-empty voxel.
-    fn case(&self, _shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
+    fn case(&self, shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
         let (c, depth, octree, params, aniso) = generated_octree(ctx, seed, index);
         let voxels = bounce_voxels(&c.radiance, &c.normal, &c.albedo, &c.frame);
         let label = format!(
@@ -450,6 +452,7 @@ impl Kernel for SvoBounce {
             if aniso.is_some() { ", anisotropic" } else { "" }
         );
         bounce_case(
+            shader,
             &octree,
             aniso.as_deref(),
             SCALE,
@@ -470,20 +473,14 @@ impl Kernel for SvoBounce {
         let b = |n: &str| data[n].buffer().expect("buffer");
         let params: ConeParams = *bytemuck::from_bytes(&b("cone").bytes);
         let svo: SvoParams = *bytemuck::from_bytes(&b("svo").bytes);
-        let f4 = |n: &str| -> Vec<[f32; 4]> { bytemuck::cast_slice(&b(n).bytes).to_vec() };
-        let voxels = BounceVoxels {
-            index: vec![0; f4("vx_position").len()],
-            position: f4("vx_position"),
-            normal: f4("vx_normal"),
-            albedo: f4("vx_albedo"),
-        };
+        let f4 = |n: &str| -> &[[f32; 4]] { bytemuck::cast_slice(&b(n).bytes) };
         let out = bounce_mirror(
             bytemuck::cast_slice(&b("nodes").bytes),
             b("bricks").as_u32(),
-            bytemuck::cast_slice(&b("aniso").bytes),
+            f4("aniso"),
             &svo,
             &params,
-            &voxels,
+            [f4("vx_position"), f4("vx_normal"), f4("vx_albedo")],
         );
         let v: Vec<[f32; 4]> = out.iter().map(|o| o.0).collect();
         let bd: Vec<[f32; 4]> = out.iter().map(|o| o.1).collect();

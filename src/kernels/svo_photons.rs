@@ -69,6 +69,7 @@ pub fn params_for(view: &LightView, frame: &VoxelFrame) -> PhotonParams {
 
 /// The photon pass over the light-view G-buffer `gb`.
 pub fn case_for(
+    shader: &Shader,
     ctx: &GpuContext,
     lights: &[GpuLight],
     params: &PhotonParams,
@@ -86,18 +87,7 @@ pub fn case_for(
             scalar: ScalarKind::Mixed,
         }),
     );
-    let lights = if lights.is_empty() {
-        vec![GpuLight::default()]
-    } else {
-        lights.to_vec()
-    };
-    resources.insert(
-        "lights".into(),
-        HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(&lights))),
-    );
-    for name in ["gb_position", "gb_normal", "gb_albedo"] {
-        resources.insert(name.into(), gb[name].clone());
-    }
+    resources.extend(super::reflective_shadow_map::light_view_inputs(lights, gb));
     resources.insert(
         "photon_pos".into(),
         HostResource::Buffer(HostBuffer::zeroed(n * 16, ScalarKind::U32)),
@@ -106,7 +96,6 @@ pub fn case_for(
         "photon_value".into(),
         HostResource::Buffer(HostBuffer::zeroed(n * 16, ScalarKind::F32)),
     );
-    let shader = DECL.shader().expect("svo_photons validates");
     let checks = ["photon_pos", "photon_value"]
         .into_iter()
         .map(|name| Check {
@@ -121,13 +110,7 @@ pub fn case_for(
     Case {
         label,
         seed,
-        passes: vec![DECL.pass(
-            &shader,
-            ctx,
-            "photons".into(),
-            DECL.bind_by_name(),
-            n as u64,
-        )],
+        passes: vec![DECL.pass(shader, ctx, "photons".into(), DECL.bind_by_name(), n as u64)],
         resources,
         checks,
         effective_bytes: n as u64 * (48 + 32),
@@ -151,7 +134,15 @@ pub fn photon_fragments(
     for view in &views {
         let gb = view_gbuffer(ctx, data, view);
         let params = params_for(view, frame);
-        let case = case_for(ctx, &data.lights, &params, &gb, "photons".into(), 0);
+        let case = case_for(
+            &shader,
+            ctx,
+            &data.lights,
+            &params,
+            &gb,
+            "photons".into(),
+            0,
+        );
         let out = run(
             ctx,
             &shader,
@@ -224,7 +215,7 @@ impl Kernel for SvoPhotons {
 
     /// A generated scene's lights, one of their views (every cube face comes round), map side 16..64,
     /// grids of 16..64 voxels.
-    fn case(&self, _shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
+    fn case(&self, shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
         let (scene, label) = super::gbuffer::generated_scene(seed, index);
         let data = SceneData::new(&scene);
         let side = [16u32, 32, 64][index % 3];
@@ -246,6 +237,7 @@ impl Kernel for SvoPhotons {
         let gb = view_gbuffer(ctx, &data, &view);
         let params = params_for(&view, &frame);
         case_for(
+            shader,
             ctx,
             &lights,
             &params,
