@@ -13,7 +13,9 @@
 // D = the sample's distance from the origin surface's plane (offset + t cos), step ratio per capped cell.
 // Pixel: origin p + ng * offset_voxels * s0; diffuse cones from cone_dirs (tangent space, w = weight);
 // indirect = albedo (gb_albedo) * sum w C (+ Ks * C of a glossy cone along the mirror direction, tan = clamp(
-// sqrt(2 / (n + 2)), 0.02, 1)); AO = 1 - sum w occ. Back faces: AO only. Background: 0.
+// sqrt(2 / (n + 2)), 0.02, 1)); AO = 1 - sum w occ. Back faces: AO only. Background: 0. Dispatched
+// indirectly over screen_tiles' list (one workgroup per 8x8 tile holding a surface, `tile_pixel`): the
+// pixels of unlisted tiles are never visited and keep the zeroed outputs.
 // Outputs per pixel (row-major): indirect (rgb, 0), ao (a, a, a, 0).
 // Accuracy: per-element bound (see cone_trace::MAG): 4e-4 of the accumulated magnitudes, plus the
 // whole remainder where a stop (opacity, distance, AO range) is within rounding of its threshold.

@@ -148,8 +148,8 @@ fn shadow_visibility(o: vec3<f32>, d: vec3<f32>, tan_half: f32, t_end: f32) -> f
 }
 
 @compute @workgroup_size(64)
-fn shadow_main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let pix = gid.x + gid.y * groups.x * 64u;
+fn shadow_main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let pix = tile_pixel(wg, li);
     if (pix >= arrayLength(&soft_direct)) {
         return;
     }

@@ -347,6 +347,12 @@ fn run_render(
             dir.display()
         );
         println!("stages (wall clock incl. transfers): {}", stages.join(", "));
+        if let Some((listed, all)) = r.cone_tiles {
+            println!(
+                "cone pass: {listed} of {all} 8x8 screen tiles hold a surface (the other {} not dispatched)",
+                all - listed
+            );
+        }
         let skipped = r.plan.skipped();
         if !skipped.is_empty() {
             println!("skipped by the plan: {}", skipped.join(", "));

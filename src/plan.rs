@@ -108,7 +108,7 @@ impl FramePlan {
                 "cone_trace",
                 "cone_trace",
                 format!(
-                    "{px} x ({} diffuse{})",
+                    "{px} in the 8x8 tiles holding a surface (screen_tiles' list; empty tiles not dispatched) x ({} diffuse{})",
                     cones.diffuse_cones,
                     if glossy > 0 { " + 1 glossy" } else { "" }
                 ),

@@ -4,7 +4,7 @@
 use crate::images::RgbImage;
 use crate::kernels::cone_trace::{self, ConeSettings};
 use crate::kernels::lrsm_cone_trace::{self, LrsmFrame, LrsmMemory, LrsmSettings};
-use crate::kernels::{direct_light, gbuffer, voxel_light, voxelize};
+use crate::kernels::{direct_light, gbuffer, screen_tiles, voxel_light, voxelize};
 use crate::plan::FramePlan;
 use crate::scene::Scene;
 use crate::trace::SceneData;
@@ -189,6 +189,9 @@ pub struct Rendered {
     pub stages: Vec<(&'static str, f64)>,
     /// What the frame ran and skipped.
     pub plan: FramePlan,
+    /// The cone pass's 8x8 screen tiles: (listed, all). Tiles without a surface are not in
+    /// screen_tiles' list and not dispatched. None where no per-pixel cone pass ran (cprc gathers).
+    pub cone_tiles: Option<(u32, u32)>,
 }
 
 impl Rendered {
@@ -209,7 +212,15 @@ impl Rendered {
             ao,
             stages,
             plan,
+            cone_tiles: None,
         }
+    }
+
+    /// The frame with the cone pass's tile counts, from its screen_tiles list buffer.
+    pub fn with_cone_tiles(mut self, list: &[u32]) -> Self {
+        use vxgi_cpu_mirror::screen_tiles::HEADER;
+        self.cone_tiles = Some((list[3], (list.len() - HEADER) as u32));
+        self
     }
 }
 
@@ -311,7 +322,6 @@ impl VctDense {
             let t = std::time::Instant::now();
             let params = cone_trace::cone_params(&world, cones);
             let case = cone_trace::instanced_case_for(
-                ctx,
                 &data,
                 &gb,
                 &pyramids,
@@ -370,7 +380,7 @@ fn render_frame(
     progress("cone tracing");
     let t = std::time::Instant::now();
     let params = cone_trace::cone_params(frame, cones);
-    let case = cone_trace::case_for(ctx, &data, &gb, pyramid, &params, "render".into(), 0);
+    let case = cone_trace::case_for(&data, &gb, pyramid, &params, "render".into(), 0);
     cone_pass_frame(ctx, &cone_trace::DECL, &case, direct, stages, plan, t)
 }
 
@@ -406,7 +416,9 @@ fn chained_frame(
     let indirect = image_of(w, h, bytes("indirect"));
     let ao = image_of(w, h, bytes("ao"));
     let kept = keep.then(|| (out.pyramid(), out.frame));
-    Ok((Rendered::assemble(direct, indirect, ao, stages, plan), kept))
+    let frame = Rendered::assemble(direct, indirect, ao, stages, plan)
+        .with_cone_tiles(bytemuck::cast_slice(bytes("tile_list")));
+    Ok((frame, kept))
 }
 
 /// What [`chained_pyramid`] read back, and the voxel grid's frame.
@@ -492,22 +504,27 @@ fn chained_pyramid(
     let mut resources = vox.resources;
     resources.extend(light_res);
     resources.extend(mips.resources);
-    let cone = match cone_pass {
+    // The cone pass, dispatched over the tiles screen_tiles lists on the GPU from the G-buffer (the
+    // case's host-built list replaced by an empty one the chain fills).
+    let (tiles, cone) = match cone_pass {
         Some((gb, cones)) => {
             let params = cone_trace::cone_params(&vframe, cones);
-            let c = cone_trace::case_for(ctx, data, gb, &[], &params, "render".into(), 0);
+            let c = cone_trace::case_for(data, gb, &[], &params, "render".into(), 0);
             resources.extend(c.resources);
-            c.passes
+            let (w, h) = (data.width(), data.height());
+            resources.insert("tile_list".into(), screen_tiles::empty_list(w, h));
+            (vec![screen_tiles::pass(w, h)], c.passes)
         }
-        None => Vec::new(),
+        None => (Vec::new(), Vec::new()),
     };
     resources.insert(
         "pyramid".into(),
         HostResource::Buffer(HostBuffer::zeroed(pyramid_len(side) * 16, ScalarKind::F32)),
     );
-    let (vs, ls, cs) = (
+    let (vs, ls, ts, cs) = (
         voxelize::DECL.shader()?,
         voxel_light::DECL.shader()?,
+        screen_tiles::DECL.shader()?,
         cone_trace::DECL.shader()?,
     );
     let chain = [
@@ -525,6 +542,11 @@ fn chained_pyramid(
             shader: &mip_shader,
             kernel: scm::DECL.name,
             passes: &mips.passes,
+        },
+        Stage {
+            shader: &ts,
+            kernel: screen_tiles::DECL.name,
+            passes: &tiles,
         },
         Stage {
             shader: &cs,
@@ -586,8 +608,10 @@ fn chained_pyramid(
     stages.push(("surface_coverage_mip", t.elapsed().as_secs_f64()));
     progress("cone tracing");
     t = std::time::Instant::now();
-    run_stage(3).context("cone tracing")?;
-    names.extend(["indirect", "ao"]);
+    // The tile list counts to the cone pass it serves (the plan's and the bench's stage).
+    run_stage(3).context("screen tiles")?;
+    run_stage(4).context("cone tracing")?;
+    names.extend(["indirect", "ao", "tile_list"]);
     let read = prepared.read(&names).context("cone tracing")?;
     stages.push(("cone_trace", t.elapsed().as_secs_f64()));
     Ok(ChainOut {
@@ -1141,7 +1165,6 @@ impl VctSvo {
         let t = std::time::Instant::now();
         let params = svo_cone_trace::svo_cone_params(frame, cones);
         let case = svo_cone_trace::case_for(
-            ctx,
             &data,
             &gb,
             &built.octree,
@@ -1221,8 +1244,7 @@ impl VctLrsm {
         let t = std::time::Instant::now();
         let params = cone_trace::cone_params(&built.voxels, cones);
         let tan = settings.shadow_cone_angle.to_radians().tan();
-        let case =
-            lrsm_cone_trace::case_for(ctx, &data, &gb, built, &params, tan, "render".into(), 0);
+        let case = lrsm_cone_trace::case_for(&data, &gb, built, &params, tan, "render".into(), 0);
         let frame = cone_pass_frame(ctx, &lrsm_cone_trace::DECL, &case, direct, stages, plan, t)?;
         Ok((frame, built.memory))
     }
@@ -1518,7 +1540,8 @@ fn cone_pass_frame(
         decl.name
     };
     stages.push((stage, started.elapsed().as_secs_f64()));
-    Ok(Rendered::assemble(direct, indirect, ao, stages, plan))
+    let tiles = case.resources["tile_list"].buffer().expect("tile_list");
+    Ok(Rendered::assemble(direct, indirect, ao, stages, plan).with_cone_tiles(tiles.as_u32()))
 }
 
 fn image_of(w: u32, h: u32, bytes: &[u8]) -> RgbImage {
@@ -1803,6 +1826,8 @@ impl MirrorFrame {
             ao: RgbImage::new(w, h, rgb(1)),
             stages: vec![],
             plan,
+            // The mirror visits every texel (background ones give 0): no tiles.
+            cone_tiles: None,
         }
     }
 }

@@ -29,6 +29,7 @@ pub mod octahedral;
 pub mod radix_sort;
 pub mod reflective_shadow_map;
 pub mod sample_lrsm;
+pub mod screen_tiles;
 pub mod sparse_voxel_octree;
 pub mod surface_coverage_mip;
 pub mod svo_anisotropic;

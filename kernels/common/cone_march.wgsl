@@ -62,8 +62,31 @@ struct ConeParams {
 @group(0) @binding(9) var<storage, read_write> indirect: array<vec4<f32>>;
 @group(0) @binding(10) var<storage, read_write> ao: array<vec4<f32>>;
 @group(0) @binding(11) var<storage, read> gb_albedo: array<vec4<f32>>;
+// screen_tiles.wgsl's work list: [groups_x, groups_y, groups_z, count, tile...]; the pixel entries are
+// dispatched indirectly from its first three words, one workgroup per listed 8x8 tile.
+@group(0) @binding(30) var<storage, read> tile_list: array<u32>;
 
 const OPAQUE: f32 = 0.99609375;  // 1 - 1/256
+const NO_PIXEL: u32 = 0xffffffffu;
+
+// The pixel (row-major) that invocation `li` of indirect workgroup `wg` shades: tile k = wg.x + 65535
+// wg.y of the list, its pixel (li % 8, li / 8); NO_PIXEL past the list's count or outside the image.
+// Mirror: vxgi_cpu_mirror::screen_tiles::tile_pixel.
+fn tile_pixel(wg: vec3<u32>, li: u32) -> u32 {
+    let k = wg.x + wg.y * 65535u;
+    if (k >= tile_list[3]) {
+        return NO_PIXEL;
+    }
+    let t = tile_list[4u + k];
+    let w = frame.size.x;
+    let tiles_x = (w + 7u) / 8u;
+    let x = (t % tiles_x) * 8u + li % 8u;
+    let y = (t / tiles_x) * 8u + li / 8u;
+    if (x >= w || y >= frame.size.y) {
+        return NO_PIXEL;
+    }
+    return x + y * w;
+}
 
 fn sample_volume(x: vec3<f32>, lf_in: f32) -> vec4<f32> {
     let top = cone.levels - 1u;
@@ -133,8 +156,8 @@ fn march(o: vec3<f32>, d: vec3<f32>, tan_half: f32, cos_n: f32) -> ConeOut {
 }
 
 @compute @workgroup_size(64)
-fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let pix = gid.x + gid.y * groups.x * 64u;
+fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let pix = tile_pixel(wg, li);
     if (pix >= arrayLength(&indirect)) {
         return;
     }

@@ -14,7 +14,7 @@ use vxgi_cpu_mirror::direct_light::GpuMaterial;
 use vxgi_cpu_mirror::gbuffer::Frame;
 use vxgi_cpu_mirror::surface_coverage_mip::Coverage;
 use vxgi_harness::compare::bound_name;
-use vxgi_harness::run::{grid_for, run, Pass, Workgroups};
+use vxgi_harness::run::{run, Pass, Workgroups};
 use vxgi_harness::{
     Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
     KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
@@ -27,7 +27,7 @@ pub static DECL: KernelDecl = KernelDecl {
     includes: &[super::TANGENT_BASIS, super::CONE_MARCH, super::PYRAMID_GRID, super::PYRAMID],
     entry: "main",
     inputs: &[
-        "frame", "triangles", "materials", "gb_position", "gb_normal", "gb_triangle", "gb_albedo", "cone", "cone_dirs",
+        "frame", "triangles", "materials", "gb_position", "gb_normal", "gb_triangle", "gb_albedo", "cone", "cone_dirs", "tile_list",
         "pyramid",
     ],
     outputs: &[
@@ -37,7 +37,9 @@ pub static DECL: KernelDecl = KernelDecl {
         Output { binding: "indirect", tolerance: Tolerance::MirrorBound },
         Output { binding: "ao", tolerance: Tolerance::MirrorBound },
     ],
-    dispatch: DispatchRule::PerElement { binding: "indirect" },
+    dispatch: DispatchRule::PerItem {
+        what: "8x8 screen tile holding a surface (screen_tiles' list, dispatched indirectly)",
+    },
     mirror: "vxgi_cpu_mirror::cone_trace::shade_pixel",
     summary: "AO + diffuse cones + one glossy cone per pixel, quadrilinear marching of the radiance pyramid (CPRC 4, VCT 5-7)",
 };
@@ -56,7 +58,7 @@ pub static INSTANCED_DECL: KernelDecl = KernelDecl {
     ],
     entry: "main",
     inputs: &[
-        "frame", "triangles", "materials", "gb_position", "gb_normal", "gb_triangle", "gb_albedo", "cone", "cone_dirs",
+        "frame", "triangles", "materials", "gb_position", "gb_normal", "gb_triangle", "gb_albedo", "cone", "cone_dirs", "tile_list",
         "pyramid", "placed",
     ],
     outputs: &[
@@ -65,7 +67,9 @@ pub static INSTANCED_DECL: KernelDecl = KernelDecl {
         Output { binding: "indirect", tolerance: Tolerance::MirrorBound },
         Output { binding: "ao", tolerance: Tolerance::MirrorBound },
     ],
-    dispatch: DispatchRule::PerElement { binding: "indirect" },
+    dispatch: DispatchRule::PerItem {
+        what: "8x8 screen tile holding a surface (screen_tiles' list, dispatched indirectly)",
+    },
     mirror: "vxgi_cpu_mirror::cone_trace::shade_pixel (PlacedPyramids)",
     summary: "cone_trace through several voxel hierarchies placed by rigid transforms (instances, CPRC 3.1)",
 };
@@ -164,7 +168,6 @@ pub fn gpu_pyramid(
 /// The cone pass over a scene whose G-buffer and pyramid are given.
 #[allow(clippy::too_many_arguments)]
 pub fn case_for(
-    ctx: &GpuContext,
     data: &SceneData,
     gbuffer: &Resources,
     pyramid: &[[f32; 4]],
@@ -174,14 +177,13 @@ pub fn case_for(
 ) -> Case {
     let f4 = |v: &[[f32; 4]]| HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(v)));
     let volume = Resources::from([("pyramid".to_string(), f4(pyramid))]);
-    tracer_case(ctx, &DECL, data, gbuffer, params, volume, label, seed)
+    tracer_case(&DECL, data, gbuffer, params, volume, label, seed)
 }
 
 /// The instanced cone pass (`INSTANCED_DECL`): `pyramid` holds every hierarchy, `placed` says where each
 /// stands and where its levels start; `params` is the march's grid (covering them all).
 #[allow(clippy::too_many_arguments)]
 pub fn instanced_case_for(
-    ctx: &GpuContext,
     data: &SceneData,
     gbuffer: &Resources,
     pyramid: &[[f32; 4]],
@@ -201,23 +203,13 @@ pub fn instanced_case_for(
             }),
         ),
     ]);
-    tracer_case(
-        ctx,
-        &INSTANCED_DECL,
-        data,
-        gbuffer,
-        params,
-        volume,
-        label,
-        seed,
-    )
+    tracer_case(&INSTANCED_DECL, data, gbuffer, params, volume, label, seed)
 }
 
 /// The cone pass of a kernel built on `kernels/common/cone_march.wgsl` (`decl`): the scene, G-buffer
 /// and cone bindings, plus the resources of its volume (`volume`, by binding name).
 #[allow(clippy::too_many_arguments)]
 pub fn tracer_case(
-    ctx: &GpuContext,
     decl: &KernelDecl,
     data: &SceneData,
     gbuffer: &Resources,
@@ -246,7 +238,16 @@ pub fn tracer_case(
             HostResource::Buffer(HostBuffer::zeroed(n * 16, ScalarKind::F32)),
         );
     }
-    let max = ctx.limits().max_compute_workgroups_per_dimension;
+    // The pass runs over the 8x8 tiles that hold a surface (screen_tiles' list, here from its mirror:
+    // the G-buffer is on the host; a chain builds it on the GPU), dispatched from the list's arguments.
+    let normals: &[[f32; 4]] =
+        bytemuck::cast_slice(&gbuffer["gb_normal"].buffer().expect("gb_normal").bytes);
+    resources.insert(
+        "tile_list".into(),
+        HostResource::Buffer(HostBuffer::u32(&vxgi_cpu_mirror::screen_tiles::tile_list(
+            normals, w, h,
+        ))),
+    );
     let grid = Indexing::Grid {
         dims: [w, h, 1],
         components: 4,
@@ -259,7 +260,10 @@ pub fn tracer_case(
             label: decl.name.into(),
             entry: "main".into(),
             bindings: decl.bind_by_name(),
-            workgroups: Workgroups::Direct(grid_for(n as u64, 64, max)),
+            workgroups: Workgroups::Indirect {
+                buffer: "tile_list".into(),
+                offset: 0,
+            },
         }],
         checks: ["indirect", "ao"]
             .into_iter()
@@ -443,7 +447,6 @@ impl Kernel for ConeTraceInstanced {
             Placed::new(origin.to_array(), s0, side, 0, m, s0),
         ];
         instanced_case_for(
-            ctx,
             &c.data,
             &c.gbuffer,
             &pyr,
@@ -471,7 +474,7 @@ impl Kernel for ConeTrace {
         let c = lit_case(ctx, seed, index);
         let pyr = gpu_pyramid(ctx, &c.radiance, &c.normal, c.frame.side).expect("mip chain runs");
         let params = cone_params(&c.frame, &c.settings);
-        case_for(ctx, &c.data, &c.gbuffer, &pyr, &params, c.label, seed)
+        case_for(&c.data, &c.gbuffer, &pyr, &params, c.label, seed)
     }
     fn mirror(
         &self,

@@ -38,6 +38,7 @@ pub static DECL: KernelDecl = KernelDecl {
         "gb_albedo",
         "cone",
         "cone_dirs",
+        "tile_list",
         "occ",
         "occ_offsets",
         "params",
@@ -65,7 +66,9 @@ pub static DECL: KernelDecl = KernelDecl {
             tolerance: Tolerance::MirrorBound,
         },
     ],
-    dispatch: DispatchRule::PerElement { binding: "indirect" },
+    dispatch: DispatchRule::PerItem {
+        what: "8x8 screen tile holding a surface (screen_tiles' list, dispatched indirectly)",
+    },
     mirror: "vxgi_cpu_mirror::cone_trace::shade_pixel over vxgi_cpu_mirror::lrsm_cone_trace::LrsmVolume; lrsm_cone_trace::soft_direct",
     summary: "LRSM final gathering: cones through the occlusion voxels' mips, each sample's radiance from every light view's LRSM (LRSM eq. 1, Algorithm 1)",
 };
@@ -368,7 +371,6 @@ pub fn mirror_frame(
 /// shadow-cone pass (`shadow_main`, cones of that tan of the half-angle) into `soft_direct`.
 #[allow(clippy::too_many_arguments)]
 pub fn case_for(
-    ctx: &GpuContext,
     data: &SceneData,
     gbuffer: &Resources,
     frame: &LrsmFrame,
@@ -444,7 +446,7 @@ pub fn case_for(
         "soft_direct".to_string(),
         HostResource::Buffer(HostBuffer::zeroed(n * 16, ScalarKind::F32)),
     );
-    let mut case = tracer_case(ctx, &DECL, data, gbuffer, params, volume, label, seed);
+    let mut case = tracer_case(&DECL, data, gbuffer, params, volume, label, seed);
     if shadow_tan > 0.0 {
         let mut pass = case.passes[0].clone();
         pass.label = "shadow cones".into();
@@ -566,7 +568,6 @@ impl Kernel for LrsmConeTrace {
         // Shadow cones of 2, 5 and 10 degrees (half-angle).
         let shadow_tan = [2.0f32, 5.0, 10.0][index % 3].to_radians().tan();
         case_for(
-            ctx,
             &data,
             &gb,
             &frame,

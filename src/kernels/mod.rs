@@ -20,6 +20,7 @@ pub mod occlusion_voxels;
 pub mod radix_sort;
 pub mod reflective_shadow_map;
 pub mod sample_lrsm;
+pub mod screen_tiles;
 pub mod sparse_voxel_octree;
 pub mod surface_coverage_mip;
 pub mod svo_anisotropic;
@@ -167,6 +168,7 @@ pub fn all() -> Vec<&'static dyn Kernel> {
         &direct_light::DirectLight,
         &voxelize::Voxelize,
         &voxel_light::VoxelLight,
+        &screen_tiles::ScreenTiles,
         &cone_trace::ConeTrace,
         &cone_trace::ConeTraceInstanced,
         &sparse_voxel_octree::SparseVoxelOctree,

@@ -25,7 +25,7 @@ pub static DECL: KernelDecl = KernelDecl {
     includes: &[super::SVO_NODE, super::TANGENT_BASIS, super::CONE_MARCH],
     entry: "main",
     inputs: &[
-        "frame", "triangles", "materials", "gb_position", "gb_normal", "gb_triangle", "gb_albedo", "cone", "cone_dirs",
+        "frame", "triangles", "materials", "gb_position", "gb_normal", "gb_triangle", "gb_albedo", "cone", "cone_dirs", "tile_list",
         "nodes", "bricks", "svo", "aniso",
     ],
     outputs: &[
@@ -36,7 +36,9 @@ pub static DECL: KernelDecl = KernelDecl {
         Output { binding: "indirect", tolerance: Tolerance::MirrorBound },
         Output { binding: "ao", tolerance: Tolerance::MirrorBound },
     ],
-    dispatch: DispatchRule::PerElement { binding: "indirect" },
+    dispatch: DispatchRule::PerItem {
+        what: "8x8 screen tile holding a surface (screen_tiles' list, dispatched indirectly)",
+    },
     mirror: "vxgi_cpu_mirror::cone_trace::shade_pixel (volume: vxgi_cpu_mirror::svo_cone_trace::SvoVolume)",
     summary: "cone_trace's AO + diffuse + glossy cones marching the sparse voxel octree (quadrilinear brick sampling, VCT 5-7)",
 };
@@ -78,7 +80,6 @@ pub fn svo_cone_params(frame: &VoxelFrame, settings: &ConeSettings) -> ConeParam
 /// `aniso`: the octree's directional values (`svo_anisotropic`) for anisotropic voxels, or `None`.
 #[allow(clippy::too_many_arguments)]
 pub fn case_for(
-    ctx: &GpuContext,
     data: &SceneData,
     gbuffer: &Resources,
     octree: &Octree,
@@ -89,7 +90,7 @@ pub fn case_for(
     seed: u64,
 ) -> Case {
     let volume = octree_resources(octree, aniso, scale);
-    tracer_case(ctx, &DECL, data, gbuffer, params, volume, label, seed)
+    tracer_case(&DECL, data, gbuffer, params, volume, label, seed)
 }
 
 /// The octree's bindings (nodes, bricks, svo, aniso) for the cone kernels.
@@ -189,7 +190,6 @@ impl Kernel for SvoConeTrace {
             if aniso.is_some() { ", anisotropic" } else { "" }
         );
         case_for(
-            ctx,
             &c.data,
             &c.gbuffer,
             &octree,

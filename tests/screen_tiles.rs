@@ -1,0 +1,183 @@
+//! GPU vs mirror for `kernels/screen_tiles.wgsl` (the work list of screen tiles holding a surface), and
+//! the skip rule it implements: empty tiles are listed nowhere, so the cone passes never dispatch them.
+mod common;
+
+use common::gpu;
+use vxgi::harness::kernel::{verify, verify_case};
+use vxgi::harness::run::run;
+use vxgi::harness::{Corruption, VerifyOptions};
+use vxgi::kernels::screen_tiles::{case_for, normals, ScreenTiles, DECL};
+use vxgi_cpu_mirror::screen_tiles::HEADER;
+
+fn gpu_list(normal: &[[f32; 4]], w: u32, h: u32) -> Vec<u32> {
+    let shader = DECL.shader().unwrap();
+    let case = case_for(normal, w, h, "direct".into(), 0);
+    let (comps, ..) = verify_case(gpu(), &shader, &ScreenTiles, &case, None).unwrap();
+    for c in comps {
+        assert!(c.passed(), "{}", c.report());
+    }
+    let out = run(
+        gpu(),
+        &shader,
+        DECL.name,
+        &case.resources,
+        &case.passes,
+        &["tile_list"],
+    )
+    .unwrap();
+    out.buffer("tile_list").as_u32().to_vec()
+}
+
+#[test]
+fn generated_cases_match_the_mirror() {
+    let rep = verify(
+        gpu(),
+        &ScreenTiles,
+        &VerifyOptions {
+            cases: 12,
+            seed: 3,
+            corrupt: None,
+        },
+        &mut |_| {},
+    )
+    .unwrap();
+    assert!(rep.passed(), "{}", rep.failures[0].report());
+    assert!(rep.elements > 0);
+}
+
+#[test]
+fn a_corrupted_list_is_caught() {
+    let rep = verify(
+        gpu(),
+        &ScreenTiles,
+        &VerifyOptions {
+            cases: 1,
+            seed: 3,
+            // Case 0 (256x256, 30% blobs) lists at least one tile: its first entry.
+            corrupt: Some(Corruption {
+                resource: "tile_list".into(),
+                index: HEADER,
+            }),
+        },
+        &mut |_| {},
+    )
+    .unwrap();
+    assert!(!rep.passed());
+}
+
+#[test]
+fn a_sparse_view_lists_only_its_surface_tiles_and_a_full_one_every_tile() {
+    // 64x48: 8x6 tiles. Surface only in the left 10 columns -> tile columns 0 and 1 of every row.
+    let (w, h) = (64u32, 48u32);
+    let sparse: Vec<[f32; 4]> = (0..w * h)
+        .map(|p| {
+            if p % w < 10 {
+                [0.0, 1.0, 0.0, 1.0]
+            } else {
+                [0.0; 4]
+            }
+        })
+        .collect();
+    let list = gpu_list(&sparse, w, h);
+    assert_eq!(&list[..HEADER], &[12, 1, 1, 12]);
+    let mut tiles = list[HEADER..HEADER + 12].to_vec();
+    tiles.sort();
+    let expect: Vec<u32> = (0..6).flat_map(|r| [8 * r, 8 * r + 1]).collect();
+    assert_eq!(tiles, expect);
+    let full = vec![[0.0, 1.0, 0.0, 1.0]; (w * h) as usize];
+    assert_eq!(&gpu_list(&full, w, h)[..HEADER], &[48, 1, 1, 48]);
+    // No surface: nothing is dispatched (all arguments 0).
+    assert!(gpu_list(&normals(1, 0, w, h, 0.0), w, h)
+        .iter()
+        .all(|&v| v == 0));
+}
+
+/// The Cornell box at 64x64 seen from `eye_z` (3.9: the default view, the box fills the screen).
+fn cornell_from(eye_z: f32) -> vxgi::scene::Scene {
+    let mut scene = vxgi::scene::Scene::cornell_box();
+    scene.camera.eye = [0.0, 1.0, eye_z];
+    scene.camera.width = 64;
+    scene.camera.height = 64;
+    scene.render.voxels = 32;
+    scene
+}
+
+#[test]
+fn the_cone_pass_skips_empty_tiles_without_changing_the_image() {
+    use vxgi::harness::{HostBuffer, HostResource};
+    use vxgi::kernels::{cone_trace, direct_light, voxel_light, voxelize};
+    use vxgi_cpu_mirror::screen_tiles::tile_list;
+    let ctx = gpu();
+    let scene = cornell_from(11.0);
+    let data = vxgi::trace::SceneData::new(&scene);
+    let gb = direct_light::gpu_gbuffer(ctx, &data);
+    let (grid, list, frame) = voxelize::voxelize_on_gpu(ctx, &scene, 32).unwrap();
+    let lcase = voxel_light::case_for(ctx, &data, &grid, &list, &frame, "t".into(), 0);
+    let (rad, _) = voxel_light::mirror_radiance(&lcase.resources);
+    let pyramid = cone_trace::gpu_pyramid(ctx, &rad, &grid.normal, 32).unwrap();
+    let params = cone_trace::cone_params(&frame, &cone_trace::ConeSettings::default());
+    let listed = cone_trace::case_for(&data, &gb, &pyramid, &params, "listed".into(), 0);
+    let tiles = listed.resources["tile_list"]
+        .buffer()
+        .unwrap()
+        .as_u32()
+        .to_vec();
+    // The rule fires: the box covers a few of the 64 tiles.
+    assert!(
+        tiles[3] > 0 && tiles[3] < 32,
+        "{} of 64 tiles listed",
+        tiles[3]
+    );
+    // Every tile dispatched (what a plain dispatch runs) gives the same image, bit for bit.
+    let mut every = listed.clone();
+    let all = tile_list(&vec![[0.0, 0.0, 0.0, 1.0]; 64 * 64], 64, 64);
+    assert_eq!(all[3], 64);
+    every.resources.insert(
+        "tile_list".into(),
+        HostResource::Buffer(HostBuffer::u32(&all)),
+    );
+    let shader = cone_trace::DECL.shader().unwrap();
+    let image = |case: &vxgi::harness::Case| {
+        let out = run(
+            ctx,
+            &shader,
+            "cone_trace",
+            &case.resources,
+            &case.passes,
+            &["indirect", "ao"],
+        )
+        .unwrap();
+        [
+            out.buffer("indirect").bytes.clone(),
+            out.buffer("ao").bytes.clone(),
+        ]
+    };
+    assert_eq!(image(&listed), image(&every));
+}
+
+#[test]
+fn vct_dense_frames_report_their_listed_tiles() {
+    let ctx = gpu();
+    let cones = vxgi::kernels::cone_trace::ConeSettings::default();
+    let near = vxgi::render::render(ctx, &cornell_from(3.9), &cones, |_| {}).unwrap();
+    assert_eq!(
+        near.cone_tiles,
+        Some((64, 64)),
+        "a closed box fills every tile"
+    );
+    let far = vxgi::render::render(ctx, &cornell_from(11.0), &cones, |_| {}).unwrap();
+    let (listed, all) = far.cone_tiles.unwrap();
+    assert_eq!(all, 64);
+    assert!(listed > 0 && listed < 32, "{listed} tiles");
+    // Nothing the mirror frame (which visits every texel) shades is lost to the GPU-built list: the
+    // same number of pixels get AO.
+    let mirror = vxgi::render::render_mirror(&cornell_from(11.0), &cones).unwrap();
+    let surface = |img: &vxgi::images::RgbImage| {
+        img.pixels
+            .iter()
+            .filter(|p| p.iter().any(|&c| c > 0.0))
+            .count()
+    };
+    assert!(surface(&far.ao) > 0);
+    assert_eq!(surface(&far.ao), surface(&mirror.ao));
+}
