@@ -155,49 +155,32 @@ fn main() {
 fn empty_tiles(ctx: &GpuContext, cones: &ConeSettings) {
     let mut scene = Scene::cornell_box();
     scene.camera.eye = [0.0, 1.0, 11.0];
-    let data = SceneData::new(&scene);
-    let gb = direct_light::gpu_gbuffer(ctx, &data);
-    let (grid, list, frame) = voxelize::voxelize_on_gpu(ctx, &scene, 128).expect("voxelize");
-    let lcase = voxel_light::case_for(ctx, &data, &grid, &list, &frame, "bench".into(), 0);
-    let (rad, _) = voxel_light::mirror_radiance(&lcase.resources);
-    let pyramid = cone_trace::gpu_pyramid(ctx, &rad, &grid.normal, 128).expect("mips");
-    let params = cone_trace::cone_params(&frame, cones);
-    let listed = cone_trace::case_for(&data, &gb, &pyramid, &params, "listed".into(), 0);
-    let mut every = listed.clone();
-    let (w, h) = (data.width(), data.height());
-    let all = vxgi_cpu_mirror::screen_tiles::tile_list(
-        &vec![[0.0, 0.0, 0.0, 1.0]; (w * h) as usize],
-        w,
-        h,
-    );
-    every.resources.insert(
-        "tile_list".into(),
-        vxgi::harness::HostResource::Buffer(vxgi::harness::HostBuffer::u32(&all)),
-    );
-    let tiles = listed.resources["tile_list"].buffer().unwrap().as_u32()[3];
+    let listed = cone_trace::scene_case(ctx, &scene, cones).expect("cone pass");
+    let every = vxgi::kernels::screen_tiles::every_tile(&listed);
+    let count = |c: &vxgi::harness::Case| c.resources["tile_list"].buffer().unwrap().as_u32()[3];
+    let shader = cone_trace::DECL.shader().unwrap();
     let image = |case: &vxgi::harness::Case| {
-        let shader = cone_trace::DECL.shader().unwrap();
+        let names = ["indirect", "ao"];
         let out = vxgi::harness::run::run(
             ctx,
             &shader,
             "cone_trace",
             &case.resources,
             &case.passes,
-            &["indirect", "ao"],
+            &names,
         )
         .unwrap();
-        (
-            out.buffer("indirect").bytes.clone(),
-            out.buffer("ao").bytes.clone(),
-        )
+        names.map(|n| out.buffer(n).bytes.clone())
     };
     assert_eq!(image(&listed), image(&every), "same image either way");
     let (on, off) = (
         gpu_ms(ctx, &cone_trace::DECL, &listed),
         gpu_ms(ctx, &cone_trace::DECL, &every),
     );
+    let (w, h) = (scene.camera.width, scene.camera.height);
     println!(
-        "empty tiles, Cornell box from 11 units ({w}x{h}, {tiles} of {} tiles hold a surface): cone_trace {on:.1} ms over the list vs {off:.1} ms over every tile (same image)",
-        all[3]
+        "empty tiles, Cornell box from 11 units ({w}x{h}, {} of {} tiles hold a surface): cone_trace {on:.1} ms over the list vs {off:.1} ms over every tile (same image)",
+        count(&listed),
+        count(&every)
     );
 }

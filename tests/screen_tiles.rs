@@ -104,53 +104,32 @@ fn cornell_from(eye_z: f32) -> vxgi::scene::Scene {
 
 #[test]
 fn the_cone_pass_skips_empty_tiles_without_changing_the_image() {
-    use vxgi::harness::{HostBuffer, HostResource};
-    use vxgi::kernels::{cone_trace, direct_light, voxel_light, voxelize};
-    use vxgi_cpu_mirror::screen_tiles::tile_list;
+    use vxgi::kernels::{cone_trace, screen_tiles};
     let ctx = gpu();
-    let scene = cornell_from(11.0);
-    let data = vxgi::trace::SceneData::new(&scene);
-    let gb = direct_light::gpu_gbuffer(ctx, &data);
-    let (grid, list, frame) = voxelize::voxelize_on_gpu(ctx, &scene, 32).unwrap();
-    let lcase = voxel_light::case_for(ctx, &data, &grid, &list, &frame, "t".into(), 0);
-    let (rad, _) = voxel_light::mirror_radiance(&lcase.resources);
-    let pyramid = cone_trace::gpu_pyramid(ctx, &rad, &grid.normal, 32).unwrap();
-    let params = cone_trace::cone_params(&frame, &cone_trace::ConeSettings::default());
-    let listed = cone_trace::case_for(&data, &gb, &pyramid, &params, "listed".into(), 0);
-    let tiles = listed.resources["tile_list"]
-        .buffer()
-        .unwrap()
-        .as_u32()
-        .to_vec();
+    let cones = cone_trace::ConeSettings::default();
+    let listed = cone_trace::scene_case(ctx, &cornell_from(11.0), &cones).unwrap();
+    let tiles = listed.resources["tile_list"].buffer().unwrap().as_u32()[3];
     // The rule fires: the box covers a few of the 64 tiles.
-    assert!(
-        tiles[3] > 0 && tiles[3] < 32,
-        "{} of 64 tiles listed",
-        tiles[3]
-    );
+    assert!(tiles > 0 && tiles < 32, "{tiles} of 64 tiles listed");
     // Every tile dispatched (what a plain dispatch runs) gives the same image, bit for bit.
-    let mut every = listed.clone();
-    let all = tile_list(&vec![[0.0, 0.0, 0.0, 1.0]; 64 * 64], 64, 64);
-    assert_eq!(all[3], 64);
-    every.resources.insert(
-        "tile_list".into(),
-        HostResource::Buffer(HostBuffer::u32(&all)),
+    let every = screen_tiles::every_tile(&listed);
+    assert_eq!(
+        every.resources["tile_list"].buffer().unwrap().as_u32()[3],
+        64
     );
     let shader = cone_trace::DECL.shader().unwrap();
     let image = |case: &vxgi::harness::Case| {
+        let names = ["indirect", "ao"];
         let out = run(
             ctx,
             &shader,
             "cone_trace",
             &case.resources,
             &case.passes,
-            &["indirect", "ao"],
+            &names,
         )
         .unwrap();
-        [
-            out.buffer("indirect").bytes.clone(),
-            out.buffer("ao").bytes.clone(),
-        ]
+        names.map(|n| out.buffer(n).bytes.clone())
     };
     assert_eq!(image(&listed), image(&every));
 }

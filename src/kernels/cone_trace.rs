@@ -165,6 +165,25 @@ pub fn gpu_pyramid(
     Ok(pyr)
 }
 
+/// The cone pass of `scene` with its own inputs built stage by stage on the GPU (G-buffer, voxelize at
+/// `scene.render.voxels`, the voxel light's mirror radiance, the mip chain): a case to time or to
+/// vary (e.g. its tile list) without the rest of the frame.
+pub fn scene_case(
+    ctx: &GpuContext,
+    scene: &crate::scene::Scene,
+    cones: &ConeSettings,
+) -> anyhow::Result<Case> {
+    let data = SceneData::new(scene);
+    let gb = super::direct_light::gpu_gbuffer(ctx, &data);
+    let side = scene.render.voxels;
+    let (grid, list, frame) = voxelize_on_gpu(ctx, scene, side)?;
+    let lcase = super::voxel_light::case_for(ctx, &data, &grid, &list, &frame, "scene".into(), 0);
+    let (radiance, _) = super::voxel_light::mirror_radiance(&lcase.resources);
+    let pyramid = gpu_pyramid(ctx, &radiance, &grid.normal, side)?;
+    let params = cone_params(&frame, cones);
+    Ok(case_for(&data, &gb, &pyramid, &params, "scene".into(), 0))
+}
+
 /// The cone pass over a scene whose G-buffer and pyramid are given.
 #[allow(clippy::too_many_arguments)]
 pub fn case_for(

@@ -60,6 +60,21 @@ pub fn empty_list(width: u32, height: u32) -> HostResource {
     ))
 }
 
+/// A cone-pass case (`cone_trace::tracer_case`) dispatched over every tile of its image instead of its
+/// list: what a plain dispatch runs, the rule's "off".
+pub fn every_tile(case: &Case) -> Case {
+    let frame: Frame =
+        *bytemuck::from_bytes(&case.resources["frame"].buffer().expect("frame").bytes);
+    let [w, h, ..] = frame.size;
+    let mut all = case.clone();
+    let surface = vec![[0.0, 0.0, 0.0, 1.0]; (w * h) as usize];
+    all.resources.insert(
+        "tile_list".into(),
+        HostResource::Buffer(HostBuffer::u32(&tile_list(&surface, w, h))),
+    );
+    all
+}
+
 pub fn case_for(normal: &[[f32; 4]], width: u32, height: u32, label: String, seed: u64) -> Case {
     let resources = Resources::from([
         (
