@@ -158,20 +158,7 @@ fn empty_tiles(ctx: &GpuContext, cones: &ConeSettings) {
     let listed = cone_trace::scene_case(ctx, &scene, cones).expect("cone pass");
     let every = vxgi::kernels::screen_tiles::every_tile(&listed);
     let count = |c: &vxgi::harness::Case| c.resources["tile_list"].buffer().unwrap().as_u32()[3];
-    let shader = cone_trace::DECL.shader().unwrap();
-    let image = |case: &vxgi::harness::Case| {
-        let names = ["indirect", "ao"];
-        let out = vxgi::harness::run::run(
-            ctx,
-            &shader,
-            "cone_trace",
-            &case.resources,
-            &case.passes,
-            &names,
-        )
-        .unwrap();
-        names.map(|n| out.buffer(n).bytes.clone())
-    };
+    let image = |case| cone_trace::run_case(ctx, case).unwrap();
     assert_eq!(image(&listed), image(&every), "same image either way");
     let (on, off) = (
         gpu_ms(ctx, &cone_trace::DECL, &listed),

@@ -117,20 +117,7 @@ fn the_cone_pass_skips_empty_tiles_without_changing_the_image() {
         every.resources["tile_list"].buffer().unwrap().as_u32()[3],
         64
     );
-    let shader = cone_trace::DECL.shader().unwrap();
-    let image = |case: &vxgi::harness::Case| {
-        let names = ["indirect", "ao"];
-        let out = run(
-            ctx,
-            &shader,
-            "cone_trace",
-            &case.resources,
-            &case.passes,
-            &names,
-        )
-        .unwrap();
-        names.map(|n| out.buffer(n).bytes.clone())
-    };
+    let image = |case| cone_trace::run_case(ctx, case).unwrap();
     assert_eq!(image(&listed), image(&every));
 }
 

@@ -184,6 +184,20 @@ pub fn scene_case(
     Ok(case_for(&data, &gb, &pyramid, &params, "scene".into(), 0))
 }
 
+/// Run a cone_trace case on the GPU: its `indirect` and `ao` bytes.
+pub fn run_case(ctx: &GpuContext, case: &Case) -> anyhow::Result<[Vec<u8>; 2]> {
+    let names = ["indirect", "ao"];
+    let out = run(
+        ctx,
+        &DECL.shader()?,
+        DECL.name,
+        &case.resources,
+        &case.passes,
+        &names,
+    )?;
+    Ok(names.map(|n| out.buffer(n).bytes.clone()))
+}
+
 /// The cone pass over a scene whose G-buffer and pyramid are given.
 #[allow(clippy::too_many_arguments)]
 pub fn case_for(
