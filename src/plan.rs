@@ -32,14 +32,13 @@ impl FramePlan {
     }
 
     /// The vct-dense frame when `pyramid_cached` says whether the last frame's radiance pyramid was
-    /// built from the same geometry, materials, lights and grid (then only the camera or the cone
-    /// settings changed, and voxelize, voxel_light and the mips are skipped: the pyramid is reused
+    /// built from the same geometry, materials, lights and grid, with the levels these cones read
+    /// (then only the camera or cone settings that read the same levels changed, and voxelize, voxel_light and the mips are skipped: the pyramid is reused
     /// as it is, so the image is the same as with a rebuild).
     pub fn vct_dense_after(scene: &Scene, cones: &ConeSettings, pyramid_cached: bool) -> Self {
         let (w, h) = (scene.camera.width, scene.camera.height);
         let px = format!("{w}x{h} pixels");
         let side = scene.render.voxels;
-        let levels = side.trailing_zeros();
         let glossy = scene.materials.iter().filter(|m| m.is_glossy()).count();
         let lights = scene.lights.len();
         let pass = |stage, kernel, size: String, runs, why: String| PlannedPass {
@@ -96,7 +95,7 @@ impl FramePlan {
             pass(
                 "surface_coverage_mip",
                 "surface_coverage_mip",
-                format!("{levels} levels below {side}^3"),
+                mip_levels(side, crate::kernels::cone_trace::pyramid_levels(scene, cones, side)),
                 !pyramid_cached,
                 if pyramid_cached {
                     CACHED.into()
@@ -347,7 +346,12 @@ impl FramePlan {
         let glossy = scene.materials.iter().filter(|m| m.is_glossy()).count();
         let levels = s.res.trailing_zeros() + 1;
         let mut passes = Vec::new();
-        for p in dense.passes {
+        for mut p in dense.passes {
+            if p.stage == "surface_coverage_mip" {
+                // The caches' cones read the pyramid: every level is built.
+                let side = scene.render.voxels;
+                p.size = mip_levels(side, side.trailing_zeros() + 1);
+            }
             if p.stage != "cone_trace" {
                 passes.push(p);
                 continue;
@@ -451,6 +455,7 @@ impl FramePlan {
                 }
                 "surface_coverage_mip" => {
                     p.runs = true;
+                    p.size = format!("{hierarchies} pyramids, every level");
                     p.why = format!("{hierarchies} pyramids, one per hierarchy");
                 }
                 _ => {}
@@ -506,4 +511,20 @@ pub fn light_views(scene: &Scene) -> usize {
             _ => 6,
         })
         .sum()
+}
+
+/// The pass size of a mip chain of a `side`^3 grid that builds its first `built` levels (level 0
+/// included): the rest are levels no cone reaches (`cone_trace::pyramid_levels`).
+fn mip_levels(side: u32, built: u32) -> String {
+    let full = side.trailing_zeros() + 1;
+    if built >= full {
+        format!("{} levels below {side}^3", full - 1)
+    } else {
+        format!(
+            "{} of {} levels below {side}^3 (levels {built}..={}: no cone reaches them, not built)",
+            built - 1,
+            full - 1,
+            full - 1
+        )
+    }
 }

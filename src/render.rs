@@ -238,29 +238,42 @@ pub fn render(
     VctDense::new(false).render(ctx, scene, cones, progress)
 }
 
-/// What the radiance pyramid depends on; the camera and the cone settings are not part of it.
+/// What the radiance pyramid depends on; the camera and the cone settings are not part of it, except
+/// through `levels`, the levels built (vct-dense builds only the levels its cones can read).
 #[derive(Clone, Debug, PartialEq)]
 struct PyramidKey {
     mesh: crate::scene::Mesh,
     materials: Vec<crate::scene::Material>,
     lights: Vec<crate::scene::Light>,
     voxels: u32,
+    levels: u32,
 }
 
 impl PyramidKey {
+    /// The key of `scene`'s whole pyramid.
     fn of(scene: &Scene) -> Self {
         Self {
             mesh: scene.mesh.clone(),
             materials: scene.materials.clone(),
             lights: scene.lights.clone(),
             voxels: scene.render.voxels,
+            levels: scene.render.voxels.trailing_zeros() + 1,
+        }
+    }
+
+    /// The key of the levels `cones` can read (`cone_trace::pyramid_levels`).
+    fn reading(scene: &Scene, cones: &ConeSettings) -> Self {
+        let levels = cone_trace::pyramid_levels(scene, cones, scene.render.voxels);
+        Self {
+            levels,
+            ..Self::of(scene)
         }
     }
 }
 
 /// The vct-dense pipeline over a sequence of frames. With the planner's reuse rule on, a frame whose
-/// geometry, materials, lights and voxel grid equal the last frame's (only the camera or the cone
-/// settings changed) skips voxelize, voxel_light and the mips and cone-traces the last frame's
+/// geometry, materials, lights and voxel grid equal the last frame's and whose cones read the same
+/// pyramid levels (only the camera or the cone settings changed) skips voxelize, voxel_light and the mips and cone-traces the last frame's
 /// radiance pyramid: the same pyramid a rebuild would make, so the same image, sooner.
 pub struct VctDense {
     pyramid: PyramidCache,
@@ -306,7 +319,7 @@ impl VctDense {
         cones: &ConeSettings,
         progress: impl Fn(&str),
     ) -> Result<Rendered> {
-        let key = PyramidKey::of(scene);
+        let key = PyramidKey::reading(scene, cones);
         let cached = self.pyramid.holds(&key);
         let plan = FramePlan::vct_dense_after(scene, cones, cached);
         if !scene.instances.list.is_empty() && plan.runs("voxel_light") {
@@ -370,16 +383,20 @@ fn render_frame(
     if plan.runs("voxelize") && plan.runs("voxel_light") {
         // The whole pyramid and the cone pass on the GPU in one chain.
         let (frame, built) = chained_frame(
-            ctx, scene, cones, &data, &gb, direct, stages, plan, keep, &progress,
+            ctx, scene, cones, key.levels, &data, &gb, direct, stages, plan, keep, &progress,
         )?;
         *cache = built.map(|(pyramid, vf)| (key, pyramid, vf));
         return Ok(frame);
     }
+    let levels = key.levels;
     let (_, pyramid, frame) =
         radiance_pyramid(ctx, scene, &data, &plan, cache, key, &mut stages, &progress)?;
     progress("cone tracing");
     let t = std::time::Instant::now();
-    let params = cone_trace::cone_params(frame, cones);
+    // The cached pyramid holds at least these levels (its key says so); a pyramid built here holds
+    // all of them. Either way the cones read the same values.
+    let mut params = cone_trace::cone_params(frame, cones);
+    params.levels = levels;
     let case = cone_trace::case_for(&data, &gb, pyramid, &params, "render".into(), 0);
     cone_pass_frame(ctx, &cone_trace::DECL, &case, direct, stages, plan, t)
 }
@@ -388,12 +405,14 @@ type Stages = Vec<(&'static str, f64)>;
 
 /// vct-dense's frame with voxelize, voxel_light, the surface-coverage mips and the cone pass as one
 /// chain on GPU-resident buffers ([`chained_pyramid`]). With `keep` (the reuse rule on) the pyramid is
-/// read back for the next frames.
+/// read back for the next frames. Only the pyramid's first `levels` levels are built (the ones the
+/// cones can read).
 #[allow(clippy::too_many_arguments, clippy::type_complexity)]
 fn chained_frame(
     ctx: &crate::harness::GpuContext,
     scene: &Scene,
     cones: &ConeSettings,
+    levels: u32,
     data: &SceneData,
     gb: &crate::harness::Resources,
     direct: RgbImage,
@@ -406,7 +425,7 @@ fn chained_frame(
         ctx,
         scene,
         data,
-        Some((gb, cones)),
+        Some((gb, cones, levels)),
         keep,
         &mut stages,
         progress,
@@ -435,8 +454,8 @@ impl ChainOut {
 
 /// Voxelize, voxel_light and the surface-coverage mips as one chain on GPU-resident buffers
 /// (`vxgi_harness::prepare_chain`): the voxel grid, its radiance and its mips never travel through the
-/// host; the mip levels are copied into the pyramid buffer on the GPU. With `cone_pass` (a G-buffer and
-/// the cone settings) cone_trace follows in the same chain and its `indirect` and `ao` are read back;
+/// host; the mip levels are copied into the pyramid buffer on the GPU. With `cone_pass` (a G-buffer,
+/// the cone settings and the levels its cones read: the others are not built) cone_trace follows in the same chain and its `indirect` and `ao` are read back;
 /// the pyramid is read back with `keep_pyramid`. The same kernels on the same inputs as the stage-by-
 /// stage path, so the same results. Stage times are wall clock: the upload counts to voxelize, the
 /// readback to the last stage. Needs lights (voxel_light runs).
@@ -445,7 +464,7 @@ fn chained_pyramid(
     ctx: &crate::harness::GpuContext,
     scene: &Scene,
     data: &SceneData,
-    cone_pass: Option<(&crate::harness::Resources, &ConeSettings)>,
+    cone_pass: Option<(&crate::harness::Resources, &ConeSettings, u32)>,
     keep_pyramid: bool,
     stages: &mut Stages,
     progress: &impl Fn(&str),
@@ -483,18 +502,21 @@ fn chained_pyramid(
         bindings: voxel_light::DECL.bind_by_name(),
         workgroups: Workgroups::Direct(grid_for(v, 64, max)),
     }];
-    // The mip chain from voxel_light's radiance and voxelize's normals.
+    // The mip chain from voxel_light's radiance and voxelize's normals, up to the levels the cones
+    // read (all of them without a cone pass: the pyramid is kept for other cones).
+    let levels = cone_pass.map_or(side.trailing_zeros() + 1, |(_, _, l)| l);
     let mip_shader = scm::DECL.shader()?;
     let shell = crate::grids::Grid {
         n: side,
         colour: Vec::new(),
         normal: Vec::new(),
     };
-    let mut mips = scm::chain_case(
+    let mut mips = scm::chain_case_to(
         &mip_shader,
         ctx,
         &shell,
         Coverage::Surface,
+        levels,
         "render".into(),
         0,
     );
@@ -507,8 +529,9 @@ fn chained_pyramid(
     // The cone pass, dispatched over the tiles screen_tiles lists on the GPU from the G-buffer (the
     // case's host-built list replaced by an empty one the chain fills).
     let (tiles, cone) = match cone_pass {
-        Some((gb, cones)) => {
-            let params = cone_trace::cone_params(&vframe, cones);
+        Some((gb, cones, _)) => {
+            let mut params = cone_trace::cone_params(&vframe, cones);
+            params.levels = levels;
             let c = cone_trace::case_for(data, gb, &[], &params, "render".into(), 0);
             resources.extend(c.resources);
             let (w, h) = (data.width(), data.height());
@@ -571,7 +594,6 @@ fn chained_pyramid(
     progress("mip chain");
     t = std::time::Instant::now();
     run_stage(2).context("mip chain")?;
-    let levels = side.trailing_zeros() + 1;
     let names: Vec<String> = (0..levels)
         .map(|l| {
             if l == 0 {

@@ -273,3 +273,74 @@ fn instanced_cones_match_the_mirror() {
     .unwrap();
     assert!(rep.passed(), "{}", rep.failures[0].report());
 }
+
+/// The planner's rule "mip levels no cone reaches are not built": a narrow cone's pass over a pyramid
+/// whose unread levels are zero (and `levels` says so) gives the image the whole pyramid gives, bit
+/// for bit; the plan builds fewer levels for it and every level for the default cones.
+#[test]
+fn mip_levels_no_cone_reaches_are_not_built_and_not_missed() {
+    use vxgi::harness::{HostBuffer, HostResource};
+    use vxgi::kernels::cone_trace::{pyramid_levels, run_case, scene_case};
+    use vxgi_cpu_mirror::cone_trace::level_offset;
+    let mut scene = Scene::cornell_box();
+    scene.camera.width = 48;
+    scene.camera.height = 48;
+    scene.render.voxels = 64;
+    let default = ConeSettings::from(&scene.render);
+    assert_eq!(
+        pyramid_levels(&scene, &default, 64),
+        7,
+        "30-degree cones read every level"
+    );
+    let narrow = ConeSettings {
+        diffuse_half_angle_deg: 1.0,
+        ..default
+    };
+    let levels = pyramid_levels(&scene, &narrow, 64);
+    assert!(levels < 7, "a 1-degree cone reads {levels} of 7 levels");
+    let plan = vxgi::plan::FramePlan::vct_dense(&scene, &narrow);
+    let mips = plan
+        .passes
+        .iter()
+        .find(|p| p.stage == "surface_coverage_mip")
+        .unwrap();
+    assert!(mips.size.contains("not built"), "{}", mips.size);
+    // A glossy material with a wide lobe (n = 0: tan 1) brings every level back.
+    let mut wide = scene.clone();
+    wide.materials[0].specular = [0.5; 3];
+    wide.materials[0].shininess = 0.0;
+    assert_eq!(pyramid_levels(&wide, &narrow, 64), 7);
+
+    let whole = scene_case(gpu(), &scene, &narrow).unwrap();
+    let mut partial = whole.clone();
+    let buf = |c: &vxgi::harness::Case, n: &str| c.resources[n].buffer().unwrap().clone();
+    let mut pyramid: Vec<[f32; 4]> = bytemuck::cast_slice(&buf(&whole, "pyramid").bytes).to_vec();
+    pyramid[level_offset(64, levels)..].fill([f32::NAN; 4]);
+    let mut params: ConeParams = *bytemuck::from_bytes(&buf(&whole, "cone").bytes);
+    assert_eq!(params.levels, 7);
+    params.levels = levels;
+    partial.resources.insert(
+        "pyramid".into(),
+        HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(&pyramid))),
+    );
+    partial.resources.insert(
+        "cone".into(),
+        HostResource::Buffer(HostBuffer::pod(&params)),
+    );
+    // NaN in the unbuilt levels: any read of them would show.
+    assert_eq!(
+        run_case(gpu(), &whole).unwrap(),
+        run_case(gpu(), &partial).unwrap()
+    );
+    // The frame's chain builds only those levels; its image agrees with the mirror frame's, which
+    // builds all of them.
+    let ours = vxgi::render::render(gpu(), &scene, &narrow, |_| {}).unwrap();
+    let mirror = vxgi::render::render_mirror(&scene, &narrow).unwrap();
+    let p = std::path::Path::new("");
+    let c = compare(&mirror.indirect, p, &ours.indirect, p).unwrap();
+    assert!(
+        c.flip_mean < 0.01,
+        "GPU vs mirror indirect FLIP {}",
+        c.flip_mean
+    );
+}

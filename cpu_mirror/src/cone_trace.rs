@@ -69,6 +69,37 @@ pub fn pyramid_len(side: u32) -> usize {
     level_offset(side, side.trailing_zeros() + 1)
 }
 
+/// How many pyramid levels (0, 1, ...) a cone of half-angle tangent `tan` can read, marched with step
+/// factor `sf` through a grid of side `side` (at most `log2(side) + 1`, the whole pyramid). The march
+/// stops past the grid's diagonal, so its last sample has the largest mip level `lf_max`; a sample reads
+/// levels floor(lf) and floor(lf) + 1 (the mip clamp only lowers lf), so levels above floor(lf_max) + 1
+/// are never read and need not be built: with `levels = floor(lf_max) + 2` every sample's blend is the
+/// one the whole pyramid gives (its top-level shortcut is never taken), bit for bit. Evaluated in f64
+/// with margins that cover the f32 march's rounding (one more step allowed at the distance limit, lf
+/// rounded up by 1e-3).
+pub fn levels_read(tan: f32, sf: f32, side: u32) -> u32 {
+    let full = side.trailing_zeros() + 1;
+    let (tan, sf) = (tan as f64, sf as f64);
+    if !(tan > 0.0 && sf > 0.0) {
+        return full;
+    }
+    let grow = 1.0 + 2.0 * sf * tan;
+    let max_dist = side as f64 * 3f64.sqrt() * (1.0 + 1e-4);
+    let (mut diam, mut t) = (0.75f64, 0.375 * sf);
+    let mut lf_max = diam.log2();
+    // Units of one level-0 cell; the diameter grows geometrically, so this ends within a few
+    // thousand steps for any tan >= 1e-4 (and at once when the cone outgrows the grid).
+    while t <= max_dist {
+        lf_max = diam.log2();
+        t += diam * sf;
+        diam *= grow;
+        if diam > 4.0 * side as f64 {
+            return full;
+        }
+    }
+    (((lf_max + 1e-3).floor().max(0.0) as u32) + 2).min(full)
+}
+
 /// What the cones read: pre-multiplied (L * alpha, alpha) at a world point and fractional mip level
 /// (cell s0 * 2^lf; below 0 level 0, past the top the top level), with the error its sample point's
 /// rounding allows. The dense pyramid here; the sparse voxel octree in `svo_cone_trace`.
@@ -491,4 +522,55 @@ pub fn shade_pixel(
         [bound.x, bound.y, bound.z, 0.0],
         ao_bound,
     ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The f32 march's largest level index read (floor(lf) + 1 of its last sample), stepping as
+    /// `march` does.
+    fn f32_highest_read(tan: f32, sf: f32, side: u32) -> u32 {
+        let max_dist = side as f32 * 1.732_050_8;
+        let grow = 1.0 + 2.0 * sf * tan;
+        let dl = grow.log2();
+        let (mut diam, mut lf) = (0.75f32, -0.415_037_5f32);
+        let mut t = diam * (0.5 * sf);
+        let mut top = 0;
+        while t <= max_dist {
+            top = lf.max(0.0).floor() as u32 + 1;
+            t += diam * sf;
+            diam *= grow;
+            lf += dl;
+        }
+        top
+    }
+
+    #[test]
+    fn levels_read_cover_every_level_the_march_reads() {
+        for side in [8u32, 32, 128, 256] {
+            let full = side.trailing_zeros() + 1;
+            for deg in [0.5f32, 1.0, 2.0, 3.5, 5.0, 8.0, 8.5, 12.0, 30.0, 60.0, 85.0] {
+                for sf in [0.25f32, 0.5, 1.0] {
+                    let tan = deg.to_radians().tan();
+                    let n = levels_read(tan, sf, side);
+                    let read = f32_highest_read(tan, sf, side);
+                    assert!(n <= full);
+                    // Every level read is built, and below the whole pyramid the top-level shortcut
+                    // (l0 >= levels - 1) is never taken.
+                    assert!(
+                        read < n || n == full,
+                        "side {side} {deg} deg sf {sf}: reads {read}, {n} built"
+                    );
+                    assert!(
+                        n <= read + 2,
+                        "side {side} {deg} deg sf {sf}: {n} for {read}"
+                    );
+                }
+            }
+        }
+        // README's numbers: at 128^3 a 30-degree cone reads every level, a 2-degree one up to 4.
+        assert_eq!(levels_read(30f32.to_radians().tan(), 0.5, 128), 8);
+        assert_eq!(levels_read(2f32.to_radians().tan(), 0.5, 128), 5);
+    }
 }

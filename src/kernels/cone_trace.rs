@@ -111,6 +111,20 @@ impl From<&crate::scene::RenderSettings> for ConeSettings {
     }
 }
 
+/// The pyramid levels `scene`'s cones can read with settings `s` on a grid of side `side` (the
+/// planner's rule "mip levels no cone reaches are not built"): `levels_read` of the widest cone — the
+/// diffuse cones, or a glossy material's cone where one is wider (tan = clamp(sqrt(2 / (n + 2)), 0.02,
+/// 1), the kernel's rule). Every diffuse cone wider than ~8.5 degrees reads the whole pyramid at 128^3.
+pub fn pyramid_levels(scene: &crate::scene::Scene, s: &ConeSettings, side: u32) -> u32 {
+    let widest = scene
+        .materials
+        .iter()
+        .filter(|m| m.is_glossy())
+        .map(|m| (2.0 / (m.shininess + 2.0)).sqrt().clamp(0.02, 1.0))
+        .fold(s.diffuse_half_angle_deg.to_radians().tan(), f32::max);
+    vxgi_cpu_mirror::cone_trace::levels_read(widest, s.step_factor, side)
+}
+
 pub fn cone_params(frame: &VoxelFrame, s: &ConeSettings) -> ConeParams {
     ConeParams {
         origin: [frame.origin.x, frame.origin.y, frame.origin.z, frame.voxel],

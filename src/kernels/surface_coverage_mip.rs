@@ -59,6 +59,21 @@ pub fn chain_case(
     label: String,
     seed: u64,
 ) -> Case {
+    let levels = levels_below(grid.n) + 1;
+    chain_case_to(shader, ctx, grid, coverage, levels, label, seed)
+}
+
+/// [`chain_case`] for levels `0..levels` only (1 ..= log2(n) + 1): the levels no cone reads are
+/// neither allocated nor built (`cone_trace::pyramid_levels`).
+pub fn chain_case_to(
+    shader: &Shader,
+    ctx: &GpuContext,
+    grid: &Grid,
+    coverage: Coverage,
+    levels: u32,
+    label: String,
+    seed: u64,
+) -> Case {
     let n = grid.n;
     let mut resources = Resources::new();
     resources.insert(
@@ -77,7 +92,7 @@ pub fn chain_case(
     );
     let mut checks = Vec::new();
     let mut effective = 0;
-    let parents: Vec<u64> = (1..=levels_below(n))
+    let parents: Vec<u64> = (1..levels.clamp(1, levels_below(n) + 1))
         .map(|k| ((n >> k) as u64).pow(3))
         .collect();
     for (k, &count) in (1u32..).zip(&parents) {
