@@ -1,6 +1,7 @@
 //! vxgi: WGSL compute kernels for voxel-based global illumination, each verified against a scalar Rust
 //! mirror on generated inputs. See README.md for the layout and how to add a kernel.
 pub mod bench;
+pub mod bisect;
 pub mod coverage;
 pub mod cprc;
 pub mod gbuffers;

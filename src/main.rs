@@ -114,6 +114,22 @@ enum Command {
         #[command(flatten)]
         render: RenderFlags,
     },
+    /// The bisection switch (vct-dense): render the frame with its first stages on the scalar mirrors
+    /// and the rest on the GPU, at every split, and print how far each is from the all-mirror frame
+    /// (the first split that departs names the kernel to look at). With --mirror-until, render that
+    /// one split into --out instead.
+    Bisect {
+        /// A TOML scene file (default: the built-in Cornell box).
+        scene: Option<PathBuf>,
+        /// Run the mirrors up to and including this stage (gbuffer, direct_light, voxelize,
+        /// voxel_light, surface_coverage_mip, cone_trace), the GPU after it; write the frame to --out.
+        #[arg(long)]
+        mirror_until: Option<String>,
+        #[arg(long, default_value = "bisect")]
+        out: PathBuf,
+        #[command(flatten)]
+        render: RenderFlags,
+    },
     /// Compare a test image against a reference: relative MSE and mean LDR-FLIP, optional heat map.
     Compare {
         reference: PathBuf,
@@ -574,6 +590,12 @@ fn real_main() -> Result<()> {
             heatmap,
         } => run_compare(reference, test, heatmap),
         Command::Report { scenes, spp, out } => run_report(scenes, spp, out),
+        Command::Bisect {
+            scene,
+            mirror_until,
+            out,
+            render,
+        } => run_bisect(scene, mirror_until, out, render),
         Command::Bench {
             scene,
             quick,
@@ -583,6 +605,46 @@ fn real_main() -> Result<()> {
             render,
         } => run_bench(scene, pipeline, quick, spp, out, render),
     }
+}
+
+fn run_bisect(
+    scene: Option<PathBuf>,
+    mirror_until: Option<String>,
+    out: PathBuf,
+    flags: RenderFlags,
+) -> Result<()> {
+    let scene = load_scene(&scene, &flags)?;
+    check_bounces(Pipeline::VctDense, &scene)?;
+    let cones = ConeSettings::from(&scene.render);
+    // Resolve the stage before starting the GPU, so a typo fails at once.
+    let split = mirror_until
+        .as_deref()
+        .map(vxgi::bisect::split_after)
+        .transpose()?;
+    let ctx = GpuContext::new().context("creating the GPU context")?;
+    eprintln!("adapter: {}", ctx.describe());
+    let bar = spinner();
+    let message = |stage: &str| bar.set_message(stage.to_string());
+    match split {
+        Some(split) => {
+            let r = vxgi::bisect::render_split(&ctx, &scene, &cones, split, message)?;
+            bar.finish_and_clear();
+            create_out(&out)?;
+            write_frame(&out, [&r.direct, &r.indirect, &r.combined, &r.ao])?;
+            print!("{}", r.plan);
+            println!(
+                "wrote direct, indirect, combined, ao (.exr + .png) to {}",
+                out.display()
+            );
+        }
+        None => {
+            let rows = vxgi::bisect::bisect(&ctx, &scene, &cones, message)?;
+            bar.finish_and_clear();
+            println!("vct-dense, each split against the all-mirror frame:");
+            print!("{}", vxgi::bisect::table(&rows));
+        }
+    }
+    Ok(())
 }
 
 fn run_scene(path: Option<std::path::PathBuf>) -> Result<()> {

@@ -1715,21 +1715,29 @@ struct MirrorFrame {
     frame: voxelize::VoxelFrame,
 }
 
+/// The G-buffer by the mirror (each pixel's own primary hit, no GPU pick to accept) and its albedo.
+pub fn mirror_texels(data: &SceneData) -> (Vec<vxgi_cpu_mirror::gbuffer::Texel>, Vec<[f32; 4]>) {
+    use rayon::prelude::*;
+    use vxgi_cpu_mirror::gbuffer as gbm;
+    let w = data.width();
+    let texels: Vec<gbm::Texel> = (0..w * data.height())
+        .into_par_iter()
+        .map(|i| gbm::shade_pixel(&data.frame, &data.nodes, &data.triangles, i % w, i / w))
+        .collect();
+    let tex = data.textures();
+    let albedo = texels
+        .iter()
+        .map(|t| gbm::albedo(&data.materials, &data.triangles, &tex, t))
+        .collect();
+    (texels, albedo)
+}
+
 impl MirrorFrame {
     fn new(scene: &Scene) -> Result<Self> {
         use rayon::prelude::*;
-        use vxgi_cpu_mirror::{direct_light as dl, gbuffer as gbm, voxel_light as vl};
+        use vxgi_cpu_mirror::{direct_light as dl, voxel_light as vl};
         let data = SceneData::new(scene);
-        let w = data.width();
-        let texels: Vec<gbm::Texel> = (0..w * data.height())
-            .into_par_iter()
-            .map(|i| gbm::shade_pixel(&data.frame, &data.nodes, &data.triangles, i % w, i / w))
-            .collect();
-        let tex = data.textures();
-        let albedo: Vec<[f32; 4]> = texels
-            .iter()
-            .map(|t| gbm::albedo(&data.materials, &data.triangles, &tex, t))
-            .collect();
+        let (texels, albedo) = mirror_texels(&data);
         let direct: Vec<[f32; 3]> = texels
             .par_iter()
             .zip(&albedo)

@@ -99,3 +99,32 @@ fn two_bounces_are_refused_where_a_pipeline_renders_one_and_planned_by_vct_svo()
     assert_ne!(code, 0);
     assert!(err.contains("bounces = 3 must be 1 or 2"), "{err}");
 }
+
+#[test]
+fn bisect_names_its_stages_and_refuses_an_unknown_one() {
+    let (code, out, err) = vxgi(&["bisect", "--mirror-until", "voxelise"]);
+    assert_ne!(code, 0, "{out}");
+    assert!(
+        err.contains("no vct-dense stage `voxelise`") && err.contains("surface_coverage_mip"),
+        "{err}"
+    );
+    let dir = std::env::temp_dir().join(format!("vxgi_bisect_{}", std::process::id()));
+    let dir_s = dir.to_str().unwrap();
+    let (code, out, err) = vxgi(&[
+        "bisect",
+        "--mirror-until",
+        "voxel_light",
+        "--voxels",
+        "16",
+        "--out",
+        dir_s,
+    ]);
+    assert_eq!(code, 0, "stdout:\n{out}\nstderr:\n{err}");
+    assert!(
+        out.contains("mirror: direct light into the voxels"),
+        "{out}"
+    );
+    assert!(out.contains("GPU: cones read coarser levels"), "{out}");
+    assert!(dir.join("combined.exr").exists());
+    std::fs::remove_dir_all(&dir).ok();
+}

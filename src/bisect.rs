@@ -1,0 +1,278 @@
+//! The bisection switch (DESIGN.md section 3, after Vello's CPU/GPU stage switch): a vct-dense frame
+//! whose first stages run on the scalar mirrors and the rest on the GPU, each GPU stage fed what the
+//! mirrors produced. `vxgi bisect` renders the frame at every split and compares each with the
+//! all-mirror frame: the first split whose image departs names the kernel to look at, on the real
+//! scene rather than on generated cases.
+use crate::harness::{GpuContext, HostBuffer, HostResource, Resources, ScalarKind};
+use crate::images::RgbImage;
+use crate::kernels::cone_trace::{self, ConeSettings};
+use crate::kernels::{direct_light, voxel_light, voxelize};
+use crate::plan::FramePlan;
+use crate::render::Rendered;
+use crate::scene::Scene;
+use crate::trace::SceneData;
+use anyhow::{Context, Result};
+
+/// vct-dense's stages in frame order; `render_split(.., k)` runs `STAGES[..k]` on the mirrors.
+pub const STAGES: [&str; 6] = [
+    "gbuffer",
+    "direct_light",
+    "voxelize",
+    "voxel_light",
+    "surface_coverage_mip",
+    "cone_trace",
+];
+
+/// The split that runs the mirrors up to and including `stage`, or an error naming the stages.
+pub fn split_after(stage: &str) -> Result<usize> {
+    STAGES
+        .iter()
+        .position(|s| *s == stage)
+        .map(|k| k + 1)
+        .with_context(|| {
+            format!(
+                "no vct-dense stage `{stage}`; stages: {}",
+                STAGES.join(", ")
+            )
+        })
+}
+
+/// The vct-dense frame with stages `STAGES[..split]` on the mirrors and the rest on the GPU (split 0:
+/// all GPU, stage by stage; 6: all mirror). Stage times in `stages` say which side ran each
+/// (`mirror:` prefix in `plan`'s reasons). The whole pyramid is built (no reuse, no chain), so
+/// every split computes the same quantities.
+pub fn render_split(
+    ctx: &GpuContext,
+    scene: &Scene,
+    cones: &ConeSettings,
+    split: usize,
+    progress: impl Fn(&str),
+) -> Result<Rendered> {
+    anyhow::ensure!(
+        split <= STAGES.len(),
+        "split {split} past the {} stages",
+        STAGES.len()
+    );
+    let on_mirror = |stage: &str| STAGES[..split].contains(&stage);
+    let data = SceneData::new(scene);
+    let (w, h) = (data.width(), data.height());
+    let mut stages = Vec::new();
+    let mut timed = |name: &'static str, t: std::time::Instant| {
+        stages.push((name, t.elapsed().as_secs_f64()));
+    };
+    let f4 = |v: &[[f32; 4]]| HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(v)));
+
+    progress("gbuffer");
+    let t = std::time::Instant::now();
+    let gb: Resources = if on_mirror("gbuffer") {
+        let (texels, albedo) = crate::render::mirror_texels(&data);
+        let field = |f: fn(&vxgi_cpu_mirror::gbuffer::Texel) -> [f32; 4]| {
+            f4(&texels.iter().map(f).collect::<Vec<_>>())
+        };
+        let triangles: Vec<u32> = texels.iter().map(|t| t.triangle).collect();
+        Resources::from([
+            ("gb_position".to_string(), field(|t| t.position)),
+            ("gb_normal".to_string(), field(|t| t.normal)),
+            (
+                "gb_triangle".to_string(),
+                HostResource::Buffer(HostBuffer::u32(&triangles)),
+            ),
+            ("gb_albedo".to_string(), f4(&albedo)),
+        ])
+    } else {
+        direct_light::gpu_gbuffer(ctx, &data)
+    };
+    timed("gbuffer", t);
+
+    progress("direct_light");
+    let t = std::time::Instant::now();
+    let dcase = direct_light::case_with_gbuffer(ctx, &data, &gb, "bisect".into(), 0);
+    let direct: Vec<[f32; 4]> = if on_mirror("direct_light") {
+        direct_light::mirror_direct(&dcase.resources).0
+    } else {
+        run_one(ctx, &direct_light::DECL, &dcase, "radiance")?
+    };
+    timed("direct_light", t);
+
+    progress("voxelize");
+    let t = std::time::Instant::now();
+    let side = scene.render.voxels;
+    let (grid, list, frame) = if on_mirror("voxelize") {
+        let (input, frame) = voxelize::prepare(scene, side)?;
+        let (colour, normal, list) = vxgi_cpu_mirror::voxelize::voxelize(&input, side);
+        let grid = crate::grids::Grid {
+            n: side,
+            colour,
+            normal,
+        };
+        (grid, list, frame)
+    } else {
+        voxelize::voxelize_on_gpu(ctx, scene, side)?
+    };
+    timed("voxelize", t);
+
+    progress("voxel_light");
+    let t = std::time::Instant::now();
+    let lcase = voxel_light::case_for(ctx, &data, &grid, &list, &frame, "bisect".into(), 0);
+    let radiance = if on_mirror("voxel_light") {
+        voxel_light::mirror_radiance(&lcase.resources).0
+    } else {
+        run_one(ctx, &voxel_light::DECL, &lcase, "vox_radiance")?
+    };
+    timed("voxel_light", t);
+
+    progress("surface_coverage_mip");
+    let t = std::time::Instant::now();
+    let pyramid = if on_mirror("surface_coverage_mip") {
+        mirror_pyramid(&radiance, &grid.normal)
+    } else {
+        cone_trace::gpu_pyramid(ctx, &radiance, &grid.normal, side)?
+    };
+    timed("surface_coverage_mip", t);
+
+    progress("cone_trace");
+    let t = std::time::Instant::now();
+    let params = cone_trace::cone_params(&frame, cones);
+    let ccase = cone_trace::case_for(&data, &gb, &pyramid, &params, "bisect".into(), 0);
+    let [indirect, ao] = if on_mirror("cone_trace") {
+        let [ind, ao, ..] = cone_trace::mirror_cones(&ccase.resources);
+        [ind, ao]
+    } else {
+        cone_trace::run_case(ctx, &ccase)?.map(|b| bytemuck::cast_slice(&b).to_vec())
+    };
+    timed("cone_trace", t);
+
+    let rgb = |v: &[[f32; 4]]| RgbImage::new(w, h, v.iter().map(|p| [p[0], p[1], p[2]]).collect());
+    let mut plan = FramePlan::vct_dense(scene, cones);
+    for p in &mut plan.passes {
+        let side = if on_mirror(p.stage) { "mirror" } else { "GPU" };
+        p.why = format!("{side}: {}", p.why);
+    }
+    Ok(Rendered::assemble(
+        rgb(&direct),
+        rgb(&indirect),
+        rgb(&ao),
+        stages,
+        plan,
+    ))
+}
+
+/// One output of a one-kernel case run on the GPU, as vec4s.
+fn run_one(
+    ctx: &GpuContext,
+    decl: &crate::harness::KernelDecl,
+    case: &crate::harness::Case,
+    output: &str,
+) -> Result<Vec<[f32; 4]>> {
+    let out = crate::harness::run::run(
+        ctx,
+        &decl.shader()?,
+        decl.name,
+        &case.resources,
+        &case.passes,
+        &[output],
+    )
+    .with_context(|| decl.name.to_string())?;
+    let buf = out.buffer(output);
+    anyhow::ensure!(buf.scalar == ScalarKind::F32, "{output} is not f32");
+    Ok(bytemuck::cast_slice(&buf.bytes).to_vec())
+}
+
+/// The surface-coverage pyramid (levels concatenated) of lit voxels and their normals, by the mirror.
+pub fn mirror_pyramid(radiance: &[[f32; 4]], normal: &[[f32; 4]]) -> Vec<[f32; 4]> {
+    use vxgi_cpu_mirror::surface_coverage_mip::{reduce_level, Coverage};
+    let mut pyramid = radiance.to_vec();
+    let (mut level, mut nrm) = (radiance.to_vec(), normal.to_vec());
+    while level.len() > 1 {
+        let (c, n) = reduce_level(&level, &nrm, Coverage::Surface, false);
+        pyramid.extend_from_slice(&c);
+        (level, nrm) = (c, n);
+    }
+    pyramid
+}
+
+/// One row of `vxgi bisect`: the split and how far its images are from the all-mirror frame.
+#[derive(Clone, Debug)]
+pub struct SplitRow {
+    /// Stages on the mirrors (`STAGES[..split]`).
+    pub split: usize,
+    /// (image, mean FLIP vs the all-mirror image, largest absolute channel difference, pixels whose
+    /// largest channel difference is above 1e-3 of the image's largest value).
+    pub images: Vec<(&'static str, f32, f32, usize)>,
+}
+
+/// Render every split (all GPU .. all mirror) and compare each with the all-mirror frame.
+pub fn bisect(
+    ctx: &GpuContext,
+    scene: &Scene,
+    cones: &ConeSettings,
+    progress: impl Fn(&str),
+) -> Result<Vec<SplitRow>> {
+    let mirror = render_split(ctx, scene, cones, STAGES.len(), &progress)?;
+    let p = std::path::Path::new("");
+    let mut rows = Vec::new();
+    for split in 0..STAGES.len() {
+        let r = render_split(ctx, scene, cones, split, &progress)?;
+        let mut images = Vec::new();
+        for (name, a, b) in [
+            ("direct", &mirror.direct, &r.direct),
+            ("indirect", &mirror.indirect, &r.indirect),
+            ("ao", &mirror.ao, &r.ao),
+        ] {
+            let c = crate::images::compare(a, p, b, p)?;
+            let diff: Vec<f32> = a
+                .pixels
+                .iter()
+                .zip(&b.pixels)
+                .map(|(x, y)| (0..3).map(|k| (x[k] - y[k]).abs()).fold(0.0f32, f32::max))
+                .collect();
+            let top = a
+                .pixels
+                .iter()
+                .flatten()
+                .fold(0.0f32, |m, v| m.max(v.abs()));
+            let off = diff.iter().filter(|&&d| d > 1e-3 * top).count();
+            images.push((
+                name,
+                c.flip_mean,
+                diff.iter().fold(0.0f32, |m, &d| m.max(d)),
+                off,
+            ));
+        }
+        rows.push(SplitRow { split, images });
+    }
+    Ok(rows)
+}
+
+/// `vxgi bisect`'s table.
+pub fn table(rows: &[SplitRow]) -> String {
+    let mut s = String::from(
+        "| mirror up to | GPU from | direct: FLIP, max diff, pixels off | indirect | ao |\n|---|---|---|---|---|\n",
+    );
+    for r in rows {
+        let (m, g) = (
+            r.split.checked_sub(1).map_or("-", |k| STAGES[k]),
+            STAGES.get(r.split).copied().unwrap_or("-"),
+        );
+        let cells: Vec<String> = r
+            .images
+            .iter()
+            .map(|(_, f, d, n)| format!("{f:.5}, {d:.2e}, {n}"))
+            .collect();
+        s += &format!("| {m} | {g} | {} |\n", cells.join(" | "));
+    }
+    // The bisection's answer: the latest GPU stage whose split still departs from the mirrors. A
+    // split runs the GPU from its stage on, so the departure starts at the first GPU stage of the
+    // last departing row whose successor agrees.
+    let departs = |r: &SplitRow| r.images.iter().any(|i| i.3 > 0);
+    match rows.iter().rposition(departs) {
+        Some(k) => {
+            s += &format!(
+                "first stage whose GPU result departs from its mirror (pixels off by > 1e-3 of the image's largest value): {}\n",
+                STAGES[rows[k].split]
+            )
+        }
+        None => s += "every split agrees with the all-mirror frame to 1e-3 of each image's largest value\n",
+    }
+    s
+}

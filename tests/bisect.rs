@@ -1,0 +1,69 @@
+//! The bisection switch (`vxgi::bisect`, DESIGN.md section 3): vct-dense with its first stages on the
+//! mirrors and the rest on the GPU. Every split renders; the all-mirror split is the mirror frame;
+//! splits that run the G-buffer on the mirror agree with it to 1e-3 everywhere (the later kernels are
+//! exact or within ULPs), and the all-GPU split departs only where the G-buffer's triangle pick is
+//! decided by rounding (which `vxgi verify` accepts).
+mod common;
+
+use common::gpu;
+use vxgi::bisect::{bisect, render_split, split_after, table, STAGES};
+use vxgi::kernels::cone_trace::ConeSettings;
+use vxgi::scene::Scene;
+
+fn small_box() -> Scene {
+    let mut scene = Scene::cornell_box();
+    scene.camera.width = 48;
+    scene.camera.height = 48;
+    scene.render.voxels = 32;
+    scene
+}
+
+#[test]
+fn every_split_renders_and_only_the_gpu_gbuffer_departs() {
+    let scene = small_box();
+    let cones = ConeSettings::from(&scene.render);
+    let rows = bisect(gpu(), &scene, &cones, |_| {}).unwrap();
+    println!("{}", table(&rows));
+    assert_eq!(rows.len(), STAGES.len());
+    for r in &rows[1..] {
+        for &(name, flip, _, off) in &r.images {
+            assert!(
+                off == 0 && flip < 1e-3,
+                "split {}: {name} FLIP {flip}, {off} pixels off",
+                r.split
+            );
+        }
+    }
+    // All on the GPU: the snapshot tests' agreement bound.
+    for &(name, flip, _, off) in &rows[0].images {
+        assert!(
+            flip < 0.02 && off * 50 <= 48 * 48,
+            "{name}: FLIP {flip}, {off} pixels off"
+        );
+    }
+}
+
+#[test]
+fn the_all_mirror_split_is_the_mirror_frame() {
+    let scene = small_box();
+    let cones = ConeSettings::from(&scene.render);
+    let split = render_split(gpu(), &scene, &cones, STAGES.len(), |_| {}).unwrap();
+    let mirror = vxgi::render::render_mirror(&scene, &cones).unwrap();
+    assert_eq!(split.direct.pixels, mirror.direct.pixels);
+    assert_eq!(split.indirect.pixels, mirror.indirect.pixels);
+    assert_eq!(split.ao.pixels, mirror.ao.pixels);
+    assert!(split
+        .plan
+        .passes
+        .iter()
+        .all(|p| p.why.starts_with("mirror:")));
+}
+
+#[test]
+fn stages_are_named_and_a_typo_is_an_error() {
+    assert_eq!(split_after("gbuffer").unwrap(), 1);
+    assert_eq!(split_after("cone_trace").unwrap(), STAGES.len());
+    let e = split_after("voxelise").unwrap_err().to_string();
+    assert!(e.contains("voxelize") && e.contains("voxelise"), "{e}");
+    assert!(render_split(gpu(), &small_box(), &ConeSettings::default(), 7, |_| {}).is_err());
+}
