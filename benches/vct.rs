@@ -158,7 +158,7 @@ fn empty_tiles(ctx: &GpuContext, cones: &ConeSettings) {
     let listed = cone_trace::scene_case(ctx, &scene, cones).expect("cone pass");
     let every = vxgi::kernels::screen_tiles::every_tile(&listed);
     let count = |c: &vxgi::harness::Case| c.resources["tile_list"].buffer().unwrap().as_u32()[3];
-    let image = |case| cone_trace::run_case(ctx, case).unwrap();
+    let image = |case| cone_trace::run_case(ctx, &cone_trace::DECL, case).unwrap();
     assert_eq!(image(&listed), image(&every), "same image either way");
     let (on, off) = (
         gpu_ms(ctx, &cone_trace::DECL, &listed),

@@ -1,19 +1,20 @@
-//! The bisection switch (DESIGN.md section 3, after Vello's CPU/GPU stage switch): a vct-dense frame
-//! whose first stages run on the scalar mirrors and the rest on the GPU, each GPU stage fed what the
-//! mirrors produced. `vxgi bisect` renders the frame at every split and compares each with the
+//! The bisection switch (DESIGN.md section 3, after Vello's CPU/GPU stage switch): a vct-dense or
+//! vct-svo frame whose first stages run on the scalar mirrors and the rest on the GPU, each GPU stage
+//! fed what the mirrors produced. `vxgi bisect` renders the frame at every split and compares each with the
 //! all-mirror frame: the first split whose image departs names the kernel to look at, on the real
 //! scene rather than on generated cases.
 use crate::harness::{GpuContext, HostBuffer, HostResource, Resources, ScalarKind};
 use crate::images::RgbImage;
 use crate::kernels::cone_trace::{self, ConeSettings};
 use crate::kernels::{direct_light, voxel_light, voxelize};
+use crate::kernels::{sparse_voxel_octree as svo, svo_anisotropic, svo_cone_trace, svo_photons};
 use crate::plan::FramePlan;
-use crate::render::Rendered;
+use crate::render::{Pipeline, Rendered};
 use crate::scene::Scene;
 use crate::trace::SceneData;
 use anyhow::{Context, Result};
 
-/// vct-dense's stages in frame order; `render_split(.., k)` runs `STAGES[..k]` on the mirrors.
+/// vct-dense's stages in frame order.
 pub const STAGES: [&str; 6] = [
     "gbuffer",
     "direct_light",
@@ -23,37 +24,73 @@ pub const STAGES: [&str; 6] = [
     "cone_trace",
 ];
 
+/// The stages of `pipeline`'s frame for `scene`, in order: `render_split(.., k)` runs the first `k` on
+/// the mirrors. vct-svo's follow its plan: photons or voxel_light, directional values or not (one
+/// bounce only).
+pub fn stages(
+    pipeline: Pipeline,
+    scene: &Scene,
+    cones: &ConeSettings,
+) -> Result<Vec<&'static str>> {
+    match pipeline {
+        Pipeline::VctDense => Ok(STAGES.to_vec()),
+        Pipeline::VctSvo => {
+            anyhow::ensure!(
+                scene.render.bounces == 1,
+                "bisect follows one bounce (bounces = {})",
+                scene.render.bounces
+            );
+            let plan = FramePlan::vct_svo(scene, cones);
+            let mut v = vec!["gbuffer", "direct_light", "voxelize"];
+            v.push(if plan.runs("svo_photons") {
+                "svo_photons"
+            } else {
+                "voxel_light"
+            });
+            v.push("sparse_voxel_octree");
+            if plan.runs("svo_anisotropic") {
+                v.push("svo_anisotropic");
+            }
+            v.push("svo_cone_trace");
+            Ok(v)
+        }
+        other => anyhow::bail!("bisect covers vct-dense and vct-svo, not {}", other.name()),
+    }
+}
+
 /// The split that runs the mirrors up to and including `stage`, or an error naming the stages.
-pub fn split_after(stage: &str) -> Result<usize> {
-    STAGES
+pub fn split_after(stages: &[&str], stage: &str) -> Result<usize> {
+    stages
         .iter()
         .position(|s| *s == stage)
         .map(|k| k + 1)
         .with_context(|| {
             format!(
-                "no vct-dense stage `{stage}`; stages: {}",
-                STAGES.join(", ")
+                "no stage `{stage}` in this frame; stages: {}",
+                stages.join(", ")
             )
         })
 }
 
-/// The vct-dense frame with stages `STAGES[..split]` on the mirrors and the rest on the GPU (split 0:
-/// all GPU, stage by stage; 6: all mirror). Stage times in `stages` say which side ran each
-/// (`mirror:` prefix in `plan`'s reasons). The whole pyramid is built (no reuse, no chain), so
-/// every split computes the same quantities.
+/// `pipeline`'s frame with its first `split` [`stages`] on the mirrors and the rest on the GPU
+/// (0: all GPU, stage by stage; all: all mirror). `plan`'s reasons say which side ran each stage
+/// (`mirror:` / `GPU:`). No reuse, no chain, every level built: every split computes the same
+/// quantities.
 pub fn render_split(
     ctx: &GpuContext,
     scene: &Scene,
     cones: &ConeSettings,
+    pipeline: Pipeline,
     split: usize,
     progress: impl Fn(&str),
 ) -> Result<Rendered> {
+    let order = stages(pipeline, scene, cones)?;
     anyhow::ensure!(
-        split <= STAGES.len(),
+        split <= order.len(),
         "split {split} past the {} stages",
-        STAGES.len()
+        order.len()
     );
-    let on_mirror = |stage: &str| STAGES[..split].contains(&stage);
+    let on_mirror = |stage: &str| order[..split].contains(&stage);
     let data = SceneData::new(scene);
     let (w, h) = (data.width(), data.height());
     let mut stages = Vec::new();
@@ -111,39 +148,46 @@ pub fn render_split(
     };
     timed("voxelize", t);
 
-    progress("voxel_light");
-    let t = std::time::Instant::now();
-    let lcase = voxel_light::case_for(ctx, &data, &grid, &list, &frame, "bisect".into(), 0);
-    let radiance = if on_mirror("voxel_light") {
-        voxel_light::mirror_radiance(&lcase.resources).0
-    } else {
-        run_one(ctx, &voxel_light::DECL, &lcase, "vox_radiance")?
-    };
-    timed("voxel_light", t);
+    let [indirect, ao] = match pipeline {
+        Pipeline::VctSvo => svo_tail(
+            ctx, scene, cones, &data, &gb, &grid, &list, &frame, &on_mirror, &mut timed, &progress,
+        )?,
+        _ => {
+            progress("voxel_light");
+            let t = std::time::Instant::now();
+            let radiance = lit(ctx, &data, &grid, &list, &frame, on_mirror("voxel_light"))?;
+            timed("voxel_light", t);
 
-    progress("surface_coverage_mip");
-    let t = std::time::Instant::now();
-    let pyramid = if on_mirror("surface_coverage_mip") {
-        mirror_pyramid(&radiance, &grid.normal)
-    } else {
-        cone_trace::gpu_pyramid(ctx, &radiance, &grid.normal, side)?
-    };
-    timed("surface_coverage_mip", t);
+            progress("surface_coverage_mip");
+            let t = std::time::Instant::now();
+            let pyramid = if on_mirror("surface_coverage_mip") {
+                mirror_pyramid(&radiance, &grid.normal)
+            } else {
+                cone_trace::gpu_pyramid(ctx, &radiance, &grid.normal, side)?
+            };
+            timed("surface_coverage_mip", t);
 
-    progress("cone_trace");
-    let t = std::time::Instant::now();
-    let params = cone_trace::cone_params(&frame, cones);
-    let ccase = cone_trace::case_for(&data, &gb, &pyramid, &params, "bisect".into(), 0);
-    let [indirect, ao] = if on_mirror("cone_trace") {
-        let [ind, ao, ..] = cone_trace::mirror_cones(&ccase.resources);
-        [ind, ao]
-    } else {
-        cone_trace::run_case(ctx, &ccase)?.map(|b| bytemuck::cast_slice(&b).to_vec())
+            progress("cone_trace");
+            let t = std::time::Instant::now();
+            let params = cone_trace::cone_params(&frame, cones);
+            let ccase = cone_trace::case_for(&data, &gb, &pyramid, &params, "bisect".into(), 0);
+            let out = cones_of(
+                ctx,
+                &cone_trace::DECL,
+                &ccase,
+                on_mirror("cone_trace"),
+                || cone_trace::mirror_cones(&ccase.resources),
+            )?;
+            timed("cone_trace", t);
+            out
+        }
     };
-    timed("cone_trace", t);
 
     let rgb = |v: &[[f32; 4]]| RgbImage::new(w, h, v.iter().map(|p| [p[0], p[1], p[2]]).collect());
-    let mut plan = FramePlan::vct_dense(scene, cones);
+    let mut plan = match pipeline {
+        Pipeline::VctSvo => FramePlan::vct_svo(scene, cones),
+        _ => FramePlan::vct_dense(scene, cones),
+    };
     for p in &mut plan.passes {
         let side = if on_mirror(p.stage) { "mirror" } else { "GPU" };
         p.why = format!("{side}: {}", p.why);
@@ -155,6 +199,134 @@ pub fn render_split(
         stages,
         plan,
     ))
+}
+
+/// The lit voxel grid `(L * alpha, alpha)`: voxel_light on the mirror or the GPU.
+fn lit(
+    ctx: &GpuContext,
+    data: &SceneData,
+    grid: &crate::grids::Grid,
+    list: &[u32],
+    frame: &voxelize::VoxelFrame,
+    mirror: bool,
+) -> Result<Vec<[f32; 4]>> {
+    let case = voxel_light::case_for(ctx, data, grid, list, frame, "bisect".into(), 0);
+    if mirror {
+        Ok(voxel_light::mirror_radiance(&case.resources).0)
+    } else {
+        run_one(ctx, &voxel_light::DECL, &case, "vox_radiance")
+    }
+}
+
+/// A cone pass's (indirect, ao): its mirror, or `decl` on the GPU.
+fn cones_of(
+    ctx: &GpuContext,
+    decl: &crate::harness::KernelDecl,
+    case: &crate::harness::Case,
+    mirror: bool,
+    on_mirror: impl FnOnce() -> [Vec<[f32; 4]>; 4],
+) -> Result<[Vec<[f32; 4]>; 2]> {
+    if mirror {
+        let [ind, ao, ..] = on_mirror();
+        Ok([ind, ao])
+    } else {
+        Ok(cone_trace::run_case(ctx, decl, case)?.map(|b| bytemuck::cast_slice(&b).to_vec()))
+    }
+}
+
+/// vct-svo after voxelize: light (photons or voxel_light), the octree, its directional values, the
+/// cone pass, each on the side `on_mirror` says.
+#[allow(clippy::too_many_arguments)]
+fn svo_tail(
+    ctx: &GpuContext,
+    scene: &Scene,
+    cones: &ConeSettings,
+    data: &SceneData,
+    gb: &Resources,
+    grid: &crate::grids::Grid,
+    list: &[u32],
+    frame: &voxelize::VoxelFrame,
+    on_mirror: &impl Fn(&str) -> bool,
+    timed: &mut impl FnMut(&'static str, std::time::Instant),
+    progress: &impl Fn(&str),
+) -> Result<[Vec<[f32; 4]>; 2]> {
+    use svo_cone_trace::{grid_fragments, svo_cone_params, SCALE};
+    let plan = FramePlan::vct_svo(scene, cones);
+    let frags = if plan.runs("svo_photons") {
+        progress("svo_photons");
+        let t = std::time::Instant::now();
+        // The voxels' coverage; the light comes from the photons.
+        let coverage: Vec<[f32; 4]> = grid.colour.iter().map(|c| [0.0, 0.0, 0.0, c[3]]).collect();
+        let mut frags = grid_fragments(&coverage, SCALE)?;
+        let map = scene.render.photon_map;
+        frags.extend(if on_mirror("svo_photons") {
+            svo_photons::mirror_photon_fragments(data, frame, map, SCALE)?
+        } else {
+            svo_photons::photon_fragments(ctx, data, frame, map, SCALE)?.0
+        });
+        timed("svo_photons", t);
+        frags
+    } else {
+        progress("voxel_light");
+        let t = std::time::Instant::now();
+        let radiance = lit(ctx, data, grid, list, frame, on_mirror("voxel_light"))?;
+        timed("voxel_light", t);
+        grid_fragments(&radiance, SCALE)?
+    };
+
+    progress("sparse_voxel_octree");
+    let t = std::time::Instant::now();
+    let depth = frame.side.trailing_zeros() - 1;
+    let octree = if on_mirror("sparse_voxel_octree") {
+        let capacity = vxgi_cpu_mirror::sparse_voxel_octree::capacity_bound(depth, frags.len());
+        vxgi_cpu_mirror::sparse_voxel_octree::build(depth, capacity as u32, &frags)
+    } else {
+        svo::build_on_gpu(ctx, depth, &frags, None)?.octree
+    };
+    timed("sparse_voxel_octree", t);
+
+    let aniso = if plan.runs("svo_anisotropic") {
+        progress("svo_anisotropic");
+        let t = std::time::Instant::now();
+        let a = if on_mirror("svo_anisotropic") {
+            vxgi_cpu_mirror::svo_anisotropic::build(
+                &octree.nodes,
+                &octree.bricks,
+                depth,
+                &octree.levels,
+                1.0 / SCALE,
+            )
+        } else {
+            svo_anisotropic::build_on_gpu(ctx, &octree, 1.0 / SCALE)?
+        };
+        timed("svo_anisotropic", t);
+        Some(a)
+    } else {
+        None
+    };
+
+    progress("svo_cone_trace");
+    let t = std::time::Instant::now();
+    let params = svo_cone_params(frame, cones);
+    let case = svo_cone_trace::case_for(
+        data,
+        gb,
+        &octree,
+        aniso.as_deref(),
+        SCALE,
+        &params,
+        "bisect".into(),
+        0,
+    );
+    let out = cones_of(
+        ctx,
+        &svo_cone_trace::DECL,
+        &case,
+        on_mirror("svo_cone_trace"),
+        || svo_cone_trace::mirror_cones(&case.resources),
+    )?;
+    timed("svo_cone_trace", t);
+    Ok(out)
 }
 
 /// One output of a one-kernel case run on the GPU, as vec4s.
@@ -194,7 +366,7 @@ pub fn mirror_pyramid(radiance: &[[f32; 4]], normal: &[[f32; 4]]) -> Vec<[f32; 4
 /// One row of `vxgi bisect`: the split and how far its images are from the all-mirror frame.
 #[derive(Clone, Debug)]
 pub struct SplitRow {
-    /// Stages on the mirrors (`STAGES[..split]`).
+    /// Stages on the mirrors: the first `split` of the frame's [`stages`].
     pub split: usize,
     /// (image, mean FLIP vs the all-mirror image, largest absolute channel difference, pixels whose
     /// largest channel difference is above 1e-3 of the image's largest value).
@@ -206,13 +378,15 @@ pub fn bisect(
     ctx: &GpuContext,
     scene: &Scene,
     cones: &ConeSettings,
+    pipeline: Pipeline,
     progress: impl Fn(&str),
 ) -> Result<Vec<SplitRow>> {
-    let mirror = render_split(ctx, scene, cones, STAGES.len(), &progress)?;
+    let order = stages(pipeline, scene, cones)?;
+    let mirror = render_split(ctx, scene, cones, pipeline, order.len(), &progress)?;
     let p = std::path::Path::new("");
     let mut rows = Vec::new();
-    for split in 0..STAGES.len() {
-        let r = render_split(ctx, scene, cones, split, &progress)?;
+    for split in 0..order.len() {
+        let r = render_split(ctx, scene, cones, pipeline, split, &progress)?;
         let mut images = Vec::new();
         for (name, a, b) in [
             ("direct", &mirror.direct, &r.direct),
@@ -244,15 +418,15 @@ pub fn bisect(
     Ok(rows)
 }
 
-/// `vxgi bisect`'s table.
-pub fn table(rows: &[SplitRow]) -> String {
+/// `vxgi bisect`'s table for a frame of `stages`.
+pub fn table(stages: &[&str], rows: &[SplitRow]) -> String {
     let mut s = String::from(
         "| mirror up to | GPU from | direct: FLIP, max diff, pixels off | indirect | ao |\n|---|---|---|---|---|\n",
     );
     for r in rows {
         let (m, g) = (
-            r.split.checked_sub(1).map_or("-", |k| STAGES[k]),
-            STAGES.get(r.split).copied().unwrap_or("-"),
+            r.split.checked_sub(1).map_or("-", |k| stages[k]),
+            stages.get(r.split).copied().unwrap_or("-"),
         );
         let cells: Vec<String> = r
             .images
@@ -269,7 +443,7 @@ pub fn table(rows: &[SplitRow]) -> String {
         Some(k) => {
             s += &format!(
                 "first stage whose GPU result departs from its mirror (pixels off by > 1e-3 of the image's largest value): {}\n",
-                STAGES[rows[k].split]
+                stages[rows[k].split]
             )
         }
         None => s += "every split agrees with the all-mirror frame to 1e-3 of each image's largest value\n",

@@ -114,17 +114,22 @@ enum Command {
         #[command(flatten)]
         render: RenderFlags,
     },
-    /// The bisection switch (vct-dense): render the frame with its first stages on the scalar mirrors
+    /// The bisection switch (vct-dense, vct-svo): render the frame with its first stages on the scalar mirrors
     /// and the rest on the GPU, at every split, and print how far each is from the all-mirror frame
     /// (the first split that departs names the kernel to look at). With --mirror-until, render that
     /// one split into --out instead.
     Bisect {
         /// A TOML scene file (default: the built-in Cornell box).
         scene: Option<PathBuf>,
-        /// Run the mirrors up to and including this stage (gbuffer, direct_light, voxelize,
-        /// voxel_light, surface_coverage_mip, cone_trace), the GPU after it; write the frame to --out.
+        /// Run the mirrors up to and including this stage (vct-dense: gbuffer, direct_light, voxelize,
+        /// voxel_light, surface_coverage_mip, cone_trace; vct-svo: ... svo_photons or voxel_light,
+        /// sparse_voxel_octree, svo_anisotropic, svo_cone_trace), the GPU after it; write the frame
+        /// to --out.
         #[arg(long)]
         mirror_until: Option<String>,
+        /// Which pipeline's frame: vct-dense or vct-svo.
+        #[arg(long, value_enum, default_value_t = Pipeline::VctDense)]
+        pipeline: Pipeline,
         #[arg(long, default_value = "bisect")]
         out: PathBuf,
         #[command(flatten)]
@@ -593,9 +598,10 @@ fn real_main() -> Result<()> {
         Command::Bisect {
             scene,
             mirror_until,
+            pipeline,
             out,
             render,
-        } => run_bisect(scene, mirror_until, out, render),
+        } => run_bisect(scene, pipeline, mirror_until, out, render),
         Command::Bench {
             scene,
             quick,
@@ -609,17 +615,19 @@ fn real_main() -> Result<()> {
 
 fn run_bisect(
     scene: Option<PathBuf>,
+    pipeline: Pipeline,
     mirror_until: Option<String>,
     out: PathBuf,
     flags: RenderFlags,
 ) -> Result<()> {
     let scene = load_scene(&scene, &flags)?;
-    check_bounces(Pipeline::VctDense, &scene)?;
+    check_bounces(pipeline, &scene)?;
     let cones = ConeSettings::from(&scene.render);
-    // Resolve the stage before starting the GPU, so a typo fails at once.
+    // Resolve the stages before starting the GPU, so a typo fails at once.
+    let stages = vxgi::bisect::stages(pipeline, &scene, &cones)?;
     let split = mirror_until
         .as_deref()
-        .map(vxgi::bisect::split_after)
+        .map(|s| vxgi::bisect::split_after(&stages, s))
         .transpose()?;
     let ctx = GpuContext::new().context("creating the GPU context")?;
     eprintln!("adapter: {}", ctx.describe());
@@ -627,7 +635,7 @@ fn run_bisect(
     let message = |stage: &str| bar.set_message(stage.to_string());
     match split {
         Some(split) => {
-            let r = vxgi::bisect::render_split(&ctx, &scene, &cones, split, message)?;
+            let r = vxgi::bisect::render_split(&ctx, &scene, &cones, pipeline, split, message)?;
             bar.finish_and_clear();
             create_out(&out)?;
             write_frame(&out, [&r.direct, &r.indirect, &r.combined, &r.ao])?;
@@ -638,10 +646,13 @@ fn run_bisect(
             );
         }
         None => {
-            let rows = vxgi::bisect::bisect(&ctx, &scene, &cones, message)?;
+            let rows = vxgi::bisect::bisect(&ctx, &scene, &cones, pipeline, message)?;
             bar.finish_and_clear();
-            println!("vct-dense, each split against the all-mirror frame:");
-            print!("{}", vxgi::bisect::table(&rows));
+            println!(
+                "{}, each split against the all-mirror frame:",
+                pipeline.name()
+            );
+            print!("{}", vxgi::bisect::table(&stages, &rows));
         }
     }
     Ok(())

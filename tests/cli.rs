@@ -105,7 +105,7 @@ fn bisect_names_its_stages_and_refuses_an_unknown_one() {
     let (code, out, err) = vxgi(&["bisect", "--mirror-until", "voxelise"]);
     assert_ne!(code, 0, "{out}");
     assert!(
-        err.contains("no vct-dense stage `voxelise`") && err.contains("surface_coverage_mip"),
+        err.contains("no stage `voxelise`") && err.contains("surface_coverage_mip"),
         "{err}"
     );
     let dir = std::env::temp_dir().join(format!("vxgi_bisect_{}", std::process::id()));

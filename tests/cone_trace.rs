@@ -329,8 +329,8 @@ fn mip_levels_no_cone_reaches_are_not_built_and_not_missed() {
     );
     // NaN in the unbuilt levels: any read of them would show.
     assert_eq!(
-        run_case(gpu(), &whole).unwrap(),
-        run_case(gpu(), &partial).unwrap()
+        run_case(gpu(), &vxgi::kernels::cone_trace::DECL, &whole).unwrap(),
+        run_case(gpu(), &vxgi::kernels::cone_trace::DECL, &partial).unwrap()
     );
     // The frame's chain builds only those levels; its image agrees with the mirror frame's, which
     // builds all of them.

@@ -117,7 +117,7 @@ fn the_cone_pass_skips_empty_tiles_without_changing_the_image() {
         every.resources["tile_list"].buffer().unwrap().as_u32()[3],
         64
     );
-    let image = |case| cone_trace::run_case(ctx, case).unwrap();
+    let image = |case| cone_trace::run_case(ctx, &cone_trace::DECL, case).unwrap();
     assert_eq!(image(&listed), image(&every));
 }
 

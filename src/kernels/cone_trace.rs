@@ -198,13 +198,14 @@ pub fn scene_case(
     Ok(case_for(&data, &gb, &pyramid, &params, "scene".into(), 0))
 }
 
-/// Run a cone_trace case on the GPU: its `indirect` and `ao` bytes.
-pub fn run_case(ctx: &GpuContext, case: &Case) -> anyhow::Result<[Vec<u8>; 2]> {
+/// Run a cone-pass case of `decl` (cone_trace or another kernel on common/cone_march.wgsl) on the
+/// GPU: its `indirect` and `ao` bytes.
+pub fn run_case(ctx: &GpuContext, decl: &KernelDecl, case: &Case) -> anyhow::Result<[Vec<u8>; 2]> {
     let names = ["indirect", "ao"];
     let out = run(
         ctx,
-        &DECL.shader()?,
-        DECL.name,
+        &decl.shader()?,
+        decl.name,
         &case.resources,
         &case.passes,
         &names,
