@@ -289,13 +289,7 @@ fn svo_tail(
         progress("svo_anisotropic");
         let t = std::time::Instant::now();
         let a = if on_mirror("svo_anisotropic") {
-            vxgi_cpu_mirror::svo_anisotropic::build(
-                &octree.nodes,
-                &octree.bricks,
-                depth,
-                &octree.levels,
-                1.0 / SCALE,
-            )
+            crate::kernels::svo_anisotropic::build_mirror(&octree, 1.0 / SCALE)
         } else {
             svo_anisotropic::build_on_gpu(ctx, &octree, 1.0 / SCALE)?
         };
@@ -336,15 +330,9 @@ fn run_one(
     case: &crate::harness::Case,
     output: &str,
 ) -> Result<Vec<[f32; 4]>> {
-    let out = crate::harness::run::run(
-        ctx,
-        &decl.shader()?,
-        decl.name,
-        &case.resources,
-        &case.passes,
-        &[output],
-    )
-    .with_context(|| decl.name.to_string())?;
+    let out = decl
+        .run(ctx, case, &[output])
+        .with_context(|| decl.name.to_string())?;
     let buf = out.buffer(output);
     anyhow::ensure!(buf.scalar == ScalarKind::F32, "{output} is not f32");
     Ok(bytemuck::cast_slice(&buf.bytes).to_vec())

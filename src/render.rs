@@ -1539,15 +1539,7 @@ fn cone_pass_frame(
     if soft {
         names.push("soft_direct");
     }
-    let out = crate::harness::run::run(
-        ctx,
-        &decl.shader()?,
-        decl.name,
-        &case.resources,
-        &case.passes,
-        &names,
-    )
-    .context("cone tracing")?;
+    let out = decl.run(ctx, case, &names).context("cone tracing")?;
     let indirect = image_of(w, h, &out.buffer("indirect").bytes);
     let ao = image_of(w, h, &out.buffer("ao").bytes);
     let direct = if soft {
@@ -1660,13 +1652,7 @@ pub fn render_svo_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendered
     let built = |frags: &[vxgi_cpu_mirror::sparse_voxel_octree::Fragment]| {
         let octree = build(depth, capacity_bound(depth, frags.len()) as u32, frags);
         let aniso = if anisotropic {
-            vxgi_cpu_mirror::svo_anisotropic::build(
-                &octree.nodes,
-                &octree.bricks,
-                depth,
-                &octree.levels,
-                1.0 / SCALE,
-            )
+            crate::kernels::svo_anisotropic::build_mirror(&octree, 1.0 / SCALE)
         } else {
             vec![]
         };

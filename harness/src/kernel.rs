@@ -64,6 +64,23 @@ impl KernelDecl {
         Shader::from_parts(&parts)
     }
 
+    /// Run `case` (its resources and passes) with this kernel on the GPU; read back `outputs`.
+    pub fn run(
+        &self,
+        ctx: &GpuContext,
+        case: &Case,
+        outputs: &[&str],
+    ) -> Result<crate::run::RunOutput> {
+        crate::run::run(
+            ctx,
+            &self.shader()?,
+            self.name,
+            &case.resources,
+            &case.passes,
+            outputs,
+        )
+    }
+
     /// The complete WGSL (includes, then the kernel) for `create_shader_module` in another renderer.
     pub fn composed_source(&self) -> String {
         self.includes

@@ -202,14 +202,7 @@ pub fn scene_case(
 /// GPU: its `indirect` and `ao` bytes.
 pub fn run_case(ctx: &GpuContext, decl: &KernelDecl, case: &Case) -> anyhow::Result<[Vec<u8>; 2]> {
     let names = ["indirect", "ao"];
-    let out = run(
-        ctx,
-        &decl.shader()?,
-        decl.name,
-        &case.resources,
-        &case.passes,
-        &names,
-    )?;
+    let out = decl.run(ctx, case, &names)?;
     Ok(names.map(|n| out.buffer(n).bytes.clone()))
 }
 

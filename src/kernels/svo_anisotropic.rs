@@ -56,6 +56,11 @@ fn octree_resources(o: &Octree, aniso: &[[f32; 4]]) -> Resources {
     r
 }
 
+/// The octree's directional values by the mirror (every level), as `build_on_gpu` returns them.
+pub fn build_mirror(o: &Octree, inv_scale: f32) -> Vec<[f32; 4]> {
+    mirror::build(&o.nodes, &o.bricks, o.depth, &o.levels, inv_scale)
+}
+
 /// Every level's directional values of `o` on the GPU: one pass per level, depth - 1 first.
 pub fn build_on_gpu(ctx: &GpuContext, o: &Octree, inv_scale: f32) -> anyhow::Result<Vec<[f32; 4]>> {
     let n = values(o).max(1);

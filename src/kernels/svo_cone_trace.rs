@@ -164,15 +164,8 @@ fn generated_octree(
         grid_fragments(&c.radiance, SCALE).expect("generated radiance fits the fixed point");
     let octree = build(depth, capacity_bound(depth, frags.len()) as u32, &frags);
     let params = svo_cone_params(&c.frame, &c.settings);
-    let aniso = (index % 2 == 1).then(|| {
-        vxgi_cpu_mirror::svo_anisotropic::build(
-            &octree.nodes,
-            &octree.bricks,
-            depth,
-            &octree.levels,
-            1.0 / SCALE,
-        )
-    });
+    let aniso = (index % 2 == 1)
+        .then(|| crate::kernels::svo_anisotropic::build_mirror(&octree, 1.0 / SCALE));
     (c, depth, octree, params, aniso)
 }
 
