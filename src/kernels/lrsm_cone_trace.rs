@@ -225,9 +225,48 @@ impl LrsmFrame {
         let t = std::time::Instant::now();
         let (grid, _, voxels) = voxelize_on_gpu(ctx, scene, side)?;
         stages.push(("voxelize", t.elapsed().as_secs_f64()));
+        Self::build_with(
+            Some(ctx),
+            &|_| false,
+            data,
+            &grid.colour,
+            voxels,
+            settings,
+            progress,
+            stages,
+        )
+    }
+
+    /// The frame from a voxelized grid (`colour`: its alpha is the occlusion), each stage —
+    /// `occlusion_voxels`, `reflective_shadow_map` (a view's RSM from its ray-cast G-buffer),
+    /// `lrsm_partition` (partition + pre-filter) — by the mirror where `mirror(stage)` says so or no
+    /// GPU is given, else on the GPU. Stage times go to `stages` (the RSMs and LRSMs together, as
+    /// `reflective_shadow_map`).
+    #[allow(clippy::too_many_arguments)]
+    pub fn build_with(
+        gpu: Option<&GpuContext>,
+        mirror: &dyn Fn(&str) -> bool,
+        data: &SceneData,
+        colour: &[[f32; 4]],
+        voxels: VoxelFrame,
+        settings: &LrsmSettings,
+        progress: &dyn Fn(&str),
+        stages: &mut Vec<(&'static str, f64)>,
+    ) -> anyhow::Result<Self> {
+        let on_gpu = |stage: &str| gpu.filter(|_| !mirror(stage));
         progress("occlusion voxels");
         let t = std::time::Instant::now();
-        let levels = occlusion_on_gpu(ctx, &grid).context("occlusion voxels")?;
+        let levels = match on_gpu("occlusion_voxels") {
+            Some(ctx) => {
+                let grid = crate::grids::Grid {
+                    n: voxels.side,
+                    colour: colour.to_vec(),
+                    normal: vec![[0.0; 4]; colour.len()],
+                };
+                occlusion_on_gpu(ctx, &grid).context("occlusion voxels")?
+            }
+            None => vxgi_cpu_mirror::occlusion_voxels::pyramid(colour, voxels.side, false),
+        };
         stages.push(("occlusion_voxels", t.elapsed().as_secs_f64()));
         let t = std::time::Instant::now();
         let (occ, occ_offsets) = concat_levels(&levels);
@@ -237,7 +276,9 @@ impl LrsmFrame {
             normal_splits: settings.normal_splits,
             overlap: settings.overlap,
         };
-        config.validate(ctx.limits().max_storage_buffer_binding_size)?;
+        if let Some(ctx) = gpu {
+            config.validate(ctx.limits().max_storage_buffer_binding_size)?;
+        }
         let mut views = light_views(
             &data.lights,
             data.bounds,
@@ -249,8 +290,29 @@ impl LrsmFrame {
         for (k, v) in views.iter_mut().enumerate() {
             progress(&format!("RSM and LRSM of light view {} of {count}", k + 1));
             v.view.info[2] = streams[0].len() as u32;
-            let rsm = rsm_on_gpu(ctx, data, v).context("reflective shadow map")?;
-            let s = lrsm_on_gpu(ctx, &rsm, &config).context("LRSM")?;
+            let rsm = match on_gpu("reflective_shadow_map") {
+                Some(ctx) => rsm_on_gpu(ctx, data, v).context("reflective shadow map")?,
+                None => {
+                    let [pos, nrm, alb] = super::reflective_shadow_map::view_gbuffer_mirror(data, v);
+                    let r = vxgi_cpu_mirror::reflective_shadow_map::rsm(
+                        &v.view,
+                        &data.lights,
+                        &pos,
+                        &nrm,
+                        &alb,
+                    );
+                    Rsm {
+                        side: settings.rsm_side,
+                        radiance: r.radiance,
+                        normal: r.normal,
+                        depth: r.depth,
+                    }
+                }
+            };
+            let s = match on_gpu("lrsm_partition") {
+                Some(ctx) => lrsm_on_gpu(ctx, &rsm, &config).context("LRSM")?,
+                None => super::sample_lrsm::lrsm_mirror(&rsm, &config),
+            };
             for (acc, part) in streams.iter_mut().zip(s) {
                 acc.extend(part);
             }
@@ -258,14 +320,13 @@ impl LrsmFrame {
         if !views.is_empty() {
             stages.push(("reflective_shadow_map", t.elapsed().as_secs_f64()));
         }
-        let params = super::sample_lrsm::sample_params(&config, 0);
         let memory = LrsmMemory::of(&occ, settings.rsm_side, &streams, views.len());
         Ok(Self {
             voxels,
             occ,
             occ_offsets,
             views: views.iter().map(|v| v.view).collect(),
-            params,
+            params: super::sample_lrsm::sample_params(&config, 0),
             depth_ranges: config.depth_ranges(),
             streams,
             memory,
@@ -320,51 +381,16 @@ pub fn mirror_frame(
     voxels: VoxelFrame,
     settings: &LrsmSettings,
 ) -> anyhow::Result<LrsmFrame> {
-    let levels = vxgi_cpu_mirror::occlusion_voxels::pyramid(colour, voxels.side, false);
-    let (occ, occ_offsets) = concat_levels(&levels);
-    let config = PartitionConfig {
-        rsm_side: settings.rsm_side,
-        depth_splits: settings.depth_splits,
-        normal_splits: settings.normal_splits,
-        overlap: settings.overlap,
-    };
-    let mut views = light_views(
-        &data.lights,
-        data.bounds,
-        settings.rsm_side,
-        data.frame.eye[3],
-    )?;
-    let side = settings.rsm_side;
-    let mut streams: [Vec<[f32; 4]>; 3] = Default::default();
-    for v in views.iter_mut() {
-        v.view.info[2] = streams[0].len() as u32;
-        let [pos, nrm, alb] = super::reflective_shadow_map::view_gbuffer_mirror(data, v);
-        let r =
-            vxgi_cpu_mirror::reflective_shadow_map::rsm(&v.view, &data.lights, &pos, &nrm, &alb);
-        let rsm = Rsm {
-            side,
-            radiance: r.radiance,
-            normal: r.normal,
-            depth: r.depth,
-        };
-        for (acc, part) in streams
-            .iter_mut()
-            .zip(super::sample_lrsm::lrsm_mirror(&rsm, &config))
-        {
-            acc.extend(part);
-        }
-    }
-    let memory = LrsmMemory::of(&occ, side, &streams, views.len());
-    Ok(LrsmFrame {
+    LrsmFrame::build_with(
+        None,
+        &|_| true,
+        data,
+        colour,
         voxels,
-        occ,
-        occ_offsets,
-        views: views.iter().map(|v| v.view).collect(),
-        params: super::sample_lrsm::sample_params(&config, 0),
-        depth_ranges: config.depth_ranges(),
-        streams,
-        memory,
-    })
+        settings,
+        &|_| {},
+        &mut Vec::new(),
+    )
 }
 
 /// The gather over a scene whose G-buffer and LRSM frame are given; with `shadow_tan` > 0 also the
