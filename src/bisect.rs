@@ -54,7 +54,26 @@ pub fn stages(
             v.push("svo_cone_trace");
             Ok(v)
         }
-        other => anyhow::bail!("bisect covers vct-dense and vct-svo, not {}", other.name()),
+        Pipeline::Lrsm => {
+            anyhow::ensure!(
+                scene.render.shadow_cone_angle == 0.0,
+                "bisect follows lrsm with exact shadow rays (shadow_cone_angle = {}; set it to 0)",
+                scene.render.shadow_cone_angle
+            );
+            Ok(vec![
+                "gbuffer",
+                "direct_light",
+                "voxelize",
+                "occlusion_voxels",
+                "reflective_shadow_map",
+                "lrsm_partition",
+                "lrsm_cone_trace",
+            ])
+        }
+        other => anyhow::bail!(
+            "bisect covers vct-dense, vct-svo and lrsm, not {}",
+            other.name()
+        ),
     }
 }
 
@@ -94,9 +113,7 @@ pub fn render_split(
     let data = SceneData::new(scene);
     let (w, h) = (data.width(), data.height());
     let mut stages = Vec::new();
-    let mut timed = |name: &'static str, t: std::time::Instant| {
-        stages.push((name, t.elapsed().as_secs_f64()));
-    };
+    let mut timed = |name: &'static str, secs: f64| stages.push((name, secs));
     let f4 = |v: &[[f32; 4]]| HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(v)));
 
     progress("gbuffer");
@@ -119,7 +136,7 @@ pub fn render_split(
     } else {
         direct_light::gpu_gbuffer(ctx, &data)
     };
-    timed("gbuffer", t);
+    timed("gbuffer", t.elapsed().as_secs_f64());
 
     progress("direct_light");
     let t = std::time::Instant::now();
@@ -129,7 +146,7 @@ pub fn render_split(
     } else {
         run_one(ctx, &direct_light::DECL, &dcase, "radiance")?
     };
-    timed("direct_light", t);
+    timed("direct_light", t.elapsed().as_secs_f64());
 
     progress("voxelize");
     let t = std::time::Instant::now();
@@ -146,17 +163,53 @@ pub fn render_split(
     } else {
         voxelize::voxelize_on_gpu(ctx, scene, side)?
     };
-    timed("voxelize", t);
+    timed("voxelize", t.elapsed().as_secs_f64());
 
     let [indirect, ao] = match pipeline {
         Pipeline::VctSvo => svo_tail(
             ctx, scene, cones, &data, &gb, &grid, &list, &frame, &on_mirror, &mut timed, &progress,
         )?,
+        Pipeline::Lrsm => {
+            let settings = crate::kernels::lrsm_cone_trace::LrsmSettings::from(&scene.render);
+            let mut lrsm_stages = Vec::new();
+            let built = crate::kernels::lrsm_cone_trace::LrsmFrame::build_with(
+                Some(ctx),
+                &on_mirror,
+                &data,
+                &grid.colour,
+                frame,
+                &settings,
+                &progress,
+                &mut lrsm_stages,
+            )?;
+            for (name, secs) in lrsm_stages {
+                timed(name, secs);
+            }
+            progress("lrsm_cone_trace");
+            let t = std::time::Instant::now();
+            let params = cone_trace::cone_params(&built.voxels, cones);
+            let case = crate::kernels::lrsm_cone_trace::case_for(
+                &data,
+                &gb,
+                &built,
+                &params,
+                0.0,
+                "bisect".into(),
+                0,
+            );
+            let decl = &crate::kernels::lrsm_cone_trace::DECL;
+            let out = cones_of(ctx, decl, &case, on_mirror("lrsm_cone_trace"), || {
+                let vol = built.volume(&params);
+                cone_trace::shade_all(&case.resources, &vol, vol.lmax)
+            })?;
+            timed("lrsm_cone_trace", t.elapsed().as_secs_f64());
+            out
+        }
         _ => {
             progress("voxel_light");
             let t = std::time::Instant::now();
             let radiance = lit(ctx, &data, &grid, &list, &frame, on_mirror("voxel_light"))?;
-            timed("voxel_light", t);
+            timed("voxel_light", t.elapsed().as_secs_f64());
 
             progress("surface_coverage_mip");
             let t = std::time::Instant::now();
@@ -165,7 +218,7 @@ pub fn render_split(
             } else {
                 cone_trace::gpu_pyramid(ctx, &radiance, &grid.normal, side)?
             };
-            timed("surface_coverage_mip", t);
+            timed("surface_coverage_mip", t.elapsed().as_secs_f64());
 
             progress("cone_trace");
             let t = std::time::Instant::now();
@@ -178,7 +231,7 @@ pub fn render_split(
                 on_mirror("cone_trace"),
                 || cone_trace::mirror_cones(&ccase.resources),
             )?;
-            timed("cone_trace", t);
+            timed("cone_trace", t.elapsed().as_secs_f64());
             out
         }
     };
@@ -186,6 +239,12 @@ pub fn render_split(
     let rgb = |v: &[[f32; 4]]| RgbImage::new(w, h, v.iter().map(|p| [p[0], p[1], p[2]]).collect());
     let mut plan = match pipeline {
         Pipeline::VctSvo => FramePlan::vct_svo(scene, cones),
+        Pipeline::Lrsm => FramePlan::lrsm_after(
+            scene,
+            cones,
+            &crate::kernels::lrsm_cone_trace::LrsmSettings::from(&scene.render),
+            false,
+        ),
         _ => FramePlan::vct_dense(scene, cones),
     };
     for p in &mut plan.passes {
@@ -247,7 +306,7 @@ fn svo_tail(
     list: &[u32],
     frame: &voxelize::VoxelFrame,
     on_mirror: &impl Fn(&str) -> bool,
-    timed: &mut impl FnMut(&'static str, std::time::Instant),
+    timed: &mut impl FnMut(&'static str, f64),
     progress: &impl Fn(&str),
 ) -> Result<[Vec<[f32; 4]>; 2]> {
     use svo_cone_trace::{grid_fragments, svo_cone_params, SCALE};
@@ -264,13 +323,13 @@ fn svo_tail(
         } else {
             svo_photons::photon_fragments(ctx, data, frame, map, SCALE)?.0
         });
-        timed("svo_photons", t);
+        timed("svo_photons", t.elapsed().as_secs_f64());
         frags
     } else {
         progress("voxel_light");
         let t = std::time::Instant::now();
         let radiance = lit(ctx, data, grid, list, frame, on_mirror("voxel_light"))?;
-        timed("voxel_light", t);
+        timed("voxel_light", t.elapsed().as_secs_f64());
         grid_fragments(&radiance, SCALE)?
     };
 
@@ -283,7 +342,7 @@ fn svo_tail(
     } else {
         svo::build_on_gpu(ctx, depth, &frags, None)?.octree
     };
-    timed("sparse_voxel_octree", t);
+    timed("sparse_voxel_octree", t.elapsed().as_secs_f64());
 
     let aniso = if plan.runs("svo_anisotropic") {
         progress("svo_anisotropic");
@@ -293,7 +352,7 @@ fn svo_tail(
         } else {
             svo_anisotropic::build_on_gpu(ctx, &octree, 1.0 / SCALE)?
         };
-        timed("svo_anisotropic", t);
+        timed("svo_anisotropic", t.elapsed().as_secs_f64());
         Some(a)
     } else {
         None
@@ -319,7 +378,7 @@ fn svo_tail(
         on_mirror("svo_cone_trace"),
         || svo_cone_trace::mirror_cones(&case.resources),
     )?;
-    timed("svo_cone_trace", t);
+    timed("svo_cone_trace", t.elapsed().as_secs_f64());
     Ok(out)
 }
 

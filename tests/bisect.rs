@@ -19,10 +19,10 @@ fn small_box() -> Scene {
     scene
 }
 
-/// Every split whose G-buffer came from the mirror agrees with the all-mirror frame (to 1e-3 of each
-/// image's largest value, and in FLIP).
-fn assert_agree_from_the_mirror_gbuffer_on(rows: &[vxgi::bisect::SplitRow]) {
-    for r in &rows[1..] {
+/// Each of `rows` agrees with the all-mirror frame (no pixel off by more than 1e-3 of its image's
+/// largest value, FLIP < 1e-3).
+fn assert_agree(rows: &[vxgi::bisect::SplitRow]) {
+    for r in rows {
         for &(name, flip, _, off) in &r.images {
             assert!(
                 off == 0 && flip < 1e-3,
@@ -40,7 +40,8 @@ fn every_split_renders_and_only_the_gpu_gbuffer_departs() {
     let rows = bisect(gpu(), &scene, &cones, Pipeline::VctDense, |_| {}).unwrap();
     println!("{}", table(&STAGES, &rows));
     assert_eq!(rows.len(), STAGES.len());
-    assert_agree_from_the_mirror_gbuffer_on(&rows);
+    // Every split whose G-buffer came from the mirror.
+    assert_agree(&rows[1..]);
     // All on the GPU: the snapshot tests' agreement bound.
     for &(name, flip, _, off) in &rows[0].images {
         assert!(
@@ -82,7 +83,7 @@ fn stages_are_named_and_a_typo_is_an_error() {
     assert!(e.contains("voxelize") && e.contains("voxelise"), "{e}");
     let (scene, cones) = (small_box(), ConeSettings::default());
     assert!(render_split(gpu(), &scene, &cones, Pipeline::VctDense, 7, |_| {}).is_err());
-    // vct-svo's frame follows its plan; lrsm and cprc have no bisection (yet).
+    // vct-svo's frame follows its plan; cprc has no bisection (yet).
     let svo = stages(Pipeline::VctSvo, &scene, &cones).unwrap();
     assert_eq!(
         svo,
@@ -96,7 +97,7 @@ fn stages_are_named_and_a_typo_is_an_error() {
             "svo_cone_trace"
         ]
     );
-    assert!(stages(Pipeline::Lrsm, &scene, &cones).is_err());
+    assert!(stages(Pipeline::Cprc, &scene, &cones).is_err());
 }
 
 #[test]
@@ -107,5 +108,26 @@ fn vct_svo_splits_agree_after_the_gpu_gbuffer() {
     let rows = bisect(gpu(), &scene, &cones, Pipeline::VctSvo, |_| {}).unwrap();
     println!("{}", table(&order, &rows));
     assert_eq!(rows.len(), order.len());
-    assert_agree_from_the_mirror_gbuffer_on(&rows);
+    // Every split whose G-buffer came from the mirror.
+    assert_agree(&rows[1..]);
+}
+
+#[test]
+fn lrsm_splits_depart_only_where_a_gbuffer_picks_a_triangle() {
+    let scene = small_box();
+    let cones = ConeSettings::from(&scene.render);
+    let order = stages(Pipeline::Lrsm, &scene, &cones).unwrap();
+    let rows = bisect(gpu(), &scene, &cones, Pipeline::Lrsm, |_| {}).unwrap();
+    println!("{}", table(&order, &rows));
+    // The camera's G-buffer and the light views' G-buffers (inside reflective_shadow_map) are the
+    // stages whose GPU result may pick another triangle where rounding decides; with both on the
+    // mirror, every later kernel agrees with its mirror.
+    let rsm = split_after(&order, "reflective_shadow_map").unwrap();
+    assert_agree(&rows[rsm..]);
+    for r in &rows[1..] {
+        assert!(r.images.iter().all(|i| i.1 < 1e-3), "split {}", r.split);
+    }
+    let mut soft = scene.clone();
+    soft.render.shadow_cone_angle = 10.0;
+    assert!(stages(Pipeline::Lrsm, &soft, &cones).is_err());
 }

@@ -293,7 +293,8 @@ impl LrsmFrame {
             let rsm = match on_gpu("reflective_shadow_map") {
                 Some(ctx) => rsm_on_gpu(ctx, data, v).context("reflective shadow map")?,
                 None => {
-                    let [pos, nrm, alb] = super::reflective_shadow_map::view_gbuffer_mirror(data, v);
+                    let [pos, nrm, alb] =
+                        super::reflective_shadow_map::view_gbuffer_mirror(data, v);
                     let r = vxgi_cpu_mirror::reflective_shadow_map::rsm(
                         &v.view,
                         &data.lights,
