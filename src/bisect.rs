@@ -70,10 +70,11 @@ pub fn stages(
                 "lrsm_cone_trace",
             ])
         }
-        other => anyhow::bail!(
-            "bisect covers vct-dense, vct-svo and lrsm, not {}",
-            other.name()
-        ),
+        Pipeline::Cprc => {
+            let mut v = STAGES[..5].to_vec();
+            v.extend(["cache_distribution", "cache_creation"]);
+            Ok(v)
+        }
     }
 }
 
@@ -220,19 +221,26 @@ pub fn render_split(
             };
             timed("surface_coverage_mip", t.elapsed().as_secs_f64());
 
-            progress("cone_trace");
-            let t = std::time::Instant::now();
-            let params = cone_trace::cone_params(&frame, cones);
-            let ccase = cone_trace::case_for(&data, &gb, &pyramid, &params, "bisect".into(), 0);
-            let out = cones_of(
-                ctx,
-                &cone_trace::DECL,
-                &ccase,
-                on_mirror("cone_trace"),
-                || cone_trace::mirror_cones(&ccase.resources),
-            )?;
-            timed("cone_trace", t.elapsed().as_secs_f64());
-            out
+            if pipeline == Pipeline::Cprc {
+                cprc_tail(
+                    ctx, scene, cones, &data, &gb, &pyramid, &frame, &on_mirror, &mut timed,
+                    &progress,
+                )?
+            } else {
+                progress("cone_trace");
+                let t = std::time::Instant::now();
+                let params = cone_trace::cone_params(&frame, cones);
+                let ccase = cone_trace::case_for(&data, &gb, &pyramid, &params, "bisect".into(), 0);
+                let out = cones_of(
+                    ctx,
+                    &cone_trace::DECL,
+                    &ccase,
+                    on_mirror("cone_trace"),
+                    || cone_trace::mirror_cones(&ccase.resources),
+                )?;
+                timed("cone_trace", t.elapsed().as_secs_f64());
+                out
+            }
         }
     };
 
@@ -245,7 +253,13 @@ pub fn render_split(
             &crate::kernels::lrsm_cone_trace::LrsmSettings::from(&scene.render),
             false,
         ),
-        _ => FramePlan::vct_dense(scene, cones),
+        Pipeline::Cprc => FramePlan::cprc_after(
+            scene,
+            cones,
+            &crate::cprc::CprcSettings::from(&scene.render),
+            false,
+        ),
+        Pipeline::VctDense => FramePlan::vct_dense(scene, cones),
     };
     for p in &mut plan.passes {
         let side = if on_mirror(p.stage) { "mirror" } else { "GPU" };
@@ -380,6 +394,59 @@ fn svo_tail(
     )?;
     timed("svo_cone_trace", t.elapsed().as_secs_f64());
     Ok(out)
+}
+
+/// cprc after the radiance pyramid: the cache distribution (six kernels, one GPU chain), then the
+/// caches' creation, pre-convolution and the gather (one GPU chain: stage `cache_creation`), each on
+/// the side `on_mirror` says; (indirect, ao) composed as the frame does.
+#[allow(clippy::too_many_arguments)]
+fn cprc_tail(
+    ctx: &GpuContext,
+    scene: &Scene,
+    cones: &ConeSettings,
+    data: &SceneData,
+    gb: &Resources,
+    pyramid: &[[f32; 4]],
+    frame: &voxelize::VoxelFrame,
+    on_mirror: &impl Fn(&str) -> bool,
+    timed: &mut impl FnMut(&'static str, f64),
+    progress: &impl Fn(&str),
+) -> Result<[Vec<[f32; 4]>; 2]> {
+    use crate::cprc;
+    let settings = cprc::CprcSettings::from(&scene.render);
+    let params = cone_trace::cone_params(frame, cones);
+    let (pos, nrm, tri, alb) = cprc::gbuffer_arrays(gb);
+    let px = cprc::pixel_inputs(data, &pos, &nrm, &tri, &alb, settings.res);
+    let offset = params.offset_voxels * params.origin[3];
+    progress("cache_distribution");
+    let t = std::time::Instant::now();
+    let set = if on_mirror("cache_distribution") {
+        cprc::distribute_mirror(&px, &settings, offset)?
+    } else {
+        cprc::distribute_gpu(ctx, &px, &settings, offset)?
+    };
+    timed("cache_distribution", t.elapsed().as_secs_f64());
+    progress("cache_creation");
+    let t = std::time::Instant::now();
+    let gathered = if on_mirror("cache_creation") {
+        cprc::evaluate_mirror(&px, &set, &settings, pyramid, &params)
+    } else {
+        let volume = cprc::CacheVolume::One(pyramid);
+        cprc::evaluate_gpu(
+            ctx,
+            &px,
+            &set,
+            &settings,
+            volume,
+            &params,
+            &mut Vec::new(),
+            progress,
+        )?
+    };
+    timed("cache_creation", t.elapsed().as_secs_f64());
+    let (indirect, ao, _) = cprc::compose(&px, &gathered);
+    let vec4 = |img: &RgbImage| img.pixels.iter().map(|p| [p[0], p[1], p[2], 0.0]).collect();
+    Ok([vec4(&indirect), vec4(&ao)])
 }
 
 /// One output of a one-kernel case run on the GPU, as vec4s.

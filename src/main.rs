@@ -114,7 +114,7 @@ enum Command {
         #[command(flatten)]
         render: RenderFlags,
     },
-    /// The bisection switch (vct-dense, vct-svo): render the frame with its first stages on the scalar mirrors
+    /// The bisection switch (every pipeline): render the frame with its first stages on the scalar mirrors
     /// and the rest on the GPU, at every split, and print how far each is from the all-mirror frame
     /// (the first split that departs names the kernel to look at). With --mirror-until, render that
     /// one split into --out instead.
@@ -123,11 +123,12 @@ enum Command {
         scene: Option<PathBuf>,
         /// Run the mirrors up to and including this stage (vct-dense: gbuffer, direct_light, voxelize,
         /// voxel_light, surface_coverage_mip, cone_trace; vct-svo: ... svo_photons or voxel_light,
-        /// sparse_voxel_octree, svo_anisotropic, svo_cone_trace), the GPU after it; write the frame
-        /// to --out.
+        /// sparse_voxel_octree, svo_anisotropic, svo_cone_trace; lrsm: ... occlusion_voxels,
+        /// reflective_shadow_map, lrsm_partition, lrsm_cone_trace; cprc: ... cache_distribution,
+        /// cache_creation), the GPU after it; write the frame to --out.
         #[arg(long)]
         mirror_until: Option<String>,
-        /// Which pipeline's frame: vct-dense or vct-svo.
+        /// Which pipeline's frame.
         #[arg(long, value_enum, default_value_t = Pipeline::VctDense)]
         pipeline: Pipeline,
         #[arg(long, default_value = "bisect")]

@@ -83,7 +83,7 @@ fn stages_are_named_and_a_typo_is_an_error() {
     assert!(e.contains("voxelize") && e.contains("voxelise"), "{e}");
     let (scene, cones) = (small_box(), ConeSettings::default());
     assert!(render_split(gpu(), &scene, &cones, Pipeline::VctDense, 7, |_| {}).is_err());
-    // vct-svo's frame follows its plan; cprc has no bisection (yet).
+    // vct-svo's frame follows its plan; cprc's cache stages are two GPU chains.
     let svo = stages(Pipeline::VctSvo, &scene, &cones).unwrap();
     assert_eq!(
         svo,
@@ -97,19 +97,21 @@ fn stages_are_named_and_a_typo_is_an_error() {
             "svo_cone_trace"
         ]
     );
-    assert!(stages(Pipeline::Cprc, &scene, &cones).is_err());
+    let cprc = stages(Pipeline::Cprc, &scene, &cones).unwrap();
+    assert_eq!(&cprc[5..], ["cache_distribution", "cache_creation"]);
 }
 
 #[test]
-fn vct_svo_splits_agree_after_the_gpu_gbuffer() {
+fn vct_svo_and_cprc_splits_agree_after_the_gpu_gbuffer() {
     let scene = small_box();
     let cones = ConeSettings::from(&scene.render);
-    let order = stages(Pipeline::VctSvo, &scene, &cones).unwrap();
-    let rows = bisect(gpu(), &scene, &cones, Pipeline::VctSvo, |_| {}).unwrap();
-    println!("{}", table(&order, &rows));
-    assert_eq!(rows.len(), order.len());
-    // Every split whose G-buffer came from the mirror.
-    assert_agree(&rows[1..]);
+    for pipeline in [Pipeline::VctSvo, Pipeline::Cprc] {
+        let order = stages(pipeline, &scene, &cones).unwrap();
+        let rows = bisect(gpu(), &scene, &cones, pipeline, |_| {}).unwrap();
+        println!("{}\n{}", pipeline.name(), table(&order, &rows));
+        assert_eq!(rows.len(), order.len());
+        assert_agree(&rows[1..]);
+    }
 }
 
 #[test]
