@@ -147,3 +147,58 @@ fn vct_dense_frames_report_their_listed_tiles() {
     assert!(surface(&far.ao) > 0);
     assert_eq!(surface(&far.ao), surface(&mirror.ao));
 }
+
+/// Past 65535 listed tiles the indirect grid wraps into y (WebGPU's per-dimension limit): workgroup
+/// (x, y) shades tile x + 65535 y of the list. A list of 65536 background tiles then one surface tile
+/// makes the cone pass reach that tile only from workgroup (1, 1), cheaply (background invocations
+/// return at once); it must shade exactly that tile, as the plain list does.
+#[test]
+fn more_tiles_than_one_grid_row_reach_the_tiles_past_it() {
+    use vxgi::harness::{HostBuffer, HostResource};
+    use vxgi::kernels::cone_trace;
+    use vxgi_cpu_mirror::screen_tiles::{dispatch_args, MAX_GROUPS};
+    let ctx = gpu();
+    let cones = cone_trace::ConeSettings::default();
+    let listed = cone_trace::scene_case(ctx, &cornell_from(11.0), &cones).unwrap();
+    let list = listed.resources["tile_list"]
+        .buffer()
+        .unwrap()
+        .as_u32()
+        .to_vec();
+    let surface = list[HEADER];
+    let normals: &[[f32; 4]] =
+        bytemuck::cast_slice(&listed.resources["gb_normal"].buffer().unwrap().bytes);
+    // Tile 0 (top-left corner) is background in this view.
+    assert!((0..8).all(|y| (0..8).all(|x| normals[x + 64 * y][3] == 0.0)));
+    let count = MAX_GROUPS + 2;
+    let mut long = dispatch_args(count).to_vec();
+    assert_eq!(long, [MAX_GROUPS, 2, 1]);
+    long.push(count);
+    long.extend(std::iter::repeat_n(0u32, MAX_GROUPS as usize + 1));
+    long.push(surface);
+    let mut case = listed.clone();
+    case.resources.insert(
+        "tile_list".into(),
+        HostResource::Buffer(HostBuffer::u32(&long)),
+    );
+    let [ind, ao] = cone_trace::run_case(ctx, &cone_trace::DECL, &case).unwrap();
+    let [ind_all, ao_all] = cone_trace::run_case(ctx, &cone_trace::DECL, &listed).unwrap();
+    let px = |b: &[u8]| -> Vec<[f32; 4]> { bytemuck::cast_slice(b).to_vec() };
+    let (ind, ao, ind_all, ao_all) = (px(&ind), px(&ao), px(&ind_all), px(&ao_all));
+    let (tx, ty) = (surface as usize % 8, surface as usize / 8);
+    let mut shaded = 0;
+    for p in 0..64 * 64usize {
+        let (x, y) = (p % 64, p / 64);
+        if x / 8 == tx && y / 8 == ty {
+            assert_eq!((ind[p], ao[p]), (ind_all[p], ao_all[p]), "pixel {p}");
+            shaded += (ao[p][0] != 0.0) as usize;
+        } else {
+            assert_eq!(
+                (ind[p], ao[p]),
+                ([0.0; 4], [0.0; 4]),
+                "pixel {p} outside the tile"
+            );
+        }
+    }
+    assert!(shaded > 0, "tile {surface} was shaded");
+}
