@@ -5,10 +5,11 @@
 //
 // One workgroup per tile, dispatched (tiles_x, tiles_y); a tile is listed when any pixel's G-buffer
 // normal has w != 0, tested on the bits (NaN is a surface: WGSL lets a float comparison with NaN go
-// either way, and a tile the cone pass might shade must not be dropped). `tile_list` = [groups_x, groups_y, groups_z, count, tile...], zero on entry:
-// thread 0 of a listed tile appends it (atomic counter, so the order is free) and raises the arguments
-// with atomicMax: groups_x = min(count, 65535), groups_y = ceil(count / 65535), groups_z = 1.
-// Exact (integers).
+// either way, and a tile the cone pass might shade must not be dropped).
+// `tile_list` = [groups_x, groups_y, groups_z, count, tile...], zero on entry: thread 0 of a listed
+// tile appends it (atomic counter, so the order is free) and raises the arguments with atomicMax:
+// groups_x = min(count, 65535), groups_y = ceil(count / 65535), groups_z = 1. `surface` is workgroup
+// memory, which WGSL zero-initialises. Exact (integers).
 
 struct Frame {
     eye: vec4<f32>,
