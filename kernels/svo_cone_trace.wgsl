@@ -53,27 +53,39 @@ fn sample_level(x: vec3<f32>, l: u32) -> vec4<f32> {
     return sample_level_dir(x, l, vec3<f32>(0.0), false);
 }
 
-// Trilinear sample of mip level l; `dir`: the directional values along d where the level has them.
-fn sample_level_dir(x: vec3<f32>, l: u32, d: vec3<f32>, dir_in: bool) -> vec4<f32> {
+// The lattice cell of x at mip level l: the trilinear stencil's lower corner i0, its weights f, and
+// the cell c of the node whose brick holds the stencil (clamped into the volume).
+struct Cell {
+    i0: vec3<i32>,
+    f: vec3<f32>,
+    c: vec3<i32>,
+}
+
+fn cell_of(x: vec3<f32>, l: u32) -> Cell {
     let s = svo.depth - l;
     let inv = cone.inv_s0 * (1.0 / f32(1u << l));
     let q = (x - cone.origin.xyz) * inv - vec3<f32>(0.5 / f32(1u << l));
     let fl = floor(q);
-    let f = q - fl;
     let i0 = vec3<i32>(fl);
-    let points = i32(2u << s);
     let c = clamp(i0 >> vec3<u32>(1u), vec3<i32>(0), vec3<i32>((1i << s) - 1i));
-    let n = find(s, vec3<u32>(c));
+    return Cell(i0, q - fl, c);
+}
+
+// Trilinear sample of mip level l in node n (found for `cell`; NONE: empty); `dir_in`: the directional
+// values along d where the level has them.
+fn sample_cell(cell: Cell, l: u32, n: u32, d: vec3<f32>, dir_in: bool) -> vec4<f32> {
     if (n == NONE) {
         return vec4<f32>(0.0);
     }
+    let s = svo.depth - l;
+    let points = i32(2u << s);
     let dir = dir_in && s < svo.depth;
     var acc = vec4<f32>(0.0);
     for (var corner = 0u; corner < 8u; corner++) {
         let cc = vec3<u32>(corner & 1u, (corner >> 1u) & 1u, (corner >> 2u) & 1u);
-        let w = select(vec3<f32>(1.0) - f, f, cc == vec3<u32>(1u));
-        let i = i0 + vec3<i32>(cc);
-        let local = i - 2i * c;
+        let w = select(vec3<f32>(1.0) - cell.f, cell.f, cc == vec3<u32>(1u));
+        let i = cell.i0 + vec3<i32>(cc);
+        let local = i - 2i * cell.c;
         if (any(i < vec3<i32>(0)) || any(i > vec3<i32>(points)) || any(local < vec3<i32>(0)) || any(local > vec3<i32>(2))) {
             continue;
         }
@@ -88,21 +100,38 @@ fn sample_level_dir(x: vec3<f32>, l: u32, d: vec3<f32>, dir_in: bool) -> vec4<f3
     return acc;
 }
 
-// The march's sample: the volume's own radiance (see common/cone_march.wgsl).
-// With anisotropic voxels, quadrilinear as sample_volume over the directional levels.
+// Trilinear sample of mip level l; `dir_in`: the directional values along d where the level has them.
+fn sample_level_dir(x: vec3<f32>, l: u32, d: vec3<f32>, dir_in: bool) -> vec4<f32> {
+    let cell = cell_of(x, l);
+    return sample_cell(cell, l, find(svo.depth - l, vec3<u32>(cell.c)), d, dir_in);
+}
+
+// The march's sample: quadrilinear over levels floor(l) and floor(l) + 1 (from the top level up the top
+// alone), as common/cone_march.wgsl's sample_volume, with directional values where svo.anisotropic.
+// One descent serves both levels: the coarser level's node is the finer one's parent, because its
+// lattice coordinate is exactly half the finer one's (scaling by 2 is exact in f32, fused or not), so
+// its cell is the finer cell >> 1 (clamping included); where the finer node is missing the coarser is
+// looked up. The same values as two descents, so the mirror samples each level on its own.
 fn sample_cone(x: vec3<f32>, l: f32, diam: f32, d: vec3<f32>) -> vec4<f32> {
-    if (svo.anisotropic == 0u) {
-        return sample_volume(x, l);
-    }
+    let dir_in = svo.anisotropic != 0u;
     let top = cone.levels - 1u;
     let lf = max(l, 0.0);
     let l0 = floor(lf);
     if (l0 >= f32(top)) {
-        return sample_level_dir(x, top, d, true);
+        return sample_level_dir(x, top, d, dir_in);
     }
     let a = lf - l0;
     let li = u32(l0);
-    return sample_level_dir(x, li, d, true) * (1.0 - a) + sample_level_dir(x, li + 1u, d, true) * a;
+    let fine = cell_of(x, li);
+    let coarse = cell_of(x, li + 1u);
+    let n = find(svo.depth - li, vec3<u32>(fine.c));
+    var np = NONE;
+    if (n != NONE) {
+        np = nodes[n].parent;
+    } else {
+        np = find(svo.depth - li - 1u, vec3<u32>(coarse.c));
+    }
+    return sample_cell(fine, li, n, d, dir_in) * (1.0 - a) + sample_cell(coarse, li + 1u, np, d, dir_in) * a;
 }
 
 // Entry voxel_main (declaration svo_bounce; vct-svo's `--bounces 2`): one invocation per non-empty
