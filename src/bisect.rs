@@ -92,10 +92,11 @@ pub fn split_after(stages: &[&str], stage: &str) -> Result<usize> {
         })
 }
 
-/// `pipeline`'s frame with its first `split` [`stages`] on the mirrors and the rest on the GPU
-/// (0: all GPU, stage by stage; all: all mirror). `plan`'s reasons say which side ran each stage
-/// (`mirror:` / `GPU:`). No reuse, no chain, every level built: every split computes the same
-/// quantities.
+/// `pipeline`'s frame with its first `split` [`stages`] on the mirrors and the rest on the GPU (0: all
+/// GPU, stage by stage; all: all mirror). `plan`'s reasons say which side ran each stage (`mirror:` /
+/// `GPU:`). No reuse, no chain, every level built: every split computes the same quantities. A scene
+/// with instances is voxelized as its flattened mesh (the per-instance hierarchies of vct-dense and
+/// cprc frames are not split).
 pub fn render_split(
     ctx: &GpuContext,
     scene: &Scene,

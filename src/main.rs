@@ -626,6 +626,13 @@ fn run_bisect(
     let cones = ConeSettings::from(&scene.render);
     // Resolve the stages before starting the GPU, so a typo fails at once.
     let stages = vxgi::bisect::stages(pipeline, &scene, &cones)?;
+    if !scene.instances.list.is_empty() {
+        eprintln!(
+            "note: bisect voxelizes the scene's {} instances as one flattened mesh (their own \
+             hierarchies, which `vxgi render` uses, are not split)",
+            scene.instances.list.len()
+        );
+    }
     let split = mirror_until
         .as_deref()
         .map(|s| vxgi::bisect::split_after(&stages, s))
