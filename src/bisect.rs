@@ -216,7 +216,7 @@ pub fn render_split(
             progress("surface_coverage_mip");
             let t = std::time::Instant::now();
             let pyramid = if on_mirror("surface_coverage_mip") {
-                mirror_pyramid(&radiance, &grid.normal)
+                cone_trace::mirror_pyramid(&radiance, &grid.normal)
             } else {
                 cone_trace::gpu_pyramid(ctx, &radiance, &grid.normal, side)?
             };
@@ -284,11 +284,11 @@ fn lit(
     frame: &voxelize::VoxelFrame,
     mirror: bool,
 ) -> Result<Vec<[f32; 4]>> {
-    let case = voxel_light::case_for(ctx, data, grid, list, frame, "bisect".into(), 0);
     if mirror {
+        let case = voxel_light::case_for(ctx, data, grid, list, frame, "bisect".into(), 0);
         Ok(voxel_light::mirror_radiance(&case.resources).0)
     } else {
-        run_one(ctx, &voxel_light::DECL, &case, "vox_radiance")
+        voxel_light::light_on_gpu(ctx, data, grid, list, frame)
     }
 }
 
@@ -330,8 +330,7 @@ fn svo_tail(
         progress("svo_photons");
         let t = std::time::Instant::now();
         // The voxels' coverage; the light comes from the photons.
-        let coverage: Vec<[f32; 4]> = grid.colour.iter().map(|c| [0.0, 0.0, 0.0, c[3]]).collect();
-        let mut frags = grid_fragments(&coverage, SCALE)?;
+        let mut frags = grid_fragments(&svo_cone_trace::coverage_only(&grid.colour), SCALE)?;
         let map = scene.render.photon_map;
         frags.extend(if on_mirror("svo_photons") {
             svo_photons::mirror_photon_fragments(data, frame, map, SCALE)?
@@ -352,8 +351,7 @@ fn svo_tail(
     let t = std::time::Instant::now();
     let depth = frame.side.trailing_zeros() - 1;
     let octree = if on_mirror("sparse_voxel_octree") {
-        let capacity = vxgi_cpu_mirror::sparse_voxel_octree::capacity_bound(depth, frags.len());
-        vxgi_cpu_mirror::sparse_voxel_octree::build(depth, capacity as u32, &frags)
+        vxgi_cpu_mirror::sparse_voxel_octree::build_fitted(depth, &frags)
     } else {
         svo::build_on_gpu(ctx, depth, &frags, None)?.octree
     };
@@ -463,19 +461,6 @@ fn run_one(
     let buf = out.buffer(output);
     anyhow::ensure!(buf.scalar == ScalarKind::F32, "{output} is not f32");
     Ok(bytemuck::cast_slice(&buf.bytes).to_vec())
-}
-
-/// The surface-coverage pyramid (levels concatenated) of lit voxels and their normals, by the mirror.
-pub fn mirror_pyramid(radiance: &[[f32; 4]], normal: &[[f32; 4]]) -> Vec<[f32; 4]> {
-    use vxgi_cpu_mirror::surface_coverage_mip::{reduce_level, Coverage};
-    let mut pyramid = radiance.to_vec();
-    let (mut level, mut nrm) = (radiance.to_vec(), normal.to_vec());
-    while level.len() > 1 {
-        let (c, n) = reduce_level(&level, &nrm, Coverage::Surface, false);
-        pyramid.extend_from_slice(&c);
-        (level, nrm) = (c, n);
-    }
-    pyramid
 }
 
 /// One row of `vxgi bisect`: the split and how far its images are from the all-mirror frame.

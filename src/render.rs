@@ -763,7 +763,7 @@ fn light_grid(
         stages.push(("voxel_light", t.elapsed().as_secs_f64()));
         rad
     } else {
-        grid.colour.iter().map(|c| [0.0, 0.0, 0.0, c[3]]).collect()
+        crate::kernels::svo_cone_trace::coverage_only(&grid.colour)
     };
     Ok((rad, grid.normal, grid.colour, frame))
 }
@@ -1625,15 +1625,17 @@ pub fn render_cprc_mirror(
 /// octree of the lit voxels, then cone_trace's mirror through it.
 pub fn render_svo_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendered> {
     use crate::kernels::svo_cone_trace::{grid_fragments, max_radiance, svo_cone_params, SCALE};
-    use vxgi_cpu_mirror::sparse_voxel_octree::{build, capacity_bound};
+    use vxgi_cpu_mirror::sparse_voxel_octree::build_fitted;
     let m = MirrorFrame::new(scene)?;
     let depth = m.frame.side.trailing_zeros() - 1;
     let plan = FramePlan::vct_svo(scene, cones);
     let map = scene.render.photon_map;
     let frags = if plan.runs("svo_photons") {
         // Photon injection: the voxels' coverage, the light from the photons.
-        let coverage: Vec<[f32; 4]> = m.lit.iter().map(|v| [0.0, 0.0, 0.0, v[3]]).collect();
-        let mut frags = grid_fragments(&coverage, SCALE)?;
+        let mut frags = grid_fragments(
+            &crate::kernels::svo_cone_trace::coverage_only(&m.lit),
+            SCALE,
+        )?;
         frags.extend(crate::kernels::svo_photons::mirror_photon_fragments(
             &m.data, &m.frame, map, SCALE,
         )?);
@@ -1650,7 +1652,7 @@ pub fn render_svo_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendered
         _pad: 0,
     };
     let built = |frags: &[vxgi_cpu_mirror::sparse_voxel_octree::Fragment]| {
-        let octree = build(depth, capacity_bound(depth, frags.len()) as u32, frags);
+        let octree = build_fitted(depth, frags);
         let aniso = if anisotropic {
             crate::kernels::svo_anisotropic::build_mirror(&octree, 1.0 / SCALE)
         } else {
@@ -1779,21 +1781,7 @@ impl MirrorFrame {
 
     /// The surface-coverage pyramid of the lit voxels (surface_coverage_mip's mirror, level by level).
     fn pyramid(&self) -> Vec<[f32; 4]> {
-        let mut level = self.lit.clone();
-        let mut pyramid = level.clone();
-        let mut nrm = self.normal.clone();
-        while level.len() > 1 {
-            let (c, n) = vxgi_cpu_mirror::surface_coverage_mip::reduce_level(
-                &level,
-                &nrm,
-                vxgi_cpu_mirror::surface_coverage_mip::Coverage::Surface,
-                false,
-            );
-            pyramid.extend_from_slice(&c);
-            level = c;
-            nrm = n;
-        }
-        pyramid
+        cone_trace::mirror_pyramid(&self.lit, &self.normal)
     }
 
     /// Cone-trace every texel through `volume` and assemble the frame.

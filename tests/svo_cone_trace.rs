@@ -51,7 +51,7 @@ fn level_zero_of_the_octree_is_the_voxel_grid() {
     use vxgi::kernels::{voxel_light, voxelize};
     use vxgi::scene::Scene;
     use vxgi_cpu_mirror::cone_trace::{Pyramid, Volume};
-    use vxgi_cpu_mirror::sparse_voxel_octree::{build, capacity_bound};
+    use vxgi_cpu_mirror::sparse_voxel_octree::build_fitted;
     use vxgi_cpu_mirror::svo_cone_trace::{SvoParams, SvoVolume};
 
     let scene = Scene::cornell_box();
@@ -61,7 +61,7 @@ fn level_zero_of_the_octree_is_the_voxel_grid() {
     let rad = voxel_light::light_on_gpu(gpu(), &data, &grid, &list, &frame).unwrap();
     let frags = grid_fragments(&rad, SCALE).unwrap();
     let depth = 4;
-    let octree = build(depth, capacity_bound(depth, frags.len()) as u32, &frags);
+    let octree = build_fitted(depth, &frags);
     let settings = ConeSettings::default();
     let (pp, sp) = (
         cone_params(&frame, &settings),

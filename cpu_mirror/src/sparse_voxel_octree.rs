@@ -754,6 +754,15 @@ pub fn dense_reference(depth: u32, fragments: &[Fragment]) -> Option<Vec<Vec<[u3
     Some(levels)
 }
 
+/// [`build`] with a node pool of [`capacity_bound`] tiles: one that always fits `fragments`.
+pub fn build_fitted(depth: u32, fragments: &[Fragment]) -> Octree {
+    build(
+        depth,
+        capacity_bound(depth, fragments.len()) as u32,
+        fragments,
+    )
+}
+
 /// Tiles a build needs at most: per level, every fragment flags at most 8 parents (and there are at
 /// most `8^(l-1)` parents), one tile each; plus the root's tile.
 pub fn capacity_bound(depth: u32, fragments: usize) -> u64 {

@@ -142,6 +142,18 @@ pub fn cone_params(frame: &VoxelFrame, s: &ConeSettings) -> ConeParams {
     }
 }
 
+/// Level 0 (voxel radiance) and the surface-coverage mip chain by the mirror, concatenated
+/// ([`gpu_pyramid`]'s counterpart).
+pub fn mirror_pyramid(radiance: &[[f32; 4]], normal: &[[f32; 4]]) -> Vec<[f32; 4]> {
+    let mut pyramid = radiance.to_vec();
+    for (colour, _) in
+        vxgi_cpu_mirror::surface_coverage_mip::mip_chain(radiance, normal, Coverage::Surface)
+    {
+        pyramid.extend(colour);
+    }
+    pyramid
+}
+
 /// Level 0 (voxel radiance) and the surface-coverage mip chain built on the GPU, concatenated.
 pub fn gpu_pyramid(
     ctx: &GpuContext,

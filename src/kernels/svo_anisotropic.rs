@@ -4,7 +4,7 @@
 //! the mirror and runs one level's pass on the GPU: the kernel's contract given exact inputs.
 use super::sparse_voxel_octree::generated;
 use std::collections::BTreeMap;
-use vxgi_cpu_mirror::sparse_voxel_octree::{build, capacity_bound, Octree};
+use vxgi_cpu_mirror::sparse_voxel_octree::{build_fitted, Octree};
 use vxgi_cpu_mirror::svo_anisotropic::{self as mirror, AnisoParams, NODE_VALUES};
 use vxgi_harness::compare::bound_name;
 use vxgi_harness::run::run;
@@ -102,7 +102,7 @@ impl Kernel for SvoAnisotropic {
             .map(|k| generated(seed, k))
             .find(|g| g.0 <= 5)
             .expect("the generator has depths up to 5");
-        let o = build(depth, capacity_bound(depth, frags.len()) as u32, &frags);
+        let o = build_fitted(depth, &frags);
         let mut aniso = mirror::build(&o.nodes, &o.bricks, depth, &o.levels, 1.0 / SCALE);
         let level = depth - 1 - (index / 8) as u32 % depth;
         let p = mirror::passes(depth, &o.levels, 1.0 / SCALE)

@@ -10,7 +10,7 @@ use super::voxelize::VoxelFrame;
 use crate::trace::SceneData;
 use std::collections::BTreeMap;
 use vxgi_cpu_mirror::cone_trace::ConeParams;
-use vxgi_cpu_mirror::sparse_voxel_octree::{build, capacity_bound, Fragment, Octree};
+use vxgi_cpu_mirror::sparse_voxel_octree::{build_fitted, Fragment, Octree};
 use vxgi_cpu_mirror::svo_cone_trace::{SvoParams, SvoVolume};
 use vxgi_harness::compare::bound_name;
 use vxgi_harness::{
@@ -66,6 +66,12 @@ pub fn grid_fragments(radiance: &[[f32; 4]], scale: f32) -> Result<Vec<Fragment>
             })
         })
         .collect()
+}
+
+/// A voxel grid's coverage without light, `(0, 0, 0, alpha)` per voxel: the geometry fragments when
+/// the light comes from photons.
+pub fn coverage_only(voxels: &[[f32; 4]]) -> Vec<[f32; 4]> {
+    voxels.iter().map(|v| [0.0, 0.0, 0.0, v[3]]).collect()
 }
 
 /// Cone parameters for an octree of `depth` over the voxel grid `frame` (side `2^(depth + 1)`): mip
@@ -162,7 +168,7 @@ fn generated_octree(
     let depth = c.frame.side.trailing_zeros() - 1;
     let frags =
         grid_fragments(&c.radiance, SCALE).expect("generated radiance fits the fixed point");
-    let octree = build(depth, capacity_bound(depth, frags.len()) as u32, &frags);
+    let octree = build_fitted(depth, &frags);
     let params = svo_cone_params(&c.frame, &c.settings);
     let aniso = (index % 2 == 1)
         .then(|| crate::kernels::svo_anisotropic::build_mirror(&octree, 1.0 / SCALE));
