@@ -178,6 +178,21 @@ pub fn rsm_on_gpu(ctx: &GpuContext, data: &SceneData, view: &LightView) -> anyho
     })
 }
 
+/// The lights and light views (maps of `side`^2 texels) a light-view kernel's generated case draws
+/// from: the scene's, or where a scene has no light left, a point light of zero intensity that is not
+/// in the scene (its views still exercise the kernel).
+pub fn case_views(data: &SceneData, side: u32) -> (Vec<GpuLight>, Vec<LightView>) {
+    let views = light_views(&data.lights, data.bounds, side, data.frame.eye[3])
+        .expect("every light kind has views");
+    if views.is_empty() {
+        let l = vec![GpuLight::default()];
+        let v = light_views(&l, data.bounds, side, data.frame.eye[3]).expect("point light");
+        (l, v)
+    } else {
+        (data.lights.clone(), views)
+    }
+}
+
 pub struct ReflectiveShadowMap;
 
 impl Kernel for ReflectiveShadowMap {
@@ -190,40 +205,25 @@ impl Kernel for ReflectiveShadowMap {
         let (scene, label) = generated_scene(seed, index);
         let data = SceneData::new(&scene);
         let side = [16u32, 32, 64][index % 3];
-        let views = light_views(&data.lights, data.bounds, side, data.frame.eye[3])
-            .expect("every light kind has views");
-        if views.is_empty() {
-            // No light left: the RSM of a point light that is not in the scene's list still
-            // exercises the kernel (texels lit by light 0 = the default, zero intensity).
-            let l = [GpuLight::default()];
-            let v = light_views(&l, data.bounds, side, data.frame.eye[3]).expect("point light");
-            let gb = view_gbuffer(ctx, &data, &v[0]);
-            return case_for(
-                shader,
-                ctx,
-                &l,
-                &v[0],
-                &gb,
-                format!("{label}, no light"),
-                seed,
-            );
-        }
-        let view = views[(index / 3) % views.len()];
+        let (lights, views) = case_views(&data, side);
+        // Without a light of its own the scene's case is the zero light's first view.
+        let face = if data.lights.is_empty() {
+            0
+        } else {
+            (index / 3) % views.len()
+        };
+        let view = views[face];
         let gb = view_gbuffer(ctx, &data, &view);
-        let face = (index / 3) % views.len();
-        case_for(
-            shader,
-            ctx,
-            &data.lights,
-            &view,
-            &gb,
+        let label = if data.lights.is_empty() {
+            format!("{label}, no light")
+        } else {
             format!(
                 "{label}, light {} view {face} of {}, {side}^2",
                 view.view.info[1],
                 views.len()
-            ),
-            seed,
-        )
+            )
+        };
+        case_for(shader, ctx, &lights, &view, &gb, label, seed)
     }
 
     fn mirror(

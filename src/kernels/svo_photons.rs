@@ -221,17 +221,7 @@ impl Kernel for SvoPhotons {
         let side = [16u32, 32, 64][index % 3];
         let grid = [16u32, 32, 64][(index / 3) % 3];
         let frame = super::voxelize::frame_of(&scene.mesh, grid);
-        let (lights, views) = match light_views(&data.lights, data.bounds, side, data.frame.eye[3])
-            .expect("every light kind has views")
-        {
-            v if v.is_empty() => {
-                // No light left: a point light of zero intensity still exercises the kernel.
-                let l = vec![GpuLight::default()];
-                let v = light_views(&l, data.bounds, side, data.frame.eye[3]).expect("point light");
-                (l, v)
-            }
-            v => (data.lights.clone(), v),
-        };
+        let (lights, views) = super::reflective_shadow_map::case_views(&data, side);
         let face = (index / 9) % views.len();
         let view = views[face];
         let gb = view_gbuffer(ctx, &data, &view);
