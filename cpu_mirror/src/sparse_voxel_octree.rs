@@ -45,6 +45,18 @@ pub const CHANNELS: usize = 4;
 pub const BRICK_VOXELS: usize = 27;
 /// u32 words per brick.
 pub const BRICK_WORDS: usize = BRICK_VOXELS * CHANNELS;
+
+/// Brick voxel `v` (`voxel_index`) of node `n` as floats: its four fixed-point channels times
+/// `inv_scale` (the readers' `brick_voxel`: one conversion and one product per channel).
+pub fn brick_value(bricks: &[u32], n: u32, v: usize, inv_scale: f32) -> glam::Vec4 {
+    let b = n as usize * BRICK_WORDS + v * CHANNELS;
+    glam::Vec4::new(
+        bricks[b] as f32,
+        bricks[b + 1] as f32,
+        bricks[b + 2] as f32,
+        bricks[b + 3] as f32,
+    ) * inv_scale
+}
 /// Threads per workgroup of every entry point.
 pub const WORKGROUP: u32 = 64;
 

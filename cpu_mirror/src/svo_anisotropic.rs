@@ -32,7 +32,7 @@
 //! 32 ULP of its magnitude `f + m + b` (an upper bound of every term, half(p) <= p), and the weighted
 //! sum of the 9 rows (exact power-of-two weights, 9 additions) within 48 ULP of the weighted sum of the
 //! magnitudes: the per-element bound, given exact inputs (the kernel is verified one level at a time).
-use crate::sparse_voxel_octree::{find, unkey, voxel_index, Node, BRICK_WORDS, CHANNELS, NONE};
+use crate::sparse_voxel_octree::{brick_value, find, unkey, voxel_index, Node, NONE};
 use bytemuck::{Pod, Zeroable};
 use glam::Vec4;
 
@@ -95,13 +95,7 @@ fn child(
     }
     let v = voxel_index([0, 1, 2].map(|a| (q[a] - 2 * c[a]) as u32));
     if cl == p.depth {
-        let b = n as usize * BRICK_WORDS + v * CHANNELS;
-        Vec4::new(
-            bricks[b] as f32,
-            bricks[b + 1] as f32,
-            bricks[b + 2] as f32,
-            bricks[b + 3] as f32,
-        ) * p.inv_scale
+        brick_value(bricks, n, v, p.inv_scale)
     } else {
         Vec4::from_array(aniso[index(n, v, dir)])
     }

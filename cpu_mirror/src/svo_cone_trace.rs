@@ -7,7 +7,7 @@
 //! the leaves, each brick voxel's three directional values facing its direction `d`
 //! (`svo_anisotropic`), mixed with weights `d.x^2, d.y^2, d.z^2`.
 use crate::cone_trace::{quadrilinear, ConeParams, SampleError, Volume};
-use crate::sparse_voxel_octree::{find, voxel_index, Node, BRICK_WORDS, CHANNELS, NONE};
+use crate::sparse_voxel_octree::{brick_value, find, voxel_index, Node, NONE};
 use crate::svo_anisotropic::{direction, DIRECTIONS};
 use glam::{Vec3, Vec4};
 
@@ -83,15 +83,7 @@ impl SvoVolume<'_> {
                     }
                     (ax * w2.x + ay * w2.y) + az * w2.z
                 }
-                _ => {
-                    let b = n as usize * BRICK_WORDS + vi * CHANNELS;
-                    Vec4::new(
-                        self.bricks[b] as f32,
-                        self.bricks[b + 1] as f32,
-                        self.bricks[b + 2] as f32,
-                        self.bricks[b + 3] as f32,
-                    ) * self.svo.inv_scale
-                }
+                _ => brick_value(self.bricks, n, vi, self.svo.inv_scale),
             };
             acc += v * (w[0] * w[1] * w[2]);
             err.add_corner(dq, w, v);
