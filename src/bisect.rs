@@ -169,7 +169,8 @@ pub fn render_split(
 
     let [indirect, ao] = match pipeline {
         Pipeline::VctSvo => svo_tail(
-            ctx, scene, cones, &data, &gb, &grid, &list, &frame, &on_mirror, &mut timed, &progress,
+            ctx, scene, cones, &order, &data, &gb, &grid, &list, &frame, &on_mirror, &mut timed,
+            &progress,
         )?,
         Pipeline::Lrsm => {
             let settings = crate::kernels::lrsm_cone_trace::LrsmSettings::from(&scene.render);
@@ -246,22 +247,7 @@ pub fn render_split(
     };
 
     let rgb = |v: &[[f32; 4]]| RgbImage::new(w, h, v.iter().map(|p| [p[0], p[1], p[2]]).collect());
-    let mut plan = match pipeline {
-        Pipeline::VctSvo => FramePlan::vct_svo(scene, cones),
-        Pipeline::Lrsm => FramePlan::lrsm_after(
-            scene,
-            cones,
-            &crate::kernels::lrsm_cone_trace::LrsmSettings::from(&scene.render),
-            false,
-        ),
-        Pipeline::Cprc => FramePlan::cprc_after(
-            scene,
-            cones,
-            &crate::cprc::CprcSettings::from(&scene.render),
-            false,
-        ),
-        Pipeline::VctDense => FramePlan::vct_dense(scene, cones),
-    };
+    let mut plan = pipeline.plan(scene, cones, false);
     for p in &mut plan.passes {
         let side = if on_mirror(p.stage) { "mirror" } else { "GPU" };
         p.why = format!("{side}: {}", p.why);
@@ -308,13 +294,14 @@ fn cones_of(
     }
 }
 
-/// vct-svo after voxelize: light (photons or voxel_light), the octree, its directional values, the
-/// cone pass, each on the side `on_mirror` says.
+/// vct-svo after voxelize: light (photons or voxel_light), the octree, its directional values (which of
+/// them: the frame's stages `order`), the cone pass, each on the side `on_mirror` says.
 #[allow(clippy::too_many_arguments)]
 fn svo_tail(
     ctx: &GpuContext,
     scene: &Scene,
     cones: &ConeSettings,
+    order: &[&str],
     data: &SceneData,
     gb: &Resources,
     grid: &crate::grids::Grid,
@@ -325,8 +312,7 @@ fn svo_tail(
     progress: &impl Fn(&str),
 ) -> Result<[Vec<[f32; 4]>; 2]> {
     use svo_cone_trace::{grid_fragments, svo_cone_params, SCALE};
-    let plan = FramePlan::vct_svo(scene, cones);
-    let frags = if plan.runs("svo_photons") {
+    let frags = if order.contains(&"svo_photons") {
         progress("svo_photons");
         let t = std::time::Instant::now();
         // The voxels' coverage; the light comes from the photons.
@@ -357,7 +343,7 @@ fn svo_tail(
     };
     timed("sparse_voxel_octree", t.elapsed().as_secs_f64());
 
-    let aniso = if plan.runs("svo_anisotropic") {
+    let aniso = if order.contains(&"svo_anisotropic") {
         progress("svo_anisotropic");
         let t = std::time::Instant::now();
         let a = if on_mirror("svo_anisotropic") {
