@@ -83,7 +83,7 @@ fn sample_level(x: vec3<f32>, l: u32) -> vec4<f32> {
 }
 
 // The march's sample: occlusion from the voxels, radiance from the LRSMs (see the header).
-fn sample_cone(x: vec3<f32>, l: f32, diam: f32, d: vec3<f32>) -> vec4<f32> {
+fn sample_cone(x: vec3<f32>, l: f32, diam: f32, d: vec3<f32>, tan_half: f32) -> vec4<f32> {
     let s = sample_volume(x, l);
     if (!(s.w > 0.0)) {
         return s;

@@ -12,15 +12,20 @@
 // the lattice are empty; a missing node is empty: exact under the octree's halo rule). sample_volume:
 // quadrilinear (common/cone_march.wgsl). Anisotropic voxels (svo.anisotropic = 1, VCT 7.1): above the
 // leaves each brick voxel is the mix of its three directional values (svo_anisotropic.wgsl) facing the
-// cone's direction d, weighted d.x^2, d.y^2, d.z^2 (the leaves are isotropic). Accuracy: the same
-// per-element bound as cone_trace (the mirror's SampleError covers the sample point's rounding and the
-// mixing weights').
+// cone's direction d, weighted d.x^2, d.y^2, d.z^2 (the leaves are isotropic). Voxel shading with
+// Gaussian lobes (svo.lobes = 1, VCT 4.3 and 7): normal_bricks, a second pool in the same node layout,
+// holds per voxel ((n + 1) alpha / 2, alpha), n the surface's mean normal; its quadrilinear sample decodes
+// to P = N alpha, whose length encodes the normal lobe's variance (1 - |N|) / |N|; the cone's span adds
+// tan^2(psi / 2); the sample's colour is scaled by the share of the convolved lobe facing the cone's
+// origin, Phi(c / sigma) by the logistic 1 / (1 + exp(-1.702 x)) (lobe_visibility; derivation in the
+// mirror's header). Accuracy: the same per-element bound as cone_trace (the mirror's SampleError covers
+// the sample point's rounding and the mixing weights'; lobe_visibility's bound the lobe factor's).
 
 struct SvoParams {
     depth: u32,
     inv_scale: f32,
     anisotropic: u32,   // 1: directional values from `aniso` above the leaves
-    _pad1: u32,
+    lobes: u32,         // 1: voxel shading with Gaussian lobes from `normal_bricks`
 }
 
 @group(0) @binding(8) var<storage, read> nodes: array<Node>;
@@ -33,10 +38,17 @@ struct SvoParams {
 @group(0) @binding(16) var<storage, read> vx_normal: array<vec4<f32>>;
 @group(0) @binding(17) var<storage, read> vx_albedo: array<vec4<f32>>;
 @group(0) @binding(18) var<storage, read_write> vx_indirect: array<vec4<f32>>;
+// The lobes' normal pool: bricks in `nodes`' layout, per voxel ((n + 1) alpha / 2, alpha) in fixed point.
+@group(0) @binding(19) var<storage, read> normal_bricks: array<u32>;
 
 fn brick_voxel(n: u32, v: vec3<u32>) -> vec4<f32> {
     let w = n * BRICK_WORDS + voxel_index(v) * 4u;
     return vec4<f32>(f32(bricks[w]), f32(bricks[w + 1u]), f32(bricks[w + 2u]), f32(bricks[w + 3u])) * svo.inv_scale;
+}
+
+fn normal_voxel(n: u32, v: vec3<u32>) -> vec4<f32> {
+    let w = n * BRICK_WORDS + voxel_index(v) * 4u;
+    return vec4<f32>(f32(normal_bricks[w]), f32(normal_bricks[w + 1u]), f32(normal_bricks[w + 2u]), f32(normal_bricks[w + 3u])) * svo.inv_scale;
 }
 
 // The directional value of brick voxel v of node n for a cone along d: +a or -a by d's sign per axis.
@@ -72,8 +84,8 @@ fn cell_of(x: vec3<f32>, l: u32) -> Cell {
 }
 
 // Trilinear sample of mip level l in node n (found for `cell`; NONE: empty); `dir_in`: the directional
-// values along d where the level has them.
-fn sample_cell(cell: Cell, l: u32, n: u32, d: vec3<f32>, dir_in: bool) -> vec4<f32> {
+// values along d where the level has them; `normals`: the normal pool instead of the radiance.
+fn sample_cell(cell: Cell, l: u32, n: u32, d: vec3<f32>, dir_in: bool, normals: bool) -> vec4<f32> {
     if (n == NONE) {
         return vec4<f32>(0.0);
     }
@@ -90,7 +102,9 @@ fn sample_cell(cell: Cell, l: u32, n: u32, d: vec3<f32>, dir_in: bool) -> vec4<f
             continue;
         }
         var value: vec4<f32>;
-        if (dir) {
+        if (normals) {
+            value = normal_voxel(n, vec3<u32>(local));
+        } else if (dir) {
             value = directional(n, vec3<u32>(local), d);
         } else {
             value = brick_voxel(n, vec3<u32>(local));
@@ -103,7 +117,7 @@ fn sample_cell(cell: Cell, l: u32, n: u32, d: vec3<f32>, dir_in: bool) -> vec4<f
 // Trilinear sample of mip level l; `dir_in`: the directional values along d where the level has them.
 fn sample_level_dir(x: vec3<f32>, l: u32, d: vec3<f32>, dir_in: bool) -> vec4<f32> {
     let cell = cell_of(x, l);
-    return sample_cell(cell, l, find(svo.depth - l, vec3<u32>(cell.c)), d, dir_in);
+    return sample_cell(cell, l, find(svo.depth - l, vec3<u32>(cell.c)), d, dir_in, false);
 }
 
 // The march's sample: quadrilinear over levels floor(l) and floor(l) + 1 (from the top level up the top
@@ -112,26 +126,60 @@ fn sample_level_dir(x: vec3<f32>, l: u32, d: vec3<f32>, dir_in: bool) -> vec4<f3
 // lattice coordinate is exactly half the finer one's (scaling by 2 is exact in f32, fused or not), so
 // its cell is the finer cell >> 1 (clamping included); where the finer node is missing the coarser is
 // looked up. The same values as two descents, so the mirror samples each level on its own.
-fn sample_cone(x: vec3<f32>, l: f32, diam: f32, d: vec3<f32>) -> vec4<f32> {
+fn sample_cone(x: vec3<f32>, l: f32, diam: f32, d: vec3<f32>, tan_half: f32) -> vec4<f32> {
     let dir_in = svo.anisotropic != 0u;
+    let lobes = svo.lobes != 0u;
     let top = cone.levels - 1u;
     let lf = max(l, 0.0);
     let l0 = floor(lf);
+    var s: vec4<f32>;
+    var e = vec4<f32>(0.0);
     if (l0 >= f32(top)) {
-        return sample_level_dir(x, top, d, dir_in);
-    }
-    let a = lf - l0;
-    let li = u32(l0);
-    let fine = cell_of(x, li);
-    let coarse = cell_of(x, li + 1u);
-    let n = find(svo.depth - li, vec3<u32>(fine.c));
-    var np = NONE;
-    if (n != NONE) {
-        np = nodes[n].parent;
+        let cell = cell_of(x, top);
+        let n = find(svo.depth - top, vec3<u32>(cell.c));
+        s = sample_cell(cell, top, n, d, dir_in, false);
+        if (lobes) {
+            e = sample_cell(cell, top, n, d, false, true);
+        }
     } else {
-        np = find(svo.depth - li - 1u, vec3<u32>(coarse.c));
+        let a = lf - l0;
+        let li = u32(l0);
+        let fine = cell_of(x, li);
+        let coarse = cell_of(x, li + 1u);
+        let n = find(svo.depth - li, vec3<u32>(fine.c));
+        var np = NONE;
+        if (n != NONE) {
+            np = nodes[n].parent;
+        } else {
+            np = find(svo.depth - li - 1u, vec3<u32>(coarse.c));
+        }
+        s = sample_cell(fine, li, n, d, dir_in, false) * (1.0 - a) + sample_cell(coarse, li + 1u, np, d, dir_in, false) * a;
+        if (lobes) {
+            e = sample_cell(fine, li, n, d, false, true) * (1.0 - a) + sample_cell(coarse, li + 1u, np, d, false, true) * a;
+        }
     }
-    return sample_cell(fine, li, n, d, dir_in) * (1.0 - a) + sample_cell(coarse, li + 1u, np, d, dir_in) * a;
+    if (lobes) {
+        return vec4<f32>(s.xyz * lobe_visibility(e, d, tan_half), s.w);
+    }
+    return s;
+}
+
+// The share of a normal-pool sample e's lobe, convolved with the cone's (half-angle tangent tan_half),
+// that faces the cone's origin (-d). Mirror: svo_cone_trace::lobe_visibility (same operation order).
+fn lobe_visibility(e: vec4<f32>, d: vec3<f32>, tan_half: f32) -> f32 {
+    let p = 2.0 * e.xyz - vec3<f32>(e.w);
+    let a = e.w;
+    let m = min(length(p), a);
+    let t2 = tan_half * tan_half;
+    let r = sqrt(1.0 + t2);
+    let s = t2 / ((1.0 + r) * (1.0 + r));
+    let den2 = m * (a - m) + m * m * s;
+    let num = -dot(p, d);
+    var x = 0.0;
+    if (den2 > 0.0) {
+        x = clamp(num / sqrt(den2), -40.0, 40.0);
+    }
+    return 1.0 / (1.0 + exp(-1.702 * x));
 }
 
 // Entry voxel_main (declaration svo_bounce; vct-svo's `--bounces 2`): one invocation per non-empty

@@ -51,6 +51,9 @@ pub fn stages(
             if plan.runs("svo_anisotropic") {
                 v.push("svo_anisotropic");
             }
+            if plan.runs("svo_lobes") {
+                v.push("svo_lobes");
+            }
             v.push("svo_cone_trace");
             Ok(v)
         }
@@ -357,14 +360,34 @@ fn svo_tail(
         None
     };
 
+    let normals = if order.contains(&"svo_lobes") {
+        progress("svo_lobes");
+        let t = std::time::Instant::now();
+        // The voxels' coverage (alpha) and mean normals.
+        let (coverage, normal) = (&grid.colour, &grid.normal);
+        let n = if on_mirror("svo_lobes") {
+            svo_cone_trace::normal_pool_mirror(&octree, &frags, coverage, normal)?
+        } else {
+            svo_cone_trace::normal_pool_on_gpu(ctx, &octree, &frags, coverage, normal)?
+        };
+        timed("svo_lobes", t.elapsed().as_secs_f64());
+        Some(n)
+    } else {
+        None
+    };
+
     progress("svo_cone_trace");
     let t = std::time::Instant::now();
     let params = svo_cone_params(frame, cones);
+    let extras = svo_cone_trace::SvoExtras {
+        aniso: aniso.as_deref(),
+        normals: normals.as_deref(),
+    };
     let case = svo_cone_trace::case_for(
         data,
         gb,
         &octree,
-        aniso.as_deref(),
+        extras,
         SCALE,
         &params,
         "bisect".into(),

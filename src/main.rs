@@ -212,6 +212,10 @@ struct RenderFlags {
     /// vct-svo: anisotropic voxels (six directional values per voxel above the leaves) [default true].
     #[arg(long = "anisotropic-voxels", alias = "anisotropic_voxels")]
     anisotropic_voxels: Option<bool>,
+    /// vct-svo: voxel shading with Gaussian lobes (normal distributions convolved with the cone's
+    /// span decide how much of a voxel faces the cone's origin) [default false].
+    #[arg(long = "voxel-lobes", alias = "voxel_lobes")]
+    voxel_lobes: Option<bool>,
     /// vct-svo: light bounces in the voxels, 1 or 2 (the second gathered from every voxel through the
     /// octree, which is then rebuilt) [default 1].
     #[arg(long)]
@@ -255,6 +259,7 @@ fn load_scene(path: &Option<PathBuf>, flags: &RenderFlags) -> Result<vxgi::scene
         gather_radius,
         photon_map,
         anisotropic_voxels,
+        voxel_lobes,
         bounces
     );
     scene.render.validate().map_err(anyhow::Error::msg)?;

@@ -173,6 +173,9 @@ impl FramePlan {
                         if scene.render.anisotropic_voxels {
                             p.why.push_str("; anisotropic voxels above the leaves");
                         }
+                        if scene.render.voxel_lobes {
+                            p.why.push_str("; voxel shading with Gaussian lobes");
+                        }
                     }
                     "voxel_light" if scene.render.photon_map > 0 => {
                         let map = scene.render.photon_map;
@@ -200,8 +203,25 @@ impl FramePlan {
             passes.insert(at + 1, a);
             let lights = !scene.lights.is_empty();
             let two = scene.render.bounces == 2;
+            let lobes = scene.render.voxel_lobes;
             passes.insert(
                 at + 2,
+                PlannedPass {
+                    stage: "svo_lobes",
+                    kernel: "sparse_voxel_octree (normals)",
+                    size: format!("depth {depth}: normal pool over the octree's points"),
+                    runs: octree_runs && lobes,
+                    why: if !lobes {
+                        "skipped: voxel_lobes = false (voxels emit alike in every direction)".into()
+                    } else if !octree_runs {
+                        "skipped: the octree is reused (with its normal pool)".into()
+                    } else {
+                        "normals pre-multiplied by opacity, filtered as the light (a second build over the same points), for the Gaussian lobes (VCT 4.3, 7)".into()
+                    },
+                },
+            );
+            passes.insert(
+                at + 3,
                 PlannedPass {
                     stage: "svo_bounce",
                     kernel: "svo_bounce + sparse_voxel_octree",

@@ -919,16 +919,21 @@ impl Renderer {
 /// and cone-traces the last frame's octree (the same octree a rebuild would make: the same image).
 pub struct VctSvo {
     reuse: bool,
-    /// The last octree, the key it was built for (with photon_map, anisotropic_voxels and bounces),
-    /// its frame and directional values.
-    #[allow(clippy::type_complexity)]
-    cache: Option<(
-        (PyramidKey, u32, bool, u32),
-        crate::kernels::sparse_voxel_octree::GpuOctree,
-        voxelize::VoxelFrame,
-        Option<Vec<[f32; 4]>>,
-    )>,
+    /// The last octree and what it was built for.
+    cache: Option<SvoCache>,
     statics: StaticVoxels,
+}
+
+/// vct-svo's octree as the cone pass reads it, and the key it was built for.
+struct SvoCache {
+    /// The pyramid key, photon_map, anisotropic_voxels, voxel_lobes and bounces.
+    key: (PyramidKey, u32, bool, bool, u32),
+    built: crate::kernels::sparse_voxel_octree::GpuOctree,
+    frame: voxelize::VoxelFrame,
+    /// Directional values (anisotropic voxels).
+    aniso: Option<Vec<[f32; 4]>>,
+    /// The Gaussian lobes' normal pool, in `built`'s node layout.
+    normals: Option<Vec<u32>>,
 }
 
 /// vct-svo's voxels across the frames of an animation with dynamic instances: the static part (the
@@ -1069,9 +1074,10 @@ impl VctSvo {
             PyramidKey::of(scene),
             r.photon_map,
             r.anisotropic_voxels,
+            r.voxel_lobes,
             r.bounces,
         );
-        let cached = self.reuse && self.cache.as_ref().is_some_and(|c| c.0 == key);
+        let cached = self.reuse && self.cache.as_ref().is_some_and(|c| c.key == key);
         let mut plan = FramePlan::vct_svo_after(scene, cones, cached);
         let data = SceneData::new(scene);
         let mut stages = Vec::new();
@@ -1149,7 +1155,24 @@ impl VctSvo {
                 stages.push(("svo_anisotropic", t.elapsed().as_secs_f64()));
                 Ok(Some(a))
             };
+            // The Gaussian lobes' normal pool: a second build over the fragments' points.
+            let lobes = |built: &svo::GpuOctree,
+                         frags: &[vxgi_cpu_mirror::sparse_voxel_octree::Fragment],
+                         stages: &mut Stages|
+             -> Result<_> {
+                if !plan.runs("svo_lobes") {
+                    return Ok(None);
+                }
+                progress("normal pool (Gaussian lobes)");
+                let t = std::time::Instant::now();
+                let n =
+                    svo_cone_trace::normal_pool_on_gpu(ctx, &built.octree, frags, &rad, &normal)
+                        .context("normal pool")?;
+                stages.push(("svo_lobes", t.elapsed().as_secs_f64()));
+                Ok(Some(n))
+            };
             let mut aniso = directional(&built, &mut stages)?;
+            let mut normals = lobes(&built, &frags, &mut stages)?;
             let mut built = built;
             if plan.runs("svo_bounce") {
                 // Second bounce: every non-empty voxel gathers through the octree of the first, its
@@ -1158,14 +1181,13 @@ impl VctSvo {
                 let t = std::time::Instant::now();
                 let voxels = svo_cone_trace::bounce_voxels(&rad, &normal, &colour, &frame);
                 let params = svo_cone_trace::svo_cone_params(&frame, cones);
-                let ind = svo_cone_trace::bounce_on_gpu(
-                    ctx,
-                    &built.octree,
-                    aniso.as_deref(),
-                    &params,
-                    &voxels,
-                )
-                .context("second bounce")?;
+                let extras = svo_cone_trace::SvoExtras {
+                    aniso: aniso.as_deref(),
+                    normals: normals.as_deref(),
+                };
+                let ind =
+                    svo_cone_trace::bounce_on_gpu(ctx, &built.octree, extras, &params, &voxels)
+                        .context("second bounce")?;
                 frags.extend(svo_cone_trace::bounce_fragments(
                     &voxels,
                     &ind,
@@ -1176,21 +1198,37 @@ impl VctSvo {
                     svo::build_on_gpu(ctx, depth, &frags, None).context("sparse voxel octree")?;
                 stages.push(("svo_bounce", t.elapsed().as_secs_f64()));
                 aniso = directional(&built, &mut stages)?;
+                normals = lobes(&built, &frags, &mut stages)?;
             }
-            self.cache = Some((key, built, frame, aniso));
+            self.cache = Some(SvoCache {
+                key,
+                built,
+                frame,
+                aniso,
+                normals,
+            });
         }
-        let (_, built, frame, aniso) = self.cache.as_ref().expect("built or reused above");
-        let mut memory = svo::MemoryReport::of(&built.octree);
-        memory.anisotropic_bytes = aniso.as_ref().map_or(0, |a| a.len() as u64 * 16);
-        memory.bytes += memory.anisotropic_bytes;
+        let c = self.cache.as_ref().expect("built or reused above");
+        let mut memory = svo::MemoryReport::of(&c.built.octree);
+        memory.anisotropic_bytes = c.aniso.as_ref().map_or(0, |a| a.len() as u64 * 16);
+        // The normal pool: one more brick per node (its buffer ends at the last used node).
+        memory.normal_bytes = c
+            .normals
+            .as_ref()
+            .map_or(0, |_| memory.bricks * svo::BRICK_BYTES);
+        memory.bytes += memory.anisotropic_bytes + memory.normal_bytes;
         progress("cone tracing");
         let t = std::time::Instant::now();
-        let params = svo_cone_trace::svo_cone_params(frame, cones);
+        let params = svo_cone_trace::svo_cone_params(&c.frame, cones);
+        let extras = svo_cone_trace::SvoExtras {
+            aniso: c.aniso.as_deref(),
+            normals: c.normals.as_deref(),
+        };
         let case = svo_cone_trace::case_for(
             &data,
             &gb,
-            &built.octree,
-            aniso.as_deref(),
+            &c.built.octree,
+            extras,
             svo_cone_trace::SCALE,
             &params,
             "render".into(),
@@ -1649,18 +1687,23 @@ pub fn render_svo_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendered
         depth,
         inv_scale: 1.0 / SCALE,
         anisotropic: anisotropic as u32,
-        _pad: 0,
+        lobes: plan.runs("svo_lobes") as u32,
     };
-    let built = |frags: &[vxgi_cpu_mirror::sparse_voxel_octree::Fragment]| {
+    let built = |frags: &[vxgi_cpu_mirror::sparse_voxel_octree::Fragment]| -> Result<_> {
         let octree = build_fitted(depth, frags);
         let aniso = if anisotropic {
             crate::kernels::svo_anisotropic::build_mirror(&octree, 1.0 / SCALE)
         } else {
             vec![]
         };
-        (octree, aniso)
+        let normals = if svo.lobes == 1 {
+            crate::kernels::svo_cone_trace::normal_pool_mirror(&octree, frags, &m.lit, &m.normal)?
+        } else {
+            vec![]
+        };
+        Ok((octree, aniso, normals))
     };
-    let (mut octree, mut aniso) = built(&frags);
+    let (mut octree, mut aniso, mut normals) = built(&frags)?;
     if plan.runs("svo_bounce") {
         use crate::kernels::svo_cone_trace as sct;
         let voxels = sct::bounce_voxels(&m.lit, &m.normal, &m.colour, &m.frame);
@@ -1668,6 +1711,7 @@ pub fn render_svo_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendered
             &octree.nodes,
             &octree.bricks,
             &aniso,
+            &normals,
             &svo,
             &params,
             [&voxels.position, &voxels.normal, &voxels.albedo],
@@ -1677,7 +1721,7 @@ pub fn render_svo_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendered
         .collect();
         let mut frags = frags;
         frags.extend(sct::bounce_fragments(&voxels, &ind, &m.lit, SCALE)?);
-        (octree, aniso) = built(&frags);
+        (octree, aniso, normals) = built(&frags)?;
     }
     let volume = vxgi_cpu_mirror::svo_cone_trace::SvoVolume {
         p: &params,
@@ -1685,6 +1729,7 @@ pub fn render_svo_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendered
         nodes: &octree.nodes,
         bricks: &octree.bricks,
         aniso: &aniso,
+        normals: &normals,
     };
     let lmax = max_radiance(&octree.bricks, svo.inv_scale);
     Ok(m.shade(&volume, lmax, plan))

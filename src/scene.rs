@@ -194,6 +194,11 @@ pub struct RenderSettings {
     /// composited front to back per direction, read by the three facing the cone; false = the
     /// isotropic Gaussian average alone.
     pub anisotropic_voxels: bool,
+    /// vct-svo: voxel shading with Gaussian lobes (VCT 4.3 and 7): a normal pool pre-multiplied by
+    /// opacity, filtered with the octree; each sample's colour is scaled by the share of its normal
+    /// lobe (variance from the averaged normal's length), convolved with the cone's, that faces the
+    /// cone's origin. False: voxels emit alike in every direction.
+    pub voxel_lobes: bool,
     /// Bounces of indirect light, 1 or 2, for the reference and vct-svo (the other pipelines do one
     /// and refuse 2). vct-svo's second: every non-empty voxel gathers the first bounce through the
     /// octree with the diffuse cones (`svo_bounce`), its reflected light is added to the fragments and
@@ -346,6 +351,7 @@ impl Default for RenderSettings {
             gather_radius: 2.0,
             photon_map: 256,
             anisotropic_voxels: true,
+            voxel_lobes: false,
             bounces: 1,
         }
     }

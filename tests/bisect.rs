@@ -101,12 +101,19 @@ fn stages_are_named_and_a_typo_is_an_error() {
     assert_eq!(&cprc[5..], ["cache_distribution", "cache_creation"]);
 }
 
+/// vct-svo here with Gaussian lobes, so its normal pool is a stage of its own.
 #[test]
 fn vct_svo_and_cprc_splits_agree_after_the_gpu_gbuffer() {
-    let scene = small_box();
+    let mut scene = small_box();
+    scene.render.voxel_lobes = true;
     let cones = ConeSettings::from(&scene.render);
     for pipeline in [Pipeline::VctSvo, Pipeline::Cprc] {
         let order = stages(pipeline, &scene, &cones).unwrap();
+        assert_eq!(
+            order.contains(&"svo_lobes"),
+            pipeline == Pipeline::VctSvo,
+            "{order:?}"
+        );
         let rows = bisect(gpu(), &scene, &cones, pipeline, |_| {}).unwrap();
         println!("{}\n{}", pipeline.name(), table(&order, &rows));
         assert_eq!(rows.len(), order.len());

@@ -115,10 +115,18 @@ pub trait Volume {
         quadrilinear(self.params().levels - 1, lf, |l| self.level(x, l))
     }
 
-    /// What the march reads at sample point `x` (level `lf`, cone diameter `diam`, cone direction `d`):
-    /// the volume's own sample unless the volume takes radiance from elsewhere (lrsm_cone_trace: the
-    /// LRSMs, at the sample's diameter, seen along -d).
-    fn sample_cone(&self, x: Vec3, lf: f32, _diam: f32, _d: Vec3) -> (Vec4, SampleError) {
+    /// What the march reads at sample point `x` (level `lf`, cone diameter `diam`, cone direction `d`,
+    /// the cone's half-angle tangent `tan_half`): the volume's own sample unless the volume takes
+    /// radiance from elsewhere (lrsm_cone_trace: the LRSMs, at the sample's diameter, seen along -d)
+    /// or shades it for the cone (svo_cone_trace's Gaussian lobes).
+    fn sample_cone(
+        &self,
+        x: Vec3,
+        lf: f32,
+        _diam: f32,
+        _d: Vec3,
+        _tan_half: f32,
+    ) -> (Vec4, SampleError) {
         self.sample(x, lf)
     }
 }
@@ -315,7 +323,7 @@ pub fn march(
             let plane = off + t * cos_n.max(0.0);
             l = l.min((plane * inv_s0 / p.mip_clamp).log2());
         }
-        let (s, serr) = pyr.sample_cone(o + d * t, l, diam, d);
+        let (s, serr) = pyr.sample_cone(o + d * t, l, diam, d, tan);
         let step = diam * sf;
         // step / cell, cell = s0 * 2^max(l, 0) (= diam while the level follows the diameter).
         let ratio = if l < lf {

@@ -143,7 +143,14 @@ impl Volume for LrsmVolume<'_> {
 
     /// `(L * alpha, alpha)`; where the mirror's alpha is 0 the LRSMs are not read (as in the kernel) and
     /// the colour error is `lmax` times the alpha's.
-    fn sample_cone(&self, x: Vec3, lf: f32, diam: f32, d: Vec3) -> (Vec4, SampleError) {
+    fn sample_cone(
+        &self,
+        x: Vec3,
+        lf: f32,
+        diam: f32,
+        d: Vec3,
+        _tan_half: f32,
+    ) -> (Vec4, SampleError) {
         let (s, serr) = self.sample(x, lf);
         #[allow(clippy::neg_cmp_op_on_partial_ord)]
         if !(s.w > 0.0) {

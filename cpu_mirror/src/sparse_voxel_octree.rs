@@ -775,6 +775,37 @@ pub fn build_fitted(depth: u32, fragments: &[Fragment]) -> Octree {
     )
 }
 
+/// `source`'s bricks in the node layout `target` (a brick per node of `target` up to its last used
+/// one, zero where `source` has no node with its key). The structure depends on the fragments' points alone (`flag_parents`
+/// reads no values), so two builds from fragments at the same points have the same nodes, in the
+/// order their tile counters handed them out: this carries a second brick pool (other values at the
+/// same points, e.g. svo_cone_trace's normals) into the first build's layout, so one node lookup
+/// serves both.
+pub fn bricks_in_layout(target: &[Node], source: &Octree) -> Vec<u32> {
+    let at: std::collections::HashMap<u32, usize> = source
+        .nodes
+        .iter()
+        .enumerate()
+        .filter(|(_, n)| n.key != NONE)
+        .map(|(i, n)| (n.key, i))
+        .collect();
+    let used = target
+        .iter()
+        .rposition(|n| n.key != NONE)
+        .map_or(0, |i| i + 1);
+    let mut out = vec![0u32; used * BRICK_WORDS];
+    for (i, n) in target[..used].iter().enumerate() {
+        if let Some(&j) = at.get(&n.key) {
+            let b = j * BRICK_WORDS;
+            if b + BRICK_WORDS <= source.bricks.len() {
+                out[i * BRICK_WORDS..(i + 1) * BRICK_WORDS]
+                    .copy_from_slice(&source.bricks[b..b + BRICK_WORDS]);
+            }
+        }
+    }
+    out
+}
+
 /// Tiles a build needs at most: per level, every fragment flags at most 8 parents (and there are at
 /// most `8^(l-1)` parents), one tile each; plus the root's tile.
 pub fn capacity_bound(depth: u32, fragments: usize) -> u64 {

@@ -6,7 +6,7 @@
 // the pre-multiplied (L * alpha, alpha) at world point x, trilinear in whole mip level l (cell s0 * 2^l,
 // l < cone.levels); sample_volume here blends two levels (quadrilinear; lf < 0 reads level 0, past the
 // top the top level). The march reads each sample through
-//   fn sample_cone(x: vec3<f32>, l: f32, diam: f32, d: vec3<f32>) -> vec4<f32>
+//   fn sample_cone(x: vec3<f32>, l: f32, diam: f32, d: vec3<f32>, tan_half: f32) -> vec4<f32>
 // also the including kernel's: the dense and octree tracers return sample_volume(x, l); lrsm_cone_trace
 // takes its radiance from the LRSMs at the sample's diameter, seen along -d. Mirror: cpu_mirror/src/cone_trace.rs (`march`,
 // `shade_pixel`, generic over `Volume`). See cone_trace.wgsl's header for the full definition.
@@ -124,7 +124,7 @@ fn march(o: vec3<f32>, d: vec3<f32>, tan_half: f32, cos_n: f32) -> ConeOut {
             let plane = off + t * max(cos_n, 0.0);
             l = min(l, log2(plane * cone.inv_s0 / cone.mip_clamp));
         }
-        let s = sample_cone(o + d * t, l, diam, d);
+        let s = sample_cone(o + d * t, l, diam, d, tan_half);
         let step = diam * sf;
         var ratio = sf * min(diam * cone.inv_s0, 1.0);
         if (l < lf) {

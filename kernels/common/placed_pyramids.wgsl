@@ -61,6 +61,6 @@ fn sample_level(x: vec3<f32>, l: u32) -> vec4<f32> {
     return placed_combined(x, f32(l));
 }
 
-fn sample_cone(x: vec3<f32>, l: f32, diam: f32, d: vec3<f32>) -> vec4<f32> {
+fn sample_cone(x: vec3<f32>, l: f32, diam: f32, d: vec3<f32>, tan_half: f32) -> vec4<f32> {
     return placed_combined(x, l);
 }

@@ -8,6 +8,6 @@ fn sample_level(x: vec3<f32>, l: u32) -> vec4<f32> {
 }
 
 // The march's sample: the volume's own radiance (see common/cone_march.wgsl).
-fn sample_cone(x: vec3<f32>, l: f32, diam: f32, d: vec3<f32>) -> vec4<f32> {
+fn sample_cone(x: vec3<f32>, l: f32, diam: f32, d: vec3<f32>, tan_half: f32) -> vec4<f32> {
     return sample_volume(x, l);
 }

@@ -504,6 +504,8 @@ pub struct MemoryReport {
     pub bytes: u64,
     /// The directional values (`svo_anisotropic`; 0 when isotropic), part of `bytes`.
     pub anisotropic_bytes: u64,
+    /// The Gaussian lobes' normal pool (0 without lobes), part of `bytes`.
+    pub normal_bytes: u64,
     /// The dense vertex lattices of every level, four u32 channels per point.
     pub dense_bytes: u64,
     /// vct-dense at the same effective resolution: the Morton radiance and normal pyramids (vec4<f32>
@@ -524,6 +526,7 @@ impl MemoryReport {
             bricks: nodes,
             bytes: nodes * (NODE_BYTES + BRICK_BYTES),
             anisotropic_bytes: 0,
+            normal_bytes: 0,
             dense_bytes: dense_points * 16,
             vct_dense_bytes: 2 * 16 * (0..=o.depth + 1).map(|l| 1u64 << (3 * l)).sum::<u64>(),
         }

@@ -10,8 +10,8 @@ use super::voxelize::VoxelFrame;
 use crate::trace::SceneData;
 use std::collections::BTreeMap;
 use vxgi_cpu_mirror::cone_trace::ConeParams;
-use vxgi_cpu_mirror::sparse_voxel_octree::{build_fitted, Fragment, Octree};
-use vxgi_cpu_mirror::svo_cone_trace::{SvoParams, SvoVolume};
+use vxgi_cpu_mirror::sparse_voxel_octree::{bricks_in_layout, build_fitted, Fragment, Octree};
+use vxgi_cpu_mirror::svo_cone_trace::{normal_value, SvoParams, SvoVolume};
 use vxgi_harness::compare::bound_name;
 use vxgi_harness::{
     Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
@@ -26,7 +26,7 @@ pub static DECL: KernelDecl = KernelDecl {
     entry: "main",
     inputs: &[
         "frame", "triangles", "materials", "gb_position", "gb_normal", "gb_triangle", "gb_albedo", "cone", "cone_dirs", "tile_list",
-        "nodes", "bricks", "svo", "aniso",
+        "nodes", "bricks", "svo", "aniso", "normal_bricks",
     ],
     outputs: &[
         // cone_trace's bound (see `cone_trace::MAG`): the march is the same code; the octree's sample
@@ -74,6 +74,78 @@ pub fn coverage_only(voxels: &[[f32; 4]]) -> Vec<[f32; 4]> {
     voxels.iter().map(|v| [0.0, 0.0, 0.0, v[3]]).collect()
 }
 
+/// What the octree's readers sample besides its radiance bricks: the anisotropic voxels' directional
+/// values (`svo_anisotropic`) and the Gaussian lobes' normal pool ([`normal_pool_mirror`] /
+/// [`normal_pool_on_gpu`]); `None`: that option is off.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct SvoExtras<'a> {
+    pub aniso: Option<&'a [[f32; 4]]>,
+    pub normals: Option<&'a [u32]>,
+}
+
+/// The normal pool's fragments for an octree built from `frags` over the voxel grid `radiance`
+/// (Morton order, alpha in w) whose mean normals are `normal` (xyz): each voxel with alpha > 0 its
+/// [`normal_value`], and every fragment of `frags` at its point with value 0, so the pool's build has
+/// `frags`' structure (its values come from the first list alone: a zero value splats nothing).
+pub fn normal_fragments(
+    frags: &[Fragment],
+    radiance: &[[f32; 4]],
+    normal: &[[f32; 4]],
+    scale: f32,
+) -> Result<Vec<Fragment>, SvoError> {
+    let mut out = Vec::with_capacity(2 * frags.len());
+    for (m, (r, n)) in radiance.iter().zip(normal).enumerate() {
+        if r[3] <= 0.0 {
+            continue;
+        }
+        let v = normal_value(glam::Vec3::from_slice(&n[..3]), r[3]);
+        out.push(Fragment {
+            pos: vxgi_cpu_mirror::morton::decode(m as u32),
+            _pad: 0,
+            value: [
+                to_fixed(v[0], scale)?,
+                to_fixed(v[1], scale)?,
+                to_fixed(v[2], scale)?,
+                to_fixed(v[3], scale)?,
+            ],
+        });
+    }
+    out.extend(frags.iter().map(|f| Fragment {
+        value: [0; 4],
+        ..*f
+    }));
+    Ok(out)
+}
+
+/// The lobes' normal pool of `octree` (built from `frags`), by the mirror: the mirror's build of
+/// [`normal_fragments`], in `octree`'s node layout (`bricks_in_layout`).
+pub fn normal_pool_mirror(
+    octree: &Octree,
+    frags: &[Fragment],
+    radiance: &[[f32; 4]],
+    normal: &[[f32; 4]],
+) -> Result<Vec<u32>, SvoError> {
+    let nf = normal_fragments(frags, radiance, normal, SCALE)?;
+    Ok(bricks_in_layout(
+        &octree.nodes,
+        &build_fitted(octree.depth, &nf),
+    ))
+}
+
+/// [`normal_pool_mirror`] with the pool built on the GPU (`sparse_voxel_octree`'s kernel, a second
+/// build over the same points).
+pub fn normal_pool_on_gpu(
+    ctx: &GpuContext,
+    octree: &Octree,
+    frags: &[Fragment],
+    radiance: &[[f32; 4]],
+    normal: &[[f32; 4]],
+) -> Result<Vec<u32>, SvoError> {
+    let nf = normal_fragments(frags, radiance, normal, SCALE)?;
+    let built = super::sparse_voxel_octree::build_on_gpu(ctx, octree.depth, &nf, None)?;
+    Ok(bricks_in_layout(&octree.nodes, &built.octree))
+}
+
 /// Cone parameters for an octree of `depth` over the voxel grid `frame` (side `2^(depth + 1)`): mip
 /// levels 0..=depth.
 pub fn svo_cone_params(frame: &VoxelFrame, settings: &ConeSettings) -> ConeParams {
@@ -83,34 +155,38 @@ pub fn svo_cone_params(frame: &VoxelFrame, settings: &ConeSettings) -> ConeParam
 }
 
 /// The cone pass over a scene whose G-buffer and octree are given (values in fixed point with `scale`);
-/// `aniso`: the octree's directional values (`svo_anisotropic`) for anisotropic voxels, or `None`.
+/// `extras`: what the options read besides the octree.
 #[allow(clippy::too_many_arguments)]
 pub fn case_for(
     data: &SceneData,
     gbuffer: &Resources,
     octree: &Octree,
-    aniso: Option<&[[f32; 4]]>,
+    extras: SvoExtras,
     scale: f32,
     params: &ConeParams,
     label: String,
     seed: u64,
 ) -> Case {
-    let volume = octree_resources(octree, aniso, scale);
+    let volume = octree_resources(octree, extras, scale);
     tracer_case(&DECL, data, gbuffer, params, volume, label, seed)
 }
 
-/// The octree's bindings (nodes, bricks, svo, aniso) for the cone kernels.
-pub fn octree_resources(octree: &Octree, aniso: Option<&[[f32; 4]]>, scale: f32) -> Resources {
+/// The octree's bindings (nodes, bricks, svo, aniso, normal_bricks) for the cone kernels.
+pub fn octree_resources(octree: &Octree, extras: SvoExtras, scale: f32) -> Resources {
     let svo = SvoParams {
         depth: octree.depth,
         inv_scale: 1.0 / scale,
-        anisotropic: aniso.is_some() as u32,
-        _pad: 0,
+        anisotropic: extras.aniso.is_some() as u32,
+        lobes: extras.normals.is_some() as u32,
     };
-    // Unused when isotropic, but bound: one empty element.
-    let aniso = match aniso {
+    // Unused when an option is off, but bound: one empty element.
+    let aniso = match extras.aniso {
         Some(a) if !a.is_empty() => a,
         _ => &[[0.0f32; 4]][..],
+    };
+    let normals = match extras.normals {
+        Some(n) if !n.is_empty() => n,
+        _ => &[0u32][..],
     };
     let mut r = super::sparse_voxel_octree::reader_resources(octree);
     r.insert(
@@ -120,6 +196,10 @@ pub fn octree_resources(octree: &Octree, aniso: Option<&[[f32; 4]]>, scale: f32)
     r.insert(
         "aniso".to_string(),
         HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(aniso))),
+    );
+    r.insert(
+        "normal_bricks".to_string(),
+        HostResource::Buffer(HostBuffer::u32(normals)),
     );
     r
 }
@@ -145,34 +225,63 @@ pub fn mirror_cones(data: &Resources) -> [Vec<[f32; 4]>; 4] {
         nodes: bytemuck::cast_slice(&b("nodes").bytes),
         bricks,
         aniso: bytemuck::cast_slice(&b("aniso").bytes),
+        normals: b("normal_bricks").as_u32(),
     };
     shade_all(data, &volume, max_radiance(bricks, svo.inv_scale))
 }
 
-/// A generated lit scene (cone_trace's `lit_case`), the mirror's octree of its voxels, its cone
-/// parameters, and every other case (odd `index`) the octree's directional values (the mirror's: the
-/// builder is verified on its own).
-#[allow(clippy::type_complexity)]
-fn generated_octree(
-    ctx: &GpuContext,
-    seed: u64,
-    index: usize,
-) -> (
-    super::cone_trace::LitCase,
-    u32,
-    Octree,
-    ConeParams,
-    Option<Vec<[f32; 4]>>,
-) {
-    let c = lit_case(ctx, seed, index);
-    let depth = c.frame.side.trailing_zeros() - 1;
-    let frags =
-        grid_fragments(&c.radiance, SCALE).expect("generated radiance fits the fixed point");
-    let octree = build_fitted(depth, &frags);
-    let params = svo_cone_params(&c.frame, &c.settings);
-    let aniso = (index % 2 == 1)
-        .then(|| crate::kernels::svo_anisotropic::build_mirror(&octree, 1.0 / SCALE));
-    (c, depth, octree, params, aniso)
+/// A generated lit scene (cone_trace's `lit_case`) and the mirror's octree of its voxels (the builder
+/// is verified on its own), with its options by `index % 4`: 0 none, 1 anisotropic voxels, 2 Gaussian
+/// lobes, 3 both (the directional values and the normal pool the mirror's).
+pub struct GeneratedOctree {
+    pub lit: super::cone_trace::LitCase,
+    pub octree: Octree,
+    pub params: ConeParams,
+    pub aniso: Option<Vec<[f32; 4]>>,
+    pub normals: Option<Vec<u32>>,
+}
+
+impl GeneratedOctree {
+    pub fn new(ctx: &GpuContext, seed: u64, index: usize) -> GeneratedOctree {
+        let c = lit_case(ctx, seed, index);
+        let depth = c.frame.side.trailing_zeros() - 1;
+        let frags =
+            grid_fragments(&c.radiance, SCALE).expect("generated radiance fits the fixed point");
+        let octree = build_fitted(depth, &frags);
+        let params = svo_cone_params(&c.frame, &c.settings);
+        let aniso = (index % 2 == 1)
+            .then(|| crate::kernels::svo_anisotropic::build_mirror(&octree, 1.0 / SCALE));
+        let normals = (index % 4 >= 2).then(|| {
+            normal_pool_mirror(&octree, &frags, &c.radiance, &c.normal)
+                .expect("generated normals fit the fixed point")
+        });
+        GeneratedOctree {
+            lit: c,
+            octree,
+            params,
+            aniso,
+            normals,
+        }
+    }
+
+    pub fn extras(&self) -> SvoExtras<'_> {
+        SvoExtras {
+            aniso: self.aniso.as_deref(),
+            normals: self.normals.as_deref(),
+        }
+    }
+
+    /// ", anisotropic", ", lobes", both or nothing, for a case's label.
+    pub fn options(&self) -> String {
+        let mut s = String::new();
+        if self.aniso.is_some() {
+            s += ", anisotropic";
+        }
+        if self.normals.is_some() {
+            s += ", lobes";
+        }
+        s
+    }
 }
 
 pub struct SvoConeTrace;
@@ -182,19 +291,20 @@ impl Kernel for SvoConeTrace {
         &DECL
     }
     fn case(&self, _shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
-        let (c, depth, octree, params, aniso) = generated_octree(ctx, seed, index);
+        let g = GeneratedOctree::new(ctx, seed, index);
         let label = format!(
-            "{}, octree depth {depth}{}",
-            c.label,
-            if aniso.is_some() { ", anisotropic" } else { "" }
+            "{}, octree depth {}{}",
+            g.lit.label,
+            g.octree.depth,
+            g.options()
         );
         case_for(
-            &c.data,
-            &c.gbuffer,
-            &octree,
-            aniso.as_deref(),
+            &g.lit.data,
+            &g.lit.gbuffer,
+            &g.octree,
+            g.extras(),
             SCALE,
-            &params,
+            &g.params,
             label,
             seed,
         )
@@ -216,7 +326,7 @@ pub static BOUNCE_DECL: KernelDecl = KernelDecl {
     includes: &[super::SVO_NODE, super::TANGENT_BASIS, super::CONE_MARCH],
     entry: "voxel_main",
     inputs: &[
-        "cone", "cone_dirs", "nodes", "bricks", "svo", "aniso", "vx_position", "vx_normal", "vx_albedo",
+        "cone", "cone_dirs", "nodes", "bricks", "svo", "aniso", "normal_bricks", "vx_position", "vx_normal", "vx_albedo",
     ],
     // The pixel entry's diffuse cones and their bound (see DECL).
     outputs: &[Output {
@@ -278,12 +388,12 @@ pub fn bounce_voxels(
     out
 }
 
-/// The bounce pass over `voxels` through the octree (and its directional values).
+/// The bounce pass over `voxels` through the octree (and what its options read).
 #[allow(clippy::too_many_arguments)]
 pub fn bounce_case(
     shader: &Shader,
     octree: &Octree,
-    aniso: Option<&[[f32; 4]]>,
+    extras: SvoExtras,
     scale: f32,
     params: &ConeParams,
     voxels: &BounceVoxels,
@@ -292,7 +402,7 @@ pub fn bounce_case(
     seed: u64,
 ) -> Case {
     let n = voxels.index.len().max(1);
-    let mut resources = octree_resources(octree, aniso, scale);
+    let mut resources = octree_resources(octree, extras, scale);
     resources.insert("cone".into(), HostResource::Buffer(HostBuffer::pod(params)));
     let f4 = |v: &[[f32; 4]]| {
         let v = if v.is_empty() { &[[0.0f32; 4]][..] } else { v };
@@ -367,7 +477,7 @@ pub fn bounce_fragments(
 pub fn bounce_on_gpu(
     ctx: &GpuContext,
     octree: &Octree,
-    aniso: Option<&[[f32; 4]]>,
+    extras: SvoExtras,
     params: &ConeParams,
     voxels: &BounceVoxels,
 ) -> anyhow::Result<Vec<[f32; 4]>> {
@@ -378,7 +488,7 @@ pub fn bounce_on_gpu(
     let case = bounce_case(
         &shader,
         octree,
-        aniso,
+        extras,
         SCALE,
         params,
         voxels,
@@ -398,11 +508,13 @@ pub fn bounce_on_gpu(
 }
 
 /// The bounce pass by the mirror over the voxels' (position, normal, albedo): each voxel's value and
-/// bound.
+/// bound. `aniso` and `normals` are read where `svo` turns them on.
+#[allow(clippy::too_many_arguments)]
 pub fn bounce_mirror(
     octree_nodes: &[vxgi_cpu_mirror::sparse_voxel_octree::Node],
     bricks: &[u32],
     aniso: &[[f32; 4]],
+    normals: &[u32],
     svo: &SvoParams,
     params: &ConeParams,
     [position, normal, albedo]: [&[[f32; 4]]; 3],
@@ -414,6 +526,7 @@ pub fn bounce_mirror(
         nodes: octree_nodes,
         bricks,
         aniso,
+        normals,
     };
     let dirs = vxgi_cpu_mirror::cone_trace::diffuse_cones(params.diffuse_cones, params.diffuse_tan);
     let lmax = max_radiance(bricks, svo.inv_scale);
@@ -439,23 +552,25 @@ impl Kernel for SvoBounce {
         &BOUNCE_DECL
     }
 
-    /// svo_cone_trace's generated scenes: the octree of their lit voxels (with directional values
-    /// every other case), the bounce from every non-empty voxel.
+    /// svo_cone_trace's generated scenes ([`GeneratedOctree`]: the octree of their lit voxels and
+    /// its options), the bounce from every non-empty voxel.
     fn case(&self, shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
-        let (c, depth, octree, params, aniso) = generated_octree(ctx, seed, index);
+        let g = GeneratedOctree::new(ctx, seed, index);
+        let c = &g.lit;
         let voxels = bounce_voxels(&c.radiance, &c.normal, &c.albedo, &c.frame);
         let label = format!(
-            "{}, octree depth {depth}, {} voxels{}",
+            "{}, octree depth {}, {} voxels{}",
             c.label,
+            g.octree.depth,
             voxels.index.len(),
-            if aniso.is_some() { ", anisotropic" } else { "" }
+            g.options()
         );
         bounce_case(
             shader,
-            &octree,
-            aniso.as_deref(),
+            &g.octree,
+            g.extras(),
             SCALE,
-            &params,
+            &g.params,
             &voxels,
             ctx,
             label,
@@ -477,6 +592,7 @@ impl Kernel for SvoBounce {
             bytemuck::cast_slice(&b("nodes").bytes),
             b("bricks").as_u32(),
             f4("aniso"),
+            b("normal_bricks").as_u32(),
             &svo,
             &params,
             [f4("vx_position"), f4("vx_normal"), f4("vx_albedo")],
