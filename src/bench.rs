@@ -32,6 +32,8 @@ pub struct BenchRow {
     /// vct-svo: directional values above the leaves, and the photon map side (0: voxel_light).
     pub anisotropic_voxels: bool,
     pub photon_map: u32,
+    /// vct-svo: voxel shading with Gaussian lobes.
+    pub voxel_lobes: bool,
     /// Wall-clock seconds of the whole frame (stages, transfers between them included).
     pub seconds: f64,
     /// Wall-clock seconds per stage, in [`Pipeline::stages`] order (0 where the plan skipped the stage).
@@ -94,8 +96,9 @@ pub fn sweep(base: &RenderSettings, quick: bool, pipeline: Pipeline) -> Vec<Rend
 }
 
 /// vct-svo's sweep: voxels {32, 64, 128} x cones {1, 5} x anisotropic voxels {off, on} x light
-/// injection {voxel_light, photons 128^2, photons 256^2} = 36 (half-angle, clamp, step at `base`'s).
-/// Quick: 32^3, 5 cones, {isotropic, anisotropic} x {voxel_light, photons 256^2} = 4.
+/// injection {voxel_light, photons 128^2, photons 256^2} = 36, plus Gaussian lobes on the defaults'
+/// octree (anisotropic, photons 256^2) at each voxels x cones = 42 (half-angle, clamp, step at
+/// `base`'s). Quick: 32^3, 5 cones, {isotropic, anisotropic} x {voxel_light, photons 256^2} = 4.
 pub fn svo_sweep(base: &RenderSettings, quick: bool) -> Vec<RenderSettings> {
     let (voxels, cones, maps): (&[u32], &[u32], &[u32]) = if quick {
         (&[32], &[5], &[0, 256])
@@ -112,9 +115,20 @@ pub fn svo_sweep(base: &RenderSettings, quick: bool) -> Vec<RenderSettings> {
                         cones: c,
                         anisotropic_voxels: aniso,
                         photon_map: m,
+                        voxel_lobes: false,
                         ..base.clone()
                     });
                 }
+            }
+            if !quick {
+                out.push(RenderSettings {
+                    voxels: v,
+                    cones: c,
+                    anisotropic_voxels: true,
+                    photon_map: 256,
+                    voxel_lobes: true,
+                    ..base.clone()
+                });
             }
         }
     }
@@ -371,6 +385,7 @@ pub fn bench(
             caches,
             anisotropic_voxels: settings.anisotropic_voxels,
             photon_map: settings.photon_map,
+            voxel_lobes: settings.voxel_lobes,
             seconds: stage_seconds.iter().sum(),
             stage_seconds,
             indirect_rel_mse: ind.rel_mse,
@@ -415,6 +430,7 @@ fn write_csv(path: &Path, pipeline: Pipeline, rows: &[BenchRow]) -> Result<()> {
         "caches",
         "anisotropic_voxels",
         "photon_map",
+        "voxel_lobes",
         "seconds",
         "indirect_rel_mse",
         "indirect_flip",
@@ -441,6 +457,7 @@ fn write_csv(path: &Path, pipeline: Pipeline, rows: &[BenchRow]) -> Result<()> {
             r.caches.to_string(),
             r.anisotropic_voxels.to_string(),
             r.photon_map.to_string(),
+            r.voxel_lobes.to_string(),
             format!("{:.4}", r.seconds),
             format!("{:.5}", r.indirect_rel_mse),
             format!("{:.4}", r.indirect_flip),
@@ -502,7 +519,7 @@ pub fn table(rows: &[BenchRow], pipeline: Pipeline, spp: u32, w: u32, h: u32) ->
             },
             if svo {
                 format!(
-                    "{}, {}",
+                    "{}, {}{}",
                     if r.anisotropic_voxels {
                         "anisotropic"
                     } else {
@@ -511,7 +528,8 @@ pub fn table(rows: &[BenchRow], pipeline: Pipeline, spp: u32, w: u32, h: u32) ->
                     match r.photon_map {
                         0 => "voxel_light".to_string(),
                         m => format!("photons {m}^2"),
-                    }
+                    },
+                    if r.voxel_lobes { ", lobes" } else { "" }
                 )
             } else {
                 "-".into()
@@ -618,11 +636,12 @@ mod tests {
             .all(|s| s.ao_range == 0.25 && s.validate().is_ok()));
         assert_eq!(sweep(&base, true, Pipeline::VctSvo).len(), 4);
         let svo = sweep(&base, false, Pipeline::VctSvo);
-        assert_eq!(svo.len(), 36);
+        assert_eq!(svo.len(), 42);
+        assert_eq!(svo.iter().filter(|s| s.voxel_lobes).count(), 6);
         assert!(svo
             .iter()
             .all(|s| s.ao_range == 0.25 && s.validate().is_ok()));
-        assert_eq!(svo.iter().filter(|s| s.anisotropic_voxels).count(), 18);
+        assert_eq!(svo.iter().filter(|s| s.anisotropic_voxels).count(), 24);
         let lrsm = sweep(&base, false, Pipeline::Lrsm);
         assert_eq!(lrsm.len(), 54);
         assert!(lrsm

@@ -814,14 +814,15 @@ impl Pipeline {
     pub fn stages(self) -> Vec<&'static str> {
         let (volume, cones): (&[&'static str], &[&'static str]) = match self {
             Pipeline::VctDense => (&["voxel_light", "surface_coverage_mip"], &["cone_trace"]),
-            // Light injection by voxel_light or photons; directional values and the second bounce
-            // where the settings ask for them.
+            // Light injection by voxel_light or photons; directional values, the lobes' normal pool
+            // and the second bounce where the settings ask for them.
             Pipeline::VctSvo => (
                 &[
                     "voxel_light",
                     "svo_photons",
                     "sparse_voxel_octree",
                     "svo_anisotropic",
+                    "svo_lobes",
                     "svo_bounce",
                 ],
                 &["svo_cone_trace"],
