@@ -7,7 +7,11 @@
 //
 // Entry points, in order (params.level / params.variant say which level, axis or class):
 //   build, for level l = 1..=depth:
+//     flag_static   (a static part recorded: VCT 4.2.2's static/dynamic split, see the mirror's module
+//                   doc) one thread per recorded level-(l-1) key: flag that node
 //     flag_parents  fragments x 8 threads: flag the level-(l-1) nodes holding the fragment's support
+//                   (with a static part: params.fragments counts only the fragments at points it does
+//                   not cover, first in the buffer)
 //     allocate      one thread per level-(l-1) node (indirect, slot l-1): a flagged node takes a tile
 //                   from the atomic counter status[1]; past capacity_tiles: ERR_POOL
 //     finish_level  one thread: levels[l+1] = end of level l's tiles; dispatch args of slot l
@@ -64,6 +68,9 @@ struct OctreeParams {
 @group(0) @binding(9) var<storage, read_write> args: array<u32>;
 @group(0) @binding(10) var<storage, read_write> list_active: array<u32>;
 @group(0) @binding(11) var<storage, read_write> list_ring: array<u32>;
+// The static part's subdivided nodes: level k's keys are static_keys[static_offsets[k]..static_offsets[k+1]].
+@group(0) @binding(12) var<storage, read> static_keys: array<u32>;
+@group(0) @binding(13) var<storage, read> static_offsets: array<u32>;
 
 fn linear(gid: vec3<u32>, groups: vec3<u32>) -> u32 {
     return gid.x + gid.y * groups.x * 64u;
@@ -95,6 +102,19 @@ fn add_checked(x: u32, y: u32) -> u32 {
 fn outside(p: vec3<u32>) -> bool {
     let side = 2u << params.depth;
     return any(p > vec3<u32>(side));
+}
+
+@compute @workgroup_size(64)
+fn flag_static(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let l = params.level;
+    let i = static_offsets[l - 1u] + linear(gid, groups);
+    if (i >= static_offsets[l]) {
+        return;
+    }
+    let n = find(l - 1u, coords_of(static_keys[i]));
+    if (n != NONE) {
+        atomicOr(&flags[n], FLAG_SUBDIVIDE);
+    }
 }
 
 @compute @workgroup_size(64)

@@ -920,6 +920,8 @@ impl Renderer {
 /// and cone-traces the last frame's octree (the same octree a rebuild would make: the same image).
 pub struct VctSvo {
     reuse: bool,
+    /// Replay the static part's recorded octree structure (scenes with dynamic instances; default on).
+    replay: bool,
     /// The last octree and what it was built for.
     cache: Option<SvoCache>,
     statics: StaticVoxels,
@@ -941,8 +943,11 @@ struct SvoCache {
 /// `[mesh]` and the static instances) is voxelized once into a grid kept for the sequence (the first
 /// frame's, while every later frame's geometry fits in it) and kept; each frame voxelizes the dynamic
 /// instances alone into the same grid and merges them in (a voxel both fill gets the mean of the two
-/// albedos and of the two normals). The octree is rebuilt from the merged voxels each frame (its GPU
-/// build is one pass chain, so the paper's time stamps, which spare the static nodes, are not needed).
+/// albedos and of the two normals). The octree's structure follows VCT 4.2.2's static/dynamic split:
+/// the static voxels' subdivisions are recorded once ([`StaticStructure`]) and replayed each frame, so
+/// only fragments at points the static part does not cover (the dynamic instances' voxels, photons
+/// landing on them) flag nodes; the values are rebuilt from every fragment (light moves with the
+/// instances).
 #[derive(Default)]
 pub struct StaticVoxels {
     #[allow(clippy::type_complexity)]
@@ -952,6 +957,7 @@ pub struct StaticVoxels {
             voxelize::VoxelFrame,
             crate::grids::Grid,
             Vec<u32>,
+            vxgi_cpu_mirror::sparse_voxel_octree::StaticStructure,
         )>,
     >,
     /// Whether the last frame kept the static part, and how many dynamic triangles it voxelized.
@@ -1018,9 +1024,22 @@ impl StaticVoxels {
                 let (g, l, _) = voxelize::voxelize_in_on_gpu(ctx, &only(fixed.clone()), frame)?;
                 (g, l)
             };
-            self.kept = Some(Box::new((fixed, frame, grid, list)));
+            // The static voxels' octree structure, recorded once: their points (the value does not
+            // decide the structure).
+            let points: Vec<vxgi_cpu_mirror::sparse_voxel_octree::Fragment> = list
+                .iter()
+                .map(|&m| vxgi_cpu_mirror::sparse_voxel_octree::Fragment {
+                    pos: vxgi_cpu_mirror::morton::decode(m),
+                    _pad: 0,
+                    value: [0; 4],
+                })
+                .collect();
+            let depth = frame.side.trailing_zeros() - 1;
+            let statics =
+                vxgi_cpu_mirror::sparse_voxel_octree::StaticStructure::record(depth, &points);
+            self.kept = Some(Box::new((fixed, frame, grid, list, statics)));
         }
-        let (_, frame, grid, list) = self.kept.as_deref().expect("kept above");
+        let (_, frame, grid, list, _) = self.kept.as_deref().expect("kept above");
         let (mut grid, mut list, frame) = (grid.clone(), list.clone(), *frame);
         self.dynamic_triangles = moving.triangles.len();
         if !moving.triangles.is_empty() {
@@ -1049,6 +1068,11 @@ impl StaticVoxels {
         }
         Ok(Some((grid, list, frame, t.elapsed().as_secs_f64())))
     }
+
+    /// The kept static part's recorded octree structure (after [`Self::voxels`] returned voxels).
+    pub fn structure(&self) -> Option<&vxgi_cpu_mirror::sparse_voxel_octree::StaticStructure> {
+        self.kept.as_deref().map(|k| &k.4)
+    }
 }
 
 impl VctSvo {
@@ -1056,9 +1080,17 @@ impl VctSvo {
     pub fn new(reuse: bool) -> Self {
         Self {
             reuse,
+            replay: true,
             cache: None,
             statics: StaticVoxels::default(),
         }
+    }
+
+    /// Build every frame's octree structure from all its fragments instead of replaying the static
+    /// part's (the same octree; for comparisons).
+    pub fn without_static_replay(mut self) -> Self {
+        self.replay = false;
+        self
     }
 
     /// Render one frame (see [`render_svo`]); its plan says what was skipped and why.
@@ -1088,6 +1120,8 @@ impl VctSvo {
         } else {
             self.cache = None;
             let split = self.statics.voxels(ctx, scene, &progress)?;
+            // With dynamic instances: the static part's octree structure, replayed (VCT 4.2.2).
+            let replay = self.replay && split.is_some();
             let (rad, normal, colour, frame) = match split {
                 Some((grid, list, frame, secs)) => {
                     stages.push(("voxelize", secs));
@@ -1138,8 +1172,21 @@ impl VctSvo {
             progress("sparse voxel octree");
             let t = std::time::Instant::now();
             let depth = frame.side.trailing_zeros() - 1;
-            let built =
-                svo::build_on_gpu(ctx, depth, &frags, None).context("sparse voxel octree")?;
+            let statics = self.statics.structure().filter(|_| replay);
+            if statics.is_some() {
+                if let Some(p) = plan
+                    .passes
+                    .iter_mut()
+                    .find(|p| p.stage == "sparse_voxel_octree")
+                {
+                    p.why.push_str("; the static part's subdivisions replayed (recorded once, VCT 4.2.2): only fragments off its points flag nodes");
+                }
+            }
+            let build = |frags: &[vxgi_cpu_mirror::sparse_voxel_octree::Fragment]| {
+                svo::build_on_gpu_replayed(ctx, depth, frags, None, statics)
+                    .context("sparse voxel octree")
+            };
+            let built = build(&frags)?;
             stages.push(("sparse_voxel_octree", t.elapsed().as_secs_f64()));
             let directional = |built: &svo::GpuOctree, stages: &mut Stages| -> Result<_> {
                 if !plan.runs("svo_anisotropic") {
@@ -1195,8 +1242,7 @@ impl VctSvo {
                     &rad,
                     svo_cone_trace::SCALE,
                 )?);
-                built =
-                    svo::build_on_gpu(ctx, depth, &frags, None).context("sparse voxel octree")?;
+                built = build(&frags)?;
                 stages.push(("svo_bounce", t.elapsed().as_secs_f64()));
                 aniso = directional(&built, &mut stages)?;
                 normals = lobes(&built, &frags, &mut stages)?;

@@ -237,3 +237,141 @@ fn bad_input_is_an_error_not_corruption() {
     assert_eq!(o.levels[1], 1);
     assert_eq!(o.levels[4], 1);
 }
+
+/// Split a fragment set into a static part (the points of every `k`-th fragment's family) and the
+/// rest; the points are what decides the structure.
+fn split_static(frags: &[Fragment], k: usize) -> Vec<Fragment> {
+    frags
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| i % k != 0)
+        .map(|(_, f)| *f)
+        .collect()
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
+
+    /// VCT 4.2.2's static/dynamic split: replaying the static part's recorded subdivisions and
+    /// flagging only the fragments at points it does not cover gives the octree a build from all
+    /// fragments gives (mirror, canonical nodes and bricks), whatever the split.
+    #[test]
+    fn replaying_the_static_structure_is_a_full_build(
+        depth in 1u32..=5,
+        raw in proptest::collection::vec(fragment(), 1..60),
+        k in 2usize..5,
+    ) {
+        use vxgi_cpu_mirror::sparse_voxel_octree::{build_replayed, canonical_bricks, canonical_nodes, capacity_bound, StaticStructure};
+        let side = 2u32 << depth;
+        let frags: Vec<Fragment> = raw
+            .iter()
+            .map(|(p, v)| Fragment { pos: p.map(|x| x % (side + 1)), _pad: 0, value: *v })
+            .collect();
+        let statics = StaticStructure::record(depth, &split_static(&frags, k));
+        let cap = capacity_bound(depth, frags.len()) as u32;
+        let fresh = build(depth, cap, &frags);
+        let replayed = build_replayed(cap, &statics, &frags);
+        prop_assert_eq!(canonical_nodes(&replayed.nodes).0, canonical_nodes(&fresh.nodes).0);
+        prop_assert_eq!(
+            canonical_bricks(&replayed.nodes, &replayed.bricks),
+            canonical_bricks(&fresh.nodes, &fresh.bricks)
+        );
+        prop_assert_eq!(replayed.status, fresh.status);
+    }
+}
+
+/// The GPU's replayed build (`flag_static` + `flag_parents` over the fragments the static part does
+/// not cover) equals the mirror's build from all fragments, exactly, and flags from fewer fragments
+/// (the generator's families, two thirds of each the static part).
+#[test]
+fn gpu_replay_of_the_static_structure_matches_a_full_build() {
+    use vxgi::kernels::sparse_voxel_octree::{build_on_gpu_replayed, case_replayed};
+    use vxgi_cpu_mirror::sparse_voxel_octree::{OctreeParams, StaticStructure};
+    let mut replayed_levels = 0;
+    for index in 0..7 {
+        let (depth, frags, label) = generated(21, index);
+        // Depth 6 and beyond verify for seconds each; the small families show the same.
+        if frags.len() < 3 || depth > 5 {
+            continue;
+        }
+        let statics = StaticStructure::record(depth, &split_static(&frags, 3));
+        let shader = DECL.shader().unwrap();
+        let cap = default_capacity(gpu(), depth, frags.len());
+        let case = case_replayed(
+            gpu(),
+            depth,
+            cap,
+            &frags,
+            Some(&statics),
+            false,
+            label.clone(),
+            0,
+        );
+        let flag_passes = case
+            .passes
+            .iter()
+            .filter(|p| p.entry == "flag_static")
+            .count();
+        let with_keys = (0..depth).filter(|&k| !statics.keys(k).is_empty()).count();
+        assert_eq!(
+            flag_passes, with_keys,
+            "{label}: one flag_static per level with keys"
+        );
+        replayed_levels += with_keys;
+        // flag_parents reads only the fragments the static part does not cover.
+        let flagging = statics.flagging(&frags).len();
+        assert!(flagging < frags.len(), "{label}");
+        if let Some(p) = case.resources.get("params_l1_v0_flagging") {
+            let p: OctreeParams = *bytemuck::from_bytes(&p.buffer().unwrap().bytes);
+            assert_eq!(p.fragments as usize, flagging, "{label}");
+        }
+        let (comps, ..) = verify_case(gpu(), &shader, &SparseVoxelOctree, &case, None).unwrap();
+        for c in comps {
+            assert!(c.passed(), "{label}: {}", c.report());
+        }
+        let o = build_on_gpu_replayed(gpu(), depth, &frags, None, Some(&statics)).unwrap();
+        assert_matches_dense(&o.octree, &frags);
+    }
+    assert!(replayed_levels > 0);
+}
+
+/// Fragments sharing a point (photons piling on a voxel's point) flag nodes once: the production
+/// build (`build_on_gpu`) passes one fragment per point to `flag_parents` and splats them all, and
+/// gives the mirror's octree from every fragment, exactly.
+#[test]
+fn fragments_sharing_a_point_flag_once() {
+    use vxgi::kernels::sparse_voxel_octree::case_replayed;
+    use vxgi_cpu_mirror::sparse_voxel_octree::{canonical_bricks, canonical_nodes, OctreeParams};
+    let (depth, base, label) = generated(9, 2);
+    // Each fragment three times, with other values, interleaved.
+    let mut frags = Vec::new();
+    for k in 0..3u32 {
+        frags.extend(base.iter().map(|f| Fragment {
+            value: f.value.map(|v| v / (k + 1)),
+            ..*f
+        }));
+    }
+    let distinct: std::collections::HashSet<[u32; 3]> = frags.iter().map(|f| f.pos).collect();
+    let cap = default_capacity(gpu(), depth, frags.len());
+    let case = case_replayed(gpu(), depth, cap, &frags, None, true, label.clone(), 0);
+    let p: OctreeParams = *bytemuck::from_bytes(
+        &case.resources["params_l1_v0_flagging"]
+            .buffer()
+            .unwrap()
+            .bytes,
+    );
+    assert_eq!(p.fragments as usize, distinct.len(), "{label}");
+    let gpu_built = build_on_gpu(gpu(), depth, &frags, None).unwrap().octree;
+    let mirror = build(depth, cap, &frags);
+    // The GPU's pool is cut to the tiles it used; the mirror's used tiles are the same prefix.
+    let used = gpu_built.nodes.len();
+    assert!(
+        canonical_nodes(&gpu_built.nodes).0 == canonical_nodes(&mirror.nodes[..used]).0,
+        "{label}: nodes differ"
+    );
+    assert!(
+        canonical_bricks(&gpu_built.nodes, &gpu_built.bricks)
+            == canonical_bricks(&mirror.nodes[..used], &mirror.bricks[..used * BRICK_WORDS]),
+        "{label}: bricks differ"
+    );
+}

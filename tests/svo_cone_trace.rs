@@ -395,7 +395,8 @@ fn svo_params_struct_matches_the_reflected_wgsl_layout() {
 }
 
 /// Dynamic instances (scenes/instances.toml: a static room and box, a sliding box): vct-svo voxelizes
-/// the static part once and keeps it; later frames voxelize only the moving box and merge it in. The
+/// the static part once and keeps it, with its octree structure (VCT 4.2.2, replayed each frame);
+/// later frames voxelize only the moving box and merge it in. The
 /// second frame's image equals a fresh render of that frame (same grid: the box stays inside the room's
 /// bounds), and its plan says the static part was kept.
 #[test]
@@ -424,9 +425,18 @@ fn dynamic_instances_reuse_the_static_voxels() {
     let (second, _) = seq.render(gpu(), &next, &cones, |_| {}).unwrap();
     let plan = second.plan.to_string();
     assert!(
-        plan.contains("12 dynamic triangles") && plan.contains("(static part kept)"),
+        plan.contains("12 dynamic triangles")
+            && plan.contains("(static part kept)")
+            && plan.contains("static part's subdivisions replayed"),
         "{plan}"
     );
+    // The replayed structure is the octree a build from every fragment makes: the same image.
+    let mut full = vxgi::render::VctSvo::new(true).without_static_replay();
+    full.render(gpu(), &scene, &cones, |_| {}).unwrap();
+    let (whole, _) = full.render(gpu(), &next, &cones, |_| {}).unwrap();
+    assert!(!whole.plan.to_string().contains("replayed"));
+    assert_eq!(whole.indirect.pixels, second.indirect.pixels);
+    assert_eq!(whole.ao.pixels, second.ao.pixels);
     let (fresh, _) = vxgi::render::VctSvo::new(true)
         .render(gpu(), &next, &cones, |_| {})
         .unwrap();

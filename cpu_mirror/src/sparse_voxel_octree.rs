@@ -34,6 +34,17 @@
 //!   non-zero value). Both lists are GPU-built and dispatched indirectly; [`Octree::stats`] counts them.
 //! - Overflow of the u32 range (splat sums, transfer sums, distribution shares) sets an error bit and
 //!   saturates, never wraps; a node pool too small sets another. The host turns them into errors.
+//! - **Static and dynamic parts (the paper's time stamps, 4.2.2):** the structure depends on the
+//!   fragments' points alone, so the static part of a scene is subdivided once: [`StaticStructure`]
+//!   records which nodes its fragments subdivide (their keys, per level) and which points it covers.
+//!   A frame's build then replays those subdivisions (`flag_static`: one thread per recorded node)
+//!   and runs `flag_parents` only for fragments at points the static part does not cover (a dynamic
+//!   instance's voxels, photons landing on it); the values are splatted and filtered from every
+//!   fragment as always. The paper keeps the static nodes in place and appends the dynamic ones at the
+//!   end of the pools, cleared each frame; this builder's pools stay level-contiguous (its work lists
+//!   and dispatch arguments rely on it), so each frame lays the tiles out again, but the static
+//!   part's subdivision is not recomputed from its fragments. The same octree as a build from all
+//!   fragments (`build_replayed`).
 
 /// A missing pointer (no child tile, no neighbour, no parent).
 pub const NONE: u32 = u32::MAX;
@@ -338,6 +349,18 @@ impl Octree {
         }
     }
 
+    /// Entry `flag_static` (level `l >= 1`): every node of level `l - 1` whose key the static part
+    /// recorded is flagged for subdivision (one thread per key: found by descent).
+    pub fn flag_static(&mut self, statics: &StaticStructure, l: u32) {
+        for &k in statics.keys(l - 1) {
+            let (_, c) = unkey(k);
+            let n = self.find(l - 1, c);
+            if n != NONE {
+                self.flags[n as usize] |= FLAG_SUBDIVIDE;
+            }
+        }
+    }
+
     /// Entry `allocate` (level `l`): each flagged node of level `l - 1` takes a tile from the counter.
     /// The GPU's order is free; the mirror's is node order.
     pub fn allocate(&mut self, l: u32) {
@@ -565,6 +588,19 @@ impl Octree {
         }
     }
 
+    /// Structure with the static part replayed: per level `flag_static`, then `flag_parents` for the
+    /// fragments at points the static part does not cover, then as [`Self::build_structure`].
+    pub fn build_structure_replayed(&mut self, statics: &StaticStructure, fragments: &[Fragment]) {
+        let flagging = statics.flagging(fragments);
+        for l in 1..=self.depth {
+            self.flag_static(statics, l);
+            self.flag_parents(&flagging, l);
+            self.allocate(l);
+            self.finish_level(l);
+            self.init_nodes(l);
+        }
+    }
+
     /// Values: splat, then per level from the leaves up: lists, (distribution,) transfer, (rounding,)
     /// mark the parents.
     pub fn filter(&mut self, fragments: &[Fragment]) {
@@ -773,6 +809,73 @@ pub fn build_fitted(depth: u32, fragments: &[Fragment]) -> Octree {
         capacity_bound(depth, fragments.len()) as u32,
         fragments,
     )
+}
+
+/// What a scene's static part subdivides, recorded once (VCT 4.2.2's static/dynamic split; see the
+/// module doc): per level `k < depth` the keys of the level-`k` nodes with children (sorted), and the
+/// leaf lattice points the static fragments stand on.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct StaticStructure {
+    pub depth: u32,
+    /// Keys of `keys[offsets[k]..offsets[k + 1]]`: level `k`'s subdivided nodes.
+    pub keys: Vec<u32>,
+    pub offsets: Vec<u32>,
+    /// The static fragments' points.
+    pub points: std::collections::HashSet<[u32; 3]>,
+}
+
+impl StaticStructure {
+    /// Record the structure `fragments` (the static part) build at `depth` (the mirror's structure
+    /// pass: integer, the GPU's up to allocation order, which the keys do not see).
+    pub fn record(depth: u32, fragments: &[Fragment]) -> StaticStructure {
+        let mut o = Octree::empty(depth, capacity_bound(depth, fragments.len()) as u32);
+        o.build_structure(fragments);
+        let mut keys = Vec::new();
+        let mut offsets = vec![0u32];
+        for k in 0..depth {
+            let mut level: Vec<u32> = o
+                .level_nodes(k)
+                .filter(|&n| o.nodes[n as usize].child != NONE)
+                .map(|n| o.nodes[n as usize].key)
+                .collect();
+            level.sort_unstable();
+            keys.extend(level);
+            offsets.push(keys.len() as u32);
+        }
+        StaticStructure {
+            depth,
+            keys,
+            offsets,
+            points: fragments.iter().map(|f| f.pos).collect(),
+        }
+    }
+
+    /// The recorded keys of level `k`'s subdivided nodes.
+    pub fn keys(&self, k: u32) -> &[u32] {
+        &self.keys[self.offsets[k as usize] as usize..self.offsets[k as usize + 1] as usize]
+    }
+
+    /// The fragments whose points the static part does not cover: the ones that still flag.
+    pub fn flagging(&self, fragments: &[Fragment]) -> Vec<Fragment> {
+        fragments
+            .iter()
+            .filter(|f| !self.points.contains(&f.pos))
+            .copied()
+            .collect()
+    }
+}
+
+/// [`build`] with the static part's structure replayed ([`Octree::build_structure_replayed`]):
+/// `fragments` are all of the frame's (static ones included: they carry values).
+pub fn build_replayed(
+    capacity_tiles: u32,
+    statics: &StaticStructure,
+    fragments: &[Fragment],
+) -> Octree {
+    let mut o = Octree::empty(statics.depth, capacity_tiles);
+    o.build_structure_replayed(statics, fragments);
+    o.filter(fragments);
+    o
 }
 
 /// `source`'s bricks in the node layout `target` (a brick per node of `target` up to its last used

@@ -9,8 +9,8 @@ use std::collections::BTreeMap;
 use thiserror::Error;
 use vxgi_cpu_mirror::sparse_voxel_octree::{
     build, canonical_bricks, canonical_nodes, capacity_bound, key, Fragment, Node, Octree,
-    OctreeParams, ARGS_SLOTS, BRICK_WORDS, ERR_OUTSIDE, ERR_OVERFLOW, ERR_POOL, LEVELS_WORDS,
-    MAX_DEPTH, SLOT_CLASS, SLOT_RING, STATS_WORDS, STATUS_ERRORS, STATUS_TILES,
+    OctreeParams, StaticStructure, ARGS_SLOTS, BRICK_WORDS, ERR_OUTSIDE, ERR_OVERFLOW, ERR_POOL,
+    LEVELS_WORDS, MAX_DEPTH, SLOT_CLASS, SLOT_RING, STATS_WORDS, STATUS_ERRORS, STATUS_TILES,
 };
 use vxgi_harness::run::{grid_for, Pass, View, Workgroups};
 use vxgi_harness::{
@@ -127,6 +127,41 @@ pub fn case_for(
     label: String,
     seed: u64,
 ) -> Case {
+    case_replayed(ctx, depth, capacity, fragments, None, false, label, seed)
+}
+
+/// [`case_for`] with a static part's structure replayed (`statics`: `flag_static` per level, and
+/// `flag_parents` only for the fragments at points it does not cover, which go first in the buffer)
+/// and, with `distinct`, one flagging fragment per point.
+#[allow(clippy::too_many_arguments)]
+pub fn case_replayed(
+    ctx: &GpuContext,
+    depth: u32,
+    capacity: u32,
+    fragments: &[Fragment],
+    statics: Option<&StaticStructure>,
+    distinct: bool,
+    label: String,
+    seed: u64,
+) -> Case {
+    // Flagging fragments first; `flag_parents` reads the first `flagging` of them: those at points
+    // the static part does not cover and, with `distinct`, one per point (the structure depends on
+    // the points alone; photons pile up on the voxels' points).
+    let (fragments, flagging): (std::borrow::Cow<[Fragment]>, u32) = if statics.is_none()
+        && !distinct
+    {
+        (fragments.into(), fragments.len() as u32)
+    } else {
+        let mut seen = std::collections::HashSet::new();
+        let (mut first, rest): (Vec<Fragment>, Vec<Fragment>) = fragments.iter().partition(|f| {
+            !statics.is_some_and(|st| st.points.contains(&f.pos))
+                && (!distinct || seen.insert(f.pos))
+        });
+        let k = first.len() as u32;
+        first.extend(rest);
+        (first.into(), k)
+    };
+    let fragments = &fragments[..];
     let n = capacity as usize * 8;
     let mut nodes = vec![Node::UNUSED; n];
     nodes[0] = Node {
@@ -188,50 +223,86 @@ pub fn case_for(
         buf(HostBuffer::zeroed(n * 4, ScalarKind::U32)),
     );
 
-    let max_groups = ctx.limits().max_compute_workgroups_per_dimension;
-    let f = fragments.len() as u32;
-    let mut passes = Vec::new();
-    let mut push =
-        |resources: &mut Resources, entry: &str, level: u32, variant: u32, w: Workgroups| {
-            let pname = format!("params_l{level}_v{variant}");
-            resources.entry(pname.clone()).or_insert_with(|| {
-                buf(HostBuffer::pod(&params(
-                    depth, level, f, capacity, variant, max_groups,
-                )))
-            });
-            let mut bindings = vxgi_harness::run::bind_same_names(SHARED);
-            bindings.push(("params".into(), View::Buffer(pname)));
-            passes.push(Pass {
-                label: format!("{entry} level {level} variant {variant}"),
-                entry: entry.into(),
-                bindings,
-                workgroups: w,
-            });
+    if let Some(st) = statics {
+        let keys = if st.keys.is_empty() {
+            &[0u32][..]
+        } else {
+            &st.keys
         };
+        resources.insert("static_keys".into(), buf(HostBuffer::u32(keys)));
+        resources.insert("static_offsets".into(), buf(HostBuffer::u32(&st.offsets)));
+    }
+    let max_groups = ctx.limits().max_compute_workgroups_per_dimension;
+    let total = fragments.len() as u32;
+    let mut passes = Vec::new();
+    // `f`: the fragment count the pass reads (flag_parents: the flagging ones; splat: all).
+    let mut push = |resources: &mut Resources,
+                    entry: &str,
+                    level: u32,
+                    variant: u32,
+                    f: u32,
+                    w: Workgroups| {
+        // flag_parents with a static part reads fewer fragments than the other passes.
+        let pname = if f == total {
+            format!("params_l{level}_v{variant}")
+        } else {
+            format!("params_l{level}_v{variant}_flagging")
+        };
+        resources.entry(pname.clone()).or_insert_with(|| {
+            buf(HostBuffer::pod(&params(
+                depth, level, f, capacity, variant, max_groups,
+            )))
+        });
+        let mut bindings = vxgi_harness::run::bind_same_names(SHARED);
+        if entry == "flag_static" {
+            bindings.extend(vxgi_harness::run::bind_same_names([
+                "static_keys",
+                "static_offsets",
+            ]));
+        }
+        bindings.push(("params".into(), View::Buffer(pname)));
+        passes.push(Pass {
+            label: format!("{entry} level {level} variant {variant}"),
+            entry: entry.into(),
+            bindings,
+            workgroups: w,
+        });
+    };
     let slot = |s: usize| Workgroups::Indirect {
         buffer: "args".into(),
         offset: s as u64 * 12,
     };
     let one = Workgroups::Direct([1, 1, 1]);
+    let f = total;
     for l in 1..=depth {
-        let g = Workgroups::Direct(grid_for(f as u64 * 8, 64, max_groups));
-        push(&mut resources, "flag_parents", l, 0, g);
-        push(&mut resources, "allocate", l, 0, slot(l as usize - 1));
-        push(&mut resources, "finish_level", l, 0, one.clone());
-        push(&mut resources, "init_nodes", l, 0, slot(l as usize));
+        if let Some(st) = statics {
+            let count = st.keys(l - 1).len() as u64;
+            if count > 0 {
+                let g = Workgroups::Direct(grid_for(count, 64, max_groups));
+                push(&mut resources, "flag_static", l, 0, f, g);
+            }
+        }
+        if flagging > 0 {
+            let g = Workgroups::Direct(grid_for(flagging as u64 * 8, 64, max_groups));
+            push(&mut resources, "flag_parents", l, 0, flagging, g);
+        }
+        push(&mut resources, "allocate", l, 0, f, slot(l as usize - 1));
+        push(&mut resources, "finish_level", l, 0, f, one.clone());
+        push(&mut resources, "init_nodes", l, 0, f, slot(l as usize));
     }
     push(
         &mut resources,
         "splat",
         depth,
         0,
+        f,
         Workgroups::Direct(grid_for(f as u64, 64, max_groups)),
     );
     for l in (0..=depth).rev() {
-        push(&mut resources, "begin_level", l, 0, one.clone());
-        push(&mut resources, "mark_ring", l, 0, slot(l as usize));
-        push(&mut resources, "compact", l, 0, slot(l as usize));
-        push(&mut resources, "list_args", l, 0, one.clone());
+        push(&mut resources, "begin_level", l, 0, f, one.clone());
+        push(&mut resources, "mark_ring", l, 0, f, slot(l as usize));
+        push(&mut resources, "compact", l, 0, f, slot(l as usize));
+        push(&mut resources, "list_args", l, 0, f, one.clone());
         if l < depth {
             for class in 0..4 {
                 push(
@@ -239,19 +310,20 @@ pub fn case_for(
                     "distribute",
                     l,
                     class,
+                    f,
                     slot(SLOT_CLASS + class as usize),
                 );
             }
         }
         for axis in 0..3 {
-            push(&mut resources, "transfer_add", l, axis, slot(SLOT_RING));
-            push(&mut resources, "transfer_copy", l, axis, slot(SLOT_RING));
+            push(&mut resources, "transfer_add", l, axis, f, slot(SLOT_RING));
+            push(&mut resources, "transfer_copy", l, axis, f, slot(SLOT_RING));
         }
         if l < depth {
-            push(&mut resources, "round_level", l, 0, slot(SLOT_RING));
+            push(&mut resources, "round_level", l, 0, f, slot(SLOT_RING));
         }
         if l > 0 {
-            push(&mut resources, "mark_parents", l, 0, slot(SLOT_RING));
+            push(&mut resources, "mark_parents", l, 0, f, slot(SLOT_RING));
         }
     }
     Case {
@@ -290,7 +362,7 @@ const CHECKED: [&str; 6] = ["nodes", "bricks", "flags", "levels", "status", "sta
 /// Which phase a pass of [`case_for`] belongs to, by its entry point.
 pub fn phase_of(entry: &str) -> &'static str {
     match entry {
-        "flag_parents" | "allocate" | "finish_level" | "init_nodes" => "build",
+        "flag_static" | "flag_parents" | "allocate" | "finish_level" | "init_nodes" => "build",
         "splat" => "splat",
         "transfer_add" | "transfer_copy" => "transfer",
         "distribute" | "round_level" => "distribution",
@@ -542,6 +614,25 @@ pub fn build_on_gpu(
     fragments: &[Fragment],
     capacity_tiles: Option<u32>,
 ) -> Result<GpuOctree, SvoError> {
+    build_on_gpu_replayed(ctx, depth, fragments, capacity_tiles, None)
+}
+
+/// [`build_on_gpu`] with a static part's structure replayed ([`StaticStructure`]: recorded once for a
+/// sequence, VCT 4.2.2): the same octree as a build from all fragments, without flagging from the
+/// fragments at points the static part covers. Either way only one fragment per point flags nodes
+/// (photons share the voxels' points; the structure depends on the points alone).
+pub fn build_on_gpu_replayed(
+    ctx: &GpuContext,
+    depth: u32,
+    fragments: &[Fragment],
+    capacity_tiles: Option<u32>,
+    statics: Option<&StaticStructure>,
+) -> Result<GpuOctree, SvoError> {
+    if let Some(st) = statics {
+        if st.depth != depth {
+            return Err(SvoError::Depth(st.depth));
+        }
+    }
     if depth == 0 || depth > MAX_DEPTH {
         return Err(SvoError::Depth(depth));
     }
@@ -559,11 +650,13 @@ pub fn build_on_gpu(
         });
     }
     let capacity = capacity_tiles.unwrap_or_else(|| default_capacity(ctx, depth, fragments.len()));
-    let case = case_for(
+    let case = case_replayed(
         ctx,
         depth,
         capacity.max(1),
         fragments,
+        statics,
+        true,
         "build_on_gpu".into(),
         0,
     );
