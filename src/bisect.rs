@@ -365,11 +365,8 @@ fn svo_tail(
         let t = std::time::Instant::now();
         // The voxels' coverage (alpha) and mean normals.
         let (coverage, normal) = (&grid.colour, &grid.normal);
-        let n = if on_mirror("svo_lobes") {
-            svo_cone_trace::normal_pool_mirror(&octree, &frags, coverage, normal)?
-        } else {
-            svo_cone_trace::normal_pool_on_gpu(ctx, &octree, &frags, coverage, normal)?
-        };
+        let side = (!on_mirror("svo_lobes")).then_some(ctx);
+        let n = svo_cone_trace::normal_pool(side, &octree, &frags, coverage, normal)?;
         timed("svo_lobes", t.elapsed().as_secs_f64());
         Some(n)
     } else {

@@ -1213,9 +1213,8 @@ impl VctSvo {
                 }
                 progress("normal pool (Gaussian lobes)");
                 let t = std::time::Instant::now();
-                let n =
-                    svo_cone_trace::normal_pool_on_gpu(ctx, &built.octree, frags, &rad, &normal)
-                        .context("normal pool")?;
+                let n = svo_cone_trace::normal_pool(Some(ctx), &built.octree, frags, &rad, &normal)
+                    .context("normal pool")?;
                 stages.push(("svo_lobes", t.elapsed().as_secs_f64()));
                 Ok(Some(n))
             };
@@ -1744,7 +1743,7 @@ pub fn render_svo_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendered
             vec![]
         };
         let normals = if svo.lobes == 1 {
-            crate::kernels::svo_cone_trace::normal_pool_mirror(&octree, frags, &m.lit, &m.normal)?
+            crate::kernels::svo_cone_trace::normal_pool(None, &octree, frags, &m.lit, &m.normal)?
         } else {
             vec![]
         };

@@ -534,9 +534,7 @@ proptest::proptest! {
 /// fragments, whose points the pool covers with zeros).
 #[test]
 fn normal_pool_on_the_gpu_is_the_mirrors() {
-    use vxgi::kernels::svo_cone_trace::{
-        coverage_only, grid_fragments, normal_pool_mirror, normal_pool_on_gpu, SCALE,
-    };
+    use vxgi::kernels::svo_cone_trace::{coverage_only, grid_fragments, normal_pool, SCALE};
     use vxgi::kernels::{svo_photons, voxelize};
     use vxgi::scene::Scene;
     use vxgi_cpu_mirror::sparse_voxel_octree::{
@@ -549,8 +547,8 @@ fn normal_pool_on_the_gpu_is_the_mirrors() {
     let mut frags = grid_fragments(&coverage, SCALE).unwrap();
     frags.extend(svo_photons::mirror_photon_fragments(&data, &frame, 32, SCALE).unwrap());
     let octree = build_fitted(4, &frags);
-    let gpu_pool = normal_pool_on_gpu(gpu(), &octree, &frags, &coverage, &grid.normal).unwrap();
-    let mirror_pool = normal_pool_mirror(&octree, &frags, &coverage, &grid.normal).unwrap();
+    let gpu_pool = normal_pool(Some(gpu()), &octree, &frags, &coverage, &grid.normal).unwrap();
+    let mirror_pool = normal_pool(None, &octree, &frags, &coverage, &grid.normal).unwrap();
     assert!(gpu_pool.len() <= octree.bricks.len());
     assert!(
         gpu_pool == mirror_pool,

@@ -75,8 +75,8 @@ pub fn coverage_only(voxels: &[[f32; 4]]) -> Vec<[f32; 4]> {
 }
 
 /// What the octree's readers sample besides its radiance bricks: the anisotropic voxels' directional
-/// values (`svo_anisotropic`) and the Gaussian lobes' normal pool ([`normal_pool_mirror`] /
-/// [`normal_pool_on_gpu`]); `None`: that option is off.
+/// values (`svo_anisotropic`) and the Gaussian lobes' normal pool ([`normal_pool`]); `None`: that
+/// option is off.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct SvoExtras<'a> {
     pub aniso: Option<&'a [[f32; 4]]>,
@@ -93,23 +93,18 @@ pub fn normal_fragments(
     normal: &[[f32; 4]],
     scale: f32,
 ) -> Result<Vec<Fragment>, SvoError> {
-    let mut out = Vec::with_capacity(2 * frags.len());
-    for (m, (r, n)) in radiance.iter().zip(normal).enumerate() {
-        if r[3] <= 0.0 {
-            continue;
-        }
-        let v = normal_value(glam::Vec3::from_slice(&n[..3]), r[3]);
-        out.push(Fragment {
-            pos: vxgi_cpu_mirror::morton::decode(m as u32),
-            _pad: 0,
-            value: [
-                to_fixed(v[0], scale)?,
-                to_fixed(v[1], scale)?,
-                to_fixed(v[2], scale)?,
-                to_fixed(v[3], scale)?,
-            ],
-        });
-    }
+    let values: Vec<[f32; 4]> = radiance
+        .iter()
+        .zip(normal)
+        .map(|(r, n)| {
+            if r[3] > 0.0 {
+                normal_value(glam::Vec3::from_slice(&n[..3]), r[3])
+            } else {
+                [0.0; 4]
+            }
+        })
+        .collect();
+    let mut out = grid_fragments(&values, scale)?;
     out.extend(frags.iter().map(|f| Fragment {
         value: [0; 4],
         ..*f
@@ -117,33 +112,22 @@ pub fn normal_fragments(
     Ok(out)
 }
 
-/// The lobes' normal pool of `octree` (built from `frags`), by the mirror: the mirror's build of
-/// [`normal_fragments`], in `octree`'s node layout (`bricks_in_layout`).
-pub fn normal_pool_mirror(
+/// The lobes' normal pool of `octree` (built from `frags`): the octree build of
+/// [`normal_fragments`] — on the GPU (`sparse_voxel_octree`'s kernel) with `ctx`, by the mirror
+/// without — carried into `octree`'s node layout (`bricks_in_layout`).
+pub fn normal_pool(
+    ctx: Option<&GpuContext>,
     octree: &Octree,
     frags: &[Fragment],
     radiance: &[[f32; 4]],
     normal: &[[f32; 4]],
 ) -> Result<Vec<u32>, SvoError> {
     let nf = normal_fragments(frags, radiance, normal, SCALE)?;
-    Ok(bricks_in_layout(
-        &octree.nodes,
-        &build_fitted(octree.depth, &nf),
-    ))
-}
-
-/// [`normal_pool_mirror`] with the pool built on the GPU (`sparse_voxel_octree`'s kernel, a second
-/// build over the same points).
-pub fn normal_pool_on_gpu(
-    ctx: &GpuContext,
-    octree: &Octree,
-    frags: &[Fragment],
-    radiance: &[[f32; 4]],
-    normal: &[[f32; 4]],
-) -> Result<Vec<u32>, SvoError> {
-    let nf = normal_fragments(frags, radiance, normal, SCALE)?;
-    let built = super::sparse_voxel_octree::build_on_gpu(ctx, octree.depth, &nf, None)?;
-    Ok(bricks_in_layout(&octree.nodes, &built.octree))
+    let built = match ctx {
+        Some(ctx) => super::sparse_voxel_octree::build_on_gpu(ctx, octree.depth, &nf, None)?.octree,
+        None => build_fitted(octree.depth, &nf),
+    };
+    Ok(bricks_in_layout(&octree.nodes, &built))
 }
 
 /// Cone parameters for an octree of `depth` over the voxel grid `frame` (side `2^(depth + 1)`): mip
@@ -252,7 +236,7 @@ impl GeneratedOctree {
         let aniso = (index % 2 == 1)
             .then(|| crate::kernels::svo_anisotropic::build_mirror(&octree, 1.0 / SCALE));
         let normals = (index % 4 >= 2).then(|| {
-            normal_pool_mirror(&octree, &frags, &c.radiance, &c.normal)
+            normal_pool(None, &octree, &frags, &c.radiance, &c.normal)
                 .expect("generated normals fit the fixed point")
         });
         GeneratedOctree {
