@@ -5,7 +5,9 @@
 // Declaration: src/kernels/svo_anisotropic.rs. Node layout and descent: common/svo_node.wgsl.
 //
 // One invocation per (node slot of the level, brick voxel): i = gid, node first_node + i / 27, voxel
-// i % 27 (x + 3y + 9z). Unused slots (key NONE) write zeros. For direction +a (or -a) and each of the
+// i % 27 (x + 3y + 9z). Unused slots (key NONE) and empty voxels (isotropic brick value zero: their
+// child points are zero, or under 32 fixed-point units where the filter rounded to zero; the mirror's
+// module doc) write zeros. For direction +a (or -a) and each of the
 // 9 rows of child lattice points along a (weights [1 2 1]^2 / 16 over the other two axes):
 //   row = over(half(front), over(middle, half(back))), over(f, b) = f + b (1 - f.a),
 //   half(p) = p / (1 + sqrt(1 - p.a))  (an end point shared with the neighbouring parent: half its
@@ -89,7 +91,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
     let vi = i % 27u;
     let base = (n * 27u + vi) * 6u;
     let key = nodes[n].key;
-    if (key == NONE) {
+    let bw = n * BRICK_WORDS + vi * 4u;
+    if (key == NONE || (bricks[bw] | bricks[bw + 1u] | bricks[bw + 2u] | bricks[bw + 3u]) == 0u) {
         for (var dir = 0u; dir < 6u; dir++) {
             aniso[base + dir] = vec4<f32>(0.0);
         }
