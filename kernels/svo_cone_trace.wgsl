@@ -25,7 +25,7 @@ struct SvoParams {
     depth: u32,
     inv_scale: f32,
     anisotropic: u32,   // 1: directional values from `aniso` above the leaves
-    lobes: u32,         // 1: voxel shading with Gaussian lobes from `normal_bricks`
+    lobes: u32,         // bit 0: Gaussian lobes from `normal_bricks`; bit 1: glossy voxels from `spec_bricks`
 }
 
 @group(0) @binding(8) var<storage, read> nodes: array<Node>;
@@ -40,6 +40,9 @@ struct SvoParams {
 @group(0) @binding(18) var<storage, read_write> vx_indirect: array<vec4<f32>>;
 // The lobes' normal pool: bricks in `nodes`' layout, per voxel ((n + 1) alpha / 2, alpha) in fixed point.
 @group(0) @binding(19) var<storage, read> normal_bricks: array<u32>;
+// The glossy voxels' specular pool: bricks in `nodes`' layout, per voxel the specular photons'
+// ((q + w) / 2, w) in fixed point (svo_photons.wgsl).
+@group(0) @binding(20) var<storage, read> spec_bricks: array<u32>;
 
 fn brick_voxel(n: u32, v: vec3<u32>) -> vec4<f32> {
     let w = n * BRICK_WORDS + voxel_index(v) * 4u;
@@ -49,6 +52,11 @@ fn brick_voxel(n: u32, v: vec3<u32>) -> vec4<f32> {
 fn normal_voxel(n: u32, v: vec3<u32>) -> vec4<f32> {
     let w = n * BRICK_WORDS + voxel_index(v) * 4u;
     return vec4<f32>(f32(normal_bricks[w]), f32(normal_bricks[w + 1u]), f32(normal_bricks[w + 2u]), f32(normal_bricks[w + 3u])) * svo.inv_scale;
+}
+
+fn spec_voxel(n: u32, v: vec3<u32>) -> vec4<f32> {
+    let w = n * BRICK_WORDS + voxel_index(v) * 4u;
+    return vec4<f32>(f32(spec_bricks[w]), f32(spec_bricks[w + 1u]), f32(spec_bricks[w + 2u]), f32(spec_bricks[w + 3u])) * svo.inv_scale;
 }
 
 // The directional value of brick voxel v of node n for a cone along d: +a or -a by d's sign per axis.
@@ -83,16 +91,23 @@ fn cell_of(x: vec3<f32>, l: u32) -> Cell {
     return Cell(i0, q - fl, c);
 }
 
-// Trilinear sample of mip level l in node n (found for `cell`; NONE: empty); `dir_in`: the directional
-// values along d where the level has them; `normals`: the normal pool instead of the radiance.
-fn sample_cell(cell: Cell, l: u32, n: u32, d: vec3<f32>, dir_in: bool, normals: bool) -> vec4<f32> {
+// Trilinear samples of mip level l in node n (found for `cell`; NONE: empty): the radiance (`s`; with
+// `dir_in` the directional values along d where the level has them) and, where svo.lobes turns them on,
+// the normal pool (`e`) and the specular pool (`g`), with the same corner weights.
+struct Samples {
+    s: vec4<f32>,
+    e: vec4<f32>,
+    g: vec4<f32>,
+}
+
+fn sample_cell(cell: Cell, l: u32, n: u32, d: vec3<f32>, dir_in: bool) -> Samples {
+    var out = Samples(vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0));
     if (n == NONE) {
-        return vec4<f32>(0.0);
+        return out;
     }
     let s = svo.depth - l;
     let points = i32(2u << s);
     let dir = dir_in && s < svo.depth;
-    var acc = vec4<f32>(0.0);
     for (var corner = 0u; corner < 8u; corner++) {
         let cc = vec3<u32>(corner & 1u, (corner >> 1u) & 1u, (corner >> 2u) & 1u);
         let w = select(vec3<f32>(1.0) - cell.f, cell.f, cc == vec3<u32>(1u));
@@ -102,22 +117,27 @@ fn sample_cell(cell: Cell, l: u32, n: u32, d: vec3<f32>, dir_in: bool, normals: 
             continue;
         }
         var value: vec4<f32>;
-        if (normals) {
-            value = normal_voxel(n, vec3<u32>(local));
-        } else if (dir) {
+        if (dir) {
             value = directional(n, vec3<u32>(local), d);
         } else {
             value = brick_voxel(n, vec3<u32>(local));
         }
-        acc += value * (w.x * w.y * w.z);
+        let wt = w.x * w.y * w.z;
+        out.s += value * wt;
+        if ((svo.lobes & 1u) != 0u) {
+            out.e += normal_voxel(n, vec3<u32>(local)) * wt;
+        }
+        if ((svo.lobes & 2u) != 0u) {
+            out.g += spec_voxel(n, vec3<u32>(local)) * wt;
+        }
     }
-    return acc;
+    return out;
 }
 
 // Trilinear sample of mip level l; `dir_in`: the directional values along d where the level has them.
 fn sample_level_dir(x: vec3<f32>, l: u32, d: vec3<f32>, dir_in: bool) -> vec4<f32> {
     let cell = cell_of(x, l);
-    return sample_cell(cell, l, find(svo.depth - l, vec3<u32>(cell.c)), d, dir_in, false);
+    return sample_cell(cell, l, find(svo.depth - l, vec3<u32>(cell.c)), d, dir_in).s;
 }
 
 // The march's sample: quadrilinear over levels floor(l) and floor(l) + 1 (from the top level up the top
@@ -128,19 +148,18 @@ fn sample_level_dir(x: vec3<f32>, l: u32, d: vec3<f32>, dir_in: bool) -> vec4<f3
 // looked up. The same values as two descents, so the mirror samples each level on its own.
 fn sample_cone(x: vec3<f32>, l: f32, diam: f32, d: vec3<f32>, tan_half: f32) -> vec4<f32> {
     let dir_in = svo.anisotropic != 0u;
-    let lobes = svo.lobes != 0u;
     let top = cone.levels - 1u;
     let lf = max(l, 0.0);
     let l0 = floor(lf);
     var s: vec4<f32>;
-    var e = vec4<f32>(0.0);
+    var e: vec4<f32>;
+    var g: vec4<f32>;
     if (l0 >= f32(top)) {
         let cell = cell_of(x, top);
-        let n = find(svo.depth - top, vec3<u32>(cell.c));
-        s = sample_cell(cell, top, n, d, dir_in, false);
-        if (lobes) {
-            e = sample_cell(cell, top, n, d, false, true);
-        }
+        let c = sample_cell(cell, top, find(svo.depth - top, vec3<u32>(cell.c)), d, dir_in);
+        s = c.s;
+        e = c.e;
+        g = c.g;
     } else {
         let a = lf - l0;
         let li = u32(l0);
@@ -153,15 +172,48 @@ fn sample_cone(x: vec3<f32>, l: f32, diam: f32, d: vec3<f32>, tan_half: f32) -> 
         } else {
             np = find(svo.depth - li - 1u, vec3<u32>(coarse.c));
         }
-        s = sample_cell(fine, li, n, d, dir_in, false) * (1.0 - a) + sample_cell(coarse, li + 1u, np, d, dir_in, false) * a;
-        if (lobes) {
-            e = sample_cell(fine, li, n, d, false, true) * (1.0 - a) + sample_cell(coarse, li + 1u, np, d, false, true) * a;
-        }
+        let f = sample_cell(fine, li, n, d, dir_in);
+        let k = sample_cell(coarse, li + 1u, np, d, dir_in);
+        s = f.s * (1.0 - a) + k.s * a;
+        e = f.e * (1.0 - a) + k.e * a;
+        g = f.g * (1.0 - a) + k.g * a;
     }
-    if (lobes) {
-        return vec4<f32>(s.xyz * lobe_visibility(e, d, tan_half), s.w);
+    var rgb = s.xyz;
+    if ((svo.lobes & 1u) != 0u) {
+        rgb = rgb * lobe_visibility(e, d, tan_half);
     }
-    return s;
+    if ((svo.lobes & 2u) != 0u) {
+        rgb = rgb + vec3<f32>(glossy_voxel(g, d, tan_half));
+    }
+    return vec4<f32>(rgb, s.w);
+}
+
+// The glossy light a specular-pool sample g sends towards the cone's origin: w vMF(-d; q/|q|, kappa),
+// kappa the reflected light's concentration rbar / (1 - rbar) convolved with the cone's
+// 1 / tan^2(psi/2). Mirror: svo_cone_trace::glossy_voxel (same operation order).
+fn glossy_voxel(g: vec4<f32>, d: vec3<f32>, tan_half: f32) -> f32 {
+    let w = g.w;
+    if (w <= 0.0) {
+        return 0.0;
+    }
+    let q = 2.0 * g.xyz - vec3<f32>(w);
+    let ql = length(q);
+    let rbar = min(ql / w, 0.999);
+    let ks = rbar / (1.0 - rbar);
+    let t2 = tan_half * tan_half;
+    let r = sqrt(1.0 + t2);
+    let s = t2 / ((1.0 + r) * (1.0 + r));
+    let kv = 1.0 / max(s, 1e-6);
+    let k = ks * kv / (ks + kv);
+    var c = 0.0;
+    if (ql > 0.0) {
+        c = -dot(q, d) / ql;
+    }
+    var dens = 1.0 / (4.0 * 3.14159265358979);
+    if (k > 1e-4) {
+        dens = k / (2.0 * 3.14159265358979 * (1.0 - exp(-2.0 * k))) * exp(k * (c - 1.0));
+    }
+    return w * dens;
 }
 
 // The share of a normal-pool sample e's lobe, convolved with the cone's (half-angle tangent tan_half),

@@ -315,17 +315,24 @@ fn svo_tail(
     progress: &impl Fn(&str),
 ) -> Result<[Vec<[f32; 4]>; 2]> {
     use svo_cone_trace::{grid_fragments, svo_cone_params, SCALE};
+    let lobes = order.contains(&"svo_lobes");
+    let mut spec_frags = Vec::new();
     let frags = if order.contains(&"svo_photons") {
         progress("svo_photons");
         let t = std::time::Instant::now();
         // The voxels' coverage; the light comes from the photons.
         let mut frags = grid_fragments(&svo_cone_trace::coverage_only(&grid.colour), SCALE)?;
         let map = scene.render.photon_map;
-        frags.extend(if on_mirror("svo_photons") {
+        let photons = if on_mirror("svo_photons") {
             svo_photons::mirror_photon_fragments(data, frame, map, SCALE)?
         } else {
-            svo_photons::photon_fragments(ctx, data, frame, map, SCALE)?.0
-        });
+            svo_photons::photon_fragments(ctx, data, frame, map, SCALE)?
+        };
+        frags.extend(photons.light);
+        if lobes {
+            spec_frags = photons.spec;
+            frags.extend(svo_cone_trace::points_of(&spec_frags));
+        }
         timed("svo_photons", t.elapsed().as_secs_f64());
         frags
     } else {
@@ -360,17 +367,27 @@ fn svo_tail(
         None
     };
 
-    let normals = if order.contains(&"svo_lobes") {
+    let (normals, spec) = if lobes {
         progress("svo_lobes");
         let t = std::time::Instant::now();
-        // The voxels' coverage (alpha) and mean normals.
+        // The voxels' coverage (alpha) and mean normals; the specular photons.
         let (coverage, normal) = (&grid.colour, &grid.normal);
         let side = (!on_mirror("svo_lobes")).then_some(ctx);
         let n = svo_cone_trace::normal_pool(side, &octree, &frags, coverage, normal)?;
+        let g = if spec_frags.is_empty() {
+            None
+        } else {
+            Some(svo_cone_trace::pool_in_layout(
+                side,
+                &octree,
+                &frags,
+                &spec_frags,
+            )?)
+        };
         timed("svo_lobes", t.elapsed().as_secs_f64());
-        Some(n)
+        (Some(n), g)
     } else {
-        None
+        (None, None)
     };
 
     progress("svo_cone_trace");
@@ -379,6 +396,7 @@ fn svo_tail(
     let extras = svo_cone_trace::SvoExtras {
         aniso: aniso.as_deref(),
         normals: normals.as_deref(),
+        spec: spec.as_deref(),
     };
     let case = svo_cone_trace::case_for(
         data,

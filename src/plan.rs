@@ -216,7 +216,7 @@ impl FramePlan {
                     } else if !octree_runs {
                         "skipped: the octree is reused (with its normal pool)".into()
                     } else {
-                        "normals pre-multiplied by opacity, filtered as the light (a second build over the same points), for the Gaussian lobes (VCT 4.3, 7)".into()
+                        "normals pre-multiplied by opacity, filtered as the light (a second build over the same points), for the Gaussian lobes (VCT 4.3, 7); with glossy surfaces and photons, their specular photons in a third pool (the incoming light as a direction distribution, VCT 7)".into()
                     },
                 },
             );

@@ -937,6 +937,8 @@ struct SvoCache {
     aniso: Option<Vec<[f32; 4]>>,
     /// The Gaussian lobes' normal pool, in `built`'s node layout.
     normals: Option<Vec<u32>>,
+    /// The glossy voxels' specular pool (lobes on and glossy photons), in `built`'s node layout.
+    spec: Option<Vec<u32>>,
 }
 
 /// vct-svo's voxels across the frames of an animation with dynamic instances: the static part (the
@@ -1155,10 +1157,12 @@ impl VctSvo {
             // Geometry fragments: the lit voxels, or with photon injection their coverage alone
             // (voxel_light did not run) and the photons carrying the light.
             let mut frags = svo_cone_trace::grid_fragments(&rad, svo_cone_trace::SCALE)?;
+            // With the lobes, the glossy surfaces' specular photons (their points join the structure).
+            let mut spec_frags = Vec::new();
             if plan.runs("svo_photons") {
                 progress("photons");
                 let t = std::time::Instant::now();
-                let (photons, _) = crate::kernels::svo_photons::photon_fragments(
+                let photons = crate::kernels::svo_photons::photon_fragments(
                     ctx,
                     &data,
                     &frame,
@@ -1166,7 +1170,11 @@ impl VctSvo {
                     svo_cone_trace::SCALE,
                 )
                 .context("photon injection")?;
-                frags.extend(photons);
+                frags.extend(photons.light);
+                if plan.runs("svo_lobes") {
+                    spec_frags = photons.spec;
+                    frags.extend(svo_cone_trace::points_of(&spec_frags));
+                }
                 stages.push(("svo_photons", t.elapsed().as_secs_f64()));
             }
             progress("sparse voxel octree");
@@ -1203,23 +1211,37 @@ impl VctSvo {
                 stages.push(("svo_anisotropic", t.elapsed().as_secs_f64()));
                 Ok(Some(a))
             };
-            // The Gaussian lobes' normal pool: a second build over the fragments' points.
+            // The Gaussian lobes' normal pool and the glossy voxels' specular pool: more builds over
+            // the fragments' points.
             let lobes = |built: &svo::GpuOctree,
                          frags: &[vxgi_cpu_mirror::sparse_voxel_octree::Fragment],
                          stages: &mut Stages|
              -> Result<_> {
                 if !plan.runs("svo_lobes") {
-                    return Ok(None);
+                    return Ok((None, None));
                 }
                 progress("normal pool (Gaussian lobes)");
                 let t = std::time::Instant::now();
                 let n = svo_cone_trace::normal_pool(Some(ctx), &built.octree, frags, &rad, &normal)
                     .context("normal pool")?;
+                let g = if spec_frags.is_empty() {
+                    None
+                } else {
+                    Some(
+                        svo_cone_trace::pool_in_layout(
+                            Some(ctx),
+                            &built.octree,
+                            frags,
+                            &spec_frags,
+                        )
+                        .context("specular pool")?,
+                    )
+                };
                 stages.push(("svo_lobes", t.elapsed().as_secs_f64()));
-                Ok(Some(n))
+                Ok((Some(n), g))
             };
             let mut aniso = directional(&built, &mut stages)?;
-            let mut normals = lobes(&built, &frags, &mut stages)?;
+            let (mut normals, mut spec) = lobes(&built, &frags, &mut stages)?;
             let mut built = built;
             if plan.runs("svo_bounce") {
                 // Second bounce: every non-empty voxel gathers through the octree of the first, its
@@ -1231,6 +1253,7 @@ impl VctSvo {
                 let extras = svo_cone_trace::SvoExtras {
                     aniso: aniso.as_deref(),
                     normals: normals.as_deref(),
+                    spec: spec.as_deref(),
                 };
                 let ind =
                     svo_cone_trace::bounce_on_gpu(ctx, &built.octree, extras, &params, &voxels)
@@ -1244,7 +1267,7 @@ impl VctSvo {
                 built = build(&frags)?;
                 stages.push(("svo_bounce", t.elapsed().as_secs_f64()));
                 aniso = directional(&built, &mut stages)?;
-                normals = lobes(&built, &frags, &mut stages)?;
+                (normals, spec) = lobes(&built, &frags, &mut stages)?;
             }
             self.cache = Some(SvoCache {
                 key,
@@ -1252,16 +1275,17 @@ impl VctSvo {
                 frame,
                 aniso,
                 normals,
+                spec,
             });
         }
         let c = self.cache.as_ref().expect("built or reused above");
         let mut memory = svo::MemoryReport::of(&c.built.octree);
         memory.anisotropic_bytes = c.aniso.as_ref().map_or(0, |a| a.len() as u64 * 16);
-        // The normal pool: one more brick per node (its buffer ends at the last used node).
-        memory.normal_bytes = c
-            .normals
-            .as_ref()
-            .map_or(0, |_| memory.bricks * svo::BRICK_BYTES);
+        // The normal and specular pools: one more brick per node each (their buffers end at the last
+        // used node).
+        memory.normal_bytes = (c.normals.is_some() as u64 + c.spec.is_some() as u64)
+            * memory.bricks
+            * svo::BRICK_BYTES;
         memory.bytes += memory.anisotropic_bytes + memory.normal_bytes;
         progress("cone tracing");
         let t = std::time::Instant::now();
@@ -1269,6 +1293,7 @@ impl VctSvo {
         let extras = svo_cone_trace::SvoExtras {
             aniso: c.aniso.as_deref(),
             normals: c.normals.as_deref(),
+            spec: c.spec.as_deref(),
         };
         let case = svo_cone_trace::case_for(
             &data,
@@ -1714,15 +1739,21 @@ pub fn render_svo_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendered
     let depth = m.frame.side.trailing_zeros() - 1;
     let plan = FramePlan::vct_svo(scene, cones);
     let map = scene.render.photon_map;
+    let lobes = plan.runs("svo_lobes");
+    let mut spec_frags = Vec::new();
     let frags = if plan.runs("svo_photons") {
         // Photon injection: the voxels' coverage, the light from the photons.
         let mut frags = grid_fragments(
             &crate::kernels::svo_cone_trace::coverage_only(&m.lit),
             SCALE,
         )?;
-        frags.extend(crate::kernels::svo_photons::mirror_photon_fragments(
-            &m.data, &m.frame, map, SCALE,
-        )?);
+        let photons =
+            crate::kernels::svo_photons::mirror_photon_fragments(&m.data, &m.frame, map, SCALE)?;
+        frags.extend(photons.light);
+        if lobes {
+            spec_frags = photons.spec;
+            frags.extend(crate::kernels::svo_cone_trace::points_of(&spec_frags));
+        }
         frags
     } else {
         grid_fragments(&m.lit, SCALE)?
@@ -1733,23 +1764,29 @@ pub fn render_svo_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendered
         depth,
         inv_scale: 1.0 / SCALE,
         anisotropic: anisotropic as u32,
-        lobes: plan.runs("svo_lobes") as u32,
+        lobes: lobes as u32 | ((lobes && !spec_frags.is_empty()) as u32) << 1,
     };
     let built = |frags: &[vxgi_cpu_mirror::sparse_voxel_octree::Fragment]| -> Result<_> {
+        use crate::kernels::svo_cone_trace::{normal_pool, pool_in_layout};
         let octree = build_fitted(depth, frags);
         let aniso = if anisotropic {
             crate::kernels::svo_anisotropic::build_mirror(&octree, 1.0 / SCALE)
         } else {
             vec![]
         };
-        let normals = if svo.lobes == 1 {
-            crate::kernels::svo_cone_trace::normal_pool(None, &octree, frags, &m.lit, &m.normal)?
+        let normals = if svo.lobes & 1 != 0 {
+            normal_pool(None, &octree, frags, &m.lit, &m.normal)?
         } else {
             vec![]
         };
-        Ok((octree, aniso, normals))
+        let spec = if svo.lobes & 2 != 0 {
+            pool_in_layout(None, &octree, frags, &spec_frags)?
+        } else {
+            vec![]
+        };
+        Ok((octree, aniso, [normals, spec]))
     };
-    let (mut octree, mut aniso, mut normals) = built(&frags)?;
+    let (mut octree, mut aniso, mut pools) = built(&frags)?;
     if plan.runs("svo_bounce") {
         use crate::kernels::svo_cone_trace as sct;
         let voxels = sct::bounce_voxels(&m.lit, &m.normal, &m.colour, &m.frame);
@@ -1757,7 +1794,7 @@ pub fn render_svo_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendered
             &octree.nodes,
             &octree.bricks,
             &aniso,
-            &normals,
+            [&pools[0], &pools[1]],
             &svo,
             &params,
             [&voxels.position, &voxels.normal, &voxels.albedo],
@@ -1767,7 +1804,7 @@ pub fn render_svo_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendered
         .collect();
         let mut frags = frags;
         frags.extend(sct::bounce_fragments(&voxels, &ind, &m.lit, SCALE)?);
-        (octree, aniso, normals) = built(&frags)?;
+        (octree, aniso, pools) = built(&frags)?;
     }
     let volume = vxgi_cpu_mirror::svo_cone_trace::SvoVolume {
         p: &params,
@@ -1775,7 +1812,8 @@ pub fn render_svo_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendered
         nodes: &octree.nodes,
         bricks: &octree.bricks,
         aniso: &aniso,
-        normals: &normals,
+        normals: &pools[0],
+        spec: &pools[1],
     };
     let lmax = max_radiance(&octree.bricks, svo.inv_scale);
     Ok(m.shade(&volume, lmax, plan))

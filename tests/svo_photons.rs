@@ -38,7 +38,8 @@ fn cornell_box_photons_carry_the_voxels_direct_light() {
     let (grid, list, frame) = voxelize_on_gpu(gpu(), &scene, 64).unwrap();
     let lit = vxgi::kernels::voxel_light::light_on_gpu(gpu(), &data, &grid, &list, &frame).unwrap();
     let scale = 65536.0;
-    let (photons, texels) = photon_fragments(gpu(), &data, &frame, 256, scale).unwrap();
+    let pf = photon_fragments(gpu(), &data, &frame, 256, scale).unwrap();
+    let (photons, texels) = (pf.light, pf.texels);
     assert_eq!(texels, 6 * 256 * 256);
     let total_photons: f64 = photons
         .iter()

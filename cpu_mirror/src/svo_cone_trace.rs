@@ -22,6 +22,16 @@
 //! surface seen from either side, 1/2 for a voxel whose normals cancel), taken with the logistic
 //! approximation `1 / (1 + exp(-1.702 x))` (at most 0.0095 from Phi). The sample's colour is scaled by it;
 //! its opacity is not (occlusion is view-independent, section 4.3).
+//!
+//! **Glossy voxels** (`svo.lobes & 2`): a third pool, same layout, holds the specular photons
+//! (`svo_photons`: the light's mirror directions scaled by the Phong lobe's mean length, weighted by
+//! their specular flux, encoded `((q + w) / 2, w)`). A sample decodes `q = 2 xyz - w`; its mean length
+//! `rbar = |q| / w` gives the reflected light's von Mises-Fisher concentration `kappa_s = rbar /
+//! (1 - rbar)` (the inverse of the encoding `m = Ns / (Ns + 1)`; the spread of light directions and
+//! normals within the cell shortens it further), convolved with the cone's `kappa_v = 1 /
+//! tan^2(psi/2)` as variances add: `kappa = kappa_s kappa_v / (kappa_s + kappa_v)`. The sample's colour
+//! gains `w vMF(-d; q / |q|, kappa)` (grey: luminance), the glossy light the voxel sends towards the
+//! cone's origin ([`glossy_voxel`]).
 use crate::cone_trace::{quadrilinear, ConeParams, SampleError, Volume};
 use crate::sparse_voxel_octree::{brick_value, find, voxel_index, Node, NONE};
 use crate::svo_anisotropic::{direction, DIRECTIONS};
@@ -35,7 +45,8 @@ pub struct SvoParams {
     pub inv_scale: f32,
     /// 1: directional values above the leaves (`SvoVolume::aniso`).
     pub anisotropic: u32,
-    /// 1: voxel shading with Gaussian lobes from the normal pool (`SvoVolume::normals`).
+    /// Bit 0: voxel shading with Gaussian lobes from the normal pool (`SvoVolume::normals`); bit 1:
+    /// glossy voxels from the specular pool (`SvoVolume::spec`).
     pub lobes: u32,
 }
 
@@ -50,6 +61,68 @@ pub struct SvoVolume<'a> {
     /// The normal pool (read when `svo.lobes` = 1): bricks in `nodes`' layout, per voxel
     /// `((n + 1) alpha / 2, alpha)` in fixed point ([`normal_value`]), `n` the surface's mean normal.
     pub normals: &'a [u32],
+    /// The specular pool (read when `svo.lobes & 2`): bricks in `nodes`' layout, per voxel the sum of
+    /// its specular photons' `((q + w) / 2, w)` in fixed point (`svo_photons`).
+    pub spec: &'a [u32],
+}
+
+/// The glossy light a specular-pool sample `e` sends towards the origin of a cone along `d` (half-angle
+/// tangent `tan_half`), `w vMF(-d; q / |q|, kappa)` (module doc), in the kernel's operation order, and
+/// its bound given the sample's error `err`.
+///
+/// Bound: the density lies in `[0, D(kappa_v)]` (`kappa < kappa_v`, the vMF peak `kappa / (2 pi (1 -
+/// e^-2kappa))` grows with `kappa`), so the term is within `(w + e_w) D(kappa_v)` of anything; within
+/// that, the first-order terms: `e_w D(kappa_v)`, and `w` times the density's change — `|d ln D / d
+/// kappa| <= 3` (`1/kappa - 2 / (e^2kappa - 1)` is in [0, 1] and `|c - 1| <= 2`) times kappa's (through
+/// `rbar`: `d kappa / d kappa_s = (kappa_v / (kappa_s + kappa_v))^2`, `d kappa_s / d rbar = 1 / (1 -
+/// rbar)^2`), `kappa` times the cosine's (the axis moves by `sqrt 3 e_q / |q|`, `d` by 16 ULP), and
+/// exp's `3 + 2 |kappa (c - 1)|` ULP plus 64 ULP of the rest.
+pub fn glossy_voxel(e: Vec4, d: Vec3, tan_half: f32, err: SampleError) -> (f32, f32) {
+    use std::f32::consts::PI;
+    let u = f32::EPSILON;
+    let w = e.w;
+    if w <= 0.0 {
+        return (0.0, 0.0);
+    }
+    let q = 2.0 * e.truncate() - Vec3::splat(w);
+    let ql = q.length();
+    let rbar = (ql / w).min(0.999);
+    let ks = rbar / (1.0 - rbar);
+    let t2 = tan_half * tan_half;
+    let r = (1.0 + t2).sqrt();
+    let s = t2 / ((1.0 + r) * (1.0 + r));
+    let kv = 1.0 / s.max(1e-6);
+    let k = ks * kv / (ks + kv);
+    let c = if ql > 0.0 { -q.dot(d) / ql } else { 0.0 };
+    let peak = |k: f32| {
+        if k > 1e-4 {
+            k / (2.0 * PI * (1.0 - (-2.0 * k).exp()))
+        } else {
+            1.0 / (4.0 * PI)
+        }
+    };
+    let dens = if k > 1e-4 {
+        k / (2.0 * PI * (1.0 - (-2.0 * k).exp())) * (k * (c - 1.0)).exp()
+    } else {
+        1.0 / (4.0 * PI)
+    };
+    let t = w * dens;
+    // Bound.
+    let dm = peak(kv) * (1.0 + 1e-3);
+    let e_q = 2.0 * err.rgb + err.a + 4.0 * u * (2.0 * e.truncate().abs().max_element()).max(w);
+    let e_w = err.a;
+    let cap = (w + e_w) * dm;
+    if w <= e_w || ql <= 3f32.sqrt() * e_q {
+        return (t, cap);
+    }
+    let e_rbar = (3f32.sqrt() * e_q + 8.0 * u * ql + rbar * e_w) / (w - e_w);
+    let lo = (rbar + e_rbar).min(0.999);
+    let e_ks = e_rbar / ((1.0 - lo) * (1.0 - lo));
+    let e_k = e_ks * (kv / (ks + kv)).powi(2);
+    let e_c = 2.0 * 3f32.sqrt() * e_q / (ql - 3f32.sqrt() * e_q) + 24.0 * u;
+    let rel = 3.0 * e_k + k * e_c + (67.0 + 2.0 * (k * (c - 1.0)).abs()) * u;
+    let first = e_w * dm + w * dens * (rel.exp() - 1.0 + rel);
+    (t, first.min(cap))
 }
 
 /// Logistic slope approximating the normal CDF: `Phi(x) ~ 1 / (1 + exp(-1.702 x))`.
@@ -210,17 +283,29 @@ impl Volume for SvoVolume<'_> {
         if self.svo.lobes == 0 {
             return (s, err);
         }
-        let (e, e_err) = quadrilinear(self.p.levels - 1, lf, |l| {
-            self.level_in(self.normals, x, l, None)
-        });
-        let (v, v_err) = lobe_visibility(e, d, tan_half, e_err);
-        let rgb = s.truncate() * v;
+        let (mut rgb, mut e_rgb) = (s.truncate(), err.rgb);
+        if self.svo.lobes & 1 != 0 {
+            let (e, e_err) = quadrilinear(self.p.levels - 1, lf, |l| {
+                self.level_in(self.normals, x, l, None)
+            });
+            let (v, v_err) = lobe_visibility(e, d, tan_half, e_err);
+            rgb *= v;
+            e_rgb = err.rgb * v
+                + s.truncate().abs().max_element() * v_err
+                + f32::EPSILON * rgb.abs().max_element();
+        }
+        if self.svo.lobes & 2 != 0 {
+            let (e, e_err) = quadrilinear(self.p.levels - 1, lf, |l| {
+                self.level_in(self.spec, x, l, None)
+            });
+            let (t, t_err) = glossy_voxel(e, d, tan_half, e_err);
+            rgb += Vec3::splat(t);
+            e_rgb += t_err + f32::EPSILON * rgb.abs().max_element();
+        }
         (
             rgb.extend(s.w),
             SampleError {
-                rgb: err.rgb * v
-                    + s.truncate().abs().max_element() * v_err
-                    + f32::EPSILON * rgb.abs().max_element(),
+                rgb: e_rgb,
                 a: err.a,
             },
         )

@@ -22,7 +22,17 @@
 //! Per texel (row-major, the light-view G-buffer `gbuffer.wgsl` ray-casts with the view's frame):
 //! * nothing hit or a back face (`normal.w <= 0`: reflects nothing): pos (0, 0, 0, 0), value 0;
 //! * else pos = (voxel of the point, clamped into the grid, 1), value = (radiance above, 0).
-use crate::direct_light::{incident, incident_error, GpuLight};
+//!
+//! **Specular photons** (`spec`; surfaces whose material has Ks, else 0): the incoming light as a
+//! direction distribution (VCT 7), reflected at injection, where the surface normal is exact:
+//! `(m r w, w)` with `r = 2 (n.wi) n - wi` the light's mirror direction, `m = Ns / (Ns + 1)` the mean
+//! length of a von Mises-Fisher lobe of concentration ~Ns (the Phong lobe `cos^Ns`), and
+//! `w = lum(Ks E) d^2 omega |n|_1 / h^2` the specular flux per mean cell area (the value's scale without
+//! `1 / pi`: the lobe's density is per steradian). Summed over a cell, `|sum m r w| / sum w` encodes the
+//! reflected light's spread (the BRDF's, the light's and the normals' at once) as the normal pool's
+//! length does (Toksvig); svo_cone_trace evaluates the lobe towards each cone. Luminance only: the
+//! glossy light is grey.
+use crate::direct_light::{incident, incident_error, GpuLight, GpuMaterial};
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 use std::f32::consts::PI;
@@ -46,19 +56,29 @@ fn v3(a: [f32; 4]) -> Vec3 {
     Vec3::new(a[0], a[1], a[2])
 }
 
-/// One photon: its voxel (w = 1 when it exists), its value (rgb, 0) and the value's bound per channel.
+/// One photon: its voxel (w = 1 when it exists), its value (rgb, 0) and the value's bound per channel,
+/// its specular part `(m r w, w)` and that one's bound.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Photon {
     pub pos: [u32; 4],
     pub value: [f32; 4],
     pub bound: [f32; 4],
+    pub spec: [f32; 4],
+    pub spec_bound: [f32; 4],
 }
 
 pub const NO_PHOTON: Photon = Photon {
     pos: [0; 4],
     value: [0.0; 4],
     bound: [0.0; 4],
+    spec: [0.0; 4],
+    spec_bound: [0.0; 4],
 };
+
+/// Rec. 709 luminance, in the kernel's operation order.
+pub fn luminance(c: Vec3) -> f32 {
+    (0.2126 * c.x + 0.7152 * c.y) + 0.0722 * c.z
+}
 
 /// The photon of a light-view G-buffer pixel (position, normal, albedo), in the kernel's operation
 /// order.
@@ -75,6 +95,7 @@ pub fn photon(
     position: [f32; 4],
     normal: [f32; 4],
     albedo: [f32; 4],
+    material: &GpuMaterial,
 ) -> Photon {
     let u = f32::EPSILON;
     if normal[3] <= 0.0 {
@@ -109,24 +130,55 @@ pub fn photon(
     let kd = v3(albedo);
     let value = kd * inc.irradiance * scale;
     let bound = value * rel_err + kd * e_irr * (scale * (1.0 + rel_err));
+    // Specular: the same scale without 1/pi, the mirror direction (unit vectors: a few ULP, plus the
+    // light direction's error), the lobe's mean length.
+    let ks = v3(material.specular);
+    let (mut spec, mut spec_bound) = ([0.0; 4], [0.0; 4]);
+    if ks != Vec3::ZERO {
+        let ns = material.diffuse[3].max(0.0);
+        let m = ns / (ns + 1.0);
+        let ke = ks * inc.irradiance;
+        let s = area * (l1 * (inv_h * inv_h));
+        let w = luminance(ke) * s;
+        let r = n * (2.0 * n.dot(inc.wi)) - inc.wi;
+        let q = r * (m * w);
+        let (_, e_dir) = incident_error(light, x, 0.0);
+        let e_w = w.abs() * (rel_err + 8.0 * u)
+            + luminance(ks) * e_irr.max_element() * s * (1.0 + rel_err);
+        let e_q = (r.abs() * m) * e_w + Vec3::splat(m * w.abs() * (3.0 * e_dir + 16.0 * u));
+        spec = [q.x, q.y, q.z, w];
+        spec_bound = [e_q.x, e_q.y, e_q.z, e_w];
+    }
     Photon {
         pos,
         value: [value.x, value.y, value.z, 0.0],
         bound: [bound.x, bound.y, bound.z, 0.0],
+        spec,
+        spec_bound,
     }
 }
 
-/// Every photon of a light view's row-major G-buffer.
+/// Every photon of a light view's row-major G-buffer (`triangle`: the texel's triangle, whose
+/// material, `materials[triangles[t].a.w]` clamped, gives Ks and Ns).
 pub fn photons(
     p: &PhotonParams,
     lights: &[GpuLight],
-    position: &[[f32; 4]],
-    normal: &[[f32; 4]],
-    albedo: &[[f32; 4]],
+    [position, normal, albedo]: [&[[f32; 4]]; 3],
+    triangle: &[u32],
+    triangles: &[crate::bvh_trace::GpuTriangle],
+    materials: &[GpuMaterial],
 ) -> Vec<Photon> {
     let light = &lights[p.info[1] as usize];
     (0..position.len())
-        .map(|i| photon(p, light, position[i], normal[i], albedo[i]))
+        .map(|i| {
+            let m = if normal[i][3] > 0.0 {
+                let t = &triangles[triangle[i] as usize];
+                materials[(t.a[3] as u32).min(materials.len() as u32 - 1) as usize]
+            } else {
+                GpuMaterial::default()
+            };
+            photon(p, light, position[i], normal[i], albedo[i], &m)
+        })
         .collect()
 }
 
@@ -154,6 +206,19 @@ mod tests {
             }
         }
         pos
+    }
+
+    /// [`photons`] of a G-buffer whose every texel has the default (diffuse, no Ks) material.
+    fn diffuse_photons(p: &PhotonParams, light: GpuLight, gb: [&[[f32; 4]]; 3]) -> Vec<Photon> {
+        let tri = vec![0; gb[0].len()];
+        photons(
+            p,
+            &[light],
+            gb,
+            &tri,
+            &[Default::default()],
+            &[Default::default()],
+        )
     }
 
     fn params(
@@ -197,7 +262,7 @@ mod tests {
         let pos = floor_view(eye, side, Some(half));
         let nrm = vec![[0.0, 1.0, 0.0, 1.0]; pos.len()];
         let alb = vec![[0.5, 0.5, 0.5, 1.0]; pos.len()];
-        let ph = photons(&p, &[light], &pos, &nrm, &alb);
+        let ph = diffuse_photons(&p, light, [&pos, &nrm, &alb]);
         let mut cells = std::collections::HashMap::<[u32; 3], Vec3>::new();
         for q in &ph {
             assert_eq!(q.pos[3], 1);
@@ -238,7 +303,7 @@ mod tests {
         let pos = floor_view(eye, side, None);
         let nrm = vec![[0.0, 1.0, 0.0, 1.0]; pos.len()];
         let alb = vec![[0.8, 0.8, 0.8, 1.0]; pos.len()];
-        let ph = photons(&p, &[light], &pos, &nrm, &alb);
+        let ph = diffuse_photons(&p, light, [&pos, &nrm, &alb]);
         // Flux back from the stored radiance: value * pi * h^2 / |n|_1 per photon.
         let flux: f64 = ph
             .iter()
@@ -252,11 +317,12 @@ mod tests {
             .all(|q| q.bound[0] > 0.0 && q.bound[0] < 1e-4 * q.value[0]));
     }
 
-    #[test]
-    fn back_faces_and_misses_carry_nothing() {
+    /// A one-texel view and a point light 5 units above the origin, looking down; grid of 8 voxels of
+    /// size 1 from `origin`.
+    fn overhead(origin: [f32; 3]) -> (PhotonParams, GpuLight) {
         let p = PhotonParams {
             info: [1, 0, 8, 0],
-            grid: [0.0, 0.0, 0.0, 1.0],
+            grid: [origin[0], origin[1], origin[2], 1.0],
             eye: [0.0, 5.0, 0.0, 1.0],
             forward: [0.0, -1.0, 0.0, 0.0],
         };
@@ -265,8 +331,59 @@ mod tests {
             direction: [0.0, -1.0, 0.0, 0.0],
             intensity: [1.0; 4],
         };
+        (p, l)
+    }
+
+    /// A glossy floor lit from straight above: the specular photon points back up along the mirror
+    /// direction (the normal here) with the lobe's mean length Ns / (Ns + 1), and its weight is the
+    /// diffuse value's luminance times pi Ks / Kd.
+    #[test]
+    fn a_glossy_photon_reflects_the_light_about_the_normal() {
+        let (p, l) = overhead([-4.0, -4.0, -4.0]);
+        let m = GpuMaterial {
+            diffuse: [0.5, 0.5, 0.5, 9.0],
+            specular: [0.25, 0.25, 0.25, 0.0],
+            texture: [0; 4],
+        };
+        let shoot = |m: &GpuMaterial| {
+            photon(
+                &p,
+                &l,
+                [0.0, 0.0, 0.0, 1.0],
+                [0.0, 1.0, 0.0, 1.0],
+                [0.5; 4],
+                m,
+            )
+        };
+        let q = shoot(&m);
+        let w = q.spec[3];
+        assert!(w > 0.0);
+        assert!((q.spec[1] / w - 0.9).abs() < 1e-6, "{:?}", q.spec);
+        assert!(q.spec[0].abs() < 1e-6 && q.spec[2].abs() < 1e-6);
+        let expect = luminance(Vec3::from_slice(&q.value[..3])) * PI * 0.25 / 0.5;
+        assert!((w - expect).abs() < 1e-5 * expect, "{w} vs {expect}");
+        assert!(q.spec_bound.iter().all(|&b| b > 0.0 && b < 1e-4 * w));
+        // No Ks: no specular photon.
+        let diffuse = GpuMaterial {
+            specular: [0.0; 4],
+            ..m
+        };
+        let q = shoot(&diffuse);
+        assert_eq!(q.spec, [0.0; 4]);
+    }
+
+    #[test]
+    fn back_faces_and_misses_carry_nothing() {
+        let (p, l) = overhead([0.0; 3]);
         for w in [0.0, -1.0] {
-            let q = photon(&p, &l, [1.0, 1.0, 1.0, 1.0], [0.0, 1.0, 0.0, w], [1.0; 4]);
+            let q = photon(
+                &p,
+                &l,
+                [1.0, 1.0, 1.0, 1.0],
+                [0.0, 1.0, 0.0, w],
+                [1.0; 4],
+                &GpuMaterial::default(),
+            );
             assert_eq!(q, NO_PHOTON);
         }
         // A point outside the grid lands in the nearest cell.
@@ -276,6 +393,7 @@ mod tests {
             [-3.0, 1.5, 99.0, 1.0],
             [0.0, 1.0, 0.0, 1.0],
             [1.0; 4],
+            &GpuMaterial::default(),
         );
         assert_eq!(q.pos, [0, 1, 7, 1]);
     }

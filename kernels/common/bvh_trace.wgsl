@@ -2,28 +2,12 @@
 // layout: `entry` on a box hit, `exit` on a miss, leaves have entry == NONE and a shape).
 // Mirror: cpu_mirror/src/bvh_trace.rs. Included by gbuffer.wgsl and direct_light.wgsl, which declare
 // the module-scope bindings `nodes: array<BvhNode>` and `triangles: array<Triangle>` used here.
+// Needs common/scene_types.wgsl (Triangle, Material).
 //
 // Triangles are two-sided for occlusion and report the side hit (front: vertices counter-clockwise,
 // det > 0). Boxes are padded on the host so the slab test is conservative under any rounding.
 
 const NONE: u32 = 0xffffffffu;
-
-struct Triangle {
-    a: vec4<f32>,   // w = material index
-    b: vec4<f32>,
-    c: vec4<f32>,
-    na: vec4<f32>,
-    nb: vec4<f32>,
-    nc: vec4<f32>,
-}
-
-// diffuse.w = Phong exponent; texture = (first atlas texel, width, height, 0) of the map_Kd texture
-// that replaces diffuse.rgb (width 0: none; gbuffer.wgsl reads it into gb_albedo).
-struct Material {
-    diffuse: vec4<f32>,
-    specular: vec4<f32>,
-    texture: vec4<u32>,
-}
 
 struct BvhNode {
     lo: vec3<f32>,

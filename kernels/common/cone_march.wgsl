@@ -10,7 +10,7 @@
 // also the including kernel's: the dense and octree tracers return sample_volume(x, l); lrsm_cone_trace
 // takes its radiance from the LRSMs at the sample's diameter, seen along -d. Mirror: cpu_mirror/src/cone_trace.rs (`march`,
 // `shade_pixel`, generic over `Volume`). See cone_trace.wgsl's header for the full definition.
-// Needs common/tangent_basis.wgsl (the pixel entry's cone frame).
+// Needs common/tangent_basis.wgsl (the pixel entry's cone frame) and common/scene_types.wgsl.
 
 struct Frame {
     eye: vec4<f32>,
@@ -18,21 +18,6 @@ struct Frame {
     right: vec4<f32>,
     up: vec4<f32>,
     size: vec4<u32>,
-}
-
-struct Triangle {
-    a: vec4<f32>,
-    b: vec4<f32>,
-    c: vec4<f32>,
-    na: vec4<f32>,
-    nb: vec4<f32>,
-    nc: vec4<f32>,
-}
-
-struct Material {
-    diffuse: vec4<f32>,
-    specular: vec4<f32>,
-    texture: vec4<u32>,   // read by gbuffer (gb_albedo), not here
 }
 
 struct ConeParams {

@@ -18,7 +18,7 @@ pub static DECL: KernelDecl = KernelDecl {
     name: "cache_creation",
     wgsl_path: "kernels/cache_creation.wgsl",
     wgsl: include_str!("../../kernels/cache_creation.wgsl"),
-    includes: &[super::TANGENT_BASIS, super::CONE_MARCH, super::PYRAMID_GRID, super::PYRAMID],
+    includes: &[super::TANGENT_BASIS, super::SCENE_TYPES, super::CONE_MARCH, super::PYRAMID_GRID, super::PYRAMID],
     entry: "create",
     inputs: &["cone", "pyramid", "cache_params", "caches", "texel_dirs"],
     outputs: &[
@@ -39,6 +39,7 @@ pub static INSTANCED_DECL: KernelDecl = KernelDecl {
     wgsl: include_str!("../../kernels/cache_creation.wgsl"),
     includes: &[
         super::TANGENT_BASIS,
+        super::SCENE_TYPES,
         super::CONE_MARCH,
         super::PYRAMID_GRID,
         super::PLACED_PYRAMIDS,

@@ -24,7 +24,7 @@ pub static DECL: KernelDecl = KernelDecl {
     name: "cone_trace",
     wgsl_path: "kernels/cone_trace.wgsl",
     wgsl: include_str!("../../kernels/cone_trace.wgsl"),
-    includes: &[super::TANGENT_BASIS, super::CONE_MARCH, super::PYRAMID_GRID, super::PYRAMID],
+    includes: &[super::TANGENT_BASIS, super::SCENE_TYPES, super::CONE_MARCH, super::PYRAMID_GRID, super::PYRAMID],
     entry: "main",
     inputs: &[
         "frame", "triangles", "materials", "gb_position", "gb_normal", "gb_triangle", "gb_albedo", "cone", "cone_dirs", "tile_list",
@@ -52,6 +52,7 @@ pub static INSTANCED_DECL: KernelDecl = KernelDecl {
     wgsl: include_str!("../../kernels/cone_trace.wgsl"),
     includes: &[
         super::TANGENT_BASIS,
+        super::SCENE_TYPES,
         super::CONE_MARCH,
         super::PYRAMID_GRID,
         super::PLACED_PYRAMIDS,

@@ -18,7 +18,12 @@ pub static DECL: KernelDecl = KernelDecl {
     name: "direct_light",
     wgsl_path: "kernels/direct_light.wgsl",
     wgsl: include_str!("../../kernels/direct_light.wgsl"),
-    includes: &[super::gbuffer::BVH_TRACE, super::LIGHTS, super::BRDF],
+    includes: &[
+        super::SCENE_TYPES,
+        super::gbuffer::BVH_TRACE,
+        super::LIGHTS,
+        super::BRDF,
+    ],
     entry: "main",
     inputs: &[
         "frame",

@@ -27,7 +27,7 @@ pub static DECL: KernelDecl = KernelDecl {
     name: "gbuffer",
     wgsl_path: "kernels/gbuffer.wgsl",
     wgsl: include_str!("../../kernels/gbuffer.wgsl"),
-    includes: &[BVH_TRACE],
+    includes: &[super::SCENE_TYPES, BVH_TRACE],
     entry: "main",
     inputs: &["frame", "nodes", "triangles", "materials", "uvs", "texels", "srgb_lut"],
     outputs: &[

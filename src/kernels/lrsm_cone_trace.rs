@@ -26,7 +26,7 @@ pub static DECL: KernelDecl = KernelDecl {
     name: "lrsm_cone_trace",
     wgsl_path: "kernels/lrsm_cone_trace.wgsl",
     wgsl: include_str!("../../kernels/lrsm_cone_trace.wgsl"),
-    includes: &[super::TANGENT_BASIS, CONE_MARCH, LRSM_SAMPLE, LRSM_MATH, LRSM_VIEW, LIGHTS, BRDF],
+    includes: &[super::TANGENT_BASIS, super::SCENE_TYPES, CONE_MARCH, LRSM_SAMPLE, LRSM_MATH, LRSM_VIEW, LIGHTS, BRDF],
     entry: "main",
     inputs: &[
         "frame",

@@ -58,6 +58,13 @@ pub const BRDF: (&str, &str) = (
     include_str!("../../kernels/common/brdf.wgsl"),
 );
 
+/// The scene's triangle and material records, included with BVH_TRACE and CONE_MARCH and by
+/// svo_photons.
+pub const SCENE_TYPES: (&str, &str) = (
+    "kernels/common/scene_types.wgsl",
+    include_str!("../../kernels/common/scene_types.wgsl"),
+);
+
 /// The cone tracer (bindings, march, pixel entry), included (after TANGENT_BASIS) by cone_trace,
 /// svo_cone_trace, lrsm_cone_trace and cache_creation, which each define the volume it samples.
 pub const CONE_MARCH: (&str, &str) = (

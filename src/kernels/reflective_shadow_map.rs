@@ -130,6 +130,14 @@ pub fn view_gbuffer(ctx: &GpuContext, data: &SceneData, view: &LightView) -> Res
 
 /// The G-buffer of `view` by the mirror: (position, normal, albedo) per pixel, row-major.
 pub fn view_gbuffer_mirror(data: &SceneData, view: &LightView) -> [Vec<[f32; 4]>; 3] {
+    view_gbuffer_mirror_triangles(data, view).0
+}
+
+/// [`view_gbuffer_mirror`] and each pixel's triangle (gb_triangle).
+pub fn view_gbuffer_mirror_triangles(
+    data: &SceneData,
+    view: &LightView,
+) -> ([Vec<[f32; 4]>; 3], Vec<u32>) {
     use rayon::prelude::*;
     use vxgi_cpu_mirror::gbuffer as gbm;
     let tex = data.textures();
@@ -146,14 +154,17 @@ pub fn view_gbuffer_mirror(data: &SceneData, view: &LightView) -> [Vec<[f32; 4]>
             )
         })
         .collect();
-    [
-        texels.iter().map(|t| t.position).collect(),
-        texels.iter().map(|t| t.normal).collect(),
-        texels
-            .iter()
-            .map(|t| gbm::albedo(&data.materials, &data.triangles, &tex, t))
-            .collect(),
-    ]
+    (
+        [
+            texels.iter().map(|t| t.position).collect(),
+            texels.iter().map(|t| t.normal).collect(),
+            texels
+                .iter()
+                .map(|t| gbm::albedo(&data.materials, &data.triangles, &tex, t))
+                .collect(),
+        ],
+        texels.iter().map(|t| t.triangle).collect(),
+    )
 }
 
 /// The RSM of `view` on the GPU: G-buffer from the view, then this kernel.

@@ -22,11 +22,11 @@ pub static DECL: KernelDecl = KernelDecl {
     name: "svo_cone_trace",
     wgsl_path: "kernels/svo_cone_trace.wgsl",
     wgsl: include_str!("../../kernels/svo_cone_trace.wgsl"),
-    includes: &[super::SVO_NODE, super::TANGENT_BASIS, super::CONE_MARCH],
+    includes: &[super::SVO_NODE, super::TANGENT_BASIS, super::SCENE_TYPES, super::CONE_MARCH],
     entry: "main",
     inputs: &[
         "frame", "triangles", "materials", "gb_position", "gb_normal", "gb_triangle", "gb_albedo", "cone", "cone_dirs", "tile_list",
-        "nodes", "bricks", "svo", "aniso", "normal_bricks",
+        "nodes", "bricks", "svo", "aniso", "normal_bricks", "spec_bricks",
     ],
     outputs: &[
         // cone_trace's bound (see `cone_trace::MAG`): the march is the same code; the octree's sample
@@ -75,20 +75,19 @@ pub fn coverage_only(voxels: &[[f32; 4]]) -> Vec<[f32; 4]> {
 }
 
 /// What the octree's readers sample besides its radiance bricks: the anisotropic voxels' directional
-/// values (`svo_anisotropic`) and the Gaussian lobes' normal pool ([`normal_pool`]); `None`: that
+/// values (`svo_anisotropic`), the Gaussian lobes' normal pool ([`normal_pool`]) and the glossy
+/// voxels' specular pool ([`pool_in_layout`] of `svo_photons`' specular fragments); `None`: that
 /// option is off.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct SvoExtras<'a> {
     pub aniso: Option<&'a [[f32; 4]]>,
     pub normals: Option<&'a [u32]>,
+    pub spec: Option<&'a [u32]>,
 }
 
-/// The normal pool's fragments for an octree built from `frags` over the voxel grid `radiance`
-/// (Morton order, alpha in w) whose mean normals are `normal` (xyz): each voxel with alpha > 0 its
-/// [`normal_value`], and every fragment of `frags` at its point with value 0, so the pool's build has
-/// `frags`' structure (its values come from the first list alone: a zero value splats nothing).
+/// The normal pool's fragments over the voxel grid `radiance` (Morton order, alpha in w) whose mean
+/// normals are `normal` (xyz): each voxel with alpha > 0 its [`normal_value`].
 pub fn normal_fragments(
-    frags: &[Fragment],
     radiance: &[[f32; 4]],
     normal: &[[f32; 4]],
     scale: f32,
@@ -104,17 +103,43 @@ pub fn normal_fragments(
             }
         })
         .collect();
-    let mut out = grid_fragments(&values, scale)?;
-    out.extend(frags.iter().map(|f| Fragment {
-        value: [0; 4],
-        ..*f
-    }));
-    Ok(out)
+    grid_fragments(&values, scale)
 }
 
-/// The lobes' normal pool of `octree` (built from `frags`): the octree build of
-/// [`normal_fragments`] — on the GPU (`sparse_voxel_octree`'s kernel) with `ctx`, by the mirror
-/// without — carried into `octree`'s node layout (`bricks_in_layout`).
+/// `frags`' points with value 0: structure only (a zero value splats nothing).
+pub fn points_of(frags: &[Fragment]) -> Vec<Fragment> {
+    frags
+        .iter()
+        .map(|f| Fragment {
+            value: [0; 4],
+            ..*f
+        })
+        .collect()
+}
+
+/// A second brick pool over `octree`'s points (built from `frags`): the octree build of `values`
+/// plus every fragment of `frags` at its point with value 0 (so the structure is `frags`'), on the GPU
+/// with `ctx`, by the mirror without, carried into `octree`'s node layout (`bricks_in_layout`; values
+/// at points `frags` lacks have no node there and are dropped).
+pub fn pool_in_layout(
+    ctx: Option<&GpuContext>,
+    octree: &Octree,
+    frags: &[Fragment],
+    values: &[Fragment],
+) -> Result<Vec<u32>, SvoError> {
+    let mut all = values.to_vec();
+    all.extend(points_of(frags));
+    let built = match ctx {
+        Some(ctx) => {
+            super::sparse_voxel_octree::build_on_gpu(ctx, octree.depth, &all, None)?.octree
+        }
+        None => build_fitted(octree.depth, &all),
+    };
+    Ok(bricks_in_layout(&octree.nodes, &built))
+}
+
+/// The lobes' normal pool of `octree` (built from `frags`): [`pool_in_layout`] of
+/// [`normal_fragments`].
 pub fn normal_pool(
     ctx: Option<&GpuContext>,
     octree: &Octree,
@@ -122,12 +147,12 @@ pub fn normal_pool(
     radiance: &[[f32; 4]],
     normal: &[[f32; 4]],
 ) -> Result<Vec<u32>, SvoError> {
-    let nf = normal_fragments(frags, radiance, normal, SCALE)?;
-    let built = match ctx {
-        Some(ctx) => super::sparse_voxel_octree::build_on_gpu(ctx, octree.depth, &nf, None)?.octree,
-        None => build_fitted(octree.depth, &nf),
-    };
-    Ok(bricks_in_layout(&octree.nodes, &built))
+    pool_in_layout(
+        ctx,
+        octree,
+        frags,
+        &normal_fragments(radiance, normal, SCALE)?,
+    )
 }
 
 /// Cone parameters for an octree of `depth` over the voxel grid `frame` (side `2^(depth + 1)`): mip
@@ -156,22 +181,23 @@ pub fn case_for(
 }
 
 /// The octree's bindings (nodes, bricks, svo, aniso, normal_bricks) for the cone kernels.
-pub fn octree_resources(octree: &Octree, extras: SvoExtras, scale: f32) -> Resources {
+pub fn octree_resources<'a>(octree: &Octree, extras: SvoExtras<'a>, scale: f32) -> Resources {
     let svo = SvoParams {
         depth: octree.depth,
         inv_scale: 1.0 / scale,
         anisotropic: extras.aniso.is_some() as u32,
-        lobes: extras.normals.is_some() as u32,
+        lobes: extras.normals.is_some() as u32 | (extras.spec.is_some() as u32) << 1,
     };
     // Unused when an option is off, but bound: one empty element.
     let aniso = match extras.aniso {
         Some(a) if !a.is_empty() => a,
         _ => &[[0.0f32; 4]][..],
     };
-    let normals = match extras.normals {
+    let pool = |p: Option<&'a [u32]>| match p {
         Some(n) if !n.is_empty() => n,
         _ => &[0u32][..],
     };
+    let (normals, spec) = (pool(extras.normals), pool(extras.spec));
     let mut r = super::sparse_voxel_octree::reader_resources(octree);
     r.insert(
         "svo".to_string(),
@@ -184,6 +210,10 @@ pub fn octree_resources(octree: &Octree, extras: SvoExtras, scale: f32) -> Resou
     r.insert(
         "normal_bricks".to_string(),
         HostResource::Buffer(HostBuffer::u32(normals)),
+    );
+    r.insert(
+        "spec_bricks".to_string(),
+        HostResource::Buffer(HostBuffer::u32(spec)),
     );
     r
 }
@@ -210,19 +240,23 @@ pub fn mirror_cones(data: &Resources) -> [Vec<[f32; 4]>; 4] {
         bricks,
         aniso: bytemuck::cast_slice(&b("aniso").bytes),
         normals: b("normal_bricks").as_u32(),
+        spec: b("spec_bricks").as_u32(),
     };
     shade_all(data, &volume, max_radiance(bricks, svo.inv_scale))
 }
 
 /// A generated lit scene (cone_trace's `lit_case`) and the mirror's octree of its voxels (the builder
 /// is verified on its own), with its options by `index % 4`: 0 none, 1 anisotropic voxels, 2 Gaussian
-/// lobes, 3 both (the directional values and the normal pool the mirror's).
+/// lobes and glossy voxels, 3 all (the directional values and the pools the mirror's; the specular
+/// photons made up: light from one direction reflected about each voxel's normal, lobe length 0.9,
+/// weight half the voxel's luminance).
 pub struct GeneratedOctree {
     pub lit: super::cone_trace::LitCase,
     pub octree: Octree,
     pub params: ConeParams,
     pub aniso: Option<Vec<[f32; 4]>>,
     pub normals: Option<Vec<u32>>,
+    pub spec: Option<Vec<u32>>,
 }
 
 impl GeneratedOctree {
@@ -239,12 +273,33 @@ impl GeneratedOctree {
             normal_pool(None, &octree, &frags, &c.radiance, &c.normal)
                 .expect("generated normals fit the fixed point")
         });
+        let spec = (index % 4 >= 2).then(|| {
+            let l = glam::Vec3::new(0.3, 1.0, 0.2).normalize();
+            let (mut pos, mut q) = (Vec::new(), Vec::new());
+            for (m, (r, n)) in c.radiance.iter().zip(&c.normal).enumerate() {
+                let n = glam::Vec3::from_slice(&n[..3]);
+                if r[3] <= 0.0 || n.length() < 0.1 {
+                    continue;
+                }
+                let n = n.normalize();
+                let w =
+                    0.5 * vxgi_cpu_mirror::svo_photons::luminance(glam::Vec3::from_slice(&r[..3]));
+                let d = (n * (2.0 * n.dot(l)) - l) * (0.9 * w);
+                let p = vxgi_cpu_mirror::morton::decode(m as u32);
+                pos.push([p[0], p[1], p[2], 1]);
+                q.push([d.x, d.y, d.z, w]);
+            }
+            let sf = super::svo_photons::spec_fragments(&pos, &q, SCALE)
+                .expect("generated specular fits the fixed point");
+            pool_in_layout(None, &octree, &frags, &sf).expect("fits")
+        });
         GeneratedOctree {
             lit: c,
             octree,
             params,
             aniso,
             normals,
+            spec,
         }
     }
 
@@ -252,6 +307,7 @@ impl GeneratedOctree {
         SvoExtras {
             aniso: self.aniso.as_deref(),
             normals: self.normals.as_deref(),
+            spec: self.spec.as_deref(),
         }
     }
 
@@ -263,6 +319,9 @@ impl GeneratedOctree {
         }
         if self.normals.is_some() {
             s += ", lobes";
+        }
+        if self.spec.is_some() {
+            s += ", glossy voxels";
         }
         s
     }
@@ -307,10 +366,10 @@ pub static BOUNCE_DECL: KernelDecl = KernelDecl {
     name: "svo_bounce",
     wgsl_path: "kernels/svo_cone_trace.wgsl",
     wgsl: include_str!("../../kernels/svo_cone_trace.wgsl"),
-    includes: &[super::SVO_NODE, super::TANGENT_BASIS, super::CONE_MARCH],
+    includes: &[super::SVO_NODE, super::TANGENT_BASIS, super::SCENE_TYPES, super::CONE_MARCH],
     entry: "voxel_main",
     inputs: &[
-        "cone", "cone_dirs", "nodes", "bricks", "svo", "aniso", "normal_bricks", "vx_position", "vx_normal", "vx_albedo",
+        "cone", "cone_dirs", "nodes", "bricks", "svo", "aniso", "normal_bricks", "spec_bricks", "vx_position", "vx_normal", "vx_albedo",
     ],
     // The pixel entry's diffuse cones and their bound (see DECL).
     outputs: &[Output {
@@ -498,7 +557,7 @@ pub fn bounce_mirror(
     octree_nodes: &[vxgi_cpu_mirror::sparse_voxel_octree::Node],
     bricks: &[u32],
     aniso: &[[f32; 4]],
-    normals: &[u32],
+    [normals, spec]: [&[u32]; 2],
     svo: &SvoParams,
     params: &ConeParams,
     [position, normal, albedo]: [&[[f32; 4]]; 3],
@@ -511,6 +570,7 @@ pub fn bounce_mirror(
         bricks,
         aniso,
         normals,
+        spec,
     };
     let dirs = vxgi_cpu_mirror::cone_trace::diffuse_cones(params.diffuse_cones, params.diffuse_tan);
     let lmax = max_radiance(bricks, svo.inv_scale);
@@ -576,7 +636,7 @@ impl Kernel for SvoBounce {
             bytemuck::cast_slice(&b("nodes").bytes),
             b("bricks").as_u32(),
             f4("aniso"),
-            b("normal_bricks").as_u32(),
+            [b("normal_bricks").as_u32(), b("spec_bricks").as_u32()],
             &svo,
             &params,
             [f4("vx_position"), f4("vx_normal"), f4("vx_albedo")],

@@ -22,9 +22,11 @@ pub static DECL: KernelDecl = KernelDecl {
     name: "svo_photons",
     wgsl_path: "kernels/svo_photons.wgsl",
     wgsl: include_str!("../../kernels/svo_photons.wgsl"),
-    includes: &[super::LIGHTS],
+    includes: &[super::LIGHTS, super::SCENE_TYPES],
     entry: "main",
-    inputs: &["params", "lights", "gb_position", "gb_normal", "gb_albedo"],
+    inputs: &[
+        "params", "lights", "gb_position", "gb_normal", "gb_albedo", "gb_triangle", "triangles", "materials",
+    ],
     outputs: &[
         // The voxel: (p - origin) * inv_h, one correctly rounded subtraction and multiplication per
         // axis (nothing to contract), floor and clamp: exact.
@@ -38,12 +40,19 @@ pub static DECL: KernelDecl = KernelDecl {
             binding: "photon_value",
             tolerance: Tolerance::MirrorBound,
         },
+        // The specular photon: the same arithmetic without 1/pi, the mirror direction (a dot product
+        // and two products of unit vectors) and the lobe length; the mirror's bound adds the light
+        // direction's error.
+        Output {
+            binding: "photon_spec",
+            tolerance: Tolerance::MirrorBound,
+        },
     ],
     dispatch: DispatchRule::PerElement {
         binding: "photon_pos",
     },
     mirror: "vxgi_cpu_mirror::svo_photons::photons",
-    summary: "light injection of vct-svo: one photon per light-view texel, its reflected flux as radiance of the voxel it lands in (VCT 8.2)",
+    summary: "light injection of vct-svo: one photon per light-view texel, its reflected flux as radiance of the voxel it lands in (VCT 8.2), and on glossy surfaces its specular part as a mirror-direction lobe (VCT 7)",
 };
 
 /// The photon pass's parameters for `view` (its G-buffer frame) over the voxel grid `frame`.
@@ -67,10 +76,13 @@ pub fn params_for(view: &LightView, frame: &VoxelFrame) -> PhotonParams {
     }
 }
 
-/// The photon pass over the light-view G-buffer `gb`.
+/// The photon pass over the light-view G-buffer `gb` of the scene `data` (its triangles and materials
+/// give the texels' Ks and Ns).
+#[allow(clippy::too_many_arguments)]
 pub fn case_for(
     shader: &Shader,
     ctx: &GpuContext,
+    data: &SceneData,
     lights: &[GpuLight],
     params: &PhotonParams,
     gb: &Resources,
@@ -88,6 +100,27 @@ pub fn case_for(
         }),
     );
     resources.extend(super::reflective_shadow_map::light_view_inputs(lights, gb));
+    resources.insert("gb_triangle".into(), gb["gb_triangle"].clone());
+    resources.insert(
+        "triangles".into(),
+        HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(&data.triangles))),
+    );
+    let materials = if data.materials.is_empty() {
+        vec![Default::default()]
+    } else {
+        data.materials.clone()
+    };
+    resources.insert(
+        "materials".into(),
+        HostResource::Buffer(HostBuffer {
+            bytes: bytemuck::cast_slice(&materials).to_vec(),
+            scalar: ScalarKind::Mixed,
+        }),
+    );
+    resources.insert(
+        "photon_spec".into(),
+        HostResource::Buffer(HostBuffer::zeroed(n * 16, ScalarKind::F32)),
+    );
     resources.insert(
         "photon_pos".into(),
         HostResource::Buffer(HostBuffer::zeroed(n * 16, ScalarKind::U32)),
@@ -96,7 +129,7 @@ pub fn case_for(
         "photon_value".into(),
         HostResource::Buffer(HostBuffer::zeroed(n * 16, ScalarKind::F32)),
     );
-    let checks = ["photon_pos", "photon_value"]
+    let checks = ["photon_pos", "photon_value", "photon_spec"]
         .into_iter()
         .map(|name| Check {
             resource: name.into(),
@@ -113,30 +146,40 @@ pub fn case_for(
         passes: vec![DECL.pass(shader, ctx, "photons".into(), DECL.bind_by_name(), n as u64)],
         resources,
         checks,
-        effective_bytes: n as u64 * (48 + 32),
+        effective_bytes: n as u64 * (52 + 48),
     }
+}
+
+/// The photons of a scene as octree fragments: the diffuse ones (`light`) and the specular ones
+/// (`spec`, encoded `((q + w) / 2, w)` for the unsigned fixed point, see [`spec_fragments`]).
+#[derive(Clone, Debug, Default)]
+pub struct PhotonFragments {
+    pub light: Vec<Fragment>,
+    pub spec: Vec<Fragment>,
+    /// Texels cast.
+    pub texels: u64,
 }
 
 /// Photon fragments of every light of `data` (light-view maps `map_side`^2 per view) on the GPU, in the
 /// octree's fixed point (`scale` steps per unit): one per texel that hit a front face and carries
-/// light. Also returns the number of texels cast.
+/// light, and one per texel of a glossy surface for its specular part.
 pub fn photon_fragments(
     ctx: &GpuContext,
     data: &SceneData,
     frame: &VoxelFrame,
     map_side: u32,
     scale: f32,
-) -> anyhow::Result<(Vec<Fragment>, u64)> {
+) -> anyhow::Result<PhotonFragments> {
     let views = light_views(&data.lights, data.bounds, map_side, data.frame.eye[3])?;
     let shader = DECL.shader()?;
-    let mut frags = Vec::new();
-    let mut texels = 0;
+    let mut out_frags = PhotonFragments::default();
     for view in &views {
         let gb = view_gbuffer(ctx, data, view);
         let params = params_for(view, frame);
         let case = case_for(
             &shader,
             ctx,
+            data,
             &data.lights,
             &params,
             &gb,
@@ -149,14 +192,16 @@ pub fn photon_fragments(
             DECL.name,
             &case.resources,
             &case.passes,
-            &["photon_pos", "photon_value"],
+            &["photon_pos", "photon_value", "photon_spec"],
         )?;
         let pos: &[[u32; 4]] = bytemuck::cast_slice(&out.buffer("photon_pos").bytes);
         let value: &[[f32; 4]] = bytemuck::cast_slice(&out.buffer("photon_value").bytes);
-        texels += pos.len() as u64;
-        frags.extend(to_fragments(pos, value, scale)?);
+        let spec: &[[f32; 4]] = bytemuck::cast_slice(&out.buffer("photon_spec").bytes);
+        out_frags.texels += pos.len() as u64;
+        out_frags.light.extend(to_fragments(pos, value, scale)?);
+        out_frags.spec.extend(spec_fragments(pos, spec, scale)?);
     }
-    Ok((frags, texels))
+    Ok(out_frags)
 }
 
 /// [`photon_fragments`] by the mirrors alone (the light-view G-buffers and the photons).
@@ -165,17 +210,62 @@ pub fn mirror_photon_fragments(
     frame: &VoxelFrame,
     map_side: u32,
     scale: f32,
-) -> anyhow::Result<Vec<Fragment>> {
+) -> anyhow::Result<PhotonFragments> {
     let views = light_views(&data.lights, data.bounds, map_side, data.frame.eye[3])?;
-    let mut frags = Vec::new();
+    let mut frags = PhotonFragments::default();
     for view in &views {
-        let [pos, nrm, alb] = super::reflective_shadow_map::view_gbuffer_mirror(data, view);
-        let ph = photons(&params_for(view, frame), &data.lights, &pos, &nrm, &alb);
+        let (gb, tri) = super::reflective_shadow_map::view_gbuffer_mirror_triangles(data, view);
+        let ph = photons(
+            &params_for(view, frame),
+            &data.lights,
+            [&gb[0], &gb[1], &gb[2]],
+            &tri,
+            &data.triangles,
+            &materials_or_default(data),
+        );
         let pos: Vec<[u32; 4]> = ph.iter().map(|p| p.pos).collect();
         let value: Vec<[f32; 4]> = ph.iter().map(|p| p.value).collect();
-        frags.extend(to_fragments(&pos, &value, scale)?);
+        let spec: Vec<[f32; 4]> = ph.iter().map(|p| p.spec).collect();
+        frags.texels += pos.len() as u64;
+        frags.light.extend(to_fragments(&pos, &value, scale)?);
+        frags.spec.extend(spec_fragments(&pos, &spec, scale)?);
     }
     Ok(frags)
+}
+
+/// The scene's materials, or one default material where it has none (a binding cannot be empty).
+fn materials_or_default(data: &SceneData) -> Vec<vxgi_cpu_mirror::direct_light::GpuMaterial> {
+    if data.materials.is_empty() {
+        vec![Default::default()]
+    } else {
+        data.materials.clone()
+    }
+}
+
+/// Fragments of the specular photons that exist (`w > 0`), encoded for the unsigned fixed point:
+/// `((q + w) / 2, w)` per axis (`|q| <= w`; a rounding below zero is clamped), so a sum decodes as
+/// `q = 2 xyz - w` at any level.
+pub fn spec_fragments(
+    pos: &[[u32; 4]],
+    spec: &[[f32; 4]],
+    scale: f32,
+) -> Result<Vec<Fragment>, SvoError> {
+    let mut out = Vec::new();
+    for (p, q) in pos.iter().zip(spec) {
+        if p[3] == 0 || q[3] <= 0.0 {
+            continue;
+        }
+        let e = |a: usize| to_fixed(((q[a] + q[3]) * 0.5).max(0.0), scale);
+        let value = [e(0)?, e(1)?, e(2)?, to_fixed(q[3], scale)?];
+        if value[3] != 0 {
+            out.push(Fragment {
+                pos: [p[0], p[1], p[2]],
+                _pad: 0,
+                value,
+            });
+        }
+    }
+    Ok(out)
 }
 
 /// Fragments of the photons that exist and carry light (in fixed point with `scale`).
@@ -229,6 +319,7 @@ impl Kernel for SvoPhotons {
         case_for(
             shader,
             ctx,
+            &data,
             &lights,
             &params,
             &gb,
@@ -255,17 +346,22 @@ impl Kernel for SvoPhotons {
         let ph = photons(
             &params,
             lights,
-            f4("gb_position"),
-            f4("gb_normal"),
-            f4("gb_albedo"),
+            [f4("gb_position"), f4("gb_normal"), f4("gb_albedo")],
+            b("gb_triangle").as_u32(),
+            bytemuck::cast_slice(&b("triangles").bytes),
+            bytemuck::cast_slice(&b("materials").bytes),
         );
         let pos: Vec<u32> = ph.iter().flat_map(|p| p.pos).collect();
         let val: Vec<f32> = ph.iter().flat_map(|p| p.value).collect();
         let bound: Vec<f32> = ph.iter().flat_map(|p| p.bound).collect();
+        let spec: Vec<f32> = ph.iter().flat_map(|p| p.spec).collect();
+        let spec_bound: Vec<f32> = ph.iter().flat_map(|p| p.spec_bound).collect();
         BTreeMap::from([
             ("photon_pos".to_string(), HostBuffer::u32(&pos)),
             ("photon_value".to_string(), HostBuffer::f32(&val)),
             (bound_name("photon_value"), HostBuffer::f32(&bound)),
+            ("photon_spec".to_string(), HostBuffer::f32(&spec)),
+            (bound_name("photon_spec"), HostBuffer::f32(&spec_bound)),
         ])
     }
 }

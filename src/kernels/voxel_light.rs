@@ -20,7 +20,7 @@ pub static DECL: KernelDecl = KernelDecl {
     name: "voxel_light",
     wgsl_path: "kernels/voxel_light.wgsl",
     wgsl: include_str!("../../kernels/voxel_light.wgsl"),
-    includes: &[super::gbuffer::BVH_TRACE, super::LIGHTS],
+    includes: &[super::SCENE_TYPES, super::gbuffer::BVH_TRACE, super::LIGHTS],
     entry: "main",
     inputs: &[
         "grid", "nodes", "triangles", "lights", "vox_colour", "vox_normal", "list", "list_count",
