@@ -213,7 +213,8 @@ struct RenderFlags {
     #[arg(long = "anisotropic-voxels", alias = "anisotropic_voxels")]
     anisotropic_voxels: Option<bool>,
     /// vct-svo: voxel shading with Gaussian lobes (normal distributions convolved with the cone's
-    /// span decide how much of a voxel faces the cone's origin) [default false].
+    /// span decide how much of a voxel faces the cone's origin) and, with photons on glossy
+    /// surfaces, glossy voxels (their specular light as a direction lobe) [default false].
     #[arg(long = "voxel-lobes", alias = "voxel_lobes")]
     voxel_lobes: Option<bool>,
     /// vct-svo: light bounces in the voxels, 1 or 2 (the second gathered from every voxel through the

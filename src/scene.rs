@@ -197,7 +197,8 @@ pub struct RenderSettings {
     /// vct-svo: voxel shading with Gaussian lobes (VCT 4.3 and 7): a normal pool pre-multiplied by
     /// opacity, filtered with the octree; each sample's colour is scaled by the share of its normal
     /// lobe (variance from the averaged normal's length), convolved with the cone's, that faces the
-    /// cone's origin. False: voxels emit alike in every direction.
+    /// cone's origin; with photon injection, glossy surfaces' specular photons in a third pool send
+    /// their light along a vMF lobe (VCT 7). False: voxels emit alike in every direction.
     pub voxel_lobes: bool,
     /// Bounces of indirect light, 1 or 2, for the reference and vct-svo (the other pipelines do one
     /// and refuse 2). vct-svo's second: every non-empty voxel gathers the first bounce through the
