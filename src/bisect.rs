@@ -328,11 +328,7 @@ fn svo_tail(
         } else {
             svo_photons::photon_fragments(ctx, data, frame, map, SCALE)?
         };
-        frags.extend(photons.light);
-        if lobes {
-            spec_frags = photons.spec;
-            frags.extend(svo_cone_trace::points_of(&spec_frags));
-        }
+        spec_frags = photons.join_into(&mut frags, lobes);
         timed("svo_photons", t.elapsed().as_secs_f64());
         frags
     } else {
@@ -373,17 +369,8 @@ fn svo_tail(
         // The voxels' coverage (alpha) and mean normals; the specular photons.
         let (coverage, normal) = (&grid.colour, &grid.normal);
         let side = (!on_mirror("svo_lobes")).then_some(ctx);
-        let n = svo_cone_trace::normal_pool(side, &octree, &frags, coverage, normal)?;
-        let g = if spec_frags.is_empty() {
-            None
-        } else {
-            Some(svo_cone_trace::pool_in_layout(
-                side,
-                &octree,
-                &frags,
-                &spec_frags,
-            )?)
-        };
+        let (n, g) =
+            svo_cone_trace::lobe_pools(side, &octree, &frags, [coverage, normal], &spec_frags)?;
         timed("svo_lobes", t.elapsed().as_secs_f64());
         (Some(n), g)
     } else {

@@ -1170,11 +1170,7 @@ impl VctSvo {
                     svo_cone_trace::SCALE,
                 )
                 .context("photon injection")?;
-                frags.extend(photons.light);
-                if plan.runs("svo_lobes") {
-                    spec_frags = photons.spec;
-                    frags.extend(svo_cone_trace::points_of(&spec_frags));
-                }
+                spec_frags = photons.join_into(&mut frags, plan.runs("svo_lobes"));
                 stages.push(("svo_photons", t.elapsed().as_secs_f64()));
             }
             progress("sparse voxel octree");
@@ -1222,23 +1218,16 @@ impl VctSvo {
                 }
                 progress("normal pool (Gaussian lobes)");
                 let t = std::time::Instant::now();
-                let n = svo_cone_trace::normal_pool(Some(ctx), &built.octree, frags, &rad, &normal)
-                    .context("normal pool")?;
-                let g = if spec_frags.is_empty() {
-                    None
-                } else {
-                    Some(
-                        svo_cone_trace::pool_in_layout(
-                            Some(ctx),
-                            &built.octree,
-                            frags,
-                            &spec_frags,
-                        )
-                        .context("specular pool")?,
-                    )
-                };
+                let pools = svo_cone_trace::lobe_pools(
+                    Some(ctx),
+                    &built.octree,
+                    frags,
+                    [&rad, &normal],
+                    &spec_frags,
+                )
+                .context("normal and specular pools")?;
                 stages.push(("svo_lobes", t.elapsed().as_secs_f64()));
-                Ok((Some(n), g))
+                Ok((Some(pools.0), pools.1))
             };
             let mut aniso = directional(&built, &mut stages)?;
             let (mut normals, mut spec) = lobes(&built, &frags, &mut stages)?;
@@ -1749,11 +1738,7 @@ pub fn render_svo_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendered
         )?;
         let photons =
             crate::kernels::svo_photons::mirror_photon_fragments(&m.data, &m.frame, map, SCALE)?;
-        frags.extend(photons.light);
-        if lobes {
-            spec_frags = photons.spec;
-            frags.extend(crate::kernels::svo_cone_trace::points_of(&spec_frags));
-        }
+        spec_frags = photons.join_into(&mut frags, lobes);
         frags
     } else {
         grid_fragments(&m.lit, SCALE)?
@@ -1767,22 +1752,23 @@ pub fn render_svo_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendered
         lobes: lobes as u32 | ((lobes && !spec_frags.is_empty()) as u32) << 1,
     };
     let built = |frags: &[vxgi_cpu_mirror::sparse_voxel_octree::Fragment]| -> Result<_> {
-        use crate::kernels::svo_cone_trace::{normal_pool, pool_in_layout};
         let octree = build_fitted(depth, frags);
         let aniso = if anisotropic {
             crate::kernels::svo_anisotropic::build_mirror(&octree, 1.0 / SCALE)
         } else {
             vec![]
         };
-        let normals = if svo.lobes & 1 != 0 {
-            normal_pool(None, &octree, frags, &m.lit, &m.normal)?
+        let (normals, spec) = if lobes {
+            let (n, g) = crate::kernels::svo_cone_trace::lobe_pools(
+                None,
+                &octree,
+                frags,
+                [&m.lit, &m.normal],
+                &spec_frags,
+            )?;
+            (n, g.unwrap_or_default())
         } else {
-            vec![]
-        };
-        let spec = if svo.lobes & 2 != 0 {
-            pool_in_layout(None, &octree, frags, &spec_frags)?
-        } else {
-            vec![]
+            (vec![], vec![])
         };
         Ok((octree, aniso, [normals, spec]))
     };

@@ -331,6 +331,14 @@ fn gpu_replay_of_the_static_structure_matches_a_full_build() {
         }
         let o = build_on_gpu_replayed(gpu(), depth, &frags, None, Some(&statics)).unwrap();
         assert_matches_dense(&o.octree, &frags);
+        // A structure recorded at another depth is refused, naming both.
+        let e = build_on_gpu_replayed(gpu(), depth + 1, &frags, None, Some(&statics))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("static structure") && e.contains(&format!("depth {depth}")),
+            "{e}"
+        );
     }
     assert!(replayed_levels > 0);
 }

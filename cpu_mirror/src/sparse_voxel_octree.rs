@@ -855,11 +855,16 @@ impl StaticStructure {
         &self.keys[self.offsets[k as usize] as usize..self.offsets[k as usize + 1] as usize]
     }
 
+    /// Whether a static fragment stands on point `p` (then a fragment there flags nothing new).
+    pub fn covers(&self, p: [u32; 3]) -> bool {
+        self.points.contains(&p)
+    }
+
     /// The fragments whose points the static part does not cover: the ones that still flag.
     pub fn flagging(&self, fragments: &[Fragment]) -> Vec<Fragment> {
         fragments
             .iter()
-            .filter(|f| !self.points.contains(&f.pos))
+            .filter(|f| !self.covers(f.pos))
             .copied()
             .collect()
     }

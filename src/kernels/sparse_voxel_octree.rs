@@ -48,6 +48,10 @@ pub const BRICK_BYTES: u64 = BRICK_WORDS as u64 * 4;
 pub enum SvoError {
     #[error("octree depth {0}: must be 1..={MAX_DEPTH} (1 = 2^3 leaves, 9 = 512^3)")]
     Depth(u32),
+    #[error(
+        "the static structure was recorded at depth {recorded}, this build is at depth {depth}"
+    )]
+    StaticDepth { recorded: u32, depth: u32 },
     #[error("fragment {index} at lattice point {pos:?} is outside the volume (0..={side} per axis at depth {depth})")]
     Outside {
         index: usize,
@@ -154,8 +158,7 @@ pub fn case_replayed(
     } else {
         let mut seen = std::collections::HashSet::new();
         let (mut first, rest): (Vec<Fragment>, Vec<Fragment>) = fragments.iter().partition(|f| {
-            !statics.is_some_and(|st| st.points.contains(&f.pos))
-                && (!distinct || seen.insert(f.pos))
+            !statics.is_some_and(|st| st.covers(f.pos)) && (!distinct || seen.insert(f.pos))
         });
         let k = first.len() as u32;
         first.extend(rest);
@@ -630,7 +633,10 @@ pub fn build_on_gpu_replayed(
 ) -> Result<GpuOctree, SvoError> {
     if let Some(st) = statics {
         if st.depth != depth {
-            return Err(SvoError::Depth(st.depth));
+            return Err(SvoError::StaticDepth {
+                recorded: st.depth,
+                depth,
+            });
         }
     }
     if depth == 0 || depth > MAX_DEPTH {

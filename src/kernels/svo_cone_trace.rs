@@ -155,6 +155,24 @@ pub fn normal_pool(
     )
 }
 
+/// The lobes' pools of `octree` (built from `frags`): the normal pool, and the specular pool where
+/// there are specular photons (`spec`) — on the GPU with `ctx`, by the mirror without.
+pub fn lobe_pools(
+    ctx: Option<&GpuContext>,
+    octree: &Octree,
+    frags: &[Fragment],
+    [radiance, normal]: [&[[f32; 4]]; 2],
+    spec: &[Fragment],
+) -> Result<(Vec<u32>, Option<Vec<u32>>), SvoError> {
+    let normals = normal_pool(ctx, octree, frags, radiance, normal)?;
+    let spec = if spec.is_empty() {
+        None
+    } else {
+        Some(pool_in_layout(ctx, octree, frags, spec)?)
+    };
+    Ok((normals, spec))
+}
+
 /// Cone parameters for an octree of `depth` over the voxel grid `frame` (side `2^(depth + 1)`): mip
 /// levels 0..=depth.
 pub fn svo_cone_params(frame: &VoxelFrame, settings: &ConeSettings) -> ConeParams {

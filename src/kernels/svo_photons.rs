@@ -160,6 +160,19 @@ pub struct PhotonFragments {
     pub texels: u64,
 }
 
+impl PhotonFragments {
+    /// Add the light to a frame's fragments; with `lobes` also the specular photons' points (structure
+    /// only: their values go into the specular pool) and return the specular photons, else none.
+    pub fn join_into(self, frags: &mut Vec<Fragment>, lobes: bool) -> Vec<Fragment> {
+        frags.extend(self.light);
+        if !lobes {
+            return Vec::new();
+        }
+        frags.extend(super::svo_cone_trace::points_of(&self.spec));
+        self.spec
+    }
+}
+
 /// Photon fragments of every light of `data` (light-view maps `map_side`^2 per view) on the GPU, in the
 /// octree's fixed point (`scale` steps per unit): one per texel that hit a front face and carries
 /// light, and one per texel of a glossy surface for its specular part.
