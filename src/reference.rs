@@ -319,3 +319,104 @@ pub fn leak(
         0.0
     }
 }
+
+/// Strata per axis of an ideal cone's directions: the least `k` with `k x k >= rays` (at least 1).
+pub fn ideal_cone_strata(rays: u32) -> u32 {
+    let k = rays.max(1).isqrt();
+    if k * k < rays {
+        k + 1
+    } else {
+        k
+    }
+}
+
+/// Ideal cones: the indirect light a cone tracer would gather with exact visibility and radiance.
+/// It separates a cone set's own error (directions, apertures, weights) from the voxels' (filtering,
+/// coverage, self-occlusion): compare it with the Monte Carlo reference for the first, with a
+/// pipeline's render for the second.
+///
+/// Per pixel centre (front faces; 0 elsewhere), in the kernels' tangent frame
+/// (`cone_trace::basis` of the shading normal): each cone of
+/// `cone_trace::diffuse_cones(count, tan)` gets as radiance `C` the mean of the direct radiance seen
+/// along `k x k` directions ([`ideal_cone_strata`]) stratified uniformly over its spherical cap
+/// (directions below the triangle's plane count, seeing 0); indirect = albedo x sum w C. Materials
+/// with Ks add Ks x the glossy cone's mean (the view's mirror direction, tan = clamp(sqrt(2 / (Ns +
+/// 2)), 0.02, 1)), as `cone_trace` does. Deterministic (no random numbers). `progress(rows)` as rows
+/// finish.
+pub fn ideal_cones(
+    scene: &Scene,
+    count: u32,
+    tan: f32,
+    rays: u32,
+    progress: impl Fn(u64) + Sync,
+) -> Vec<[f32; 3]> {
+    use vxgi_cpu_mirror::cone_trace::{basis as tangent_frame, diffuse_cones};
+    let data = SceneData::new(scene);
+    let ctx = Ctx {
+        tracer: Tracer::new(&data),
+        data: &data,
+        ao_range: scene.render.ao_range,
+        ao_lambda: scene.render.ao_lambda,
+        bounces: 1,
+    };
+    let cones = diffuse_cones(count, tan);
+    let k = ideal_cone_strata(rays);
+    // Mean direct radiance over the cap of half-angle atan(tan) about `axis`, seen from `s`.
+    let cap_mean = |s: &Surface, axis: Vec3, tan: f32| -> Vec3 {
+        let cos_a = 1.0 / (1.0 + tan * tan).sqrt();
+        let (at, ab) = basis(axis);
+        let origin = s.p + s.ng * ctx.data.eps();
+        let mut sum = Vec3::ZERO;
+        for i in 0..k {
+            for j in 0..k {
+                // Uniform over the cap: cos(polar) uniform in [cos_a, 1], azimuth uniform.
+                let ct = 1.0 - (i as f32 + 0.5) / k as f32 * (1.0 - cos_a);
+                let st = (1.0 - ct * ct).max(0.0).sqrt();
+                let phi = (j as f32 + 0.5) / k as f32 * 2.0 * PI;
+                let wi = at * (st * phi.cos()) + ab * (st * phi.sin()) + axis * ct;
+                if s.ng.dot(wi) <= 0.0 {
+                    continue;
+                }
+                if let Some(s2) = ctx.surface(origin, wi) {
+                    if s2.front {
+                        sum += ctx.direct(&s2, -wi);
+                    }
+                }
+            }
+        }
+        sum / (k * k) as f32
+    };
+    let (w, h) = (data.width(), data.height());
+    let rows: Vec<Vec<[f32; 3]>> = (0..h)
+        .into_par_iter()
+        .map(|y| {
+            let row = (0..w)
+                .map(|x| {
+                    let (o, dir) = ray_through(&ctx.data.frame, x as f32 + 0.5, y as f32 + 0.5);
+                    let Some(s) = ctx.surface(o, dir).filter(|s| s.front) else {
+                        return [0.0; 3];
+                    };
+                    let (bt, bb) = tangent_frame(s.n);
+                    let mut diffuse = Vec3::ZERO;
+                    for c in &cones {
+                        let axis = (bt * c[0] + bb * c[1] + s.n * c[2]).normalize();
+                        diffuse += cap_mean(&s, axis, tan) * c[3];
+                    }
+                    let m = &s.material;
+                    let mut out = Vec3::from_slice(&m.diffuse[..3]) * diffuse;
+                    let ks = Vec3::from_slice(&m.specular[..3]);
+                    if ks != Vec3::ZERO {
+                        let wo = -dir;
+                        let refl = s.n * (2.0 * s.n.dot(wo)) - wo;
+                        let tan_g = (2.0 / (m.diffuse[3] + 2.0)).sqrt().clamp(0.02, 1.0);
+                        out += ks * cap_mean(&s, refl.normalize(), tan_g);
+                    }
+                    out.to_array()
+                })
+                .collect();
+            progress(1);
+            row
+        })
+        .collect();
+    rows.into_iter().flatten().collect()
+}

@@ -152,7 +152,8 @@ pub struct RenderSettings {
     pub ao_range: f32,
     /// AO distance falloff 1 / (1 + lambda r).
     pub ao_lambda: f32,
-    /// Diffuse cones per pixel (1..=64): one along the normal, the rest in a ring.
+    /// Diffuse cones per pixel (1..=64): up to 9 one along the normal and the rest in a ring, more on a
+    /// cosine-weighted spiral over the hemisphere (`cone_trace::diffuse_cones`).
     pub cones: u32,
     /// Half-angle of the diffuse cones, degrees (0, 90).
     pub cone_half_angle: f32,
