@@ -48,8 +48,8 @@ pub struct BenchRow {
 }
 
 /// The configurations of a sweep around `base` (its other keys, e.g. AO, kept). Full: voxels
-/// {32, 64, 128} x cones {1, 5, 9} x half-angle {20, 30, 45} x mip clamp {0, 2} x cone step {0.5, 1}
-/// = 108. Quick (for CI): voxels {32, 64} x cones {1, 5} at 30 degrees, clamp 2, step 0.5 = 4.
+/// {32, 64, 128} x cones {1, 5, 9, 16} x half-angle {20, 30, 45} x mip clamp {0, 2} x cone step
+/// {0.5, 1} = 144 (16 cones: `diffuse_cones`' spiral, the others its ring). Quick (for CI): voxels {32, 64} x cones {1, 5} at 30 degrees, clamp 2, step 0.5 = 4.
 /// lrsm sweeps its own knobs instead ([`lrsm_sweep`]).
 pub fn sweep(base: &RenderSettings, quick: bool, pipeline: Pipeline) -> Vec<RenderSettings> {
     if pipeline == Pipeline::Lrsm {
@@ -67,7 +67,7 @@ pub fn sweep(base: &RenderSettings, quick: bool, pipeline: Pipeline) -> Vec<Rend
     } else {
         (
             &[32, 64, 128],
-            &[1, 5, 9],
+            &[1, 5, 9, 16],
             &[20.0, 30.0, 45.0],
             &[0.0, 2.0],
             &[0.5, 1.0],
@@ -630,7 +630,7 @@ mod tests {
             ..Default::default()
         };
         let full = sweep(&base, false, Pipeline::VctDense);
-        assert_eq!(full.len(), 108);
+        assert_eq!(full.len(), 144);
         assert!(full
             .iter()
             .all(|s| s.ao_range == 0.25 && s.validate().is_ok()));
