@@ -537,18 +537,20 @@ fn run_report(scenes: Vec<String>, spp: u32, out: PathBuf) -> Result<()> {
     let rows = vxgi::report::report(&ctx, &loaded, spp, &out, |m| bar.set_message(m.to_string()))?;
     bar.finish_and_clear();
     println!(
-        "{:<10} {:<14} {:>8} {:>14} {:>14} {:>10} {:>8}",
+        "{:<11} {:<14} {:>8} {:>14} {:>14} {:>10} {:>8}",
         "pipeline", "scene", "time", "indirect FLIP", "combined FLIP", "memory", "leak"
     );
     for r in &rows {
         println!(
-            "{:<10} {:<14} {:>7.2}s {:>14.3} {:>14.3} {:>8.1}MB {:>8}",
+            "{:<11} {:<14} {:>7.2}s {:>14.3} {:>14.3} {:>10} {:>8}",
             r.pipeline,
             r.scene,
             r.seconds,
             r.indirect_flip,
             r.combined_flip,
-            r.memory as f64 / 1e6,
+            r.memory
+                .map(|m| format!("{:.1}MB", m as f64 / 1e6))
+                .unwrap_or_else(|| "-".into()),
             r.leak
                 .map(|l| format!("{l:.4}"))
                 .unwrap_or_else(|| "-".into())

@@ -17,8 +17,8 @@ pub struct ReportRow {
     pub seconds: f64,
     pub indirect_flip: f32,
     pub combined_flip: f32,
-    /// Bytes of GPU buffers the frame allocates.
-    pub memory: u64,
+    /// Bytes of GPU buffers the frame allocates (none for the ideal cones: CPU).
+    pub memory: Option<u64>,
     /// Light leak (thin_wall only): indirect energy seen in the dark room / in the lit room.
     pub leak: Option<f64>,
 }
@@ -38,8 +38,14 @@ pub fn vct_dense_memory(scene: &Scene) -> u64 {
         + pyramid * 32
 }
 
+/// Rays per cone of the report's ideal-cones row (stratified 8 x 8).
+pub const IDEAL_CONE_RAYS: u32 = 64;
+
 /// Render every scene with the reference (`spp`), vct-dense, vct-svo, lrsm and cprc, write the images under
-/// `out` (`<scene>/reference/`, `<scene>/<pipeline>/`) and report.md; return the rows.
+/// `out` (`<scene>/reference/`, `<scene>/<pipeline>/`) and report.md; return the rows. Each scene also
+/// gets an "ideal cones" row: the scene's diffuse cone set with exact visibility and radiance
+/// ([`crate::reference::ideal_cones`], CPU), the error the cone tracers would keep with perfect
+/// voxels.
 pub fn report(
     ctx: &crate::harness::GpuContext,
     scenes: &[(String, Scene)],
@@ -72,6 +78,46 @@ pub fn report(
         )?;
 
         let cones = ConeSettings::from(&scene.render);
+        // Ideal cones gather one bounce: against a two-bounce reference they would be a wrong row.
+        if scene.render.bounces == 1 {
+            progress(&format!("{name}: ideal cones"));
+            let started = std::time::Instant::now();
+            let ideal = rgb(crate::reference::ideal_cones(
+                scene,
+                scene.render.cones,
+                scene.render.cone_half_angle.to_radians().tan(),
+                IDEAL_CONE_RAYS,
+                |_| {},
+            ));
+            let seconds = started.elapsed().as_secs_f64();
+            let idir = dir.join("ideal-cones");
+            std::fs::create_dir_all(&idir)
+                .with_context(|| format!("creating {}", idir.display()))?;
+            // The reference's own direct and AO: the row measures the indirect light alone.
+            let ideal_combined = rgb(crate::images::add(&reference.direct, &ideal.pixels));
+            write_frame(
+                &idir,
+                [
+                    &rgb(reference.direct.clone()),
+                    &ideal,
+                    &ideal_combined,
+                    &rgb(reference.ao.clone()),
+                ],
+            )?;
+            let p = Path::new(name);
+            let row = ReportRow {
+                pipeline: "ideal cones",
+                scene: name.clone(),
+                seconds,
+                indirect_flip: compare(&ref_indirect, p, &ideal, p)?.flip_mean,
+                combined_flip: compare(&ref_combined, p, &ideal_combined, p)?.flip_mean,
+                memory: None,
+                leak: name
+                    .contains("thin_wall")
+                    .then(|| leak(&ideal.pixels, &pixel_positions(scene), 0.0, 1.0 / 64.0)),
+            };
+            push_row(&mut md, &mut rows, row);
+        }
         for pipeline in ["vct-dense", "vct-svo", "lrsm", "cprc"] {
             if scene.render.bounces > 1 && pipeline != "vct-svo" {
                 // One bounce against a two-bounce reference would be a wrong row: vct-svo alone.
@@ -118,32 +164,39 @@ pub fn report(
                 seconds: r.stages.iter().map(|s| s.1).sum(),
                 indirect_flip: ind.flip_mean,
                 combined_flip: comb.flip_mean,
-                memory,
+                memory: Some(memory),
                 leak,
             };
-            let _ = writeln!(
-                md,
-                "| {} | {} | {:.2} s | {:.3} | {:.3} | {:.1} MB | {} |",
-                row.pipeline,
-                row.scene,
-                row.seconds,
-                row.indirect_flip,
-                row.combined_flip,
-                row.memory as f64 / 1e6,
-                row.leak
-                    .map(|l| format!("{l:.4}"))
-                    .unwrap_or_else(|| "-".into())
-            );
-            rows.push(row);
+            push_row(&mut md, &mut rows, row);
         }
         let _ = writeln!(
             images,
-            "\n### {name}\n\nreference ({spp} spp) | vct-dense | vct-svo | lrsm | cprc\n---|---|---|---|---\n![]({name}/reference/combined.png) | ![]({name}/vct-dense/combined.png) | ![]({name}/vct-svo/combined.png) | ![]({name}/lrsm/combined.png) | ![]({name}/cprc/combined.png)\n![]({name}/reference/indirect.png) | ![]({name}/vct-dense/indirect.png) | ![]({name}/vct-svo/indirect.png) | ![]({name}/lrsm/indirect.png) | ![]({name}/cprc/indirect.png)\n![]({name}/reference/ao.png) | ![]({name}/vct-dense/ao.png) | ![]({name}/vct-svo/ao.png) | ![]({name}/lrsm/ao.png) | ![]({name}/cprc/ao.png)"
+            "\n### {name}\n\nreference ({spp} spp) | ideal cones | vct-dense | vct-svo | lrsm | cprc\n---|---|---|---|---|---\n![]({name}/reference/combined.png) | ![]({name}/ideal-cones/combined.png) | ![]({name}/vct-dense/combined.png) | ![]({name}/vct-svo/combined.png) | ![]({name}/lrsm/combined.png) | ![]({name}/cprc/combined.png)\n![]({name}/reference/indirect.png) | ![]({name}/ideal-cones/indirect.png) | ![]({name}/vct-dense/indirect.png) | ![]({name}/vct-svo/indirect.png) | ![]({name}/lrsm/indirect.png) | ![]({name}/cprc/indirect.png)\n![]({name}/reference/ao.png) | ![]({name}/ideal-cones/ao.png) | ![]({name}/vct-dense/ao.png) | ![]({name}/vct-svo/ao.png) | ![]({name}/lrsm/ao.png) | ![]({name}/cprc/ao.png)"
         );
     }
-    md.push_str("\ntime: wall clock of the pipeline's stages, transfers between stages included; FLIP: mean LDR-FLIP against the reference (`vxgi compare`); leak: thin_wall only.\n");
+    md.push_str("\ntime: wall clock of the pipeline's stages, transfers between stages included; FLIP: mean LDR-FLIP against the reference (`vxgi compare`); leak: thin_wall only. ideal cones: the scene's diffuse cone set with exact visibility and radiance (CPU, 64 rays per cone; direct and AO the reference's), what the cone tracers would score with perfect voxels.\n");
     md.push_str(&images);
     std::fs::write(out.join("report.md"), md)
         .with_context(|| format!("writing {}", out.join("report.md").display()))?;
     Ok(rows)
+}
+
+/// Append one row to the table and the rows.
+fn push_row(md: &mut String, rows: &mut Vec<ReportRow>, row: ReportRow) {
+    let _ = writeln!(
+        md,
+        "| {} | {} | {:.2} s | {:.3} | {:.3} | {} | {} |",
+        row.pipeline,
+        row.scene,
+        row.seconds,
+        row.indirect_flip,
+        row.combined_flip,
+        row.memory
+            .map(|m| format!("{:.1} MB", m as f64 / 1e6))
+            .unwrap_or_else(|| "-".into()),
+        row.leak
+            .map(|l| format!("{l:.4}"))
+            .unwrap_or_else(|| "-".into())
+    );
+    rows.push(row);
 }

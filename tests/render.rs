@@ -334,6 +334,12 @@ fn report_and_plan_commands() {
     }
     let md = std::fs::read_to_string(out.join("report.md")).unwrap();
     assert!(md.contains("| vct-dense | small |"), "{md}");
+    // The ideal-cones row: CPU, no GPU memory.
+    assert!(
+        md.contains("| ideal cones | small |") && md.contains(" | - | - |"),
+        "{md}"
+    );
+    assert!(out.join("small/ideal-cones/indirect.exr").exists());
     assert!(md.contains("| vct-svo | small |"), "{md}");
     assert!(md.contains("| lrsm | small |"), "{md}");
     assert!(md.contains("| cprc | small |"), "{md}");
