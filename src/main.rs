@@ -548,12 +548,8 @@ fn run_report(scenes: Vec<String>, spp: u32, out: PathBuf) -> Result<()> {
             r.seconds,
             r.indirect_flip,
             r.combined_flip,
-            r.memory
-                .map(|m| format!("{:.1}MB", m as f64 / 1e6))
-                .unwrap_or_else(|| "-".into()),
-            r.leak
-                .map(|l| format!("{l:.4}"))
-                .unwrap_or_else(|| "-".into())
+            r.memory_text(),
+            r.leak_text()
         );
     }
     println!("wrote {}", out.join("report.md").display());

@@ -113,7 +113,17 @@ struct Surface {
     material: GpuMaterial,
 }
 
-impl Ctx<'_> {
+impl<'a> Ctx<'a> {
+    fn new(data: &'a SceneData, scene: &Scene, bounces: u32) -> Self {
+        Self {
+            tracer: Tracer::new(data),
+            data,
+            ao_range: scene.render.ao_range,
+            ao_lambda: scene.render.ao_lambda,
+            bounces,
+        }
+    }
+
     fn surface(&self, o: Vec3, d: Vec3) -> Option<Surface> {
         let h = self.tracer.closest(o, d, 0.0, FAR)?;
         let tri = &self.data.triangles[h.tri as usize];
@@ -221,13 +231,7 @@ pub fn render_reference(
     progress: impl Fn(u64) + Sync,
 ) -> Images {
     let data = SceneData::new(scene);
-    let ctx = Ctx {
-        tracer: Tracer::new(&data),
-        data: &data,
-        ao_range: scene.render.ao_range,
-        ao_lambda: scene.render.ao_lambda,
-        bounces: scene.render.bounces,
-    };
+    let ctx = Ctx::new(&data, scene, scene.render.bounces);
     let (w, h) = (data.width(), data.height());
     let spp = opts.spp.max(1);
     let rows: Vec<Vec<[[f32; 3]; 3]>> = (0..h)
@@ -352,13 +356,7 @@ pub fn ideal_cones(
 ) -> Vec<[f32; 3]> {
     use vxgi_cpu_mirror::cone_trace::{basis as tangent_frame, diffuse_cones};
     let data = SceneData::new(scene);
-    let ctx = Ctx {
-        tracer: Tracer::new(&data),
-        data: &data,
-        ao_range: scene.render.ao_range,
-        ao_lambda: scene.render.ao_lambda,
-        bounces: 1,
-    };
+    let ctx = Ctx::new(&data, scene, 1);
     let cones = diffuse_cones(count, tan);
     let k = ideal_cone_strata(rays);
     // Mean direct radiance over the cap of half-angle atan(tan) about `axis`, seen from `s`.

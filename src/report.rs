@@ -23,6 +23,22 @@ pub struct ReportRow {
     pub leak: Option<f64>,
 }
 
+impl ReportRow {
+    /// Memory in MB (`-` for none), as the table prints it.
+    pub fn memory_text(&self) -> String {
+        self.memory
+            .map(|m| format!("{:.1} MB", m as f64 / 1e6))
+            .unwrap_or_else(|| "-".into())
+    }
+
+    /// The leak to four places (`-` for none), as the table prints it.
+    pub fn leak_text(&self) -> String {
+        self.leak
+            .map(|l| format!("{l:.4}"))
+            .unwrap_or_else(|| "-".into())
+    }
+}
+
 /// GPU buffer bytes of a vct-dense frame: G-buffer (position, normal, triangle) and the four images,
 /// scene buffers (BVH nodes, triangles), voxelization accumulators, the level-0 colour/normal/radiance
 /// grids, the radiance pyramid and its normals.
@@ -62,19 +78,13 @@ pub fn report(
         let reference = render_reference(scene, &ReferenceOptions::spp(spp), |_| {});
         let (w, h) = (reference.width, reference.height);
         let rgb = |px: Vec<[f32; 3]>| RgbImage::new(w, h, px);
-        let ref_dir = dir.join("reference");
-        std::fs::create_dir_all(&ref_dir)
-            .with_context(|| format!("creating {}", ref_dir.display()))?;
+        let ref_direct = rgb(reference.direct.clone());
         let ref_indirect = rgb(reference.indirect.clone());
         let ref_combined = rgb(reference.combined());
-        write_frame(
-            &ref_dir,
-            [
-                &rgb(reference.direct.clone()),
-                &ref_indirect,
-                &ref_combined,
-                &rgb(reference.ao.clone()),
-            ],
+        let ref_ao = rgb(reference.ao.clone());
+        write_into(
+            &dir.join("reference"),
+            [&ref_direct, &ref_indirect, &ref_combined, &ref_ao],
         )?;
 
         let cones = ConeSettings::from(&scene.render);
@@ -90,19 +100,11 @@ pub fn report(
                 |_| {},
             ));
             let seconds = started.elapsed().as_secs_f64();
-            let idir = dir.join("ideal-cones");
-            std::fs::create_dir_all(&idir)
-                .with_context(|| format!("creating {}", idir.display()))?;
             // The reference's own direct and AO: the row measures the indirect light alone.
             let ideal_combined = rgb(crate::images::add(&reference.direct, &ideal.pixels));
-            write_frame(
-                &idir,
-                [
-                    &rgb(reference.direct.clone()),
-                    &ideal,
-                    &ideal_combined,
-                    &rgb(reference.ao.clone()),
-                ],
+            write_into(
+                &dir.join("ideal-cones"),
+                [&ref_direct, &ideal, &ideal_combined, &ref_ao],
             )?;
             let p = Path::new(name);
             let row = ReportRow {
@@ -148,10 +150,10 @@ pub fn report(
                 let pyramid = pyramid_len(scene.render.voxels) as u64 * 32;
                 (r, vct_dense_memory(scene) - pyramid + m.bytes)
             };
-            let vdir = dir.join(pipeline);
-            std::fs::create_dir_all(&vdir)
-                .with_context(|| format!("creating {}", vdir.display()))?;
-            write_frame(&vdir, [&r.direct, &r.indirect, &r.combined, &r.ao])?;
+            write_into(
+                &dir.join(pipeline),
+                [&r.direct, &r.indirect, &r.combined, &r.ao],
+            )?;
             let p = Path::new(name);
             let ind = compare(&ref_indirect, p, &r.indirect, p)?;
             let comb = compare(&ref_combined, p, &r.combined, p)?;
@@ -191,12 +193,15 @@ fn push_row(md: &mut String, rows: &mut Vec<ReportRow>, row: ReportRow) {
         row.seconds,
         row.indirect_flip,
         row.combined_flip,
-        row.memory
-            .map(|m| format!("{:.1} MB", m as f64 / 1e6))
-            .unwrap_or_else(|| "-".into()),
-        row.leak
-            .map(|l| format!("{l:.4}"))
-            .unwrap_or_else(|| "-".into())
+        row.memory_text(),
+        row.leak_text()
     );
     rows.push(row);
+}
+
+/// Create `dir` and write the four images into it.
+fn write_into(dir: &Path, images: [&RgbImage; 4]) -> Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    write_frame(dir, images)?;
+    Ok(())
 }
