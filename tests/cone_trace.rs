@@ -74,7 +74,8 @@ fn marching_is_stable_on_extreme_pyramids() {
         inv_s0: 16.0,
         mip_clamp: 0.0,
         step_factor: 0.5,
-        _pad: [0; 2],
+        depth_order: 0,
+        _pad: 0,
     };
     let clamped = ConeParams {
         mip_clamp: 1.5,

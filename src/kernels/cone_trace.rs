@@ -139,7 +139,8 @@ pub fn cone_params(frame: &VoxelFrame, s: &ConeSettings) -> ConeParams {
         inv_s0: 1.0 / frame.voxel,
         mip_clamp: s.mip_clamp,
         step_factor: s.step_factor,
-        _pad: [0; 2],
+        depth_order: 0,
+        _pad: 0,
     }
 }
 
