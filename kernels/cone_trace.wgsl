@@ -19,4 +19,5 @@
 // Outputs per pixel (row-major): indirect (rgb, 0), ao (a, a, a, 0).
 // Accuracy: per-element bound (see cone_trace::MAG): 4e-4 of the accumulated magnitudes, plus the
 // whole remainder where a stop (opacity, distance, AO range) is within rounding of its threshold.
-// The volume (the pyramid binding and its sampling) is kernels/common/pyramid.wgsl.
+// The volume (the pyramid bindings and their sampling, the depth-ordered blend) is
+// kernels/common/pyramid_ordered.wgsl.

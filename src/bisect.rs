@@ -228,7 +228,15 @@ pub fn render_split(
 
             if pipeline == Pipeline::Cprc {
                 cprc_tail(
-                    ctx, scene, cones, &data, &gb, &pyramid, &frame, &on_mirror, &mut timed,
+                    ctx,
+                    scene,
+                    cones,
+                    &data,
+                    &gb,
+                    &pyramid.colour,
+                    &frame,
+                    &on_mirror,
+                    &mut timed,
                     &progress,
                 )?
             } else {

@@ -223,6 +223,11 @@ struct RenderFlags {
     /// surfaces, glossy voxels (their specular light as a direction lobe) [default false].
     #[arg(long = "voxel-lobes", alias = "voxel_lobes")]
     voxel_lobes: Option<bool>,
+    /// vct-dense: depth-ordered blend (along the cone's main axis an opaque cell facing the cone hides
+    /// the one behind it; against leaks through thin walls) instead of the paper's trilinear [default
+    /// false].
+    #[arg(long = "depth-ordered-blend", alias = "depth_ordered_blend")]
+    depth_ordered_blend: Option<bool>,
     /// vct-svo: light bounces in the voxels, 1 or 2 (the second gathered from every voxel through the
     /// octree, which is then rebuilt) [default 1].
     #[arg(long)]
@@ -254,6 +259,7 @@ fn load_scene(path: &Option<PathBuf>, flags: &RenderFlags) -> Result<vxgi::scene
         cone_offset,
         mip_clamp,
         cone_step,
+        depth_ordered_blend,
         rsm_side,
         lrsm_depth_splits,
         lrsm_normal_splits,

@@ -284,7 +284,7 @@ pub struct VctDense {
 /// (vct-dense and cprc).
 struct PyramidCache {
     reuse: bool,
-    last: Option<(PyramidKey, Vec<[f32; 4]>, voxelize::VoxelFrame)>,
+    last: Option<(PyramidKey, cone_trace::Pyramids, voxelize::VoxelFrame)>,
 }
 
 impl PyramidCache {
@@ -372,7 +372,7 @@ fn render_frame(
     scene: &Scene,
     cones: &ConeSettings,
     plan: FramePlan,
-    cache: &mut Option<(PyramidKey, Vec<[f32; 4]>, voxelize::VoxelFrame)>,
+    cache: &mut Option<(PyramidKey, cone_trace::Pyramids, voxelize::VoxelFrame)>,
     key: PyramidKey,
     keep: bool,
     progress: impl Fn(&str),
@@ -420,7 +420,10 @@ fn chained_frame(
     plan: FramePlan,
     keep: bool,
     progress: &impl Fn(&str),
-) -> Result<(Rendered, Option<(Vec<[f32; 4]>, voxelize::VoxelFrame)>)> {
+) -> Result<(
+    Rendered,
+    Option<(cone_trace::Pyramids, voxelize::VoxelFrame)>,
+)> {
     let out = chained_pyramid(
         ctx,
         scene,
@@ -447,8 +450,14 @@ struct ChainOut {
 }
 
 impl ChainOut {
-    fn pyramid(&self) -> Vec<[f32; 4]> {
-        bytemuck::cast_slice(&self.read["pyramid"].buffer().expect("buffer").bytes).to_vec()
+    fn pyramid(&self) -> cone_trace::Pyramids {
+        let read = |n: &str| -> Vec<[f32; 4]> {
+            bytemuck::cast_slice(&self.read[n].buffer().expect("buffer").bytes).to_vec()
+        };
+        cone_trace::Pyramids {
+            colour: read("pyramid"),
+            normal: read("pyramid_normal"),
+        }
     }
 }
 
@@ -532,7 +541,14 @@ fn chained_pyramid(
         Some((gb, cones, _)) => {
             let mut params = cone_trace::cone_params(&vframe, cones);
             params.levels = levels;
-            let c = cone_trace::case_for(data, gb, &[], &params, "render".into(), 0);
+            let c = cone_trace::case_for(
+                data,
+                gb,
+                &cone_trace::Pyramids::default(),
+                &params,
+                "render".into(),
+                0,
+            );
             resources.extend(c.resources);
             let (w, h) = (data.width(), data.height());
             resources.insert("tile_list".into(), screen_tiles::empty_list(w, h));
@@ -540,10 +556,14 @@ fn chained_pyramid(
         }
         None => (Vec::new(), Vec::new()),
     };
-    resources.insert(
-        "pyramid".into(),
-        HostResource::Buffer(HostBuffer::zeroed(pyramid_len(side) * 16, ScalarKind::F32)),
-    );
+    // The pyramid and its normal pyramid (the depth-ordered blend reads it; kept with the pyramid),
+    // filled below from the chain's levels.
+    for name in ["pyramid", "pyramid_normal"] {
+        resources.insert(
+            name.into(),
+            HostResource::Buffer(HostBuffer::zeroed(pyramid_len(side) * 16, ScalarKind::F32)),
+        );
+    }
     let (vs, ls, ts, cs) = (
         voxelize::DECL.shader()?,
         voxel_light::DECL.shader()?,
@@ -603,21 +623,31 @@ fn chained_pyramid(
             }
         })
         .collect();
+    let normal_names: Vec<String> = (0..levels)
+        .map(|l| {
+            if l == 0 {
+                "vox_normal".to_string()
+            } else {
+                scm::normal_name(l)
+            }
+        })
+        .collect();
     let copies: Vec<(&str, &str, u64)> = names
         .iter()
+        .map(|n| (n, "pyramid"))
         .enumerate()
-        .map(|(l, n)| {
-            (
-                n.as_str(),
-                "pyramid",
-                level_offset(side, l as u32) as u64 * 16,
-            )
-        })
+        .chain(
+            normal_names
+                .iter()
+                .map(|n| (n, "pyramid_normal"))
+                .enumerate(),
+        )
+        .map(|(l, (n, to))| (n.as_str(), to, level_offset(side, l as u32) as u64 * 16))
         .collect();
     prepared.copy_into(&copies).context("mip chain")?;
     let mut names = Vec::new();
     if keep_pyramid {
-        names.push("pyramid");
+        names.extend(["pyramid", "pyramid_normal"]);
     }
     if cone.is_empty() {
         let read = prepared.read(&names).context("mip chain")?;
@@ -650,11 +680,11 @@ fn radiance_pyramid<'c>(
     scene: &Scene,
     data: &SceneData,
     plan: &FramePlan,
-    cache: &'c mut Option<(PyramidKey, Vec<[f32; 4]>, voxelize::VoxelFrame)>,
+    cache: &'c mut Option<(PyramidKey, cone_trace::Pyramids, voxelize::VoxelFrame)>,
     key: PyramidKey,
     stages: &mut Stages,
     progress: &impl Fn(&str),
-) -> Result<&'c (PyramidKey, Vec<[f32; 4]>, voxelize::VoxelFrame)> {
+) -> Result<&'c (PyramidKey, cone_trace::Pyramids, voxelize::VoxelFrame)> {
     if !plan.runs("voxelize") {
         progress("radiance pyramid: reused");
     } else if plan.runs("voxel_light") {
@@ -1483,7 +1513,7 @@ impl InstanceVoxels {
                 m,
                 world.voxel,
             ));
-            pyramids.extend(pyr);
+            pyramids.extend(pyr.colour);
         }
         let limit = ctx.limits().max_storage_buffer_binding_size;
         if pyramids.len() as u64 * 16 > limit {
@@ -1573,7 +1603,7 @@ impl VctCprc {
                     &progress,
                 )?;
                 (
-                    cprc::CacheVolume::One(pyramid),
+                    cprc::CacheVolume::One(&pyramid.colour),
                     cone_trace::cone_params(frame, cones),
                 )
             }
@@ -1665,14 +1695,23 @@ fn image_of(w: u32, h: u32, bytes: &[u8]) -> RgbImage {
 /// snapshot tests store; the GPU image is then compared to it numerically (DESIGN.md section 8).
 pub fn render_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendered> {
     let m = MirrorFrame::new(scene)?;
-    let pyramid = m.pyramid();
+    let pyramids = m.pyramid();
     let params = cone_trace::cone_params(&m.frame, cones);
+    let lmax = cone_trace::max_radiance(&pyramids.colour, m.frame.side);
+    let plan = FramePlan::vct_dense(scene, cones);
+    if params.depth_order != 0 {
+        let pyr = vxgi_cpu_mirror::cone_trace::OrderedPyramid {
+            p: &params,
+            voxels: &pyramids.colour,
+            normals: &pyramids.normal,
+        };
+        return Ok(m.shade(&pyr, lmax, plan));
+    }
     let pyr = vxgi_cpu_mirror::cone_trace::Pyramid {
         p: &params,
-        voxels: &pyramid,
+        voxels: &pyramids.colour,
     };
-    let lmax = cone_trace::max_radiance(&pyramid, m.frame.side);
-    Ok(m.shade(&pyr, lmax, FramePlan::vct_dense(scene, cones)))
+    Ok(m.shade(&pyr, lmax, plan))
 }
 
 /// lrsm computed by the scalar mirrors alone (the snapshot tests' lrsm images): occlusion voxels of
@@ -1699,7 +1738,7 @@ pub fn render_cprc_mirror(
 ) -> Result<(Rendered, crate::cprc::CprcStats)> {
     use crate::cprc;
     let m = MirrorFrame::new(scene)?;
-    let pyramid = m.pyramid();
+    let pyramid = m.pyramid().colour;
     let settings = cprc::CprcSettings::from(&scene.render);
     let params = cone_trace::cone_params(&m.frame, cones);
     let pos: Vec<[f32; 4]> = m.texels.iter().map(|t| t.position).collect();
@@ -1894,8 +1933,9 @@ impl MirrorFrame {
         })
     }
 
-    /// The surface-coverage pyramid of the lit voxels (surface_coverage_mip's mirror, level by level).
-    fn pyramid(&self) -> Vec<[f32; 4]> {
+    /// The surface-coverage pyramid of the lit voxels and its normals (surface_coverage_mip's mirror,
+    /// level by level).
+    fn pyramid(&self) -> cone_trace::Pyramids {
         cone_trace::mirror_pyramid(&self.lit, &self.normal)
     }
 

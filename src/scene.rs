@@ -164,6 +164,10 @@ pub struct RenderSettings {
     pub mip_clamp: f32,
     /// Cone step as a fraction of the cone's diameter, (0, 1] (CPRC 4: 0.5).
     pub cone_step: f32,
+    /// vct-dense: the depth-ordered blend — along the cone's main axis an opaque cell facing the cone
+    /// hides the opaque cell behind it in the trilinear pair (`cone_trace::OrderedPyramid`); false =
+    /// the paper's trilinear. Against light leaking through one-voxel walls (thin_wall).
+    pub depth_ordered_blend: bool,
     /// lrsm: RSM side per light view (a power of two, 4..=1024; the LRSM is half of it).
     pub rsm_side: u32,
     /// lrsm: depth splits a and <n.l> splits b: (a + 1) x (b + 1) layers (at most 64).
@@ -337,6 +341,7 @@ impl Default for RenderSettings {
             // 0.287 without the clamp, 0.237 with 2; AO FLIP 0.85 -> 0.42.
             mip_clamp: 2.0,
             cone_step: 0.5,
+            depth_ordered_blend: false,
             // 2 x 2 layers as the paper's Sibenik and Sponza; 128^2 per view keeps six cube faces
             // cheap on a software GPU.
             rsm_side: 128,

@@ -68,7 +68,9 @@ fn level_zero_of_the_octree_is_the_voxel_grid() {
         svo_cone_params(&frame, &settings),
     );
     // The whole pyramid (sampling at level 0 blends level 1 with weight 0).
-    let voxels = vxgi::kernels::cone_trace::gpu_pyramid(gpu(), &rad, &grid.normal, side).unwrap();
+    let voxels = vxgi::kernels::cone_trace::gpu_pyramid(gpu(), &rad, &grid.normal, side)
+        .unwrap()
+        .colour;
     let pyr = Pyramid {
         p: &pp,
         voxels: &voxels,

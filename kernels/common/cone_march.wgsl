@@ -32,8 +32,8 @@ struct ConeParams {
     inv_s0: f32,
     mip_clamp: f32,     // 0 = off; else cap the level at log2(D / (mip_clamp s0)), D = distance from the origin plane
     step_factor: f32,   // step = diameter * step_factor (CPRC 4: 0.5); first sample half a step out
-    _pad1: u32,
-    _pad2: u32,
+    depth_order: u32,   // cone_trace's pyramid: 1 = depth-ordered blend (common/pyramid_ordered.wgsl)
+    _pad: u32,
 }
 
 @group(0) @binding(0) var<storage, read> frame: Frame;

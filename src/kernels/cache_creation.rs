@@ -215,7 +215,7 @@ impl Kernel for CacheCreation {
             caches.push([n[0], n[1], n[2], 0.0]);
         }
         let label = format!("{}, {} caches of {res}^2", c.label, caches.len() / 2);
-        case_for(ctx, &pyr, &params, &caches, res, label, seed)
+        case_for(ctx, &pyr.colour, &params, &caches, res, label, seed)
     }
     fn mirror(
         &self,
@@ -264,7 +264,16 @@ impl Kernel for CacheCreationInstanced {
             placed.len(),
             caches.len() / 2
         );
-        instanced_case_for(ctx, &pyr, &placed, &params, &caches, res, label, seed)
+        instanced_case_for(
+            ctx,
+            &pyr.colour,
+            &placed,
+            &params,
+            &caches,
+            res,
+            label,
+            seed,
+        )
     }
     fn mirror(
         &self,

@@ -8,7 +8,7 @@ use crate::trace::SceneData;
 use std::collections::BTreeMap;
 use vxgi_cpu_mirror::bvh_trace::GpuTriangle;
 use vxgi_cpu_mirror::cone_trace::{
-    diffuse_cones, level_offset, pyramid_len, shade_pixel, ConeParams, Pyramid,
+    diffuse_cones, level_offset, pyramid_len, shade_pixel, ConeParams, OrderedPyramid, Pyramid,
 };
 use vxgi_cpu_mirror::direct_light::GpuMaterial;
 use vxgi_cpu_mirror::gbuffer::Frame;
@@ -24,11 +24,11 @@ pub static DECL: KernelDecl = KernelDecl {
     name: "cone_trace",
     wgsl_path: "kernels/cone_trace.wgsl",
     wgsl: include_str!("../../kernels/cone_trace.wgsl"),
-    includes: &[super::TANGENT_BASIS, super::SCENE_TYPES, super::CONE_MARCH, super::PYRAMID_GRID, super::PYRAMID],
+    includes: &[super::TANGENT_BASIS, super::SCENE_TYPES, super::CONE_MARCH, super::PYRAMID_GRID, super::PYRAMID_ORDERED],
     entry: "main",
     inputs: &[
         "frame", "triangles", "materials", "gb_position", "gb_normal", "gb_triangle", "gb_albedo", "cone", "cone_dirs", "tile_list",
-        "pyramid",
+        "pyramid", "pyramid_normal",
     ],
     outputs: &[
         // Per element (see `cone_trace::MAG`): 4e-4 of the accumulated magnitudes (~30 operations per
@@ -89,6 +89,9 @@ pub struct ConeSettings {
     pub mip_clamp: f32,
     /// Step as a fraction of the cone's diameter (the paper's 0.5).
     pub step_factor: f32,
+    /// vct-dense: the depth-ordered blend (`vxgi_cpu_mirror::cone_trace::OrderedPyramid`) instead of
+    /// the paper's trilinear.
+    pub depth_ordered_blend: bool,
 }
 
 impl Default for ConeSettings {
@@ -108,6 +111,7 @@ impl From<&crate::scene::RenderSettings> for ConeSettings {
             offset_voxels: r.cone_offset,
             mip_clamp: r.mip_clamp,
             step_factor: r.cone_step,
+            depth_ordered_blend: r.depth_ordered_blend,
         }
     }
 }
@@ -139,30 +143,43 @@ pub fn cone_params(frame: &VoxelFrame, s: &ConeSettings) -> ConeParams {
         inv_s0: 1.0 / frame.voxel,
         mip_clamp: s.mip_clamp,
         step_factor: s.step_factor,
-        depth_order: 0,
+        depth_order: u32::from(s.depth_ordered_blend),
         _pad: 0,
     }
 }
 
-/// Level 0 (voxel radiance) and the surface-coverage mip chain by the mirror, concatenated
-/// ([`gpu_pyramid`]'s counterpart).
-pub fn mirror_pyramid(radiance: &[[f32; 4]], normal: &[[f32; 4]]) -> Vec<[f32; 4]> {
-    let mut pyramid = radiance.to_vec();
-    for (colour, _) in
+/// Level 0 (voxel radiance and normals) and the surface-coverage mip chain by the mirror,
+/// concatenated ([`gpu_pyramid`]'s counterpart).
+pub fn mirror_pyramid(radiance: &[[f32; 4]], normal: &[[f32; 4]]) -> Pyramids {
+    let mut pyramids = Pyramids {
+        colour: radiance.to_vec(),
+        normal: normal.to_vec(),
+    };
+    for (colour, normals) in
         vxgi_cpu_mirror::surface_coverage_mip::mip_chain(radiance, normal, Coverage::Surface)
     {
-        pyramid.extend(colour);
+        pyramids.colour.extend(colour);
+        pyramids.normal.extend(normals);
     }
-    pyramid
+    pyramids
 }
 
-/// Level 0 (voxel radiance) and the surface-coverage mip chain built on the GPU, concatenated.
+/// The radiance pyramid and its normal pyramid (surface_coverage_mip's normals above voxelize's),
+/// each level 0 and the mip chain concatenated ([`level_offset`]); the depth-ordered blend reads both.
+#[derive(Clone, Debug, Default)]
+pub struct Pyramids {
+    pub colour: Vec<[f32; 4]>,
+    pub normal: Vec<[f32; 4]>,
+}
+
+/// Level 0 (voxel radiance and normals) and the surface-coverage mip chain built on the GPU,
+/// concatenated.
 pub fn gpu_pyramid(
     ctx: &GpuContext,
     radiance: &[[f32; 4]],
     normal: &[[f32; 4]],
     side: u32,
-) -> anyhow::Result<Vec<[f32; 4]>> {
+) -> anyhow::Result<Pyramids> {
     let grid = crate::grids::Grid {
         n: side,
         colour: radiance.to_vec(),
@@ -172,7 +189,12 @@ pub fn gpu_pyramid(
     let case = chain_case(&shader, ctx, &grid, Coverage::Surface, "pyramid".into(), 0);
     let levels = side.trailing_zeros() + 1;
     let names: Vec<String> = (1..levels).map(colour_name).collect();
-    let refs: Vec<&str> = names.iter().map(|s| s.as_str()).collect();
+    let normal_names: Vec<String> = (1..levels).map(surface_coverage_mip::normal_name).collect();
+    let refs: Vec<&str> = names
+        .iter()
+        .chain(&normal_names)
+        .map(|s| s.as_str())
+        .collect();
     let out = run(
         ctx,
         &shader,
@@ -181,16 +203,22 @@ pub fn gpu_pyramid(
         &case.passes,
         &refs,
     )?;
-    let mut pyr = Vec::with_capacity(pyramid_len(side));
-    pyr.extend_from_slice(radiance);
-    for name in &names {
-        pyr.extend_from_slice(bytemuck::cast_slice::<u8, [f32; 4]>(
-            &out.buffer(name).bytes,
-        ));
-    }
-    debug_assert_eq!(pyr.len(), pyramid_len(side));
+    let concat = |level0: &[[f32; 4]], names: &[String]| {
+        let mut pyr = Vec::with_capacity(pyramid_len(side));
+        pyr.extend_from_slice(level0);
+        for name in names {
+            pyr.extend_from_slice(bytemuck::cast_slice::<u8, [f32; 4]>(
+                &out.buffer(name).bytes,
+            ));
+        }
+        debug_assert_eq!(pyr.len(), pyramid_len(side));
+        pyr
+    };
     debug_assert_eq!(level_offset(side, 1), radiance.len());
-    Ok(pyr)
+    Ok(Pyramids {
+        colour: concat(radiance, &names),
+        normal: concat(normal, &normal_names),
+    })
 }
 
 /// The cone pass of `scene` with its own inputs built stage by stage on the GPU (G-buffer, voxelize at
@@ -207,9 +235,9 @@ pub fn scene_case(
     let (grid, list, frame) = voxelize_on_gpu(ctx, scene, side)?;
     let lcase = super::voxel_light::case_for(ctx, &data, &grid, &list, &frame, "scene".into(), 0);
     let (radiance, _) = super::voxel_light::mirror_radiance(&lcase.resources);
-    let pyramid = gpu_pyramid(ctx, &radiance, &grid.normal, side)?;
+    let pyramids = gpu_pyramid(ctx, &radiance, &grid.normal, side)?;
     let params = cone_params(&frame, cones);
-    Ok(case_for(&data, &gb, &pyramid, &params, "scene".into(), 0))
+    Ok(case_for(&data, &gb, &pyramids, &params, "scene".into(), 0))
 }
 
 /// Run a cone-pass case of `decl` (cone_trace or another kernel on common/cone_march.wgsl) on the
@@ -220,18 +248,27 @@ pub fn run_case(ctx: &GpuContext, decl: &KernelDecl, case: &Case) -> anyhow::Res
     Ok(names.map(|n| out.buffer(n).bytes.clone()))
 }
 
-/// The cone pass over a scene whose G-buffer and pyramid are given.
+/// The cone pass over a scene whose G-buffer and pyramids are given. The normal pyramid is bound
+/// only where `params` asks for the depth-ordered blend (else one empty element: never read).
 #[allow(clippy::too_many_arguments)]
 pub fn case_for(
     data: &SceneData,
     gbuffer: &Resources,
-    pyramid: &[[f32; 4]],
+    pyramids: &Pyramids,
     params: &ConeParams,
     label: String,
     seed: u64,
 ) -> Case {
     let f4 = |v: &[[f32; 4]]| HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(v)));
-    let volume = Resources::from([("pyramid".to_string(), f4(pyramid))]);
+    let normal: &[[f32; 4]] = if params.depth_order != 0 {
+        &pyramids.normal
+    } else {
+        &[[0.0; 4]]
+    };
+    let volume = Resources::from([
+        ("pyramid".to_string(), f4(&pyramids.colour)),
+        ("pyramid_normal".to_string(), f4(normal)),
+    ]);
     tracer_case(&DECL, data, gbuffer, params, volume, label, seed)
 }
 
@@ -346,6 +383,15 @@ pub fn mirror_cones(data: &Resources) -> [Vec<[f32; 4]>; 4] {
     let params: ConeParams = *bytemuck::from_bytes(&b("cone").bytes);
     let voxels: &[[f32; 4]] = bytemuck::cast_slice(&b("pyramid").bytes);
     match data.get("placed") {
+        None if params.depth_order != 0 => {
+            let normals: &[[f32; 4]] = bytemuck::cast_slice(&b("pyramid_normal").bytes);
+            let pyr = OrderedPyramid {
+                p: &params,
+                voxels,
+                normals,
+            };
+            shade_all(data, &pyr, max_radiance(voxels, params.side))
+        }
         None => {
             let pyr = Pyramid { p: &params, voxels };
             shade_all(data, &pyr, max_radiance(voxels, params.side))
@@ -428,10 +474,12 @@ pub fn lit_case(ctx: &GpuContext, seed: u64, index: usize) -> LitCase {
     let (grid, list, frame) = voxelize_on_gpu(ctx, &scene, side).expect("generated grids voxelize");
     let radiance = super::voxel_light::light_on_gpu(ctx, &data, &grid, &list, &frame)
         .expect("voxel_light runs");
-    // Cases vary the marching: step factor 0.5 (the paper's), 0.75, 1; mip clamp on and off.
+    // Cases vary the marching: step factor 0.5 (the paper's), 0.75, 1; mip clamp on and off; the
+    // depth-ordered blend on every other case (cone_trace reads it; the other cone kernels ignore it).
     let settings = ConeSettings {
         step_factor: [0.5, 0.75, 1.0][index % 3],
         mip_clamp: if index % 5 == 4 { 0.0 } else { 2.0 },
+        depth_ordered_blend: index % 2 == 1,
         ..ConeSettings::from(&scene.render)
     };
     LitCase {
@@ -493,7 +541,11 @@ impl Kernel for ConeTraceInstanced {
         use vxgi_cpu_mirror::cache_creation::Placed;
         let c = lit_case(ctx, seed, index);
         let pyr = gpu_pyramid(ctx, &c.radiance, &c.normal, c.frame.side).expect("mip chain runs");
-        let params = cone_params(&c.frame, &c.settings);
+        // Placed pyramids have no depth-ordered blend (common/placed_pyramids.wgsl's trilinear).
+        let params = ConeParams {
+            depth_order: 0,
+            ..cone_params(&c.frame, &c.settings)
+        };
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0xc0e ^ index as u64);
         let (s0, side, origin) = (c.frame.voxel, c.frame.side, c.frame.origin);
         let m = random_placement(&mut rng, &c.frame);
@@ -504,7 +556,7 @@ impl Kernel for ConeTraceInstanced {
         instanced_case_for(
             &c.data,
             &c.gbuffer,
-            &pyr,
+            &pyr.colour,
             &placed,
             &params,
             format!("{}, 2 hierarchies", c.label),
@@ -529,7 +581,12 @@ impl Kernel for ConeTrace {
         let c = lit_case(ctx, seed, index);
         let pyr = gpu_pyramid(ctx, &c.radiance, &c.normal, c.frame.side).expect("mip chain runs");
         let params = cone_params(&c.frame, &c.settings);
-        case_for(&c.data, &c.gbuffer, &pyr, &params, c.label, seed)
+        let label = if params.depth_order != 0 {
+            format!("{}, depth-ordered", c.label)
+        } else {
+            c.label
+        };
+        case_for(&c.data, &c.gbuffer, &pyr, &params, label, seed)
     }
     fn mirror(
         &self,
