@@ -30,9 +30,7 @@ fn main() {
         let (grid, list, frame) =
             voxelize::voxelize_on_gpu(&ctx, &scene, scene.render.voxels).expect("voxelize");
         let lit = voxel_light::light_on_gpu(&ctx, &data, &grid, &list, &frame).expect("light");
-        let pyramid = gpu_pyramid(&ctx, &lit, &grid.normal, frame.side)
-            .expect("mips")
-            .colour;
+        let pyramid = gpu_pyramid(&ctx, &lit, &grid.normal, frame.side).expect("mips");
         let cone = cone_params(&frame, &ConeSettings::from(&scene.render));
         let offset = cone.offset_voxels * cone.origin[3];
         let (pos, nrm, tri, alb) = cprc::gbuffer_arrays(&gb);

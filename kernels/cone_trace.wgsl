@@ -20,4 +20,4 @@
 // Accuracy: per-element bound (see cone_trace::MAG): 4e-4 of the accumulated magnitudes, plus the
 // whole remainder where a stop (opacity, distance, AO range) is within rounding of its threshold.
 // The volume (the pyramid bindings and their sampling, the depth-ordered blend) is
-// kernels/common/pyramid_ordered.wgsl.
+// kernels/common/pyramid.wgsl.

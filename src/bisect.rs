@@ -228,15 +228,7 @@ pub fn render_split(
 
             if pipeline == Pipeline::Cprc {
                 cprc_tail(
-                    ctx,
-                    scene,
-                    cones,
-                    &data,
-                    &gb,
-                    &pyramid.colour,
-                    &frame,
-                    &on_mirror,
-                    &mut timed,
+                    ctx, scene, cones, &data, &gb, &pyramid, &frame, &on_mirror, &mut timed,
                     &progress,
                 )?
             } else {
@@ -424,7 +416,7 @@ fn cprc_tail(
     cones: &ConeSettings,
     data: &SceneData,
     gb: &Resources,
-    pyramid: &[[f32; 4]],
+    pyramid: &cone_trace::Pyramids,
     frame: &voxelize::VoxelFrame,
     on_mirror: &impl Fn(&str) -> bool,
     timed: &mut impl FnMut(&'static str, f64),

@@ -158,7 +158,7 @@ pub fn pixel_inputs(
 /// placed by a rigid transform (CPRC 3.1's per-instance hierarchies).
 #[derive(Clone, Copy)]
 pub enum CacheVolume<'a> {
-    One(&'a [[f32; 4]]),
+    One(&'a crate::kernels::cone_trace::Pyramids),
     Placed(
         &'a [[f32; 4]],
         &'a [vxgi_cpu_mirror::cache_creation::Placed],
@@ -520,8 +520,8 @@ pub fn evaluate_gpu(
     );
     let mut gcase = gather_caches::case_for(&gshader, ctx, &data, "cprc".into(), 0);
     let ccase = match volume {
-        CacheVolume::One(pyramid) => {
-            cache_creation::case_for(ctx, pyramid, cone, &set.creation, s.res, "cprc".into(), 0)
+        CacheVolume::One(pyramids) => {
+            cache_creation::case_for(ctx, pyramids, cone, &set.creation, s.res, "cprc".into(), 0)
         }
         CacheVolume::Placed(pyramids, placed) => cache_creation::instanced_case_for(
             ctx,
@@ -630,16 +630,18 @@ pub fn evaluate_mirror(
     px: &PixelInputs,
     set: &CacheSet,
     s: &CprcSettings,
-    pyramid: &[[f32; 4]],
+    pyramids: &crate::kernels::cone_trace::Pyramids,
     cone: &vxgi_cpu_mirror::cone_trace::ConeParams,
 ) -> (Vec<[f32; 4]>, Vec<[f32; 4]>, gather_caches::GatherData) {
     use rayon::prelude::*;
     use vxgi_cpu_mirror::{cache_creation as cc, cache_preconvolve as cp, gather_caches as gm};
-    let pyr = vxgi_cpu_mirror::cone_trace::Pyramid {
+    // Both rules: OrderedPyramid is the plain trilinear where cone.depth_order is 0.
+    let pyr = vxgi_cpu_mirror::cone_trace::OrderedPyramid {
         p: cone,
-        voxels: pyramid,
+        voxels: &pyramids.colour,
+        normals: &pyramids.normal,
     };
-    let lmax = crate::kernels::cone_trace::max_radiance(pyramid, cone.side);
+    let lmax = crate::kernels::cone_trace::max_radiance(&pyramids.colour, cone.side);
     let dirs = cc::texel_directions(s.res);
     let tan = cc::cone_tan(s.res);
     let t = (s.res * s.res) as usize;

@@ -223,7 +223,7 @@ struct RenderFlags {
     /// surfaces, glossy voxels (their specular light as a direction lobe) [default false].
     #[arg(long = "voxel-lobes", alias = "voxel_lobes")]
     voxel_lobes: Option<bool>,
-    /// vct-dense: depth-ordered blend (along the cone's main axis an opaque cell facing the cone hides
+    /// vct-dense and cprc: depth-ordered blend (along the cone's main axis an opaque cell facing the cone hides
     /// the one behind it; against leaks through thin walls) instead of the paper's trilinear [default
     /// false].
     #[arg(long = "depth-ordered-blend", alias = "depth_ordered_blend")]

@@ -1603,7 +1603,7 @@ impl VctCprc {
                     &progress,
                 )?;
                 (
-                    cprc::CacheVolume::One(&pyramid.colour),
+                    cprc::CacheVolume::One(pyramid),
                     cone_trace::cone_params(frame, cones),
                 )
             }
@@ -1738,7 +1738,7 @@ pub fn render_cprc_mirror(
 ) -> Result<(Rendered, crate::cprc::CprcStats)> {
     use crate::cprc;
     let m = MirrorFrame::new(scene)?;
-    let pyramid = m.pyramid().colour;
+    let pyramid = m.pyramid();
     let settings = cprc::CprcSettings::from(&scene.render);
     let params = cone_trace::cone_params(&m.frame, cones);
     let pos: Vec<[f32; 4]> = m.texels.iter().map(|t| t.position).collect();

@@ -164,9 +164,10 @@ pub struct RenderSettings {
     pub mip_clamp: f32,
     /// Cone step as a fraction of the cone's diameter, (0, 1] (CPRC 4: 0.5).
     pub cone_step: f32,
-    /// vct-dense: the depth-ordered blend — along the cone's main axis an opaque cell facing the cone
-    /// hides the opaque cell behind it in the trilinear pair (`cone_trace::OrderedPyramid`); false =
-    /// the paper's trilinear. Against light leaking through one-voxel walls (thin_wall).
+    /// vct-dense and cprc (the dense pyramid's cones): the depth-ordered blend — along the cone's main
+    /// axis an opaque cell facing the cone hides the opaque cell behind it in the trilinear pair
+    /// (`cone_trace::OrderedPyramid`); false = the paper's trilinear. Against light leaking through
+    /// one-voxel walls (thin_wall).
     pub depth_ordered_blend: bool,
     /// lrsm: RSM side per light view (a power of two, 4..=1024; the LRSM is half of it).
     pub rsm_side: u32,

@@ -32,7 +32,7 @@ struct ConeParams {
     inv_s0: f32,
     mip_clamp: f32,     // 0 = off; else cap the level at log2(D / (mip_clamp s0)), D = distance from the origin plane
     step_factor: f32,   // step = diameter * step_factor (CPRC 4: 0.5); first sample half a step out
-    depth_order: u32,   // cone_trace's pyramid: 1 = depth-ordered blend (common/pyramid_ordered.wgsl)
+    depth_order: u32,   // the dense pyramid (common/pyramid.wgsl): 1 = depth-ordered blend
     _pad: u32,
 }
 

@@ -2,12 +2,12 @@
 //! radiance-cache texel through the radiance pyramid (CPRC 3.1). A case runs the earlier stages on the
 //! GPU (G-buffer, voxelization, voxel lighting, mip chain) on a generated scene, as cone_trace's do, and
 //! places caches on every k-th geometry pixel, plus caches whose normals are the basis's branch points.
-use super::cone_trace::{cone_params, gpu_pyramid, lit_case, max_radiance};
+use super::cone_trace::{cone_params, gpu_pyramid, lit_case, max_radiance, Pyramids};
 use std::collections::BTreeMap;
 use vxgi_cpu_mirror::cache_creation::{
     cone_tan, create_texel, texel_directions, CacheParams, Placed, PlacedPyramids,
 };
-use vxgi_cpu_mirror::cone_trace::{ConeParams, Pyramid, Volume};
+use vxgi_cpu_mirror::cone_trace::{ConeParams, OrderedPyramid, Pyramid, Volume};
 use vxgi_harness::compare::bound_name;
 use vxgi_harness::{
     Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
@@ -20,7 +20,7 @@ pub static DECL: KernelDecl = KernelDecl {
     wgsl: include_str!("../../kernels/cache_creation.wgsl"),
     includes: &[super::TANGENT_BASIS, super::SCENE_TYPES, super::CONE_MARCH, super::PYRAMID_GRID, super::PYRAMID],
     entry: "create",
-    inputs: &["cone", "pyramid", "cache_params", "caches", "texel_dirs"],
+    inputs: &["cone", "pyramid", "pyramid_normal", "cache_params", "caches", "texel_dirs"],
     outputs: &[
         // cone_trace's march bound per texel (see `cone_trace::MAG`): 4e-4 of the accumulated
         // magnitudes plus the remainder where a stop is within rounding of its threshold.
@@ -56,17 +56,38 @@ pub static INSTANCED_DECL: KernelDecl = KernelDecl {
     summary: "cache_creation through several voxel hierarchies placed by rigid transforms (CPRC 3.1 multiple hierarchies)",
 };
 
-/// The creation pass over `caches` (two vec4s each: origin, normal) at `res x res` texels.
+/// The creation pass over `caches` (two vec4s each: origin, normal) at `res x res` texels. The
+/// normal pyramid is bound only where `cone` asks for the depth-ordered blend (else one element).
 pub fn case_for(
     ctx: &GpuContext,
-    pyramid: &[[f32; 4]],
+    pyramids: &Pyramids,
     cone: &ConeParams,
     caches: &[[f32; 4]],
     res: u32,
     label: String,
     seed: u64,
 ) -> Case {
-    case_with(ctx, &DECL, pyramid, None, cone, caches, res, label, seed)
+    let mut case = case_with(
+        ctx,
+        &DECL,
+        &pyramids.colour,
+        None,
+        cone,
+        caches,
+        res,
+        label,
+        seed,
+    );
+    let normal: &[[f32; 4]] = if cone.depth_order != 0 {
+        &pyramids.normal
+    } else {
+        &[[0.0; 4]]
+    };
+    case.resources.insert(
+        "pyramid_normal".into(),
+        HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(normal))),
+    );
+    case
 }
 
 /// The creation pass through several hierarchies (`INSTANCED_DECL`): `pyramid` holds them all,
@@ -214,8 +235,13 @@ impl Kernel for CacheCreation {
             caches.push(mid);
             caches.push([n[0], n[1], n[2], 0.0]);
         }
-        let label = format!("{}, {} caches of {res}^2", c.label, caches.len() / 2);
-        case_for(ctx, &pyr.colour, &params, &caches, res, label, seed)
+        let order = if params.depth_order != 0 {
+            ", depth-ordered"
+        } else {
+            ""
+        };
+        let label = format!("{}, {} caches of {res}^2{order}", c.label, caches.len() / 2);
+        case_for(ctx, &pyr, &params, &caches, res, label, seed)
     }
     fn mirror(
         &self,
@@ -240,7 +266,11 @@ impl Kernel for CacheCreationInstanced {
         use rand::SeedableRng;
         let c = lit_case(ctx, seed, index);
         let pyr = gpu_pyramid(ctx, &c.radiance, &c.normal, c.frame.side).expect("mip chain runs");
-        let params = cone_params(&c.frame, &c.settings);
+        // Placed pyramids have no depth-ordered blend (common/placed_pyramids.wgsl's trilinear).
+        let params = ConeParams {
+            depth_order: 0,
+            ..cone_params(&c.frame, &c.settings)
+        };
         let res = RES[index % RES.len()];
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0xca5e ^ index as u64);
         let (s0, side) = (c.frame.voxel, c.frame.side);
@@ -302,6 +332,15 @@ pub fn mirror_texels(data: &Resources) -> (Vec<[f32; 4]>, Vec<[f32; 4]>) {
     let voxels: &[[f32; 4]] = bytemuck::cast_slice(&b("pyramid").bytes);
     let lmax = max_radiance(voxels, cone.side);
     match data.get("placed") {
+        None if cone.depth_order != 0 => {
+            let normals: &[[f32; 4]] = bytemuck::cast_slice(&b("pyramid_normal").bytes);
+            let pyr = OrderedPyramid {
+                p: &cone,
+                voxels,
+                normals,
+            };
+            texels_through(data, &pyr, lmax)
+        }
         None => texels_through(data, &Pyramid { p: &cone, voxels }, lmax),
         Some(r) => {
             let placed: &[Placed] = bytemuck::cast_slice(&r.buffer().expect("buffer").bytes);

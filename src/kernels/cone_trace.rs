@@ -24,7 +24,7 @@ pub static DECL: KernelDecl = KernelDecl {
     name: "cone_trace",
     wgsl_path: "kernels/cone_trace.wgsl",
     wgsl: include_str!("../../kernels/cone_trace.wgsl"),
-    includes: &[super::TANGENT_BASIS, super::SCENE_TYPES, super::CONE_MARCH, super::PYRAMID_GRID, super::PYRAMID_ORDERED],
+    includes: &[super::TANGENT_BASIS, super::SCENE_TYPES, super::CONE_MARCH, super::PYRAMID_GRID, super::PYRAMID],
     entry: "main",
     inputs: &[
         "frame", "triangles", "materials", "gb_position", "gb_normal", "gb_triangle", "gb_albedo", "cone", "cone_dirs", "tile_list",
@@ -89,8 +89,8 @@ pub struct ConeSettings {
     pub mip_clamp: f32,
     /// Step as a fraction of the cone's diameter (the paper's 0.5).
     pub step_factor: f32,
-    /// vct-dense: the depth-ordered blend (`vxgi_cpu_mirror::cone_trace::OrderedPyramid`) instead of
-    /// the paper's trilinear.
+    /// vct-dense and cprc: the depth-ordered blend (`vxgi_cpu_mirror::cone_trace::OrderedPyramid`)
+    /// instead of the paper's trilinear.
     pub depth_ordered_blend: bool,
 }
 

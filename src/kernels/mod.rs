@@ -93,14 +93,8 @@ pub const PLACED_PYRAMIDS: (&str, &str) = (
     include_str!("../../kernels/common/placed_pyramids.wgsl"),
 );
 
-/// The dense radiance pyramid and its normal pyramid as cone_trace's volume: common/pyramid.wgsl's
-/// sampling, or the depth-ordered blend when the cone parameters ask for it.
-pub const PYRAMID_ORDERED: (&str, &str) = (
-    "kernels/common/pyramid_ordered.wgsl",
-    include_str!("../../kernels/common/pyramid_ordered.wgsl"),
-);
-
-/// The dense radiance pyramid as cone_march's volume, included by cache_creation.
+/// The dense radiance pyramid (and its normal pyramid, for the depth-ordered blend) as cone_march's
+/// volume, included by cone_trace and cache_creation.
 pub const PYRAMID: (&str, &str) = (
     "kernels/common/pyramid.wgsl",
     include_str!("../../kernels/common/pyramid.wgsl"),
