@@ -319,6 +319,7 @@ impl VctDense {
         cones: &ConeSettings,
         progress: impl Fn(&str),
     ) -> Result<Rendered> {
+        refuse_ordered_instances(scene, cones)?;
         let key = PyramidKey::reading(scene, cones);
         let cached = self.pyramid.holds(&key);
         let plan = FramePlan::vct_dense_after(scene, cones, cached);
@@ -402,6 +403,17 @@ fn render_frame(
 }
 
 type Stages = Vec<(&'static str, f64)>;
+
+/// The depth-ordered blend samples one pyramid; instanced scenes' placed hierarchies
+/// (common/placed_pyramids.wgsl) have the paper's trilinear only: refuse rather than ignore it.
+fn refuse_ordered_instances(scene: &Scene, cones: &ConeSettings) -> Result<()> {
+    anyhow::ensure!(
+        !cones.depth_ordered_blend || scene.instances.list.is_empty(),
+        "depth_ordered_blend is not implemented for scenes with [[instances]] (their placed voxel \
+         hierarchies are sampled trilinearly): set it to false"
+    );
+    Ok(())
+}
 
 /// vct-dense's frame with voxelize, voxel_light, the surface-coverage mips and the cone pass as one
 /// chain on GPU-resident buffers ([`chained_pyramid`]). With `keep` (the reuse rule on) the pyramid is
@@ -1578,6 +1590,7 @@ impl VctCprc {
         }
         // With [[instances]]: one voxel hierarchy per instance (and one for [mesh]), voxelized once
         // in its own frame and re-lit where it stands every frame (CPRC 3.1); else the one pyramid.
+        refuse_ordered_instances(scene, cones)?;
         let instanced = if scene.instances.list.is_empty() {
             None
         } else {

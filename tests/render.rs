@@ -761,6 +761,23 @@ fn an_animated_instance_scene_renders_numbered_frames() {
                 == 2,
         "{stdout}"
     );
+    // The depth-ordered blend samples one pyramid: with instances it is refused, not ignored.
+    for pipeline in ["vct-dense", "cprc"] {
+        let (code, _, err) = vxgi(&[
+            "render",
+            &scene.display().to_string(),
+            "--pipeline",
+            pipeline,
+            "--voxels",
+            "32",
+            "--depth-ordered-blend",
+            "true",
+            "--out",
+            &out.display().to_string(),
+        ]);
+        assert_ne!(code, 0, "{pipeline}");
+        assert!(err.contains("depth_ordered_blend"), "{pipeline}: {err}");
+    }
     std::fs::remove_dir_all(&dir).ok();
 }
 
