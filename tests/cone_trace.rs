@@ -201,35 +201,16 @@ fn vct_dense_against_the_converged_reference() {
     assert!(ao.flip_mean < 0.45, "AO FLIP {}", ao.flip_mean);
 }
 
-/// thin_wall: the vct-dense leak (indirect energy seen in the dark room / in the lit room; the
-/// reference's is exactly 0), printed. The wall is one voxel thick at 128^3: dense isotropic voxels
-/// with trilinear sampling leak through it, which is what the later pipelines are measured on.
-#[test]
-fn thin_wall_leak_is_reported() {
-    let mut scene =
-        Scene::load(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/thin_wall.toml"))
-            .unwrap();
-    scene.camera.width = 128;
-    scene.camera.height = 64;
-    let r = vxgi::render::render(gpu(), &scene, &ConeSettings::default(), |_| {}).unwrap();
-    let pos = vxgi::reference::pixel_positions(&scene);
-    let leak = vxgi::reference::leak(&r.indirect.pixels, &pos, 0.0, 1.0 / 64.0);
-    println!("thin_wall vct-dense leak {leak:.4} (reference: 0)");
-    assert!(leak.is_finite() && leak >= 0.0);
-}
-
-/// The depth-ordered blend (`[render] depth_ordered_blend`): on thin_wall the trilinear blend mixes
+/// thin_wall's leak (indirect energy seen in the dark room / in the lit room; the reference's is
+/// exactly 0), printed, with the paper's trilinear and the depth-ordered blend
+/// (`[render] depth_ordered_blend`). The wall is one voxel thick at 128^3: the trilinear blend mixes
 /// the lit side of the one-voxel wall into the dark room's samples; with the near cell hiding the far
 /// one the leak nearly vanishes (measured 128x64: see the printout; 256x128 vs 256 spp: leak 0.032 ->
 /// 0.004, combined FLIP 0.232 -> 0.126). The GPU frame is the mirror frame's (`render_mirror`, the
 /// snapshot tests' renderer) to float rounding.
 #[test]
 fn depth_ordered_blend_stops_the_thin_wall_leak() {
-    let mut scene =
-        Scene::load(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/thin_wall.toml"))
-            .unwrap();
-    scene.camera.width = 128;
-    scene.camera.height = 64;
+    let scene = common::thin_wall(128, 64);
     let pos = vxgi::reference::pixel_positions(&scene);
     let paper = ConeSettings::default();
     let ordered = ConeSettings {
@@ -256,9 +237,7 @@ fn depth_ordered_blend_stops_the_thin_wall_leak() {
     // (measured 0.036 -> 0.022; the rest is gathered across the wall from caches on the lit side). At
     // the scene's own 256x128 (at 128x64 its 16-pixel tiles gather across the wall: leak ~0.15 either
     // way).
-    let full =
-        Scene::load(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/thin_wall.toml"))
-            .unwrap();
+    let full = common::thin_wall(256, 128);
     let full_pos = vxgi::reference::pixel_positions(&full);
     let cprc_leak = |cones: &ConeSettings| {
         let (r, _) = vxgi::render::render_cprc(gpu(), &full, cones, |_| {}).unwrap();

@@ -207,12 +207,7 @@ fn vct_svo_against_the_converged_reference() {
 #[test]
 fn thin_wall_leak_of_vct_svo_is_reported() {
     use vxgi::kernels::cone_trace::ConeSettings;
-    use vxgi::scene::Scene;
-    let mut scene =
-        Scene::load(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/thin_wall.toml"))
-            .unwrap();
-    scene.camera.width = 128;
-    scene.camera.height = 64;
+    let mut scene = common::thin_wall(128, 64);
     let pos = vxgi::reference::pixel_positions(&scene);
     let mut leaks = Vec::new();
     for (anisotropic, lobes) in [(false, false), (true, false), (true, true)] {

@@ -372,9 +372,13 @@ impl Volume for OrderedPyramid<'_> {
         self.p
     }
 
+    /// The paper's trilinear ([`Pyramid`]'s).
     fn level(&self, x: Vec3, l: u32) -> (Vec4, SampleError) {
-        let off = level_offset(self.p.side, l);
-        trilinear_level(self.p, x, l, |m| Vec4::from_array(self.voxels[off + m]))
+        Pyramid {
+            p: self.p,
+            voxels: self.voxels,
+        }
+        .level(x, l)
     }
 
     fn sample_cone(

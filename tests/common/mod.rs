@@ -9,3 +9,14 @@ pub fn gpu() -> &'static GpuContext {
         Err(e) => panic!("GPU tests need a wgpu adapter: {e}"),
     }
 }
+
+/// scenes/thin_wall.toml (one-voxel wall between a lit and a dark room) at `width x height`.
+pub fn thin_wall(width: u32, height: u32) -> vxgi::scene::Scene {
+    let mut scene = vxgi::scene::Scene::load(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/thin_wall.toml"),
+    )
+    .expect("scenes/thin_wall.toml loads");
+    scene.camera.width = width;
+    scene.camera.height = height;
+    scene
+}
