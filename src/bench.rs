@@ -34,6 +34,8 @@ pub struct BenchRow {
     pub photon_map: u32,
     /// vct-svo: voxel shading with Gaussian lobes.
     pub voxel_lobes: bool,
+    /// vct-dense and cprc: the depth-ordered blend instead of the trilinear one.
+    pub depth_ordered_blend: bool,
     /// Wall-clock seconds of the whole frame (stages, transfers between them included).
     pub seconds: f64,
     /// Wall-clock seconds per stage, in [`Pipeline::stages`] order (0 where the plan skipped the stage).
@@ -49,7 +51,8 @@ pub struct BenchRow {
 
 /// The configurations of a sweep around `base` (its other keys, e.g. AO, kept). Full: voxels
 /// {32, 64, 128} x cones {1, 5, 9, 16} x half-angle {20, 30, 45} x mip clamp {0, 2} x cone step
-/// {0.5, 1} = 144 (16 cones: `diffuse_cones`' spiral, the others its ring). Quick (for CI): voxels {32, 64} x cones {1, 5} at 30 degrees, clamp 2, step 0.5 = 4.
+/// {0.5, 1} x blend {trilinear, depth-ordered} = 288 (16 cones: `diffuse_cones`' spiral, the others
+/// its ring). Quick (for CI): voxels {32, 64} x cones {1, 5} at 30 degrees, clamp 2, step 0.5 = 4.
 /// lrsm sweeps its own knobs instead ([`lrsm_sweep`]).
 pub fn sweep(base: &RenderSettings, quick: bool, pipeline: Pipeline) -> Vec<RenderSettings> {
     if pipeline == Pipeline::Lrsm {
@@ -61,9 +64,16 @@ pub fn sweep(base: &RenderSettings, quick: bool, pipeline: Pipeline) -> Vec<Rend
     if pipeline == Pipeline::VctSvo {
         return svo_sweep(base, quick);
     }
-    type Axes<'a> = (&'a [u32], &'a [u32], &'a [f32], &'a [f32], &'a [f32]);
-    let (voxels, cones, angles, clamps, steps): Axes = if quick {
-        (&[32, 64], &[1, 5], &[30.0], &[2.0], &[0.5])
+    type Axes<'a> = (
+        &'a [u32],
+        &'a [u32],
+        &'a [f32],
+        &'a [f32],
+        &'a [f32],
+        &'a [bool],
+    );
+    let (voxels, cones, angles, clamps, steps, blends): Axes = if quick {
+        (&[32, 64], &[1, 5], &[30.0], &[2.0], &[0.5], &[false])
     } else {
         (
             &[32, 64, 128],
@@ -71,6 +81,7 @@ pub fn sweep(base: &RenderSettings, quick: bool, pipeline: Pipeline) -> Vec<Rend
             &[20.0, 30.0, 45.0],
             &[0.0, 2.0],
             &[0.5, 1.0],
+            &[false, true],
         )
     };
     let mut out = Vec::new();
@@ -79,14 +90,17 @@ pub fn sweep(base: &RenderSettings, quick: bool, pipeline: Pipeline) -> Vec<Rend
             for &a in angles {
                 for &m in clamps {
                     for &s in steps {
-                        out.push(RenderSettings {
-                            voxels: v,
-                            cones: c,
-                            cone_half_angle: a,
-                            mip_clamp: m,
-                            cone_step: s,
-                            ..base.clone()
-                        });
+                        for &b in blends {
+                            out.push(RenderSettings {
+                                voxels: v,
+                                cones: c,
+                                cone_half_angle: a,
+                                mip_clamp: m,
+                                cone_step: s,
+                                depth_ordered_blend: b,
+                                ..base.clone()
+                            });
+                        }
                     }
                 }
             }
@@ -386,6 +400,7 @@ pub fn bench(
             anisotropic_voxels: settings.anisotropic_voxels,
             photon_map: settings.photon_map,
             voxel_lobes: settings.voxel_lobes,
+            depth_ordered_blend: settings.depth_ordered_blend,
             seconds: stage_seconds.iter().sum(),
             stage_seconds,
             indirect_rel_mse: ind.rel_mse,
@@ -431,6 +446,7 @@ fn write_csv(path: &Path, pipeline: Pipeline, rows: &[BenchRow]) -> Result<()> {
         "anisotropic_voxels",
         "photon_map",
         "voxel_lobes",
+        "depth_ordered_blend",
         "seconds",
         "indirect_rel_mse",
         "indirect_flip",
@@ -458,6 +474,7 @@ fn write_csv(path: &Path, pipeline: Pipeline, rows: &[BenchRow]) -> Result<()> {
             r.anisotropic_voxels.to_string(),
             r.photon_map.to_string(),
             r.voxel_lobes.to_string(),
+            r.depth_ordered_blend.to_string(),
             format!("{:.4}", r.seconds),
             format!("{:.5}", r.indirect_rel_mse),
             format!("{:.4}", r.indirect_flip),
@@ -490,8 +507,8 @@ pub fn table(rows: &[BenchRow], pipeline: Pipeline, spp: u32, w: u32, h: u32) ->
     };
     let mut md = format!(
         "# vxgi bench ({name}, {w}x{h}, reference {spp} spp)\n\n\
-         | voxels | cones | half-angle | mip clamp | step | RSM | layers | caches | cache res | octree | time | {shading} | voxelize | indirect FLIP | combined FLIP | combined rel. MSE | Pareto |\n\
-         |---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n"
+         | voxels | cones | half-angle | mip clamp | step | blend | RSM | layers | caches | cache res | octree | time | {shading} | voxelize | indirect FLIP | combined FLIP | combined rel. MSE | Pareto |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n"
     );
     let lrsm = pipeline == Pipeline::Lrsm;
     let cprc = pipeline == Pipeline::Cprc;
@@ -499,12 +516,17 @@ pub fn table(rows: &[BenchRow], pipeline: Pipeline, spp: u32, w: u32, h: u32) ->
     for r in sorted {
         let _ = writeln!(
             md,
-            "| {}^3 | {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.0} ms | {:.0} ms | {:.0} ms | {:.3} | {:.3} | {:.4} | {} |",
+            "| {}^3 | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.0} ms | {:.0} ms | {:.0} ms | {:.3} | {:.3} | {:.4} | {} |",
             r.voxels,
             r.cones,
             r.cone_half_angle,
             r.mip_clamp,
             r.cone_step,
+            match (svo || lrsm, r.depth_ordered_blend) {
+                (true, _) => "-",
+                (false, true) => "depth-ordered",
+                (false, false) => "trilinear",
+            },
             if lrsm { format!("{}^2", r.rsm_side) } else { "-".into() },
             if lrsm { r.lrsm_layers.as_str() } else { "-" },
             if cprc {
@@ -630,7 +652,7 @@ mod tests {
             ..Default::default()
         };
         let full = sweep(&base, false, Pipeline::VctDense);
-        assert_eq!(full.len(), 144);
+        assert_eq!(full.len(), 288);
         assert!(full
             .iter()
             .all(|s| s.ao_range == 0.25 && s.validate().is_ok()));

@@ -395,25 +395,26 @@ fn bench_quick_writes_csv_table_and_plot() {
     let lines: Vec<&str> = csv.lines().collect();
     assert_eq!(lines.len(), 5, "{csv}");
     assert!(lines[0].starts_with(
-        "voxels,cones,cone_half_angle,mip_clamp,cone_step,rsm_side,lrsm_layers,cache_resolution,cache_tile,caches,anisotropic_voxels,photon_map,voxel_lobes,seconds,"
+        "voxels,cones,cone_half_angle,mip_clamp,cone_step,rsm_side,lrsm_layers,cache_resolution,cache_tile,caches,anisotropic_voxels,photon_map,voxel_lobes,depth_ordered_blend,seconds,"
     ));
     assert!(lines[0].contains("combined_flip") && lines[0].contains("cone_trace_seconds"));
     // Every row: a positive time and a finite FLIP in [0, 1]; at least one row is Pareto-optimal.
     for l in &lines[1..] {
         let f: Vec<&str> = l.split(',').collect();
-        let secs: f64 = f[13].parse().unwrap();
-        let flip: f64 = f[17].parse().unwrap();
+        let secs: f64 = f[14].parse().unwrap();
+        let flip: f64 = f[18].parse().unwrap();
         assert!(secs > 0.0 && (0.0..=1.0).contains(&flip), "{l}");
     }
     assert!(
         lines[1..]
             .iter()
-            .any(|l| l.split(',').nth(18) == Some("true")),
+            .any(|l| l.split(',').nth(19) == Some("true")),
         "{csv}"
     );
     let md = std::fs::read_to_string(out.join("bench.md")).unwrap();
     assert!(
-        md.contains("| 32^3 | 1 | 30 | 2 | 0.5 | - | - | - | - |") && md.contains("**yes**"),
+        md.contains("| 32^3 | 1 | 30 | 2 | 0.5 | trilinear | - | - | - | - |")
+            && md.contains("**yes**"),
         "{md}"
     );
     assert!(md.contains("## Planner") && md.contains("| on |"), "{md}");
