@@ -7,7 +7,7 @@ use std::collections::BTreeMap;
 use vxgi_cpu_mirror::cache_creation::{
     cone_tan, create_texel, texel_directions, CacheParams, Placed, PlacedPyramids,
 };
-use vxgi_cpu_mirror::cone_trace::{ConeParams, OrderedPyramid, Pyramid, Volume};
+use vxgi_cpu_mirror::cone_trace::{ConeParams, Volume};
 use vxgi_harness::compare::bound_name;
 use vxgi_harness::{
     Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
@@ -332,16 +332,7 @@ pub fn mirror_texels(data: &Resources) -> (Vec<[f32; 4]>, Vec<[f32; 4]>) {
     let voxels: &[[f32; 4]] = bytemuck::cast_slice(&b("pyramid").bytes);
     let lmax = max_radiance(voxels, cone.side);
     match data.get("placed") {
-        None if cone.depth_order != 0 => {
-            let normals: &[[f32; 4]] = bytemuck::cast_slice(&b("pyramid_normal").bytes);
-            let pyr = OrderedPyramid {
-                p: &cone,
-                voxels,
-                normals,
-            };
-            texels_through(data, &pyr, lmax)
-        }
-        None => texels_through(data, &Pyramid { p: &cone, voxels }, lmax),
+        None => texels_through(data, &super::cone_trace::dense_volume(data, &cone), lmax),
         Some(r) => {
             let placed: &[Placed] = bytemuck::cast_slice(&r.buffer().expect("buffer").bytes);
             let vol = PlacedPyramids {

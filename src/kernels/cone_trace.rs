@@ -8,7 +8,7 @@ use crate::trace::SceneData;
 use std::collections::BTreeMap;
 use vxgi_cpu_mirror::bvh_trace::GpuTriangle;
 use vxgi_cpu_mirror::cone_trace::{
-    diffuse_cones, level_offset, pyramid_len, shade_pixel, ConeParams, OrderedPyramid, Pyramid,
+    diffuse_cones, level_offset, pyramid_len, shade_pixel, ConeParams, OrderedPyramid,
 };
 use vxgi_cpu_mirror::direct_light::GpuMaterial;
 use vxgi_cpu_mirror::gbuffer::Frame;
@@ -377,25 +377,29 @@ pub fn max_radiance(pyramid: &[[f32; 4]], side: u32) -> f32 {
         .fold(0.0, f32::max)
 }
 
+/// The dense pyramid of a case's resources (`pyramid`, `pyramid_normal`) as the mirror's volume:
+/// `OrderedPyramid` is the paper's trilinear where `params.depth_order` is 0 (the normal binding then
+/// holds one element, never read) and the depth-ordered blend where it is 1.
+pub fn dense_volume<'a>(data: &'a Resources, params: &'a ConeParams) -> OrderedPyramid<'a> {
+    let b = |n: &str| &data[n].buffer().expect("buffer").bytes;
+    OrderedPyramid {
+        p: params,
+        voxels: bytemuck::cast_slice(b("pyramid")),
+        normals: bytemuck::cast_slice(b("pyramid_normal")),
+    }
+}
+
 pub fn mirror_cones(data: &Resources) -> [Vec<[f32; 4]>; 4] {
     use vxgi_cpu_mirror::cache_creation::{Placed, PlacedPyramids};
     let b = |n: &str| data[n].buffer().expect("buffer");
     let params: ConeParams = *bytemuck::from_bytes(&b("cone").bytes);
     let voxels: &[[f32; 4]] = bytemuck::cast_slice(&b("pyramid").bytes);
     match data.get("placed") {
-        None if params.depth_order != 0 => {
-            let normals: &[[f32; 4]] = bytemuck::cast_slice(&b("pyramid_normal").bytes);
-            let pyr = OrderedPyramid {
-                p: &params,
-                voxels,
-                normals,
-            };
-            shade_all(data, &pyr, max_radiance(voxels, params.side))
-        }
-        None => {
-            let pyr = Pyramid { p: &params, voxels };
-            shade_all(data, &pyr, max_radiance(voxels, params.side))
-        }
+        None => shade_all(
+            data,
+            &dense_volume(data, &params),
+            max_radiance(voxels, params.side),
+        ),
         Some(r) => {
             let placed: &[Placed] = bytemuck::cast_slice(&r.buffer().expect("buffer").bytes);
             let lmax = placed
