@@ -1711,20 +1711,13 @@ pub fn render_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendered> {
     let pyramids = m.pyramid();
     let params = cone_trace::cone_params(&m.frame, cones);
     let lmax = cone_trace::max_radiance(&pyramids.colour, m.frame.side);
-    let plan = FramePlan::vct_dense(scene, cones);
-    if params.depth_order != 0 {
-        let pyr = vxgi_cpu_mirror::cone_trace::OrderedPyramid {
-            p: &params,
-            voxels: &pyramids.colour,
-            normals: &pyramids.normal,
-        };
-        return Ok(m.shade(&pyr, lmax, plan));
-    }
-    let pyr = vxgi_cpu_mirror::cone_trace::Pyramid {
+    // The paper's trilinear where params.depth_order is 0, the depth-ordered blend where it is 1.
+    let pyr = vxgi_cpu_mirror::cone_trace::OrderedPyramid {
         p: &params,
         voxels: &pyramids.colour,
+        normals: &pyramids.normal,
     };
-    Ok(m.shade(&pyr, lmax, plan))
+    Ok(m.shade(&pyr, lmax, FramePlan::vct_dense(scene, cones)))
 }
 
 /// lrsm computed by the scalar mirrors alone (the snapshot tests' lrsm images): occlusion voxels of

@@ -275,16 +275,8 @@ impl OrderedPyramid<'_> {
 
     /// The ordered blend of level `l` at `x` along axis `k`, and its bound.
     fn ordered(&self, x: Vec3, l: u32, d: Vec3, k: usize) -> (Vec4, SampleError) {
-        let p = self.p;
-        let n = (p.side >> l) as i32;
-        let inv = p.inv_s0 * (1.0 / (1u32 << l) as f32);
-        let origin = Vec3::from_slice(&p.origin[..3]);
-        let q = (x - origin) * inv - Vec3::splat(0.5);
-        let dq = SampleError::coordinate_error(x, origin, inv, q);
-        let fl = q.floor();
-        let f = q - fl;
-        let i0 = [fl.x as i32, fl.y as i32, fl.z as i32];
-        let off = level_offset(p.side, l);
+        let GridPoint { n, dq, f, i0, .. } = GridPoint::new(self.p, x, l);
+        let off = level_offset(self.p.side, l);
         let (a, b) = ((k + 1) % 3, (k + 2) % 3);
         let mut acc = Vec4::ZERO;
         let mut err = SampleError::default();
@@ -406,6 +398,34 @@ pub fn trilinear_level(
     trilinear_level_moved(p, x, l, 0.0, fetch)
 }
 
+/// Where world point `x` falls in whole level `l` of the cone's grid (the kernels' order of
+/// operations): the level's side `n`, its inverse cell size `inv`, the cell coordinates' rounding
+/// error `dq` ([`SampleError::coordinate_error`]), the fractions `f` and the lower corner `i0` of the
+/// trilinear cell.
+pub struct GridPoint {
+    pub n: i32,
+    pub inv: f32,
+    pub dq: f32,
+    pub f: Vec3,
+    pub i0: [i32; 3],
+}
+
+impl GridPoint {
+    pub fn new(p: &ConeParams, x: Vec3, l: u32) -> Self {
+        let inv = p.inv_s0 * (1.0 / (1u32 << l) as f32);
+        let origin = Vec3::from_slice(&p.origin[..3]);
+        let q = (x - origin) * inv - Vec3::splat(0.5);
+        let fl = q.floor();
+        Self {
+            n: (p.side >> l) as i32,
+            inv,
+            dq: SampleError::coordinate_error(x, origin, inv, q),
+            f: q - fl,
+            i0: [fl.x as i32, fl.y as i32, fl.z as i32],
+        }
+    }
+}
+
 /// [`trilinear_level`] at a point `x` that is itself computed (a world point taken into a placed
 /// grid's frame: `PlacedPyramids`), off by up to `dx` in the grid's units beyond its own rounding.
 pub fn trilinear_level_moved(
@@ -415,14 +435,8 @@ pub fn trilinear_level_moved(
     dx: f32,
     fetch: impl Fn(usize) -> Vec4,
 ) -> (Vec4, SampleError) {
-    let n = (p.side >> l) as i32;
-    let inv = p.inv_s0 * (1.0 / (1u32 << l) as f32);
-    let origin = Vec3::from_slice(&p.origin[..3]);
-    let q = (x - origin) * inv - Vec3::splat(0.5);
-    let dq = SampleError::coordinate_error(x, origin, inv, q) + dx * inv;
-    let fl = q.floor();
-    let f = q - fl;
-    let i0 = [fl.x as i32, fl.y as i32, fl.z as i32];
+    let GridPoint { n, inv, dq, f, i0 } = GridPoint::new(p, x, l);
+    let dq = dq + dx * inv;
     let mut acc = Vec4::ZERO;
     let mut err = SampleError::default();
     for corner in 0..8u32 {
@@ -762,8 +776,8 @@ pub fn shade_pixel(
 mod tests {
     use super::*;
 
-    /// A 4^3 grid: cells x = 1 (dark, opaque, normal -x... per `dark_normal`) and x = 2 (lit, opaque),
-    /// the rest empty; level 0 only matters (samples at level 0).
+    /// A 4^3 grid: the cells at x = 1 dark and opaque with normal (`dark_normal`, 0, 0), those at
+    /// x = 2 lit and opaque, the rest empty (the samples read level 0).
     fn wall(dark_normal: f32) -> (ConeParams, Vec<[f32; 4]>, Vec<[f32; 4]>) {
         let p = ConeParams {
             origin: [0.0, 0.0, 0.0, 1.0],

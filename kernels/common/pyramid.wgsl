@@ -30,12 +30,10 @@ fn ordered_cell(off: u32, n: i32, i: vec3<i32>) -> OrderedCell {
 }
 
 fn ordered_level(x: vec3<f32>, l: u32, d: vec3<f32>) -> vec4<f32> {
-    let n = i32(cone.side >> l);
-    let inv = cone.inv_s0 * (1.0 / f32(1u << l));
-    let q = (x - cone.origin.xyz) * inv - vec3<f32>(0.5);
-    let fl = floor(q);
-    let f = q - fl;
-    let i0 = vec3<i32>(fl);
+    let g = grid_point(x, l, cone.origin.xyz, cone.inv_s0, cone.side);
+    let n = g.n;
+    let f = g.f;
+    let i0 = g.i0;
     let off = grid_level_offset(cone.side, l);
     let ad = abs(d);
     var k = 2u;
