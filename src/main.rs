@@ -35,6 +35,16 @@ enum Command {
     },
     /// List the declared kernels with their WGSL files and mirrors.
     List,
+    /// Write a kernel as one self-contained WGSL file for another renderer: its kernels/common/
+    /// includes composed in, under a header naming its mirror, entry point, workgroup size and every
+    /// binding (group, slot, access, type, byte layout) from naga reflection. Validated first.
+    Export {
+        /// The kernel (`vxgi list` names them), or `all` (needs --out DIR: DIR/<name>.wgsl each).
+        kernel: String,
+        /// The file to write (default: standard output), or the folder for `all`.
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
     /// Load a scene file (default: the built-in Cornell box), check it and print what it holds.
     Scene {
         /// A TOML scene file (see README, "Scenes").
@@ -599,6 +609,7 @@ fn real_main() -> Result<()> {
             }
             Ok(())
         }
+        Command::Export { kernel, out } => run_export(&kernel, out.as_deref()),
         Command::Verify {
             kernel,
             cases,
@@ -742,6 +753,44 @@ fn run_scene(path: Option<std::path::PathBuf>) -> Result<()> {
         c.fov_y_deg,
         scene.render.voxels
     );
+    Ok(())
+}
+
+fn run_export(kernel: &str, out: Option<&Path>) -> Result<()> {
+    let write = |path: &Path, text: &str| -> Result<()> {
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+        }
+        std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))
+    };
+    if kernel == "all" {
+        let Some(dir) = out else {
+            bail!("`vxgi export all` writes one file per kernel: give the folder with --out DIR");
+        };
+        let kernels = vxgi::kernels::all();
+        for k in &kernels {
+            let d = k.decl();
+            let text = d
+                .export()
+                .with_context(|| format!("exporting `{}`", d.name))?;
+            write(&dir.join(format!("{}.wgsl", d.name)), &text)?;
+        }
+        eprintln!("wrote {} kernels to {}", kernels.len(), dir.display());
+        return Ok(());
+    }
+    let d = vxgi::kernels::find(kernel)
+        .map_err(anyhow::Error::msg)?
+        .decl();
+    let text = d
+        .export()
+        .with_context(|| format!("exporting `{}`", d.name))?;
+    match out {
+        Some(path) => {
+            write(path, &text)?;
+            eprintln!("wrote {} to {}", d.name, path.display());
+        }
+        None => print!("{text}"),
+    }
     Ok(())
 }
 

@@ -91,6 +91,90 @@ impl KernelDecl {
             .join("\n")
     }
 
+    /// [`Self::composed_source`] with an interface header (WGSL `//` comments) for lifting the kernel
+    /// into another renderer: what it computes, the files it is composed of, its mirror, the entry
+    /// point and workgroup size, and every binding from naga reflection (group, slot, name, access,
+    /// WGSL type, byte layout), marked where the entry does not use it. Validates first, so what is
+    /// written is what the harness runs.
+    pub fn export(&self) -> Result<String> {
+        let shader = self.shader()?;
+        let entry =
+            shader
+                .entry(self.entry)
+                .ok_or_else(|| crate::error::HarnessError::UnknownEntry {
+                    kernel: self.name.into(),
+                    path: self.wgsl_path.into(),
+                    entry: self.entry.into(),
+                    available: shader
+                        .entries
+                        .iter()
+                        .map(|e| e.name.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                })?;
+        let mut h = vec![
+            format!("{} (exported by `vxgi export`)", self.name),
+            self.summary.to_string(),
+            String::new(),
+            format!(
+                "Composed of, in this order: {}",
+                self.includes
+                    .iter()
+                    .map(|(p, _)| *p)
+                    .chain([self.wgsl_path])
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+            format!("Scalar mirror (the definition this WGSL is checked against): {}", self.mirror),
+            format!(
+                "Verify on your device: vxgi verify --kernel {} (GPU vs mirror, per-element bounds)",
+                self.name
+            ),
+            String::new(),
+            format!(
+                "Interface: entry `{}`, @workgroup_size({}, {}, {})",
+                self.entry,
+                entry.workgroup_size[0],
+                entry.workgroup_size[1],
+                entry.workgroup_size[2]
+            ),
+        ];
+        let mut order: Vec<usize> = (0..shader.bindings.len()).collect();
+        order.sort_by_key(|&i| (shader.bindings[i].group, shader.bindings[i].binding));
+        for i in order {
+            let b = &shader.bindings[i];
+            let unused = if entry.uses.contains(&i) {
+                ""
+            } else {
+                " (not used by this entry)"
+            };
+            h.push(format!(
+                "  @group({}) @binding({}) {}: {}, {}{unused}",
+                b.group,
+                b.binding,
+                b.name,
+                describe(&b.kind),
+                b.ty
+            ));
+            // A struct (or an array of one): its members' byte offsets, for filling the buffer.
+            let inner =
+                b.ty.strip_prefix("array<")
+                    .and_then(|t| t.strip_suffix('>'))
+                    .unwrap_or(&b.ty);
+            if let Some((size, members)) = shader.struct_layout(inner) {
+                let m: Vec<String> = members.iter().map(|(n, o)| format!("{n} @{o}")).collect();
+                h.push(format!("      {inner} ({size} B): {}", m.join(", ")));
+            }
+        }
+        let mut out: String = h
+            .iter()
+            .map(|l| format!("// {l}").trim_end().to_string() + "\n")
+            .collect();
+        out.push('\n');
+        out.push_str(&self.composed_source());
+        Ok(out)
+    }
+
     pub fn output(&self, binding: &str) -> Option<&Output> {
         self.outputs.iter().find(|o| o.binding == binding)
     }
@@ -285,6 +369,34 @@ fn flush_buffer(b: &HostBuffer) -> HostBuffer {
         .map(|c| flush_subnormal(f32::from_le_bytes([c[0], c[1], c[2], c[3]])))
         .collect();
     HostBuffer::f32(&flushed)
+}
+
+/// A binding's kind and byte layout in words, for [`KernelDecl::export`].
+fn describe(kind: &crate::shader::BindingKind) -> String {
+    use crate::shader::{BindingKind as K, BufferLayout};
+    let layout = |l: &BufferLayout| match l.runtime_stride {
+        Some(s) if l.fixed_size > 0 => format!("{} B + n x {s} B", l.fixed_size),
+        Some(s) => format!("n x {s} B"),
+        None => format!("{} B", l.fixed_size),
+    };
+    match kind {
+        K::Uniform(l) => format!("uniform, {}", layout(l)),
+        K::Storage {
+            read_only,
+            layout: l,
+        } => format!(
+            "storage {}, {}",
+            if *read_only { "read" } else { "read_write" },
+            layout(l)
+        ),
+        K::SampledTexture { dim, sample } => format!("sampled texture {dim:?} of {sample:?}"),
+        K::StorageTexture {
+            dim,
+            format,
+            access,
+        } => format!("storage texture {dim:?}, {format:?}, {access}"),
+        K::Sampler => "sampler".into(),
+    }
 }
 
 fn flush_resources(r: &Resources) -> Resources {
