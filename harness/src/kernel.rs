@@ -139,6 +139,12 @@ impl KernelDecl {
                 entry.workgroup_size[2]
             ),
         ];
+        h.push(match self.dispatch {
+            DispatchRule::PerElement { binding } => format!(
+                "Dispatch: one invocation per element of `{binding}` (the grid: see the kernel's header comment)"
+            ),
+            DispatchRule::PerItem { what } => format!("Dispatch: one invocation (or workgroup) per {what}"),
+        });
         let mut order: Vec<usize> = (0..shader.bindings.len()).collect();
         order.sort_by_key(|&i| (shader.bindings[i].group, shader.bindings[i].binding));
         for i in order {
