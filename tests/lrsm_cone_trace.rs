@@ -123,3 +123,24 @@ fn shadow_cones_replace_the_exact_shadow_rays_when_asked() {
         .iter()
         .all(|p| p.iter().all(|c| c.is_finite())));
 }
+
+/// Regression (found by a 20-seed `vxgi verify` sweep, seed 19): a generated G-buffer albedo near the
+/// bottom of the normal range (kd = 4.9e-38) makes a soft-direct term of 2.3e-38 that the GPU returned
+/// as 0 (a product flushed on the way: WGSL allows flushing subnormal intermediates); the shadow-cone
+/// bound now covers what flushing can remove. The case is generated again and checked on its own.
+#[test]
+fn a_soft_direct_term_at_the_bottom_of_the_normal_range_may_flush() {
+    use vxgi::harness::kernel::verify_case;
+    use vxgi::harness::Kernel;
+    let shader = vxgi::kernels::lrsm_cone_trace::DECL.shader().unwrap();
+    let case = LrsmConeTrace.case(&shader, gpu(), 19, 59);
+    assert!(
+        case.label.contains("offset [1000, -500, 250] 48x32"),
+        "the generator no longer makes the seed-19 case: {}",
+        case.label
+    );
+    let (comps, ..) = verify_case(gpu(), &shader, &LrsmConeTrace, &case, None).unwrap();
+    for c in comps {
+        assert!(c.passed(), "{}", c.report());
+    }
+}

@@ -287,6 +287,13 @@ pub fn soft_direct(
             + f * e_irr * (cos + e_dir)
             + brdf_error(m, n, inc.wi, wo, cos) * inc.irradiance * cos;
         bound += (term + bt) * bv + bt * v + term * v * (4.0 * u);
+        // Flush to zero: WGSL lets a GPU flush subnormal intermediates, and the term is a chain of
+        // products (kd, E, cos, V) whose order and fusion the GPU chooses; a partial product below
+        // f32::MIN_POSITIVE may become 0 and take the term with it. The factors after it are cos, V
+        // (<= 1) and E, so what can go is below MIN_POSITIVE x max(1, |E|), with a factor 8 for the
+        // chain's roundings around it. Seen on lavapipe (verify seed 19): kd.x = 4.9e-38 (a generated
+        // albedo near the bottom of the normal range), E.x = 0.5, the mirror's term 2.3e-38, the GPU's 0.
+        bound += Vec3::splat(8.0 * f32::MIN_POSITIVE * inc.irradiance.abs().max_element().max(1.0));
         if ambiguous {
             bound += term;
         }
