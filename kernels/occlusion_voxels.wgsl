@@ -8,6 +8,9 @@
 //   binarize (level 0): byte 255 where the voxelized alpha vox_colour[v].w > 0, else 0 (NaN is empty).
 //   reduce (level k from k - 1): byte = (sum of its 8 child bytes + 4) >> 3, the mean rounded half up =
 //     255 x the solid fraction of the block (volume coverage: the paper's mipmapped occlusion).
+//   reduce_surface (the same, CPRC's surface coverage; an lrsm option): byte = min(255, (sum + 2) >> 2),
+//     a quarter of the sum rounded half up, capped: a plane through the block (4 of 8 children) stays
+//     opaque, where volume coverage halves a one-voxel wall per level.
 // Level buffers hold max(voxels / 4, 8) words; child words past the source's end read as 0.
 // Accuracy: integers only; exact.
 
@@ -36,12 +39,8 @@ fn byte_sum(w: u32) -> u32 {
     return (w & 255u) + ((w >> 8u) & 255u) + ((w >> 16u) & 255u) + (w >> 24u);
 }
 
-@compute @workgroup_size(64)
-fn reduce(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let q = gid.x + gid.y * groups.x * 64u;
-    if (q >= arrayLength(&dst)) {
-        return;
-    }
+// Word q of the parent level from its children in `src`, by volume (surface = false) or surface coverage.
+fn reduce_word(q: u32, surface: bool) -> u32 {
     var word = 0u;
     for (var k = 0u; k < 4u; k++) {
         let c = 2u * (4u * q + k);
@@ -51,7 +50,29 @@ fn reduce(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
                 sum = sum + byte_sum(src[c + h]);
             }
         }
-        word = word | (((sum + 4u) >> 3u) << (8u * k));
+        var b = (sum + 4u) >> 3u;
+        if (surface) {
+            b = min((sum + 2u) >> 2u, 255u);
+        }
+        word = word | (b << (8u * k));
     }
-    dst[q] = word;
+    return word;
+}
+
+@compute @workgroup_size(64)
+fn reduce(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let q = gid.x + gid.y * groups.x * 64u;
+    if (q >= arrayLength(&dst)) {
+        return;
+    }
+    dst[q] = reduce_word(q, false);
+}
+
+@compute @workgroup_size(64)
+fn reduce_surface(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let q = gid.x + gid.y * groups.x * 64u;
+    if (q >= arrayLength(&dst)) {
+        return;
+    }
+    dst[q] = reduce_word(q, true);
 }

@@ -202,6 +202,10 @@ struct RenderFlags {
     /// lrsm: overlap of neighbouring depth layers [default 0.05].
     #[arg(long = "lrsm-overlap", alias = "lrsm_overlap")]
     lrsm_overlap: Option<f32>,
+    /// lrsm: occlusion mips by surface coverage (a one-voxel wall stays opaque at every level)
+    /// instead of the paper's volume coverage (the solid fraction) [default false].
+    #[arg(long = "lrsm-surface-coverage", alias = "lrsm_surface_coverage")]
+    lrsm_surface_coverage: Option<bool>,
     /// lrsm: soft shadows from shadow cones of this half-angle through the occlusion voxels, degrees
     /// (0 = exact shadow rays) [default 0].
     #[arg(long = "shadow-cone-angle", alias = "shadow_cone_angle")]
@@ -274,6 +278,7 @@ fn load_scene(path: &Option<PathBuf>, flags: &RenderFlags) -> Result<vxgi::scene
         lrsm_depth_splits,
         lrsm_normal_splits,
         lrsm_overlap,
+        lrsm_surface_coverage,
         shadow_cone_angle,
         cache_resolution,
         irradiance_resolution,

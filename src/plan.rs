@@ -296,6 +296,9 @@ impl FramePlan {
                         runs: !cached,
                         why: if cached {
                             CACHED.into()
+                        } else if lrsm.surface_coverage {
+                            "binary occlusion and its surface-coverage mips (lrsm_surface_coverage: thin walls stay opaque; no radiance in the voxels)"
+                                .into()
                         } else {
                             "binary occlusion and its averaged mips (no radiance in the voxels)"
                                 .into()

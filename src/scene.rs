@@ -176,6 +176,10 @@ pub struct RenderSettings {
     pub lrsm_normal_splits: u32,
     /// lrsm: overlap of neighbouring depth layers (delta of eq. 15), in [0, 1 / (a + 1)].
     pub lrsm_overlap: f32,
+    /// lrsm: occlusion mips by CPRC's surface coverage (a quarter of the children's sum, capped: a
+    /// one-voxel wall stays opaque at every level) instead of the paper's volume coverage (the solid
+    /// fraction: such a wall is 1/2^k opaque at level k, and cones see through it).
+    pub lrsm_surface_coverage: bool,
     /// lrsm: soft shadows — direct light's visibility from one cone of this half-angle (degrees) per
     /// light through the occlusion voxels instead of an exact shadow ray; 0 (the default) = exact rays,
     /// the light-transport contract. In [0, 45].
@@ -349,6 +353,7 @@ impl Default for RenderSettings {
             lrsm_depth_splits: 1,
             lrsm_normal_splits: 1,
             lrsm_overlap: 0.05,
+            lrsm_surface_coverage: false,
             shadow_cone_angle: 0.0,
             // The paper's 16^2 caches and two-tile gathering radius; 16-pixel tiles give ~1000
             // caches at 256x256.

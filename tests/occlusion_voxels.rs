@@ -1,6 +1,7 @@
 //! GPU vs mirror for `kernels/occlusion_voxels.wgsl`: every level bit for bit on generated grids (every
-//! family, sides 2..128, random seeds through proptest); each level's byte against the exact solid
-//! fraction of the leaves under it; and the memory the paper's Table 2 states.
+//! family, sides 2..128, random seeds through proptest, both coverage rules); each level's byte
+//! against the exact solid fraction of the leaves under it (volume coverage); one-voxel walls opaque
+//! at every level (surface coverage); and the memory the paper's Table 2 states.
 mod common;
 
 use common::gpu;
@@ -10,7 +11,7 @@ use vxgi::harness::kernel::{verify, verify_case};
 use vxgi::harness::{Corruption, VerifyOptions};
 use vxgi::kernels::occlusion_voxels::{case_for, occlusion_on_gpu, OcclusionVoxels, DECL};
 use vxgi_cpu_mirror::morton;
-use vxgi_cpu_mirror::occlusion_voxels::{byte, pyramid, pyramid_bytes};
+use vxgi_cpu_mirror::occlusion_voxels::{byte, pyramid, pyramid_bytes, Coverage};
 
 #[test]
 fn generated_grids_match_the_mirror_bit_for_bit() {
@@ -47,13 +48,14 @@ fn a_corrupted_word_fails_verification() {
 proptest! {
     #![proptest_config(ProptestConfig { cases: 12, ..ProptestConfig::default() })]
 
-    /// Random sides, families and seeds: GPU == mirror on every level.
+    /// Random sides, families, seeds and coverage rules: GPU == mirror on every level.
     #[test]
-    fn random_grids(log_n in 1u32..=6, family in 0usize..64, seed in any::<u64>()) {
+    fn random_grids(log_n in 1u32..=6, family in 0usize..64, seed in any::<u64>(), surface in any::<bool>()) {
         let n = 1u32 << log_n;
         let grid = generate(n, Pattern::family(family, n), seed);
         let shader = DECL.shader().unwrap();
-        let case = case_for(&shader, gpu(), &grid, format!("{n}^3 family {family}"), seed);
+        let coverage = if surface { Coverage::Surface } else { Coverage::Volume };
+        let case = case_for(&shader, gpu(), &grid, coverage, format!("{n}^3 family {family} {coverage:?}"), seed);
         let (comps, ..) = verify_case(gpu(), &shader, &OcclusionVoxels, &case, None).unwrap();
         for c in &comps {
             prop_assert!(c.passed(), "{}", c.report());
@@ -72,8 +74,8 @@ fn mip_bytes_are_the_solid_fraction_of_their_leaves() {
     ] {
         let n = 32u32;
         let grid = generate(n, pattern, seed);
-        let levels = occlusion_on_gpu(gpu(), &grid).unwrap();
-        assert_eq!(levels, pyramid(&grid.colour, n, false));
+        let levels = occlusion_on_gpu(gpu(), &grid, Coverage::Volume).unwrap();
+        assert_eq!(levels, pyramid(&grid.colour, n, false, Coverage::Volume));
         for (k, words) in levels.iter().enumerate() {
             let side = n >> k;
             for m in 0..side.pow(3) {
@@ -94,6 +96,52 @@ fn mip_bytes_are_the_solid_fraction_of_their_leaves() {
                     (got - exact).abs() <= 0.5 * k as f64 + 1e-9,
                     "{pattern:?} level {k} voxel ({x},{y},{z}): byte {got}, 255 x fraction {exact}"
                 );
+            }
+        }
+    }
+}
+
+/// Surface coverage (the lrsm option `lrsm_surface_coverage`): a wall one voxel thick, along any axis
+/// at any position, is opaque (255) in every block of every level that holds part of it — four of a
+/// block's eight children hold the wall, a quarter of their sum is 255 — where volume coverage halves
+/// it per level (within rounding: 255 / 2^k +- k/2), so cones see through it.
+#[test]
+fn surface_coverage_keeps_one_voxel_walls_opaque_at_every_level() {
+    let n = 32u32;
+    for (axis, at) in [(0usize, 0u32), (0, 13), (1, 31), (2, 6), (2, 17)] {
+        let colour: Vec<[f32; 4]> = (0..n.pow(3))
+            .map(|m| {
+                let solid = morton::decode(m)[axis] == at;
+                [0.0, 0.0, 0.0, if solid { 1.0 } else { 0.0 }]
+            })
+            .collect();
+        let grid = vxgi::grids::Grid {
+            n,
+            colour,
+            normal: vec![[0.0; 4]; n.pow(3) as usize],
+        };
+        let surface = occlusion_on_gpu(gpu(), &grid, Coverage::Surface).unwrap();
+        let volume = occlusion_on_gpu(gpu(), &grid, Coverage::Volume).unwrap();
+        assert_eq!(surface, pyramid(&grid.colour, n, false, Coverage::Surface));
+        for k in 0..=n.trailing_zeros() as usize {
+            let side = n >> k;
+            for m in 0..side.pow(3) {
+                let holds = morton::decode(m)[axis] == at >> k;
+                let (s, v) = (byte(&surface[k], m as usize), byte(&volume[k], m as usize));
+                if holds {
+                    assert_eq!(s, 255, "wall {axis}={at}: level {k} block {m} surface {s}");
+                    let halved = 255.0 / (1u32 << k) as f64;
+                    assert!(
+                        (v as f64 - halved).abs() <= 0.5 * k as f64 + 0.5,
+                        "volume {v} vs {halved}"
+                    );
+                } else {
+                    assert_eq!(
+                        (s, v),
+                        (0, 0),
+                        "wall {axis}={at}: level {k} block {m} is empty"
+                    );
+                }
             }
         }
     }

@@ -13,9 +13,14 @@
 //!   the fraction of the block that is solid (volume coverage, the paper's mipmapped occlusion), in
 //!   integers — GPU and mirror agree bit for bit. Each level rounds once, so a byte of level k is within
 //!   k/2 of 255 x the exact fraction of solid leaves under it.
+//! * Or (`reduce_surface`, [`Coverage::Surface`], an option of the lrsm pipeline): byte = min(255, (sum +
+//!   2) >> 2), a quarter of the children's sum rounded half up and capped — CPRC's surface coverage
+//!   (`surface_coverage_mip`) in bytes: four solid children of eight (a plane through the block) stay
+//!   opaque, so a one-voxel wall occludes at every level where volume coverage halves it per level.
 //!
 //! Occlusion of a voxel: `alpha = byte / 255`.
 use crate::ftz;
+pub use crate::surface_coverage_mip::Coverage;
 
 /// Words of a level of `voxels` voxels (padded to 8).
 pub fn level_words(voxels: u64) -> usize {
@@ -38,8 +43,9 @@ pub fn byte(words: &[u32], v: usize) -> u32 {
     (words[v / 4] >> (8 * (v % 4))) & 255
 }
 
-/// Level k from level k - 1 (`dst_words` words: [`level_words`] of the parent level).
-pub fn reduce(src: &[u32], dst_words: usize) -> Vec<u32> {
+/// Level k from level k - 1 (`dst_words` words: [`level_words`] of the parent level) by `coverage`'s
+/// rule.
+pub fn reduce(src: &[u32], dst_words: usize, coverage: Coverage) -> Vec<u32> {
     let mut dst = vec![0u32; dst_words];
     for (q, word) in dst.iter_mut().enumerate() {
         for k in 0..4 {
@@ -50,18 +56,26 @@ pub fn reduce(src: &[u32], dst_words: usize) -> Vec<u32> {
                 let w = src.get(c).copied().unwrap_or(0);
                 sum += (w & 255) + ((w >> 8) & 255) + ((w >> 16) & 255) + (w >> 24);
             }
-            *word |= ((sum + 4) >> 3) << (8 * k);
+            let b = match coverage {
+                Coverage::Volume => (sum + 4) >> 3,
+                Coverage::Surface => ((sum + 2) >> 2).min(255),
+            };
+            *word |= b << (8 * k);
         }
     }
     dst
 }
 
 /// Every level of a grid of side `side` (a power of two): level 0 .. log2(side).
-pub fn pyramid(colour: &[[f32; 4]], side: u32, flush: bool) -> Vec<Vec<u32>> {
+pub fn pyramid(colour: &[[f32; 4]], side: u32, flush: bool, coverage: Coverage) -> Vec<Vec<u32>> {
     let mut levels = vec![binarize(colour, flush)];
     for k in 1..=side.trailing_zeros() {
         let voxels = ((side >> k) as u64).pow(3);
-        let next = reduce(levels.last().expect("level 0"), level_words(voxels));
+        let next = reduce(
+            levels.last().expect("level 0"),
+            level_words(voxels),
+            coverage,
+        );
         levels.push(next);
     }
     levels
@@ -90,13 +104,47 @@ mod tests {
                 [0.0, 0.0, 0.0, if z < side / 2 { 1.0 } else { 0.0 }]
             })
             .collect();
-        let levels = pyramid(&colour, side, false);
+        let levels = pyramid(&colour, side, false, Coverage::Volume);
         assert_eq!(levels.len(), 4);
         assert_eq!(byte(&levels[3], 0), 128);
         for m in 0..8u32 {
             let [_, _, z] = morton::decode(m);
             assert_eq!(byte(&levels[2], m as usize), if z < 1 { 255 } else { 0 });
         }
+    }
+
+    #[test]
+    fn surface_coverage_keeps_a_one_voxel_wall_opaque_at_every_level() {
+        // A wall one voxel thick (x = 0) through the whole grid: volume coverage halves it per level
+        // (255 -> 128 -> 64 -> 32), surface coverage (a quarter of the children's sum, capped) keeps it
+        // 255; a single solid voxel is 1/8 of its parent by volume (32) and 1/4 by surface (64).
+        let side = 8u32;
+        let wall: Vec<[f32; 4]> = (0..512u32)
+            .map(|m| {
+                [
+                    0.0,
+                    0.0,
+                    0.0,
+                    if morton::decode(m)[0] == 0 { 1.0 } else { 0.0 },
+                ]
+            })
+            .collect();
+        let volume = pyramid(&wall, side, false, Coverage::Volume);
+        let surface = pyramid(&wall, side, false, Coverage::Surface);
+        for k in 1..=3 {
+            assert_eq!(byte(&volume[k], 0), [255, 128, 64, 32][k]);
+            assert_eq!(byte(&surface[k], 0), 255);
+        }
+        let mut one = vec![[0.0f32; 4]; 512];
+        one[0][3] = 1.0;
+        assert_eq!(
+            byte(&pyramid(&one, side, false, Coverage::Volume)[1], 0),
+            32
+        );
+        assert_eq!(
+            byte(&pyramid(&one, side, false, Coverage::Surface)[1], 0),
+            64
+        );
     }
 
     #[test]

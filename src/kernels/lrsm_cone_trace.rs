@@ -83,6 +83,8 @@ pub struct LrsmSettings {
     pub depth_splits: u32,
     pub normal_splits: u32,
     pub overlap: f32,
+    /// Occlusion mips by CPRC's surface coverage instead of the paper's volume coverage.
+    pub surface_coverage: bool,
 }
 
 impl From<&crate::scene::RenderSettings> for LrsmSettings {
@@ -93,6 +95,7 @@ impl From<&crate::scene::RenderSettings> for LrsmSettings {
             depth_splits: r.lrsm_depth_splits,
             normal_splits: r.lrsm_normal_splits,
             overlap: r.lrsm_overlap,
+            surface_coverage: r.lrsm_surface_coverage,
         }
     }
 }
@@ -256,6 +259,11 @@ impl LrsmFrame {
         let on_gpu = |stage: &str| gpu.filter(|_| !mirror(stage));
         progress("occlusion voxels");
         let t = std::time::Instant::now();
+        let coverage = if settings.surface_coverage {
+            vxgi_cpu_mirror::occlusion_voxels::Coverage::Surface
+        } else {
+            vxgi_cpu_mirror::occlusion_voxels::Coverage::Volume
+        };
         let levels = match on_gpu("occlusion_voxels") {
             Some(ctx) => {
                 let grid = crate::grids::Grid {
@@ -263,9 +271,11 @@ impl LrsmFrame {
                     colour: colour.to_vec(),
                     normal: vec![[0.0; 4]; colour.len()],
                 };
-                occlusion_on_gpu(ctx, &grid).context("occlusion voxels")?
+                occlusion_on_gpu(ctx, &grid, coverage).context("occlusion voxels")?
             }
-            None => vxgi_cpu_mirror::occlusion_voxels::pyramid(colour, voxels.side, false),
+            None => {
+                vxgi_cpu_mirror::occlusion_voxels::pyramid(colour, voxels.side, false, coverage)
+            }
         };
         stages.push(("occlusion_voxels", t.elapsed().as_secs_f64()));
         let t = std::time::Instant::now();
@@ -579,6 +589,8 @@ impl Kernel for LrsmConeTrace {
             depth_splits: (index / 2 % 2) as u32,
             normal_splits: (index / 2 % 2) as u32,
             overlap: 0.05,
+            // The occlusion mips by surface coverage in one case of eight.
+            surface_coverage: index % 8 == 6,
         };
         let frame = LrsmFrame::build(
             ctx,
@@ -601,10 +613,15 @@ impl Kernel for LrsmConeTrace {
             &params,
             shadow_tan,
             format!(
-                "{label}, {side}^3, RSM {}^2, {} layers, {} views",
+                "{label}, {side}^3, RSM {}^2, {} layers, {} views{}",
                 settings.rsm_side,
                 frame.params.depth_slices * frame.params.normal_slices,
-                frame.views.len()
+                frame.views.len(),
+                if settings.surface_coverage {
+                    ", surface-coverage occlusion"
+                } else {
+                    ""
+                }
             ),
             seed,
         )

@@ -3,7 +3,7 @@
 //! grid. Verified level by level: level 0 from the grid, level k from the GPU's level k - 1.
 use crate::grids::{generate, Grid, Pattern};
 use std::collections::BTreeMap;
-use vxgi_cpu_mirror::occlusion_voxels::{binarize, level_words, reduce};
+use vxgi_cpu_mirror::occlusion_voxels::{binarize, level_words, reduce, Coverage};
 use vxgi_harness::run::{run, View};
 use vxgi_harness::{
     Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
@@ -32,7 +32,7 @@ pub static DECL: KernelDecl = KernelDecl {
     ],
     dispatch: DispatchRule::PerElement { binding: "occ0" },
     mirror: "vxgi_cpu_mirror::occlusion_voxels::{binarize, reduce}",
-    summary: "LRSM binary occlusion voxels, 1 byte per voxel packed 4 per u32 (no atomics), and their mips: mean of 8 children rounded half up = solid fraction (LRSM 3.2, 5)",
+    summary: "LRSM binary occlusion voxels, 1 byte per voxel packed 4 per u32 (no atomics), and their mips: mean of 8 children rounded half up = solid fraction (LRSM 3.2, 5), or (entry reduce_surface) CPRC's surface coverage min(1, sum/4)",
 };
 
 /// Host resource of level `k`.
@@ -40,8 +40,24 @@ pub fn level_name(k: u32) -> String {
     format!("occ_{k}")
 }
 
-/// Resources and passes for the whole pyramid of `grid` (side >= 2, a power of two).
-pub fn case_for(shader: &Shader, ctx: &GpuContext, grid: &Grid, label: String, seed: u64) -> Case {
+/// The reduce entry point of a coverage rule.
+pub fn reduce_entry(coverage: Coverage) -> &'static str {
+    match coverage {
+        Coverage::Volume => "reduce",
+        Coverage::Surface => "reduce_surface",
+    }
+}
+
+/// Resources and passes for the whole pyramid of `grid` (side >= 2, a power of two), mips by
+/// `coverage`'s rule.
+pub fn case_for(
+    shader: &Shader,
+    ctx: &GpuContext,
+    grid: &Grid,
+    coverage: Coverage,
+    label: String,
+    seed: u64,
+) -> Case {
     let n = grid.n;
     let mut resources = Resources::new();
     resources.insert(
@@ -84,7 +100,7 @@ pub fn case_for(shader: &Shader, ctx: &GpuContext, grid: &Grid, label: String, s
             ],
             words[k as usize] as u64,
         );
-        pass.entry = "reduce".into();
+        pass.entry = reduce_entry(coverage).into();
         passes.push(pass);
         checks.push(Check {
             resource: level_name(k),
@@ -104,10 +120,14 @@ pub fn case_for(shader: &Shader, ctx: &GpuContext, grid: &Grid, label: String, s
     }
 }
 
-/// The occlusion pyramid of `grid` on the GPU: every level's words.
-pub fn occlusion_on_gpu(ctx: &GpuContext, grid: &Grid) -> anyhow::Result<Vec<Vec<u32>>> {
+/// The occlusion pyramid of `grid` on the GPU, mips by `coverage`'s rule: every level's words.
+pub fn occlusion_on_gpu(
+    ctx: &GpuContext,
+    grid: &Grid,
+    coverage: Coverage,
+) -> anyhow::Result<Vec<Vec<u32>>> {
     let shader = DECL.shader()?;
-    let case = case_for(&shader, ctx, grid, "occlusion".into(), 0);
+    let case = case_for(&shader, ctx, grid, coverage, "occlusion".into(), 0);
     let names: Vec<String> = (0..=grid.n.trailing_zeros()).map(level_name).collect();
     let refs: Vec<&str> = names.iter().map(String::as_str).collect();
     let out = run(
@@ -138,11 +158,18 @@ impl Kernel for OcclusionVoxels {
             .wrapping_mul(0x9e37_79b9_7f4a_7c15)
             .wrapping_add(index as u64);
         let grid = generate(n, pattern, case_seed);
+        // Every other case by surface coverage (the sides cycle by 7, so both rules meet every side).
+        let coverage = if index % 2 == 1 {
+            Coverage::Surface
+        } else {
+            Coverage::Volume
+        };
         case_for(
             shader,
             ctx,
             &grid,
-            format!("#{index} {n}^3 {pattern:?}"),
+            coverage,
+            format!("#{index} {n}^3 {pattern:?} {coverage:?} coverage"),
             seed,
         )
     }
@@ -160,10 +187,19 @@ impl Kernel for OcclusionVoxels {
             level_name(0),
             HostBuffer::u32(&binarize(colour, mode == FloatMode::FlushToZero)),
         );
+        // The rule the case's reduce passes run.
+        let coverage = if case.passes.iter().any(|p| p.entry == "reduce_surface") {
+            Coverage::Surface
+        } else {
+            Coverage::Volume
+        };
         for k in 1..case.checks.len() as u32 {
             let src = data[&level_name(k - 1)].buffer().expect("level").as_u32();
             let words = data[&level_name(k)].buffer().expect("level").as_u32().len();
-            out.insert(level_name(k), HostBuffer::u32(&reduce(src, words)));
+            out.insert(
+                level_name(k),
+                HostBuffer::u32(&reduce(src, words, coverage)),
+            );
         }
         out
     }
