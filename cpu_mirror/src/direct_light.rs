@@ -335,7 +335,14 @@ pub fn shade_with_bound(
         let b = term * (64.0 * u)
             + scale(1.0) * (8.0 * u)
             + brdf(m, n, inc.wi, wo, cos) * e_irr * (cos + e_dir)
-            + brdf_error(m, n, inc.wi, wo, cos) * inc.irradiance * cos;
+            + brdf_error(m, n, inc.wi, wo, cos) * inc.irradiance * cos
+            // Flush to zero: WGSL lets a GPU flush subnormal intermediates, and the term is a chain
+            // of products (kd, E, cos) whose order and fusion the GPU chooses; a partial product
+            // below f32::MIN_POSITIVE may become 0 and take the term with it, and what follows it is
+            // at most max(1, |E|) (cos <= 1), with a factor 8 for the roundings around it. Seen on
+            // lavapipe (verify seed 57): a generated albedo near the bottom of the normal range, the
+            // mirror's term 4.0e-38, the GPU's 0 (lrsm_cone_trace's shadow cones allow the same).
+            + Vec3::splat(8.0 * f32::MIN_POSITIVE * inc.irradiance.abs().max_element().max(1.0));
         bound += b;
     }
     (sum, bound)
