@@ -1,17 +1,7 @@
 //! The `vxgi` command line as a user runs it.
-use std::process::Command;
+mod common;
 
-fn vxgi(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_vxgi"))
-        .args(args)
-        .output()
-        .expect("run vxgi");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into(),
-        String::from_utf8_lossy(&out.stderr).into(),
-    )
-}
+use common::vxgi;
 
 #[test]
 fn verify_prints_the_table_and_exits_zero() {

@@ -1,20 +1,10 @@
 //! `vxgi export`: a kernel as one self-contained WGSL file for another renderer — its includes
 //! composed in, an interface header from naga reflection (entry, workgroup size, every binding's
 //! group, slot, access and layout), checked by parsing the exported text again.
-use std::process::Command;
-use vxgi::harness::shader::{BindingKind, Shader};
+mod common;
 
-fn vxgi(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_vxgi"))
-        .args(args)
-        .output()
-        .expect("run vxgi");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into(),
-        String::from_utf8_lossy(&out.stderr).into(),
-    )
-}
+use common::vxgi;
+use vxgi::harness::shader::{BindingKind, Shader};
 
 /// Every declared kernel: the exported text parses and validates on its own, reflects the same
 /// bindings as the kernel the harness runs, keeps the composed source verbatim after its header, and

@@ -2,9 +2,8 @@
 //! the reference's one-bounce and AO images; the render / reference / compare commands.
 mod common;
 
-use common::gpu;
+use common::{gpu, vxgi};
 use std::path::Path;
-use std::process::Command;
 use vxgi::images::{compare, read_exr, relative_mse, RgbImage};
 use vxgi::reference::{leak, pixel_positions, render_reference, ReferenceOptions};
 use vxgi::scene::Scene;
@@ -157,18 +156,6 @@ fn thin_wall_reference_has_no_leak_and_ao_is_in_range() {
         .iter()
         .zip(&pos)
         .any(|(a, p)| p[3] > 0.0 && a[0] < 0.9));
-}
-
-fn vxgi(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_vxgi"))
-        .args(args)
-        .output()
-        .expect("run vxgi");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into(),
-        String::from_utf8_lossy(&out.stderr).into(),
-    )
 }
 
 /// A 32x32 copy of the Cornell box scene file (the OBJ referenced by absolute path).

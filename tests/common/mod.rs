@@ -20,3 +20,16 @@ pub fn thin_wall(width: u32, height: u32) -> vxgi::scene::Scene {
     scene.camera.height = height;
     scene
 }
+
+/// Run the `vxgi` binary as a user would: (exit code, stdout, stderr).
+pub fn vxgi(args: &[&str]) -> (i32, String, String) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_vxgi"))
+        .args(args)
+        .output()
+        .expect("run vxgi");
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into(),
+        String::from_utf8_lossy(&out.stderr).into(),
+    )
+}
