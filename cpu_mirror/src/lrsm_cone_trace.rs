@@ -6,10 +6,8 @@
 //! arithmetic bound (`sample_lrsm::sample_bound`), plus the choices the sample point's rounding may
 //! change, each evaluated at the perturbed input: the texel (u or v within its error of a texel edge at
 //! the chosen level), the level (mip within its error of an integer), the depth (zc moved by its error:
-//! layer ranges, decay, Gaussian visibility) — each times the view's weight — and the view's weight
-//! [`disc_share`] (its error from the disc's centre and radius, times the view's |L|: a view the mirror
-//! leaves with weight 0 is still evaluated where the GPU's weight may be positive); plus 1e-4 of |L| for
-//! the direction vc = -d (a few ULP off the mirror's; N = <n, vc> moves
+//! layer ranges, decay, Gaussian visibility) and the view (|nx| or |ny| within its error of 1: the whole
+//! view's L); plus 1e-4 of |L| for the direction vc = -d (a few ULP off the mirror's; N = <n, vc> moves
 //! L by as little relatively). The input errors come from the sample point's: 16 ULP of the magnitudes of
 //! x and the eye, through the projection's divisions (2.5 ULP) and log2 (absolute 2^-21).
 use crate::cone_trace::{trilinear_level, ConeParams, SampleError, Volume};
@@ -65,57 +63,27 @@ impl LrsmVolume<'_> {
                 let dr = [dir[0], dir[1], dir[2], (0.5 * diam) * v.forward[3]];
                 sample(&lrsm, self.sp, pos, dr, false)
             };
-            // The projected diameter in LRSM level-0 texels.
-            let texels = if v.orthographic() {
-                diam * v.right[3]
+            let mip = if v.orthographic() {
+                (diam * v.right[3]).log2()
             } else {
-                diam * v.right[3] / zv
+                (diam * v.right[3] / zv).log2()
             };
-            let mip = texels.log2();
             let zc = (zv - v.eye[3]) * v.forward[3];
-            // The share of the sample's projected disc (radius texels / side0 in NDC, capped at 64 so
-            // that it stays finite as zv -> 0) inside the view (disc_share); the lookup at the clamped
-            // point. Where zv is within its error of 0, d_ndc (divided by zv) makes dw 1: the GPU may
-            // take or leave the view.
-            let r = (texels * (1.0 / self.sp.side0 as f32)).min(64.0);
-            let (wx, wy) = (disc_share(nx, r), disc_share(ny, r));
-            let w = wx * wy;
-            // Its error: each share's numerator 1 - |c| + r moves with c (d_ndc) and r (relative
-            // e_rel: diam * right.w / zv, as the mip's), its denominator 2r by e_rel; 8 ULP of the rest.
-            let e_rel = 2.0 * dx / div + 8.0 * u;
-            let d_share = |c: f32| {
-                let a = c.abs();
-                let span = (a + r).min(1.0) - (a - r).max(-1.0);
-                let q = span / (2.0 * r);
-                // Each end of the span moves with c (d_ndc) and r (r e_rel), plus its roundings.
-                let d_span = 2.0 * (d_ndc + r * e_rel) + 4.0 * u * (a + r + 1.0);
-                let dq = d_span / (2.0 * r) + q.abs() * e_rel + 8.0 * u;
-                // Clamped to [0, 1]: only an unclamped value within its error of that range moves.
-                if q > -dq && q < 1.0 + dq {
-                    dq.min(1.0)
-                } else {
-                    0.0
-                }
-            };
-            let (dwx, dwy) = (d_share(nx), d_share(ny));
-            let dw = (dwx * wy + wx * dwy + dwx * dwy + 2.0 * u * w).min(1.0);
-            if w + dw <= 0.0 {
-                continue;
-            }
-            let (cx, cy) = (nx.clamp(-1.0, 1.0), ny.clamp(-1.0, 1.0));
-            let l0 = at(cx, cy, mip, zc);
+            let inside = nx.abs() <= 1.0 && ny.abs() <= 1.0;
+            let l0 = at(nx, ny, mip, zc);
             let l0v = Vec3::new(l0[0], l0[1], l0[2]);
-            // The GPU's weight may differ by dw (and take a view this one leaves).
-            err += l0v.abs().max_element() * dw;
-            if w <= 0.0 {
+            if (nx.abs() - 1.0).abs() <= d_ndc || (ny.abs() - 1.0).abs() <= d_ndc {
+                // The GPU may take or leave this view.
+                err += l0v.abs().max_element();
+            }
+            if !inside {
                 continue;
             }
-            sum += l0v * w;
-            let (nx, ny) = (cx, cy);
+            sum += l0v;
             let pos = [(nx + 1.0) * 0.5, (1.0 - ny) * 0.5, mip, zc];
             let dr = [dir[0], dir[1], dir[2], (0.5 * diam) * v.forward[3]];
             let b = sample_bound(&lrsm, self.sp, pos, dr);
-            err += w * (b[0].max(b[1]).max(b[2]) + 1e-4 * l0v.abs().max_element());
+            err += b[0].max(b[1]).max(b[2]) + 1e-4 * l0v.abs().max_element();
             // Discrete choices within the inputs' errors.
             let level = (mip.max(0.0) as u32).min(self.sp.levels - 1);
             let s = (self.sp.side0 >> level) as f32;
@@ -148,22 +116,10 @@ impl LrsmVolume<'_> {
                         .max((a[2] - l0[2]).abs())
                 })
                 .fold(0.0f32, f32::max);
-            err += w * worst;
+            err += worst;
         }
         (sum, 2.0 * err)
     }
-}
-
-/// The share of a sample's projected disc (centre `c`, radius `r`, NDC units along one axis of a view)
-/// inside the view's [-1, 1]: the length of its span `[|c| - r, |c| + r]` inside, over its diameter
-/// — 1 well inside, 1/2 centred on an edge, 0 a radius past it (and less than 1 for a disc wider than
-/// the view). Per axis, multiplied, it weighs each view's radiance, so a sample across the seam of a
-/// point light's two cube faces takes from both (their shares sum to about 1) instead of from the one
-/// its centre falls in. In the kernel's operation order; finite inputs.
-pub fn disc_share(c: f32, r: f32) -> f32 {
-    let a = c.abs();
-    let span = (a + r).min(1.0) - (a - r).max(-1.0);
-    (span / (2.0 * r)).clamp(0.0, 1.0)
 }
 
 impl Volume for LrsmVolume<'_> {
@@ -343,40 +299,4 @@ pub fn soft_direct(
         }
     }
     (sum, bound)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::disc_share;
-
-    /// 1 a radius inside, 1/2 centred on the edge, 0 a radius past it; and across a flat seam (the
-    /// neighbouring view continuing the image plane, where its coordinate is 2 - c) the two shares
-    /// sum to 1, so a sample straddling two views is weighed by how much of it each sees.
-    #[test]
-    fn disc_shares_split_a_sample_across_a_seam() {
-        // Discs no wider than the view (the partition holds while the disc crosses one edge only).
-        for r in [1e-3f32, 0.01, 0.1, 0.5, 1.0] {
-            // 1 - |c| + r rounds to ~6e-8 absolute, divided by 2r: within 1e-4 at r = 1e-3.
-            let near = |c: f32, want: f32| {
-                let got = disc_share(c, r);
-                assert!((got - want).abs() < 1e-4, "r {r} c {c}: {got} vs {want}");
-            };
-            near(1.0 - r, 1.0);
-            near(0.0, 1.0);
-            near(1.0, 0.5);
-            near(-1.0, 0.5);
-            near(1.0 + r, 0.0);
-            assert_eq!(disc_share(1.0 + 2.0 * r, r), 0.0);
-            for k in 0..=20 {
-                let c = 1.0 - r + r * k as f32 / 10.0;
-                let sum = disc_share(c, r) + disc_share(2.0 - c, r);
-                assert!((sum - 1.0).abs() < 1e-4, "r {r} c {c}: {sum}");
-            }
-        }
-        // A disc wider than the view (a sample near the light): the share of its span inside.
-        assert_eq!(disc_share(0.0, 4.0), 0.25);
-        assert_eq!(disc_share(2.0, 4.0), 0.25);
-        assert_eq!(disc_share(9.0, 4.0), 0.0);
-        assert_eq!(disc_share(f32::INFINITY, 0.5), 0.0);
-    }
 }
