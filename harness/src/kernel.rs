@@ -98,20 +98,7 @@ impl KernelDecl {
     /// written is what the harness runs.
     pub fn export(&self) -> Result<String> {
         let shader = self.shader()?;
-        let entry =
-            shader
-                .entry(self.entry)
-                .ok_or_else(|| crate::error::HarnessError::UnknownEntry {
-                    kernel: self.name.into(),
-                    path: self.wgsl_path.into(),
-                    entry: self.entry.into(),
-                    available: shader
-                        .entries
-                        .iter()
-                        .map(|e| e.name.as_str())
-                        .collect::<Vec<_>>()
-                        .join(", "),
-                })?;
+        let entry = shader.require_entry(self.name, self.entry)?;
         let mut h = vec![
             format!("{} (exported by `vxgi export`)", self.name),
             self.summary.to_string(),

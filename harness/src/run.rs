@@ -367,21 +367,7 @@ impl Checker<'_> {
             }
         }
         for pass in passes {
-            let entry =
-                self.shader
-                    .entry(&pass.entry)
-                    .ok_or_else(|| HarnessError::UnknownEntry {
-                        kernel: self.kernel.into(),
-                        path: self.shader.path.clone(),
-                        entry: pass.entry.clone(),
-                        available: self
-                            .shader
-                            .entries
-                            .iter()
-                            .map(|e| e.name.as_str())
-                            .collect::<Vec<_>>()
-                            .join(", "),
-                    })?;
+            let entry = self.shader.require_entry(self.kernel, &pass.entry)?;
             for (name, _) in &pass.bindings {
                 if self.shader.binding(name).is_none() {
                     return Err(HarnessError::UnknownBinding {

@@ -214,6 +214,21 @@ impl Shader {
         self.entries.iter().find(|e| e.name == name)
     }
 
+    /// [`Self::entry`], or the error naming `kernel`, this file and the entry points it has.
+    pub fn require_entry(&self, kernel: &str, name: &str) -> Result<&EntryPoint> {
+        self.entry(name).ok_or_else(|| HarnessError::UnknownEntry {
+            kernel: kernel.into(),
+            path: self.path.clone(),
+            entry: name.into(),
+            available: self
+                .entries
+                .iter()
+                .map(|e| e.name.as_str())
+                .collect::<Vec<_>>()
+                .join(", "),
+        })
+    }
+
     /// Reflected layout of a named struct type (for checking `#[repr(C)]` parameter structs):
     /// total size and (member name, offset) pairs.
     pub fn struct_layout(&self, type_name: &str) -> Option<(u32, Vec<(String, u32)>)> {
