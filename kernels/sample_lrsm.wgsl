@@ -11,9 +11,10 @@
 // its mip level (log2 of the projected diameter in level-0 texels), and its light-space depth;
 // cone_dir[i] = (vc, rc): unit direction from the sample towards the view sample, and the sample's
 // radius in light-space depth units.
-// Fetch: level = min(u32(max(mip, 0)), levels - 1), the texel containing (u, v) there (clamped to the
-// edge); nearest texel, no filtering (the mirror reproduces it exactly; bilinear/trilinear in WGSL
-// arithmetic is a later refinement).
+// Fetch: trilinear, as the paper's filtered texture reads at mipLevel = log(d_circle) (section 5): the
+// two levels around max(mip, 0) (the last level alone past the chain), in each the 2 x 2 texels around
+// (u, v) clamped to the edge, weights and sums in WGSL arithmetic (`lrsm_taps`, common/lrsm_sample.wgsl;
+// the mirror weighs with the same bits, the sums may round or fuse differently).
 // For every layer (d, j) whose depth range contains zc (Algorithm 1's test; layers outside are not
 // sampled):  N = dot(n / A_n, vc) (eq. 8, normal normalised by opacity; skipped when A_n <= min_alpha);
 // if N > 0: V = eq. 12 on the layer's moments with zc, rc warped into the layer; if V > 0:

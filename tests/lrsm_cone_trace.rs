@@ -59,7 +59,7 @@ fn the_cornell_box_gathers_indirect_light_and_reports_its_memory() {
 /// walls opaque at the coarse levels, so the gather's samples weigh the LRSMs' radiance by a full
 /// alpha where the paper's volume coverage gives 1/2^k (eq. 1's alpha_i L_i). Measured at 256x256 /
 /// 128^3 against the 4096-spp reference: indirect energy 0.088 -> 0.361 of the reference's, combined
-/// FLIP 0.471 -> 0.400 (README, lrsm). Here (48x48, 64^3: measured 2.5x; at 32^3, where a wall is a
+/// FLIP 0.471 -> 0.400 with nearest-texel LRSM fetches, 0.464 -> 0.374 with trilinear ones (README, lrsm). Here (48x48, 64^3: measured 2.5x; at 32^3, where a wall is a
 /// thicker share of each cell, 1.5x) the indirect energy must at least double, and the frame is the
 /// mirror frame's to float rounding.
 #[test]

@@ -155,13 +155,33 @@ pub fn visibility(moments: [f32; 4], zc: f32, rc: f32, p: &VisibilityParams, flu
 /// H100 returns 0 there, as `x * rcp(A)` with rcp flushed — so V is promised only finite and in
 /// [0, 1]: bound 1.
 pub fn visibility_bound(moments: [f32; 4], zc: f32, rc: f32, p: &VisibilityParams) -> f32 {
+    visibility_bound_inexact(moments, [0.0; 3], zc, rc, p)
+}
+
+/// [`visibility_bound`] where the GPU's moments `(Az, Az^2, A)` may differ from the mirror's by up to
+/// `err` each (filtered attributes: `sample_lrsm::fetch_error`), carried first order into mu and
+/// sigma^2: `d mu += (e_Az + |mu| e_A) / A`, `d m2 = (e_Az2 + |m2| e_A) / A`, `d var += d m2 + 2 |mu|
+/// d mu`. An opacity within `e_A` of `min_alpha` (either branch) or of 0 relative to its error (A
+/// less than twice it) is bound 1: V is in [0, 1] either way.
+pub fn visibility_bound_inexact(
+    moments: [f32; 4],
+    err: [f64; 3],
+    zc: f32,
+    rc: f32,
+    p: &VisibilityParams,
+) -> f32 {
     let u = f64::from(f32::EPSILON) / 2.0;
     let [az, az2, a, _] = moments.map(f64::from);
+    let [e_az, e_az2, e_a] = err;
     #[allow(clippy::neg_cmp_op_on_partial_ord)]
     if !(a > p.min_alpha as f64) {
-        return 0.0;
+        return if a + e_a > p.min_alpha as f64 {
+            1.0
+        } else {
+            0.0
+        };
     }
-    if a > MAX_DIVISOR {
+    if a > MAX_DIVISOR || a - e_a <= p.min_alpha as f64 || a <= 2.0 * e_a {
         return 1.0;
     }
     let lim = DEPTH_LIMIT as f64;
@@ -169,8 +189,11 @@ pub fn visibility_bound(moments: [f32; 4], zc: f32, rc: f32, p: &VisibilityParam
     let m2 = az2 / a;
     let var_raw = m2 - mu * mu;
     let var = var_raw.clamp(p.min_variance as f64, lim * lim);
-    let d_mu = 2.5 * u * mu.abs();
-    let d_var = u * (3.0 * m2.abs() + 6.0 * mu * mu + var_raw.abs());
+    let in_mu = (e_az + mu.abs() * e_a) / (a - e_a);
+    let in_m2 = (e_az2 + m2.abs() * e_a) / (a - e_a);
+    let d_mu = 2.5 * u * mu.abs() + in_mu;
+    let d_var =
+        u * (3.0 * m2.abs() + 6.0 * mu * mu + var_raw.abs()) + in_m2 + 2.0 * mu.abs() * in_mu;
     let rel_sigma = if var_raw > lim * lim {
         0.0
     } else {

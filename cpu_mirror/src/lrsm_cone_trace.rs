@@ -3,11 +3,10 @@
 //! [`LrsmVolume`]: occlusion from the binary occlusion voxels' mips, radiance from the light views' LRSMs.
 //!
 //! Bound of one sample's radiance L (what `sample_cone` reports as its colour error): Sample LRSM's own
-//! arithmetic bound (`sample_lrsm::sample_bound`), plus the choices the sample point's rounding may
-//! change, each evaluated at the perturbed input: the texel (u or v within its error of a texel edge at
-//! the chosen level), the level (mip within its error of an integer), the depth (zc moved by its error:
-//! layer ranges, decay, Gaussian visibility) and the view (|nx| or |ny| within its error of 1: the whole
-//! view's L); plus 1e-4 of |L| for the direction vc = -d (a few ULP off the mirror's; N = <n, vc> moves
+//! arithmetic bound (`sample_lrsm::sample_bound`), plus what the sample point's rounding may change,
+//! evaluated at the perturbed inputs: the trilinear fetch's position (u, v) and level (mip), the depth
+//! (zc: layer ranges, decay, Gaussian visibility), each the larger change at its two ends, summed; and
+//! the view (|nx| or |ny| within its error of 1: the whole view's L); plus 1e-4 of |L| for the direction vc = -d (a few ULP off the mirror's; N = <n, vc> moves
 //! L by as little relatively). The input errors come from the sample point's: 16 ULP of the magnitudes of
 //! x and the eye, through the projection's divisions (2.5 ULP) and log2 (absolute 2^-21).
 use crate::cone_trace::{trilinear_level, ConeParams, SampleError, Volume};
@@ -84,39 +83,28 @@ impl LrsmVolume<'_> {
             let dr = [dir[0], dir[1], dir[2], (0.5 * diam) * v.forward[3]];
             let b = sample_bound(&lrsm, self.sp, pos, dr);
             err += b[0].max(b[1]).max(b[2]) + 1e-4 * l0v.abs().max_element();
-            // Discrete choices within the inputs' errors.
-            let level = (mip.max(0.0) as u32).min(self.sp.levels - 1);
-            let s = (self.sp.side0 >> level) as f32;
+            // The inputs' errors: L is continuous in (u, v, mip) (trilinear fetches) and piecewise
+            // smooth in zc (layer ranges, decay, V), so per input the larger change at its two
+            // perturbed ends bounds it first order (a kink inside the interval changes L by less than
+            // the steeper side's end does); the four inputs' errors add.
             let d_mip = (2.0 * dx / div + 8.0 * u) / std::f32::consts::LN_2 + 2f32.powi(-20);
             let d_z = 2.0 * dx * v.forward[3] + 8.0 * u * zc.abs();
-            let near_edge = |c: f32| {
-                let t = c * s;
-                (t - t.round()).abs() <= d_ndc * 0.5 * s
+            let change = |a: [f32; 4]| {
+                (a[0] - l0[0])
+                    .abs()
+                    .max((a[1] - l0[1]).abs())
+                    .max((a[2] - l0[2]).abs())
             };
-            let mut alts: Vec<[f32; 4]> =
-                vec![at(nx, ny, mip, zc + d_z), at(nx, ny, mip, zc - d_z)];
-            if near_edge((nx + 1.0) * 0.5) {
-                alts.push(at(nx + d_ndc, ny, mip, zc));
-                alts.push(at(nx - d_ndc, ny, mip, zc));
-            }
-            if near_edge((1.0 - ny) * 0.5) {
-                alts.push(at(nx, ny + d_ndc, mip, zc));
-                alts.push(at(nx, ny - d_ndc, mip, zc));
-            }
-            if (mip - mip.round()).abs() <= d_mip {
-                alts.push(at(nx, ny, mip + d_mip, zc));
-                alts.push(at(nx, ny, mip - d_mip, zc));
-            }
-            let worst = alts
+            let ends = [
+                [at(nx + d_ndc, ny, mip, zc), at(nx - d_ndc, ny, mip, zc)],
+                [at(nx, ny + d_ndc, mip, zc), at(nx, ny - d_ndc, mip, zc)],
+                [at(nx, ny, mip + d_mip, zc), at(nx, ny, mip - d_mip, zc)],
+                [at(nx, ny, mip, zc + d_z), at(nx, ny, mip, zc - d_z)],
+            ];
+            err += ends
                 .iter()
-                .map(|a| {
-                    (a[0] - l0[0])
-                        .abs()
-                        .max((a[1] - l0[1]).abs())
-                        .max((a[2] - l0[2]).abs())
-                })
-                .fold(0.0f32, f32::max);
-            err += worst;
+                .map(|[a, b]| change(*a).max(change(*b)))
+                .sum::<f32>();
         }
         (sum, 2.0 * err)
     }

@@ -24,23 +24,106 @@ fn spread2(v_in: u32) -> u32 {
     return v;
 }
 
-fn texel_index(u: f32, v: f32, mip: f32, layer: u32) -> u32 {
+// The 8 taps of a trilinear fetch at (u, v, mip): levels l0 = min(u32(max(mip, 0)), levels - 1) and
+// min(l0 + 1, levels - 1) weighted 1 - f and f (f the fraction of max(mip, 0) above l0; 0 at the last
+// level), in each the 2 x 2 texels around (u s - 1/2, v s - 1/2) clamped to the edge, weighted
+// bilinearly. Tap i of layer L is texel base[i / 4] + L * area[i / 4] + texel[i]. Mirror: `taps`.
+struct Taps {
+    base: array<u32, 2>,
+    area: array<u32, 2>,
+    texel: array<u32, 8>,
+    weight: array<f32, 8>,
+}
+
+fn lrsm_taps(u: f32, v: f32, mip: f32) -> Taps {
+    var t: Taps;
     let layers = params.depth_slices * params.normal_slices;
-    let level = min(u32(max(mip, 0.0)), params.levels - 1u);
+    let top = params.levels - 1u;
+    let m = max(mip, 0.0);
+    let l0 = min(u32(m), top);
+    let l1 = min(l0 + 1u, top);
+    // Exact: m - l0 is in [0, 1) with l0 <= m < l0 + 1 (Sterbenz for l0 >= 1).
+    let fl = select(0.0, m - f32(l0), l0 < top);
     var base = 0u;
-    for (var k = 0u; k < level; k = k + 1u) {
+    for (var k = 0u; k < l0; k = k + 1u) {
         base = base + layers * (params.side0 >> k) * (params.side0 >> k);
     }
-    let s = params.side0 >> level;
-    let x = min(u32(max(u, 0.0) * f32(s)), s - 1u);
-    let y = min(u32(max(v, 0.0) * f32(s)), s - 1u);
-    return base + layer * s * s + (spread2(x) | (spread2(y) << 1u));
+    t.base[0] = base;
+    t.base[1] = base;
+    for (var j = 0u; j < 2u; j = j + 1u) {
+        let k = select(l0, l1, j == 1u);
+        let s = params.side0 >> k;
+        if (j == 1u && l1 > l0) {
+            t.base[1] = base + layers * (params.side0 >> l0) * (params.side0 >> l0);
+        }
+        t.area[j] = s * s;
+        // u s is exact (s a power of two); - 1/2 exact where u s >= 1/4, and below that both taps
+        // clamp to texel 0, so how it rounds does not choose texels.
+        let x = clamp(u * f32(s) - 0.5, -1.0, f32(s));
+        let y = clamp(v * f32(s) - 0.5, -1.0, f32(s));
+        let x0 = floor(x);
+        let y0 = floor(y);
+        let fx = x - x0;
+        let fy = y - y0;
+        let wl = select(1.0 - fl, fl, j == 1u);
+        for (var c = 0u; c < 4u; c = c + 1u) {
+            let cx = c & 1u;
+            let cy = c >> 1u;
+            let ix = u32(clamp(i32(x0) + i32(cx), 0, i32(s) - 1));
+            let iy = u32(clamp(i32(y0) + i32(cy), 0, i32(s) - 1));
+            let wx = select(1.0 - fx, fx, cx == 1u);
+            let wy = select(1.0 - fy, fy, cy == 1u);
+            t.texel[4u * j + c] = spread2(ix) | (spread2(iy) << 1u);
+            t.weight[4u * j + c] = wl * (wy * wx);
+        }
+    }
+    return t;
+}
+
+fn tap_index(t: ptr<function, Taps>, i: u32, layer: u32, first: u32) -> u32 {
+    let j = i >> 2u;
+    return first + (*t).base[j] + layer * (*t).area[j] + (*t).texel[i];
+}
+
+// The filtered attributes: sum of w_i texel_i in tap order; taps of weight 0 are not read.
+fn fetch_normal(t: ptr<function, Taps>, layer: u32, first: u32) -> vec4<f32> {
+    var acc = vec4<f32>(0.0);
+    for (var i = 0u; i < 8u; i = i + 1u) {
+        let w = (*t).weight[i];
+        if (w != 0.0) {
+            acc = acc + lrsm_normal[tap_index(t, i, layer, first)] * w;
+        }
+    }
+    return acc;
+}
+
+fn fetch_moments(t: ptr<function, Taps>, layer: u32, first: u32) -> vec4<f32> {
+    var acc = vec4<f32>(0.0);
+    for (var i = 0u; i < 8u; i = i + 1u) {
+        let w = (*t).weight[i];
+        if (w != 0.0) {
+            acc = acc + lrsm_moments[tap_index(t, i, layer, first)] * w;
+        }
+    }
+    return acc;
+}
+
+fn fetch_radiance(t: ptr<function, Taps>, layer: u32, first: u32) -> vec4<f32> {
+    var acc = vec4<f32>(0.0);
+    for (var i = 0u; i < 8u; i = i + 1u) {
+        let w = (*t).weight[i];
+        if (w != 0.0) {
+            acc = acc + lrsm_radiance[tap_index(t, i, layer, first)] * w;
+        }
+    }
+    return acc;
 }
 
 // (L, layers whose depth range holds zc) of cone sample pos = (u, v, mip, zc), dir = (vc, rc), from the
 // LRSM whose level 0 starts at texel `base` of the streams.
 fn lrsm_sample(pos: vec4<f32>, dir: vec4<f32>, base: u32) -> vec4<f32> {
     let zc = pos.w;
+    var taps = lrsm_taps(pos.x, pos.y, pos.z);
     var l = vec3<f32>(0.0);
     var count = 0.0;
     for (var d = 0u; d < params.depth_slices; d = d + 1u) {
@@ -50,8 +133,8 @@ fn lrsm_sample(pos: vec4<f32>, dir: vec4<f32>, base: u32) -> vec4<f32> {
         }
         for (var j = 0u; j < params.normal_slices; j = j + 1u) {
             count = count + 1.0;
-            let t = base + texel_index(pos.x, pos.y, pos.z, d * params.normal_slices + j);
-            let nm = lrsm_normal[t];
+            let layer = d * params.normal_slices + j;
+            let nm = fetch_normal(&taps, layer, base);
             if (!(nm.w > params.min_alpha)) {
                 continue;
             }
@@ -62,13 +145,13 @@ fn lrsm_sample(pos: vec4<f32>, dir: vec4<f32>, base: u32) -> vec4<f32> {
             }
             let zw = (zc - range.x) * range.z;
             let rw = dir.w * range.z;
-            let vis = lrsm_depth_visibility(lrsm_moments[t], zw, rw, params.cdf, params.min_variance, params.min_alpha);
+            let vis = lrsm_depth_visibility(fetch_moments(&taps, layer, base), zw, rw, params.cdf, params.min_variance, params.min_alpha);
             if (!(vis > 0.0)) {
                 continue;
             }
             let decay = lrsm_layer_decay(zc, range.x, range.y, params.overlap);
             let w = (decay * vis) * big_n;
-            l = l + lrsm_radiance[t].xyz * w;
+            l = l + fetch_radiance(&taps, layer, base).xyz * w;
         }
     }
     return vec4<f32>(l, count);

@@ -192,8 +192,9 @@ pub fn case_for(
                 components: 4,
             },
         }],
-        // Per sample: its two vec4s, up to 3 texels of 16 bytes per layer, and the output.
-        effective_bytes: pos.len() as u64 * (32 + 16 + layers * 48),
+        // Per sample: its two vec4s, up to 8 taps (trilinear) of 3 texels of 16 bytes per layer, and
+        // the output.
+        effective_bytes: pos.len() as u64 * (32 + 16 + layers * 8 * 48),
     }
 }
 
