@@ -1,7 +1,8 @@
 //! Declaration of `kernels/sample_lrsm.wgsl` (mirror: `vxgi_cpu_mirror::sample_lrsm`): Algorithm 1 on an
 //! LRSM built from a synthetic RSM by the partition and pre-filter mirrors, for batches of cone samples
 //! including the hard ones (depths on layer bounds, normals perpendicular to the view direction, mip
-//! levels below 0 and past the chain, coordinates outside [0, 1]).
+//! levels below 0, on integers and past the chain, coordinates outside [0, 1] and on texel edges and
+//! centres).
 use super::{LRSM_MATH, LRSM_SAMPLE};
 use crate::lrsm::{synthetic_rsm, PartitionConfig};
 use rand::{Rng, SeedableRng};
@@ -107,18 +108,21 @@ pub fn build_lrsm(config: PartitionConfig, seed: u64, cdf: u32) -> BuiltLrsm {
 pub fn cone_samples(lrsm: &BuiltLrsm, seed: u64, count: usize) -> (Vec<[f32; 4]>, Vec<[f32; 4]>) {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let levels = lrsm.params.levels as f32;
+    // A coordinate: mostly in [0, 1], some outside, some exactly on a texel edge or centre of some
+    // level (the trilinear fetch's bilinear weights 0, 1 or 1/2).
+    let coordinate = |rng: &mut ChaCha8Rng| match rng.random_range(0..10) {
+        0 => rng.random_range(-0.5..1.5),
+        1 => {
+            let s = lrsm.params.side0 >> rng.random_range(0..lrsm.params.levels);
+            let k = rng.random_range(0..=s) as f32;
+            (k + [0.0, 0.5][rng.random_range(0..2)]) / s as f32
+        }
+        _ => rng.random(),
+    };
     (0..count)
         .map(|_| {
-            let u = if rng.random_range(0..10) == 0 {
-                rng.random_range(-0.5..1.5)
-            } else {
-                rng.random()
-            };
-            let v = if rng.random_range(0..10) == 0 {
-                rng.random_range(-0.5..1.5)
-            } else {
-                rng.random()
-            };
+            let u = coordinate(&mut rng);
+            let v = coordinate(&mut rng);
             let mip = match rng.random_range(0..8) {
                 0 => -1.0,
                 1 => levels + 2.0,
