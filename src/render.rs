@@ -247,6 +247,9 @@ struct PyramidKey {
     lights: Vec<crate::scene::Light>,
     voxels: u32,
     levels: u32,
+    /// Whether the normal pyramid is kept too (only the depth-ordered blend reads it: 38 MB at 128^3
+    /// not read back otherwise).
+    normals: bool,
 }
 
 impl PyramidKey {
@@ -258,17 +261,47 @@ impl PyramidKey {
             lights: scene.lights.clone(),
             voxels: scene.render.voxels,
             levels: scene.render.voxels.trailing_zeros() + 1,
+            normals: true,
         }
     }
 
-    /// The key of the levels `cones` can read (`cone_trace::pyramid_levels`).
+    /// The key of the levels `cones` can read (`cone_trace::pyramid_levels`), with the normal pyramid
+    /// where the cones blend depth-ordered.
     fn reading(scene: &Scene, cones: &ConeSettings) -> Self {
         let levels = cone_trace::pyramid_levels(scene, cones, scene.render.voxels);
         Self {
             levels,
+            normals: cones.depth_ordered_blend,
             ..Self::of(scene)
         }
     }
+
+    /// Whether a pyramid kept under `self` serves a frame that wants `want`: the same volume, and the
+    /// normal pyramid kept if it is wanted.
+    fn serves(&self, want: &PyramidKey) -> bool {
+        (self.normals || !want.normals)
+            && Self {
+                normals: want.normals,
+                ..self.clone()
+            } == *want
+    }
+
+    /// What a frame building the pyramid under this key reads back for later frames.
+    fn keep(&self, reuse: bool) -> Keep {
+        match (reuse, self.normals) {
+            (false, _) => Keep::Nothing,
+            (true, false) => Keep::Colour,
+            (true, true) => Keep::ColourAndNormals,
+        }
+    }
+}
+
+/// What a chain reads back of the pyramid it built.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Keep {
+    Nothing,
+    Colour,
+    ColourAndNormals,
 }
 
 /// The vct-dense pipeline over a sequence of frames. With the planner's reuse rule on, a frame whose
@@ -294,7 +327,7 @@ impl PyramidCache {
 
     /// Whether the kept pyramid was built from `key` (the rule on); if not, it is dropped.
     fn holds(&mut self, key: &PyramidKey) -> bool {
-        let cached = self.reuse && self.last.as_ref().is_some_and(|c| &c.0 == key);
+        let cached = self.reuse && self.last.as_ref().is_some_and(|c| c.0.serves(key));
         if !cached {
             self.last = None;
         }
@@ -384,7 +417,17 @@ fn render_frame(
     if plan.runs("voxelize") && plan.runs("voxel_light") {
         // The whole pyramid and the cone pass on the GPU in one chain.
         let (frame, built) = chained_frame(
-            ctx, scene, cones, key.levels, &data, &gb, direct, stages, plan, keep, &progress,
+            ctx,
+            scene,
+            cones,
+            key.levels,
+            &data,
+            &gb,
+            direct,
+            stages,
+            plan,
+            key.keep(keep),
+            &progress,
         )?;
         *cache = built.map(|(pyramid, vf)| (key, pyramid, vf));
         return Ok(frame);
@@ -416,8 +459,9 @@ fn refuse_ordered_instances(scene: &Scene, cones: &ConeSettings) -> Result<()> {
 }
 
 /// vct-dense's frame with voxelize, voxel_light, the surface-coverage mips and the cone pass as one
-/// chain on GPU-resident buffers ([`chained_pyramid`]). With `keep` (the reuse rule on) the pyramid is
-/// read back for the next frames. Only the pyramid's first `levels` levels are built (the ones the
+/// chain on GPU-resident buffers ([`chained_pyramid`]). With `keep` other than `Nothing` (the reuse
+/// rule on) the pyramid (and with `ColourAndNormals` its normal pyramid) is read back for the next
+/// frames. Only the pyramid's first `levels` levels are built (the ones the
 /// cones can read).
 #[allow(clippy::too_many_arguments, clippy::type_complexity)]
 fn chained_frame(
@@ -430,7 +474,7 @@ fn chained_frame(
     direct: RgbImage,
     mut stages: Stages,
     plan: FramePlan,
-    keep: bool,
+    keep: Keep,
     progress: &impl Fn(&str),
 ) -> Result<(
     Rendered,
@@ -449,7 +493,7 @@ fn chained_frame(
     let (w, h) = (direct.width, direct.height);
     let indirect = image_of(w, h, bytes("indirect"));
     let ao = image_of(w, h, bytes("ao"));
-    let kept = keep.then(|| (out.pyramid(), out.frame));
+    let kept = (keep != Keep::Nothing).then(|| (out.pyramid(), out.frame));
     let frame = Rendered::assemble(direct, indirect, ao, stages, plan)
         .with_cone_tiles(bytemuck::cast_slice(bytes("tile_list")));
     Ok((frame, kept))
@@ -466,9 +510,14 @@ impl ChainOut {
         let read = |n: &str| -> Vec<[f32; 4]> {
             bytemuck::cast_slice(&self.read[n].buffer().expect("buffer").bytes).to_vec()
         };
+        // The normal pyramid is empty where it was not read back (no depth-ordered blend).
         cone_trace::Pyramids {
             colour: read("pyramid"),
-            normal: read("pyramid_normal"),
+            normal: if self.read.contains_key("pyramid_normal") {
+                read("pyramid_normal")
+            } else {
+                Vec::new()
+            },
         }
     }
 }
@@ -477,7 +526,7 @@ impl ChainOut {
 /// (`vxgi_harness::prepare_chain`): the voxel grid, its radiance and its mips never travel through the
 /// host; the mip levels are copied into the pyramid buffer on the GPU. With `cone_pass` (a G-buffer,
 /// the cone settings and the levels its cones read: the others are not built) cone_trace follows in the same chain and its `indirect` and `ao` are read back;
-/// the pyramid is read back with `keep_pyramid`. The same kernels on the same inputs as the stage-by-
+/// the pyramid is read back as `keep` says. The same kernels on the same inputs as the stage-by-
 /// stage path, so the same results. Stage times are wall clock: the upload counts to voxelize, the
 /// readback to the last stage. Needs lights (voxel_light runs).
 #[allow(clippy::too_many_arguments)]
@@ -486,7 +535,7 @@ fn chained_pyramid(
     scene: &Scene,
     data: &SceneData,
     cone_pass: Option<(&crate::harness::Resources, &ConeSettings, u32)>,
-    keep_pyramid: bool,
+    keep: Keep,
     stages: &mut Stages,
     progress: &impl Fn(&str),
 ) -> Result<ChainOut> {
@@ -658,8 +707,10 @@ fn chained_pyramid(
         .collect();
     prepared.copy_into(&copies).context("mip chain")?;
     let mut names = Vec::new();
-    if keep_pyramid {
-        names.extend(["pyramid", "pyramid_normal"]);
+    match keep {
+        Keep::Nothing => {}
+        Keep::Colour => names.push("pyramid"),
+        Keep::ColourAndNormals => names.extend(["pyramid", "pyramid_normal"]),
     }
     if cone.is_empty() {
         let read = prepared.read(&names).context("mip chain")?;
@@ -701,7 +752,7 @@ fn radiance_pyramid<'c>(
         progress("radiance pyramid: reused");
     } else if plan.runs("voxel_light") {
         // Built on the GPU in one chain, read back once.
-        let out = chained_pyramid(ctx, scene, data, None, true, stages, progress)?;
+        let out = chained_pyramid(ctx, scene, data, None, key.keep(true), stages, progress)?;
         *cache = Some((key, out.pyramid(), out.frame));
     } else {
         let (rad, normal, _, frame) = lit_voxels(ctx, scene, data, plan, stages, progress)?;
@@ -1568,7 +1619,10 @@ impl VctCprc {
         progress: impl Fn(&str),
     ) -> Result<(Rendered, crate::cprc::CprcStats)> {
         use crate::cprc;
-        let key = PyramidKey::of(scene);
+        let key = PyramidKey {
+            normals: cones.depth_ordered_blend,
+            ..PyramidKey::of(scene)
+        };
         let cached = self.pyramid.holds(&key);
         let settings = cprc::CprcSettings::from(&scene.render);
         let plan = FramePlan::cprc_after(scene, cones, &settings, cached);

@@ -546,6 +546,39 @@ fn reuse_rule_skips_the_pyramid_only_when_the_scene_is_unchanged() {
         .runs("voxelize"));
 }
 
+/// The kept pyramid holds the normal pyramid only where the depth-ordered blend reads it (else it is
+/// not read back: 38 MB at 128^3): a frame that turns the blend on rebuilds, one that turns it off
+/// reuses; either way the image is a fresh frame's, bit for bit.
+#[test]
+fn the_kept_pyramid_holds_normals_only_for_the_depth_ordered_blend() {
+    use vxgi::kernels::cone_trace::ConeSettings;
+    use vxgi::render::VctDense;
+    let mut scene = small(Scene::cornell_box(), 32, 32);
+    scene.render.voxels = 32;
+    let plain = ConeSettings::from(&scene.render);
+    let ordered = ConeSettings {
+        depth_ordered_blend: true,
+        ..plain
+    };
+    let fresh = |cones: &ConeSettings| {
+        vxgi::render::render(gpu(), &scene, cones, |_| {})
+            .unwrap()
+            .combined
+            .pixels
+    };
+    let mut r = VctDense::new(true);
+    r.render(gpu(), &scene, &plain, |_| {}).unwrap();
+    let on = r.render(gpu(), &scene, &ordered, |_| {}).unwrap();
+    assert!(on.plan.runs("voxelize"), "no normals kept: rebuilt");
+    assert_eq!(on.combined.pixels, fresh(&ordered));
+    let off = r.render(gpu(), &scene, &plain, |_| {}).unwrap();
+    assert!(
+        !off.plan.runs("voxelize"),
+        "normals kept serve a frame without them"
+    );
+    assert_eq!(off.combined.pixels, fresh(&plain));
+}
+
 /// `vxgi render --frames N --orbit DEG`: a camera path, one folder per frame; frames after the first
 /// skip the radiance pyramid's passes and say so, and `--plan --frames 2` prints both plans.
 #[test]
