@@ -306,8 +306,10 @@ enum Keep {
 
 /// The vct-dense pipeline over a sequence of frames. With the planner's reuse rule on, a frame whose
 /// geometry, materials, lights and voxel grid equal the last frame's and whose cones read the same
-/// pyramid levels (only the camera or the cone settings changed) skips voxelize, voxel_light and the mips and cone-traces the last frame's
-/// radiance pyramid: the same pyramid a rebuild would make, so the same image, sooner.
+/// pyramid levels (only the camera or the cone settings changed; a frame turning the depth-ordered
+/// blend on also needs the normal pyramid kept) skips voxelize, voxel_light and the mips and
+/// cone-traces the last frame's radiance pyramid: the same pyramid a rebuild would make, so the same
+/// image, sooner.
 pub struct VctDense {
     pyramid: PyramidCache,
     instances: InstanceVoxels,

@@ -6,9 +6,10 @@
 //! arithmetic bound (`sample_lrsm::sample_bound`), plus what the sample point's rounding may change,
 //! evaluated at the perturbed inputs: the trilinear fetch's position (u, v) and level (mip), the depth
 //! (zc: layer ranges, decay, Gaussian visibility), each the larger change at its two ends, summed; and
-//! the view (|nx| or |ny| within its error of 1: the whole view's L); plus 1e-4 of |L| for the direction vc = -d (a few ULP off the mirror's; N = <n, vc> moves
-//! L by as little relatively). The input errors come from the sample point's: 16 ULP of the magnitudes of
-//! x and the eye, through the projection's divisions (2.5 ULP) and log2 (absolute 2^-21).
+//! the view (|nx| or |ny| within its error of 1: the whole view's L); plus 1e-4 of |L| for the
+//! direction vc = -d (a few ULP off the mirror's; N = <n, vc> moves L by as little relatively). The
+//! input errors come from the sample point's: 16 ULP of the magnitudes of x and the eye, through the
+//! projection's divisions (2.5 ULP) and log2 (absolute 2^-21).
 use crate::cone_trace::{trilinear_level, ConeParams, SampleError, Volume};
 use crate::occlusion_voxels::byte;
 use crate::reflective_shadow_map::GpuView;

@@ -145,7 +145,8 @@ fn lrsm_sample(pos: vec4<f32>, dir: vec4<f32>, base: u32) -> vec4<f32> {
             }
             let zw = (zc - range.x) * range.z;
             let rw = dir.w * range.z;
-            let vis = lrsm_depth_visibility(fetch_moments(&taps, layer, base), zw, rw, params.cdf, params.min_variance, params.min_alpha);
+            let moments = fetch_moments(&taps, layer, base);
+            let vis = lrsm_depth_visibility(moments, zw, rw, params.cdf, params.min_variance, params.min_alpha);
             if (!(vis > 0.0)) {
                 continue;
             }
