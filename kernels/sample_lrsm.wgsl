@@ -8,7 +8,9 @@
 // within a layer. Streams radiance = (A R, A), normal = (A n, A), moments = (A z', A z'^2, A, 0), z' the
 // depth warped into the layer by depth_ranges[d] = (zmin, zmax, 1 / (zmax - zmin), 0).
 // Per cone sample i: cone_pos[i] = (u, v, mip, zc): the cone sample projected into the RSM ([0, 1]^2),
-// its mip level (log2 of the projected diameter in level-0 texels), and its light-space depth;
+// its mip level (log2 of the projected diameter in level-0 texels), and its light-space depth; any
+// finite values (coordinates outside [0, 1] clamp to the edge, mips to the chain; NaN's clamping is
+// implementation-defined in WGSL, so a NaN coordinate reads a texel the mirror need not pick);
 // cone_dir[i] = (vc, rc): unit direction from the sample towards the view sample, and the sample's
 // radius in light-space depth units.
 // Fetch: trilinear, as the paper's filtered texture reads at mipLevel = log(d_circle) (section 5): the
