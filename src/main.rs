@@ -32,6 +32,10 @@ enum Command {
         /// Seed of the case generator (a failing case names its seed).
         #[arg(long, default_value_t = 1)]
         seed: u64,
+        /// Replay only generated case N (of each kernel, or of --kernel) and print every output's
+        /// report, worst elements included, pass or fail: a failure's "reproduce:" line names it.
+        #[arg(long, conflicts_with = "cases")]
+        case: Option<usize>,
     },
     /// List the declared kernels with their WGSL files and mirrors.
     List,
@@ -617,8 +621,15 @@ fn real_main() -> Result<()> {
         Command::Export { kernel, out } => run_export(&kernel, out.as_deref()),
         Command::Verify {
             kernel,
+            cases: _,
+            seed,
+            case: Some(index),
+        } => run_verify_case(kernel, seed, index),
+        Command::Verify {
+            kernel,
             cases,
             seed,
+            case: None,
         } => run_verify(kernel, cases, seed),
         Command::Scene { path } => run_scene(path),
         Command::Render {
@@ -799,6 +810,50 @@ fn run_export(kernel: &str, out: Option<&Path>) -> Result<()> {
     Ok(())
 }
 
+/// `vxgi verify --case N`: generated case `index` of each selected kernel, GPU vs mirror, with every
+/// output's full report (the worst elements, both values, ULP and bound), pass or fail.
+fn run_verify_case(kernel: Option<String>, seed: u64, index: usize) -> Result<()> {
+    let kernels = match &kernel {
+        Some(name) => vec![vxgi::kernels::find(name).map_err(anyhow::Error::msg)?],
+        None => vxgi::kernels::all(),
+    };
+    let ctx = GpuContext::new().context("creating the GPU context")?;
+    println!("adapter: {}", ctx.describe());
+    let mut failed = false;
+    for k in kernels {
+        let name = k.decl().name;
+        let shader = k.decl().shader()?;
+        let case = k.case(&shader, &ctx, seed, index);
+        let (comps, gpu_ns, mirror_ns, timing) =
+            vxgi::harness::kernel::verify_case(&ctx, &shader, k, &case, None)
+                .with_context(|| format!("verifying `{name}` case {index} (seed {seed})"))?;
+        println!(
+            "{name} case {index} `{}` (seed {seed}): GPU {:.2} ms ({timing}), mirror {:.2} ms",
+            case.label,
+            gpu_ns * 1e-6,
+            mirror_ns * 1e-6
+        );
+        for c in &comps {
+            failed |= !c.passed();
+            let bound = if c.max_bound_use > 0.0 {
+                format!(", bound use {:.3}", c.max_bound_use)
+            } else {
+                String::new()
+            };
+            println!(
+                "{} {}{bound}\n{}",
+                if c.passed() { "ok" } else { "FAIL" },
+                c.output,
+                c.report()
+            );
+        }
+    }
+    if failed {
+        bail!("GPU and mirror disagree (reports above)");
+    }
+    Ok(())
+}
+
 fn run_verify(kernel: Option<String>, cases: usize, seed: u64) -> Result<()> {
     let kernels = match &kernel {
         Some(name) => vec![vxgi::kernels::find(name).map_err(anyhow::Error::msg)?],
@@ -885,8 +940,12 @@ fn run_verify(kernel: Option<String>, cases: usize, seed: u64) -> Result<()> {
                 rep.kernel, rep.flushed
             );
         }
-        for f in rep.failures.iter().take(5) {
+        for (f, i) in rep.failures.iter().zip(&rep.failed_cases).take(5) {
             eprintln!("{}", f.report());
+            eprintln!(
+                "reproduce: vxgi verify --kernel {} --seed {seed} --case {i}\n",
+                rep.kernel
+            );
         }
     }
     if failed {

@@ -26,6 +26,31 @@ fn verify_prints_the_table_and_exits_zero() {
     );
 }
 
+/// `--case N` replays one generated case (what a failure's "reproduce:" line names) and prints each
+/// output's report with its worst elements, pass or fail; with `--cases` it is a usage error.
+#[test]
+fn verify_case_replays_one_generated_case_with_its_worst_elements() {
+    let (code, out, err) = vxgi(&[
+        "verify",
+        "--kernel",
+        "sample_lrsm",
+        "--seed",
+        "3",
+        "--case",
+        "0",
+    ]);
+    assert_eq!(code, 0, "stdout:\n{out}\nstderr:\n{err}");
+    assert!(out.contains("sample_lrsm case 0 `#0 "), "{out}");
+    assert!(out.contains("ok radiance, bound use"), "{out}");
+    assert!(
+        out.contains("ok index element "),
+        "worst elements listed:\n{out}"
+    );
+    let (code, _, err) = vxgi(&["verify", "--case", "0", "--cases", "3"]);
+    assert_ne!(code, 0);
+    assert!(err.contains("--cases"), "{err}");
+}
+
 #[test]
 fn an_unknown_kernel_is_a_clear_error() {
     let (code, out, err) = vxgi(&["verify", "--kernel", "nope"]);

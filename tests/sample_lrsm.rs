@@ -88,9 +88,10 @@ fn a_corrupted_sample_fails_verification() {
             index: 0,
         }),
     };
-    assert!(!verify(gpu(), &SampleLrsm, &opts, &mut |_| {})
-        .unwrap()
-        .passed());
+    let rep = verify(gpu(), &SampleLrsm, &opts, &mut |_| {}).unwrap();
+    assert!(!rep.passed());
+    // The failure names its case, for `vxgi verify --case`.
+    assert_eq!(rep.failed_cases, vec![0]);
 }
 
 #[test]

@@ -331,6 +331,9 @@ pub struct KernelReport {
     pub timing: Option<TimingSource>,
     /// Comparisons that failed (each with its report).
     pub failures: Vec<Comparison>,
+    /// The generated case each failure came from, `failures[k]` from `Kernel::case(.., seed,
+    /// failed_cases[k])`: what `vxgi verify --case` replays.
+    pub failed_cases: Vec<usize>,
     pub flushed: usize,
     /// Largest fraction of a per-element bound used (outputs with `Tolerance::MirrorBound`).
     pub max_bound_use: f64,
@@ -589,6 +592,7 @@ pub fn verify(
         largest_case_bytes: 0,
         timing: None,
         failures: Vec::new(),
+        failed_cases: Vec::new(),
         flushed: 0,
         max_bound_use: 0.0,
     };
@@ -610,6 +614,7 @@ pub fn verify(
             rep.max_bound_use = rep.max_bound_use.max(c.max_bound_use);
             if !c.passed() {
                 rep.failures.push(c);
+                rep.failed_cases.push(i);
             }
         }
         progress(i + 1);
