@@ -5,7 +5,7 @@ use common::gpu;
 use vxgi::harness::kernel::{verify, verify_case};
 use vxgi::harness::run::run;
 use vxgi::harness::{Corruption, VerifyOptions};
-use vxgi::kernels::sample_lrsm::{build_lrsm, case_for, cone_samples, SampleLrsm, DECL};
+use vxgi::kernels::sample_lrsm::{build_lrsm, case_for, cone_samples, BuiltLrsm, SampleLrsm, DECL};
 use vxgi::lrsm::PartitionConfig;
 use vxgi_cpu_mirror::sample_lrsm::SampleParams;
 
@@ -26,18 +26,10 @@ fn generated_cone_samples_match_the_mirror() {
     assert!(rep.max_bound_use < 1.0);
 }
 
-#[test]
-fn samples_gather_light_and_only_layers_containing_zc_are_sampled() {
-    let config = PartitionConfig {
-        rsm_side: 64,
-        depth_splits: 1,
-        normal_splits: 1,
-        overlap: 0.05,
-    };
-    let lrsm = build_lrsm(config, 5, 0);
-    let (pos, dir) = cone_samples(&lrsm, 6, 5000);
+/// Sample LRSM on the GPU for these samples, checked against the mirror first.
+fn gpu_radiance(lrsm: &BuiltLrsm, pos: &[[f32; 4]], dir: &[[f32; 4]]) -> Vec<[f32; 4]> {
     let shader = DECL.shader().unwrap();
-    let case = case_for(&shader, gpu(), &lrsm, &pos, &dir, "64^2".into(), 6);
+    let case = case_for(&shader, gpu(), lrsm, pos, dir, "samples".into(), 0);
     let (comps, ..) = verify_case(gpu(), &shader, &SampleLrsm, &case, None).unwrap();
     assert!(comps[0].passed(), "{}", comps[0].report());
     let out = run(
@@ -49,7 +41,20 @@ fn samples_gather_light_and_only_layers_containing_zc_are_sampled() {
         &["radiance"],
     )
     .unwrap();
-    let l: &[[f32; 4]] = bytemuck::cast_slice(&out.buffer("radiance").bytes);
+    bytemuck::cast_slice(&out.buffer("radiance").bytes).to_vec()
+}
+
+#[test]
+fn samples_gather_light_and_only_layers_containing_zc_are_sampled() {
+    let config = PartitionConfig {
+        rsm_side: 64,
+        depth_splits: 1,
+        normal_splits: 1,
+        overlap: 0.05,
+    };
+    let lrsm = build_lrsm(config, 5, 0);
+    let (pos, dir) = cone_samples(&lrsm, 6, 5000);
+    let l = &gpu_radiance(&lrsm, &pos, &dir);
     let lit = l.iter().filter(|x| x[0] + x[1] + x[2] > 0.0).count();
     assert!(
         lit > pos.len() / 10,
@@ -167,20 +172,7 @@ fn the_lookup_is_trilinear_so_light_is_continuous_across_texel_edges() {
             dir.push([0.0, 0.0, 1.0, 0.05]);
         }
     }
-    let shader = DECL.shader().unwrap();
-    let case = case_for(&shader, gpu(), &lrsm, &pos, &dir, "sweep".into(), 0);
-    let (comps, ..) = verify_case(gpu(), &shader, &SampleLrsm, &case, None).unwrap();
-    assert!(comps[0].passed(), "{}", comps[0].report());
-    let out = run(
-        gpu(),
-        &shader,
-        DECL.name,
-        &case.resources,
-        &case.passes,
-        &["radiance"],
-    )
-    .unwrap();
-    let l: &[[f32; 4]] = bytemuck::cast_slice(&out.buffer("radiance").bytes);
+    let l = gpu_radiance(&lrsm, &pos, &dir);
     for (row, sweep) in l.chunks(n).enumerate() {
         let g: Vec<f32> = sweep.iter().map(|x| x[1]).collect();
         let (lo, hi) = g
