@@ -26,6 +26,17 @@ fn generated_cone_samples_match_the_mirror() {
     assert!(rep.max_bound_use < 1.0);
 }
 
+/// A 64^2 RSM in one layer (seed 5), partitioned and pre-filtered.
+fn one_layer_64() -> (PartitionConfig, BuiltLrsm) {
+    let config = PartitionConfig {
+        rsm_side: 64,
+        depth_splits: 1,
+        normal_splits: 1,
+        overlap: 0.05,
+    };
+    (config, build_lrsm(config, 5, 0))
+}
+
 /// Sample LRSM on the GPU for these samples, checked against the mirror first.
 fn gpu_radiance(lrsm: &BuiltLrsm, pos: &[[f32; 4]], dir: &[[f32; 4]]) -> Vec<[f32; 4]> {
     let shader = DECL.shader().unwrap();
@@ -46,13 +57,7 @@ fn gpu_radiance(lrsm: &BuiltLrsm, pos: &[[f32; 4]], dir: &[[f32; 4]]) -> Vec<[f3
 
 #[test]
 fn samples_gather_light_and_only_layers_containing_zc_are_sampled() {
-    let config = PartitionConfig {
-        rsm_side: 64,
-        depth_splits: 1,
-        normal_splits: 1,
-        overlap: 0.05,
-    };
-    let lrsm = build_lrsm(config, 5, 0);
+    let (config, lrsm) = one_layer_64();
     let (pos, dir) = cone_samples(&lrsm, 6, 5000);
     let l = &gpu_radiance(&lrsm, &pos, &dir);
     let lit = l.iter().filter(|x| x[0] + x[1] + x[2] > 0.0).count();
@@ -155,13 +160,7 @@ proptest::proptest! {
 /// moves by a small share of its range per step.
 #[test]
 fn the_lookup_is_trilinear_so_light_is_continuous_across_texel_edges() {
-    let config = PartitionConfig {
-        rsm_side: 64,
-        depth_splits: 1,
-        normal_splits: 1,
-        overlap: 0.05,
-    };
-    let lrsm = build_lrsm(config, 5, 0);
+    let (_, lrsm) = one_layer_64();
     let n = 2000;
     let mut pos = Vec::new();
     let mut dir = Vec::new();
