@@ -62,8 +62,8 @@ impl Taps {
 pub fn taps(p: &SampleParams, u: f32, v: f32, mip: f32) -> Taps {
     let layers = p.depth_slices * p.normal_slices;
     let top = p.levels - 1;
-    let m = mip.max(0.0);
-    let l0 = (m as u32).min(top);
+    let m = mip.max(0.0).min(top as f32);
+    let l0 = m as u32;
     let l1 = (l0 + 1).min(top);
     let fl = if l0 < top { m - l0 as f32 } else { 0.0 };
     let mut base = 0u32;

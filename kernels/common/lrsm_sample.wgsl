@@ -39,8 +39,9 @@ fn lrsm_taps(u: f32, v: f32, mip: f32) -> Taps {
     var t: Taps;
     let layers = params.depth_slices * params.normal_slices;
     let top = params.levels - 1u;
-    let m = max(mip, 0.0);
-    let l0 = min(u32(m), top);
+    // Clamped before the conversion: an out-of-range float-to-integer conversion is not portable.
+    let m = min(max(mip, 0.0), f32(top));
+    let l0 = u32(m);
     let l1 = min(l0 + 1u, top);
     // Exact: m - l0 is in [0, 1) with l0 <= m < l0 + 1 (Sterbenz for l0 >= 1).
     let fl = select(0.0, m - f32(l0), l0 < top);

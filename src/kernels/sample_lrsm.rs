@@ -1,8 +1,8 @@
 //! Declaration of `kernels/sample_lrsm.wgsl` (mirror: `vxgi_cpu_mirror::sample_lrsm`): Algorithm 1 on an
 //! LRSM built from a synthetic RSM by the partition and pre-filter mirrors, for batches of cone samples
 //! including the hard ones (depths on layer bounds, normals perpendicular to the view direction, mip
-//! levels below 0, on integers and past the chain, coordinates outside [0, 1] and on texel edges and
-//! centres).
+//! levels below 0, on integers and past the chain (up to +-1e30), coordinates outside [0, 1] and on
+//! texel edges and centres).
 use super::{LRSM_MATH, LRSM_SAMPLE};
 use crate::lrsm::{synthetic_rsm, PartitionConfig};
 use rand::{Rng, SeedableRng};
@@ -124,8 +124,8 @@ pub fn cone_samples(lrsm: &BuiltLrsm, seed: u64, count: usize) -> (Vec<[f32; 4]>
             let u = coordinate(&mut rng);
             let v = coordinate(&mut rng);
             let mip = match rng.random_range(0..8) {
-                0 => -1.0,
-                1 => levels + 2.0,
+                0 => [-1.0, -1e30][rng.random_range(0..2)],
+                1 => [levels + 2.0, 1e30][rng.random_range(0..2)],
                 2 => rng.random_range(0..lrsm.params.levels) as f32,
                 _ => rng.random_range(0.0..levels),
             };
