@@ -39,7 +39,8 @@ fn lrsm_taps(u: f32, v: f32, mip: f32) -> Taps {
     var t: Taps;
     let layers = params.depth_slices * params.normal_slices;
     let top = params.levels - 1u;
-    // Clamped before the conversion: an out-of-range float-to-integer conversion is not portable.
+    // Clamped to the chain before the conversion (WGSL saturates out-of-range conversions, but the
+    // back ends only do by a polyfill; in range, nothing depends on it).
     let m = min(max(mip, 0.0), f32(top));
     let l0 = u32(m);
     let l1 = min(l0 + 1u, top);
