@@ -810,13 +810,18 @@ fn run_export(kernel: &str, out: Option<&Path>) -> Result<()> {
     Ok(())
 }
 
+/// `--kernel NAME`'s kernel, or every declared kernel.
+fn selected_kernels(kernel: Option<&str>) -> Result<Vec<&'static dyn vxgi::harness::Kernel>> {
+    Ok(match kernel {
+        Some(name) => vec![vxgi::kernels::find(name).map_err(anyhow::Error::msg)?],
+        None => vxgi::kernels::all(),
+    })
+}
+
 /// `vxgi verify --case N`: generated case `index` of each selected kernel, GPU vs mirror, with every
 /// output's full report (the worst elements, both values, ULP and bound), pass or fail.
 fn run_verify_case(kernel: Option<String>, seed: u64, index: usize) -> Result<()> {
-    let kernels = match &kernel {
-        Some(name) => vec![vxgi::kernels::find(name).map_err(anyhow::Error::msg)?],
-        None => vxgi::kernels::all(),
-    };
+    let kernels = selected_kernels(kernel.as_deref())?;
     let ctx = GpuContext::new().context("creating the GPU context")?;
     println!("adapter: {}", ctx.describe());
     let mut failed = false;
@@ -855,10 +860,7 @@ fn run_verify_case(kernel: Option<String>, seed: u64, index: usize) -> Result<()
 }
 
 fn run_verify(kernel: Option<String>, cases: usize, seed: u64) -> Result<()> {
-    let kernels = match &kernel {
-        Some(name) => vec![vxgi::kernels::find(name).map_err(anyhow::Error::msg)?],
-        None => vxgi::kernels::all(),
-    };
+    let kernels = selected_kernels(kernel.as_deref())?;
     if cases == 0 {
         bail!("--cases must be at least 1");
     }

@@ -327,7 +327,8 @@ impl PyramidCache {
         Self { reuse, last: None }
     }
 
-    /// Whether the kept pyramid was built from `key` (the rule on); if not, it is dropped.
+    /// Whether the kept pyramid serves `key` (the rule on; [`PyramidKey::serves`]); if not, it is
+    /// dropped.
     fn holds(&mut self, key: &PyramidKey) -> bool {
         let cached = self.reuse && self.last.as_ref().is_some_and(|c| c.0.serves(key));
         if !cached {
@@ -463,8 +464,7 @@ fn refuse_ordered_instances(scene: &Scene, cones: &ConeSettings) -> Result<()> {
 /// vct-dense's frame with voxelize, voxel_light, the surface-coverage mips and the cone pass as one
 /// chain on GPU-resident buffers ([`chained_pyramid`]). With `keep` other than `Nothing` (the reuse
 /// rule on) the pyramid (and with `ColourAndNormals` its normal pyramid) is read back for the next
-/// frames. Only the pyramid's first `levels` levels are built (the ones the
-/// cones can read).
+/// frames. Only the pyramid's first `levels` levels are built (the ones the cones can read).
 #[allow(clippy::too_many_arguments, clippy::type_complexity)]
 fn chained_frame(
     ctx: &crate::harness::GpuContext,
