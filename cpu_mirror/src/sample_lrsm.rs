@@ -5,10 +5,9 @@
 //! cone centre), `dir = (vc, rc)` (unit direction to the view sample, cone radius in depth units).
 //! Fetch: trilinear ([`taps`], [`fetch`]: the paper's filtered reads at a continuous mip level), the
 //! same taps in every layer. For each layer (d, j) with `zmin_d <= zc <= zmax_d`, on the filtered
-//! attributes: `N = <n / A_n, vc>` (normal
-//! normalised by its opacity, eq. 8); if `N > 0`: `V` of eq. 12 on the moments with zc and rc warped
-//! into the layer; if `V > 0`: `L += f(zc) * r * V * N` (eq. 14; r is the opacity-weighted radiance, f
-//! eq. 15). Output `(L, layers whose range contains zc)`.
+//! attributes: `N = <n / A_n, vc>` (normal normalised by its opacity, eq. 8); if `N > 0`: `V` of eq.
+//! 12 on the moments with zc and rc warped into the layer; if `V > 0`: `L += f(zc) * r * V * N` (eq.
+//! 14; r is the opacity-weighted radiance, f eq. 15). Output `(L, layers whose range contains zc)`.
 use crate::gaussian_depth_visibility::{visibility, visibility_bound_inexact, VisibilityParams};
 use crate::layer_decay::layer_decay;
 use crate::{ftz, morton};
