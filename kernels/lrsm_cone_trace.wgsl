@@ -9,13 +9,19 @@
 // word, Morton order: occlusion_voxels.wgsl); alpha = byte / 255, trilinear within a level, blended
 // between levels by cone_march's sample_volume (so the march's alpha is the paper's alpha_i).
 // Radiance of a sample (x, diameter D, cone direction d), where alpha > 0 (a sample with no occlusion
-// adds nothing, eq. 1, so its LRSMs are not read): for every view whose frustum holds x
-//   zv = (x - eye) . forward > 0,  nx = (x - eye) . right / zv,  ny = (x - eye) . up / zv,  |nx|, |ny| <= 1
+// adds nothing, eq. 1, so its LRSMs are not read): for every view in front of which x lies
+//   zv = (x - eye) . forward > 0,  nx = (x - eye) . right / zv,  ny = (x - eye) . up / zv
 //   (orthographic views, info.w = 1, a directional light's: no division by zv, here or in the mip),
-//   Sample LRSM (common/lrsm_sample.wgsl) at u = (nx + 1) / 2, v = (1 - ny) / 2 (the RSM's pixel rows),
-//   mip = log2(D * right.w / zv) (the projected diameter in LRSM level-0 texels), zc = (zv - near) / (far
-//   - near), vc = -d (towards the view sample), rc = D / 2 / (far - near), on the view's LRSM (first
-//   texel info.z); L = sum over views. The march then reads (L * alpha, alpha): its colour step
+//   texels = D * right.w / zv (the projected diameter in LRSM level-0 texels), r = clamp(texels /
+//   side0, 1e-30, 64) (the projected radius in NDC), weight w = disc_share(nx, r) * disc_share(ny, r)
+//   (the share of the projected disc inside the view; views with w = 0 are skipped), Sample LRSM
+//   (common/lrsm_sample.wgsl) at the clamped point u = (cx + 1) / 2, v = (1 - cy) / 2 (cx, cy = nx, ny
+//   clamped to [-1, 1]; v runs down the RSM's pixel rows), mip = log2(texels), zc = (zv - near) / (far -
+//   near), vc = -d (towards the view sample), rc = D / 2 / (far - near), on the view's LRSM (first texel
+//   info.z); L = sum over views of w times that. The weights make a sample across the seam of a point
+//   light's two cube faces take from both (their shares sum to about 1; taken from the view holding its
+//   centre alone, L jumped at the seams and the image showed bands along them); inside a view, a radius
+//   from its edges, w = 1. The march then reads (L * alpha, alpha): its colour step
 //   C += (1 - A) a' (L alpha) / alpha is eq. 1's alpha_i L_i with cone_march's step correction.
 // Shadow cones (entry `shadow`, the option `[render] shadow_cone_angle` > 0; the default direct light is
 // direct_light's exact rays): per G-buffer pixel, direct light as direct_light.wgsl computes it (same
@@ -24,8 +30,9 @@
 // gather's rules (diameter, steps, step-corrected alpha, no mip clamp) up to the light (at most the
 // grid's diagonal); soft_direct = (sum brdf E cos V, 0).
 // Accuracy: per-element bound from the mirror (the march's, with each sample's LRSM bound: Sample LRSM's
-// arithmetic, and the texel, mip level, depth and view choices that the sample point's rounding may
-// change, evaluated at the perturbed inputs).
+// arithmetic, each view weight's error from the projection's (the disc's centre and radius), and what
+// the sample point's rounding may change in the fetch position, level and depth, evaluated at both ends
+// of each one's error interval).
 
 @group(0) @binding(8) var<storage, read> occ: array<u32>;
 @group(0) @binding(12) var<storage, read> occ_offsets: array<u32>;
@@ -82,6 +89,15 @@ fn sample_level(x: vec3<f32>, l: u32) -> vec4<f32> {
     return vec4<f32>(0.0, 0.0, 0.0, acc);
 }
 
+// The share of a projected disc (centre c, radius r, along one NDC axis) inside [-1, 1]: its span
+// [|c| - r, |c| + r] inside over its diameter — 1 well inside, 1/2 centred on an edge, 0 a radius past
+// it (mirror: lrsm_cone_trace::disc_share).
+fn disc_share(c: f32, r: f32) -> f32 {
+    let a = abs(c);
+    let span = min(a + r, 1.0) - max(a - r, -1.0);
+    return min(max(span / (2.0 * r), 0.0), 1.0);
+}
+
 // The march's sample: occlusion from the voxels, radiance from the LRSMs (see the header).
 fn sample_cone(x: vec3<f32>, l: f32, diam: f32, d: vec3<f32>, tan_half: f32) -> vec4<f32> {
     let s = sample_volume(x, l);
@@ -105,12 +121,19 @@ fn sample_cone(x: vec3<f32>, l: f32, diam: f32, d: vec3<f32>, tan_half: f32) -> 
             ny = ny / zv;
             texels = texels / zv;
         }
-        if (!(abs(nx) <= 1.0 && abs(ny) <= 1.0)) {
+        // The share of the sample's projected disc inside the view (radius in NDC; capped so that it
+        // stays finite as zv -> 0, for a sample at the light itself, and floored so that the share's
+        // division stays defined however far the view's depth puts it).
+        let r = clamp(texels * (1.0 / f32(params.side0)), 1e-30, 64.0);
+        let w = disc_share(nx, r) * disc_share(ny, r);
+        if (!(w > 0.0)) {
             continue;
         }
-        let pos = vec4<f32>((nx + 1.0) * 0.5, (1.0 - ny) * 0.5, log2(texels), (zv - v.eye.w) * v.forward.w);
+        let cx = clamp(nx, -1.0, 1.0);
+        let cy = clamp(ny, -1.0, 1.0);
+        let pos = vec4<f32>((cx + 1.0) * 0.5, (1.0 - cy) * 0.5, log2(texels), (zv - v.eye.w) * v.forward.w);
         let dir = vec4<f32>(-d, (0.5 * diam) * v.forward.w);
-        lsum += lrsm_sample(pos, dir, v.info.z).xyz;
+        lsum += lrsm_sample(pos, dir, v.info.z).xyz * w;
     }
     return vec4<f32>(lsum * s.w, s.w);
 }

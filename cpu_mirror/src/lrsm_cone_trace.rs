@@ -5,11 +5,13 @@
 //! Bound of one sample's radiance L (what `sample_cone` reports as its colour error): Sample LRSM's own
 //! arithmetic bound (`sample_lrsm::sample_bound`), plus what the sample point's rounding may change,
 //! evaluated at the perturbed inputs: the trilinear fetch's position (u, v) and level (mip), the depth
-//! (zc: layer ranges, decay, Gaussian visibility), each the larger change at its two ends, summed; and
-//! the view (|nx| or |ny| within its error of 1: the whole view's L); plus 1e-4 of |L| for the
-//! direction vc = -d (a few ULP off the mirror's; N = <n, vc> moves L by as little relatively). The
-//! input errors come from the sample point's: 16 ULP of the magnitudes of x and the eye, through the
-//! projection's divisions (2.5 ULP) and log2 (absolute 2^-21).
+//! (zc: layer ranges, decay, Gaussian visibility), each the larger change at its two ends, summed, all
+//! times the view's weight; and the view's weight [`disc_share`] (its error from the disc's centre and
+//! radius, times the view's |L|: a view the mirror leaves with weight 0 is still evaluated where the
+//! GPU's weight may be positive); plus 1e-4 of |L| for the direction vc = -d (a few ULP off the
+//! mirror's; N = <n, vc> moves L by as little relatively). The input errors come from the sample
+//! point's: 16 ULP of the magnitudes of x and the eye, through the projection's divisions (2.5 ULP) and
+//! log2 (absolute 2^-21).
 use crate::cone_trace::{trilinear_level, ConeParams, SampleError, Volume};
 use crate::occlusion_voxels::byte;
 use crate::reflective_shadow_map::GpuView;
@@ -63,27 +65,58 @@ impl LrsmVolume<'_> {
                 let dr = [dir[0], dir[1], dir[2], (0.5 * diam) * v.forward[3]];
                 sample(&lrsm, self.sp, pos, dr, false)
             };
-            let mip = if v.orthographic() {
-                (diam * v.right[3]).log2()
+            // The projected diameter in LRSM level-0 texels.
+            let texels = if v.orthographic() {
+                diam * v.right[3]
             } else {
-                (diam * v.right[3] / zv).log2()
+                diam * v.right[3] / zv
             };
+            let mip = texels.log2();
             let zc = (zv - v.eye[3]) * v.forward[3];
-            let inside = nx.abs() <= 1.0 && ny.abs() <= 1.0;
-            let l0 = at(nx, ny, mip, zc);
-            let l0v = Vec3::new(l0[0], l0[1], l0[2]);
-            if (nx.abs() - 1.0).abs() <= d_ndc || (ny.abs() - 1.0).abs() <= d_ndc {
-                // The GPU may take or leave this view.
-                err += l0v.abs().max_element();
-            }
-            if !inside {
+            // The share of the sample's projected disc (radius texels / side0 in NDC, capped at 64 so
+            // that it stays finite as zv -> 0, floored at 1e-30 so that the share's division stays
+            // defined) inside the view (disc_share); the lookup at the clamped point. Where zv is
+            // within its error of 0, d_ndc (divided by zv) makes dw 1: the GPU may take or leave the
+            // view.
+            let r = (texels * (1.0 / self.sp.side0 as f32)).clamp(1e-30, 64.0);
+            let (wx, wy) = (disc_share(nx, r), disc_share(ny, r));
+            let w = wx * wy;
+            // Its error: each share's numerator 1 - |c| + r moves with c (d_ndc) and r (relative
+            // e_rel: diam * right.w / zv, as the mip's), its denominator 2r by e_rel; 8 ULP of the rest.
+            let e_rel = 2.0 * dx / div + 8.0 * u;
+            let d_share = |c: f32| {
+                let a = c.abs();
+                let span = (a + r).min(1.0) - (a - r).max(-1.0);
+                let q = span / (2.0 * r);
+                // Each end of the span moves with c (d_ndc) and r (r e_rel), plus its roundings.
+                let d_span = 2.0 * (d_ndc + r * e_rel) + 4.0 * u * (a + r + 1.0);
+                let dq = d_span / (2.0 * r) + q.abs() * e_rel + 8.0 * u;
+                // Clamped to [0, 1]: only an unclamped value within its error of that range moves.
+                if q > -dq && q < 1.0 + dq {
+                    dq.min(1.0)
+                } else {
+                    0.0
+                }
+            };
+            let (dwx, dwy) = (d_share(nx), d_share(ny));
+            let dw = (dwx * wy + wx * dwy + dwx * dwy + 2.0 * u * w).min(1.0);
+            if w + dw <= 0.0 {
                 continue;
             }
-            sum += l0v;
+            let (cx, cy) = (nx.clamp(-1.0, 1.0), ny.clamp(-1.0, 1.0));
+            let l0 = at(cx, cy, mip, zc);
+            let l0v = Vec3::new(l0[0], l0[1], l0[2]);
+            // The GPU's weight may differ by dw (and take a view this one leaves).
+            err += l0v.abs().max_element() * dw;
+            if w <= 0.0 {
+                continue;
+            }
+            sum += l0v * w;
+            let (nx, ny) = (cx, cy);
             let pos = [(nx + 1.0) * 0.5, (1.0 - ny) * 0.5, mip, zc];
             let dr = [dir[0], dir[1], dir[2], (0.5 * diam) * v.forward[3]];
             let b = sample_bound(&lrsm, self.sp, pos, dr);
-            err += b[0].max(b[1]).max(b[2]) + 1e-4 * l0v.abs().max_element();
+            err += w * (b[0].max(b[1]).max(b[2]) + 1e-4 * l0v.abs().max_element());
             // The inputs' errors: L is continuous in (u, v, mip) (trilinear fetches) and piecewise
             // smooth in zc (layer ranges, decay, V), so per input the larger change at its two
             // perturbed ends bounds it first order (a kink inside the interval changes L by less than
@@ -102,13 +135,25 @@ impl LrsmVolume<'_> {
                 [at(nx, ny, mip + d_mip, zc), at(nx, ny, mip - d_mip, zc)],
                 [at(nx, ny, mip, zc + d_z), at(nx, ny, mip, zc - d_z)],
             ];
-            err += ends
+            err += w * ends
                 .iter()
                 .map(|[a, b]| change(*a).max(change(*b)))
                 .sum::<f32>();
         }
         (sum, 2.0 * err)
     }
+}
+
+/// The share of a sample's projected disc (centre `c`, radius `r`, NDC units along one axis of a view)
+/// inside the view's [-1, 1]: the length of its span `[|c| - r, |c| + r]` inside, over its diameter
+/// — 1 well inside, 1/2 centred on an edge, 0 a radius past it (and less than 1 for a disc wider than
+/// the view). Per axis, multiplied, it weighs each view's radiance, so a sample across the seam of a
+/// point light's two cube faces takes from both (their shares sum to about 1) instead of from the one
+/// its centre falls in. In the kernel's operation order; finite inputs.
+pub fn disc_share(c: f32, r: f32) -> f32 {
+    let a = c.abs();
+    let span = (a + r).min(1.0) - (a - r).max(-1.0);
+    (span / (2.0 * r)).clamp(0.0, 1.0)
 }
 
 impl Volume for LrsmVolume<'_> {
@@ -288,4 +333,33 @@ pub fn soft_direct(
         }
     }
     (sum, bound)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::disc_share;
+
+    /// The share's landmarks (exact: every operation's result is a small dyadic rational), and two
+    /// faces meeting at a seam share every disc between them: on one face the disc's centre is at
+    /// `1 - e`, on the other at `1 + e` (the other face's coordinate of a point past its edge).
+    #[test]
+    fn disc_share_is_the_part_of_the_disc_inside_the_view() {
+        assert_eq!(disc_share(0.0, 0.25), 1.0);
+        assert_eq!(disc_share(-0.75, 0.25), 1.0);
+        assert_eq!(disc_share(1.0, 0.25), 0.5);
+        assert_eq!(disc_share(-1.0, 0.25), 0.5);
+        assert_eq!(disc_share(1.25, 0.25), 0.0);
+        assert_eq!(disc_share(2.0, 0.25), 0.0);
+        assert_eq!(disc_share(0.875, 0.25), 0.75);
+        // A disc wider than the view: the view's width over the diameter.
+        assert_eq!(disc_share(0.0, 2.0), 0.5);
+        for i in 0..=16 {
+            let e = 0.25 * i as f32 / 16.0;
+            let total = disc_share(1.0 - e, 0.25) + disc_share(1.0 + e, 0.25);
+            assert!(
+                (total - 1.0).abs() <= 2.0 * f32::EPSILON,
+                "e = {e}: {total}"
+            );
+        }
+    }
 }
