@@ -86,8 +86,7 @@ impl LrsmVolume<'_> {
             let e_rel = 2.0 * dx / div + 8.0 * u;
             let d_share = |c: f32| {
                 let a = c.abs();
-                let span = (a + r).min(1.0) - (a - r).max(-1.0);
-                let q = span / (2.0 * r);
+                let q = span_ratio(c, r);
                 // Each end of the span moves with c (d_ndc) and r (r e_rel), plus its roundings.
                 let d_span = 2.0 * (d_ndc + r * e_rel) + 4.0 * u * (a + r + 1.0);
                 let dq = d_span / (2.0 * r) + q.abs() * e_rel + 8.0 * u;
@@ -151,9 +150,14 @@ impl LrsmVolume<'_> {
 /// point light's two cube faces takes from both (their shares sum to about 1) instead of from the one
 /// its centre falls in. In the kernel's operation order; finite inputs.
 pub fn disc_share(c: f32, r: f32) -> f32 {
+    span_ratio(c, r).clamp(0.0, 1.0)
+}
+
+/// [`disc_share`] before its clamp to [0, 1] (the bound needs where it lies against that range).
+fn span_ratio(c: f32, r: f32) -> f32 {
     let a = c.abs();
     let span = (a + r).min(1.0) - (a - r).max(-1.0);
-    (span / (2.0 * r)).clamp(0.0, 1.0)
+    span / (2.0 * r)
 }
 
 impl Volume for LrsmVolume<'_> {
