@@ -11,6 +11,9 @@
 // front-to-back accumulation, AO weighted 1 / (1 + lambda t) within ao_range, stop when A >= 1 - 1/256
 // or past the grid's diagonal. Option mip_clamp (0 = off): level capped at log2(D / (mip_clamp s0)),
 // D = the sample's distance from the origin surface's plane (offset + t cos), step ratio per capped cell.
+// Option level_bias (<= 0; 0 = the paper's): level log2(d / s0) + level_bias, step ratio per the cell read.
+// Option coverage_correlation c (0 = the paper's): a sample adds the opacity (1 - c)(1 - A) a' +
+// c max(0, a' - A) and its radiance (L alpha / alpha) times that (c = 1: A is the densest a' so far).
 // Pixel: origin p + ng * offset_voxels * s0; diffuse cones from cone_dirs (tangent space, w = weight);
 // indirect = albedo (gb_albedo) * sum w C (+ Ks * C of a glossy cone along the mirror direction, tan = clamp(
 // sqrt(2 / (n + 2)), 0.02, 1)); AO = 1 - sum w occ. Back faces: AO only. Background: 0. Dispatched

@@ -22,6 +22,9 @@ pub struct BenchRow {
     pub cone_half_angle: f32,
     pub mip_clamp: f32,
     pub cone_step: f32,
+    /// Every cone tracer: sampled level relative to the paper's, and correlated coverage.
+    pub cone_level_bias: f32,
+    pub coverage_correlation: f32,
     /// lrsm: RSM side per light view and layers (depth x <n.l>); swept for that pipeline only.
     pub rsm_side: u32,
     pub lrsm_layers: String,
@@ -52,7 +55,9 @@ pub struct BenchRow {
 /// The configurations of a sweep around `base` (its other keys, e.g. AO, kept). Full: voxels
 /// {32, 64, 128} x cones {1, 5, 9, 16} x half-angle {20, 30, 45} x mip clamp {0, 2} x cone step
 /// {0.5, 1} x blend {trilinear, depth-ordered} = 288 (16 cones: `diffuse_cones`' spiral, the others
-/// its ring). Quick (for CI): voxels {32, 64} x cones {1, 5} at 30 degrees, clamp 2, step 0.5 = 4.
+/// its ring), level bias and coverage correlation at `base`'s; plus the narrow spiral sets at 128^3
+/// (32 cones of 18 deg, 64 of 12 deg; clamp 2, step 0.5, trilinear) with level bias / coverage
+/// correlation 0 / 0, -1 / 0 and -1 / 1 = 6 (README "Accuracy": where those options pay). Quick (for CI): voxels {32, 64} x cones {1, 5} at 30 degrees, clamp 2, step 0.5 = 4.
 /// lrsm sweeps its own knobs instead ([`lrsm_sweep`]).
 pub fn sweep(base: &RenderSettings, quick: bool, pipeline: Pipeline) -> Vec<RenderSettings> {
     if pipeline == Pipeline::Lrsm {
@@ -103,6 +108,23 @@ pub fn sweep(base: &RenderSettings, quick: bool, pipeline: Pipeline) -> Vec<Rend
                         }
                     }
                 }
+            }
+        }
+    }
+    if !quick {
+        for (c, a) in [(32, 18.0), (64, 12.0)] {
+            for (bias, corr) in [(0.0, 0.0), (-1.0, 0.0), (-1.0, 1.0)] {
+                out.push(RenderSettings {
+                    voxels: 128,
+                    cones: c,
+                    cone_half_angle: a,
+                    mip_clamp: 2.0,
+                    cone_step: 0.5,
+                    cone_level_bias: bias,
+                    coverage_correlation: corr,
+                    depth_ordered_blend: false,
+                    ..base.clone()
+                });
             }
         }
     }
@@ -388,6 +410,8 @@ pub fn bench(
             cone_half_angle: settings.cone_half_angle,
             mip_clamp: settings.mip_clamp,
             cone_step: settings.cone_step,
+            cone_level_bias: settings.cone_level_bias,
+            coverage_correlation: settings.coverage_correlation,
             rsm_side: settings.rsm_side,
             lrsm_layers: format!(
                 "{}x{}",
@@ -438,6 +462,8 @@ fn write_csv(path: &Path, pipeline: Pipeline, rows: &[BenchRow]) -> Result<()> {
         "cone_half_angle",
         "mip_clamp",
         "cone_step",
+        "cone_level_bias",
+        "coverage_correlation",
         "rsm_side",
         "lrsm_layers",
         "cache_resolution",
@@ -466,6 +492,8 @@ fn write_csv(path: &Path, pipeline: Pipeline, rows: &[BenchRow]) -> Result<()> {
             r.cone_half_angle.to_string(),
             r.mip_clamp.to_string(),
             r.cone_step.to_string(),
+            r.cone_level_bias.to_string(),
+            r.coverage_correlation.to_string(),
             r.rsm_side.to_string(),
             r.lrsm_layers.clone(),
             r.cache_resolution.to_string(),
@@ -507,8 +535,8 @@ pub fn table(rows: &[BenchRow], pipeline: Pipeline, spp: u32, w: u32, h: u32) ->
     };
     let mut md = format!(
         "# vxgi bench ({name}, {w}x{h}, reference {spp} spp)\n\n\
-         | voxels | cones | half-angle | mip clamp | step | blend | RSM | layers | caches | cache res | octree | time | {shading} | voxelize | indirect FLIP | combined FLIP | combined rel. MSE | Pareto |\n\
-         |---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n"
+         | voxels | cones | half-angle | mip clamp | step | level bias / coverage corr. | blend | RSM | layers | caches | cache res | octree | time | {shading} | voxelize | indirect FLIP | combined FLIP | combined rel. MSE | Pareto |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n"
     );
     let lrsm = pipeline == Pipeline::Lrsm;
     let cprc = pipeline == Pipeline::Cprc;
@@ -516,12 +544,14 @@ pub fn table(rows: &[BenchRow], pipeline: Pipeline, spp: u32, w: u32, h: u32) ->
     for r in sorted {
         let _ = writeln!(
             md,
-            "| {}^3 | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.0} ms | {:.0} ms | {:.0} ms | {:.3} | {:.3} | {:.4} | {} |",
+            "| {}^3 | {} | {} | {} | {} | {} / {} | {} | {} | {} | {} | {} | {} | {:.0} ms | {:.0} ms | {:.0} ms | {:.3} | {:.3} | {:.4} | {} |",
             r.voxels,
             r.cones,
             r.cone_half_angle,
             r.mip_clamp,
             r.cone_step,
+            r.cone_level_bias,
+            r.coverage_correlation,
             match (svo || lrsm, r.depth_ordered_blend) {
                 (true, _) => "-",
                 (false, true) => "depth-ordered",
@@ -652,7 +682,13 @@ mod tests {
             ..Default::default()
         };
         let full = sweep(&base, false, Pipeline::VctDense);
-        assert_eq!(full.len(), 288);
+        assert_eq!(full.len(), 294);
+        assert_eq!(
+            full.iter()
+                .filter(|s| s.cone_level_bias != 0.0 || s.coverage_correlation != 0.0)
+                .count(),
+            4
+        );
         assert!(full
             .iter()
             .all(|s| s.ao_range == 0.25 && s.validate().is_ok()));

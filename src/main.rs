@@ -194,6 +194,18 @@ struct RenderFlags {
     /// Cone step as a fraction of the cone's diameter, (0, 1] [default 0.5, the paper's].
     #[arg(long = "cone-step", alias = "cone_step")]
     cone_step: Option<f32>,
+    /// Every cone tracer: sampled mip level relative to the paper's log2(diameter), in [-3, 0]
+    /// (narrow cones: about -1) [default 0, the paper's].
+    #[arg(
+        long = "cone-level-bias",
+        alias = "cone_level_bias",
+        allow_hyphen_values = true
+    )]
+    cone_level_bias: Option<f32>,
+    /// Every cone tracer: share of a sample's coverage taken as rays already blocked, in [0, 1]
+    /// (1: the cone's opacity is its densest sample's) [default 0, the paper's independent layers].
+    #[arg(long = "coverage-correlation", alias = "coverage_correlation")]
+    coverage_correlation: Option<f32>,
     /// lrsm: RSM side per light view (power of two, 4..=1024) [default 128].
     #[arg(long = "rsm-side", alias = "rsm_side")]
     rsm_side: Option<u32>,
@@ -277,6 +289,8 @@ fn load_scene(path: &Option<PathBuf>, flags: &RenderFlags) -> Result<vxgi::scene
         cone_offset,
         mip_clamp,
         cone_step,
+        cone_level_bias,
+        coverage_correlation,
         depth_ordered_blend,
         rsm_side,
         lrsm_depth_splits,

@@ -164,6 +164,14 @@ pub struct RenderSettings {
     pub mip_clamp: f32,
     /// Cone step as a fraction of the cone's diameter, (0, 1] (CPRC 4: 0.5).
     pub cone_step: f32,
+    /// Every cone tracer: sampled mip level relative to the paper's log2(diameter / s0), in [-3, 0]
+    /// (0 = the paper's rule). Narrow cones match their footprint about one level finer
+    /// (`cone_trace::ConeParams::level_bias`; README "Accuracy").
+    pub cone_level_bias: f32,
+    /// Every cone tracer: how far a sample's coverage is taken as rays already blocked, in [0, 1]
+    /// (0 = the paper's independent layers; 1: the cone's opacity is its densest sample's)
+    /// (`cone_trace::ConeParams::coverage_correlation`; README "Accuracy").
+    pub coverage_correlation: f32,
     /// vct-dense and cprc (the dense pyramid's cones): the depth-ordered blend — along the cone's main
     /// axis an opaque cell facing the cone hides the opaque cell behind it in the trilinear pair
     /// (`cone_trace::OrderedPyramid`); false = the paper's trilinear. Against light leaking through
@@ -253,6 +261,19 @@ impl RenderSettings {
         }
         if !(self.cone_step > 0.0 && self.cone_step <= 1.0) {
             return Err(format!("cone_step = {} must be in (0, 1]", self.cone_step));
+        }
+        // A bias above 0 would read levels `levels_read` does not build.
+        if !(-3.0..=0.0).contains(&self.cone_level_bias) {
+            return Err(format!(
+                "cone_level_bias = {} must be in [-3, 0] (levels finer than the paper's)",
+                self.cone_level_bias
+            ));
+        }
+        if !(0.0..=1.0).contains(&self.coverage_correlation) {
+            return Err(format!(
+                "coverage_correlation = {} must be in [0, 1]",
+                self.coverage_correlation
+            ));
         }
         if !(4..=1024).contains(&self.rsm_side) || !self.rsm_side.is_power_of_two() {
             return Err(format!(
@@ -346,6 +367,8 @@ impl Default for RenderSettings {
             // 0.287 without the clamp, 0.237 with 2; AO FLIP 0.85 -> 0.42.
             mip_clamp: 2.0,
             cone_step: 0.5,
+            cone_level_bias: 0.0,
+            coverage_correlation: 0.0,
             depth_ordered_blend: false,
             // 2 x 2 layers as the paper's Sibenik and Sponza; 128^2 per view keeps six cube faces
             // cheap on a software GPU.

@@ -92,8 +92,7 @@ fn ceiling() -> (Vec<[f32; 4]>, ConeParams) {
         inv_s0: 1.0,
         mip_clamp: 0.0,
         step_factor: 0.5,
-        depth_order: 0,
-        _pad: 0,
+        ..Default::default()
     };
     (vox, p)
 }

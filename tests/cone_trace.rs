@@ -74,8 +74,7 @@ fn marching_is_stable_on_extreme_pyramids() {
         inv_s0: 16.0,
         mip_clamp: 0.0,
         step_factor: 0.5,
-        depth_order: 0,
-        _pad: 0,
+        ..Default::default()
     };
     let clamped = ConeParams {
         mip_clamp: 1.5,
@@ -84,6 +83,17 @@ fn marching_is_stable_on_extreme_pyramids() {
     let long_steps = ConeParams {
         step_factor: 1.0,
         ..clamped
+    };
+    // The finest level bias (cells 1/8 of the diameter: ratio up to 4) with fully correlated
+    // coverage (which divides by the step-corrected alpha).
+    let biased = ConeParams {
+        level_bias: -3.0,
+        coverage_correlation: 1.0,
+        ..clamped
+    };
+    let half_correlated = ConeParams {
+        coverage_correlation: 0.5,
+        ..long_steps
     };
     let solid = vec![[2.0, 2.0, 2.0, 1.0]; len];
     let empty = vec![[0.0; 4]; len];
@@ -98,7 +108,7 @@ fn marching_is_stable_on_extreme_pyramids() {
         .collect();
     for (voxels, p) in [&solid, &empty, &checker]
         .into_iter()
-        .flat_map(|v| [(v, &params), (v, &clamped), (v, &long_steps)])
+        .flat_map(|v| [&params, &clamped, &long_steps, &biased, &half_correlated].map(|p| (v, p)))
     {
         let pyr = Pyramid { p, voxels };
         for tan in [0.01f32, 0.2, 0.577, 1.0] {

@@ -382,25 +382,26 @@ fn bench_quick_writes_csv_table_and_plot() {
     let lines: Vec<&str> = csv.lines().collect();
     assert_eq!(lines.len(), 5, "{csv}");
     assert!(lines[0].starts_with(
-        "voxels,cones,cone_half_angle,mip_clamp,cone_step,rsm_side,lrsm_layers,cache_resolution,cache_tile,caches,anisotropic_voxels,photon_map,voxel_lobes,depth_ordered_blend,seconds,"
+        "voxels,cones,cone_half_angle,mip_clamp,cone_step,cone_level_bias,coverage_correlation,rsm_side,lrsm_layers,cache_resolution,cache_tile,caches,anisotropic_voxels,photon_map,voxel_lobes,depth_ordered_blend,seconds,"
     ));
     assert!(lines[0].contains("combined_flip") && lines[0].contains("cone_trace_seconds"));
     // Every row: a positive time and a finite FLIP in [0, 1]; at least one row is Pareto-optimal.
+    let col = |name: &str| lines[0].split(',').position(|c| c == name).unwrap();
     for l in &lines[1..] {
         let f: Vec<&str> = l.split(',').collect();
-        let secs: f64 = f[14].parse().unwrap();
-        let flip: f64 = f[18].parse().unwrap();
+        let secs: f64 = f[col("seconds")].parse().unwrap();
+        let flip: f64 = f[col("combined_flip")].parse().unwrap();
         assert!(secs > 0.0 && (0.0..=1.0).contains(&flip), "{l}");
     }
     assert!(
         lines[1..]
             .iter()
-            .any(|l| l.split(',').nth(19) == Some("true")),
+            .any(|l| l.split(',').nth(col("pareto")) == Some("true")),
         "{csv}"
     );
     let md = std::fs::read_to_string(out.join("bench.md")).unwrap();
     assert!(
-        md.contains("| 32^3 | 1 | 30 | 2 | 0.5 | trilinear | - | - | - | - |")
+        md.contains("| 32^3 | 1 | 30 | 2 | 0.5 | 0 / 0 | trilinear | - | - | - | - |")
             && md.contains("**yes**"),
         "{md}"
     );
@@ -458,9 +459,14 @@ fn bench_quick_writes_csv_table_and_plot() {
         csv.contains("cache_creation_seconds") && csv.contains("gather_caches_seconds"),
         "{csv}"
     );
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let caches = header.iter().position(|c| *c == "caches").unwrap();
     for l in csv.lines().skip(1) {
         let f: Vec<&str> = l.split(',').collect();
-        assert!(f[9].parse::<usize>().unwrap() > 0, "caches placed: {l}");
+        assert!(
+            f[caches].parse::<usize>().unwrap() > 0,
+            "caches placed: {l}"
+        );
     }
     let md = std::fs::read_to_string(dir.join("bench-cprc/bench.md")).unwrap();
     assert!(md.contains("(tile 8)") && md.contains("| 16^2 |"), "{md}");
@@ -469,6 +475,10 @@ fn bench_quick_writes_csv_table_and_plot() {
         ("--cones=0", "cones"),
         ("--cone-half-angle=90", "cone_half_angle"),
         ("--mip-clamp=-1", "mip_clamp"),
+        ("--cone-level-bias=0.5", "cone_level_bias"),
+        ("--cone-level-bias=-4", "cone_level_bias"),
+        ("--coverage-correlation=1.5", "coverage_correlation"),
+        ("--coverage-correlation=NaN", "coverage_correlation"),
         ("--rsm-side=100", "rsm_side"),
         ("--lrsm-overlap=0.9", "lrsm_overlap"),
         ("--photon-map=100", "photon_map"),

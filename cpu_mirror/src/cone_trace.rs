@@ -56,7 +56,19 @@ pub struct ConeParams {
     /// Depth-ordered blend (1) or the paper's trilinear (0) in the dense pyramid's cone samples
     /// ([`OrderedPyramid`]); the other volumes ignore it.
     pub depth_order: u32,
-    pub _pad: u32,
+    /// Sampled level relative to the paper's `log2(d / s0)`, in [-3, 0] (0 = the paper's rule; our
+    /// addition): a trilinear read of a box-filtered mip spreads over about half a cell, a cone's disc
+    /// over a quarter of its diameter, so narrow cones match their footprint about one level finer.
+    /// The step correction follows the cell actually read (`ratio = step / cell`).
+    pub level_bias: f32,
+    /// How far a sample's coverage is taken as the rays already blocked, in [0, 1] (0 = the paper's
+    /// front-to-back compositing of independent layers; our addition): a sample adds the opacity
+    /// `(1 - c) (1 - A) a' + c max(0, a' - A)` (a' the step-corrected alpha, A the opacity so far)
+    /// and the radiance `(L alpha / alpha)` times that. At c = 1 the cone's opacity is the largest
+    /// a' so far: a box edge's front and top faces, sampled one after the other, block the same rays
+    /// instead of compounding.
+    pub coverage_correlation: f32,
+    pub _pad: [u32; 3],
 }
 
 pub const OPAQUE: f32 = 1.0 - 1.0 / 256.0;
@@ -75,11 +87,11 @@ pub fn pyramid_len(side: u32) -> usize {
 /// How many pyramid levels (0, 1, ...) a cone of half-angle tangent `tan` can read, marched with step
 /// factor `sf` through a grid of side `side` (at most `log2(side) + 1`, the whole pyramid). The march
 /// stops past the grid's diagonal, so its last sample has the largest mip level `lf_max`; a sample reads
-/// levels floor(lf) and floor(lf) + 1 (the mip clamp only lowers lf), so levels above floor(lf_max) + 1
-/// are never read and need not be built: with `levels = floor(lf_max) + 2` every sample's blend is the
-/// one the whole pyramid gives (its top-level shortcut is never taken), bit for bit. Evaluated in f64
-/// with margins that cover the f32 march's rounding (one more step allowed at the distance limit, lf
-/// rounded up by 1e-3).
+/// levels floor(lf) and floor(lf) + 1 (the mip clamp and a level bias, <= 0, only lower it), so levels
+/// above floor(lf_max) + 1 are never read and need not be built: with `levels = floor(lf_max) + 2`
+/// every sample's blend is the one the whole pyramid gives (its top-level shortcut is never taken), bit
+/// for bit. Evaluated in f64 with margins that cover the f32 march's rounding (one more step allowed at
+/// the distance limit, lf rounded up by 1e-3).
 pub fn levels_read(tan: f32, sf: f32, side: u32) -> u32 {
     let full = side.trailing_zeros() + 1;
     let (tan, sf) = (tan as f64, sf as f64);
@@ -515,8 +527,9 @@ pub fn march(
     let mut a_err = 0.0f32;
     let mut r = ConeResult::default();
     let off = p.offset_voxels * s0;
+    let corr = p.coverage_correlation;
     while t <= max_dist && a_acc < OPAQUE {
-        let mut l = lf;
+        let mut l = lf + p.level_bias;
         if p.mip_clamp > 0.0 {
             let plane = off + t * cos_n.max(0.0);
             l = l.min((plane * inv_s0 / p.mip_clamp).log2());
@@ -536,15 +549,30 @@ pub fn march(
         } else {
             Vec3::ZERO
         };
-        let vis = 1.0 - a_acc;
+        let mut vis = 1.0 - a_acc;
+        if corr > 0.0 && a2 > 0.0 {
+            // The sample's share of the cone (ConeParams::coverage_correlation): what it adds,
+            // (1 - c)(1 - A) a2 + c max(0, a2 - A), over a2 (in [0, 1]).
+            vis = (1.0 - corr) * vis + corr * ((a2 - a_acc).max(0.0) / a2);
+        }
         c_acc += c2 * vis;
         if t <= p.ao_range {
             let o = vis * a2 / (1.0 + p.ao_lambda * t);
             occ += o;
             r.occ_magnitude += o + 1e-3 * vis * a2;
         }
+        // The weight of this sample's input errors below: `vis`, or with correlated coverage the
+        // share's slope in a2, (1 - c)(1 - A) + c, which bounds the share too. (A's own error moves
+        // the colour of this and every later sample by at most lmax in all: the opacity after each
+        // sample is monotone in the one before, with slope in [0, 1], so each source of error is
+        // still counted once for this sample and once for the rest, as without correlation.)
+        let wb = if corr > 0.0 {
+            (1.0 - corr) * (1.0 - a_acc) + corr
+        } else {
+            vis
+        };
         a_acc += vis * a2;
-        r.magnitude += vis * (c2.abs().max_element() + lmax * 1e-3 * a2);
+        r.magnitude += wb * (c2.abs().max_element() + lmax * 1e-3 * a2);
         // The sample point's rounding (SampleError): colour error scaled like c2 (a2 / a <= g), alpha
         // error through a2 (slope <= g away from opacity) into this and every later sample (<= lmax),
         // and through a2 / a into c2 (slope <= g^2 times the premultiplied colour <= lmax).
@@ -554,9 +582,9 @@ pub fn march(
         // blend) is carried through a2 exactly, over the interval (a2 is monotone in a). Seen on an
         // H100: a = 1 - 2^-24 there, 1 here, ratio 1/3: a2 = 1 - 2^-8 against 1.
         let da2 = step_alpha_error(a, ratio, serr.a + 8.0 * f32::EPSILON);
-        r.allowance += vis * (g * serr.rgb + 2.0 * g * g * lmax * serr.a + 2.0 * lmax * da2);
-        r.occ_allowance += vis * (2.0 * g * serr.a + da2);
-        a_err += vis * (2.0 * g * serr.a + da2) + MAG * vis * a2;
+        r.allowance += wb * (g * serr.rgb + 2.0 * g * g * lmax * serr.a + 2.0 * lmax * da2);
+        r.occ_allowance += wb * (2.0 * g * serr.a + da2);
+        a_err += wb * (2.0 * g * serr.a + da2) + MAG * wb * a2;
         // pow(keep, ratio) is exp2(ratio * log2(keep)) by WGSL's accuracy rule, and log2 has an
         // *absolute* error of 2^-21 on [0.5, 2]: where keep is near 1 (a small alpha, common where
         // opacity is averaged, e.g. the octree's Gaussian mips) a2 may be off by ~ratio * 2^-21
@@ -565,9 +593,9 @@ pub fn march(
         // (1 - A) (their radiance summed, <= lmax).
         if a > 0.0 && a < 1.0 {
             let e_pow = g * (2.0f32).powi(-21) + 8.0 * f32::EPSILON;
-            r.allowance += vis * 2.0 * lmax * e_pow;
-            r.occ_allowance += vis * 2.0 * e_pow;
-            a_err += vis * 2.0 * e_pow;
+            r.allowance += wb * 2.0 * lmax * e_pow;
+            r.occ_allowance += wb * 2.0 * e_pow;
+            a_err += wb * 2.0 * e_pow;
         }
         // Where the GPU's accumulated alpha may sit on the other side of OPAQUE (within its own
         // error `a_err`, not a fixed window: seen on an H100, a cone stopped one sample earlier than
@@ -775,6 +803,7 @@ pub fn shade_pixel(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use approx::assert_relative_eq;
 
     /// A 4^3 grid: the cells at x = 1 dark and opaque with normal (`dark_normal`, 0, 0), those at
     /// x = 2 lit and opaque, the rest empty (the samples read level 0).
@@ -906,6 +935,79 @@ mod tests {
             lf += dl;
         }
         top
+    }
+
+    /// A medium of one (L alpha, alpha) everywhere; records the levels the march asks for.
+    struct Fog {
+        p: ConeParams,
+        v: Vec4,
+        levels: std::cell::RefCell<Vec<f32>>,
+    }
+
+    impl Volume for Fog {
+        fn params(&self) -> &ConeParams {
+            &self.p
+        }
+        fn level(&self, _x: Vec3, _l: u32) -> (Vec4, SampleError) {
+            (self.v, SampleError::default())
+        }
+        fn sample_cone(&self, _: Vec3, lf: f32, _: f32, _: Vec3, _: f32) -> (Vec4, SampleError) {
+            self.levels.borrow_mut().push(lf);
+            (self.v, SampleError::default())
+        }
+    }
+
+    /// One cone of 30 degrees through a uniform medium of alpha 0.3 and radiance 2, 64 cells deep.
+    fn through_fog(level_bias: f32, coverage_correlation: f32) -> (ConeResult, Vec<f32>) {
+        let fog = Fog {
+            p: ConeParams {
+                origin: [0.0, 0.0, 0.0, 1.0],
+                side: 64,
+                levels: 7,
+                inv_s0: 1.0,
+                step_factor: 0.5,
+                level_bias,
+                coverage_correlation,
+                ..Default::default()
+            },
+            v: Vec4::new(0.6, 0.6, 0.6, 0.3),
+            levels: Default::default(),
+        };
+        let tan = 30f32.to_radians().tan();
+        let r = march(&fog, Vec3::splat(1.0), Vec3::X, tan, 1.0, 2.0);
+        (r, fog.levels.into_inner())
+    }
+
+    #[test]
+    fn fully_correlated_coverage_is_as_opaque_as_the_densest_sample() {
+        // Fully correlated: every sample covers the same rays, so the cone's opacity is the largest
+        // step-corrected alpha, 1 - 0.7^(1/2) at the paper's step (half a cell of this level's size).
+        let (r, _) = through_fog(0.0, 1.0);
+        let a = 1.0 - 0.7f32.sqrt();
+        assert_relative_eq!(r.radiance.x, 2.0 * a, max_relative = 1e-5);
+        // Independent layers (the paper's compositing) compound the samples' alphas: the cone sees
+        // 1 - prod(1 - a') of the radiance, far more; half correlated lies between.
+        let (indep, _) = through_fog(0.0, 0.0);
+        let (half, _) = through_fog(0.0, 0.5);
+        assert!(
+            indep.radiance.x > half.radiance.x + 0.1,
+            "{indep:?} {half:?}"
+        );
+        assert!(half.radiance.x > r.radiance.x + 0.1, "{half:?} {r:?}");
+        assert!(indep.radiance.x > 1.5, "{indep:?}");
+    }
+
+    #[test]
+    fn a_level_bias_reads_finer_cells_and_corrects_alpha_for_them() {
+        let (_, paper) = through_fog(0.0, 1.0);
+        let (r, finer) = through_fog(-1.0, 1.0);
+        assert_eq!(paper.len(), finer.len());
+        for (p, f) in paper.iter().zip(&finer) {
+            assert_relative_eq!(*f, p - 1.0, epsilon = 1e-5);
+        }
+        // Cells half the diameter: a step of half the diameter crosses one whole cell, so the step
+        // correction leaves the sample's alpha as it is (ratio 1) and the densest sample is 0.3.
+        assert_relative_eq!(r.radiance.x, 2.0 * 0.3, max_relative = 1e-4);
     }
 
     #[test]

@@ -1,6 +1,7 @@
 // common/cone_march.wgsl — the cone tracer shared by cone_trace.wgsl (dense radiance pyramid) and
 // svo_cone_trace.wgsl (sparse voxel octree): frame, scene and G-buffer bindings, the cone parameters, the
-// march (front-to-back, step-corrected alpha, AO falloff, early exit) and the per-pixel entry `main`
+// march (front-to-back, step-corrected alpha, AO falloff, early exit; options: mip clamp, level bias,
+// correlated coverage) and the per-pixel entry `main`
 // (diffuse cones + one glossy cone). The including kernel defines the volume the cones read:
 //   fn sample_level(x: vec3<f32>, l: u32) -> vec4<f32>
 // the pre-multiplied (L * alpha, alpha) at world point x, trilinear in whole mip level l (cell s0 * 2^l,
@@ -33,7 +34,11 @@ struct ConeParams {
     mip_clamp: f32,     // 0 = off; else cap the level at log2(D / (mip_clamp s0)), D = distance from the origin plane
     step_factor: f32,   // step = diameter * step_factor (CPRC 4: 0.5); first sample half a step out
     depth_order: u32,   // the dense pyramid (common/pyramid.wgsl): 1 = depth-ordered blend
-    _pad: u32,
+    level_bias: f32,    // in [-3, 0]: the sampled level is log2(d / s0) + level_bias (0 = the paper's)
+    coverage_correlation: f32,  // c in [0, 1]: a sample adds (1 - c)(1 - A) a' + c max(0, a' - A) (0 = the paper's)
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 @group(0) @binding(0) var<storage, read> frame: Frame;
@@ -103,8 +108,9 @@ fn march(o: vec3<f32>, d: vec3<f32>, tan_half: f32, cos_n: f32) -> ConeOut {
     var a_acc = 0.0;
     var occ = 0.0;
     let off = cone.offset_voxels * s0;
+    let corr = cone.coverage_correlation;
     while (t <= max_dist && a_acc < OPAQUE) {
-        var l = lf;
+        var l = lf + cone.level_bias;
         if (cone.mip_clamp > 0.0) {
             let plane = off + t * max(cos_n, 0.0);
             l = min(l, log2(plane * cone.inv_s0 / cone.mip_clamp));
@@ -127,7 +133,11 @@ fn march(o: vec3<f32>, d: vec3<f32>, tan_half: f32, cos_n: f32) -> ConeOut {
             a2 = 1.0 - kept;
             c2 = s.xyz * (a2 / a);
         }
-        let vis = 1.0 - a_acc;
+        var vis = 1.0 - a_acc;
+        if (corr > 0.0 && a2 > 0.0) {
+            // Correlated coverage: the share of the cone this sample adds, over a2.
+            vis = (1.0 - corr) * vis + corr * (max(a2 - a_acc, 0.0) / a2);
+        }
         c_acc += c2 * vis;
         if (t <= cone.ao_range) {
             occ += vis * a2 / (1.0 + cone.ao_lambda * t);

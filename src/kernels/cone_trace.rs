@@ -89,6 +89,10 @@ pub struct ConeSettings {
     pub mip_clamp: f32,
     /// Step as a fraction of the cone's diameter (the paper's 0.5).
     pub step_factor: f32,
+    /// Sampled level relative to the paper's (`ConeParams::level_bias`, <= 0).
+    pub level_bias: f32,
+    /// Correlated coverage in [0, 1] (`ConeParams::coverage_correlation`; 0 = the paper's).
+    pub coverage_correlation: f32,
     /// vct-dense and cprc: the depth-ordered blend (`vxgi_cpu_mirror::cone_trace::OrderedPyramid`)
     /// instead of the paper's trilinear.
     pub depth_ordered_blend: bool,
@@ -111,6 +115,8 @@ impl From<&crate::scene::RenderSettings> for ConeSettings {
             offset_voxels: r.cone_offset,
             mip_clamp: r.mip_clamp,
             step_factor: r.cone_step,
+            level_bias: r.cone_level_bias,
+            coverage_correlation: r.coverage_correlation,
             depth_ordered_blend: r.depth_ordered_blend,
         }
     }
@@ -144,7 +150,9 @@ pub fn cone_params(frame: &VoxelFrame, s: &ConeSettings) -> ConeParams {
         mip_clamp: s.mip_clamp,
         step_factor: s.step_factor,
         depth_order: u32::from(s.depth_ordered_blend),
-        _pad: 0,
+        level_bias: s.level_bias,
+        coverage_correlation: s.coverage_correlation,
+        _pad: [0; 3],
     }
 }
 
@@ -478,13 +486,11 @@ pub fn lit_case(ctx: &GpuContext, seed: u64, index: usize) -> LitCase {
     let (grid, list, frame) = voxelize_on_gpu(ctx, &scene, side).expect("generated grids voxelize");
     let radiance = super::voxel_light::light_on_gpu(ctx, &data, &grid, &list, &frame)
         .expect("voxel_light runs");
-    // Cases vary the marching: step factor 0.5 (the paper's), 0.75, 1; mip clamp on and off; the
-    // depth-ordered blend on every other case (cone_trace reads it; the other cone kernels ignore it).
+    // The depth-ordered blend on every other case (cone_trace reads it; the other cone kernels
+    // ignore it).
     let settings = ConeSettings {
-        step_factor: [0.5, 0.75, 1.0][index % 3],
-        mip_clamp: if index % 5 == 4 { 0.0 } else { 2.0 },
         depth_ordered_blend: index % 2 == 1,
-        ..ConeSettings::from(&scene.render)
+        ..varied_marching(ConeSettings::from(&scene.render), index)
     };
     LitCase {
         data,
@@ -494,8 +500,33 @@ pub fn lit_case(ctx: &GpuContext, seed: u64, index: usize) -> LitCase {
         albedo: grid.colour,
         frame,
         settings,
-        label: format!("{label}, {side}^3"),
+        label: format!("{label}, {side}^3{}", marching_label(&settings)),
     }
+}
+
+/// The marching every cone kernel's generated cases vary (the same march, common/cone_march.wgsl):
+/// step factor 0.5 (the paper's), 0.75, 1; mip clamp on and off; level bias 0, -1, -1.5; coverage
+/// correlation 0 (in three cases of seven), 0.25, 0.5, 1.
+pub fn varied_marching(base: ConeSettings, index: usize) -> ConeSettings {
+    ConeSettings {
+        step_factor: [0.5, 0.75, 1.0][index % 3],
+        mip_clamp: if index % 5 == 4 { 0.0 } else { 2.0 },
+        level_bias: [0.0, 0.0, -1.0, -1.5][(index / 3) % 4],
+        coverage_correlation: [0.0, 0.0, 1.0, 0.5, 0.0, 1.0, 0.25][index % 7],
+        ..base
+    }
+}
+
+/// The case label's note of the non-default marching options.
+pub fn marching_label(s: &ConeSettings) -> String {
+    let mut l = String::new();
+    if s.level_bias != 0.0 {
+        l += &format!(", level bias {}", s.level_bias);
+    }
+    if s.coverage_correlation != 0.0 {
+        l += &format!(", coverage correlation {}", s.coverage_correlation);
+    }
+    l
 }
 
 /// A cone pass's mirror outputs (indirect, ao, their bounds) by resource name.

@@ -577,12 +577,9 @@ impl Kernel for LrsmConeTrace {
         let (scene, label) = super::gbuffer::generated_scene(seed, index);
         let side = [16u32, 32][(index / 4) % 2];
         let data = SceneData::new(&scene);
-        // Marching varied as cone_trace's cases: step factor 0.5, 0.75, 1; mip clamp on and off.
-        let cones = ConeSettings {
-            step_factor: [0.5, 0.75, 1.0][index % 3],
-            mip_clamp: if index % 5 == 4 { 0.0 } else { 2.0 },
-            ..ConeSettings::from(&scene.render)
-        };
+        // Marching varied as cone_trace's cases.
+        let cones = super::cone_trace::varied_marching(ConeSettings::from(&scene.render), index);
+        let label = format!("{label}{}", super::cone_trace::marching_label(&cones));
         let settings = LrsmSettings {
             shadow_cone_angle: 0.0,
             rsm_side: [16, 32][index % 2],
