@@ -135,6 +135,7 @@ fn main() {
             spp: 64,
             seed: 1,
             jitter: true,
+            ..Default::default()
         },
         |_| {},
     );

@@ -669,6 +669,8 @@ fn real_main() -> Result<()> {
                 spp,
                 seed,
                 jitter: !no_jitter,
+                // Ideal cones replace the Monte Carlo indirect image: no paths for it.
+                indirect: ideal_cones.is_none(),
             },
             ideal_cones,
             out,

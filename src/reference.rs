@@ -51,6 +51,9 @@ pub struct ReferenceOptions {
     pub seed: u64,
     /// Jitter primary rays over the pixel (off: every sample through the pixel centre).
     pub jitter: bool,
+    /// Trace the indirect light (off: the indirect image stays 0 and only direct light and AO are
+    /// estimated — `vxgi reference --ideal-cones` replaces the indirect image, so it skips the paths).
+    pub indirect: bool,
 }
 
 impl Default for ReferenceOptions {
@@ -59,6 +62,7 @@ impl Default for ReferenceOptions {
             spp: 64,
             seed: 1,
             jitter: true,
+            indirect: true,
         }
     }
 }
@@ -243,6 +247,10 @@ pub fn render_reference(
                     let mut rng = ChaCha8Rng::seed_from_u64(
                         opts.seed ^ pixel.wrapping_mul(0x9E37_79B9_7F4A_7C15),
                     );
+                    // The indirect paths draw from their own stream, so the primary rays and AO
+                    // (and so the direct image) are the same whether or not paths are traced.
+                    let mut paths = rng.clone();
+                    paths.set_stream(1);
                     let (mut d, mut i, mut a) = (Vec3::ZERO, Vec3::ZERO, 0.0f32);
                     for _ in 0..spp {
                         let (jx, jy) = if opts.jitter {
@@ -257,7 +265,9 @@ pub fn render_reference(
                         let wo = -dir;
                         if s.front {
                             d += ctx.direct(&s, wo);
-                            i += ctx.indirect(&s, wo, &mut rng, ctx.bounces);
+                            if opts.indirect {
+                                i += ctx.indirect(&s, wo, &mut paths, ctx.bounces);
+                            }
                         }
                         a += 1.0 - ctx.occlusion(&s, wo, &mut rng);
                     }

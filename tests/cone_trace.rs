@@ -167,6 +167,7 @@ fn vct_dense_against_the_reference() {
             spp: 64,
             seed: 5,
             jitter: true,
+            ..Default::default()
         },
         |_| {},
     );
