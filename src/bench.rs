@@ -57,7 +57,8 @@ pub struct BenchRow {
 /// {0.5, 1} x blend {trilinear, depth-ordered} = 288 (16 cones: `diffuse_cones`' spiral, the others
 /// its ring), level bias and coverage correlation at `base`'s; plus the narrow spiral sets at 128^3
 /// (32 cones of 18 deg, 64 of 12 deg; clamp 2, step 0.5, trilinear) with level bias / coverage
-/// correlation 0 / 0, -1 / 0 and -1 / 1 = 6 (README "Accuracy": where those options pay). Quick (for CI): voxels {32, 64} x cones {1, 5} at 30 degrees, clamp 2, step 0.5 = 4.
+/// correlation 0 / 0, -1 / 0 and -1 / 1 = 6 (README "Accuracy": where those options pay). Quick (for
+/// CI): voxels {32, 64} x cones {1, 5} at 30 degrees, clamp 2, step 0.5 = 4.
 /// lrsm sweeps its own knobs instead ([`lrsm_sweep`]).
 pub fn sweep(base: &RenderSettings, quick: bool, pipeline: Pipeline) -> Vec<RenderSettings> {
     if pipeline == Pipeline::Lrsm {
