@@ -612,8 +612,15 @@ fn run_compare(reference: PathBuf, test: PathBuf, heatmap: Option<PathBuf>) -> R
 fn main() {
     if let Err(e) = real_main() {
         eprintln!("error: {e}");
+        // A cause whose text the line above already holds (`{path}: {source}` errors) is not
+        // printed twice.
+        let mut above = e.to_string();
         for cause in e.chain().skip(1) {
-            eprintln!("  caused by: {cause}");
+            let cause = cause.to_string();
+            if !above.contains(&cause) {
+                eprintln!("  caused by: {cause}");
+            }
+            above = cause;
         }
         std::process::exit(1);
     }

@@ -2,7 +2,7 @@
 //! generated scenes whose earlier stages ran on the GPU, and what a cache sees in a known volume.
 mod common;
 
-use common::gpu;
+use common::{gpu, verified};
 use vxgi::harness::kernel::verify;
 use vxgi::harness::{Corruption, VerifyOptions};
 use vxgi::kernels::cache_creation::{mirror_texels, CacheCreation, CacheCreationInstanced};
@@ -13,18 +13,7 @@ use vxgi_cpu_mirror::cone_trace::{level_offset, pyramid_len, ConeParams, Pyramid
 
 #[test]
 fn generated_scenes_match_the_mirror() {
-    let rep = verify(
-        gpu(),
-        &CacheCreation,
-        &VerifyOptions {
-            cases: 6,
-            seed: 5,
-            corrupt: None,
-        },
-        &mut |_| {},
-    )
-    .unwrap();
-    assert!(rep.passed(), "{}", rep.failures[0].report());
+    let rep = verified(&CacheCreation, 6, 5);
     assert!(rep.max_bound_use < 1.0);
 }
 
@@ -132,18 +121,7 @@ fn a_cache_under_a_lit_ceiling_sees_it_above_and_not_below() {
 
 #[test]
 fn instanced_hierarchies_match_the_mirror() {
-    let rep = verify(
-        gpu(),
-        &CacheCreationInstanced,
-        &VerifyOptions {
-            cases: 6,
-            seed: 5,
-            corrupt: None,
-        },
-        &mut |_| {},
-    )
-    .unwrap();
-    assert!(rep.passed(), "{}", rep.failures[0].report());
+    verified(&CacheCreationInstanced, 6, 5);
 }
 
 /// The placed hierarchies mean what they say: one hierarchy in place reads like the plain pyramid;

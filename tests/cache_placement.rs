@@ -2,7 +2,7 @@
 //! accepted by score, and how often the picks differ.
 mod common;
 
-use common::gpu;
+use common::{case_passes, gpu, verified};
 use vxgi::gbuffers::GPattern;
 use vxgi::harness::kernel::{verify, verify_case};
 use vxgi::harness::run::run;
@@ -12,18 +12,7 @@ use vxgi::kernels::cluster_extract::distribution_inputs;
 
 #[test]
 fn generated_g_buffers_match_the_mirror() {
-    let rep = verify(
-        gpu(),
-        &CachePlacement,
-        &VerifyOptions {
-            cases: 20,
-            seed: 37,
-            corrupt: None,
-        },
-        &mut |_| {},
-    )
-    .unwrap();
-    assert!(rep.passed(), "{}", rep.failures[0].report());
+    verified(&CachePlacement, 20, 37);
 }
 
 proptest::proptest! {
@@ -34,10 +23,7 @@ proptest::proptest! {
         let shader = DECL.shader().unwrap();
         let inp = distribution_inputs(w, h, tile, slices, GPattern::family(family), seed);
         let case = case_for(gpu(), &inp, "prop".into(), seed);
-        let (comps, ..) = verify_case(gpu(), &shader, &CachePlacement, &case, None).unwrap();
-        for c in comps {
-            proptest::prop_assert!(c.passed(), "{}", c.report());
-        }
+        case_passes(&shader, &CachePlacement, &case)?;
     }
 }
 

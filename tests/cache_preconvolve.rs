@@ -2,7 +2,7 @@
 //! cosine-folded irradiance maps) on generated caches, and what the irradiance means.
 mod common;
 
-use common::gpu;
+use common::{gpu, verified};
 use vxgi::harness::kernel::verify;
 use vxgi::harness::{Corruption, VerifyOptions};
 use vxgi::kernels::cache_preconvolve::CachePreconvolve;
@@ -11,18 +11,7 @@ use vxgi_cpu_mirror::cache_preconvolve::{irradiance_texel, irradiance_weights};
 
 #[test]
 fn generated_caches_match_the_mirror() {
-    let rep = verify(
-        gpu(),
-        &CachePreconvolve,
-        &VerifyOptions {
-            cases: 16,
-            seed: 9,
-            corrupt: None,
-        },
-        &mut |_| {},
-    )
-    .unwrap();
-    assert!(rep.passed(), "{}", rep.failures[0].report());
+    verified(&CachePreconvolve, 16, 9);
 }
 
 #[test]

@@ -90,6 +90,8 @@ fn scene_summarises_the_built_in_cornell_box_and_reports_bad_files() {
     let (code, _, err) = vxgi(&["scene", "/nonexistent/scene.toml"]);
     assert_ne!(code, 0);
     assert!(err.contains("/nonexistent/scene.toml"), "{err}");
+    // The OS's reason stands once: in the path's line, not again as a cause.
+    assert_eq!(err.matches("No such file").count(), 1, "{err}");
 }
 
 #[test]

@@ -1,9 +1,9 @@
 //! GPU vs mirror for `kernels/cluster_extract.wgsl` (CPRC 3.2), and what clusters must satisfy.
 mod common;
 
-use common::gpu;
+use common::{case_passes, gpu, verified};
 use vxgi::gbuffers::GPattern;
-use vxgi::harness::kernel::{verify, verify_case};
+use vxgi::harness::kernel::verify;
 use vxgi::harness::run::run;
 use vxgi::harness::{Corruption, VerifyOptions};
 use vxgi::kernels::cluster_extract::{case_for, distribution_inputs, ClusterExtract, DECL};
@@ -11,18 +11,7 @@ use vxgi_cpu_mirror::cluster_extract::Cluster;
 
 #[test]
 fn generated_g_buffers_match_the_mirror_exactly() {
-    let rep = verify(
-        gpu(),
-        &ClusterExtract,
-        &VerifyOptions {
-            cases: 20,
-            seed: 29,
-            corrupt: None,
-        },
-        &mut |_| {},
-    )
-    .unwrap();
-    assert!(rep.passed(), "{}", rep.failures[0].report());
+    verified(&ClusterExtract, 20, 29);
 }
 
 proptest::proptest! {
@@ -33,10 +22,7 @@ proptest::proptest! {
         let shader = DECL.shader().unwrap();
         let inp = distribution_inputs(w, h, tile, slices, GPattern::family(family), seed);
         let case = case_for(gpu(), &inp, "prop".into(), seed);
-        let (comps, ..) = verify_case(gpu(), &shader, &ClusterExtract, &case, None).unwrap();
-        for c in comps {
-            proptest::prop_assert!(c.passed(), "{}", c.report());
-        }
+        case_passes(&shader, &ClusterExtract, &case)?;
     }
 }
 

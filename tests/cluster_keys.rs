@@ -1,7 +1,7 @@
 //! GPU vs mirror for `kernels/cluster_keys.wgsl`, and keys through the GPU radix sort (CPRC 3.2).
 mod common;
 
-use common::gpu;
+use common::{gpu, verified};
 use vxgi::gbuffers::{normals, packed, GPattern};
 use vxgi::harness::kernel::{verify, verify_case};
 use vxgi::harness::run::run;
@@ -12,18 +12,7 @@ use vxgi_cpu_mirror::cluster_keys::BACKGROUND;
 
 #[test]
 fn generated_g_buffers_match_the_mirror_exactly() {
-    let rep = verify(
-        gpu(),
-        &ClusterKeys,
-        &VerifyOptions {
-            cases: 20,
-            seed: 13,
-            corrupt: None,
-        },
-        &mut |_| {},
-    )
-    .unwrap();
-    assert!(rep.passed(), "{}", rep.failures[0].report());
+    verified(&ClusterKeys, 20, 13);
 }
 
 proptest::proptest! {

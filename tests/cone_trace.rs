@@ -3,7 +3,7 @@
 //! vct-dense pipeline's accuracy against the reference, printed.
 mod common;
 
-use common::gpu;
+use common::{gpu, verified};
 use vxgi::harness::kernel::verify;
 use vxgi::harness::{Corruption, VerifyOptions};
 use vxgi::images::{compare, RgbImage};
@@ -14,18 +14,7 @@ use vxgi_cpu_mirror::cone_trace::{diffuse_cones, march, ConeParams, Pyramid};
 
 #[test]
 fn generated_scenes_match_the_mirror() {
-    let rep = verify(
-        gpu(),
-        &ConeTrace,
-        &VerifyOptions {
-            cases: 8,
-            seed: 13,
-            corrupt: None,
-        },
-        &mut |_| {},
-    )
-    .unwrap();
-    assert!(rep.passed(), "{}", rep.failures[0].report());
+    let rep = verified(&ConeTrace, 8, 13);
     println!(
         "max bound use {:.4}, max ULP {}",
         rep.max_bound_use, rep.max_ulp
@@ -302,18 +291,7 @@ fn vct_dense_traces_instances_through_their_own_hierarchies() {
 
 #[test]
 fn instanced_cones_match_the_mirror() {
-    let rep = verify(
-        gpu(),
-        &vxgi::kernels::cone_trace::ConeTraceInstanced,
-        &VerifyOptions {
-            cases: 4,
-            seed: 13,
-            corrupt: None,
-        },
-        &mut |_| {},
-    )
-    .unwrap();
-    assert!(rep.passed(), "{}", rep.failures[0].report());
+    verified(&vxgi::kernels::cone_trace::ConeTraceInstanced, 4, 13);
 }
 
 /// The planner's rule "mip levels no cone reaches are not built": a narrow cone's pass over a pyramid

@@ -2,25 +2,14 @@
 //! spot / directional lights) on generated scenes, fed the GPU's own G-buffer.
 mod common;
 
-use common::gpu;
+use common::{assert_case_passes, gpu, verified};
 use vxgi::harness::kernel::verify;
 use vxgi::harness::{Corruption, VerifyOptions};
 use vxgi::kernels::direct_light::DirectLight;
 
 #[test]
 fn generated_scenes_match_the_mirror() {
-    let rep = verify(
-        gpu(),
-        &DirectLight,
-        &VerifyOptions {
-            cases: 12,
-            seed: 23,
-            corrupt: None,
-        },
-        &mut |_| {},
-    )
-    .unwrap();
-    assert!(rep.passed(), "{}", rep.failures[0].report());
+    let rep = verified(&DirectLight, 12, 23);
     println!(
         "max bound use {:.4}, max ULP {}",
         rep.max_bound_use, rep.max_ulp
@@ -50,15 +39,11 @@ fn a_corrupted_radiance_is_caught() {
 /// seed's "box stack 48x48" cases, generated again and checked on their own.
 #[test]
 fn a_term_at_the_bottom_of_the_normal_range_may_flush() {
-    use vxgi::harness::kernel::verify_case;
     use vxgi::harness::Kernel;
     let shader = vxgi::kernels::direct_light::DECL.shader().unwrap();
     for index in [22usize, 34, 50, 62] {
         let case = DirectLight.case(&shader, gpu(), 57, index);
         assert!(case.label.contains("box stack 48x48"), "{}", case.label);
-        let (comps, ..) = verify_case(gpu(), &shader, &DirectLight, &case, None).unwrap();
-        for c in comps {
-            assert!(c.passed(), "{}", c.report());
-        }
+        assert_case_passes(&shader, &DirectLight, &case);
     }
 }

@@ -3,9 +3,9 @@
 //! clustered placement vs an equidistant grid of caches.
 mod common;
 
-use common::gpu;
+use common::{case_passes, gpu, verified};
 use vxgi::gbuffers::GPattern;
-use vxgi::harness::kernel::{verify, verify_case};
+use vxgi::harness::kernel::verify;
 use vxgi::harness::{Corruption, VerifyOptions};
 use vxgi::kernels::cluster_extract::{distribution_inputs, DistributionInputs};
 use vxgi::kernels::gather_caches::{case_for, generated_data, place_caches, GatherCaches, DECL};
@@ -13,18 +13,7 @@ use vxgi_cpu_mirror::octahedral::unpack;
 
 #[test]
 fn generated_g_buffers_match_the_mirror() {
-    let rep = verify(
-        gpu(),
-        &GatherCaches,
-        &VerifyOptions {
-            cases: 16,
-            seed: 41,
-            corrupt: None,
-        },
-        &mut |_| {},
-    )
-    .unwrap();
-    assert!(rep.passed(), "{}", rep.failures[0].report());
+    verified(&GatherCaches, 16, 41);
 }
 
 proptest::proptest! {
@@ -36,10 +25,7 @@ proptest::proptest! {
         let inp = distribution_inputs(w, h, tile, 16, GPattern::family(family), seed);
         let d = generated_data(&inp, 1 << log_res, 1 << log_irr, seed);
         let case = case_for(&shader, gpu(), &d, "prop".into(), seed);
-        let (comps, ..) = verify_case(gpu(), &shader, &GatherCaches, &case, None).unwrap();
-        for c in comps {
-            proptest::prop_assert!(c.passed(), "{}", c.report());
-        }
+        case_passes(&shader, &GatherCaches, &case)?;
     }
 }
 

@@ -3,9 +3,9 @@
 //! the exact fraction of RSM texels inside the cone sample.
 mod common;
 
-use common::gpu;
+use common::{assert_case_passes, gpu, verified};
 use proptest::prelude::*;
-use vxgi::harness::kernel::{verify, verify_case};
+use vxgi::harness::kernel::verify;
 use vxgi::harness::run::run;
 use vxgi::harness::{Corruption, Kernel, VerifyOptions};
 use vxgi::kernels::gaussian_depth_visibility::{
@@ -31,26 +31,12 @@ fn gpu_visibility(inputs: &Inputs, params: VisibilityParams) -> Vec<f32> {
 fn check_against_mirror(inputs: &Inputs, params: VisibilityParams, label: &str) {
     let shader = DECL.shader().unwrap();
     let case = case_for(&shader, gpu(), inputs, params, label.into(), 0);
-    let (comps, ..) = verify_case(gpu(), &shader, &GaussianDepthVisibility, &case, None).unwrap();
-    for c in comps {
-        assert!(c.passed(), "{}", c.report());
-    }
+    assert_case_passes(&shader, &GaussianDepthVisibility, &case);
 }
 
 #[test]
 fn generated_cases_match_the_mirror_for_both_cdfs() {
-    let rep = verify(
-        gpu(),
-        &GaussianDepthVisibility,
-        &VerifyOptions {
-            cases: 20,
-            seed: 9,
-            corrupt: None,
-        },
-        &mut |_| {},
-    )
-    .unwrap();
-    assert!(rep.passed(), "{}", rep.failures[0].report());
+    let rep = verified(&GaussianDepthVisibility, 20, 9);
     assert!(rep.max_bound_use < 1.0);
 }
 

@@ -3,7 +3,7 @@
 //! origin and tiny ones).
 mod common;
 
-use common::gpu;
+use common::{gpu, verified};
 use vxgi::harness::kernel::{verify, verify_case};
 use vxgi::harness::run::run;
 use vxgi::harness::{Corruption, VerifyOptions};
@@ -12,18 +12,7 @@ use vxgi::trace::SceneData;
 
 #[test]
 fn generated_scenes_match_the_mirror() {
-    let rep = verify(
-        gpu(),
-        &Gbuffer,
-        &VerifyOptions {
-            cases: 12,
-            seed: 11,
-            corrupt: None,
-        },
-        &mut |_| {},
-    )
-    .unwrap();
-    assert!(rep.passed(), "{}", rep.failures[0].report());
+    let rep = verified(&Gbuffer, 12, 11);
     println!("max bound use {:.4}", rep.max_bound_use);
     assert!(rep.max_bound_use < 1.0);
 }

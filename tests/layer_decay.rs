@@ -2,9 +2,9 @@
 //! unity across an overlap.
 mod common;
 
-use common::gpu;
+use common::{assert_case_passes, gpu, verified};
 use proptest::prelude::*;
-use vxgi::harness::kernel::{verify, verify_case};
+use vxgi::harness::kernel::verify;
 use vxgi::harness::run::run;
 use vxgi::harness::{Corruption, VerifyOptions};
 use vxgi::kernels::layer_decay::{case_for, LayerDecay, DECL};
@@ -12,10 +12,7 @@ use vxgi::kernels::layer_decay::{case_for, LayerDecay, DECL};
 fn gpu_decay(samples: &[[f32; 4]]) -> Vec<f32> {
     let shader = DECL.shader().unwrap();
     let case = case_for(&shader, gpu(), samples, "direct".into(), 0);
-    let (comps, ..) = verify_case(gpu(), &shader, &LayerDecay, &case, None).unwrap();
-    for c in comps {
-        assert!(c.passed(), "{}", c.report());
-    }
+    assert_case_passes(&shader, &LayerDecay, &case);
     let out = run(
         gpu(),
         &shader,
@@ -30,18 +27,7 @@ fn gpu_decay(samples: &[[f32; 4]]) -> Vec<f32> {
 
 #[test]
 fn generated_cases_match_the_mirror() {
-    let rep = verify(
-        gpu(),
-        &LayerDecay,
-        &VerifyOptions {
-            cases: 12,
-            seed: 5,
-            corrupt: None,
-        },
-        &mut |_| {},
-    )
-    .unwrap();
-    assert!(rep.passed(), "{}", rep.failures[0].report());
+    verified(&LayerDecay, 12, 5);
 }
 
 #[test]

@@ -4,9 +4,7 @@
 //! says what runs, a directional light is rendered through its orthographic view.
 mod common;
 
-use common::gpu;
-use vxgi::harness::kernel::verify;
-use vxgi::harness::VerifyOptions;
+use common::{assert_case_passes, gpu, verified};
 use vxgi::kernels::cone_trace::ConeSettings;
 use vxgi::kernels::lrsm_cone_trace::LrsmConeTrace;
 use vxgi::render::{render_lrsm, Pipeline};
@@ -14,18 +12,7 @@ use vxgi::scene::{Light, Scene};
 
 #[test]
 fn generated_gathers_are_within_the_mirrors_bounds() {
-    let rep = verify(
-        gpu(),
-        &LrsmConeTrace,
-        &VerifyOptions {
-            cases: 8,
-            seed: 7,
-            corrupt: None,
-        },
-        &mut |_| {},
-    )
-    .unwrap();
-    assert!(rep.passed(), "{}", rep.failures[0].report());
+    verified(&LrsmConeTrace, 8, 7);
 }
 
 #[test]
@@ -163,7 +150,6 @@ fn shadow_cones_replace_the_exact_shadow_rays_when_asked() {
 /// bound now covers what flushing can remove. The case is generated again and checked on its own.
 #[test]
 fn a_soft_direct_term_at_the_bottom_of_the_normal_range_may_flush() {
-    use vxgi::harness::kernel::verify_case;
     use vxgi::harness::Kernel;
     let shader = vxgi::kernels::lrsm_cone_trace::DECL.shader().unwrap();
     let case = LrsmConeTrace.case(&shader, gpu(), 19, 59);
@@ -172,10 +158,7 @@ fn a_soft_direct_term_at_the_bottom_of_the_normal_range_may_flush() {
         "the generator no longer makes the seed-19 case: {}",
         case.label
     );
-    let (comps, ..) = verify_case(gpu(), &shader, &LrsmConeTrace, &case, None).unwrap();
-    for c in comps {
-        assert!(c.passed(), "{}", c.report());
-    }
+    assert_case_passes(&shader, &LrsmConeTrace, &case);
 }
 
 /// lrsm at the Cornell box's own 256x256 with the default settings against the committed converged

@@ -2,7 +2,7 @@
 //! partition must conserve.
 mod common;
 
-use common::gpu;
+use common::{case_passes, gpu, verified};
 use vxgi::harness::kernel::{verify, verify_case};
 use vxgi::harness::run::run;
 use vxgi::harness::{Corruption, VerifyOptions};
@@ -20,18 +20,7 @@ fn config(side: u32, a: u32, b: u32, overlap: f32) -> PartitionConfig {
 
 #[test]
 fn generated_partitions_match_the_mirror() {
-    let rep = verify(
-        gpu(),
-        &LrsmPartition,
-        &VerifyOptions {
-            cases: 15,
-            seed: 8,
-            corrupt: None,
-        },
-        &mut |_| {},
-    )
-    .unwrap();
-    assert!(rep.passed(), "{}", rep.failures[0].report());
+    verified(&LrsmPartition, 15, 8);
 }
 
 #[test]
@@ -162,10 +151,7 @@ proptest::proptest! {
     fn proptest_generated_cases_match_the_mirror(seed in proptest::prelude::any::<u64>(), index in 0usize..60) {
         let shader = DECL.shader().unwrap();
         let case = vxgi::harness::Kernel::case(&LrsmPartition, &shader, gpu(), seed, index);
-        let (comps, ..) = verify_case(gpu(), &shader, &LrsmPartition, &case, None).unwrap();
-        for c in comps {
-            proptest::prop_assert!(c.passed(), "{}", c.report());
-        }
+        case_passes(&shader, &LrsmPartition, &case)?;
     }
 }
 

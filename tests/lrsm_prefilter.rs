@@ -2,7 +2,7 @@
 //! of carrying opacity: normalised moments of a coarse texel are the moments of the covered texels.
 mod common;
 
-use common::gpu;
+use common::{case_passes, gpu, verified};
 use vxgi::harness::kernel::{verify, verify_case};
 use vxgi::harness::run::run;
 use vxgi::harness::{Corruption, VerifyOptions};
@@ -10,18 +10,7 @@ use vxgi::kernels::lrsm_prefilter::{chain_case, generate, stream_name, LrsmPrefi
 
 #[test]
 fn generated_layer_chains_match_the_mirror_bit_for_bit() {
-    let rep = verify(
-        gpu(),
-        &LrsmPrefilter,
-        &VerifyOptions {
-            cases: 14,
-            seed: 21,
-            corrupt: None,
-        },
-        &mut |_| {},
-    )
-    .unwrap();
-    assert!(rep.passed(), "{}", rep.failures[0].report());
+    let rep = verified(&LrsmPrefilter, 14, 21);
     assert_eq!(rep.max_ulp, 0, "the pre-filter is exact arithmetic");
 }
 
@@ -92,9 +81,6 @@ proptest::proptest! {
     fn proptest_generated_cases_match_the_mirror(seed in proptest::prelude::any::<u64>(), index in 0usize..60) {
         let shader = DECL.shader().unwrap();
         let case = vxgi::harness::Kernel::case(&LrsmPrefilter, &shader, gpu(), seed, index);
-        let (comps, ..) = verify_case(gpu(), &shader, &LrsmPrefilter, &case, None).unwrap();
-        for c in comps {
-            proptest::prop_assert!(c.passed(), "{}", c.report());
-        }
+        case_passes(&shader, &LrsmPrefilter, &case)?;
     }
 }

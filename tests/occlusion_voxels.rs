@@ -4,7 +4,7 @@
 //! at every level (surface coverage); and the memory the paper's Table 2 states.
 mod common;
 
-use common::gpu;
+use common::{gpu, verified};
 use proptest::prelude::*;
 use vxgi::grids::{generate, Pattern};
 use vxgi::harness::kernel::{verify, verify_case};
@@ -15,18 +15,7 @@ use vxgi_cpu_mirror::occlusion_voxels::{byte, pyramid, pyramid_bytes, Coverage};
 
 #[test]
 fn generated_grids_match_the_mirror_bit_for_bit() {
-    let rep = verify(
-        gpu(),
-        &OcclusionVoxels,
-        &VerifyOptions {
-            cases: 24,
-            seed: 5,
-            corrupt: None,
-        },
-        &mut |_| {},
-    )
-    .unwrap();
-    assert!(rep.passed(), "{}", rep.failures[0].report());
+    let rep = verified(&OcclusionVoxels, 24, 5);
     assert_eq!(rep.max_ulp, 0);
 }
 

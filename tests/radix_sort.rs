@@ -1,26 +1,15 @@
 //! GPU vs mirror for `kernels/radix_sort.wgsl`: the stable sort is unique, so exact.
 mod common;
 
-use common::gpu;
-use vxgi::harness::kernel::{verify, verify_case};
+use common::{assert_case_passes, case_passes, gpu, verified};
+use vxgi::harness::kernel::verify;
 use vxgi::harness::run::run;
 use vxgi::harness::{Corruption, VerifyOptions};
 use vxgi::kernels::radix_sort::{case_for, RadixSort, SortError, DECL};
 
 #[test]
 fn generated_sorts_match_the_mirror() {
-    let rep = verify(
-        gpu(),
-        &RadixSort,
-        &VerifyOptions {
-            cases: 18,
-            seed: 2,
-            corrupt: None,
-        },
-        &mut |_| {},
-    )
-    .unwrap();
-    assert!(rep.passed(), "{}", rep.failures[0].report());
+    verified(&RadixSort, 18, 2);
 }
 
 proptest::proptest! {
@@ -33,10 +22,7 @@ proptest::proptest! {
         let values: Vec<u32> = (0..keys.len() as u32).collect();
         let shader = DECL.shader().unwrap();
         let (case, out) = case_for(gpu(), &keys, &values, key_bits, "prop".into(), 0).unwrap();
-        let (comps, ..) = verify_case(gpu(), &shader, &RadixSort, &case, None).unwrap();
-        for c in comps {
-            proptest::prop_assert!(c.passed(), "{}", c.report());
-        }
+        case_passes(&shader, &RadixSort, &case)?;
         // And it is a sort: non-decreasing in the masked key, values a permutation.
         let got = run(gpu(), &shader, DECL.name, &case.resources, &case.passes, &[&out[0], &out[1]]).unwrap();
         let mask = if key_bits == 32 { u32::MAX } else { (1 << key_bits) - 1 };
@@ -113,8 +99,5 @@ fn more_counts_than_one_invocation_may_loop_over() {
     let values: Vec<u32> = (0..n).collect();
     let shader = DECL.shader().unwrap();
     let (case, _) = case_for(gpu(), &keys, &values, 20, "large".into(), 0).unwrap();
-    let (comps, ..) = verify_case(gpu(), &shader, &RadixSort, &case, None).unwrap();
-    for c in comps {
-        assert!(c.passed(), "{}", c.report());
-    }
+    assert_case_passes(&shader, &RadixSort, &case);
 }

@@ -3,9 +3,7 @@
 //! (but its open front), the face looking down sees the floor lit at <n.l> near 1, depths inside [0, 1].
 mod common;
 
-use common::gpu;
-use vxgi::harness::kernel::verify;
-use vxgi::harness::VerifyOptions;
+use common::{gpu, verified};
 use vxgi::kernels::reflective_shadow_map::{rsm_on_gpu, ReflectiveShadowMap};
 use vxgi::lrsm::light_views;
 use vxgi::scene::{Light, Scene};
@@ -13,18 +11,7 @@ use vxgi::trace::SceneData;
 
 #[test]
 fn generated_views_match_the_mirror() {
-    let rep = verify(
-        gpu(),
-        &ReflectiveShadowMap,
-        &VerifyOptions {
-            cases: 18,
-            seed: 3,
-            corrupt: None,
-        },
-        &mut |_| {},
-    )
-    .unwrap();
-    assert!(rep.passed(), "{}", rep.failures[0].report());
+    verified(&ReflectiveShadowMap, 18, 3);
 }
 
 #[test]

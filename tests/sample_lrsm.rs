@@ -1,7 +1,7 @@
 //! GPU vs mirror for `kernels/sample_lrsm.wgsl` (LRSM Algorithm 1) on LRSMs built from synthetic RSMs.
 mod common;
 
-use common::gpu;
+use common::{case_passes, gpu, verified};
 use vxgi::harness::kernel::{verify, verify_case};
 use vxgi::harness::run::run;
 use vxgi::harness::{Corruption, VerifyOptions};
@@ -11,18 +11,7 @@ use vxgi_cpu_mirror::sample_lrsm::SampleParams;
 
 #[test]
 fn generated_cone_samples_match_the_mirror() {
-    let rep = verify(
-        gpu(),
-        &SampleLrsm,
-        &VerifyOptions {
-            cases: 12,
-            seed: 31,
-            corrupt: None,
-        },
-        &mut |_| {},
-    )
-    .unwrap();
-    assert!(rep.passed(), "{}", rep.failures[0].report());
+    let rep = verified(&SampleLrsm, 12, 31);
     assert!(rep.max_bound_use < 1.0);
 }
 
@@ -145,10 +134,7 @@ proptest::proptest! {
     fn proptest_generated_cases_match_the_mirror(seed in proptest::prelude::any::<u64>(), index in 0usize..60) {
         let shader = DECL.shader().unwrap();
         let case = vxgi::harness::Kernel::case(&SampleLrsm, &shader, gpu(), seed, index);
-        let (comps, ..) = verify_case(gpu(), &shader, &SampleLrsm, &case, None).unwrap();
-        for c in comps {
-            proptest::prop_assert!(c.passed(), "{}", c.report());
-        }
+        case_passes(&shader, &SampleLrsm, &case)?;
     }
 }
 

@@ -2,8 +2,8 @@
 //! the skip rule it implements: empty tiles are listed nowhere, so the cone passes never dispatch them.
 mod common;
 
-use common::gpu;
-use vxgi::harness::kernel::{verify, verify_case};
+use common::{assert_case_passes, gpu, verified};
+use vxgi::harness::kernel::verify;
 use vxgi::harness::run::run;
 use vxgi::harness::{Corruption, VerifyOptions};
 use vxgi::kernels::screen_tiles::{case_for, normals, ScreenTiles, DECL};
@@ -12,10 +12,7 @@ use vxgi_cpu_mirror::screen_tiles::HEADER;
 fn gpu_list(normal: &[[f32; 4]], w: u32, h: u32) -> Vec<u32> {
     let shader = DECL.shader().unwrap();
     let case = case_for(normal, w, h, "direct".into(), 0);
-    let (comps, ..) = verify_case(gpu(), &shader, &ScreenTiles, &case, None).unwrap();
-    for c in comps {
-        assert!(c.passed(), "{}", c.report());
-    }
+    assert_case_passes(&shader, &ScreenTiles, &case);
     let out = run(
         gpu(),
         &shader,
@@ -30,18 +27,7 @@ fn gpu_list(normal: &[[f32; 4]], w: u32, h: u32) -> Vec<u32> {
 
 #[test]
 fn generated_cases_match_the_mirror() {
-    let rep = verify(
-        gpu(),
-        &ScreenTiles,
-        &VerifyOptions {
-            cases: 12,
-            seed: 3,
-            corrupt: None,
-        },
-        &mut |_| {},
-    )
-    .unwrap();
-    assert!(rep.passed(), "{}", rep.failures[0].report());
+    let rep = verified(&ScreenTiles, 12, 3);
     assert!(rep.elements > 0);
 }
 

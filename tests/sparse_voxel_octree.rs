@@ -3,7 +3,7 @@
 //! consistent, work skipped, memory, and bad input.
 mod common;
 
-use common::gpu;
+use common::{gpu, verified};
 use proptest::prelude::*;
 use vxgi::harness::kernel::{verify, verify_case};
 use vxgi::harness::{Corruption, VerifyOptions};
@@ -18,18 +18,7 @@ use vxgi_cpu_mirror::sparse_voxel_octree::{
 
 #[test]
 fn generated_octrees_match_the_mirror_exactly() {
-    let rep = verify(
-        gpu(),
-        &SparseVoxelOctree,
-        &VerifyOptions {
-            cases: 16,
-            seed: 3,
-            corrupt: None,
-        },
-        &mut |_| {},
-    )
-    .unwrap();
-    assert!(rep.passed(), "{}", rep.failures[0].report());
+    let rep = verified(&SparseVoxelOctree, 16, 3);
     assert_eq!(rep.max_ulp, 0);
 }
 

@@ -2,7 +2,7 @@
 //! failure paths the harness must catch.
 mod common;
 
-use common::gpu;
+use common::{assert_case_passes, gpu};
 use proptest::prelude::*;
 use vxgi::grids::{generate, Pattern};
 use vxgi::harness::compare::{compare_f32, Indexing, Tolerance};
@@ -434,10 +434,7 @@ fn grid_256_splits_into_binding_windows_and_matches() {
         case.passes.len() > 8,
         "level 1 should be split on a 128 MiB binding limit"
     );
-    let (comps, ..) = verify_case(gpu(), &shader, &SurfaceCoverageMip, &case, None).unwrap();
-    for c in comps {
-        assert!(c.passed(), "{}", c.report());
-    }
+    assert_case_passes(&shader, &SurfaceCoverageMip, &case);
 }
 
 #[test]

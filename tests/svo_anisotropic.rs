@@ -5,7 +5,7 @@
 //! images (leak, accuracy) in tests/svo_cone_trace.rs.
 mod common;
 
-use common::gpu;
+use common::{gpu, verified};
 use vxgi::harness::kernel::verify;
 use vxgi::harness::kernel::Corruption;
 use vxgi::harness::VerifyOptions;
@@ -14,18 +14,7 @@ use vxgi_cpu_mirror::svo_anisotropic::AnisoParams;
 
 #[test]
 fn generated_octrees_match_the_mirror() {
-    let rep = verify(
-        gpu(),
-        &SvoAnisotropic,
-        &VerifyOptions {
-            cases: 24,
-            seed: 3,
-            corrupt: None,
-        },
-        &mut |_| {},
-    )
-    .unwrap();
-    assert!(rep.passed(), "{}", rep.failures[0].report());
+    verified(&SvoAnisotropic, 24, 3);
 }
 
 #[test]

@@ -2,25 +2,14 @@
 //! read at the voxels' own level gives the dense pyramid's level 0 back.
 mod common;
 
-use common::gpu;
+use common::{gpu, verified};
 use vxgi::harness::kernel::verify;
 use vxgi::harness::{Corruption, VerifyOptions};
 use vxgi::kernels::svo_cone_trace::SvoConeTrace;
 
 #[test]
 fn generated_scenes_match_the_mirror() {
-    let rep = verify(
-        gpu(),
-        &SvoConeTrace,
-        &VerifyOptions {
-            cases: 8,
-            seed: 1,
-            corrupt: None,
-        },
-        &mut |_| {},
-    )
-    .unwrap();
-    assert!(rep.passed(), "{}", rep.failures[0].report());
+    let rep = verified(&SvoConeTrace, 8, 1);
     assert!(rep.max_bound_use <= 1.0);
 }
 

@@ -2,9 +2,7 @@
 //! the photons of the Cornell box must carry: the light voxel_light computes per voxel, in total.
 mod common;
 
-use common::gpu;
-use vxgi::harness::kernel::verify;
-use vxgi::harness::VerifyOptions;
+use common::{gpu, verified};
 use vxgi::kernels::svo_photons::{photon_fragments, SvoPhotons};
 use vxgi::kernels::voxelize::voxelize_on_gpu;
 use vxgi::plan::FramePlan;
@@ -13,18 +11,7 @@ use vxgi::trace::SceneData;
 
 #[test]
 fn generated_views_match_the_mirror() {
-    let rep = verify(
-        gpu(),
-        &SvoPhotons,
-        &VerifyOptions {
-            cases: 18,
-            seed: 3,
-            corrupt: None,
-        },
-        &mut |_| {},
-    )
-    .unwrap();
-    assert!(rep.passed(), "{}", rep.failures[0].report());
+    verified(&SvoPhotons, 18, 3);
 }
 
 /// The Cornell box at 64^3 voxels: the photons of the ceiling light's six 256^2 views, summed per

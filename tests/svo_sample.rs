@@ -2,30 +2,18 @@
 //! trilinear interpolation of the dense lattice of that level (sparsity loses nothing).
 mod common;
 
-use common::gpu;
+use common::{gpu, verified};
 use proptest::prelude::*;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use vxgi::harness::kernel::{verify, verify_case};
-use vxgi::harness::VerifyOptions;
+use vxgi::harness::kernel::verify_case;
 use vxgi::kernels::sparse_voxel_octree::{default_capacity, generated};
 use vxgi::kernels::svo_sample::{case_for, queries, sample_on_gpu, SampleError, SvoSample, DECL};
 use vxgi_cpu_mirror::sparse_voxel_octree::{build, dense_reference, Fragment};
 
 #[test]
 fn generated_samples_match_the_mirror() {
-    let rep = verify(
-        gpu(),
-        &SvoSample,
-        &VerifyOptions {
-            cases: 16,
-            seed: 4,
-            corrupt: None,
-        },
-        &mut |_| {},
-    )
-    .unwrap();
-    assert!(rep.passed(), "{}", rep.failures[0].report());
+    verified(&SvoSample, 16, 4);
 }
 
 /// Trilinear interpolation of the dense lattice of level `l` at unit-volume point `x`, in f64.

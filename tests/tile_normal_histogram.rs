@@ -2,7 +2,7 @@
 //! output in the same property test; stress cases and bad input.
 mod common;
 
-use common::gpu;
+use common::{case_passes, gpu};
 use vxgi::gbuffers::{normals, packed, GPattern};
 use vxgi::harness::kernel::{verify, verify_case};
 use vxgi::harness::run::run;
@@ -40,10 +40,7 @@ proptest::proptest! {
         let shader = DECL.shader().unwrap();
         let n = packed(&normals(w, h, GPattern::family(family), seed));
         let case = case_for(&n, params(w, h, tile).unwrap(), format!("{w}x{h} tile {tile}"), seed).unwrap();
-        let (comps, ..) = verify_case(gpu(), &shader, &TileNormalHistogram, &case, None).unwrap();
-        for c in comps {
-            proptest::prop_assert!(c.passed(), "{}", c.report());
-        }
+        case_passes(&shader, &TileNormalHistogram, &case)?;
         let (raw, blurred) = histograms(&n, &params(w, h, tile).unwrap());
         let ashader = AXES_DECL.shader().unwrap();
         let acase = axes_case(&ashader, gpu(), &raw, &blurred, "axes".into(), seed);

@@ -2,7 +2,7 @@
 //! generated scenes voxelized by the GPU; and the analytic value on the Cornell box floor.
 mod common;
 
-use common::gpu;
+use common::{gpu, verified};
 use vxgi::harness::kernel::verify;
 use vxgi::harness::run::run;
 use vxgi::harness::{Corruption, VerifyOptions};
@@ -14,18 +14,7 @@ use vxgi_cpu_mirror::morton;
 
 #[test]
 fn generated_scenes_match_the_mirror() {
-    let rep = verify(
-        gpu(),
-        &VoxelLight,
-        &VerifyOptions {
-            cases: 12,
-            seed: 9,
-            corrupt: None,
-        },
-        &mut |_| {},
-    )
-    .unwrap();
-    assert!(rep.passed(), "{}", rep.failures[0].report());
+    verified(&VoxelLight, 12, 9);
 }
 
 #[test]

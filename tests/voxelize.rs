@@ -2,7 +2,7 @@
 //! `surface_coverage_mip`, coverage without holes, and bad grid sizes.
 mod common;
 
-use common::gpu;
+use common::{gpu, verified};
 use std::path::Path;
 use vxgi::harness::kernel::{verify, verify_case};
 use vxgi::harness::{Corruption, VerifyOptions};
@@ -14,18 +14,7 @@ use vxgi_cpu_mirror::surface_coverage_mip::Coverage;
 
 #[test]
 fn generated_scenes_match_the_mirror() {
-    let rep = verify(
-        gpu(),
-        &Voxelize,
-        &VerifyOptions {
-            cases: 12,
-            seed: 4,
-            corrupt: None,
-        },
-        &mut |_| {},
-    )
-    .unwrap();
-    assert!(rep.passed(), "{}", rep.failures[0].report());
+    verified(&Voxelize, 12, 4);
 }
 
 #[test]

@@ -33,3 +33,56 @@ pub fn vxgi(args: &[&str]) -> (i32, String, String) {
         String::from_utf8_lossy(&out.stderr).into(),
     )
 }
+
+/// `cases` generated cases of `kernel` from `seed`, GPU vs mirror, every output within its bound;
+/// fails with the first failing case's report. The report comes back for further checks.
+#[track_caller]
+pub fn verified(
+    kernel: &dyn vxgi::harness::Kernel,
+    cases: usize,
+    seed: u64,
+) -> vxgi::harness::KernelReport {
+    let opts = vxgi::harness::VerifyOptions {
+        cases,
+        seed,
+        corrupt: None,
+    };
+    let rep = vxgi::harness::kernel::verify(gpu(), kernel, &opts, &mut |_| {}).expect("GPU run");
+    assert!(rep.passed(), "{}", rep.failures[0].report());
+    rep
+}
+
+/// The first output of one GPU run of `case` that is outside its bound, as its report.
+pub fn first_failure(
+    shader: &vxgi::harness::Shader,
+    kernel: &dyn vxgi::harness::Kernel,
+    case: &vxgi::harness::Case,
+) -> Option<String> {
+    let (comps, ..) =
+        vxgi::harness::kernel::verify_case(gpu(), shader, kernel, case, None).expect("GPU run");
+    comps.iter().find(|c| !c.passed()).map(|c| c.report())
+}
+
+/// One case of `kernel` on the GPU, every output within its bound against the mirror.
+#[track_caller]
+pub fn assert_case_passes(
+    shader: &vxgi::harness::Shader,
+    kernel: &dyn vxgi::harness::Kernel,
+    case: &vxgi::harness::Case,
+) {
+    if let Some(report) = first_failure(shader, kernel, case) {
+        panic!("{report}");
+    }
+}
+
+/// [`assert_case_passes`] for proptest bodies: `case_passes(..)?` fails the property with the report.
+pub fn case_passes(
+    shader: &vxgi::harness::Shader,
+    kernel: &dyn vxgi::harness::Kernel,
+    case: &vxgi::harness::Case,
+) -> Result<(), proptest::test_runner::TestCaseError> {
+    match first_failure(shader, kernel, case) {
+        Some(report) => Err(proptest::test_runner::TestCaseError::fail(report)),
+        None => Ok(()),
+    }
+}
