@@ -52,7 +52,7 @@ impl From<&RenderSettings> for CprcSettings {
 }
 
 impl CprcSettings {
-    /// Bytes of `caches` caches: texels, mip chain (level 0 included) and irradiance map, vec4<f32>
+    /// Bytes of `caches` caches: texels, mip chain (level 0 included) and irradiance map, `vec4<f32>`
     /// each.
     pub fn cache_bytes(&self, caches: usize) -> u64 {
         let per = (self.res * self.res) as usize

@@ -237,7 +237,7 @@ pub fn synthetic_rsm(side: u32, config: &PartitionConfig, seed: u64) -> Rsm {
     rsm
 }
 
-/// Bytes of the LRSM for `config`: three vec4<f32> streams per layer texel over the whole mip chain
+/// Bytes of the LRSM for `config`: three `vec4<f32>` streams per layer texel over the whole mip chain
 /// (the paper's Table 1 stores 16-bit channels: half of this).
 pub fn lrsm_bytes(config: &PartitionConfig) -> u64 {
     let side0 = (config.rsm_side / 2) as u64;

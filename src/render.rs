@@ -14,15 +14,15 @@ use wgpu::util::DeviceExt;
 
 /// G-buffer and radiance buffers sized for a frame (row-major pixels), owned by whoever renders.
 pub struct FrameTargets {
-    /// vec4<f32> per pixel: position and distance (w = -1: nothing hit).
+    /// `vec4<f32>` per pixel: position and distance (w = -1: nothing hit).
     pub gb_position: wgpu::Buffer,
-    /// vec4<f32> per pixel: shading normal and side (1 front, -1 back, 0 none).
+    /// `vec4<f32>` per pixel: shading normal and side (1 front, -1 back, 0 none).
     pub gb_normal: wgpu::Buffer,
     /// u32 per pixel: triangle index or u32::MAX.
     pub gb_triangle: wgpu::Buffer,
-    /// vec4<f32> per pixel: albedo (Kd or the map_Kd texel; rgb, 0).
+    /// `vec4<f32>` per pixel: albedo (Kd or the map_Kd texel; rgb, 0).
     pub gb_albedo: wgpu::Buffer,
-    /// vec4<f32> per pixel: direct radiance (rgb, 0).
+    /// `vec4<f32>` per pixel: direct radiance (rgb, 0).
     pub radiance: wgpu::Buffer,
 }
 
@@ -1041,7 +1041,7 @@ struct SvoCache {
 /// frame's, while every later frame's geometry fits in it) and kept; each frame voxelizes the dynamic
 /// instances alone into the same grid and merges them in (a voxel both fill gets the mean of the two
 /// albedos and of the two normals). The octree's structure follows VCT 4.2.2's static/dynamic split:
-/// the static voxels' subdivisions are recorded once ([`StaticStructure`]) and replayed each frame, so
+/// the static voxels' subdivisions are recorded once ([`StaticStructure`](vxgi_cpu_mirror::sparse_voxel_octree::StaticStructure)) and replayed each frame, so
 /// only fragments at points the static part does not cover (the dynamic instances' voxels, photons
 /// landing on them) flag nodes; the values are rebuilt from every fragment (light moves with the
 /// instances).
@@ -1166,7 +1166,7 @@ impl StaticVoxels {
         Ok(Some((grid, list, frame, t.elapsed().as_secs_f64())))
     }
 
-    /// The kept static part's recorded octree structure (after [`Self::voxels`] returned voxels).
+    /// The kept static part's recorded octree structure (after `voxels` returned voxels).
     pub fn structure(&self) -> Option<&vxgi_cpu_mirror::sparse_voxel_octree::StaticStructure> {
         self.kept.as_deref().map(|k| &k.4)
     }

@@ -77,7 +77,7 @@ pub fn irradiance_weights(res: u32, irr: u32) -> Vec<f32> {
     w
 }
 
-/// Irradiance texel `k` of one cache: sum_t L_t W[k][t] in t order, and its bound: each of the n
+/// Irradiance texel `k` of one cache: `sum_t L_t W[k][t]` in t order, and its bound: each of the n
 /// steps rounds once (fused or not, <= 1/2 ULP of its partial sum and of its product), so
 /// |error| <= (n + 1) u sum |L_t| W, u = 2^-24; doubled. Subnormal products (FTZ GPUs) are below it.
 pub fn irradiance_texel(tex: &[[f32; 4]], weights: &[f32], k: usize) -> ([f32; 4], [f32; 4]) {

@@ -583,7 +583,7 @@ pub struct MemoryReport {
     pub normal_bytes: u64,
     /// The dense vertex lattices of every level, four u32 channels per point.
     pub dense_bytes: u64,
-    /// vct-dense at the same effective resolution: the Morton radiance and normal pyramids (vec4<f32>
+    /// vct-dense at the same effective resolution: the Morton radiance and normal pyramids (`vec4<f32>`
     /// per voxel, every level) of a grid with one voxel per leaf lattice interval (`2 * 2^depth`).
     pub vct_dense_bytes: u64,
 }
