@@ -579,7 +579,6 @@ impl Kernel for LrsmConeTrace {
         let data = SceneData::new(&scene);
         // Marching varied as cone_trace's cases.
         let cones = super::cone_trace::varied_marching(ConeSettings::from(&scene.render), index);
-        let label = format!("{label}{}", super::cone_trace::marching_label(&cones));
         let settings = LrsmSettings {
             shadow_cone_angle: 0.0,
             rsm_side: [16, 32][index % 2],
@@ -610,7 +609,8 @@ impl Kernel for LrsmConeTrace {
             &params,
             shadow_tan,
             format!(
-                "{label}, {side}^3, RSM {}^2, {} layers, {} views{}",
+                "{label}, {side}^3{}, RSM {}^2, {} layers, {} views{}",
+                super::cone_trace::marching_label(&cones),
                 settings.rsm_side,
                 frame.params.depth_slices * frame.params.normal_slices,
                 frame.views.len(),
