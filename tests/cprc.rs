@@ -43,6 +43,35 @@ fn cprc_against_the_converged_reference() {
     assert!(stats.uncovered * 200 < stats.pixels, "{stats:?}");
 }
 
+/// Issue 7's goal, mean FLIP of the combined image < 0.1 at 256x256 against the converged reference,
+/// met by cprc on vct-dense's voxels and cone march with finer caches
+/// (scenes/cornell_box_fine_caches.toml: 4-pixel tiles, 32^2 texels, a 4^2 irradiance map, gathering
+/// over 1.5 tiles, cone level bias -1.25, mip clamp 1.5). Measured on lavapipe: 0.0989, indirect
+/// energy 0.96 of the reference's. `vxgi bisect` on the scene file: from the G-buffer on, every GPU
+/// stage agrees with its mirror to 4e-7; the GPU G-buffer's 3 edge pixels move a few caches (indirect
+/// FLIP 0.0003 between the two frames), so the margin to 0.1 is not a driver's rounding. The scene
+/// file is the recipe the README gives, so test and recipe cannot drift.
+#[test]
+fn fine_caches_meet_the_flip_goal_on_the_cornell_box() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let dir = root.join("references/cornell_box_256_4096spp");
+    let read = |name: &str| vxgi::images::read_exr(&dir.join(format!("{name}.exr"))).unwrap();
+    let scene = Scene::load(root.join("scenes/cornell_box_fine_caches.toml")).unwrap();
+    let cones = ConeSettings::from(&scene.render);
+    let (r, stats) = vxgi::render::render_cprc(gpu(), &scene, &cones, |_| {}).unwrap();
+    let p = std::path::Path::new("");
+    let comb = compare(&read("combined"), p, &r.combined, p).unwrap();
+    let reference = read("indirect");
+    let mean = |img: &[[f32; 3]]| img.iter().map(|p| p[0] + p[1] + p[2]).sum::<f32>();
+    let ratio = mean(&r.indirect.pixels) / mean(&reference.pixels);
+    println!(
+        "fine caches: combined FLIP {:.4}, indirect energy ours/reference {ratio:.3}; {stats:?}",
+        comb.flip_mean
+    );
+    assert!(comb.flip_mean < 0.1, "combined FLIP {}", comb.flip_mean);
+    assert!((0.9..1.1).contains(&ratio), "indirect energy ratio {ratio}");
+}
+
 /// Fig. 6 on rendered G-buffers (GPU G-buffer and GPU distribution): the Cornell box and both thin-wall
 /// scenes at 128x128 with 8- and 16-pixel tiles; the equidistant grid gets as many caches and the same
 /// mean world radius. Clustered placement never leaves more pixels without a valid cache (weight > 0
