@@ -33,6 +33,36 @@ impl RgbImage {
         }
     }
 
+    /// The image box-filtered over `s` x `s` pixels: each output pixel the mean of its block (the
+    /// reference's pixel, the integral over its area, where the blocks are a pixel's samples). The
+    /// size must be a multiple of `s` (a supersampled frame's is).
+    pub fn downsampled(&self, s: u32) -> Self {
+        assert!(
+            s >= 1 && self.width.is_multiple_of(s) && self.height.is_multiple_of(s),
+            "{}x{} is not a multiple of {s}",
+            self.width,
+            self.height
+        );
+        let (w, h) = (self.width / s, self.height / s);
+        let mut pixels = Vec::with_capacity((w * h) as usize);
+        for y in 0..h {
+            for x in 0..w {
+                let mut sum = [0.0f64; 3];
+                for sy in 0..s {
+                    let row = ((y * s + sy) * self.width + x * s) as usize;
+                    for p in &self.pixels[row..row + s as usize] {
+                        for c in 0..3 {
+                            sum[c] += p[c] as f64;
+                        }
+                    }
+                }
+                let n = (s * s) as f64;
+                pixels.push(sum.map(|v| (v / n) as f32));
+            }
+        }
+        Self::new(w, h, pixels)
+    }
+
     /// The first non-finite pixel, as (x, y).
     pub fn first_non_finite(&self) -> Option<(u32, u32)> {
         self.pixels
@@ -197,4 +227,27 @@ pub fn write_heatmap(path: &Path, width: u32, height: u32, rgb8: &[u8]) -> Resul
     let buf = image::RgbImage::from_raw(width, height, rgb8.to_vec()).expect("sized");
     buf.save_with_format(path, image::ImageFormat::Png)
         .map_err(codec(path))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::RgbImage;
+
+    #[test]
+    fn downsampling_averages_each_block_exactly() {
+        // 4 x 2 pixels whose values are their indices: 2 x 2 blocks average to exact halves.
+        let px: Vec<[f32; 3]> = (0..8).map(|i| [i as f32, 2.0 * i as f32, 1.0]).collect();
+        let img = RgbImage::new(4, 2, px);
+        let d = img.downsampled(2);
+        assert_eq!((d.width, d.height), (2, 1));
+        // Block (0, 0): pixels 0, 1, 4, 5 -> 2.5; block (1, 0): 2, 3, 6, 7 -> 4.5.
+        assert_eq!(d.pixels, vec![[2.5, 5.0, 1.0], [4.5, 9.0, 1.0]]);
+        assert_eq!(img.downsampled(1), img);
+    }
+
+    #[test]
+    #[should_panic(expected = "not a multiple")]
+    fn downsampling_refuses_a_size_that_is_not_a_multiple() {
+        RgbImage::new(3, 2, vec![[0.0; 3]; 6]).downsampled(2);
+    }
 }

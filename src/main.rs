@@ -262,6 +262,11 @@ struct RenderFlags {
     /// octree, which is then rebuilt) [default 1].
     #[arg(long)]
     bounces: Option<u32>,
+    /// Every GPU pipeline: samples per pixel side, 1..=4 (each pixel the mean of supersample^2
+    /// samples, as the reference's pixel is the mean over its area; cache_tile stays in pixels)
+    /// [default 1: the pixel's centre].
+    #[arg(long)]
+    supersample: Option<u32>,
 }
 
 fn load_scene(path: &Option<PathBuf>, flags: &RenderFlags) -> Result<vxgi::scene::Scene> {
@@ -306,7 +311,8 @@ fn load_scene(path: &Option<PathBuf>, flags: &RenderFlags) -> Result<vxgi::scene
         photon_map,
         anisotropic_voxels,
         voxel_lobes,
-        bounces
+        bounces,
+        supersample
     );
     scene.render.validate().map_err(anyhow::Error::msg)?;
     Ok(scene)
@@ -716,6 +722,16 @@ fn run_bisect(
 ) -> Result<()> {
     let scene = load_scene(&scene, &flags)?;
     check_bounces(pipeline, &scene)?;
+    // The splits are compared sample for sample: a supersampled frame's samples are its pixels here.
+    let scene = if scene.render.supersample > 1 {
+        eprintln!(
+            "note: supersample = {0}: bisect compares the frame's samples ({0} x the resolution)",
+            scene.render.supersample
+        );
+        scene.supersampled().map_err(anyhow::Error::msg)?
+    } else {
+        scene
+    };
     let cones = ConeSettings::from(&scene.render);
     // Resolve the stages before starting the GPU, so a typo fails at once.
     let stages = vxgi::bisect::stages(pipeline, &scene, &cones)?;

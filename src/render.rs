@@ -216,12 +216,40 @@ impl Rendered {
         }
     }
 
+    /// Each image box-filtered over `s` x `s` pixels (see [`RgbImage::downsampled`]); combined is
+    /// still direct + indirect (the filter is linear).
+    pub fn downsampled(self, s: u32) -> Self {
+        Self {
+            direct: self.direct.downsampled(s),
+            indirect: self.indirect.downsampled(s),
+            combined: self.combined.downsampled(s),
+            ao: self.ao.downsampled(s),
+            ..self
+        }
+    }
+
     /// The frame with the cone pass's tile counts, from its screen_tiles list buffer.
     pub fn with_cone_tiles(mut self, list: &[u32]) -> Self {
         use vxgi_cpu_mirror::screen_tiles::HEADER;
         self.cone_tiles = Some((list[3], (list.len() - HEADER) as u32));
         self
     }
+}
+
+/// `frame` run on [`Scene::supersampled`] (the camera's `supersample` x `supersample` samples per
+/// pixel as pixels of their own) and box-filtered back to the camera's pixels; as is where
+/// `supersample` is 1. What else the frame reports (memory, caches, tile counts) is the samples'.
+fn supersampled<T>(
+    scene: &Scene,
+    frame: impl FnOnce(&Scene) -> Result<(Rendered, T)>,
+) -> Result<(Rendered, T)> {
+    let s = scene.render.supersample;
+    if s <= 1 {
+        return frame(scene);
+    }
+    let samples = scene.supersampled().map_err(anyhow::Error::msg)?;
+    let (r, extra) = frame(&samples)?;
+    Ok((r.downsampled(s), extra))
 }
 
 /// The vct-dense pipeline: G-buffer and direct light with exact shadows, voxelization, voxel lighting,
@@ -349,6 +377,20 @@ impl VctDense {
 
     /// Render one frame (see [`render`]); its plan says what was skipped and why.
     pub fn render(
+        &mut self,
+        ctx: &crate::harness::GpuContext,
+        scene: &Scene,
+        cones: &ConeSettings,
+        progress: impl Fn(&str),
+    ) -> Result<Rendered> {
+        supersampled(scene, |s| {
+            Ok((self.render_samples(ctx, s, cones, &progress)?, ()))
+        })
+        .map(|(r, ())| r)
+    }
+
+    /// One frame at the scene's own resolution (`render` handles `supersample`).
+    fn render_samples(
         &mut self,
         ctx: &crate::harness::GpuContext,
         scene: &Scene,
@@ -1198,6 +1240,17 @@ impl VctSvo {
         cones: &ConeSettings,
         progress: impl Fn(&str),
     ) -> Result<(Rendered, crate::kernels::sparse_voxel_octree::MemoryReport)> {
+        supersampled(scene, |s| self.render_samples(ctx, s, cones, &progress))
+    }
+
+    /// One frame at the scene's own resolution (`render` handles `supersample`).
+    fn render_samples(
+        &mut self,
+        ctx: &crate::harness::GpuContext,
+        scene: &Scene,
+        cones: &ConeSettings,
+        progress: impl Fn(&str),
+    ) -> Result<(Rendered, crate::kernels::sparse_voxel_octree::MemoryReport)> {
         use crate::kernels::{sparse_voxel_octree as svo, svo_cone_trace};
         let r = &scene.render;
         let key = (
@@ -1428,6 +1481,17 @@ impl VctLrsm {
         cones: &ConeSettings,
         progress: impl Fn(&str),
     ) -> Result<(Rendered, LrsmMemory)> {
+        supersampled(scene, |s| self.render_samples(ctx, s, cones, &progress))
+    }
+
+    /// One frame at the scene's own resolution (`render` handles `supersample`).
+    fn render_samples(
+        &mut self,
+        ctx: &crate::harness::GpuContext,
+        scene: &Scene,
+        cones: &ConeSettings,
+        progress: impl Fn(&str),
+    ) -> Result<(Rendered, LrsmMemory)> {
         let key = PyramidKey::of(scene);
         let settings = LrsmSettings::from(&scene.render);
         let cached = self.reuse
@@ -1620,6 +1684,17 @@ impl VctCprc {
         cones: &ConeSettings,
         progress: impl Fn(&str),
     ) -> Result<(Rendered, crate::cprc::CprcStats)> {
+        supersampled(scene, |s| self.render_samples(ctx, s, cones, &progress))
+    }
+
+    /// One frame at the scene's own resolution (`render` handles `supersample`).
+    fn render_samples(
+        &mut self,
+        ctx: &crate::harness::GpuContext,
+        scene: &Scene,
+        cones: &ConeSettings,
+        progress: impl Fn(&str),
+    ) -> Result<(Rendered, crate::cprc::CprcStats)> {
         use crate::cprc;
         let key = PyramidKey {
             normals: cones.depth_ordered_blend,
@@ -1763,6 +1838,10 @@ fn image_of(w: u32, h: u32, bytes: &[u8]) -> RgbImage {
 /// The same frame computed by the scalar mirrors alone (no GPU): deterministic, so it is what the
 /// snapshot tests store; the GPU image is then compared to it numerically (DESIGN.md section 8).
 pub fn render_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendered> {
+    supersampled(scene, |s| Ok((render_mirror_samples(s, cones)?, ()))).map(|(r, ())| r)
+}
+
+fn render_mirror_samples(scene: &Scene, cones: &ConeSettings) -> Result<Rendered> {
     let m = MirrorFrame::new(scene)?;
     let pyramids = m.pyramid();
     let params = cone_trace::cone_params(&m.frame, cones);
@@ -1779,6 +1858,10 @@ pub fn render_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendered> {
 /// lrsm computed by the scalar mirrors alone (the snapshot tests' lrsm images): occlusion voxels of
 /// the mirror's voxelization, the mirrors' RSMs and LRSMs of every light view, the gather's mirror.
 pub fn render_lrsm_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendered> {
+    supersampled(scene, |s| Ok((render_lrsm_mirror_samples(s, cones)?, ()))).map(|(r, ())| r)
+}
+
+fn render_lrsm_mirror_samples(scene: &Scene, cones: &ConeSettings) -> Result<Rendered> {
     let m = MirrorFrame::new(scene)?;
     let settings = LrsmSettings::from(&scene.render);
     let built = lrsm_cone_trace::mirror_frame(&m.data, &m.lit, m.frame, &settings)?;
@@ -1795,6 +1878,13 @@ pub fn render_lrsm_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendere
 /// cprc computed by the scalar mirrors alone (the snapshot tests' cprc images): the mirror's pyramid,
 /// distribution, cache creation, pre-convolution and gather.
 pub fn render_cprc_mirror(
+    scene: &Scene,
+    cones: &ConeSettings,
+) -> Result<(Rendered, crate::cprc::CprcStats)> {
+    supersampled(scene, |s| render_cprc_mirror_samples(s, cones))
+}
+
+fn render_cprc_mirror_samples(
     scene: &Scene,
     cones: &ConeSettings,
 ) -> Result<(Rendered, crate::cprc::CprcStats)> {
@@ -1823,6 +1913,10 @@ pub fn render_cprc_mirror(
 /// vct-svo computed by the scalar mirrors alone (the snapshot tests' vct-svo images): the mirror's
 /// octree of the lit voxels, then cone_trace's mirror through it.
 pub fn render_svo_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendered> {
+    supersampled(scene, |s| Ok((render_svo_mirror_samples(s, cones)?, ()))).map(|(r, ())| r)
+}
+
+fn render_svo_mirror_samples(scene: &Scene, cones: &ConeSettings) -> Result<Rendered> {
     use crate::kernels::svo_cone_trace::{grid_fragments, max_radiance, svo_cone_params, SCALE};
     use vxgi_cpu_mirror::sparse_voxel_octree::build_fitted;
     let m = MirrorFrame::new(scene)?;

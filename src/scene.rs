@@ -223,6 +223,11 @@ pub struct RenderSettings {
     /// octree with the diffuse cones (`svo_bounce`), its reflected light is added to the fragments and
     /// the octree rebuilt, so the camera's cones see two bounces.
     pub bounces: u32,
+    /// Every GPU pipeline: samples per pixel side, 1..=4. The frame is rendered at `supersample` times
+    /// the camera's width and height (settings in pixels, `cache_tile`, scale with it) and each pixel
+    /// is the mean of its `supersample^2` samples — the reference's pixel is the mean over its area,
+    /// the renders' otherwise its centre. 1 (the default): one sample at the centre.
+    pub supersample: u32,
 }
 
 impl RenderSettings {
@@ -336,6 +341,18 @@ impl RenderSettings {
         if !(1..=2).contains(&self.bounces) {
             return Err(format!("bounces = {} must be 1 or 2", self.bounces));
         }
+        if !(1..=4).contains(&self.supersample) {
+            return Err(format!(
+                "supersample = {} must be in 1..=4",
+                self.supersample
+            ));
+        }
+        if self.cache_tile * self.supersample > 64 {
+            return Err(format!(
+                "cache_tile = {} x supersample = {} must be at most 64 (the tile is in samples)",
+                self.cache_tile, self.supersample
+            ));
+        }
         if self.photon_map != 0
             && (!(16..=2048).contains(&self.photon_map) || !self.photon_map.is_power_of_two())
         {
@@ -389,6 +406,7 @@ impl Default for RenderSettings {
             anisotropic_voxels: true,
             voxel_lobes: false,
             bounces: 1,
+            supersample: 1,
         }
     }
 }
@@ -720,6 +738,21 @@ impl Scene {
         c.eye =
             (target + Quat::from_axis_angle(axis, deg.to_radians()) * (eye - target)).to_array();
         s
+    }
+
+    /// The scene whose pixels are this one's `supersample` x `supersample` samples: the camera's
+    /// width and height and the pixel-measured `cache_tile` times `supersample`, supersample 1. Errors
+    /// where the sampled image would pass the camera's 8192-pixel limit.
+    pub fn supersampled(&self) -> Result<Self, String> {
+        let f = self.render.supersample;
+        let mut s = self.clone();
+        s.camera.width *= f;
+        s.camera.height *= f;
+        s.render.cache_tile *= f;
+        s.render.supersample = 1;
+        validate_camera(&s.camera).map_err(|e| format!("supersample = {f}: {e}"))?;
+        s.render.validate()?;
+        Ok(s)
     }
 
     /// A built-in scene by name (`cornell_box`, `thin_wall`).

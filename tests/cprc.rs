@@ -46,11 +46,12 @@ fn cprc_against_the_converged_reference() {
 /// Issue 7's goal, mean FLIP of the combined image < 0.1 at 256x256 against the converged reference,
 /// met by cprc on vct-dense's voxels and cone march with finer caches
 /// (scenes/cornell_box_fine_caches.toml: 4-pixel tiles, 32^2 texels, a 4^2 irradiance map, gathering
-/// over 1.5 tiles, cone level bias -1.25, mip clamp 1.5). Measured on lavapipe: 0.0989, indirect
-/// energy 0.96 of the reference's. `vxgi bisect` on the scene file: from the G-buffer on, every GPU
-/// stage agrees with its mirror to 4e-7; the GPU G-buffer's 3 edge pixels move a few caches (indirect
-/// FLIP 0.0003 between the two frames), so the margin to 0.1 is not a driver's rounding. The scene
-/// file is the recipe the README gives, so test and recipe cannot drift.
+/// over 1.5 tiles, cone level bias -1.25, mip clamp 1.5, 2 x 2 samples per pixel). Measured on
+/// lavapipe: 0.0870 (0.0989 with one sample per pixel), indirect energy 0.96 of the reference's.
+/// `vxgi bisect` on the scene file (one sample per pixel): from the G-buffer on, every GPU stage
+/// agrees with its mirror to 4e-7; the GPU G-buffer's 3 edge pixels move a few caches (indirect FLIP
+/// 0.0003 between the two frames), so the margin to 0.1 is not a driver's rounding. The scene file is
+/// the recipe the README gives, so test and recipe cannot drift.
 #[test]
 fn fine_caches_meet_the_flip_goal_on_the_cornell_box() {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));

@@ -874,3 +874,43 @@ fn ideal_cones_approach_the_reference_as_cones_narrow() {
         wide.0
     );
 }
+
+/// `supersample = 2` renders the frame of twice the resolution and box-filters it: every pipeline's
+/// image is exactly the downsampled image of the larger camera's frame (the same samples), and the
+/// mirror frame follows the same rule.
+#[test]
+fn supersampled_frames_are_the_larger_frames_box_filtered() {
+    use vxgi::kernels::cone_trace::ConeSettings;
+    use vxgi::render::{Pipeline, Renderer};
+    let mut scene = small(Scene::cornell_box(), 24, 16);
+    scene.render.voxels = 32;
+    scene.render.cache_tile = 4;
+    scene.render.supersample = 2;
+    let big = scene.supersampled().unwrap();
+    let cones = ConeSettings::from(&scene.render);
+    for pipeline in [
+        Pipeline::VctDense,
+        Pipeline::VctSvo,
+        Pipeline::Lrsm,
+        Pipeline::Cprc,
+    ] {
+        let (r, _) = Renderer::new(pipeline, false)
+            .render(gpu(), &scene, &cones, |_| {})
+            .unwrap();
+        let (b, _) = Renderer::new(pipeline, false)
+            .render(gpu(), &big, &cones, |_| {})
+            .unwrap();
+        assert_eq!((r.combined.width, r.combined.height), (24, 16));
+        for (name, ours, theirs) in [
+            ("direct", &r.direct, &b.direct),
+            ("indirect", &r.indirect, &b.indirect),
+            ("combined", &r.combined, &b.combined),
+            ("ao", &r.ao, &b.ao),
+        ] {
+            assert_eq!(*ours, theirs.downsampled(2), "{pipeline:?} {name}");
+        }
+    }
+    let m = vxgi::render::render_mirror(&scene, &cones).unwrap();
+    let mb = vxgi::render::render_mirror(&big, &cones).unwrap();
+    assert_eq!(m.combined, mb.combined.downsampled(2));
+}

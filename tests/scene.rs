@@ -351,3 +351,29 @@ fn bad_instances_are_errors() {
         Err(SceneError::NoGeometry { .. })
     ));
 }
+
+#[test]
+fn supersampling_scales_the_camera_and_the_pixel_tile() {
+    let mut scene = vxgi::scene::Scene::cornell_box();
+    scene.render.supersample = 3;
+    scene.render.cache_tile = 8;
+    let s = scene.supersampled().unwrap();
+    assert_eq!((s.camera.width, s.camera.height), (768, 768));
+    assert_eq!((s.render.cache_tile, s.render.supersample), (24, 1));
+    assert_eq!(s.camera.eye, scene.camera.eye);
+    // Past the camera's limit, or a tile past 64 samples: refused, naming the setting.
+    scene.camera.width = 4000;
+    let e = scene.supersampled().unwrap_err();
+    assert!(e.contains("supersample = 3") && e.contains("8192"), "{e}");
+    scene.camera.width = 256;
+    scene.render.cache_tile = 32;
+    let e = scene.render.validate().unwrap_err();
+    assert!(e.contains("cache_tile = 32 x supersample = 3"), "{e}");
+    scene.render.cache_tile = 16;
+    scene.render.supersample = 0;
+    assert!(scene
+        .render
+        .validate()
+        .unwrap_err()
+        .contains("supersample = 0"));
+}
