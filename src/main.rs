@@ -360,6 +360,19 @@ fn run_render(
         bail!("--frames must be at least 1 and --orbit finite");
     }
     if plan_only {
+        // A supersampled frame's passes run on its samples: the plan of the sampled scene.
+        let samples = scene.supersampled().map_err(anyhow::Error::msg)?;
+        if scene.render.supersample > 1 {
+            println!(
+                "supersample {0}: {0} x {0} samples per pixel ({1}x{2}), box-filtered to {3}x{4}",
+                scene.render.supersample,
+                samples.camera.width,
+                samples.camera.height,
+                scene.camera.width,
+                scene.camera.height
+            );
+        }
+        let scene = samples;
         print!("{}", pipeline.plan(&scene, &cones, false));
         if frames > 1 {
             // Frame 2 reuses frame 1's volume unless a dynamic instance moved.

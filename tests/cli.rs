@@ -145,3 +145,17 @@ fn bisect_names_its_stages_and_refuses_an_unknown_one() {
     assert!(dir.join("combined.exr").exists());
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn a_supersampled_plan_runs_on_the_samples_and_bad_factors_are_refused() {
+    let (code, out, err) = vxgi(&["render", "--plan", "--supersample", "2"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        out.contains("supersample 2: 2 x 2 samples per pixel (512x512), box-filtered to 256x256")
+            && out.contains("512x512 pixels"),
+        "{out}"
+    );
+    let (code, _, err) = vxgi(&["render", "--plan", "--supersample", "5"]);
+    assert_ne!(code, 0);
+    assert!(err.contains("supersample = 5 must be in 1..=4"), "{err}");
+}
