@@ -32,6 +32,9 @@ pub struct BenchRow {
     pub cache_resolution: u32,
     pub cache_tile: u32,
     pub caches: usize,
+    /// cprc: irradiance map side and gathering radius in tiles.
+    pub irradiance_resolution: u32,
+    pub gather_radius: f32,
     /// vct-svo: directional values above the leaves, and the photon map side (0: voxel_light).
     pub anisotropic_voxels: bool,
     pub photon_map: u32,
@@ -39,6 +42,8 @@ pub struct BenchRow {
     pub voxel_lobes: bool,
     /// vct-dense and cprc: the depth-ordered blend instead of the trilinear one.
     pub depth_ordered_blend: bool,
+    /// Every pipeline: samples per pixel side (`supersample`).
+    pub supersample: u32,
     /// Wall-clock seconds of the whole frame (stages, transfers between them included).
     pub seconds: f64,
     /// Wall-clock seconds per stage, in [`Pipeline::stages`] order (0 where the plan skipped the stage).
@@ -209,7 +214,10 @@ pub fn lrsm_sweep(base: &RenderSettings, quick: bool) -> Vec<RenderSettings> {
 
 /// cprc's sweep, the paper's Fig. 5 trade-off: cache tile {4, 8, 16} pixels (the cache count follows:
 /// about 1.7 caches per tile at 256x256 in the Cornell box) x cache resolution {16, 32} = 6, the
-/// voxels and cones at `base`'s. Quick: tile {8, 16} x resolution {8, 16} = 4.
+/// voxels and cones at `base`'s; plus the fine caches of scenes/cornell_box_fine_caches.toml (32^2
+/// texels, 4^2 irradiance, radius 1.5 tiles, level bias -1.25, mip clamp 1.5) at tile {8, 4} x
+/// samples per pixel {1, 2} = 4 (README "Meeting the FLIP goal"). Quick: tile {8, 16} x resolution
+/// {8, 16} = 4.
 pub fn cprc_sweep(base: &RenderSettings, quick: bool) -> Vec<RenderSettings> {
     let (tiles, res): (&[u32], &[u32]) = if quick {
         (&[8, 16], &[8, 16])
@@ -224,6 +232,22 @@ pub fn cprc_sweep(base: &RenderSettings, quick: bool) -> Vec<RenderSettings> {
                 cache_resolution: r,
                 ..base.clone()
             });
+        }
+    }
+    if !quick {
+        for t in [8, 4] {
+            for supersample in [1, 2] {
+                out.push(RenderSettings {
+                    cache_tile: t,
+                    cache_resolution: 32,
+                    irradiance_resolution: 4,
+                    gather_radius: 1.5,
+                    cone_level_bias: -1.25,
+                    mip_clamp: 1.5,
+                    supersample,
+                    ..base.clone()
+                });
+            }
         }
     }
     out
@@ -340,11 +364,16 @@ pub fn pareto(points: &[(f64, f64)]) -> Vec<bool> {
 /// `out`. One untimed warm-up frame first (the driver compiles pipelines on first use); each
 /// configuration's stage times are the minimum over `repeats` frames (2 in the full sweep, 1 quick).
 /// `progress(done, total, what)` is called before each step (the reference is step 0).
+/// `reference`: a directory holding the scene camera's `combined.exr` and `indirect.exr` (e.g. a
+/// converged one, references/cornell_box_256_4096spp) to compare against instead of a reference
+/// rendered at `spp` (the planner row renders its own view's at `spp` either way).
+#[allow(clippy::too_many_arguments)]
 pub fn bench(
     ctx: &crate::harness::GpuContext,
     pipeline: Pipeline,
     scene: &Scene,
     spp: u32,
+    reference: Option<&Path>,
     quick: bool,
     out: &Path,
     mut progress: impl FnMut(usize, usize, &str),
@@ -352,11 +381,38 @@ pub fn bench(
     let configs = sweep(&scene.render, quick, pipeline);
     let repeats = if quick { 1 } else { 2 };
     let total = configs.len() + 2;
-    progress(0, total, &format!("reference ({spp} spp)"));
-    let reference = render_reference(scene, &ReferenceOptions::spp(spp), |_| {});
-    let (w, h) = (reference.width, reference.height);
-    let ref_indirect = RgbImage::new(w, h, reference.indirect.clone());
-    let ref_combined = RgbImage::new(w, h, reference.combined());
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    let (ref_indirect, ref_combined, against) = match reference {
+        Some(dir) => {
+            let read = |name: &str| -> Result<RgbImage> {
+                let path = dir.join(name);
+                let img = crate::images::read_exr(&path)?;
+                if (img.width, img.height) != (w, h) {
+                    anyhow::bail!(
+                        "{}: {}x{}, the scene's camera is {w}x{h}",
+                        path.display(),
+                        img.width,
+                        img.height
+                    );
+                }
+                Ok(img)
+            };
+            (
+                read("indirect.exr")?,
+                read("combined.exr")?,
+                format!("reference {}", dir.display()),
+            )
+        }
+        None => {
+            progress(0, total, &format!("reference ({spp} spp)"));
+            let r = render_reference(scene, &ReferenceOptions::spp(spp), |_| {});
+            (
+                RgbImage::new(w, h, r.indirect.clone()),
+                RgbImage::new(w, h, r.combined()),
+                format!("reference {spp} spp"),
+            )
+        }
+    };
     let mut rows = Vec::new();
     let frame = |settings: &RenderSettings| {
         let s = Scene {
@@ -422,10 +478,13 @@ pub fn bench(
             cache_resolution: settings.cache_resolution,
             cache_tile: settings.cache_tile,
             caches,
+            irradiance_resolution: settings.irradiance_resolution,
+            gather_radius: settings.gather_radius,
             anisotropic_voxels: settings.anisotropic_voxels,
             photon_map: settings.photon_map,
             voxel_lobes: settings.voxel_lobes,
             depth_ordered_blend: settings.depth_ordered_blend,
+            supersample: settings.supersample,
             seconds: stage_seconds.iter().sum(),
             stage_seconds,
             indirect_rel_mse: ind.rel_mse,
@@ -446,7 +505,7 @@ pub fn bench(
     let planner = planner_comparison(ctx, pipeline, scene, spp, repeats)?;
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     write_csv(&out.join("bench.csv"), pipeline, &rows)?;
-    let md = table(&rows, pipeline, spp, w, h) + &planner_table(&planner);
+    let md = table(&rows, pipeline, &against, w, h) + &planner_table(&planner);
     std::fs::write(out.join("bench.md"), md)
         .with_context(|| format!("writing {}", out.join("bench.md").display()))?;
     plot(&out.join("bench.svg"), &rows, pipeline)?;
@@ -470,10 +529,13 @@ fn write_csv(path: &Path, pipeline: Pipeline, rows: &[BenchRow]) -> Result<()> {
         "cache_resolution",
         "cache_tile",
         "caches",
+        "irradiance_resolution",
+        "gather_radius",
         "anisotropic_voxels",
         "photon_map",
         "voxel_lobes",
         "depth_ordered_blend",
+        "supersample",
         "seconds",
         "indirect_rel_mse",
         "indirect_flip",
@@ -500,10 +562,13 @@ fn write_csv(path: &Path, pipeline: Pipeline, rows: &[BenchRow]) -> Result<()> {
             r.cache_resolution.to_string(),
             r.cache_tile.to_string(),
             r.caches.to_string(),
+            r.irradiance_resolution.to_string(),
+            r.gather_radius.to_string(),
             r.anisotropic_voxels.to_string(),
             r.photon_map.to_string(),
             r.voxel_lobes.to_string(),
             r.depth_ordered_blend.to_string(),
+            r.supersample.to_string(),
             format!("{:.4}", r.seconds),
             format!("{:.5}", r.indirect_rel_mse),
             format!("{:.4}", r.indirect_flip),
@@ -519,7 +584,8 @@ fn write_csv(path: &Path, pipeline: Pipeline, rows: &[BenchRow]) -> Result<()> {
 }
 
 /// The Markdown table (rows by time, Pareto-optimal ones marked).
-pub fn table(rows: &[BenchRow], pipeline: Pipeline, spp: u32, w: u32, h: u32) -> String {
+/// `against`: what the errors are measured against ("reference 64 spp", "reference DIR").
+pub fn table(rows: &[BenchRow], pipeline: Pipeline, against: &str, w: u32, h: u32) -> String {
     let mut sorted: Vec<&BenchRow> = rows.iter().collect();
     sorted.sort_by(|a, b| a.seconds.total_cmp(&b.seconds));
     let stages = pipeline.stages();
@@ -535,9 +601,9 @@ pub fn table(rows: &[BenchRow], pipeline: Pipeline, spp: u32, w: u32, h: u32) ->
         stages[last]
     };
     let mut md = format!(
-        "# vxgi bench ({name}, {w}x{h}, reference {spp} spp)\n\n\
-         | voxels | cones | half-angle | mip clamp | step | level bias / coverage corr. | blend | RSM | layers | caches | cache res | octree | time | {shading} | voxelize | indirect FLIP | combined FLIP | combined rel. MSE | Pareto |\n\
-         |---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n"
+        "# vxgi bench ({name}, {w}x{h}, {against})\n\n\
+         | voxels | cones | half-angle | mip clamp | step | level bias / coverage corr. | blend | samples | RSM | layers | caches | cache res (irradiance, radius) | octree | time | {shading} | voxelize | indirect FLIP | combined FLIP | combined rel. MSE | Pareto |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n"
     );
     let lrsm = pipeline == Pipeline::Lrsm;
     let cprc = pipeline == Pipeline::Cprc;
@@ -545,7 +611,7 @@ pub fn table(rows: &[BenchRow], pipeline: Pipeline, spp: u32, w: u32, h: u32) ->
     for r in sorted {
         let _ = writeln!(
             md,
-            "| {}^3 | {} | {} | {} | {} | {} / {} | {} | {} | {} | {} | {} | {} | {:.0} ms | {:.0} ms | {:.0} ms | {:.3} | {:.3} | {:.4} | {} |",
+            "| {}^3 | {} | {} | {} | {} | {} / {} | {} | {}x{} | {} | {} | {} | {} | {} | {:.0} ms | {:.0} ms | {:.0} ms | {:.3} | {:.3} | {:.4} | {} |",
             r.voxels,
             r.cones,
             r.cone_half_angle,
@@ -558,6 +624,8 @@ pub fn table(rows: &[BenchRow], pipeline: Pipeline, spp: u32, w: u32, h: u32) ->
                 (false, true) => "depth-ordered",
                 (false, false) => "trilinear",
             },
+            r.supersample,
+            r.supersample,
             if lrsm { format!("{}^2", r.rsm_side) } else { "-".into() },
             if lrsm { r.lrsm_layers.as_str() } else { "-" },
             if cprc {
@@ -566,7 +634,10 @@ pub fn table(rows: &[BenchRow], pipeline: Pipeline, spp: u32, w: u32, h: u32) ->
                 "-".into()
             },
             if cprc {
-                format!("{}^2", r.cache_resolution)
+                format!(
+                    "{}^2 ({}^2, {})",
+                    r.cache_resolution, r.irradiance_resolution, r.gather_radius
+                )
             } else {
                 "-".into()
             },
@@ -708,7 +779,7 @@ mod tests {
             .all(|s| s.ao_range == 0.25 && s.validate().is_ok()));
         assert_eq!(sweep(&base, true, Pipeline::Lrsm).len(), 4);
         let cprc = sweep(&base, false, Pipeline::Cprc);
-        assert_eq!(cprc.len(), 6);
+        assert_eq!(cprc.len(), 10);
         assert!(cprc.iter().all(|s| s.validate().is_ok()));
         assert_eq!(sweep(&base, true, Pipeline::Cprc).len(), 4);
     }

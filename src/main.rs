@@ -125,6 +125,11 @@ enum Command {
         /// Reference samples per pixel [default 64, 8 with --quick].
         #[arg(long)]
         spp: Option<u32>,
+        /// Compare against this reference directory (its combined.exr and indirect.exr, the scene
+        /// camera's size; e.g. references/cornell_box_256_4096spp) instead of rendering one at --spp
+        /// (the planner row still renders its own view's at --spp).
+        #[arg(long)]
+        reference: Option<PathBuf>,
         #[arg(long, default_value = "bench")]
         out: PathBuf,
         /// Which pipeline the sweep renders.
@@ -520,7 +525,7 @@ fn run_bench(
     scene: Option<PathBuf>,
     pipeline: Pipeline,
     quick: bool,
-    spp: Option<u32>,
+    (spp, reference): (Option<u32>, Option<PathBuf>),
     out: PathBuf,
     flags: RenderFlags,
 ) -> Result<()> {
@@ -543,6 +548,7 @@ fn run_bench(
         pipeline,
         &scene,
         spp,
+        reference.as_deref(),
         quick,
         &out,
         |done, total, what| {
@@ -557,7 +563,10 @@ fn run_bench(
         vxgi::bench::table(
             &rows,
             pipeline,
-            spp,
+            &match &reference {
+                Some(dir) => format!("reference {}", dir.display()),
+                None => format!("reference {spp} spp"),
+            },
             scene.camera.width,
             scene.camera.height
         )
@@ -719,10 +728,11 @@ fn real_main() -> Result<()> {
             scene,
             quick,
             spp,
+            reference,
             out,
             pipeline,
             render,
-        } => run_bench(scene, pipeline, quick, spp, out, render),
+        } => run_bench(scene, pipeline, quick, (spp, reference), out, render),
     }
 }
 

@@ -390,7 +390,7 @@ fn bench_quick_writes_csv_table_and_plot() {
     let lines: Vec<&str> = csv.lines().collect();
     assert_eq!(lines.len(), 5, "{csv}");
     assert!(lines[0].starts_with(
-        "voxels,cones,cone_half_angle,mip_clamp,cone_step,cone_level_bias,coverage_correlation,rsm_side,lrsm_layers,cache_resolution,cache_tile,caches,anisotropic_voxels,photon_map,voxel_lobes,depth_ordered_blend,seconds,"
+        "voxels,cones,cone_half_angle,mip_clamp,cone_step,cone_level_bias,coverage_correlation,rsm_side,lrsm_layers,cache_resolution,cache_tile,caches,irradiance_resolution,gather_radius,anisotropic_voxels,photon_map,voxel_lobes,depth_ordered_blend,supersample,seconds,"
     ));
     assert!(lines[0].contains("combined_flip") && lines[0].contains("cone_trace_seconds"));
     // Every row: a positive time and a finite FLIP in [0, 1]; at least one row is Pareto-optimal.
@@ -409,7 +409,7 @@ fn bench_quick_writes_csv_table_and_plot() {
     );
     let md = std::fs::read_to_string(out.join("bench.md")).unwrap();
     assert!(
-        md.contains("| 32^3 | 1 | 30 | 2 | 0.5 | 0 / 0 | trilinear | - | - | - | - |")
+        md.contains("| 32^3 | 1 | 30 | 2 | 0.5 | 0 / 0 | trilinear | 1x1 | - | - | - | - |")
             && md.contains("**yes**"),
         "{md}"
     );
@@ -477,7 +477,51 @@ fn bench_quick_writes_csv_table_and_plot() {
         );
     }
     let md = std::fs::read_to_string(dir.join("bench-cprc/bench.md")).unwrap();
-    assert!(md.contains("(tile 8)") && md.contains("| 16^2 |"), "{md}");
+    assert!(
+        md.contains("(tile 8)") && md.contains("| 16^2 (8^2, 2) |"),
+        "{md}"
+    );
+
+    // Against a reference directory instead of one rendered at --spp: the table says which; one of
+    // another size is refused, naming both sizes.
+    let refdir = dir.join("ref").display().to_string();
+    let (code, _, err) = vxgi(&["reference", &scene, "--spp", "2", "--out", &refdir]);
+    assert_eq!(code, 0, "{err}");
+    let o = dir.join("bench-ref").display().to_string();
+    let (code, stdout, err) = vxgi(&[
+        "bench",
+        &scene,
+        "--quick",
+        "--reference",
+        &refdir,
+        "--pipeline",
+        "cprc",
+        "--out",
+        &o,
+    ]);
+    assert_eq!(code, 0, "{stdout}\n{err}");
+    assert!(
+        stdout.contains(&format!("(cprc, 32x32, reference {refdir})")),
+        "{stdout}"
+    );
+    let converged = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("references/cornell_box_256_4096spp")
+        .display()
+        .to_string();
+    let (code, _, err) = vxgi(&[
+        "bench",
+        &scene,
+        "--quick",
+        "--reference",
+        &converged,
+        "--out",
+        &o,
+    ]);
+    assert_ne!(code, 0);
+    assert!(
+        err.contains("256x256, the scene's camera is 32x32"),
+        "{err}"
+    );
 
     for (bad, key) in [
         ("--cones=0", "cones"),
