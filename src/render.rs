@@ -1083,10 +1083,11 @@ struct SvoCache {
 /// frame's, while every later frame's geometry fits in it) and kept; each frame voxelizes the dynamic
 /// instances alone into the same grid and merges them in (a voxel both fill gets the mean of the two
 /// albedos and of the two normals). The octree's structure follows VCT 4.2.2's static/dynamic split:
-/// the static voxels' subdivisions are recorded once ([`StaticStructure`](vxgi_cpu_mirror::sparse_voxel_octree::StaticStructure)) and replayed each frame, so
-/// only fragments at points the static part does not cover (the dynamic instances' voxels, photons
-/// landing on them) flag nodes; the values are rebuilt from every fragment (light moves with the
-/// instances).
+/// the static voxels' subdivisions are recorded once
+/// ([`StaticStructure`](vxgi_cpu_mirror::sparse_voxel_octree::StaticStructure)) and replayed each
+/// frame, so only fragments at points the static part does not cover (the dynamic instances' voxels,
+/// photons landing on them) flag nodes; the values are rebuilt from every fragment (light moves with
+/// the instances).
 #[derive(Default)]
 pub struct StaticVoxels {
     #[allow(clippy::type_complexity)]
