@@ -364,6 +364,15 @@ pub fn pareto(points: &[(f64, f64)]) -> Vec<bool> {
 /// `out`. One untimed warm-up frame first (the driver compiles pipelines on first use); each
 /// configuration's stage times are the minimum over `repeats` frames (2 in the full sweep, 1 quick).
 /// `progress(done, total, what)` is called before each step (the reference is step 0).
+/// What a bench's errors are measured against, as its table's title says: "reference DIR" or
+/// "reference N spp".
+pub fn against(spp: u32, reference: Option<&Path>) -> String {
+    match reference {
+        Some(dir) => format!("reference {}", dir.display()),
+        None => format!("reference {spp} spp"),
+    }
+}
+
 /// `reference`: a directory holding the scene camera's `combined.exr` and `indirect.exr` (e.g. a
 /// converged one, references/cornell_box_256_4096spp) to compare against instead of a reference
 /// rendered at `spp` (the planner row renders its own view's at `spp` either way).
@@ -382,7 +391,7 @@ pub fn bench(
     let repeats = if quick { 1 } else { 2 };
     let total = configs.len() + 2;
     let (w, h) = (scene.camera.width, scene.camera.height);
-    let (ref_indirect, ref_combined, against) = match reference {
+    let (ref_indirect, ref_combined) = match reference {
         Some(dir) => {
             let read = |name: &str| -> Result<RgbImage> {
                 let path = dir.join(name);
@@ -397,11 +406,7 @@ pub fn bench(
                 }
                 Ok(img)
             };
-            (
-                read("indirect.exr")?,
-                read("combined.exr")?,
-                format!("reference {}", dir.display()),
-            )
+            (read("indirect.exr")?, read("combined.exr")?)
         }
         None => {
             progress(0, total, &format!("reference ({spp} spp)"));
@@ -409,7 +414,6 @@ pub fn bench(
             (
                 RgbImage::new(w, h, r.indirect.clone()),
                 RgbImage::new(w, h, r.combined()),
-                format!("reference {spp} spp"),
             )
         }
     };
@@ -505,7 +509,7 @@ pub fn bench(
     let planner = planner_comparison(ctx, pipeline, scene, spp, repeats)?;
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     write_csv(&out.join("bench.csv"), pipeline, &rows)?;
-    let md = table(&rows, pipeline, &against, w, h) + &planner_table(&planner);
+    let md = table(&rows, pipeline, &against(spp, reference), w, h) + &planner_table(&planner);
     std::fs::write(out.join("bench.md"), md)
         .with_context(|| format!("writing {}", out.join("bench.md").display()))?;
     plot(&out.join("bench.svg"), &rows, pipeline)?;

@@ -563,10 +563,7 @@ fn run_bench(
         vxgi::bench::table(
             &rows,
             pipeline,
-            &match &reference {
-                Some(dir) => format!("reference {}", dir.display()),
-                None => format!("reference {spp} spp"),
-            },
+            &vxgi::bench::against(spp, reference.as_deref()),
             scene.camera.width,
             scene.camera.height
         )
