@@ -255,8 +255,11 @@ fn voxel_main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
     let o = vx_position[i].xyz + n * (cone.offset_voxels * cone.origin.w);
     let basis = tangent_basis(n);
     var diffuse = vec3<f32>(0.0);
+    // Interleaved sets (cone.interleave = N > 1): a voxel takes class 0's cones (0, N^2, 2 N^2, ...),
+    // which spread over the hemisphere as the whole set does.
+    let ni = max(cone.interleave, 1u);
     for (var k = 0u; k < cone.diffuse_cones; k++) {
-        let c = cone_dirs[k];
+        let c = cone_dirs[k * ni * ni];
         let dir = basis.t * c.x + basis.b * c.y + n * c.z;
         diffuse += march(o, dir, cone.diffuse_tan, c.z).radiance * c.w;
     }

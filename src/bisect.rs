@@ -287,11 +287,10 @@ fn cones_of(
     decl: &crate::harness::KernelDecl,
     case: &crate::harness::Case,
     mirror: bool,
-    on_mirror: impl FnOnce() -> [Vec<[f32; 4]>; 4],
+    on_mirror: impl FnOnce() -> Vec<vxgi_cpu_mirror::cone_trace::PixelOut>,
 ) -> Result<[Vec<[f32; 4]>; 2]> {
     if mirror {
-        let [ind, ao, ..] = on_mirror();
-        Ok([ind, ao])
+        Ok(cone_trace::indirect_and_ao(&on_mirror()))
     } else {
         Ok(cone_trace::run_case(ctx, decl, case)?.map(|b| bytemuck::cast_slice(&b).to_vec()))
     }

@@ -263,6 +263,11 @@ struct RenderFlags {
     /// false].
     #[arg(long = "depth-ordered-blend", alias = "depth_ordered_blend")]
     depth_ordered_blend: Option<bool>,
+    /// vct-dense, vct-svo, lrsm: interleaved cone sets of side N, 1 (off), 2, 4 or 8: the N x N pixel
+    /// classes trace disjoint subsets of cones x N^2 cones, averaged over each pixel's N x N window
+    /// on its own surface (narrow cones want it: see README "Accuracy") [default 1].
+    #[arg(long = "cone-interleave", alias = "cone_interleave")]
+    cone_interleave: Option<u32>,
     /// vct-svo: light bounces in the voxels, 1 or 2 (the second gathered from every voxel through the
     /// octree, which is then rebuilt) [default 1].
     #[arg(long)]
@@ -302,6 +307,7 @@ fn load_scene(path: &Option<PathBuf>, flags: &RenderFlags) -> Result<vxgi::scene
         cone_level_bias,
         coverage_correlation,
         depth_ordered_blend,
+        cone_interleave,
         rsm_side,
         lrsm_depth_splits,
         lrsm_normal_splits,

@@ -2104,20 +2104,24 @@ impl MirrorFrame {
         plan: FramePlan,
     ) -> Rendered {
         use rayon::prelude::*;
+        use vxgi_cpu_mirror::cone_trace as ct;
         let p = volume.params();
-        let dirs = vxgi_cpu_mirror::cone_trace::diffuse_cones(p.diffuse_cones, p.diffuse_tan);
+        let dirs = ct::cone_dirs(p);
         let d = &self.data;
-        let cones_out: Vec<[[f32; 4]; 4]> = self
+        let (w, h) = (d.width(), d.height());
+        let shaded: Vec<ct::PixelOut> = self
             .texels
             .par_iter()
             .zip(&self.albedo)
-            .map(|(t, &alb)| {
-                vxgi_cpu_mirror::cone_trace::shade_pixel(
+            .enumerate()
+            .map(|(i, (t, &alb))| {
+                let cones = ct::class_cones(&dirs, p, i as u32 % w, i as u32 / w);
+                ct::shade_pixel(
                     volume,
                     &d.frame,
                     &d.triangles,
                     &d.materials,
-                    &dirs,
+                    &cones,
                     t.position,
                     t.normal,
                     t.triangle,
@@ -2126,12 +2130,16 @@ impl MirrorFrame {
                 )
             })
             .collect();
-        let (w, h) = (d.width(), d.height());
+        let shaded = if p.interleave > 1 {
+            let pos: Vec<[f32; 4]> = self.texels.iter().map(|t| t.position).collect();
+            let nrm: Vec<[f32; 4]> = self.texels.iter().map(|t| t.normal).collect();
+            ct::resolve(p, w, &pos, &nrm, &self.albedo, &shaded)
+        } else {
+            shaded
+        };
+        let cones_out = cone_trace::indirect_and_ao(&shaded);
         let rgb = |k: usize| -> Vec<[f32; 3]> {
-            cones_out
-                .iter()
-                .map(|p| [p[k][0], p[k][1], p[k][2]])
-                .collect()
+            cones_out[k].iter().map(|p| [p[0], p[1], p[2]]).collect()
         };
         let indirect = RgbImage::new(w, h, rgb(0));
         let combined = RgbImage::new(w, h, crate::images::add(&self.direct, &indirect.pixels));

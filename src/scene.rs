@@ -177,6 +177,13 @@ pub struct RenderSettings {
     /// (`cone_trace::OrderedPyramid`); false = the paper's trilinear. Against light leaking through
     /// one-voxel walls (thin_wall).
     pub depth_ordered_blend: bool,
+    /// vct-dense, vct-svo and lrsm (the per-pixel cone tracers; cprc's caches have their own cones):
+    /// interleaved cone sets of side N in {1, 2, 4, 8} (1 = off, the paper's one set per pixel). The
+    /// N x N pixel classes trace disjoint subsets of one spiral of `cones` N^2 cones and a resolve
+    /// pass averages irradiance and occlusion over each pixel's N x N window on its own surface
+    /// (`cone_trace::cone_dirs`, `cone_trace::resolve`; README "Accuracy"): N^2 times the cones for
+    /// the price of `cones` per pixel, blurred over N pixels.
+    pub cone_interleave: u32,
     /// lrsm: RSM side per light view (a power of two, 4..=1024; the LRSM is half of it).
     pub rsm_side: u32,
     /// lrsm: depth splits a and <n.l> splits b: (a + 1) x (b + 1) layers (at most 64).
@@ -278,6 +285,12 @@ impl RenderSettings {
             return Err(format!(
                 "coverage_correlation = {} must be in [0, 1]",
                 self.coverage_correlation
+            ));
+        }
+        if ![1, 2, 4, 8].contains(&self.cone_interleave) {
+            return Err(format!(
+                "cone_interleave = {} must be 1 (off), 2, 4 or 8",
+                self.cone_interleave
             ));
         }
         if !(4..=1024).contains(&self.rsm_side) || !self.rsm_side.is_power_of_two() {
@@ -387,6 +400,7 @@ impl Default for RenderSettings {
             cone_level_bias: 0.0,
             coverage_correlation: 0.0,
             depth_ordered_blend: false,
+            cone_interleave: 1,
             // 2 x 2 layers as the paper's Sibenik and Sponza; 128^2 per view keeps six cube faces
             // cheap on a software GPU.
             rsm_side: 128,

@@ -21,7 +21,17 @@
 //! diffuse cones from `cone_dirs` (tangent space, w = weight, weights sum to 1), indirect diffuse =
 //! `albedo * sum w C` (albedo: the G-buffer's, Kd or the map_Kd texel), AO = `1 - sum w occ`; glossy (materials with Ks): one cone along the mirror
 //! direction of the view with tan = clamp(sqrt(2 / (n + 2)), 0.02, 1), adding `Ks * C`. Back faces get
-//! AO (on the camera's side) and no indirect light; background pixels get 0.
+//! AO (on the camera's side) and no indirect light; background pixels get 0. Every pixel also writes
+//! `irradiance` = (`sum w C`, `sum w occ`): its diffuse irradiance before the albedo and its occlusion.
+//!
+//! Option `interleave` = N > 1 (interleaved sampling, Keller & Heidrich 2001, which CPRC cites for
+//! instant radiosity; our addition to the cone tracers): the screen's N x N pixel classes trace
+//! disjoint subsets of one spiral of `diffuse_cones` N^2 narrow cones ([`cone_dirs`],
+//! [`class_cones`]), and a second pass, the resolve ([`resolve`]; the kernel's entry `resolve`),
+//! averages each pixel's irradiance and occlusion over the N x N window around it, pixels of the
+//! same surface only (normals within ~26 deg, within one level-0 cell of the pixel's plane): every
+//! such window holds each class once, so a pixel on an open surface gathers all `diffuse_cones` N^2
+//! cones for the price of `diffuse_cones`. The glossy cone stays per pixel.
 use crate::bvh_trace::GpuTriangle;
 use crate::direct_light::{face_normal, GpuMaterial};
 use crate::gbuffer::Frame;
@@ -68,7 +78,10 @@ pub struct ConeParams {
     /// a' so far: a box edge's front and top faces, sampled one after the other, block the same rays
     /// instead of compounding.
     pub coverage_correlation: f32,
-    pub _pad: [u32; 3],
+    /// Side N of the interleaved cone sets (0 and 1 = off, the paper's one set per pixel; else 2, 4
+    /// or 8; our addition): see [`cone_dirs`] and [`resolve`].
+    pub interleave: u32,
+    pub _pad: [u32; 2],
 }
 
 pub const OPAQUE: f32 = 1.0 - 1.0 / 256.0;
@@ -691,6 +704,166 @@ pub fn spiral_cones(count: u32, tan: f32) -> Vec<[f32; 4]> {
         .collect()
 }
 
+/// The `cone_dirs` buffer of `p`: [`diffuse_cones`] where `p.interleave` <= 1; else one
+/// [`spiral_cones`] of `diffuse_cones` N^2 cones, each of weight 1 / `diffuse_cones` (a class's
+/// subset sums to 1), of which pixel class j takes cones j, j + N^2, j + 2 N^2, ... ([`class_cones`]):
+/// each class spreads over the whole hemisphere, and the N^2 classes together are the spiral.
+pub fn cone_dirs(p: &ConeParams) -> Vec<[f32; 4]> {
+    let n = p.interleave.max(1);
+    if n == 1 {
+        return diffuse_cones(p.diffuse_cones, p.diffuse_tan);
+    }
+    let count = p.diffuse_cones.max(1);
+    let mut dirs = spiral_cones(count * n * n, p.diffuse_tan);
+    for d in &mut dirs {
+        d[3] = 1.0 / count as f32;
+    }
+    dirs
+}
+
+/// The interleaving class of pixel (x, y): `(x mod N) + N (y mod N)` (0 when N <= 1).
+pub fn pixel_class(p: &ConeParams, x: u32, y: u32) -> u32 {
+    let n = p.interleave.max(1);
+    x % n + n * (y % n)
+}
+
+/// The cones pixel (x, y) traces: `dirs[k N^2 + class]` for k < `diffuse_cones` (the kernel's
+/// `cone_dirs[k * n * n + cls]`; all of `dirs` up to `diffuse_cones` when N <= 1).
+pub fn class_cones(dirs: &[[f32; 4]], p: &ConeParams, x: u32, y: u32) -> Vec<[f32; 4]> {
+    let n2 = p.interleave.max(1).pow(2) as usize;
+    let c = pixel_class(p, x, y) as usize;
+    (0..p.diffuse_cones as usize)
+        .filter_map(|k| dirs.get(k * n2 + c).copied())
+        .collect()
+}
+
+/// The resolve's same-surface test: a neighbour's (signed) normal within this cosine of the pixel's.
+pub const RESOLVE_COS: f32 = 0.9;
+
+/// One pixel's cone-pass outputs and their bounds (each the shape of its value).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PixelOut {
+    /// Indirect radiance (rgb, 0).
+    pub indirect: [f32; 4],
+    /// AO (a, a, a, 0).
+    pub ao: [f32; 4],
+    /// (sum w C, sum w occ) of the diffuse cones: irradiance before the albedo, and occlusion.
+    pub irradiance: [f32; 4],
+    pub indirect_bound: [f32; 4],
+    pub ao_bound: [f32; 4],
+    pub irradiance_bound: [f32; 4],
+}
+
+/// The resolve pass of interleaved cone sets (the kernel's entry `resolve`; run only when
+/// `p.interleave` > 1): each surface pixel's irradiance and occlusion averaged over the N x N window
+/// starting at `(x + 1 - N/2, y + 1 - N/2)`, shifted to lie inside the image, over the window's
+/// pixels of the same surface — a surface pixel (`normal.w != 0`) whose signed normal (`xyz * sign(w)`)
+/// is within [`RESOLVE_COS`] of the pixel's and whose position lies within one level-0 cell (`s0`) of
+/// the pixel's plane (the pixel itself always counts). Then AO = `clamp(1 - mean occ, 0, 1)` and, on
+/// front faces, indirect += albedo (mean irradiance - own irradiance): the glossy cone's share stays
+/// the pixel's own. Sums run in the kernel's order (rows, then columns) in f32.
+///
+/// Bounds: a mean's error is at most the mean of its terms' bounds plus (k + 4) ULP (2^-23) of the
+/// mean of their magnitudes (k - 1 additions and a division within 2.5 ULP, WGSL's rule); where a
+/// neighbour's test is within rounding of its threshold (either side may decide), its whole share
+/// `(|v_q| + max |v|) / k` is added, k the count of certain members. The final additions add an ULP
+/// each of their operands.
+pub fn resolve(
+    p: &ConeParams,
+    width: u32,
+    position: &[[f32; 4]],
+    normal: &[[f32; 4]],
+    albedo: &[[f32; 4]],
+    px: &[PixelOut],
+) -> Vec<PixelOut> {
+    let n = p.interleave.max(1) as i64;
+    let (w, h) = (width as i64, (px.len() as i64) / (width.max(1) as i64));
+    let s0 = p.origin[3];
+    let ulp = f32::EPSILON; // 2^-23
+    let signed = |v: [f32; 4]| Vec3::new(v[0], v[1], v[2]) * if v[3] > 0.0 { 1.0 } else { -1.0 };
+    (0..px.len())
+        .map(|i| {
+            let mut out = px[i];
+            let nrm = normal[i];
+            if n <= 1 || nrm[3] == 0.0 {
+                return out;
+            }
+            let (x, y) = (i as i64 % w, i as i64 / w);
+            let x0 = (x + 1 - n / 2).min(w - n).max(0);
+            let y0 = (y + 1 - n / 2).min(h - n).max(0);
+            let np = signed(nrm);
+            let pp = Vec3::from_slice(&position[i][..3]);
+            let mut sum = Vec4::ZERO;
+            let mut sum_b = Vec4::ZERO;
+            let mut sum_mag = Vec4::ZERO;
+            let mut k = 0u32;
+            let mut unsure: Vec<Vec4> = Vec::new();
+            let mut vmax = Vec4::ZERO;
+            for yy in y0..(y0 + n).min(h) {
+                for xx in x0..(x0 + n).min(w) {
+                    let j = (yy * w + xx) as usize;
+                    let v = Vec4::from_array(px[j].irradiance);
+                    let take = if j == i {
+                        true
+                    } else {
+                        let nq = normal[j];
+                        if nq[3] == 0.0 {
+                            continue;
+                        }
+                        let q = Vec3::from_slice(&position[j][..3]);
+                        let cos = np.dot(signed(nq));
+                        let dist = (q - pp).dot(np).abs();
+                        let take = cos >= RESOLVE_COS && dist <= s0;
+                        // Rounding of the two dot products (three products and two sums of values
+                        // up to |q| + |p|, unit normals): a few ULP each; 8 ULP of margin.
+                        let eps =
+                            8.0 * ulp * (1.0 + pp.abs().max_element() + q.abs().max_element());
+                        if (cos - RESOLVE_COS).abs() <= 8.0 * ulp || (dist - s0).abs() <= eps {
+                            unsure.push(v.abs());
+                            vmax = vmax.max(v.abs());
+                            continue;
+                        }
+                        take
+                    };
+                    if take {
+                        sum += v;
+                        sum_b += Vec4::from_array(px[j].irradiance_bound);
+                        sum_mag += v.abs();
+                        vmax = vmax.max(v.abs());
+                        k += 1;
+                    }
+                }
+            }
+            // The mirror leaves the unsure neighbours out; the bound covers the GPU's taking any.
+            let kf = k as f32;
+            let mean = sum / kf;
+            let mut mean_b = sum_b / kf + sum_mag / kf * ((kf + 4.0) * ulp);
+            for u in &unsure {
+                mean_b += (*u + vmax) / kf;
+            }
+            let occ = mean.w;
+            let a = (1.0 - occ).clamp(0.0, 1.0);
+            out.ao = [a, a, a, 0.0];
+            let ab = mean_b.w + ulp;
+            out.ao_bound = [ab, ab, ab, 0.0];
+            if nrm[3] > 0.0 {
+                let own = Vec4::from_array(px[i].irradiance);
+                let own_b = Vec4::from_array(px[i].irradiance_bound);
+                let kd = Vec4::new(albedo[i][0], albedo[i][1], albedo[i][2], 0.0);
+                let ind = Vec4::from_array(px[i].indirect);
+                let diff = mean - own;
+                let v = ind + kd * diff;
+                out.indirect = [v.x, v.y, v.z, 0.0];
+                let b = Vec4::from_array(px[i].indirect_bound)
+                    + kd * (mean_b + own_b + (mean.abs() + own.abs()) * ulp)
+                    + (ind.abs() + kd * (mean.abs() + own.abs())) * (2.0 * ulp);
+                out.indirect_bound = [b.x, b.y, b.z, 0.0];
+            }
+            out
+        })
+        .collect()
+}
+
 /// Bound factor on accumulated magnitudes: ~30 dependent operations per sample (each correctly rounded
 /// or within 2.5 ULP; pow and log2 per WGSL's exp2/log2 rules), over at most ~64 samples per cone:
 /// 30 x 2.5 x 64 ULP ~ 5e3 ULP ~ 6e-4, and the samples' errors are damped by the (1 - A) factors, so
@@ -730,7 +903,7 @@ pub fn shade_voxel(
     ([v.x, v.y, v.z, 0.0], [b.x, b.y, b.z, 0.0])
 }
 
-/// One pixel: indirect radiance (rgb, 0), AO (a, a, a, 0), and their bounds.
+/// One pixel (`cones`: its class's, [`class_cones`]): indirect radiance, AO, irradiance and their bounds.
 #[allow(clippy::too_many_arguments)]
 pub fn shade_pixel(
     pyr: &(impl Volume + ?Sized),
@@ -743,10 +916,10 @@ pub fn shade_pixel(
     triangle: u32,
     albedo: [f32; 4],
     lmax: f32,
-) -> [[f32; 4]; 4] {
+) -> PixelOut {
     let p = pyr.params();
     if normal[3] == 0.0 || triangle as usize >= tris.len() {
-        return [[0.0; 4]; 4];
+        return PixelOut::default();
     }
     let front = normal[3] > 0.0;
     let tri = &tris[triangle as usize];
@@ -776,8 +949,15 @@ pub fn shade_pixel(
     // across a rounding boundary of the result (seen: occ ~ 2e-7, AO off by one ULP below 1).
     let occ_b = occ_b + f32::EPSILON;
     let ao_bound = [occ_b, occ_b, occ_b, 0.0];
+    let unlit = PixelOut {
+        ao: ao_out,
+        ao_bound,
+        irradiance: [diffuse.x, diffuse.y, diffuse.z, occ],
+        irradiance_bound: [mag, mag, mag, occ_b],
+        ..Default::default()
+    };
     if !front {
-        return [[0.0; 4], ao_out, [0.0; 4], ao_bound];
+        return unlit;
     }
     let kd = Vec3::from_slice(&albedo[..3]);
     let ks = Vec3::from_slice(&m.specular[..3]);
@@ -792,12 +972,11 @@ pub fn shade_pixel(
         indirect += ks * r.radiance;
         bound += ks * (r.magnitude * MAG + r.allowance);
     }
-    [
-        [indirect.x, indirect.y, indirect.z, 0.0],
-        ao_out,
-        [bound.x, bound.y, bound.z, 0.0],
-        ao_bound,
-    ]
+    PixelOut {
+        indirect: [indirect.x, indirect.y, indirect.z, 0.0],
+        indirect_bound: [bound.x, bound.y, bound.z, 0.0],
+        ..unlit
+    }
 }
 
 #[cfg(test)]
@@ -890,6 +1069,144 @@ mod tests {
         let at_end = Vec3::new(2.5 - 1e-7, 2.0, 2.0);
         let (_, e) = ordered.sample_cone(at_end, 0.0, 1.0, d, 0.5);
         assert!(e.rgb >= 5.0, "{e:?}");
+    }
+
+    /// Interleaved cone sets: each of the N^2 classes takes `diffuse_cones` cones of weight summing to
+    /// 1, spread over the hemisphere (its mean cosine near the lobe's 2/3), and the classes together
+    /// are the whole spiral, each cone once; N = 1 is the plain set.
+    #[test]
+    fn interleaved_classes_partition_one_spiral() {
+        for (n, cones) in [(2u32, 16u32), (4, 16), (8, 4), (4, 1)] {
+            let p = ConeParams {
+                diffuse_cones: cones,
+                diffuse_tan: 0.05,
+                interleave: n,
+                ..Default::default()
+            };
+            let dirs = cone_dirs(&p);
+            assert_eq!(dirs.len() as u32, cones * n * n);
+            let mut seen = vec![0u32; dirs.len()];
+            for y in 0..n {
+                for x in 0..n {
+                    let set = class_cones(&dirs, &p, x + 8, y + 16);
+                    assert_eq!(set, class_cones(&dirs, &p, x, y), "the pattern repeats");
+                    assert_eq!(set.len() as u32, cones);
+                    let w: f32 = set.iter().map(|d| d[3]).sum();
+                    assert!((w - 1.0).abs() < 1e-5, "N {n}: class weights sum to {w}");
+                    if cones >= 16 {
+                        let mean_cos: f32 = set.iter().map(|d| d[2] * d[3]).sum();
+                        assert!(
+                            (mean_cos - 2.0 / 3.0).abs() < 0.05,
+                            "N {n}: mean cos {mean_cos}"
+                        );
+                    }
+                    for d in &set {
+                        let k = dirs.iter().position(|e| e == d).expect("from the spiral");
+                        seen[k] += 1;
+                    }
+                }
+            }
+            assert!(
+                seen.iter().all(|&c| c == 1),
+                "N {n}: every cone once: {seen:?}"
+            );
+        }
+        let plain = ConeParams {
+            diffuse_cones: 5,
+            diffuse_tan: 0.5,
+            ..Default::default()
+        };
+        assert_eq!(cone_dirs(&plain), diffuse_cones(5, 0.5));
+        assert_eq!(
+            class_cones(&cone_dirs(&plain), &plain, 3, 7),
+            diffuse_cones(5, 0.5)
+        );
+    }
+
+    /// An 8 x 6 image: a floor (normal +y) whose irradiance is the pixel's class, and in columns 6-7 a
+    /// step 0.5 up (another plane); row 5 background.
+    type ResolveScene = (ConeParams, Vec<[f32; 4]>, Vec<[f32; 4]>, Vec<PixelOut>);
+
+    fn resolve_scene(n: u32) -> ResolveScene {
+        let p = ConeParams {
+            origin: [0.0, 0.0, 0.0, 0.1],
+            interleave: n,
+            diffuse_cones: 4,
+            ..Default::default()
+        };
+        let (w, h) = (8u32, 6u32);
+        let mut pos = vec![[0.0; 4]; (w * h) as usize];
+        let mut nrm = vec![[0.0; 4]; (w * h) as usize];
+        let mut px = vec![PixelOut::default(); (w * h) as usize];
+        for y in 0..h - 1 {
+            for x in 0..w {
+                let i = (y * w + x) as usize;
+                let up = if x >= 6 { 0.5 } else { 0.0 };
+                pos[i] = [x as f32 * 0.05, up, y as f32 * 0.05, 1.0];
+                nrm[i] = [0.0, 1.0, 0.0, 1.0];
+                let c = pixel_class(&p, x, y) as f32;
+                px[i].irradiance = [c, 2.0 * c, 1.0, 0.1 * c];
+                px[i].indirect = [0.5 * c, c, 0.5, 0.0];
+            }
+        }
+        (p, pos, nrm, px)
+    }
+
+    #[test]
+    fn resolve_averages_each_surface_over_its_window() {
+        let albedo = vec![[0.5, 0.5, 0.5, 1.0]; 48];
+        // N = 1: nothing to resolve.
+        let (p, pos, nrm, px) = resolve_scene(1);
+        assert_eq!(resolve(&p, 8, &pos, &nrm, &albedo, &px), px);
+        let (p, pos, nrm, px) = resolve_scene(2);
+        let out = resolve(&p, 8, &pos, &nrm, &albedo, &px);
+        // A floor pixel away from the step: its 2 x 2 window holds classes 0..3, mean 1.5.
+        let i = (2 * 8 + 2) as usize;
+        assert_eq!(out[i].indirect, [0.75, 1.5, 0.5, 0.0]);
+        let a = 1.0 - 0.15;
+        assert!((out[i].ao[0] - a).abs() < 1e-6, "{:?}", out[i].ao);
+        // Column 5's window reaches column 6, the step: only the floor's own pixels count.
+        let j = (2 * 8 + 5) as usize;
+        let own = px[j].irradiance[0];
+        let below = px[j + 8].irradiance[0];
+        let mean = (own + below) / 2.0;
+        assert!(
+            (out[j].indirect[0] - 0.5 * mean).abs() < 1e-6,
+            "{:?}",
+            out[j]
+        );
+        // Row 4's window reaches row 5, background: the pixel and its row neighbour (classes 0, 1).
+        let k = (4 * 8 + 2) as usize;
+        assert_eq!(out[k].indirect, [0.25, 0.5, 0.5, 0.0]);
+        // The image's last column: the window shifted inside (columns 6-7, the step's pair).
+        let e = (2 * 8 + 7) as usize;
+        let m: f32 = [0usize, 1, 8, 9]
+            .iter()
+            .map(|d| px[2 * 8 + 6 + d].irradiance[1])
+            .sum::<f32>()
+            / 4.0;
+        assert!(
+            (out[e].indirect[1] - (px[e].indirect[1] + 0.5 * (m - px[e].irradiance[1]))).abs()
+                < 1e-6
+        );
+        // Background stays as it was.
+        assert_eq!(out[5 * 8], px[5 * 8]);
+        // Every bound is positive where there is a value.
+        assert!(out[i].indirect_bound[0] > 0.0 && out[i].ao_bound[0] > 0.0);
+        // Back faces: AO resolved, indirect left at 0.
+        let mut back = nrm.clone();
+        for v in &mut back {
+            if v[3] != 0.0 {
+                *v = [0.0, -1.0, 0.0, -1.0];
+            }
+        }
+        let mut unlit = px.clone();
+        for q in &mut unlit {
+            q.indirect = [0.0; 4];
+        }
+        let out = resolve(&p, 8, &pos, &back, &albedo, &unlit);
+        assert_eq!(out[i].indirect, [0.0; 4]);
+        assert!((out[i].ao[0] - a).abs() < 1e-6);
     }
 
     /// Cone sets: unit axes in the upper hemisphere, weights summing to 1 (a uniform environment is

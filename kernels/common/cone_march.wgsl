@@ -1,8 +1,8 @@
 // common/cone_march.wgsl — the cone tracer shared by cone_trace.wgsl (dense radiance pyramid) and
 // svo_cone_trace.wgsl (sparse voxel octree): frame, scene and G-buffer bindings, the cone parameters, the
 // march (front-to-back, step-corrected alpha, AO falloff, early exit; options: mip clamp, level bias,
-// correlated coverage) and the per-pixel entry `main`
-// (diffuse cones + one glossy cone). The including kernel defines the volume the cones read:
+// correlated coverage) and the per-pixel entries: `main` (diffuse cones + one glossy cone) and
+// `resolve` (interleaved cone sets: the window average, run only when cone.interleave > 1). The including kernel defines the volume the cones read:
 //   fn sample_level(x: vec3<f32>, l: u32) -> vec4<f32>
 // the pre-multiplied (L * alpha, alpha) at world point x, trilinear in whole mip level l (cell s0 * 2^l,
 // l < cone.levels); sample_volume here blends two levels (quadrilinear; lf < 0 reads level 0, past the
@@ -36,7 +36,7 @@ struct ConeParams {
     depth_order: u32,   // the dense pyramid (common/pyramid.wgsl): 1 = depth-ordered blend
     level_bias: f32,    // in [-3, 0]: the sampled level is log2(d / s0) + level_bias (0 = the paper's)
     coverage_correlation: f32,  // c in [0, 1]: a sample adds (1 - c)(1 - A) a' + c max(0, a' - A) (0 = the paper's)
-    _pad0: u32,
+    interleave: u32,    // N: pixel classes (x % N) + N (y % N) trace disjoint cone subsets (0, 1 = off)
     _pad1: u32,
     _pad2: u32,
 }
@@ -52,6 +52,9 @@ struct ConeParams {
 @group(0) @binding(9) var<storage, read_write> indirect: array<vec4<f32>>;
 @group(0) @binding(10) var<storage, read_write> ao: array<vec4<f32>>;
 @group(0) @binding(11) var<storage, read> gb_albedo: array<vec4<f32>>;
+// Per pixel (sum w C, sum w occ) of the diffuse cones: irradiance before the albedo, and occlusion
+// (what `resolve` averages).
+@group(0) @binding(22) var<storage, read_write> irradiance: array<vec4<f32>>;
 // screen_tiles.wgsl's work list: [groups_x, groups_y, groups_z, count, tile...]; the pixel entries are
 // dispatched indirectly from its first three words, one workgroup per listed 8x8 tile.
 @group(0) @binding(30) var<storage, read> tile_list: array<u32>;
@@ -161,6 +164,7 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) l
     if (nrm.w == 0.0 || ti >= arrayLength(&triangles)) {
         indirect[pix] = vec4<f32>(0.0);
         ao[pix] = vec4<f32>(0.0);
+        irradiance[pix] = vec4<f32>(0.0);
         return;
     }
     let front = nrm.w > 0.0;
@@ -178,8 +182,12 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) l
     let bb = basis.b;
     var diffuse = vec3<f32>(0.0);
     var occ = 0.0;
+    // Interleaved sets: this pixel's class takes cones cls, cls + N^2, ... of the spiral.
+    let ni = max(cone.interleave, 1u);
+    let w = frame.size.x;
+    let cls = (pix % w) % ni + ni * ((pix / w) % ni);
     for (var k = 0u; k < cone.diffuse_cones; k++) {
-        let c = cone_dirs[k];
+        let c = cone_dirs[k * ni * ni + cls];
         let dir = bt * c.x + bb * c.y + n * c.z;
         let r = march(o, dir, cone.diffuse_tan, c.z);
         diffuse += r.radiance * c.w;
@@ -187,6 +195,7 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) l
     }
     let a = clamp(1.0 - occ, 0.0, 1.0);
     ao[pix] = vec4<f32>(a, a, a, 0.0);
+    irradiance[pix] = vec4<f32>(diffuse, occ);
     if (!front) {
         indirect[pix] = vec4<f32>(0.0);
         return;
@@ -201,4 +210,65 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) l
         result += ks * march(o, refl, tan_g, dot(refl, n)).radiance;
     }
     indirect[pix] = vec4<f32>(result, 0.0);
+}
+
+const RESOLVE_COS: f32 = 0.9;
+
+fn signed_normal(v: vec4<f32>) -> vec3<f32> {
+    return v.xyz * select(-1.0, 1.0, v.w > 0.0);
+}
+
+// Interleaved cone sets' resolve (after `main`, same tiles): a surface pixel's irradiance and
+// occlusion averaged over the N x N window from (x + 1 - N/2, y + 1 - N/2), shifted inside the image,
+// over the window's pixels of the same surface (signed normals within RESOLVE_COS, positions within
+// one level-0 cell of the pixel's plane; the pixel itself always); AO = 1 - mean occ, and on front
+// faces indirect += albedo (mean - own irradiance). Reads `irradiance` only, writes each pixel's own
+// indirect and ao: no pixel reads what another writes. Mirror: cone_trace::resolve.
+@compute @workgroup_size(64)
+fn resolve(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let pix = tile_pixel(wg, li);
+    if (pix >= arrayLength(&indirect)) {
+        return;
+    }
+    let nrm = gb_normal[pix];
+    if (nrm.w == 0.0) {
+        return;
+    }
+    let n = i32(max(cone.interleave, 1u));
+    let w = i32(frame.size.x);
+    let h = i32(frame.size.y);
+    let x = i32(pix % frame.size.x);
+    let y = i32(pix / frame.size.x);
+    let x0 = max(min(x + 1 - n / 2, w - n), 0);
+    let y0 = max(min(y + 1 - n / 2, h - n), 0);
+    let np = signed_normal(nrm);
+    let pp = gb_position[pix].xyz;
+    let s0 = cone.origin.w;
+    var sum = vec4<f32>(0.0);
+    var k = 0.0;
+    for (var yy = y0; yy < min(y0 + n, h); yy++) {
+        for (var xx = x0; xx < min(x0 + n, w); xx++) {
+            let j = u32(yy * w + xx);
+            var take = j == pix;
+            if (!take) {
+                let nq = gb_normal[j];
+                if (nq.w != 0.0) {
+                    let dist = abs(dot(gb_position[j].xyz - pp, np));
+                    take = dot(np, signed_normal(nq)) >= RESOLVE_COS && dist <= s0;
+                }
+            }
+            if (take) {
+                sum += irradiance[j];
+                k += 1.0;
+            }
+        }
+    }
+    let mean = sum / k;
+    let a = clamp(1.0 - mean.w, 0.0, 1.0);
+    ao[pix] = vec4<f32>(a, a, a, 0.0);
+    if (nrm.w > 0.0) {
+        let own = irradiance[pix];
+        let v = indirect[pix].xyz + gb_albedo[pix].xyz * (mean.xyz - own.xyz);
+        indirect[pix] = vec4<f32>(v, 0.0);
+    }
 }

@@ -8,7 +8,8 @@ use crate::trace::SceneData;
 use std::collections::BTreeMap;
 use vxgi_cpu_mirror::bvh_trace::GpuTriangle;
 use vxgi_cpu_mirror::cone_trace::{
-    diffuse_cones, level_offset, pyramid_len, shade_pixel, ConeParams, OrderedPyramid,
+    class_cones, cone_dirs, level_offset, pyramid_len, resolve, shade_pixel, ConeParams,
+    OrderedPyramid, PixelOut,
 };
 use vxgi_cpu_mirror::direct_light::GpuMaterial;
 use vxgi_cpu_mirror::gbuffer::Frame;
@@ -36,11 +37,12 @@ pub static DECL: KernelDecl = KernelDecl {
         // stop is within rounding of its threshold.
         Output { binding: "indirect", tolerance: Tolerance::MirrorBound },
         Output { binding: "ao", tolerance: Tolerance::MirrorBound },
+        Output { binding: "irradiance", tolerance: Tolerance::MirrorBound },
     ],
     dispatch: DispatchRule::PerItem {
         what: "8x8 screen tile holding a surface (screen_tiles' list, dispatched indirectly)",
     },
-    mirror: "vxgi_cpu_mirror::cone_trace::shade_pixel",
+    mirror: "vxgi_cpu_mirror::cone_trace::shade_pixel (+ resolve where interleave > 1)",
     summary: "AO + diffuse cones + one glossy cone per pixel, quadrilinear marching of the radiance pyramid (CPRC 4, VCT 5-7)",
 };
 
@@ -67,6 +69,7 @@ pub static INSTANCED_DECL: KernelDecl = KernelDecl {
         // rounding included).
         Output { binding: "indirect", tolerance: Tolerance::MirrorBound },
         Output { binding: "ao", tolerance: Tolerance::MirrorBound },
+        Output { binding: "irradiance", tolerance: Tolerance::MirrorBound },
     ],
     dispatch: DispatchRule::PerItem {
         what: "8x8 screen tile holding a surface (screen_tiles' list, dispatched indirectly)",
@@ -96,6 +99,10 @@ pub struct ConeSettings {
     /// vct-dense and cprc: the depth-ordered blend (`vxgi_cpu_mirror::cone_trace::OrderedPyramid`)
     /// instead of the paper's trilinear.
     pub depth_ordered_blend: bool,
+    /// Side N of the interleaved cone sets (1 = off; `ConeParams::interleave`): the per-pixel
+    /// tracers' N x N pixel classes trace disjoint subsets of `diffuse_cones` N^2 cones, resolved
+    /// by the window average (`vxgi_cpu_mirror::cone_trace::resolve`).
+    pub interleave: u32,
 }
 
 impl Default for ConeSettings {
@@ -118,6 +125,7 @@ impl From<&crate::scene::RenderSettings> for ConeSettings {
             level_bias: r.cone_level_bias,
             coverage_correlation: r.coverage_correlation,
             depth_ordered_blend: r.depth_ordered_blend,
+            interleave: r.cone_interleave,
         }
     }
 }
@@ -152,7 +160,8 @@ pub fn cone_params(frame: &VoxelFrame, s: &ConeSettings) -> ConeParams {
         depth_order: u32::from(s.depth_ordered_blend),
         level_bias: s.level_bias,
         coverage_correlation: s.coverage_correlation,
-        _pad: [0; 3],
+        interleave: s.interleave.max(1),
+        _pad: [0; 2],
     }
 }
 
@@ -327,12 +336,11 @@ pub fn tracer_case(
         resources.insert(name.into(), gbuffer[name].clone());
     }
     resources.insert("cone".into(), HostResource::Buffer(HostBuffer::pod(params)));
-    let tan = params.diffuse_tan;
-    let dirs = diffuse_cones(params.diffuse_cones, tan);
+    let dirs = cone_dirs(params);
     let f4 = |v: &[[f32; 4]]| HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(v)));
     resources.insert("cone_dirs".into(), f4(&dirs));
     resources.extend(volume);
-    for name in ["indirect", "ao"] {
+    for name in ["indirect", "ao", "irradiance"] {
         resources.insert(
             name.into(),
             HostResource::Buffer(HostBuffer::zeroed(n * 16, ScalarKind::F32)),
@@ -352,20 +360,33 @@ pub fn tracer_case(
         dims: [w, h, 1],
         components: 4,
     };
+    // Interleaved cone sets: the resolve follows over the same tiles.
+    let entries: &[&str] = if params.interleave > 1 {
+        &["main", "resolve"]
+    } else {
+        &["main"]
+    };
     Case {
         label,
         seed,
         resources,
-        passes: vec![Pass {
-            label: decl.name.into(),
-            entry: "main".into(),
-            bindings: decl.bind_by_name(),
-            workgroups: Workgroups::Indirect {
-                buffer: "tile_list".into(),
-                offset: 0,
-            },
-        }],
-        checks: ["indirect", "ao"]
+        passes: entries
+            .iter()
+            .map(|&entry| Pass {
+                label: if entry == "main" {
+                    decl.name.into()
+                } else {
+                    format!("{} {entry}", decl.name)
+                },
+                entry: entry.into(),
+                bindings: decl.bind_by_name(),
+                workgroups: Workgroups::Indirect {
+                    buffer: "tile_list".into(),
+                    offset: 0,
+                },
+            })
+            .collect(),
+        checks: ["indirect", "ao", "irradiance"]
             .into_iter()
             .map(|name| Check {
                 resource: name.into(),
@@ -373,7 +394,7 @@ pub fn tracer_case(
                 indexing: grid.clone(),
             })
             .collect(),
-        effective_bytes: n as u64 * 68,
+        effective_bytes: n as u64 * 84,
     }
 }
 
@@ -397,7 +418,7 @@ pub fn dense_volume<'a>(data: &'a Resources, params: &'a ConeParams) -> OrderedP
     }
 }
 
-pub fn mirror_cones(data: &Resources) -> [Vec<[f32; 4]>; 4] {
+pub fn mirror_cones(data: &Resources) -> Vec<PixelOut> {
     use vxgi_cpu_mirror::cache_creation::{Placed, PlacedPyramids};
     let b = |n: &str| data[n].buffer().expect("buffer");
     let params: ConeParams = *bytemuck::from_bytes(&b("cone").bytes);
@@ -429,13 +450,14 @@ pub fn mirror_cones(data: &Resources) -> [Vec<[f32; 4]>; 4] {
     }
 }
 
-/// Every pixel of a cone pass's resources through `volume`: indirect, AO and their bounds. `lmax`: the
-/// largest radiance in the volume (allowances for rounding-decided stops scale with it).
+/// Every pixel of a cone pass's resources through `volume` (each pixel its interleaving class's
+/// cones), then, where `interleave` > 1, the resolve: indirect, AO, irradiance and their bounds.
+/// `lmax`: the largest radiance in the volume (allowances for rounding-decided stops scale with it).
 pub fn shade_all(
     data: &Resources,
     volume: &(impl vxgi_cpu_mirror::cone_trace::Volume + Sync),
     lmax: f32,
-) -> [Vec<[f32; 4]>; 4] {
+) -> Vec<PixelOut> {
     let b = |n: &str| data[n].buffer().expect("buffer");
     let frame: Frame = *bytemuck::from_bytes(&b("frame").bytes);
     let tris: &[GpuTriangle] = bytemuck::cast_slice(&b("triangles").bytes);
@@ -445,19 +467,25 @@ pub fn shade_all(
     let nrm: &[[f32; 4]] = bytemuck::cast_slice(&b("gb_normal").bytes);
     let tri = b("gb_triangle").as_u32();
     let alb: &[[f32; 4]] = bytemuck::cast_slice(&b("gb_albedo").bytes);
-    let px: Vec<[[f32; 4]; 4]> = {
+    let p = volume.params();
+    let w = frame.size[0].max(1);
+    let px: Vec<PixelOut> = {
         use rayon::prelude::*;
         (0..tri.len())
             .into_par_iter()
             .map(|i| {
+                let cones = class_cones(dirs, p, i as u32 % w, i as u32 / w);
                 shade_pixel(
-                    volume, &frame, tris, materials, dirs, pos[i], nrm[i], tri[i], alb[i], lmax,
+                    volume, &frame, tris, materials, &cones, pos[i], nrm[i], tri[i], alb[i], lmax,
                 )
             })
             .collect()
     };
-    let pick = |k: usize| px.iter().map(|p| p[k]).collect::<Vec<_>>();
-    [pick(0), pick(1), pick(2), pick(3)]
+    if p.interleave > 1 {
+        resolve(p, w, pos, nrm, alb, &px)
+    } else {
+        px
+    }
 }
 
 pub struct ConeTrace;
@@ -506,9 +534,11 @@ pub fn lit_case(ctx: &GpuContext, seed: u64, index: usize) -> LitCase {
 
 /// The marching every cone kernel's generated cases vary (the same march, common/cone_march.wgsl):
 /// step factor 0.5 (the paper's), 0.75, 1; mip clamp on and off; level bias 0, -1, -1.5; coverage
-/// correlation 0 (in three cases of seven), 0.25, 0.5, 1.
+/// correlation 0 (in three cases of seven), 0.25, 0.5, 1; interleaved cone sets off (two cases of
+/// five), 2, 4, 8 (with the resolve pass).
 pub fn varied_marching(base: ConeSettings, index: usize) -> ConeSettings {
     ConeSettings {
+        interleave: [1, 4, 2, 1, 8][(index / 2) % 5],
         step_factor: [0.5, 0.75, 1.0][index % 3],
         mip_clamp: if index % 5 == 4 { 0.0 } else { 2.0 },
         level_bias: [0.0, 0.0, -1.0, -1.5][(index / 3) % 4],
@@ -526,18 +556,34 @@ pub fn marching_label(s: &ConeSettings) -> String {
     if s.coverage_correlation != 0.0 {
         l += &format!(", coverage correlation {}", s.coverage_correlation);
     }
+    if s.interleave > 1 {
+        l += &format!(", interleave {0}x{0}", s.interleave);
+    }
     l
 }
 
-/// A cone pass's mirror outputs (indirect, ao, their bounds) by resource name.
-pub fn bounded_outputs([ind, ao, ind_b, ao_b]: [Vec<[f32; 4]>; 4]) -> BTreeMap<String, HostBuffer> {
-    let f = |v: &[[f32; 4]]| HostBuffer::f32(bytemuck::cast_slice(v));
+/// A cone pass's mirror outputs (indirect, ao, irradiance, their bounds) by resource name.
+pub fn bounded_outputs(px: &[PixelOut]) -> BTreeMap<String, HostBuffer> {
+    let f = |g: fn(&PixelOut) -> [f32; 4]| {
+        let v: Vec<[f32; 4]> = px.iter().map(g).collect();
+        HostBuffer::f32(bytemuck::cast_slice(&v))
+    };
     BTreeMap::from([
-        ("indirect".to_string(), f(&ind)),
-        (bound_name("indirect"), f(&ind_b)),
-        ("ao".to_string(), f(&ao)),
-        (bound_name("ao"), f(&ao_b)),
+        ("indirect".to_string(), f(|p| p.indirect)),
+        (bound_name("indirect"), f(|p| p.indirect_bound)),
+        ("ao".to_string(), f(|p| p.ao)),
+        (bound_name("ao"), f(|p| p.ao_bound)),
+        ("irradiance".to_string(), f(|p| p.irradiance)),
+        (bound_name("irradiance"), f(|p| p.irradiance_bound)),
     ])
+}
+
+/// The (indirect, ao) images' pixels of a cone pass's mirror outputs.
+pub fn indirect_and_ao(px: &[PixelOut]) -> [Vec<[f32; 4]>; 2] {
+    [
+        px.iter().map(|p| p.indirect).collect(),
+        px.iter().map(|p| p.ao).collect(),
+    ]
 }
 
 /// A seeded rigid placement of a voxel grid about its centre (an instance of it elsewhere): a rotation
@@ -604,7 +650,7 @@ impl Kernel for ConeTraceInstanced {
         data: &Resources,
         _mode: FloatMode,
     ) -> BTreeMap<String, HostBuffer> {
-        bounded_outputs(mirror_cones(data))
+        bounded_outputs(&mirror_cones(data))
     }
 }
 
@@ -631,6 +677,6 @@ impl Kernel for ConeTrace {
     ) -> BTreeMap<String, HostBuffer> {
         // Radiance-scale arithmetic; subnormal alphas at coarse levels only scale terms that are
         // already below the bound: one mode serves both.
-        bounded_outputs(mirror_cones(data))
+        bounded_outputs(&mirror_cones(data))
     }
 }

@@ -60,6 +60,10 @@ pub static DECL: KernelDecl = KernelDecl {
             binding: "ao",
             tolerance: Tolerance::MirrorBound,
         },
+        Output {
+            binding: "irradiance",
+            tolerance: Tolerance::MirrorBound,
+        },
         // Shadow cones: direct_light's term bound times the cone's visibility bound.
         Output {
             binding: "soft_direct",
@@ -521,7 +525,7 @@ fn frame_of(data: &Resources, params: &ConeParams) -> LrsmFrame {
 }
 
 /// Mirror outputs of a gather case (indirect, ao and their bounds).
-pub fn mirror_gather(data: &Resources) -> [Vec<[f32; 4]>; 4] {
+pub fn mirror_gather(data: &Resources) -> Vec<vxgi_cpu_mirror::cone_trace::PixelOut> {
     let params: ConeParams = *bytemuck::from_bytes(&data["cone"].buffer().expect("cone").bytes);
     let frame = frame_of(data, &params);
     let vol = frame.volume(&params);
@@ -631,7 +635,7 @@ impl Kernel for LrsmConeTrace {
         _mode: FloatMode,
     ) -> BTreeMap<String, HostBuffer> {
         // Radiance-scale arithmetic, as cone_trace: one mode serves both.
-        let mut out = bounded_outputs(mirror_gather(data));
+        let mut out = bounded_outputs(&mirror_gather(data));
         if case.checks.iter().any(|c| c.resource == "soft_direct") {
             let (l, e) = mirror_soft_direct(data);
             let f = |v: &[[f32; 4]]| HostBuffer::f32(bytemuck::cast_slice(v));

@@ -35,6 +35,7 @@ pub static DECL: KernelDecl = KernelDecl {
         // the mirror's SampleError as for the pyramid.
         Output { binding: "indirect", tolerance: Tolerance::MirrorBound },
         Output { binding: "ao", tolerance: Tolerance::MirrorBound },
+        Output { binding: "irradiance", tolerance: Tolerance::MirrorBound },
     ],
     dispatch: DispatchRule::PerItem {
         what: "8x8 screen tile holding a surface (screen_tiles' list, dispatched indirectly)",
@@ -246,7 +247,7 @@ pub fn max_radiance(bricks: &[u32], inv_scale: f32) -> f32 {
         * inv_scale
 }
 
-pub fn mirror_cones(data: &Resources) -> [Vec<[f32; 4]>; 4] {
+pub fn mirror_cones(data: &Resources) -> Vec<vxgi_cpu_mirror::cone_trace::PixelOut> {
     let b = |n: &str| data[n].buffer().expect("buffer");
     let params: ConeParams = *bytemuck::from_bytes(&b("cone").bytes);
     let svo: SvoParams = *bytemuck::from_bytes(&b("svo").bytes);
@@ -376,7 +377,7 @@ impl Kernel for SvoConeTrace {
         data: &Resources,
         _mode: FloatMode,
     ) -> BTreeMap<String, HostBuffer> {
-        bounded_outputs(mirror_cones(data))
+        bounded_outputs(&mirror_cones(data))
     }
 }
 
@@ -471,10 +472,7 @@ pub fn bounce_case(
     };
     resources.insert(
         "cone_dirs".into(),
-        f4(&vxgi_cpu_mirror::cone_trace::diffuse_cones(
-            params.diffuse_cones,
-            params.diffuse_tan,
-        )),
+        f4(&vxgi_cpu_mirror::cone_trace::cone_dirs(params)),
     );
     resources.insert("vx_position".into(), f4(&voxels.position));
     resources.insert("vx_normal".into(), f4(&voxels.normal));
@@ -590,7 +588,13 @@ pub fn bounce_mirror(
         normals,
         spec,
     };
-    let dirs = vxgi_cpu_mirror::cone_trace::diffuse_cones(params.diffuse_cones, params.diffuse_tan);
+    // A voxel takes interleaving class 0's cones (the kernel's cone_dirs[k * N * N]).
+    let dirs = vxgi_cpu_mirror::cone_trace::class_cones(
+        &vxgi_cpu_mirror::cone_trace::cone_dirs(params),
+        params,
+        0,
+        0,
+    );
     let lmax = max_radiance(bricks, svo.inv_scale);
     (0..position.len())
         .into_par_iter()
