@@ -44,6 +44,8 @@ pub struct BenchRow {
     pub depth_ordered_blend: bool,
     /// Every pipeline: samples per pixel side (`supersample`).
     pub supersample: u32,
+    /// The per-pixel cone tracers: side of the interleaved cone sets (`cone_interleave`; 1 = off).
+    pub cone_interleave: u32,
     /// Wall-clock seconds of the whole frame (stages, transfers between them included).
     pub seconds: f64,
     /// Wall-clock seconds per stage, in [`Pipeline::stages`] order (0 where the plan skipped the stage).
@@ -62,7 +64,9 @@ pub struct BenchRow {
 /// {0.5, 1} x blend {trilinear, depth-ordered} = 288 (16 cones: `diffuse_cones`' spiral, the others
 /// its ring), level bias and coverage correlation at `base`'s; plus the narrow spiral sets at 128^3
 /// (32 cones of 18 deg, 64 of 12 deg; clamp 2, step 0.5, trilinear) with level bias / coverage
-/// correlation 0 / 0, -1 / 0 and -1 / 1 = 6 (README "Accuracy": where those options pay). Quick (for
+/// correlation 0 / 0, -1 / 0 and -1 / 1 = 6 (README "Accuracy": where those options pay); plus 5
+/// interleaved narrow sets (2.5 deg, bias -1.25: 16 and 8 cones of 8 x 8 classes at 1 and 2 x 2
+/// samples, 64 of 4 x 4 at 1). Quick (for
 /// CI): voxels {32, 64} x cones {1, 5} at 30 degrees, clamp 2, step 0.5 = 4.
 /// lrsm sweeps its own knobs instead ([`lrsm_sweep`]).
 pub fn sweep(base: &RenderSettings, quick: bool, pipeline: Pipeline) -> Vec<RenderSettings> {
@@ -118,6 +122,24 @@ pub fn sweep(base: &RenderSettings, quick: bool, pipeline: Pipeline) -> Vec<Rend
         }
     }
     if !quick {
+        // Interleaved narrow cones (README "Interleaved cone sets"): 2.5 deg, level bias -1.25, the
+        // scene file's 16 cones from 8 x 8 classes and half of them, each at 1 and 2 x 2 samples;
+        // and 64 cones from 4 x 4 classes at 1 sample.
+        for (c, n, supersample) in [(16, 8, 2), (8, 8, 2), (16, 8, 1), (8, 8, 1), (64, 4, 1)] {
+            out.push(RenderSettings {
+                voxels: 128,
+                cones: c,
+                cone_half_angle: 2.5,
+                mip_clamp: 2.0,
+                cone_step: 0.5,
+                cone_level_bias: -1.25,
+                coverage_correlation: 0.0,
+                depth_ordered_blend: false,
+                cone_interleave: n,
+                supersample,
+                ..base.clone()
+            });
+        }
         for (c, a) in [(32, 18.0), (64, 12.0)] {
             for (bias, corr) in [(0.0, 0.0), (-1.0, 0.0), (-1.0, 1.0)] {
                 out.push(RenderSettings {
@@ -489,6 +511,7 @@ pub fn bench(
             voxel_lobes: settings.voxel_lobes,
             depth_ordered_blend: settings.depth_ordered_blend,
             supersample: settings.supersample,
+            cone_interleave: settings.cone_interleave,
             seconds: stage_seconds.iter().sum(),
             stage_seconds,
             indirect_rel_mse: ind.rel_mse,
@@ -540,6 +563,7 @@ fn write_csv(path: &Path, pipeline: Pipeline, rows: &[BenchRow]) -> Result<()> {
         "voxel_lobes",
         "depth_ordered_blend",
         "supersample",
+        "cone_interleave",
         "seconds",
         "indirect_rel_mse",
         "indirect_flip",
@@ -573,6 +597,7 @@ fn write_csv(path: &Path, pipeline: Pipeline, rows: &[BenchRow]) -> Result<()> {
             r.voxel_lobes.to_string(),
             r.depth_ordered_blend.to_string(),
             r.supersample.to_string(),
+            r.cone_interleave.to_string(),
             format!("{:.4}", r.seconds),
             format!("{:.5}", r.indirect_rel_mse),
             format!("{:.4}", r.indirect_flip),
@@ -617,7 +642,11 @@ pub fn table(rows: &[BenchRow], pipeline: Pipeline, against: &str, w: u32, h: u3
             md,
             "| {}^3 | {} | {} | {} | {} | {} / {} | {} | {}x{} | {} | {} | {} | {} | {} | {:.0} ms | {:.0} ms | {:.0} ms | {:.3} | {:.3} | {:.4} | {} |",
             r.voxels,
-            r.cones,
+            if r.cone_interleave > 1 {
+                format!("{0} ({1}x{1} interleaved)", r.cones, r.cone_interleave)
+            } else {
+                r.cones.to_string()
+            },
             r.cone_half_angle,
             r.mip_clamp,
             r.cone_step,
@@ -758,13 +787,14 @@ mod tests {
             ..Default::default()
         };
         let full = sweep(&base, false, Pipeline::VctDense);
-        assert_eq!(full.len(), 294);
+        assert_eq!(full.len(), 299);
         assert_eq!(
             full.iter()
                 .filter(|s| s.cone_level_bias != 0.0 || s.coverage_correlation != 0.0)
                 .count(),
-            4
+            9
         );
+        assert_eq!(full.iter().filter(|s| s.cone_interleave > 1).count(), 5);
         assert!(full
             .iter()
             .all(|s| s.ao_range == 0.25 && s.validate().is_ok()));

@@ -366,6 +366,13 @@ fn run_render(
 ) -> Result<()> {
     let scene = load_scene(&scene, &flags)?;
     check_bounces(pipeline, &scene)?;
+    if pipeline == Pipeline::Cprc && scene.render.cone_interleave > 1 {
+        eprintln!(
+            "warning: cone_interleave = {} is for the per-pixel cone tracers (vct-dense, vct-svo, \
+             lrsm); cprc's caches trace one cone per texel and ignore it",
+            scene.render.cone_interleave
+        );
+    }
     let cones = ConeSettings::from(&scene.render);
     if frames == 0 || !orbit.is_finite() {
         bail!("--frames must be at least 1 and --orbit finite");

@@ -107,16 +107,33 @@ impl FramePlan {
                 "cone_trace",
                 "cone_trace",
                 format!(
-                    "{px} in the 8x8 tiles holding a surface (screen_tiles' list; empty tiles not dispatched) x ({} diffuse{})",
+                    "{px} in the 8x8 tiles holding a surface (screen_tiles' list; empty tiles not dispatched) x ({} diffuse{}){}",
                     cones.diffuse_cones,
-                    if glossy > 0 { " + 1 glossy" } else { "" }
+                    if glossy > 0 { " + 1 glossy" } else { "" },
+                    if cones.interleave > 1 {
+                        format!(", then the resolve over {0}x{0} windows", cones.interleave)
+                    } else {
+                        String::new()
+                    }
                 ),
                 true,
-                if glossy > 0 {
-                    format!("AO + diffuse; glossy cone for the {glossy} glossy material(s)")
-                } else {
-                    "AO + diffuse; no glossy cone: no material has Ks".into()
-                },
+                format!(
+                    "{}{}",
+                    if glossy > 0 {
+                        format!("AO + diffuse; glossy cone for the {glossy} glossy material(s)")
+                    } else {
+                        "AO + diffuse; no glossy cone: no material has Ks".into()
+                    },
+                    if cones.interleave > 1 {
+                        format!(
+                            "; interleaved cone sets: {} cones per {1}x{1} window of a surface",
+                            cones.diffuse_cones * cones.interleave * cones.interleave,
+                            cones.interleave
+                        )
+                    } else {
+                        String::new()
+                    }
+                ),
             ),
         ];
         Self {
