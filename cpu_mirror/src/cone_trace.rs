@@ -29,7 +29,8 @@
 //! disjoint subsets of one spiral of `diffuse_cones` N^2 narrow cones ([`cone_dirs`],
 //! [`class_cones`]), and a second pass, the resolve ([`resolve`]; the kernel's entry `resolve`),
 //! averages each pixel's irradiance and occlusion over the N x N window around it, pixels of the
-//! same surface only (normals within ~26 deg, within one level-0 cell of the pixel's plane): every
+//! same surface only (the same facing, normals within ~26 deg, within one level-0 cell of the
+//! pixel's plane): every
 //! such window holds each class once, so a pixel on an open surface gathers all `diffuse_cones` N^2
 //! cones for the price of `diffuse_cones`. The glossy cone stays per pixel.
 use crate::bvh_trace::GpuTriangle;
@@ -757,7 +758,8 @@ pub struct PixelOut {
 /// The resolve pass of interleaved cone sets (the kernel's entry `resolve`; run only when
 /// `p.interleave` > 1): each surface pixel's irradiance and occlusion averaged over the N x N window
 /// starting at `(x + 1 - N/2, y + 1 - N/2)`, shifted to lie inside the image, over the window's
-/// pixels of the same surface — a surface pixel (`normal.w != 0`) whose signed normal (`xyz * sign(w)`)
+/// pixels of the same surface — a surface pixel (`normal.w != 0`) facing the camera as the pixel does
+/// (front or back, the sign of `w`) whose signed normal (`xyz * sign(w)`)
 /// is within [`RESOLVE_COS`] of the pixel's and whose position lies within one level-0 cell (`s0`) of
 /// the pixel's plane (the pixel itself always counts). Then AO = `clamp(1 - mean occ, 0, 1)` and, on
 /// front faces, indirect += albedo (mean irradiance - own irradiance): the glossy cone's share stays
@@ -807,7 +809,7 @@ pub fn resolve(
                         true
                     } else {
                         let nq = normal[j];
-                        if nq[3] == 0.0 {
+                        if nq[3] == 0.0 || (nq[3] > 0.0) != (nrm[3] > 0.0) {
                             continue;
                         }
                         let q = Vec3::from_slice(&position[j][..3]);

@@ -220,8 +220,8 @@ fn signed_normal(v: vec4<f32>) -> vec3<f32> {
 
 // Interleaved cone sets' resolve (after `main`, same tiles): a surface pixel's irradiance and
 // occlusion averaged over the N x N window from (x + 1 - N/2, y + 1 - N/2), shifted inside the image,
-// over the window's pixels of the same surface (signed normals within RESOLVE_COS, positions within
-// one level-0 cell of the pixel's plane; the pixel itself always); AO = 1 - mean occ, and on front
+// over the window's pixels of the same surface (the same facing, signed normals within RESOLVE_COS,
+// positions within one level-0 cell of the pixel's plane; the pixel itself always); AO = 1 - mean occ, and on front
 // faces indirect += albedo (mean - own irradiance). Reads `irradiance` only, writes each pixel's own
 // indirect and ao: no pixel reads what another writes. Mirror: cone_trace::resolve.
 @compute @workgroup_size(64)
@@ -252,7 +252,7 @@ fn resolve(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index
             var take = j == pix;
             if (!take) {
                 let nq = gb_normal[j];
-                if (nq.w != 0.0) {
+                if (nq.w != 0.0 && (nq.w > 0.0) == (nrm.w > 0.0)) {
                     let dist = abs(dot(gb_position[j].xyz - pp, np));
                     take = dot(np, signed_normal(nq)) >= RESOLVE_COS && dist <= s0;
                 }
