@@ -485,6 +485,13 @@ fn run_reference(
     if ideal_cones == Some(0) {
         bail!("--ideal-cones must be at least 1 ray per cone");
     }
+    if ideal_cones.is_some() && scene.render.cone_interleave > 1 {
+        eprintln!(
+            "warning: the ideal cones trace the plain set of {} cones per pixel; cone_interleave = {} \
+             (interleaved classes and their resolve) is the renderers' alone",
+            scene.render.cones, scene.render.cone_interleave
+        );
+    }
     create_out(&out)?;
     let bar = ProgressBar::new(scene.camera.height as u64);
     bar.set_style(

@@ -89,7 +89,15 @@ pub fn report(
 
         let cones = ConeSettings::from(&scene.render);
         // Ideal cones gather one bounce: against a two-bounce reference they would be a wrong row.
-        if scene.render.bounces == 1 {
+        // They trace one plain cone set per pixel: an interleaved scene's set is not theirs.
+        if scene.render.cone_interleave > 1 {
+            eprintln!(
+                "note: {name}: no ideal-cones row (cone_interleave = {}: the ideal cones trace the \
+                 plain set of {} cones per pixel, without the interleaved classes and their resolve)",
+                scene.render.cone_interleave, scene.render.cones
+            );
+        }
+        if scene.render.bounces == 1 && scene.render.cone_interleave == 1 {
             progress(&format!("{name}: ideal cones"));
             let started = std::time::Instant::now();
             let ideal = rgb(crate::reference::ideal_cones(
