@@ -54,22 +54,12 @@ fn cprc_against_the_converged_reference() {
 /// the recipe the README gives, so test and recipe cannot drift.
 #[test]
 fn fine_caches_meet_the_flip_goal_on_the_cornell_box() {
-    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
-    let dir = root.join("references/cornell_box_256_4096spp");
-    let read = |name: &str| vxgi::images::read_exr(&dir.join(format!("{name}.exr"))).unwrap();
-    let scene = Scene::load(root.join("scenes/cornell_box_fine_caches.toml")).unwrap();
+    let scene = common::scene_file("cornell_box_fine_caches.toml");
     let cones = ConeSettings::from(&scene.render);
     let (r, stats) = vxgi::render::render_cprc(gpu(), &scene, &cones, |_| {}).unwrap();
-    let p = std::path::Path::new("");
-    let comb = compare(&read("combined"), p, &r.combined, p).unwrap();
-    let reference = read("indirect");
-    let mean = |img: &[[f32; 3]]| img.iter().map(|p| p[0] + p[1] + p[2]).sum::<f32>();
-    let ratio = mean(&r.indirect.pixels) / mean(&reference.pixels);
-    println!(
-        "fine caches: combined FLIP {:.4}, indirect energy ours/reference {ratio:.3}; {stats:?}",
-        comb.flip_mean
-    );
-    assert!(comb.flip_mean < 0.1, "combined FLIP {}", comb.flip_mean);
+    let (flip, ratio) = common::against_converged_cornell(&r);
+    println!("fine caches: combined FLIP {flip:.4}, indirect energy ours/reference {ratio:.3}; {stats:?}");
+    assert!(flip < 0.1, "combined FLIP {flip}");
     assert!((0.9..1.1).contains(&ratio), "indirect energy ratio {ratio}");
 }
 

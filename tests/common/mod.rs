@@ -86,3 +86,25 @@ pub fn case_passes(
         None => Ok(()),
     }
 }
+
+/// A scene file of the repository (`scenes/NAME`).
+pub fn scene_file(name: &str) -> vxgi::scene::Scene {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes")
+        .join(name);
+    vxgi::scene::Scene::load(&path).unwrap_or_else(|e| panic!("scenes/{name}: {e}"))
+}
+
+/// A 256x256 Cornell box frame against the committed converged reference
+/// (references/cornell_box_256_4096spp): its combined image's mean FLIP and its indirect energy over
+/// the reference's.
+pub fn against_converged_cornell(r: &vxgi::render::Rendered) -> (f32, f32) {
+    let dir =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("references/cornell_box_256_4096spp");
+    let read = |name: &str| vxgi::images::read_exr(&dir.join(format!("{name}.exr"))).unwrap();
+    let p = std::path::Path::new("");
+    let comb = vxgi::images::compare(&read("combined"), p, &r.combined, p).unwrap();
+    let sum = |img: &[[f32; 3]]| img.iter().map(|p| p[0] + p[1] + p[2]).sum::<f32>();
+    let ratio = sum(&r.indirect.pixels) / sum(&read("indirect").pixels);
+    (comb.flip_mean, ratio)
+}
