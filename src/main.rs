@@ -264,7 +264,7 @@ struct RenderFlags {
     #[arg(long = "depth-ordered-blend", alias = "depth_ordered_blend")]
     depth_ordered_blend: Option<bool>,
     /// vct-dense, vct-svo, lrsm: interleaved cone sets of side N, 1 (off), 2, 4 or 8: the N x N pixel
-    /// classes trace disjoint subsets of cones x N^2 cones, averaged over each pixel's N x N window
+    /// classes trace disjoint subsets of cones x N^2 cones, averaged (tent weights) over each pixel's (2N - 1)^2 neighbours
     /// on its own surface (narrow cones want it: see README "Accuracy") [default 1].
     #[arg(long = "cone-interleave", alias = "cone_interleave")]
     cone_interleave: Option<u32>,

@@ -111,7 +111,10 @@ impl FramePlan {
                     cones.diffuse_cones,
                     if glossy > 0 { " + 1 glossy" } else { "" },
                     if cones.interleave > 1 {
-                        format!(", then the resolve over {0}x{0} windows", cones.interleave)
+                        format!(
+                            ", then the resolve over {0}x{0} neighbours (tent weights)",
+                            2 * cones.interleave - 1
+                        )
                     } else {
                         String::new()
                     }
@@ -126,7 +129,7 @@ impl FramePlan {
                     },
                     if cones.interleave > 1 {
                         format!(
-                            "; interleaved cone sets: {} cones per {1}x{1} window of a surface",
+                            "; interleaved cone sets: {} cones over {1}x{1} classes of a surface",
                             cones.diffuse_cones * cones.interleave * cones.interleave,
                             cones.interleave
                         )

@@ -180,7 +180,7 @@ pub struct RenderSettings {
     /// vct-dense, vct-svo and lrsm (the per-pixel cone tracers; cprc's caches have their own cones):
     /// interleaved cone sets of side N in {1, 2, 4, 8} (1 = off, the paper's one set per pixel). The
     /// N x N pixel classes trace disjoint subsets of one spiral of `cones` N^2 cones and a resolve
-    /// pass averages irradiance and occlusion over each pixel's N x N window on its own surface
+    /// pass averages irradiance and occlusion over each pixel's (2N - 1)^2 neighbours on its own surface (tent weights)
     /// (`cone_trace::cone_dirs`, `cone_trace::resolve`; README "Accuracy"): N^2 times the cones for
     /// the price of `cones` per pixel, blurred over N pixels.
     pub cone_interleave: u32,

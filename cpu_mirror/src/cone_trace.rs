@@ -28,11 +28,11 @@
 //! instant radiosity; our addition to the cone tracers): the screen's N x N pixel classes trace
 //! disjoint subsets of one spiral of `diffuse_cones` N^2 narrow cones ([`cone_dirs`],
 //! [`class_cones`]), and a second pass, the resolve ([`resolve`]; the kernel's entry `resolve`),
-//! averages each pixel's irradiance and occlusion over the N x N window around it, pixels of the
-//! same surface only (the same facing, normals within ~26 deg, within one level-0 cell of the
-//! pixel's plane): every
-//! such window holds each class once, so a pixel on an open surface gathers all `diffuse_cones` N^2
-//! cones for the price of `diffuse_cones`. The glossy cone stays per pixel.
+//! averages each pixel's irradiance and occlusion with tent weights over the (2N - 1)^2 pixels
+//! around it, pixels of the same surface only (the same facing, normals within ~26 deg, within one
+//! level-0 cell of the pixel's plane): in a full window every class has the same weight, so a pixel
+//! on an open surface gathers all `diffuse_cones` N^2 cones for the price of `diffuse_cones`. The
+//! glossy cone stays per pixel.
 use crate::bvh_trace::GpuTriangle;
 use crate::direct_light::{face_normal, GpuMaterial};
 use crate::gbuffer::Frame;
@@ -756,20 +756,23 @@ pub struct PixelOut {
 }
 
 /// The resolve pass of interleaved cone sets (the kernel's entry `resolve`; run only when
-/// `p.interleave` > 1): each surface pixel's irradiance and occlusion averaged over the N x N window
-/// starting at `(x + 1 - N/2, y + 1 - N/2)`, shifted to lie inside the image, over the window's
-/// pixels of the same surface — a surface pixel (`normal.w != 0`) facing the camera as the pixel does
-/// (front or back, the sign of `w`) whose signed normal (`xyz * sign(w)`)
-/// is within [`RESOLVE_COS`] of the pixel's and whose position lies within one level-0 cell (`s0`) of
-/// the pixel's plane (the pixel itself always counts). Then AO = `clamp(1 - mean occ, 0, 1)` and, on
-/// front faces, indirect += albedo (mean irradiance - own irradiance): the glossy cone's share stays
-/// the pixel's own. Sums run in the kernel's order (rows, then columns) in f32.
+/// `p.interleave` > 1): each surface pixel's irradiance and occlusion averaged with tent weights
+/// `(N - |dx|) (N - |dy|)` over the (2N - 1)^2 pixels around it (inside the image) — in a full
+/// window every class weighs the same, N^2 of N^4, as in an N x N box, and a class's sample fades in
+/// and out as the window slides instead of jumping, which an N x N box shows as an N-periodic
+/// pattern where the classes' estimates differ (the hot spot's glow) — over the window's pixels of
+/// the same surface: a surface pixel (`normal.w != 0`) facing the camera as the pixel does (front or
+/// back, the sign of `w`) whose signed normal (`xyz * sign(w)`) is within [`RESOLVE_COS`] of the
+/// pixel's and whose position lies within one level-0 cell (`s0`) of the pixel's plane (the pixel
+/// itself always counts). Then AO = `clamp(1 - mean occ, 0, 1)` and, on front faces, indirect +=
+/// albedo (mean irradiance - own irradiance): the glossy cone's share stays the pixel's own. Sums run
+/// in the kernel's order (rows, then columns) in f32; the weights are small integers, exact.
 ///
-/// Bounds: a mean's error is at most the mean of its terms' bounds plus (k + 4) ULP (2^-23) of the
-/// mean of their magnitudes (k - 1 additions and a division within 2.5 ULP, WGSL's rule); where a
-/// neighbour's test is within rounding of its threshold (either side may decide), its whole share
-/// `(|v_q| + max |v|) / k` is added, k the count of certain members. The final additions add an ULP
-/// each of their operands.
+/// Bounds: the mean's error is at most the weighted mean of its terms' bounds plus (terms + 5) ULP
+/// (2^-23) of the weighted mean of their magnitudes (a product and an addition per term, a division
+/// within 2.5 ULP, WGSL's rule); where a neighbour's test is within rounding of its threshold
+/// (either side may decide), its whole share `w_q (|v_q| + max |v|) / k` is added, k the certain
+/// members' weight. The final additions add an ULP each of their operands.
 pub fn resolve(
     p: &ConeParams,
     width: u32,
@@ -791,20 +794,20 @@ pub fn resolve(
                 return out;
             }
             let (x, y) = (i as i64 % w, i as i64 / w);
-            let x0 = (x + 1 - n / 2).min(w - n).max(0);
-            let y0 = (y + 1 - n / 2).min(h - n).max(0);
             let np = signed(nrm);
             let pp = Vec3::from_slice(&position[i][..3]);
             let mut sum = Vec4::ZERO;
             let mut sum_b = Vec4::ZERO;
             let mut sum_mag = Vec4::ZERO;
-            let mut k = 0u32;
-            let mut unsure: Vec<Vec4> = Vec::new();
+            let mut k = 0.0f32;
+            let mut terms = 0.0f32;
+            let mut unsure: Vec<(f32, Vec4)> = Vec::new();
             let mut vmax = Vec4::ZERO;
-            for yy in y0..(y0 + n).min(h) {
-                for xx in x0..(x0 + n).min(w) {
+            for yy in (y - n + 1).max(0)..(y + n).min(h) {
+                for xx in (x - n + 1).max(0)..(x + n).min(w) {
                     let j = (yy * w + xx) as usize;
                     let v = Vec4::from_array(px[j].irradiance);
+                    let wt = ((n - (xx - x).abs()) * (n - (yy - y).abs())) as f32;
                     let take = if j == i {
                         true
                     } else {
@@ -821,27 +824,28 @@ pub fn resolve(
                         let eps =
                             8.0 * ulp * (1.0 + pp.abs().max_element() + q.abs().max_element());
                         if (cos - RESOLVE_COS).abs() <= 8.0 * ulp || (dist - s0).abs() <= eps {
-                            unsure.push(v.abs());
+                            unsure.push((wt, v.abs()));
                             vmax = vmax.max(v.abs());
                             continue;
                         }
                         take
                     };
                     if take {
-                        sum += v;
-                        sum_b += Vec4::from_array(px[j].irradiance_bound);
-                        sum_mag += v.abs();
+                        sum += v * wt;
+                        sum_b += Vec4::from_array(px[j].irradiance_bound) * wt;
+                        sum_mag += v.abs() * wt;
                         vmax = vmax.max(v.abs());
-                        k += 1;
+                        k += wt;
+                        terms += 1.0;
                     }
                 }
             }
-            // The mirror leaves the unsure neighbours out; the bound covers the GPU's taking any.
-            let kf = k as f32;
-            let mean = sum / kf;
-            let mut mean_b = sum_b / kf + sum_mag / kf * ((kf + 4.0) * ulp);
-            for u in &unsure {
-                mean_b += (*u + vmax) / kf;
+            // The mirror leaves the unsure neighbours out; the bound covers the GPU's taking any
+            // (taking one of weight w_q moves the mean by at most w_q (|v_q| + max |v|) / k).
+            let mean = sum / k;
+            let mut mean_b = sum_b / k + sum_mag / k * ((terms + 5.0) * ulp);
+            for (wt, u) in &unsure {
+                mean_b += (*u + vmax) * (*wt / k);
             }
             let occ = mean.w;
             let a = (1.0 - occ).clamp(0.0, 1.0);
@@ -1162,34 +1166,34 @@ mod tests {
         assert_eq!(resolve(&p, 8, &pos, &nrm, &albedo, &px), px);
         let (p, pos, nrm, px) = resolve_scene(2);
         let out = resolve(&p, 8, &pos, &nrm, &albedo, &px);
-        // A floor pixel away from the step: its 2 x 2 window holds classes 0..3, mean 1.5.
+        // Tent weights (2 - |dx|)(2 - |dy|) over 3 x 3. A floor pixel away from the step: its
+        // window weighs each of the classes 0..3 by 4 of 16, mean 1.5.
         let i = (2 * 8 + 2) as usize;
         assert_eq!(out[i].indirect, [0.75, 1.5, 0.5, 0.0]);
         let a = 1.0 - 0.15;
         assert!((out[i].ao[0] - a).abs() < 1e-6, "{:?}", out[i].ao);
-        // Column 5's window reaches column 6, the step: only the floor's own pixels count.
+        let near = |v: f32, e: f32| (v - e).abs() < 1e-6;
+        // (5, 2): column 6 is the step, left out: classes 2, 3, 0, 1, 2, 3 of columns 4-5, rows 1-3,
+        // weights 1, 2, 2, 4, 1, 2: mean 20 / 12; own class 1.
         let j = (2 * 8 + 5) as usize;
-        let own = px[j].irradiance[0];
-        let below = px[j + 8].irradiance[0];
-        let mean = (own + below) / 2.0;
         assert!(
-            (out[j].indirect[0] - 0.5 * mean).abs() < 1e-6,
+            near(out[j].indirect[0], 0.5 + 0.5 * (20.0 / 12.0 - 1.0)),
             "{:?}",
             out[j]
         );
-        // Row 4's window reaches row 5, background: the pixel and its row neighbour (classes 0, 1).
+        // (2, 4): row 5 is background: rows 3-4, classes 3, 2, 3 / 1, 0, 1, weights 1, 2, 1 / 2,
+        // 4, 2: mean 14 / 12; own class 0.
         let k = (4 * 8 + 2) as usize;
-        assert_eq!(out[k].indirect, [0.25, 0.5, 0.5, 0.0]);
-        // The image's last column: the window shifted inside (columns 6-7, the step's pair).
+        assert!(near(out[k].indirect[0], 0.5 * 14.0 / 12.0), "{:?}", out[k]);
+        assert!(near(out[k].indirect[1], 0.5 * 28.0 / 12.0), "{:?}", out[k]);
+        assert!(near(out[k].indirect[2], 0.5), "{:?}", out[k]);
+        // (7, 2), the image's last column on the step: columns 6-7, rows 1-3 (the floor's column 5
+        // is another plane), as (5, 2) on the floor: channel 1 (2 x class) mean 40 / 12, own 2.
         let e = (2 * 8 + 7) as usize;
-        let m: f32 = [0usize, 1, 8, 9]
-            .iter()
-            .map(|d| px[2 * 8 + 6 + d].irradiance[1])
-            .sum::<f32>()
-            / 4.0;
         assert!(
-            (out[e].indirect[1] - (px[e].indirect[1] + 0.5 * (m - px[e].irradiance[1]))).abs()
-                < 1e-6
+            near(out[e].indirect[1], 1.0 + 0.5 * (40.0 / 12.0 - 2.0)),
+            "{:?}",
+            out[e]
         );
         // Background stays as it was.
         assert_eq!(out[5 * 8], px[5 * 8]);

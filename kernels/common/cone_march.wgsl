@@ -219,10 +219,12 @@ fn signed_normal(v: vec4<f32>) -> vec3<f32> {
 }
 
 // Interleaved cone sets' resolve (after `main`, same tiles): a surface pixel's irradiance and
-// occlusion averaged over the N x N window from (x + 1 - N/2, y + 1 - N/2), shifted inside the image,
-// over the window's pixels of the same surface (the same facing, signed normals within RESOLVE_COS,
-// positions within one level-0 cell of the pixel's plane; the pixel itself always); AO = 1 - mean occ, and on front
-// faces indirect += albedo (mean - own irradiance). Reads `irradiance` only, writes each pixel's own
+// occlusion averaged with tent weights (N - |dx|)(N - |dy|) over the (2N - 1)^2 pixels around it
+// (each class's share is the same in a full window, and a class's sample fades in and out as the
+// window slides, so no N-periodic pattern), over the window's pixels of the same surface (the same
+// facing, signed normals within RESOLVE_COS, positions within one level-0 cell of the pixel's plane;
+// the pixel itself always); AO = 1 - mean occ, and on front faces indirect += albedo (mean - own
+// irradiance). Reads `irradiance` only, writes each pixel's own
 // indirect and ao: no pixel reads what another writes. Mirror: cone_trace::resolve.
 @compute @workgroup_size(64)
 fn resolve(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
@@ -239,15 +241,13 @@ fn resolve(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index
     let h = i32(frame.size.y);
     let x = i32(pix % frame.size.x);
     let y = i32(pix / frame.size.x);
-    let x0 = max(min(x + 1 - n / 2, w - n), 0);
-    let y0 = max(min(y + 1 - n / 2, h - n), 0);
     let np = signed_normal(nrm);
     let pp = gb_position[pix].xyz;
     let s0 = cone.origin.w;
     var sum = vec4<f32>(0.0);
     var k = 0.0;
-    for (var yy = y0; yy < min(y0 + n, h); yy++) {
-        for (var xx = x0; xx < min(x0 + n, w); xx++) {
+    for (var yy = max(y - n + 1, 0); yy < min(y + n, h); yy++) {
+        for (var xx = max(x - n + 1, 0); xx < min(x + n, w); xx++) {
             let j = u32(yy * w + xx);
             var take = j == pix;
             if (!take) {
@@ -258,8 +258,10 @@ fn resolve(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index
                 }
             }
             if (take) {
-                sum += irradiance[j];
-                k += 1.0;
+                // Tent weights (N - |dx|)(N - |dy|): every class weighs N^2 in a full window.
+                let wt = f32((n - abs(xx - x)) * (n - abs(yy - y)));
+                sum += irradiance[j] * wt;
+                k += wt;
             }
         }
     }

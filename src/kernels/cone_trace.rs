@@ -101,7 +101,7 @@ pub struct ConeSettings {
     pub depth_ordered_blend: bool,
     /// Side N of the interleaved cone sets (1 = off; `ConeParams::interleave`): the per-pixel
     /// tracers' N x N pixel classes trace disjoint subsets of `diffuse_cones` N^2 cones, resolved
-    /// by the window average (`vxgi_cpu_mirror::cone_trace::resolve`).
+    /// by the tent-weighted window average (`vxgi_cpu_mirror::cone_trace::resolve`).
     pub interleave: u32,
 }
 
