@@ -313,30 +313,37 @@ fn svo_tail(
     timed: &mut impl FnMut(&'static str, f64),
     progress: &impl Fn(&str),
 ) -> Result<[Vec<[f32; 4]>; 2]> {
-    use svo_cone_trace::{grid_fragments, svo_cone_params, SCALE};
+    use svo_cone_trace::{grid_fragments, svo_cone_params};
     let lobes = order.contains(&"svo_lobes");
     let mut spec_frags = Vec::new();
-    let frags = if order.contains(&"svo_photons") {
+    let (grid_values, photons) = if order.contains(&"svo_photons") {
         progress("svo_photons");
         let t = std::time::Instant::now();
         // The voxels' coverage; the light comes from the photons.
-        let mut frags = grid_fragments(&svo_cone_trace::coverage_only(&grid.colour), SCALE)?;
         let map = scene.render.photon_map;
         let photons = if on_mirror("svo_photons") {
-            svo_photons::mirror_photon_fragments(data, frame, map, SCALE)?
+            svo_photons::mirror_photons(data, frame, map)?
         } else {
-            svo_photons::photon_fragments(ctx, data, frame, map, SCALE)?
+            svo_photons::photons_on_gpu(ctx, data, frame, map)?
         };
-        spec_frags = photons.join_into(&mut frags, lobes);
         timed("svo_photons", t.elapsed().as_secs_f64());
-        frags
+        (svo_cone_trace::coverage_only(&grid.colour), Some(photons))
     } else {
         progress("voxel_light");
         let t = std::time::Instant::now();
         let radiance = lit(ctx, data, grid, list, frame, on_mirror("voxel_light"))?;
         timed("voxel_light", t.elapsed().as_secs_f64());
-        grid_fragments(&radiance, SCALE)?
+        (radiance, None)
     };
+    // The fixed point of the frames bisected: the one every split's values fit (as render's).
+    let scale = svo_cone_trace::fixed_scale(
+        svo_cone_trace::grid_values(&grid_values).chain(photons.iter().flat_map(|p| p.values())),
+        scene.render.bounces,
+    );
+    let mut frags = grid_fragments(&grid_values, scale)?;
+    if let Some(photons) = &photons {
+        spec_frags = photons.fragments(scale)?.join_into(&mut frags, lobes);
+    }
 
     progress("sparse_voxel_octree");
     let t = std::time::Instant::now();
@@ -352,9 +359,9 @@ fn svo_tail(
         progress("svo_anisotropic");
         let t = std::time::Instant::now();
         let a = if on_mirror("svo_anisotropic") {
-            crate::kernels::svo_anisotropic::build_mirror(&octree, 1.0 / SCALE)
+            crate::kernels::svo_anisotropic::build_mirror(&octree, 1.0 / scale)
         } else {
-            svo_anisotropic::build_on_gpu(ctx, &octree, 1.0 / SCALE)?
+            svo_anisotropic::build_on_gpu(ctx, &octree, 1.0 / scale)?
         };
         timed("svo_anisotropic", t.elapsed().as_secs_f64());
         Some(a)
@@ -368,8 +375,14 @@ fn svo_tail(
         // The voxels' coverage (alpha) and mean normals; the specular photons.
         let (coverage, normal) = (&grid.colour, &grid.normal);
         let side = (!on_mirror("svo_lobes")).then_some(ctx);
-        let (n, g) =
-            svo_cone_trace::lobe_pools(side, &octree, &frags, [coverage, normal], &spec_frags)?;
+        let (n, g) = svo_cone_trace::lobe_pools(
+            side,
+            &octree,
+            &frags,
+            [coverage, normal],
+            &spec_frags,
+            scale,
+        )?;
         timed("svo_lobes", t.elapsed().as_secs_f64());
         (Some(n), g)
     } else {
@@ -389,7 +402,7 @@ fn svo_tail(
         gb,
         &octree,
         extras,
-        SCALE,
+        scale,
         &params,
         "bisect".into(),
         0,
@@ -493,7 +506,6 @@ pub fn bisect(
 ) -> Result<Vec<SplitRow>> {
     let order = stages(pipeline, scene, cones)?;
     let mirror = render_split(ctx, scene, cones, pipeline, order.len(), &progress)?;
-    let p = std::path::Path::new("");
     let mut rows = Vec::new();
     for split in 0..order.len() {
         let r = render_split(ctx, scene, cones, pipeline, split, &progress)?;
@@ -503,7 +515,13 @@ pub fn bisect(
             ("indirect", &mirror.indirect, &r.indirect),
             ("ao", &mirror.ao, &r.ao),
         ] {
-            let c = crate::images::compare(a, p, b, p)?;
+            // The images are in memory: name them by frame and image in errors.
+            let reference = std::path::PathBuf::from(format!("all-mirror frame, {name} image"));
+            let split_name = std::path::PathBuf::from(format!(
+                "frame with the mirrors up to stage {split} ({}), {name} image",
+                order.get(split).copied().unwrap_or("none")
+            ));
+            let c = crate::images::compare(a, &reference, b, &split_name)?;
             let diff: Vec<f32> = a
                 .pixels
                 .iter()

@@ -8,6 +8,7 @@ pub mod gbuffers;
 pub mod grids;
 pub mod images;
 pub mod kernels;
+pub mod limits;
 pub mod lrsm;
 pub mod plan;
 pub mod reference;

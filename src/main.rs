@@ -848,6 +848,31 @@ fn run_scene(path: Option<std::path::PathBuf>) -> Result<()> {
         c.fov_y_deg,
         scene.render.voxels
     );
+    // The device limits each pipeline's frame must fit (what `vxgi render` refuses before it starts).
+    match GpuContext::new() {
+        Ok(ctx) => {
+            let limits = ctx.limits();
+            let mut refused = 0;
+            for p in [
+                Pipeline::VctDense,
+                Pipeline::VctSvo,
+                Pipeline::Lrsm,
+                Pipeline::Cprc,
+            ] {
+                match vxgi::limits::check(&scene, p, &limits) {
+                    Ok(()) => println!("{}: fits this device's limits", p.name()),
+                    Err(e) => {
+                        refused += 1;
+                        println!("{}: refused: {e}", p.name())
+                    }
+                }
+            }
+            if refused == 4 {
+                bail!("no pipeline can render this scene on {}", ctx.describe());
+            }
+        }
+        Err(e) => eprintln!("device limits not checked (no GPU adapter: {e})"),
+    }
     Ok(())
 }
 

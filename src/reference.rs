@@ -234,6 +234,18 @@ pub fn render_reference(
     opts: &ReferenceOptions,
     progress: impl Fn(u64) + Sync,
 ) -> Images {
+    // Lights past the exposure limit: rendered at 2^-k, scaled back (as the pipelines' frames).
+    let k = crate::render::exposure(scene);
+    if k != 0 {
+        let mut out = render_reference(&scene.with_lights_scaled(2f32.powi(-k)), opts, progress);
+        let f = 2f64.powi(k);
+        for img in [&mut out.direct, &mut out.indirect] {
+            for p in img.iter_mut() {
+                *p = p.map(|c| (c as f64 * f).min(f32::MAX as f64) as f32);
+            }
+        }
+        return out;
+    }
     let data = SceneData::new(scene);
     let ctx = Ctx::new(&data, scene, scene.render.bounces);
     let (w, h) = (data.width(), data.height());

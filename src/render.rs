@@ -228,6 +228,23 @@ impl Rendered {
         }
     }
 
+    /// Direct, indirect and combined times 2^k (in f64, saturating at f32::MAX); AO is unitless.
+    pub fn radiance_scaled(self, k: i32) -> Self {
+        let f = 2f64.powi(k);
+        let scale = |mut img: RgbImage| {
+            for p in &mut img.pixels {
+                *p = p.map(|c| (c as f64 * f).min(f32::MAX as f64) as f32);
+            }
+            img
+        };
+        Self {
+            direct: scale(self.direct),
+            indirect: scale(self.indirect),
+            combined: scale(self.combined),
+            ..self
+        }
+    }
+
     /// The frame with the cone pass's tile counts, from its screen_tiles list buffer.
     pub fn with_cone_tiles(mut self, list: &[u32]) -> Self {
         use vxgi_cpu_mirror::screen_tiles::HEADER;
@@ -239,10 +256,23 @@ impl Rendered {
 /// `frame` run on [`Scene::supersampled`] (the camera's `supersample` x `supersample` samples per
 /// pixel as pixels of their own) and box-filtered back to the camera's pixels; as is where
 /// `supersample` is 1. What else the frame reports (memory, caches, tile counts) is the samples'.
+///
+/// Light intensities past [`EXPOSURE_LIMIT`] are rendered at an exposure: every light scaled by the
+/// power of two 2^-k that brings the largest intensity component into [1, 2), the radiance images
+/// scaled back by 2^k (light transport is linear in the lights, and a power of two is exact in
+/// floating point). The kernels' f32 sums (up to 4096 texels before cprc's pre-convolution divides,
+/// N^4 in the interleaved resolve, 1/r^2 of a point light) and vct-svo's fixed point then stay in
+/// range for any finite intensity. Radiance past f32::MAX after scaling back saturates there.
 fn supersampled<T>(
     scene: &Scene,
     frame: impl FnOnce(&Scene) -> Result<(Rendered, T)>,
 ) -> Result<(Rendered, T)> {
+    let k = exposure(scene);
+    if k != 0 {
+        let exposed = scene.with_lights_scaled(2f32.powi(-k));
+        let (r, extra) = supersampled(&exposed, frame)?;
+        return Ok((r.radiance_scaled(k), extra));
+    }
     let s = scene.render.supersample;
     if s <= 1 {
         return frame(scene);
@@ -250,6 +280,26 @@ fn supersampled<T>(
     let samples = scene.supersampled().map_err(anyhow::Error::msg)?;
     let (r, extra) = frame(&samples)?;
     Ok((r.downsampled(s), extra))
+}
+
+/// The largest light intensity component rendered as it is; brighter scenes are rendered at an
+/// exposure (see [`supersampled`]). Every shipped scene's lights are far below it, so their frames are
+/// unchanged bit for bit.
+pub const EXPOSURE_LIMIT: f32 = 65536.0;
+
+/// The k of the exposure 2^-k a scene is rendered at: 0 where every intensity component is at most
+/// [`EXPOSURE_LIMIT`], else the one that brings the largest into [1, 2).
+pub fn exposure(scene: &Scene) -> i32 {
+    let m = scene
+        .lights
+        .iter()
+        .flat_map(|l| l.intensity())
+        .fold(0.0f32, f32::max);
+    if m <= EXPOSURE_LIMIT || !m.is_finite() {
+        0
+    } else {
+        m.log2().floor() as i32
+    }
 }
 
 /// The vct-dense pipeline: G-buffer and direct light with exact shadows, voxelization, voxel lighting,
@@ -383,6 +433,8 @@ impl VctDense {
         cones: &ConeSettings,
         progress: impl Fn(&str),
     ) -> Result<Rendered> {
+        crate::limits::check(scene, Pipeline::VctDense, &ctx.limits())
+            .map_err(anyhow::Error::msg)?;
         supersampled(scene, |s| {
             Ok((self.render_samples(ctx, s, cones, &progress)?, ()))
         })
@@ -1076,6 +1128,8 @@ struct SvoCache {
     normals: Option<Vec<u32>>,
     /// The glossy voxels' specular pool (lobes on and glossy photons), in `built`'s node layout.
     spec: Option<Vec<u32>>,
+    /// The fixed-point scale of every pool (`svo_cone_trace::fixed_scale`).
+    scale: f32,
 }
 
 /// vct-svo's voxels across the frames of an animation with dynamic instances: the static part (the
@@ -1241,6 +1295,7 @@ impl VctSvo {
         cones: &ConeSettings,
         progress: impl Fn(&str),
     ) -> Result<(Rendered, crate::kernels::sparse_voxel_octree::MemoryReport)> {
+        crate::limits::check(scene, Pipeline::VctSvo, &ctx.limits()).map_err(anyhow::Error::msg)?;
         supersampled(scene, |s| self.render_samples(ctx, s, cones, &progress))
     }
 
@@ -1305,22 +1360,33 @@ impl VctSvo {
             };
             // Geometry fragments: the lit voxels, or with photon injection their coverage alone
             // (voxel_light did not run) and the photons carrying the light.
-            let mut frags = svo_cone_trace::grid_fragments(&rad, svo_cone_trace::SCALE)?;
-            // With the lobes, the glossy surfaces' specular photons (their points join the structure).
-            let mut spec_frags = Vec::new();
-            if plan.runs("svo_photons") {
+            let photons = if plan.runs("svo_photons") {
                 progress("photons");
                 let t = std::time::Instant::now();
-                let photons = crate::kernels::svo_photons::photon_fragments(
+                let photons = crate::kernels::svo_photons::photons_on_gpu(
                     ctx,
                     &data,
                     &frame,
                     scene.render.photon_map,
-                    svo_cone_trace::SCALE,
                 )
                 .context("photon injection")?;
-                spec_frags = photons.join_into(&mut frags, plan.runs("svo_lobes"));
                 stages.push(("svo_photons", t.elapsed().as_secs_f64()));
+                Some(photons)
+            } else {
+                None
+            };
+            // The fixed point from the values it must hold (any finite light fits).
+            let scale = svo_cone_trace::fixed_scale(
+                svo_cone_trace::grid_values(&rad).chain(photons.iter().flat_map(|p| p.values())),
+                scene.render.bounces,
+            );
+            let mut frags = svo_cone_trace::grid_fragments(&rad, scale)?;
+            // With the lobes, the glossy surfaces' specular photons (their points join the structure).
+            let mut spec_frags = Vec::new();
+            if let Some(photons) = &photons {
+                spec_frags = photons
+                    .fragments(scale)?
+                    .join_into(&mut frags, plan.runs("svo_lobes"));
             }
             progress("sparse voxel octree");
             let t = std::time::Instant::now();
@@ -1347,12 +1413,9 @@ impl VctSvo {
                 }
                 progress("anisotropic voxels");
                 let t = std::time::Instant::now();
-                let a = crate::kernels::svo_anisotropic::build_on_gpu(
-                    ctx,
-                    &built.octree,
-                    1.0 / svo_cone_trace::SCALE,
-                )
-                .context("anisotropic voxels")?;
+                let a =
+                    crate::kernels::svo_anisotropic::build_on_gpu(ctx, &built.octree, 1.0 / scale)
+                        .context("anisotropic voxels")?;
                 stages.push(("svo_anisotropic", t.elapsed().as_secs_f64()));
                 Ok(Some(a))
             };
@@ -1373,6 +1436,7 @@ impl VctSvo {
                     frags,
                     [&rad, &normal],
                     &spec_frags,
+                    scale,
                 )
                 .context("normal and specular pools")?;
                 stages.push(("svo_lobes", t.elapsed().as_secs_f64()));
@@ -1397,10 +1461,7 @@ impl VctSvo {
                     svo_cone_trace::bounce_on_gpu(ctx, &built.octree, extras, &params, &voxels)
                         .context("second bounce")?;
                 frags.extend(svo_cone_trace::bounce_fragments(
-                    &voxels,
-                    &ind,
-                    &rad,
-                    svo_cone_trace::SCALE,
+                    &voxels, &ind, &rad, scale,
                 )?);
                 built = build(&frags)?;
                 stages.push(("svo_bounce", t.elapsed().as_secs_f64()));
@@ -1414,6 +1475,7 @@ impl VctSvo {
                 aniso,
                 normals,
                 spec,
+                scale,
             });
         }
         let c = self.cache.as_ref().expect("built or reused above");
@@ -1438,7 +1500,7 @@ impl VctSvo {
             &gb,
             &c.built.octree,
             extras,
-            svo_cone_trace::SCALE,
+            c.scale,
             &params,
             "render".into(),
             0,
@@ -1482,6 +1544,7 @@ impl VctLrsm {
         cones: &ConeSettings,
         progress: impl Fn(&str),
     ) -> Result<(Rendered, LrsmMemory)> {
+        crate::limits::check(scene, Pipeline::Lrsm, &ctx.limits()).map_err(anyhow::Error::msg)?;
         supersampled(scene, |s| self.render_samples(ctx, s, cones, &progress))
     }
 
@@ -1685,6 +1748,7 @@ impl VctCprc {
         cones: &ConeSettings,
         progress: impl Fn(&str),
     ) -> Result<(Rendered, crate::cprc::CprcStats)> {
+        crate::limits::check(scene, Pipeline::Cprc, &ctx.limits()).map_err(anyhow::Error::msg)?;
         supersampled(scene, |s| self.render_samples(ctx, s, cones, &progress))
     }
 
@@ -1918,7 +1982,7 @@ pub fn render_svo_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendered
 }
 
 fn render_svo_mirror_samples(scene: &Scene, cones: &ConeSettings) -> Result<Rendered> {
-    use crate::kernels::svo_cone_trace::{grid_fragments, max_radiance, svo_cone_params, SCALE};
+    use crate::kernels::svo_cone_trace::{grid_fragments, max_radiance, svo_cone_params};
     use vxgi_cpu_mirror::sparse_voxel_octree::build_fitted;
     let m = MirrorFrame::new(scene)?;
     let depth = m.frame.side.trailing_zeros() - 1;
@@ -1926,31 +1990,38 @@ fn render_svo_mirror_samples(scene: &Scene, cones: &ConeSettings) -> Result<Rend
     let map = scene.render.photon_map;
     let lobes = plan.runs("svo_lobes");
     let mut spec_frags = Vec::new();
-    let frags = if plan.runs("svo_photons") {
-        // Photon injection: the voxels' coverage, the light from the photons.
-        let mut frags = grid_fragments(
-            &crate::kernels::svo_cone_trace::coverage_only(&m.lit),
-            SCALE,
-        )?;
-        let photons =
-            crate::kernels::svo_photons::mirror_photon_fragments(&m.data, &m.frame, map, SCALE)?;
-        spec_frags = photons.join_into(&mut frags, lobes);
-        frags
+    // Photon injection: the voxels' coverage, the light from the photons.
+    let (grid, photons) = if plan.runs("svo_photons") {
+        (
+            crate::kernels::svo_cone_trace::coverage_only(&m.lit),
+            Some(crate::kernels::svo_photons::mirror_photons(
+                &m.data, &m.frame, map,
+            )?),
+        )
     } else {
-        grid_fragments(&m.lit, SCALE)?
+        (m.lit.clone(), None)
     };
+    let scale = crate::kernels::svo_cone_trace::fixed_scale(
+        crate::kernels::svo_cone_trace::grid_values(&grid)
+            .chain(photons.iter().flat_map(|p| p.values())),
+        scene.render.bounces,
+    );
+    let mut frags = grid_fragments(&grid, scale)?;
+    if let Some(photons) = &photons {
+        spec_frags = photons.fragments(scale)?.join_into(&mut frags, lobes);
+    }
     let params = svo_cone_params(&m.frame, cones);
     let anisotropic = plan.runs("svo_anisotropic");
     let svo = vxgi_cpu_mirror::svo_cone_trace::SvoParams {
         depth,
-        inv_scale: 1.0 / SCALE,
+        inv_scale: 1.0 / scale,
         anisotropic: anisotropic as u32,
         lobes: lobes as u32 | ((lobes && !spec_frags.is_empty()) as u32) << 1,
     };
     let built = |frags: &[vxgi_cpu_mirror::sparse_voxel_octree::Fragment]| -> Result<_> {
         let octree = build_fitted(depth, frags);
         let aniso = if anisotropic {
-            crate::kernels::svo_anisotropic::build_mirror(&octree, 1.0 / SCALE)
+            crate::kernels::svo_anisotropic::build_mirror(&octree, 1.0 / scale)
         } else {
             vec![]
         };
@@ -1961,6 +2032,7 @@ fn render_svo_mirror_samples(scene: &Scene, cones: &ConeSettings) -> Result<Rend
                 frags,
                 [&m.lit, &m.normal],
                 &spec_frags,
+                scale,
             )?;
             (n, g.unwrap_or_default())
         } else {
@@ -1985,7 +2057,7 @@ fn render_svo_mirror_samples(scene: &Scene, cones: &ConeSettings) -> Result<Rend
         .map(|v| v.0)
         .collect();
         let mut frags = frags;
-        frags.extend(sct::bounce_fragments(&voxels, &ind, &m.lit, SCALE)?);
+        frags.extend(sct::bounce_fragments(&voxels, &ind, &m.lit, scale)?);
         (octree, aniso, pools) = built(&frags)?;
     }
     let volume = vxgi_cpu_mirror::svo_cone_trace::SvoVolume {

@@ -34,14 +34,25 @@ pub enum SceneError {
         index: usize,
         value: [f32; 3],
     },
-    #[error("{path}: triangle {triangle} (vertices on lines {lines:?}) has zero area")]
-    DegenerateTriangle {
+    #[error(
+        "{path}:{line}: vertex {index} = {value:?} is past the renderable range: coordinates must be \
+         within +-{MAX_COORDINATE:e} scene units (products of such coordinates overflow f32)"
+    )]
+    VertexOutOfRange {
         path: String,
-        triangle: usize,
-        lines: [usize; 3],
+        line: usize,
+        index: usize,
+        value: [f32; 3],
     },
-    #[error("{path}: the mesh has no triangles")]
-    EmptyMesh { path: String },
+    #[error("{path}:{line}: material {name}: {message}")]
+    Material {
+        path: String,
+        line: usize,
+        name: String,
+        message: String,
+    },
+    #[error("{path}: the mesh has no triangles{}", if *dropped > 0 { format!(" ({dropped} zero-area ones dropped)") } else { String::new() })]
+    EmptyMesh { path: String, dropped: usize },
     #[error("{path}: [camera] {message}")]
     Camera { path: String, message: String },
     #[error("{path}: light {index}: {message}")]
@@ -93,7 +104,7 @@ impl std::fmt::Debug for Texture {
 impl Texture {
     /// Read an image file (alpha dropped).
     pub fn load(path: &Path) -> Result<Self, String> {
-        let img = image::open(path).map_err(|e| e.to_string())?.to_rgb8();
+        let img = image::open(path).map_err(|e| image_error(&e))?.to_rgb8();
         let (width, height) = img.dimensions();
         if width == 0 || height == 0 {
             return Err("the image is empty".into());
@@ -140,6 +151,25 @@ pub enum Light {
         direction: [f32; 3],
         intensity: [f32; 3],
     },
+}
+
+impl Light {
+    /// Its intensity (W/sr, or W/m^2 for a directional light) per channel.
+    pub fn intensity(&self) -> [f32; 3] {
+        match self {
+            Light::Point { intensity, .. }
+            | Light::Spot { intensity, .. }
+            | Light::Directional { intensity, .. } => *intensity,
+        }
+    }
+
+    fn intensity_mut(&mut self) -> &mut [f32; 3] {
+        match self {
+            Light::Point { intensity, .. }
+            | Light::Spot { intensity, .. }
+            | Light::Directional { intensity, .. } => intensity,
+        }
+    }
 }
 
 /// `[render]`: every key optional. Unknown keys are errors (typos should not pass silently).
@@ -308,9 +338,22 @@ impl RenderSettings {
         }
         let slice = 1.0 / (self.lrsm_depth_splits as f32 + 1.0);
         if !(self.lrsm_overlap >= 0.0 && self.lrsm_overlap <= slice) {
+            // The two keys bound each other: name both, and say which one holds its default.
+            let default = Self::default();
+            let mark = |set: bool| if set { "" } else { " (the default)" };
+            let most_splits = (1.0 / self.lrsm_overlap).floor() as i64 - 1;
             return Err(format!(
-                "lrsm_overlap = {} must be in [0, {slice}] (one depth layer)",
-                self.lrsm_overlap
+                "lrsm_overlap = {}{} must be in [0, {slice}]: at most one depth layer, which lrsm_depth_splits = {}{} makes 1/{} wide; lower lrsm_overlap{}",
+                self.lrsm_overlap,
+                mark(self.lrsm_overlap != default.lrsm_overlap),
+                self.lrsm_depth_splits,
+                mark(self.lrsm_depth_splits != default.lrsm_depth_splits),
+                self.lrsm_depth_splits + 1,
+                if self.lrsm_overlap > 0.0 && most_splits >= 0 {
+                    format!(" or lrsm_depth_splits to at most {most_splits}")
+                } else {
+                    String::new()
+                }
             ));
         }
         if !(self.shadow_cone_angle >= 0.0 && self.shadow_cone_angle <= 45.0) {
@@ -741,6 +784,15 @@ impl Scene {
         Self::embedded("thin_wall", THIN_WALL_TOML, THIN_WALL_OBJ, THIN_WALL_MTL)
     }
 
+    /// This scene with every light's intensity times `f`.
+    pub fn with_lights_scaled(&self, f: f32) -> Self {
+        let mut s = self.clone();
+        for l in &mut s.lights {
+            *l.intensity_mut() = l.intensity().map(|c| c * f);
+        }
+        s
+    }
+
     /// This scene with its camera orbited `deg` degrees about the target (around the camera's up
     /// axis): the next view of a camera path.
     pub fn orbited(&self, deg: f32) -> Self {
@@ -793,6 +845,7 @@ impl Scene {
                 loaded,
                 text: obj.to_string(),
                 dir: PathBuf::from("."),
+                mtl: Some((format!("built-in {name}.mtl"), mtl.to_string())),
             }),
             Vec::new(),
         )
@@ -818,17 +871,51 @@ impl Scene {
         })?;
         let dir = path.parent().unwrap_or(Path::new("."));
         let read_obj = |obj: &str| -> Result<ObjSource, SceneError> {
-            let obj_path = dir.join(obj);
-            let text = std::fs::read_to_string(&obj_path).map_err(|e| SceneError::Obj {
+            let obj_path = resolve_crate_path(obj)
+                .map_err(|message| SceneError::Obj {
+                    path: p.clone(),
+                    obj: obj.to_string(),
+                    message,
+                })?
+                .unwrap_or_else(|| dir.join(obj));
+            let bytes = std::fs::read(&obj_path).map_err(|e| SceneError::Obj {
                 path: p.clone(),
                 obj: obj_path.display().to_string(),
                 message: e.to_string(),
             })?;
+            let text = String::from_utf8(bytes).map_err(|e| {
+                let at = e.utf8_error().valid_up_to();
+                let line = e.as_bytes()[..at].iter().filter(|&&b| b == b'\n').count() + 1;
+                SceneError::Obj {
+                    path: p.clone(),
+                    obj: format!("{}:{line}", obj_path.display()),
+                    message: "not UTF-8 text (an OBJ is a text file)".into(),
+                }
+            })?;
+            let obj_dir = obj_path.parent().unwrap_or(Path::new(".")).to_path_buf();
+            let mtls: Vec<(String, String)> = text
+                .lines()
+                .filter_map(|l| l.trim().strip_prefix("mtllib "))
+                .map(|m| obj_dir.join(m.trim()))
+                .filter_map(|m| Some((m.display().to_string(), std::fs::read_to_string(&m).ok()?)))
+                .collect();
+            for (label, mtl_text) in &mtls {
+                check_mtl_syntax(label, mtl_text)?;
+            }
+            // tobj is not known to panic on what passed the checks above; should it, the panic is
+            // an error naming the file, not an abort.
+            let loaded = std::panic::catch_unwind(|| tobj::load_obj(&obj_path, &load_options()))
+                .map_err(|_| SceneError::Obj {
+                    path: p.clone(),
+                    obj: obj_path.display().to_string(),
+                    message: "the OBJ reader (tobj) failed on this file or its .mtl".into(),
+                })?;
             Ok(ObjSource {
                 label: obj_path.display().to_string(),
-                loaded: tobj::load_obj(&obj_path, &load_options()),
+                loaded,
                 text,
-                dir: obj_path.parent().unwrap_or(Path::new(".")).to_path_buf(),
+                dir: obj_dir,
+                mtl: mtls.into_iter().next(),
             })
         };
         let base = file.mesh.as_ref().map(|m| read_obj(&m.obj)).transpose()?;
@@ -841,22 +928,29 @@ impl Scene {
             .as_ref()
             .map(|b| b.label.clone())
             .unwrap_or_else(|| p.clone());
+        // Values that parsed but are out of range: the file, and the line of the key they name.
+        let at = |table: &str, index: usize, message: &str| match message_line(
+            &text, table, index, message,
+        ) {
+            Some(line) => format!("{p}:{line}"),
+            None => p.clone(),
+        };
         Self::assemble(&label, file, base, instances).map_err(|e| match e {
             SceneError::Camera { message, .. } => SceneError::Camera {
-                path: p.clone(),
+                path: at("camera", 0, &message),
                 message,
             },
             SceneError::Light { index, message, .. } => SceneError::Light {
-                path: p.clone(),
+                path: at("lights", index, &message),
                 index,
                 message,
             },
             SceneError::Render { message, .. } => SceneError::Render {
-                path: p.clone(),
+                path: at("render", 0, &message),
                 message,
             },
             SceneError::Instance { index, message, .. } => SceneError::Instance {
-                path: p.clone(),
+                path: at("instances", index, &message),
                 index,
                 message,
             },
@@ -869,7 +963,7 @@ impl Scene {
     /// frame 0; materials of each OBJ one after another.
     fn assemble(
         obj_label: &str,
-        file: SceneFile,
+        mut file: SceneFile,
         base: Option<ObjSource>,
         instance_objs: Vec<ObjSource>,
     ) -> Result<Self, SceneError> {
@@ -922,11 +1016,47 @@ impl Scene {
             list,
             frame: 0,
         };
+        // Placed geometry must stay in range at every frame: at frame 0 and at each keyframe (between
+        // keyframes the parts are interpolated linearly, so the extremes are at the keyframes).
+        for (index, inst) in instances.list.iter().enumerate() {
+            let frames = std::iter::once(0).chain(inst.keyframes.iter().map(|k| k.frame));
+            for frame in frames {
+                let placed = inst.placed(frame);
+                if let Some((i, p)) = placed
+                    .positions
+                    .iter()
+                    .enumerate()
+                    .find(|(_, p)| !(p.is_finite() && in_range(**p)))
+                {
+                    return Err(SceneError::Instance {
+                        path: obj_label.into(),
+                        index,
+                        message: format!(
+                            "transform: at frame {frame} its vertex {i} is at {:?}, past the renderable range (coordinates within +-{MAX_COORDINATE:e} scene units: products of larger ones overflow f32)",
+                            p.to_array()
+                        ),
+                    });
+                }
+            }
+        }
         let mesh = instances.mesh_at(0);
         if mesh.triangles.is_empty() {
             return Err(SceneError::NoGeometry {
                 path: obj_label.into(),
             });
+        }
+        if finite3(file.camera.up) {
+            file.camera.up = rescaled_direction(file.camera.up);
+        }
+        for l in &mut file.lights {
+            match l {
+                Light::Spot { direction, .. } | Light::Directional { direction, .. }
+                    if finite3(*direction) =>
+                {
+                    *direction = rescaled_direction(*direction);
+                }
+                _ => {}
+            }
         }
         validate_camera(&file.camera).map_err(|message| SceneError::Camera {
             path: obj_label.into(),
@@ -988,6 +1118,8 @@ struct ObjSource {
     loaded: tobj::LoadResult,
     text: String,
     dir: PathBuf,
+    /// The .mtl its `mtllib` names (label, text), for the lines of material errors.
+    mtl: Option<(String, String)>,
 }
 
 /// An OBJ's mesh (triangulated, checked, flat normals where it has none) and its materials (the .mtl's,
@@ -1000,10 +1132,27 @@ fn obj_mesh(
     let obj_text = src.text.as_str();
     let obj_dir = src.dir.as_path();
     {
-        let (models, mtl) = src.loaded.map_err(|e| SceneError::Obj {
-            path: obj_label.into(),
-            obj: obj_label.into(),
-            message: e.to_string(),
+        let (models, mtl) = src.loaded.map_err(|e| {
+            let line = obj_error_line(obj_text, &e);
+            let (obj, message) = match line {
+                Some(l) => {
+                    let text: String = obj_text
+                        .lines()
+                        .nth(l - 1)
+                        .unwrap_or("")
+                        .trim()
+                        .chars()
+                        .take(80)
+                        .collect();
+                    (format!("{obj_label}:{l}"), format!("{e}: `{text}`"))
+                }
+                None => (obj_label.to_string(), e.to_string()),
+            };
+            SceneError::Obj {
+                path: obj_label.into(),
+                obj,
+                message,
+            }
         })?;
         let mut materials: Vec<Material> = match mtl {
             Ok(m) => m
@@ -1039,6 +1188,9 @@ fn obj_mesh(
                 Vec::new()
             }
         };
+        for m in &materials {
+            check_material(m, src.mtl.as_ref(), obj_label)?;
+        }
         let grey = materials.len() as u32;
         materials.push(Material::grey());
         let mut mesh = Mesh::default();
@@ -1111,11 +1263,6 @@ fn obj_mesh(
                 .map(|(i, _)| i + 1)
                 .unwrap_or(0)
         };
-        if mesh.triangles.is_empty() {
-            return Err(SceneError::EmptyMesh {
-                path: obj_label.into(),
-            });
-        }
         let fallback = mesh.material.iter().filter(|&&m| m == grey).count();
         if fallback > 0 {
             warnings.push(format!("{obj_label}: {fallback} triangles have no material (no .mtl or no usemtl): grey diffuse 0.8"));
@@ -1123,6 +1270,14 @@ fn obj_mesh(
         for (i, p) in mesh.positions.iter().enumerate() {
             if !p.is_finite() {
                 return Err(SceneError::NonFiniteVertex {
+                    path: obj_label.into(),
+                    line: line_of(*p),
+                    index: i,
+                    value: p.to_array(),
+                });
+            }
+            if !in_range(*p) {
+                return Err(SceneError::VertexOutOfRange {
                     path: obj_label.into(),
                     line: line_of(*p),
                     index: i,
@@ -1139,17 +1294,44 @@ fn obj_mesh(
                 });
             }
         }
+        // Zero-area triangles (a repeated vertex, or three on a line) cover nothing: every renderer
+        // drops them, so does the loader, with one warning. The area is computed in f64, where the
+        // products of in-range coordinates are exact enough and cannot overflow.
+        let before = mesh.triangles.len();
+        let mut dropped_lines = Vec::new();
+        let mut repeated = 0usize;
+        let mut keep = vec![true; before];
         for (i, t) in mesh.triangles.iter().enumerate() {
             let [a, b, c] = t.map(|v| mesh.positions[v as usize]);
-            let n = (b - a).cross(c - a);
-            // Positions are finite here, so the comparison is well defined.
-            if n.length() <= 1e-12 * (b - a).length().max((c - a).length()).max(1e-30) {
-                return Err(SceneError::DegenerateTriangle {
-                    path: obj_label.into(),
-                    triangle: i,
-                    lines: [a, b, c].map(line_of),
-                });
+            let flat = (b - a).cross(c - a).normalize_or_zero();
+            let [a, b, c] = [a, b, c].map(|p| p.as_dvec3());
+            let (e1, e2) = (b - a, c - a);
+            // Zero area in f64 (relative to the longest edge), or a normal f32 cannot form.
+            if flat == Vec3::ZERO
+                || e1.cross(e2).length() <= 1e-12 * e1.length().max(e2.length()).powi(2)
+            {
+                keep[i] = false;
+                repeated += (a == b || b == c || a == c) as usize;
+                if dropped_lines.len() < 3 {
+                    dropped_lines.push([a, b, c].map(|p| line_of(p.as_vec3())));
+                }
             }
+        }
+        let dropped = keep.iter().filter(|k| !**k).count();
+        if dropped > 0 {
+            let mut k = keep.iter();
+            mesh.triangles.retain(|_| *k.next().unwrap());
+            let mut k = keep.iter();
+            mesh.material.retain(|_| *k.next().unwrap());
+            warnings.push(format!(
+                "{obj_label}: {dropped} of {before} triangles have zero area ({repeated} with a repeated vertex) and are dropped (the first at vertex lines {dropped_lines:?})"
+            ));
+        }
+        if mesh.triangles.is_empty() {
+            return Err(SceneError::EmptyMesh {
+                path: obj_label.into(),
+                dropped,
+            });
         }
         // Flat normals from the winding where the OBJ has none: such a triangle gets vertices of its
         // own, so a vertex shared by faces of different orientation keeps each face flat.
@@ -1190,11 +1372,303 @@ fn finite3(v: [f32; 3]) -> bool {
     v.iter().all(|x| x.is_finite())
 }
 
+/// The largest coordinate magnitude a scene may have (vertices after their instance's transform,
+/// camera, light positions), in scene units. The renderers normalise cross products of two edges in
+/// f32 (each edge component up to 2B, each cross component up to 2 (2B)^2 = 8B^2) through their
+/// squared length: 3 (8B^2)^2 = 1.9e38 stays below f32::MAX = 3.4e38 at B = 1e9. (The `bvh` crate's
+/// surface-area heuristic overflows, and panics, near 3e19.)
+pub const MAX_COORDINATE: f32 = 1e9;
+
+fn in_range(v: Vec3) -> bool {
+    v.abs().max_element() <= MAX_COORDINATE
+}
+
+/// `v` times the power of two that brings its largest component into [1, 2): the same direction,
+/// normalisable without overflow or underflow. Exact, so a direction already in that range (every
+/// shipped scene's) is unchanged bit for bit, and `normalize` of the result equals `normalize` of
+/// `v` wherever the latter does not overflow. `v` must be finite and non-zero.
+pub fn rescaled_direction(v: [f32; 3]) -> [f32; 3] {
+    let m = v.iter().fold(0.0f64, |m, &x| m.max((x as f64).abs()));
+    if m == 0.0 || !m.is_finite() {
+        return v;
+    }
+    let s = 2f64.powi(-(m.log2().floor() as i32));
+    // Scaling an f32 by a power of two into the normal range is exact.
+    v.map(|x| (x as f64 * s) as f32)
+}
+
+/// Where a key of a scene file's table is set: the 1-based line of `key = ...` inside `[table]` (or
+/// the `index`-th `[[table]]`), for errors about a value that parsed but is out of range.
+fn key_line(text: &str, table: &str, index: usize, key: &str) -> Option<usize> {
+    let mut current = String::new();
+    // Which occurrence of `[[table]]` this is (1-based; 1 for a plain `[table]`).
+    let mut seen = 0usize;
+    let mut count = 0usize;
+    for (i, line) in text.lines().enumerate() {
+        let t = line.trim();
+        if let Some(h) = t.strip_prefix("[[").and_then(|h| h.split("]]").next()) {
+            current = h.trim().to_string();
+            if current == table {
+                count += 1;
+            }
+            seen = count;
+            continue;
+        }
+        if let Some(h) = t.strip_prefix('[').and_then(|h| h.split(']').next()) {
+            current = h.trim().to_string();
+            seen = 1;
+            continue;
+        }
+        let in_table = current == table && seen == index + 1;
+        let k = t.split('=').next().unwrap_or("").trim();
+        if in_table && t.contains('=') && (k == key || k.starts_with(&format!("{key}."))) {
+            return Some(i + 1);
+        }
+        // An inline table (`transform = { scale = 1e30 }`) names its keys on one line.
+        if in_table && t.contains(&format!("{key} =")) {
+            return Some(i + 1);
+        }
+    }
+    None
+}
+
+/// The first key of `table` that `message` names (`"voxels = 100 must be ..."`, `"eye ... past"`):
+/// its first word that is a key set in the table.
+fn message_line(text: &str, table: &str, index: usize, message: &str) -> Option<usize> {
+    message
+        .split(|c: char| !(c.is_alphanumeric() || c == '_'))
+        .filter(|w| !w.is_empty())
+        .find_map(|w| key_line(text, table, index, w))
+}
+
+/// The first line of an OBJ that tobj's `e` is about: tobj reports no line, so the checks it makes
+/// are repeated here (statements it parses, face indices against the file's counts). `None` where
+/// no line is to blame.
+fn obj_error_line(text: &str, e: &tobj::LoadError) -> Option<usize> {
+    use tobj::LoadError as E;
+    let floats = |words: &[&str], n: usize| {
+        words.len() > n && words[1..=n].iter().all(|w| w.parse::<f32>().is_ok())
+    };
+    let (mut nv, mut nt, mut nn) = (0usize, 0usize, 0usize);
+    let total = |key: &str| {
+        text.lines()
+            .filter(|l| l.split_whitespace().next() == Some(key))
+            .count()
+    };
+    let (tv, tt, tn) = (total("v"), total("vt"), total("vn"));
+    // A face index: 1-based, or negative relative to the count so far; `Some(in bounds)`, `None` if
+    // it does not parse.
+    let index_ok = |w: &str, so_far: usize, all: usize| -> Option<bool> {
+        let i: isize = w.parse().ok()?;
+        Some(match i {
+            0 => false,
+            i if i > 0 => (i as usize) <= all,
+            i => i.unsigned_abs() <= so_far,
+        })
+    };
+    for (i, line) in text.lines().enumerate() {
+        let words: Vec<&str> = line.split_whitespace().collect();
+        let bad = match words.first().copied() {
+            Some("v") => {
+                nv += 1;
+                matches!(
+                    e,
+                    E::PositionParseError | E::ScalingByZeroError | E::ColorParseError
+                ) && !(floats(&words, 3)
+                    && match words.len() {
+                        4 => true,
+                        5 => words[4].parse::<f32>().is_ok_and(|w| w != 0.0),
+                        7 => true,
+                        _ => false,
+                    })
+            }
+            Some("vt") => {
+                nt += 1;
+                matches!(e, E::TexcoordParseError) && !floats(&words, 2)
+            }
+            Some("vn") => {
+                nn += 1;
+                matches!(e, E::NormalParseError) && !floats(&words, 3)
+            }
+            Some("f") | Some("l") => words[1..].iter().any(|w| {
+                let parts: Vec<&str> = w.split('/').collect();
+                let check = |k: usize, so_far: usize, all: usize| -> Option<bool> {
+                    match parts.get(k) {
+                        None | Some(&"") => Some(true),
+                        Some(p) => index_ok(p, so_far, all),
+                    }
+                };
+                let (pv, pt, pn) = (
+                    index_ok(parts[0], nv, tv),
+                    check(1, nt, tt),
+                    check(2, nn, tn),
+                );
+                match e {
+                    E::FaceParseError => {
+                        pv.is_none() || pt.is_none() || pn.is_none() || parts.len() > 3
+                    }
+                    E::FaceVertexOutOfBounds => pv == Some(false),
+                    E::FaceTexCoordOutOfBounds => pt == Some(false),
+                    E::FaceNormalOutOfBounds => pn == Some(false),
+                    _ => false,
+                }
+            }),
+            Some("usemtl") => matches!(e, E::MaterialParseError) && words.len() < 2,
+            _ => false,
+        };
+        if bad {
+            return Some(i + 1);
+        }
+    }
+    None
+}
+
+/// The .mtl statements tobj reads as colours (`Ka`, `Kd`, `Ks`, `Ke`) need three numbers: with fewer,
+/// tobj 4 panics instead of returning its parse error.
+fn check_mtl_syntax(label: &str, text: &str) -> Result<(), SceneError> {
+    let mut name = String::new();
+    for (i, l) in text.lines().enumerate() {
+        let w: Vec<&str> = l.split_whitespace().collect();
+        match w.first().copied() {
+            Some("newmtl") => name = w.get(1).copied().unwrap_or("").to_string(),
+            Some(k @ ("Ka" | "Kd" | "Ks" | "Ke")) if w.len() < 4 => {
+                return Err(SceneError::Material {
+                    path: label.into(),
+                    line: i + 1,
+                    name,
+                    message: format!("{k} needs three numbers (r g b), found {}", w.len() - 1),
+                })
+            }
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
+/// Kd and Ks finite and in [0, 1] per channel (reflectances: more would create energy, less is not
+/// light), Ns finite and >= 0 (the Phong exponent). The error names the .mtl line of the value.
+fn check_material(
+    m: &Material,
+    mtl: Option<&(String, String)>,
+    obj_label: &str,
+) -> Result<(), SceneError> {
+    let bad3 = |v: [f32; 3]| !v.iter().all(|x| (0.0..=1.0).contains(x));
+    let problem = if bad3(m.diffuse) {
+        Some((
+            "Kd",
+            format!("Kd {:?} must be finite and in [0, 1]", m.diffuse),
+        ))
+    } else if bad3(m.specular) {
+        Some((
+            "Ks",
+            format!("Ks {:?} must be finite and in [0, 1]", m.specular),
+        ))
+    } else if !(m.shininess.is_finite() && m.shininess >= 0.0) {
+        Some(("Ns", format!("Ns {} must be finite and >= 0", m.shininess)))
+    } else {
+        None
+    };
+    let Some((key, message)) = problem else {
+        return Ok(());
+    };
+    let (path, line) = match mtl {
+        Some((label, text)) => {
+            let mut line = 0;
+            let mut inside = false;
+            for (i, l) in text.lines().enumerate() {
+                let w: Vec<&str> = l.split_whitespace().collect();
+                match w.first().copied() {
+                    Some("newmtl") => {
+                        inside = l.trim().strip_prefix("newmtl").map(str::trim) == Some(&m.name);
+                        if inside && line == 0 {
+                            line = i + 1;
+                        }
+                    }
+                    Some(k) if inside && k == key => line = i + 1,
+                    _ => {}
+                }
+            }
+            (label.clone(), line)
+        }
+        None => (obj_label.to_string(), 0),
+    };
+    Err(SceneError::Material {
+        path,
+        line,
+        name: m.name.clone(),
+        message,
+    })
+}
+
+/// A mesh path of the form `crate:NAME/REST`: REST inside the sources of the dependency NAME, as
+/// cargo fetched them (build.rs records where; `VXGI_CRATE_<NAME>` at run time overrides it).
+/// `Ok(None)` for an ordinary path. Only `bvh` is known: it ships the Dabrovic Sponza.
+fn resolve_crate_path(obj: &str) -> Result<Option<PathBuf>, String> {
+    let Some(rest) = obj.strip_prefix("crate:") else {
+        return Ok(None);
+    };
+    let (name, file) = rest.split_once('/').unwrap_or((rest, ""));
+    if name != "bvh" {
+        return Err(format!(
+            "crate:{name}/...: only the bvh package's files can be named this way"
+        ));
+    }
+    let dir = std::env::var("VXGI_CRATE_BVH")
+        .ok()
+        .filter(|d| !d.is_empty())
+        .unwrap_or_else(|| env!("VXGI_CRATE_BVH").to_string());
+    if dir.is_empty() {
+        return Err("the bvh package's folder is unknown (cargo metadata failed when vxgi was built): set VXGI_CRATE_BVH to it".into());
+    }
+    Ok(Some(Path::new(&dir).join(file)))
+}
+
+/// A short reason why an image could not be used (the `image` crate's decoding errors can carry a
+/// dump of the bytes that failed).
+fn image_error(e: &image::ImageError) -> String {
+    use image::ImageError as I;
+    match e {
+        I::Decoding(d) => {
+            let format = match d.format_hint() {
+                image::error::ImageFormatHint::Exact(f) => format!("{f:?}").to_uppercase(),
+                image::error::ImageFormatHint::Name(n) => n,
+                image::error::ImageFormatHint::PathExtension(p) => p.display().to_string(),
+                _ => "image".into(),
+            };
+            // The decoder's own reason where it is short text (not a dump of chunk bytes).
+            let reason = std::error::Error::source(d)
+                .map(|r| r.to_string())
+                .filter(|r| r.len() <= 80 && !r.contains('[') && !r.contains('\n'))
+                .map(|r| format!(": {r}"))
+                .unwrap_or_default();
+            format!("not a valid {format} file (decoding failed{reason})")
+        }
+        I::Unsupported(_) => "an image format or feature the image crate does not read".into(),
+        I::IoError(io) => io.to_string(),
+        I::Limits(l) => format!("past the decoder's limits ({l})"),
+        other => {
+            let s = other.to_string();
+            let first = s.lines().next().unwrap_or("").to_string();
+            first.chars().take(120).collect()
+        }
+    }
+}
+
 fn validate_camera(c: &CameraDesc) -> Result<(), String> {
     if !(finite3(c.eye) && finite3(c.target) && finite3(c.up)) {
         return Err("eye, target and up must be finite".into());
     }
     let (eye, target, up) = (Vec3::from(c.eye), Vec3::from(c.target), Vec3::from(c.up));
+    for (name, p) in [("eye", eye), ("target", target)] {
+        if !in_range(p) {
+            return Err(format!(
+                "{name} {:?} is past the renderable range (coordinates within +-{MAX_COORDINATE:e} scene units: products of larger ones overflow f32)",
+                p.to_array()
+            ));
+        }
+    }
+    // Scaled by a power of two first, so that a long `up` normalises without overflow.
+    let up = Vec3::from(rescaled_direction(up.to_array()));
     let forward = target - eye;
     if forward.length() <= 0.0 {
         return Err("eye and target coincide".into());
@@ -1222,6 +1696,15 @@ fn validate_light(l: &Light) -> Result<(), String> {
     };
     if !finite3(intensity) || intensity.iter().any(|&x| x < 0.0) {
         return Err(format!("intensity {intensity:?} must be finite and >= 0"));
+    }
+    let position = match l {
+        Light::Point { position, .. } | Light::Spot { position, .. } => Some(*position),
+        Light::Directional { .. } => None,
+    };
+    if let Some(p) = position.filter(|p| finite3(*p) && !in_range(Vec3::from(*p))) {
+        return Err(format!(
+            "position {p:?} is past the renderable range (coordinates within +-{MAX_COORDINATE:e} scene units: products of larger ones overflow f32)"
+        ));
     }
     match l {
         Light::Point { position, .. } if !finite3(*position) => {

@@ -159,3 +159,59 @@ fn a_supersampled_plan_runs_on_the_samples_and_bad_factors_are_refused() {
     assert_ne!(code, 0);
     assert!(err.contains("supersample = 5 must be in 1..=4"), "{err}");
 }
+
+/// Settings past the device's limits are refused at once, before anything large is allocated, with
+/// an ordinary error exit naming the limit and the setting; `vxgi scene` reports the same.
+#[test]
+fn settings_past_the_device_limits_are_refused_at_once() {
+    let d = std::env::temp_dir().join(format!("vxgi-cli-{}-limits", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    for f in ["cornell_box.obj", "cornell_box.mtl"] {
+        std::fs::copy(root.join(f), d.join(f)).unwrap();
+    }
+    let toml = std::fs::read_to_string(root.join("cornell_box.toml")).unwrap();
+    let light = "[[lights]]\ntype = \"point\"\nposition = [0.0, 1.9, 0.0]\nintensity = [0.05, 0.05, 0.05]\n\n";
+    let head = &toml[..toml.find("[[lights]]").unwrap()];
+    let tail = &toml[toml.find("[render]").unwrap()..];
+    let p = d.join("many_lights.toml");
+    std::fs::write(&p, format!("{head}{}{tail}", light.repeat(200))).unwrap();
+    let p = p.to_str().unwrap();
+    let out = d.join("out");
+    let t = std::time::Instant::now();
+    let (code, _, err) = vxgi(&[
+        "render",
+        p,
+        "--pipeline",
+        "lrsm",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 1, "{err}");
+    assert!(
+        err.contains("1200 light views") && err.contains("max_storage_buffer_binding_size"),
+        "{err}"
+    );
+    // Not a timing assertion: a refusal after rendering would take tens of seconds here.
+    println!("refused after {:.2} s", t.elapsed().as_secs_f64());
+    let (code, out_s, err) = vxgi(&["scene", p]);
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        out_s.contains("lrsm: refused") && out_s.contains("vct-dense: fits"),
+        "{out_s}"
+    );
+    let (code, _, err) = vxgi(&[
+        "render",
+        "--pipeline",
+        "vct-svo",
+        "--photon-map",
+        "2048",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 1, "{err}");
+    assert!(
+        err.contains("photon_map = 2048") && err.contains("at most photon_map"),
+        "{err}"
+    );
+}

@@ -958,3 +958,97 @@ fn supersampled_frames_are_the_larger_frames_box_filtered() {
     let mb = vxgi::render::render_mirror(&big, &cones).unwrap();
     assert_eq!(m.combined, mb.combined.downsampled(2));
 }
+
+fn energy(img: &RgbImage) -> f64 {
+    img.pixels.iter().flatten().map(|&c| c as f64).sum()
+}
+
+fn all_finite(r: &vxgi::render::Rendered) -> bool {
+    [&r.direct, &r.indirect, &r.combined, &r.ao]
+        .iter()
+        .all(|i| i.pixels.iter().flatten().all(|c| c.is_finite()))
+}
+
+/// Any finite light that loads renders in every pipeline: a 3e38 light (the largest f32 is 3.4e38)
+/// gives finite images, and a light 2^20 times the Cornell box's gives 2^20 times its frame (the
+/// exposure scales lights and images by powers of two). vct-svo's fixed point fits a 1000 W/sr
+/// light (its scale comes from the frame's values): 100 times the frame of 10 W/sr.
+#[test]
+fn bright_lights_render_in_every_pipeline() {
+    use vxgi::kernels::cone_trace::ConeSettings;
+    use vxgi::render::{Pipeline, Renderer};
+    let mut base = small(Scene::cornell_box(), 32, 32);
+    base.render.voxels = 32;
+    base.render.photon_map = 64;
+    let cones = ConeSettings::from(&base.render);
+    let frame = |p: Pipeline, s: &Scene| {
+        Renderer::new(p, false)
+            .render(gpu(), s, &cones, |_| {})
+            .unwrap()
+            .0
+    };
+    for p in [
+        Pipeline::VctDense,
+        Pipeline::VctSvo,
+        Pipeline::Lrsm,
+        Pipeline::Cprc,
+    ] {
+        let huge = base.with_lights_scaled(3e38 / 10.0);
+        let r = frame(p, &huge);
+        assert!(all_finite(&r), "{p:?}: non-finite pixels with a 3e38 light");
+        assert!(
+            energy(&r.indirect) > 0.0 && energy(&r.direct) > 0.0,
+            "{p:?}: black"
+        );
+        let one = frame(p, &base);
+        let bright = frame(p, &base.with_lights_scaled(1048576.0));
+        for (name, a, b) in [
+            ("direct", &one.direct, &bright.direct),
+            ("indirect", &one.indirect, &bright.indirect),
+        ] {
+            let ratio = energy(b) / energy(a) / 1048576.0;
+            // Rendered at intensity 10 * 2^20 * 2^-23 = 1.25 instead of 10: the same operations on
+            // other values, so f32 rounding (and vct-svo's fixed point) differ a little.
+            assert!((ratio - 1.0).abs() < 1e-3, "{p:?} {name}: ratio {ratio}");
+        }
+    }
+    let r10 = frame(Pipeline::VctSvo, &base);
+    let r1000 = frame(Pipeline::VctSvo, &base.with_lights_scaled(100.0));
+    let ratio = energy(&r1000.indirect) / energy(&r10.indirect) / 100.0;
+    assert!(
+        (ratio - 1.0).abs() < 1e-2,
+        "vct-svo at 1000 W/sr: ratio {ratio}"
+    );
+}
+
+/// A directional light given by a long direction vector lights the scene as its unit direction does.
+#[test]
+fn a_long_light_direction_lights_the_scene() {
+    let d = std::env::temp_dir().join(format!("vxgi-render-{}-sun", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    for f in ["cornell_box.obj", "cornell_box.mtl"] {
+        std::fs::copy(root.join(f), d.join(f)).unwrap();
+    }
+    let toml = |dir: &str| {
+        format!("[mesh]\nobj = \"cornell_box.obj\"\n[camera]\neye = [0.0, 1.0, 3.9]\ntarget = [0.0, 1.0, 0.0]\nup = [0.0, 1.0, 0.0]\nfov_y_deg = 39.3\nwidth = 24\nheight = 24\n[[lights]]\ntype = \"directional\"\ndirection = {dir}\nintensity = [1.0, 1.0, 1.0]\n[render]\nvoxels = 16\n")
+    };
+    let render = |dir: &str| {
+        let p = d.join("s.toml");
+        std::fs::write(&p, toml(dir)).unwrap();
+        let s = Scene::load(&p).unwrap();
+        vxgi::render::render(gpu(), &s, &Default::default(), |_| {})
+            .unwrap()
+            .direct
+    };
+    // The box's ceiling blocks a vertical sun: tilt it through the open front.
+    let long = render("[1e19, -3e19, -1e20]");
+    let unit = render("[0.1, -0.3, -1.0]");
+    assert!(energy(&unit) > 0.0);
+    assert!(
+        (energy(&long) / energy(&unit) - 1.0).abs() < 1e-4,
+        "{} vs {}",
+        energy(&long),
+        energy(&unit)
+    );
+}

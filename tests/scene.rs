@@ -2,7 +2,7 @@
 //! with file and line, never a panic.
 mod common;
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use vxgi::scene::{Light, Scene, SceneError};
 
 fn dir(name: &str) -> PathBuf {
@@ -128,20 +128,17 @@ fn nan_vertices_and_degenerate_triangles_name_their_lines() {
         "{e}"
     );
     assert!(e.to_string().contains("mesh.obj:3"), "{e}");
+    // A triangle past the renderable range is named as such, not as "zero area".
     let p = write(
-        "degenerate",
-        "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n",
+        "huge",
+        "v 0 0 0\nv 1e30 0 0\nv 0 1e30 0\nf 1 2 3\n",
         &scene_toml("mesh.obj", ""),
     );
     let e = Scene::load(&p).unwrap_err();
     assert!(
-        matches!(
-            e,
-            SceneError::DegenerateTriangle {
-                lines: [1, 2, 3],
-                ..
-            }
-        ),
+        matches!(e, SceneError::VertexOutOfRange { line: 2, .. })
+            && e.to_string().contains("mesh.obj:2")
+            && e.to_string().contains("renderable range"),
         "{e}"
     );
     let p = write("empty", "v 0 0 0\n", &scene_toml("mesh.obj", ""));
@@ -149,6 +146,54 @@ fn nan_vertices_and_degenerate_triangles_name_their_lines() {
         Scene::load(&p).unwrap_err(),
         SceneError::EmptyMesh { .. } | SceneError::Obj { .. }
     ));
+}
+
+/// Zero-area triangles (three on a line, a repeated vertex) are dropped with one warning that counts
+/// them, as every renderer drops them; a mesh of nothing else is empty.
+#[test]
+fn zero_area_triangles_are_dropped_with_one_warning() {
+    let obj = "v 0 0 0\nv 1 0 0\nv 2 0 0\nv 0 1 0\nf 1 2 3\nf 1 1 4\nf 1 2 4\n";
+    let s = Scene::load(write("degenerate", obj, &scene_toml("mesh.obj", ""))).unwrap();
+    assert_eq!(s.mesh.triangles.len(), 1);
+    let w: Vec<_> = s
+        .warnings
+        .iter()
+        .filter(|w| w.contains("zero area"))
+        .collect();
+    assert_eq!(w.len(), 1, "{:?}", s.warnings);
+    assert!(
+        w[0].contains("2 of 3 triangles") && w[0].contains("1 with a repeated vertex"),
+        "{}",
+        w[0]
+    );
+    let e = Scene::load(write(
+        "all-degenerate",
+        "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n",
+        &scene_toml("mesh.obj", ""),
+    ))
+    .unwrap_err();
+    assert!(
+        matches!(e, SceneError::EmptyMesh { dropped: 1, .. })
+            && e.to_string().contains("1 zero-area"),
+        "{e}"
+    );
+}
+
+/// The Dabrovic Sponza from the `bvh` package (scenes/sponza.toml names it `crate:bvh/...`): 66k
+/// triangles, of which six have zero area.
+#[test]
+fn sponza_loads_from_the_bvh_package() {
+    let s = Scene::load(Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/sponza.toml")).unwrap();
+    assert_eq!(s.mesh.triangles.len(), 66444);
+    assert!(
+        s.warnings
+            .iter()
+            .any(|w| w.contains("6 of 66450 triangles have zero area")),
+        "{:?}",
+        s.warnings
+    );
+    let e = Scene::load(write("crate", TRI_OBJ, &scene_toml("crate:nope/x.obj", ""))).unwrap_err();
+    assert!(e.to_string().contains("only the bvh package"), "{e}");
 }
 
 #[test]
@@ -376,4 +421,390 @@ fn supersampling_scales_the_camera_and_the_pixel_tile() {
         .validate()
         .unwrap_err()
         .contains("supersample = 0"));
+}
+
+/// A scene file beside a triangle OBJ with `mtl` as its .mtl (`usemtl m`).
+fn with_mtl(name: &str, mtl: &str, extra: &str) -> PathBuf {
+    let d = dir(name);
+    std::fs::write(d.join("mesh.mtl"), mtl).unwrap();
+    let obj = format!("mtllib mesh.mtl\nusemtl m\n{TRI_OBJ}");
+    std::fs::write(d.join("mesh.obj"), obj).unwrap();
+    let p = d.join("scene.toml");
+    std::fs::write(&p, scene_toml("mesh.obj", extra)).unwrap();
+    p
+}
+
+/// Materials are checked at load: Kd and Ks finite and in [0, 1], Ns finite and >= 0; the error names
+/// the .mtl's line.
+#[test]
+fn bad_materials_are_errors_with_their_mtl_line() {
+    for (mtl, line, want) in [
+        ("newmtl m\nKd nan 0.5 0.5\n", 2, "Kd"),
+        ("newmtl m\nKd 0.5 0.5 0.5\nKs inf 0 0\n", 3, "Ks"),
+        ("newmtl m\nKd -1 0.5 0.5\n", 2, "Kd"),
+        (
+            "newmtl m\nKd 0.5 0.5 0.5\nKs 0.2 0.2 0.2\nNs -10\n",
+            4,
+            "Ns",
+        ),
+        // tobj panics on a colour of fewer than three numbers: refused before it reads the file.
+        ("newmtl m\nKd 0.5\n", 2, "Kd needs three numbers"),
+    ] {
+        let e = Scene::load(with_mtl("badmtl", mtl, "")).unwrap_err();
+        assert!(
+            matches!(&e, SceneError::Material { line: l, .. } if *l == line)
+                && e.to_string()
+                    .contains(&format!("mesh.mtl:{line}: material m: {want}")),
+            "{mtl:?}: {e}"
+        );
+    }
+    Scene::load(with_mtl(
+        "goodmtl",
+        "newmtl m\nKd 1 0 0.5\nKs 0 0 0\nNs 0\n",
+        "",
+    ))
+    .unwrap();
+}
+
+/// OBJ errors tobj reports without a line get the line that holds the problem.
+#[test]
+fn obj_errors_name_their_line() {
+    for (obj, line) in [
+        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n", 4),
+        ("v 0 0 0\nv 1 zero 0\nv 0 1 0\nf 1 2 3\n", 2),
+        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x\n", 4),
+        ("v 0 0 0\nvn 0 0 1\nv 1 0 0\nv 0 1 0\nf 1//1 2//1 3//4\n", 5),
+    ] {
+        let e = Scene::load(write("badobj", obj, &scene_toml("mesh.obj", ""))).unwrap_err();
+        assert!(
+            e.to_string().contains(&format!("mesh.obj:{line}")),
+            "{obj:?}: {e}"
+        );
+    }
+    // Not text at all.
+    let d = dir("binobj");
+    std::fs::write(d.join("mesh.obj"), b"v 0 0 0\nv 1 0 0\n\xff\xfe garbage\n").unwrap();
+    std::fs::write(d.join("scene.toml"), scene_toml("mesh.obj", "")).unwrap();
+    let e = Scene::load(d.join("scene.toml")).unwrap_err().to_string();
+    assert!(e.contains("mesh.obj:3") && e.contains("not UTF-8"), "{e}");
+}
+
+/// A `map_Kd` that is not a valid image: a short warning (no dump of its bytes), Kd used instead.
+#[test]
+fn a_corrupt_texture_is_a_short_warning() {
+    let d = dir("corrupt-png");
+    let mut bytes = b"\x89PNG\r\n\x1a\n\x00\x00\x00\x0dIHDR".to_vec();
+    bytes.extend((0..200u32).map(|i| (i * 37 % 251) as u8));
+    std::fs::write(d.join("bad.png"), bytes).unwrap();
+    std::fs::write(
+        d.join("mesh.mtl"),
+        "newmtl m\nKd 0.5 0.5 0.5\nmap_Kd bad.png\n",
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("mesh.obj"),
+        format!("mtllib mesh.mtl\nusemtl m\nvt 0 0\n{TRI_OBJ}"),
+    )
+    .unwrap();
+    std::fs::write(d.join("scene.toml"), scene_toml("mesh.obj", "")).unwrap();
+    let s = Scene::load(d.join("scene.toml")).unwrap();
+    let w = s
+        .warnings
+        .iter()
+        .find(|w| w.contains("bad.png"))
+        .expect("a warning");
+    assert!(w.len() < 300 && !w.contains('['), "{w}");
+    assert!(w.contains("not a valid PNG"), "{w}");
+}
+
+/// Values out of range name the file and line of their key; coordinates past f32's reach are named
+/// as such; long directions are rescaled (no overflow); a bound set by two keys names both.
+#[test]
+fn out_of_range_values_name_their_line_and_key() {
+    let e = Scene::load(write(
+        "vox-line",
+        TRI_OBJ,
+        &scene_toml("mesh.obj", "[render]\nvoxels = 100\n"),
+    ))
+    .unwrap_err();
+    assert!(
+        e.to_string()
+            .contains("scene.toml:12: [render] voxels = 100"),
+        "{e}"
+    );
+    // Camera far past the range: named, with its line (eye is line 6).
+    let far = scene_toml("mesh.obj", "").replace("eye = [0.0, 0.5, 3.0]", "eye = [0.0, 1.0, 1e30]");
+    let e = Scene::load(write("far-eye", TRI_OBJ, &far))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("scene.toml:5:") && e.contains("eye") && e.contains("renderable range"),
+        "{e}"
+    );
+    // A huge directional light direction: the same light as its unit direction.
+    let sun = "[[lights]]\ntype = \"directional\"\ndirection = [1e19, -3e19, -1e20]\nintensity = [1.0, 1.0, 1.0]\n";
+    let s = Scene::load(write("long-dir", TRI_OBJ, &scene_toml("mesh.obj", sun))).unwrap();
+    let Light::Directional { direction, .. } = s.lights[0] else {
+        panic!("a directional light")
+    };
+    let d = glam::Vec3::from(direction).normalize();
+    assert!(
+        d.is_finite() && (d - glam::Vec3::new(0.1, -0.3, -1.0).normalize()).length() < 1e-6,
+        "{d}"
+    );
+    // Light position past the range.
+    let far_light =
+        "[[lights]]\ntype = \"point\"\nposition = [0.0, 1e20, 0.0]\nintensity = [1.0, 1.0, 1.0]\n";
+    let e = Scene::load(write(
+        "far-light",
+        TRI_OBJ,
+        &scene_toml("mesh.obj", far_light),
+    ))
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("light 0") && e.contains("renderable range") && e.contains("scene.toml:13:"),
+        "{e}"
+    );
+    // Depth splits that make the default overlap too wide: both keys named, the default marked.
+    let e = Scene::load(write(
+        "splits",
+        TRI_OBJ,
+        &scene_toml("mesh.obj", "[render]\nlrsm_depth_splits = 20\n"),
+    ))
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("lrsm_overlap = 0.05 (the default)")
+            && e.contains("lrsm_depth_splits = 20")
+            && e.contains("at most 19"),
+        "{e}"
+    );
+}
+
+/// An instance scaled past the renderable range (the `bvh` crate panicked on it) is an error at load,
+/// at any of its keyframes too.
+#[test]
+fn instances_past_the_range_are_errors() {
+    let d = dir("huge-instances");
+    std::fs::write(d.join("mesh.obj"), TRI_OBJ).unwrap();
+    let cam = "[camera]\neye = [0.0, 0.5, 3.0]\ntarget = [0.0, 0.5, 0.0]\nup = [0.0, 1.0, 0.0]\nfov_y_deg = 40.0\nwidth = 32\nheight = 32\n";
+    for (body, want) in [
+        ("transform = { scale = 1e30 }", "at frame 0"),
+        (
+            "dynamic = true\nkeyframes = [{ frame = 0 }, { frame = 2, scale = 3e19 }]",
+            "at frame 2",
+        ),
+    ] {
+        let p = d.join("s.toml");
+        std::fs::write(
+            &p,
+            format!(
+                "[mesh]\nobj = \"mesh.obj\"\n\n[[instances]]\nobj = \"mesh.obj\"\n{body}\n\n{cam}"
+            ),
+        )
+        .unwrap();
+        let e = Scene::load(&p).unwrap_err().to_string();
+        assert!(
+            e.contains("instance 0") && e.contains(want) && e.contains("renderable range"),
+            "{body}: {e}"
+        );
+        assert!(e.contains("s.toml:6:") || e.contains("s.toml:7:"), "{e}");
+    }
+}
+
+/// Resource limits are checked from the settings, before anything is allocated: light views x layers
+/// (lrsm), photon maps (vct-svo), samples (every pipeline), voxels.
+#[test]
+fn resource_limits_are_checked_from_the_settings() {
+    use vxgi::render::Pipeline;
+    // lavapipe's storage-binding limit.
+    let limits = wgpu::Limits {
+        max_storage_buffer_binding_size: 128 << 20,
+        max_buffer_size: (2 << 30) - 1,
+        ..Default::default()
+    };
+    let mut s = Scene::cornell_box();
+    let light = s.lights[0].clone();
+    s.lights = vec![light.clone(); 200];
+    let e = vxgi::limits::check(&s, Pipeline::Lrsm, &limits).unwrap_err();
+    assert!(
+        e.contains("1200 light views") && e.contains("rsm_side = 128") && e.contains("at most 384"),
+        "{e}"
+    );
+    vxgi::limits::check(&s, Pipeline::VctDense, &limits).unwrap();
+    s.lights = vec![light; 64];
+    vxgi::limits::check(&s, Pipeline::Lrsm, &limits).unwrap();
+    let mut s = Scene::cornell_box();
+    s.render.photon_map = 2048;
+    let e = vxgi::limits::check(&s, Pipeline::VctSvo, &limits).unwrap_err();
+    assert!(
+        e.contains("photon_map = 2048") && e.contains("at most photon_map = 512"),
+        "{e}"
+    );
+    let mut s = Scene::cornell_box();
+    s.camera.width = 4096;
+    s.camera.height = 4096;
+    s.render.supersample = 2;
+    let e = vxgi::limits::check(&s, Pipeline::Cprc, &limits).unwrap_err();
+    assert!(e.contains("supersample = 2"), "{e}");
+    let mut s = Scene::cornell_box();
+    s.render.voxels = 256;
+    let e = vxgi::limits::check(&s, Pipeline::VctSvo, &limits).unwrap_err();
+    assert!(
+        e.contains("voxels = 256") && e.contains("at most voxels = 128"),
+        "{e}"
+    );
+}
+
+/// Fuzzing the loader: arbitrary scene text, and the shipped Cornell box's TOML, OBJ and MTL with
+/// random edits (bytes replaced, removed, or tokens that break parsers: nan, inf, 1e30, brackets,
+/// indices) — loading returns a scene or an error, never panics. 256 cases per file and 256 of arbitrary
+/// text in the default run (a fraction of a second); `cargo test --test scene -- --ignored` runs 8192
+/// of each.
+mod fuzz {
+    use super::*;
+    use proptest::prelude::*;
+
+    const TOKENS: &[&str] = &[
+        "nan",
+        "inf",
+        "-inf",
+        "1e30",
+        "-1e30",
+        "3e38",
+        "1e-45",
+        "-1",
+        "0",
+        "999999",
+        "[",
+        "]",
+        "{",
+        "}",
+        "=",
+        "\"",
+        "\n",
+        "/",
+        "#",
+        "f ",
+        "v ",
+        "vt ",
+        "vn ",
+        "usemtl ",
+        "newmtl ",
+        "Kd ",
+        "map_Kd x.png",
+        "mtllib nope.mtl",
+        "[[lights]]",
+        "[render]",
+        "type = \"spot\"",
+        "\u{ff}",
+    ];
+
+    #[derive(Clone, Debug)]
+    enum Edit {
+        Replace(usize, u8),
+        Remove(usize, usize),
+        Insert(usize, usize),
+    }
+
+    fn edit() -> impl Strategy<Value = Edit> {
+        prop_oneof![
+            (any::<usize>(), any::<u8>()).prop_map(|(i, b)| Edit::Replace(i, b)),
+            (any::<usize>(), 1usize..16).prop_map(|(i, n)| Edit::Remove(i, n)),
+            (any::<usize>(), 0..TOKENS.len()).prop_map(|(i, t)| Edit::Insert(i, t)),
+        ]
+    }
+
+    fn mutate(text: &str, edits: &[Edit]) -> Vec<u8> {
+        let mut b = text.as_bytes().to_vec();
+        for e in edits {
+            let n = b.len().max(1);
+            match *e {
+                Edit::Replace(i, v) if !b.is_empty() => b[i % n] = v,
+                Edit::Remove(i, k) if !b.is_empty() => {
+                    let at = i % n;
+                    b.drain(at..(at + k).min(b.len()));
+                }
+                Edit::Insert(i, t) => {
+                    let at = i % (b.len() + 1);
+                    b.splice(at..at, TOKENS[t].bytes());
+                }
+                _ => {}
+            }
+        }
+        b
+    }
+
+    const TOML: &str = include_str!("../scenes/cornell_box.toml");
+    const OBJ: &str = include_str!("../scenes/cornell_box.obj");
+    const MTL: &str = include_str!("../scenes/cornell_box.mtl");
+
+    static LOADS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+
+    /// Writes the three files (one of them mutated) to a fresh folder and loads the scene.
+    fn load_with(which: usize, bytes: &[u8]) {
+        let d = dir(&format!(
+            "fuzz-{}",
+            LOADS.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+        ));
+        let files = [
+            ("scene.toml", TOML),
+            ("cornell_box.obj", OBJ),
+            ("cornell_box.mtl", MTL),
+        ];
+        for (i, (name, text)) in files.iter().enumerate() {
+            let content = if i == which {
+                bytes.to_vec()
+            } else {
+                text.as_bytes().to_vec()
+            };
+            std::fs::write(d.join(name), content).unwrap();
+        }
+        // Ok or Err: both fine; a panic fails the property.
+        let _ = Scene::load(d.join("scene.toml"));
+        let _ = std::fs::remove_dir_all(&d);
+    }
+
+    fn config(cases: u32) -> ProptestConfig {
+        ProptestConfig {
+            cases,
+            failure_persistence: None,
+            ..ProptestConfig::default()
+        }
+    }
+
+    fn run(cases: u32) {
+        let runner = || proptest::test_runner::TestRunner::new(config(cases));
+        for which in 0..3 {
+            let text = [TOML, OBJ, MTL][which];
+            runner()
+                .run(&proptest::collection::vec(edit(), 1..8), |edits| {
+                    load_with(which, &mutate(text, &edits));
+                    Ok(())
+                })
+                .unwrap();
+        }
+        runner()
+            .run(&"(?s).{0,400}", |text| {
+                load_with(0, text.as_bytes());
+                Ok(())
+            })
+            .unwrap();
+    }
+
+    #[test]
+    fn the_loader_never_panics_on_mutated_or_arbitrary_files() {
+        run(256);
+    }
+
+    #[test]
+    #[ignore = "a long fuzz run: cargo test --test scene -- --ignored"]
+    fn the_loader_never_panics_long_run() {
+        run(8192);
+        eprintln!(
+            "loads: {}",
+            LOADS.load(std::sync::atomic::Ordering::Relaxed)
+        );
+    }
 }

@@ -538,8 +538,9 @@ fn normal_pool_on_the_gpu_is_the_mirrors() {
             .light,
     );
     let octree = build_fitted(4, &frags);
-    let gpu_pool = normal_pool(Some(gpu()), &octree, &frags, &coverage, &grid.normal).unwrap();
-    let mirror_pool = normal_pool(None, &octree, &frags, &coverage, &grid.normal).unwrap();
+    let gpu_pool =
+        normal_pool(Some(gpu()), &octree, &frags, &coverage, &grid.normal, SCALE).unwrap();
+    let mirror_pool = normal_pool(None, &octree, &frags, &coverage, &grid.normal, SCALE).unwrap();
     assert!(gpu_pool.len() <= octree.bricks.len());
     assert!(
         gpu_pool == mirror_pool,

@@ -44,8 +44,51 @@ pub static DECL: KernelDecl = KernelDecl {
     summary: "cone_trace's AO + diffuse + glossy cones marching the sparse voxel octree (quadrilinear brick sampling, VCT 5-7)",
 };
 
-/// Fixed-point scale of the octree's values: 2^16 steps per unit of radiance.
+/// Fixed-point scale of the octree's values where they fit it: 2^16 steps per unit of radiance.
+/// A frame whose values are brighter gets a smaller one from [`fixed_scale`].
 pub const SCALE: f32 = 65536.0;
+
+/// The fixed-point scale of a frame's octree: [`SCALE`], or the largest power of two below it with
+/// which no sum of the build can pass u32::MAX, given `values`: every value a fragment will store,
+/// with its leaf lattice point (radiance times coverage, coverage, photons' light and specular
+/// parts), and `bounces` (each bounce's fragments at most the first's: a voxel reflects at most
+/// albedo <= 1 times the cones' mean radiance, a weighted mean of values no larger than the first's).
+///
+/// The bound, in the build's terms (the mirror's module doc): a point's value after splat and border
+/// transfer is the sum of the fragments at that point, at most `peak` (the largest such sum over
+/// points and channels) times the scale; a parent point's share before its rounding is the [1 2 1]^3
+/// weighted sum of child points (weights 64 in all), so at most 64 (peak scale + 1), the +1 for each
+/// level's rounding up; after `(S + 32) >> 6` it is again at most a child's. So
+/// 64 (bounces peak scale + 1) <= u32::MAX suffices.
+pub fn fixed_scale(values: impl Iterator<Item = ([u32; 3], [f32; 4])>, bounces: u32) -> f32 {
+    let mut sums: std::collections::HashMap<[u32; 3], [f64; 4]> = Default::default();
+    for (p, v) in values {
+        let s = sums.entry(p).or_default();
+        for c in 0..4 {
+            s[c] += v[c].max(0.0) as f64;
+        }
+    }
+    let peak = sums
+        .values()
+        .flat_map(|s| s.iter().copied())
+        .fold(0.0f64, f64::max)
+        * bounces.max(1) as f64;
+    let fits = |scale: f64| 64.0 * (peak * scale + 1.0) <= u32::MAX as f64;
+    let mut scale = SCALE as f64;
+    while !fits(scale) && scale > f64::MIN_POSITIVE {
+        scale *= 0.5;
+    }
+    scale as f32
+}
+
+/// The values a lit grid's fragments store ([`grid_fragments`]), with their lattice points.
+pub fn grid_values(radiance: &[[f32; 4]]) -> impl Iterator<Item = ([u32; 3], [f32; 4])> + '_ {
+    radiance
+        .iter()
+        .enumerate()
+        .filter(|(_, v)| v.iter().any(|&c| c != 0.0))
+        .map(|(m, v)| (vxgi_cpu_mirror::morton::decode(m as u32), *v))
+}
 
 /// Fragments of a lit voxel grid (Morton order, side `2^(depth + 1)`, voxels `(L * alpha, alpha)` as
 /// voxel_light writes them): one per non-empty voxel, at the leaf lattice point of its index.
@@ -147,12 +190,13 @@ pub fn normal_pool(
     frags: &[Fragment],
     radiance: &[[f32; 4]],
     normal: &[[f32; 4]],
+    scale: f32,
 ) -> Result<Vec<u32>, SvoError> {
     pool_in_layout(
         ctx,
         octree,
         frags,
-        &normal_fragments(radiance, normal, SCALE)?,
+        &normal_fragments(radiance, normal, scale)?,
     )
 }
 
@@ -164,8 +208,9 @@ pub fn lobe_pools(
     frags: &[Fragment],
     [radiance, normal]: [&[[f32; 4]]; 2],
     spec: &[Fragment],
+    scale: f32,
 ) -> Result<(Vec<u32>, Option<Vec<u32>>), SvoError> {
-    let normals = normal_pool(ctx, octree, frags, radiance, normal)?;
+    let normals = normal_pool(ctx, octree, frags, radiance, normal, scale)?;
     let spec = if spec.is_empty() {
         None
     } else {
@@ -289,7 +334,7 @@ impl GeneratedOctree {
         let aniso = (index % 2 == 1)
             .then(|| crate::kernels::svo_anisotropic::build_mirror(&octree, 1.0 / SCALE));
         let normals = (index % 4 >= 2).then(|| {
-            normal_pool(None, &octree, &frags, &c.radiance, &c.normal)
+            normal_pool(None, &octree, &frags, &c.radiance, &c.normal, SCALE)
                 .expect("generated normals fit the fixed point")
         });
         let spec = (index % 4 >= 2).then(|| {

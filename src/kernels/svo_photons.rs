@@ -173,9 +173,44 @@ impl PhotonFragments {
     }
 }
 
+/// The photons of every light view as the kernel writes them (floats, before the octree's fixed
+/// point): `pos` (leaf lattice point, `w` = 1 where the texel hit a front face), `value` (the light
+/// it carries), `spec` (its specular part `(q, w)`).
+#[derive(Default)]
+pub struct Photons {
+    pub pos: Vec<[u32; 4]>,
+    pub value: Vec<[f32; 4]>,
+    pub spec: Vec<[f32; 4]>,
+}
+
+impl Photons {
+    /// Their fragments in the octree's fixed point (`scale` steps per unit): one per texel that hit a
+    /// front face and carries light, and one per texel of a glossy surface for its specular part.
+    pub fn fragments(&self, scale: f32) -> Result<PhotonFragments, SvoError> {
+        Ok(PhotonFragments {
+            light: to_fragments(&self.pos, &self.value, scale)?,
+            spec: spec_fragments(&self.pos, &self.spec, scale)?,
+            texels: self.pos.len() as u64,
+        })
+    }
+
+    /// Every value a fragment of these photons stores, with its lattice point (the light's RGB, the
+    /// specular part's encoded `(q + w) / 2, w`): what [`super::svo_cone_trace::fixed_scale`] bounds.
+    pub fn values(&self) -> impl Iterator<Item = ([u32; 3], [f32; 4])> + '_ {
+        self.pos
+            .iter()
+            .zip(self.value.iter().zip(&self.spec))
+            .filter(|(p, _)| p[3] != 0)
+            .map(|(p, (v, q))| {
+                let e = |a: usize| ((q[a] + q[3]) * 0.5).max(0.0);
+                let spec_max = [e(0), e(1), e(2), q[3]].into_iter().fold(0.0f32, f32::max);
+                ([p[0], p[1], p[2]], [v[0], v[1], v[2], spec_max])
+            })
+    }
+}
+
 /// Photon fragments of every light of `data` (light-view maps `map_side`^2 per view) on the GPU, in the
-/// octree's fixed point (`scale` steps per unit): one per texel that hit a front face and carries
-/// light, and one per texel of a glossy surface for its specular part.
+/// octree's fixed point (`scale` steps per unit): [`photons_on_gpu`], then [`Photons::fragments`].
 pub fn photon_fragments(
     ctx: &GpuContext,
     data: &SceneData,
@@ -183,9 +218,19 @@ pub fn photon_fragments(
     map_side: u32,
     scale: f32,
 ) -> anyhow::Result<PhotonFragments> {
+    Ok(photons_on_gpu(ctx, data, frame, map_side)?.fragments(scale)?)
+}
+
+/// The photons of every light of `data` (light-view maps `map_side`^2 per view) on the GPU.
+pub fn photons_on_gpu(
+    ctx: &GpuContext,
+    data: &SceneData,
+    frame: &VoxelFrame,
+    map_side: u32,
+) -> anyhow::Result<Photons> {
     let views = light_views(&data.lights, data.bounds, map_side, data.frame.eye[3])?;
     let shader = DECL.shader()?;
-    let mut out_frags = PhotonFragments::default();
+    let mut out = Photons::default();
     for view in &views {
         let gb = view_gbuffer(ctx, data, view);
         let params = params_for(view, frame);
@@ -199,7 +244,7 @@ pub fn photon_fragments(
             "photons".into(),
             0,
         );
-        let out = run(
+        let res = run(
             ctx,
             &shader,
             DECL.name,
@@ -207,14 +252,14 @@ pub fn photon_fragments(
             &case.passes,
             &["photon_pos", "photon_value", "photon_spec"],
         )?;
-        let pos: &[[u32; 4]] = bytemuck::cast_slice(&out.buffer("photon_pos").bytes);
-        let value: &[[f32; 4]] = bytemuck::cast_slice(&out.buffer("photon_value").bytes);
-        let spec: &[[f32; 4]] = bytemuck::cast_slice(&out.buffer("photon_spec").bytes);
-        out_frags.texels += pos.len() as u64;
-        out_frags.light.extend(to_fragments(pos, value, scale)?);
-        out_frags.spec.extend(spec_fragments(pos, spec, scale)?);
+        out.pos
+            .extend_from_slice(bytemuck::cast_slice(&res.buffer("photon_pos").bytes));
+        out.value
+            .extend_from_slice(bytemuck::cast_slice(&res.buffer("photon_value").bytes));
+        out.spec
+            .extend_from_slice(bytemuck::cast_slice(&res.buffer("photon_spec").bytes));
     }
-    Ok(out_frags)
+    Ok(out)
 }
 
 /// [`photon_fragments`] by the mirrors alone (the light-view G-buffers and the photons).
@@ -224,8 +269,17 @@ pub fn mirror_photon_fragments(
     map_side: u32,
     scale: f32,
 ) -> anyhow::Result<PhotonFragments> {
+    Ok(mirror_photons(data, frame, map_side)?.fragments(scale)?)
+}
+
+/// [`photons_on_gpu`] by the mirrors alone.
+pub fn mirror_photons(
+    data: &SceneData,
+    frame: &VoxelFrame,
+    map_side: u32,
+) -> anyhow::Result<Photons> {
     let views = light_views(&data.lights, data.bounds, map_side, data.frame.eye[3])?;
-    let mut frags = PhotonFragments::default();
+    let mut out = Photons::default();
     for view in &views {
         let (gb, tri) = super::reflective_shadow_map::view_gbuffer_mirror_triangles(data, view);
         let ph = photons(
@@ -236,14 +290,11 @@ pub fn mirror_photon_fragments(
             &data.triangles,
             &materials_or_default(data),
         );
-        let pos: Vec<[u32; 4]> = ph.iter().map(|p| p.pos).collect();
-        let value: Vec<[f32; 4]> = ph.iter().map(|p| p.value).collect();
-        let spec: Vec<[f32; 4]> = ph.iter().map(|p| p.spec).collect();
-        frags.texels += pos.len() as u64;
-        frags.light.extend(to_fragments(&pos, &value, scale)?);
-        frags.spec.extend(spec_fragments(&pos, &spec, scale)?);
+        out.pos.extend(ph.iter().map(|p| p.pos));
+        out.value.extend(ph.iter().map(|p| p.value));
+        out.spec.extend(ph.iter().map(|p| p.spec));
     }
-    Ok(frags)
+    Ok(out)
 }
 
 /// The scene's materials, or one default material where it has none (a binding cannot be empty).

@@ -1,0 +1,38 @@
+//! Records where the `bvh` package's sources are, so that a scene file can name a mesh shipped inside
+//! it (`obj = "crate:bvh/media/sponza.obj"`: the Dabrovic Sponza) without a copy in this repository.
+//! Cargo has fetched the package before building us, so its folder exists on any machine that builds
+//! vxgi; `cargo metadata --offline` names it. `VXGI_CRATE_BVH` at run time overrides the path.
+use std::process::Command;
+
+fn main() {
+    println!("cargo:rerun-if-changed=Cargo.lock");
+    println!("cargo:rerun-if-changed=build.rs");
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let out = Command::new(cargo)
+        .args(["metadata", "--offline", "--format-version", "1", "--locked"])
+        .current_dir(std::env::var("CARGO_MANIFEST_DIR").expect("cargo sets it"))
+        .output();
+    let dir = match out {
+        Ok(o) if o.status.success() => {
+            let json = String::from_utf8_lossy(&o.stdout);
+            json.split("\"manifest_path\":\"")
+                .skip(1)
+                .filter_map(|s| s.split('"').next())
+                // JSON escapes a Windows path's backslashes.
+                .map(|p| p.replace("\\\\", "/"))
+                .find(|p| {
+                    p.ends_with("/Cargo.toml")
+                        && p.rsplit('/').nth(1).is_some_and(|d| d.starts_with("bvh-"))
+                })
+                .map(|p| p.trim_end_matches("/Cargo.toml").to_string())
+        }
+        _ => None,
+    };
+    match dir {
+        Some(d) => println!("cargo:rustc-env=VXGI_CRATE_BVH={d}"),
+        None => {
+            println!("cargo:warning=could not locate the bvh package (cargo metadata failed): scenes naming crate:bvh/... need VXGI_CRATE_BVH set");
+            println!("cargo:rustc-env=VXGI_CRATE_BVH=");
+        }
+    }
+}

@@ -1,0 +1,113 @@
+//! The device limits a frame's settings must fit, checked from the scene before anything large is
+//! allocated: the light views' layered RSMs (lrsm), the photon maps (vct-svo), the image (every
+//! pipeline, with its supersampling) and the dense voxel accumulators. Each refusal names the
+//! quantity, the limit and the setting to change. `vxgi scene` runs the same checks.
+use crate::render::Pipeline;
+use crate::scene::Scene;
+
+/// Bytes per voxel of voxelization's dense accumulators (eight u32 atomics: RGB albedo, normal, count).
+pub const VOXEL_ACCUMULATOR_BYTES: u64 = 32;
+
+fn mib(b: u64) -> String {
+    format!("{:.1} MiB", b as f64 / (1u64 << 20) as f64)
+}
+
+/// Every limit `pipeline` would hit rendering `scene` on a device with `limits`, or Ok.
+pub fn check(scene: &Scene, pipeline: Pipeline, limits: &wgpu::Limits) -> Result<(), String> {
+    let binding = limits.max_storage_buffer_binding_size;
+    let r = &scene.render;
+    let past = |what: String, bytes: u64, change: &str| {
+        Err(format!(
+            "{what} need {} in one storage binding, past the device's max_storage_buffer_binding_size ({}): {change}",
+            mib(bytes),
+            mib(binding)
+        ))
+    };
+    // The image: the G-buffer's vec4<f32> per sample is the largest per-pixel binding.
+    let (w, h, s) = (
+        scene.camera.width as u64,
+        scene.camera.height as u64,
+        r.supersample as u64,
+    );
+    let pixel_bytes = w * s * h * s * 16;
+    if pixel_bytes > binding {
+        return past(
+            format!(
+                "{w} x {h} pixels at supersample = {s} ({} x {} samples, 16 bytes each in the G-buffer)",
+                w * s,
+                h * s
+            ),
+            pixel_bytes,
+            "lower the camera's width and height or supersample",
+        );
+    }
+    // Voxelization's dense accumulators (every pipeline voxelizes).
+    let voxel_bytes = (r.voxels as u64).pow(3) * VOXEL_ACCUMULATOR_BYTES;
+    if voxel_bytes > binding {
+        let most = (1u32..=512)
+            .filter(|v| {
+                v.is_power_of_two() && (*v as u64).pow(3) * VOXEL_ACCUMULATOR_BYTES <= binding
+            })
+            .max()
+            .unwrap_or(8);
+        return past(
+            format!("voxels = {}: the voxelizer's accumulators ({VOXEL_ACCUMULATOR_BYTES} bytes per voxel)", r.voxels),
+            voxel_bytes,
+            &format!("at most voxels = {most} on this device"),
+        );
+    }
+    let views = crate::plan::light_views(scene) as u64;
+    match pipeline {
+        Pipeline::Lrsm => {
+            // Every view's LRSM (all layers, whole mip chain) is gathered from one binding per
+            // stream (radiance, normal, depth moments: vec4<f32> each).
+            let side0 = (r.rsm_side / 2) as u64;
+            let texels: u64 = (0..=side0.trailing_zeros())
+                .map(|k| (side0 >> k).pow(2))
+                .sum();
+            let layers = (r.lrsm_depth_splits as u64 + 1) * (r.lrsm_normal_splits as u64 + 1);
+            let per_view = texels * layers * 16;
+            let bytes = views * per_view;
+            if bytes > binding.min(limits.max_buffer_size) {
+                let fit = binding.min(limits.max_buffer_size) / per_view;
+                return past(
+                    format!(
+                        "lrsm: {} lights in {views} light views (a point light has six) x {layers} layers x {texels} texels of rsm_side = {} (its LRSM and mips), 16 bytes each,",
+                        scene.lights.len(),
+                        r.rsm_side
+                    ),
+                    bytes,
+                    &format!(
+                        "at most {fit} light views at these settings; lower rsm_side, lrsm_depth_splits or lrsm_normal_splits, or use fewer lights"
+                    ),
+                );
+            }
+        }
+        Pipeline::VctSvo if r.photon_map > 0 => {
+            // Each texel of every view's photon map can become a fragment (32 bytes), twice with the
+            // lobes (its specular part); the octree build binds them all at once.
+            let p = r.photon_map as u64;
+            let per_texel = 32 * (1 + r.voxel_lobes as u64);
+            let bytes = views * p * p * per_texel;
+            if bytes >= binding {
+                let most = (4..=11)
+                    .map(|k| 1u64 << k)
+                    .filter(|q| views * q * q * per_texel < binding)
+                    .max();
+                return past(
+                    format!(
+                        "vct-svo: photon_map = {p} in {views} light views gives up to {} photon fragments ({per_texel} bytes each), which",
+                        views * p * p
+                    ),
+                    bytes,
+                    &match most {
+                        Some(m) => format!("at most photon_map = {m} with these lights"),
+                        None => "use photon_map = 0 (voxel_light injection) or fewer lights".into(),
+                    },
+                );
+            }
+        }
+        _ => {}
+    }
+    Ok(())
+}
