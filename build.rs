@@ -8,10 +8,24 @@ fn main() {
     println!("cargo:rerun-if-changed=Cargo.lock");
     println!("cargo:rerun-if-changed=build.rs");
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let out = Command::new(cargo)
-        .args(["metadata", "--offline", "--format-version", "1", "--locked"])
-        .current_dir(std::env::var("CARGO_MANIFEST_DIR").expect("cargo sets it"))
-        .output();
+    // Only this target's packages: cargo fetched those for this build (the others, e.g. Windows-only
+    // crates, may not be on the machine, and --offline cannot fetch them).
+    let target = std::env::var("TARGET").expect("cargo sets it");
+    let metadata = |offline: bool| {
+        let mut c = Command::new(&cargo);
+        c.args(["metadata", "--format-version", "1", "--locked"])
+            .args(["--filter-platform", &target])
+            .current_dir(std::env::var("CARGO_MANIFEST_DIR").expect("cargo sets it"));
+        if offline {
+            c.arg("--offline");
+        }
+        c.output()
+    };
+    let out = match metadata(true) {
+        Ok(o) if o.status.success() => Ok(o),
+        // Online, cargo reaches only the package registry.
+        _ => metadata(false),
+    };
     let dir = match out {
         Ok(o) if o.status.success() => {
             let json = String::from_utf8_lossy(&o.stdout);

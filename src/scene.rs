@@ -1,4 +1,4 @@
-//! Scene input (issue 6): a TOML file naming an OBJ mesh (loaded with tobj, triangulated, materials from
+//! Scene input: a TOML file naming an OBJ mesh (loaded with tobj, triangulated, materials from
 //! its .mtl), a camera, lights and optional render settings; or the built-in Cornell box. Everything a
 //! user can get wrong is an error with file and line, never a panic.
 use glam::{Vec2, Vec3};
