@@ -4,6 +4,7 @@ pub mod bench;
 pub mod bisect;
 pub mod coverage;
 pub mod cprc;
+pub mod frames;
 pub mod gbuffers;
 pub mod grids;
 pub mod images;

@@ -408,8 +408,8 @@ fn run_render(
     let ctx = GpuContext::new().context("creating the GPU context")?;
     eprintln!("adapter: {}", ctx.describe());
     let mut renderer = vxgi::render::Renderer::new(pipeline, true);
+    let mut rows = Vec::new();
     for k in 0..frames {
-        let view = scene.at_frame(k).orbited(orbit * k as f32);
         let dir = if frames == 1 {
             out.clone()
         } else {
@@ -418,7 +418,12 @@ fn run_render(
         create_out(&dir)?;
         let bar = spinner();
         let message = |stage: &str| bar.set_message(format!("frame {}/{frames}: {stage}", k + 1));
-        let (r, memory) = renderer.render(&ctx, &view, &cones, message)?;
+        // The whole per-frame call is counted: the scene's update (instances, camera) and the frame.
+        let ((r, memory), row) = vxgi::frames::counted(&ctx, k, || {
+            let view = scene.at_frame(k).orbited(orbit * k as f32);
+            renderer.render(&ctx, &view, &cones, message)
+        })?;
+        rows.push(row);
         match memory {
             Some(vxgi::render::VolumeMemory::Octree(m)) => println!(
                 "octree: {} nodes and bricks, {:.1} MB (vct-dense's pyramids at this resolution: {:.1} MB)",
@@ -468,6 +473,19 @@ fn run_render(
             println!("skipped by the plan: {}", skipped.join(", "));
         }
     }
+    let csv = out.join("frames.csv");
+    std::fs::write(&csv, vxgi::frames::csv(&rows))
+        .with_context(|| format!("writing {}", csv.display()))?;
+    println!(
+        "{} ({} timing; per frame in {})",
+        vxgi::frames::summary(&rows),
+        if ctx.timestamps {
+            "GPU: timestamp queries"
+        } else {
+            "GPU: wall clock around submit and wait"
+        },
+        csv.display()
+    );
     Ok(())
 }
 

@@ -1,7 +1,66 @@
 //! The GPU context: any wgpu adapter, or the caller's own device and queue.
 use crate::error::{HarnessError, Result};
 use std::collections::HashMap;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Mutex, OnceLock};
+
+/// What a context has done on the GPU since it was created, counted where the harness does it (every
+/// device object, upload, readback and submission of the harness goes through one of its counting
+/// sites). Take a snapshot before and after a frame; [`Counters::since`] is the frame's.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Counters {
+    /// `queue.submit` calls.
+    pub submissions: u64,
+    /// Compute pipelines compiled (the context caches them by source and entry point).
+    pub pipelines_created: u64,
+    /// Buffers created: resources, staging buffers for readback, timestamp resolve buffers.
+    pub buffers_created: u64,
+    pub textures_created: u64,
+    pub bind_groups_created: u64,
+    /// Bytes copied from the host into GPU memory (buffer contents at creation, texture writes,
+    /// `write_buffer`).
+    pub upload_bytes: u64,
+    /// Bytes copied back to the host (mapped staging buffers), not counting the timestamp queries.
+    pub readback_bytes: u64,
+    /// GPU time of the dispatches, summed over submissions (timestamp queries where the adapter has
+    /// them, else wall clock around submit and wait; [`GpuContext::timestamps`] says which).
+    pub gpu_ns: u64,
+}
+
+impl Counters {
+    /// What happened between `before` and this snapshot.
+    pub fn since(&self, before: &Counters) -> Counters {
+        Counters {
+            submissions: self.submissions - before.submissions,
+            pipelines_created: self.pipelines_created - before.pipelines_created,
+            buffers_created: self.buffers_created - before.buffers_created,
+            textures_created: self.textures_created - before.textures_created,
+            bind_groups_created: self.bind_groups_created - before.bind_groups_created,
+            upload_bytes: self.upload_bytes - before.upload_bytes,
+            readback_bytes: self.readback_bytes - before.readback_bytes,
+            gpu_ns: self.gpu_ns - before.gpu_ns,
+        }
+    }
+}
+
+/// The counters as atomics: the context is shared across threads (`GpuContext::shared`).
+#[derive(Debug, Default)]
+pub(crate) struct AtomicCounters {
+    pub submissions: AtomicU64,
+    pub pipelines_created: AtomicU64,
+    pub buffers_created: AtomicU64,
+    pub textures_created: AtomicU64,
+    pub bind_groups_created: AtomicU64,
+    pub upload_bytes: AtomicU64,
+    pub readback_bytes: AtomicU64,
+    pub gpu_ns: AtomicU64,
+}
+
+impl AtomicCounters {
+    pub fn add(c: &AtomicU64, n: u64) {
+        c.fetch_add(n, Ordering::Relaxed);
+    }
+}
 
 /// A device and queue plus what the harness needs to know about them.
 pub struct GpuContext {
@@ -13,6 +72,7 @@ pub struct GpuContext {
     /// Compiled pipelines by (WGSL source, entry point): a driver may compile lazily at first dispatch,
     /// which would otherwise land in every case's GPU time.
     pipelines: Mutex<HashMap<(String, String), wgpu::ComputePipeline>>,
+    pub(crate) counts: AtomicCounters,
 }
 
 impl GpuContext {
@@ -52,6 +112,23 @@ impl GpuContext {
             info,
             timestamps,
             pipelines: Mutex::default(),
+            counts: AtomicCounters::default(),
+        }
+    }
+
+    /// A snapshot of what this context has done so far (see [`Counters`]).
+    pub fn counters(&self) -> Counters {
+        let c = &self.counts;
+        let l = |a: &AtomicU64| a.load(Ordering::Relaxed);
+        Counters {
+            submissions: l(&c.submissions),
+            pipelines_created: l(&c.pipelines_created),
+            buffers_created: l(&c.buffers_created),
+            textures_created: l(&c.textures_created),
+            bind_groups_created: l(&c.bind_groups_created),
+            upload_bytes: l(&c.upload_bytes),
+            readback_bytes: l(&c.readback_bytes),
+            gpu_ns: l(&c.gpu_ns),
         }
     }
 
@@ -62,6 +139,7 @@ impl GpuContext {
         cache
             .entry(key)
             .or_insert_with(|| {
+                AtomicCounters::add(&self.counts.pipelines_created, 1);
                 let module = self
                     .device
                     .create_shader_module(wgpu::ShaderModuleDescriptor {

@@ -16,7 +16,7 @@ pub mod run;
 pub mod shader;
 
 pub use compare::{Comparison, Indexing, Tolerance};
-pub use context::GpuContext;
+pub use context::{Counters, GpuContext};
 pub use error::{HarnessError, Result};
 pub use kernel::{
     Case, Check, Corruption, DispatchRule, FloatMode, Kernel, KernelDecl, KernelReport, Output,

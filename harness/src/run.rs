@@ -658,6 +658,10 @@ pub fn prepare_chain<'a>(
                     let zero = !b.bytes.is_empty()
                         && b.bytes.len() % 4 == 0
                         && b.bytes.iter().all(|&x| x == 0);
+                    count(&ctx.counts.buffers_created, 1);
+                    if !zero {
+                        count(&ctx.counts.upload_bytes, b.bytes.len() as u64);
+                    }
                     GpuRes::Buffer(if zero {
                         device.create_buffer(&wgpu::BufferDescriptor {
                             label: Some(name),
@@ -691,6 +695,7 @@ pub fn prepare_chain<'a>(
                     {
                         usage |= wgpu::TextureUsages::STORAGE_BINDING;
                     }
+                    count(&ctx.counts.textures_created, 1);
                     let tex = device.create_texture(&wgpu::TextureDescriptor {
                         label: Some(name),
                         size: wgpu::Extent3d {
@@ -707,6 +712,7 @@ pub fn prepare_chain<'a>(
                     });
                     for (m, data) in t.levels.iter().enumerate() {
                         let [w, h, d] = t.level_extent(m as u32);
+                        count(&ctx.counts.upload_bytes, data.len() as u64);
                         ctx.queue.write_texture(
                             wgpu::TexelCopyTextureInfo {
                                 texture: &tex,
@@ -743,6 +749,7 @@ pub fn prepare_chain<'a>(
                 ty: wgpu::QueryType::Timestamp,
                 count: n,
             });
+            count(&ctx.counts.buffers_created, 1);
             let resolve = device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("timestamps"),
                 size: n as u64 * 8,
@@ -851,6 +858,7 @@ pub fn prepare_chain<'a>(
             let bind_groups = groups
                 .into_iter()
                 .map(|(g, entries)| {
+                    count(&ctx.counts.bind_groups_created, 1);
                     let entries: Vec<_> = entries
                         .into_iter()
                         .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource })
@@ -925,6 +933,7 @@ impl Prepared<'_> {
             enc.copy_buffer_to_buffer(s, 0, d, offset, s.size());
         }
         scoped(ctx, &self.kernel, || {
+            count(&ctx.counts.submissions, 1);
             ctx.queue.submit([enc.finish()]);
             wait(ctx, &self.kernel)
         })
@@ -987,11 +996,13 @@ impl Prepared<'_> {
             let ts_staging = self.queries.as_ref().map(|(set, resolve, _)| {
                 let (first, n) = (range.start as u32 * 2, range.len() as u32 * 2);
                 encoder.resolve_query_set(set, first..first + n, resolve, 0);
-                let st = staging(&ctx.device, n as u64 * 8);
+                // The timestamps' own staging buffer: counted as a buffer, not as readback.
+                let st = staging(ctx, n as u64 * 8);
                 encoder.copy_buffer_to_buffer(resolve, 0, &st, 0, n as u64 * 8);
                 st
             });
             let start = Instant::now();
+            count(&ctx.counts.submissions, 1);
             ctx.queue.submit([encoder.finish()]);
             wait(ctx, &self.kernel)?;
             let wall_ns = start.elapsed().as_nanos() as f64;
@@ -1012,10 +1023,14 @@ impl Prepared<'_> {
                         .chunks(2)
                         .map(|c| c[1].saturating_sub(c[0]) as f64 * period)
                         .collect();
-                    let sum = per.iter().sum();
+                    let sum: f64 = per.iter().sum();
+                    count(&ctx.counts.gpu_ns, sum as u64);
                     Ok((per, sum, TimingSource::Timestamps))
                 }
-                None => Ok((Vec::new(), wall_ns, TimingSource::WallClock)),
+                None => {
+                    count(&ctx.counts.gpu_ns, wall_ns as u64);
+                    Ok((Vec::new(), wall_ns, TimingSource::WallClock))
+                }
             }
         })
     }
@@ -1042,7 +1057,8 @@ impl Prepared<'_> {
             for name in names {
                 match (&self.gpu[*name], &self.shapes[*name]) {
                     (GpuRes::Buffer(b), HostResource::Buffer(h)) => {
-                        let st = staging(device, b.size());
+                        let st = staging(ctx, b.size());
+                        count(&ctx.counts.readback_bytes, b.size());
                         enc.copy_buffer_to_buffer(b, 0, &st, 0, b.size());
                         staged.push((name.to_string(), st, None, h.scalar));
                     }
@@ -1057,7 +1073,8 @@ impl Prepared<'_> {
                             layout.push((total, row, padded, [w, hh, d]));
                             total += padded as u64 * hh as u64 * d as u64;
                         }
-                        let st = staging(device, total.max(4));
+                        let st = staging(ctx, total.max(4));
+                        count(&ctx.counts.readback_bytes, total);
                         for (m, (off, _, padded, [w, hh, d])) in layout.iter().enumerate() {
                             enc.copy_texture_to_buffer(
                                 wgpu::TexelCopyTextureInfo {
@@ -1091,6 +1108,7 @@ impl Prepared<'_> {
                     _ => unreachable!("shapes mirror gpu"),
                 }
             }
+            count(&ctx.counts.submissions, 1);
             ctx.queue.submit([enc.finish()]);
             for (_, st, _, _) in &staged {
                 st.slice(..).map_async(wgpu::MapMode::Read, |_| {});
@@ -1163,8 +1181,14 @@ pub fn run(
     run_chain(ctx, &[stage], resources, readback)
 }
 
-fn staging(device: &wgpu::Device, size: u64) -> wgpu::Buffer {
-    device.create_buffer(&wgpu::BufferDescriptor {
+/// Add `n` to one of the context's [`crate::context::Counters`].
+fn count(c: &std::sync::atomic::AtomicU64, n: u64) {
+    crate::context::AtomicCounters::add(c, n);
+}
+
+fn staging(ctx: &GpuContext, size: u64) -> wgpu::Buffer {
+    count(&ctx.counts.buffers_created, 1);
+    ctx.device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("staging"),
         size,
         usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
@@ -1189,6 +1213,7 @@ pub fn copy_bandwidth(ctx: &GpuContext, bytes: u64, repeats: usize) -> Result<f6
     let device = &ctx.device;
     let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
     let mk = |usage| {
+        count(&ctx.counts.buffers_created, 1);
         device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("copy bench"),
             size: bytes,
@@ -1199,6 +1224,7 @@ pub fn copy_bandwidth(ctx: &GpuContext, bytes: u64, repeats: usize) -> Result<f6
     let a = mk(wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST);
     let b = mk(wgpu::BufferUsages::COPY_DST);
     // Touch the source once so the copy reads real pages.
+    count(&ctx.counts.upload_bytes, bytes);
     ctx.queue.write_buffer(&a, 0, &vec![1u8; bytes as usize]);
     let qs = device
         .features()
@@ -1210,13 +1236,16 @@ pub fn copy_bandwidth(ctx: &GpuContext, bytes: u64, repeats: usize) -> Result<f6
                     ty: wgpu::QueryType::Timestamp,
                     count: 2,
                 }),
-                device.create_buffer(&wgpu::BufferDescriptor {
-                    label: None,
-                    size: 16,
-                    usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
-                    mapped_at_creation: false,
-                }),
-                staging(device, 16),
+                {
+                    count(&ctx.counts.buffers_created, 1);
+                    device.create_buffer(&wgpu::BufferDescriptor {
+                        label: None,
+                        size: 16,
+                        usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                        mapped_at_creation: false,
+                    })
+                },
+                staging(ctx, 16),
             )
         });
     let mut best = f64::INFINITY;
@@ -1232,6 +1261,7 @@ pub fn copy_bandwidth(ctx: &GpuContext, bytes: u64, repeats: usize) -> Result<f6
             enc.copy_buffer_to_buffer(resolve, 0, st, 0, 16);
         }
         let start = Instant::now();
+        count(&ctx.counts.submissions, 1);
         ctx.queue.submit([enc.finish()]);
         wait(ctx, "copy")?;
         let mut ns = start.elapsed().as_nanos() as f64;

@@ -1,0 +1,69 @@
+//! Frames of a camera orbit, counted: every pipeline on the Cornell box and thin_wall at 256x256,
+//! `frames` frames 5 degrees apart with the renderer's reuse on (as `vxgi render --frames 6 --orbit 5`).
+//! Per pipeline and scene: the medians over the frames after the first of wall clock, GPU time
+//! (timestamp queries), wall / GPU, submissions, buffers and bind groups created, bytes uploaded and
+//! read back, from the context's counters (`vxgi::frames`). The table goes to stdout as markdown;
+//! docs/frames.md holds a run.
+//!
+//! `cargo bench --bench frames [-- FRAMES]` (default 6)
+use vxgi::frames::{counted, median, FrameRow};
+use vxgi::harness::GpuContext;
+use vxgi::kernels::cone_trace::ConeSettings;
+use vxgi::render::{Pipeline, Renderer};
+use vxgi::scene::Scene;
+
+fn main() {
+    let frames: u32 = std::env::args()
+        .skip(1)
+        .find_map(|a| a.parse().ok())
+        .unwrap_or(6)
+        .max(2);
+    let ctx = GpuContext::new().expect("GPU adapter (see README: install mesa-vulkan-drivers)");
+    println!("adapter: {}\n", ctx.describe());
+    println!(
+        "{frames} frames, 5 degrees apart; medians over frames 1..{}\n",
+        frames - 1
+    );
+    println!("| pipeline | scene | wall ms | GPU ms | wall / GPU | submissions | buffers | bind groups | upload MB | readback MB |");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
+    for (name, scene) in [
+        ("cornell_box", Scene::cornell_box()),
+        ("thin_wall", Scene::thin_wall()),
+    ] {
+        let mut scene = scene;
+        scene.camera.width = 256;
+        scene.camera.height = 256;
+        let cones = ConeSettings::from(&scene.render);
+        for p in [
+            Pipeline::VctDense,
+            Pipeline::VctSvo,
+            Pipeline::Lrsm,
+            Pipeline::Cprc,
+        ] {
+            let mut renderer = Renderer::new(p, true);
+            let rows: Vec<FrameRow> = (0..frames)
+                .map(|k| {
+                    counted(&ctx, k, || {
+                        renderer.render(&ctx, &scene.orbited(5.0 * k as f32), &cones, |_| {})
+                    })
+                    .expect("frame")
+                    .1
+                })
+                .collect();
+            let later = &rows[1..];
+            let m = |f: &dyn Fn(&FrameRow) -> f64| median(later.iter().map(f).collect());
+            println!(
+                "| {} | {name} | {:.0} | {:.0} | {:.2} | {} | {} | {} | {:.1} | {:.1} |",
+                p.name(),
+                m(&|r| r.wall_ms),
+                m(&|r| r.gpu_ms()),
+                m(&|r| r.wall_ms / r.gpu_ms()),
+                m(&|r| r.counters.submissions as f64),
+                m(&|r| r.counters.buffers_created as f64),
+                m(&|r| r.counters.bind_groups_created as f64),
+                m(&|r| r.counters.upload_bytes as f64) / 1e6,
+                m(&|r| r.counters.readback_bytes as f64) / 1e6,
+            );
+        }
+    }
+}
