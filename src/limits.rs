@@ -12,8 +12,36 @@ fn mib(b: u64) -> String {
     format!("{:.1} MiB", b as f64 / (1u64 << 20) as f64)
 }
 
-/// Every limit `pipeline` would hit rendering `scene` on a device with `limits`, or Ok.
+/// Two bounces are vct-svo's (and the reference's) alone: refused rather than one rendered silently.
+pub fn check_bounces(scene: &Scene, pipeline: Pipeline) -> Result<(), String> {
+    if scene.render.bounces > 1 && pipeline != Pipeline::VctSvo {
+        return Err(format!(
+            "bounces = {} is implemented by --pipeline vct-svo only ({} renders one bounce)",
+            scene.render.bounces,
+            pipeline.name()
+        ));
+    }
+    Ok(())
+}
+
+/// The depth-ordered blend samples one pyramid; instanced scenes' placed hierarchies
+/// (common/placed_pyramids.wgsl) have the paper's trilinear only: refused rather than ignored.
+pub fn check_ordered_instances(scene: &Scene, depth_ordered_blend: bool) -> Result<(), String> {
+    if depth_ordered_blend && !scene.instances.list.is_empty() {
+        return Err("depth_ordered_blend is not implemented for scenes with [[instances]] (their placed voxel \
+             hierarchies are sampled trilinearly): set it to false"
+            .into());
+    }
+    Ok(())
+}
+
+/// Every limit `pipeline` would hit rendering `scene` on a device with `limits`, and what it does not
+/// implement for these settings, or Ok.
 pub fn check(scene: &Scene, pipeline: Pipeline, limits: &wgpu::Limits) -> Result<(), String> {
+    check_bounces(scene, pipeline)?;
+    if matches!(pipeline, Pipeline::VctDense | Pipeline::Cprc) {
+        check_ordered_instances(scene, scene.render.depth_ordered_blend)?;
+    }
     let binding = limits.max_storage_buffer_binding_size;
     let r = &scene.render;
     let past = |what: String, bytes: u64, change: &str| {

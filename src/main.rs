@@ -344,16 +344,9 @@ fn create_out(dir: &Path) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))
 }
 
-/// Two bounces are vct-svo's (and the reference's) alone: refuse rather than render one silently.
+/// [`vxgi::limits::check_bounces`] as the CLI's error.
 fn check_bounces(pipeline: Pipeline, scene: &vxgi::scene::Scene) -> Result<()> {
-    if scene.render.bounces > 1 && pipeline != Pipeline::VctSvo {
-        bail!(
-            "bounces = {} is implemented by --pipeline vct-svo only ({} renders one bounce)",
-            scene.render.bounces,
-            pipeline.name()
-        );
-    }
-    Ok(())
+    vxgi::limits::check_bounces(scene, pipeline).map_err(anyhow::Error::msg)
 }
 
 fn run_render(

@@ -544,15 +544,10 @@ fn render_frame(
 
 type Stages = Vec<(&'static str, f64)>;
 
-/// The depth-ordered blend samples one pyramid; instanced scenes' placed hierarchies
-/// (common/placed_pyramids.wgsl) have the paper's trilinear only: refuse rather than ignore it.
+/// [`crate::limits::check_ordered_instances`] for the cones a frame traces.
 fn refuse_ordered_instances(scene: &Scene, cones: &ConeSettings) -> Result<()> {
-    anyhow::ensure!(
-        !cones.depth_ordered_blend || scene.instances.list.is_empty(),
-        "depth_ordered_blend is not implemented for scenes with [[instances]] (their placed voxel \
-         hierarchies are sampled trilinearly): set it to false"
-    );
-    Ok(())
+    crate::limits::check_ordered_instances(scene, cones.depth_ordered_blend)
+        .map_err(anyhow::Error::msg)
 }
 
 /// vct-dense's frame with voxelize, voxel_light, the surface-coverage mips and the cone pass as one

@@ -648,6 +648,12 @@ fn resource_limits_are_checked_from_the_settings() {
     s.render.supersample = 2;
     let e = vxgi::limits::check(&s, Pipeline::Cprc, &limits).unwrap_err();
     assert!(e.contains("supersample = 2"), "{e}");
+    // What a pipeline does not implement is reported by the same check (so by `vxgi scene`).
+    let mut s = Scene::cornell_box();
+    s.render.bounces = 2;
+    let e = vxgi::limits::check(&s, Pipeline::Lrsm, &limits).unwrap_err();
+    assert!(e.contains("vct-svo only"), "{e}");
+    vxgi::limits::check(&s, Pipeline::VctSvo, &limits).unwrap();
     let mut s = Scene::cornell_box();
     s.render.voxels = 256;
     let e = vxgi::limits::check(&s, Pipeline::VctSvo, &limits).unwrap_err();
