@@ -2,14 +2,16 @@
 //! `frames` frames 5 degrees apart with the renderer's reuse on (as `vxgi render --frames 6 --orbit 5`).
 //! Per pipeline and scene: the medians over the frames after the first of wall clock, GPU time
 //! (timestamp queries), wall / GPU, submissions, buffers and bind groups created, bytes uploaded and
-//! read back, from the context's counters (`vxgi::frames`). The table goes to stdout as markdown;
-//! docs/frames.md holds a run.
+//! read back, from the context's counters (`vxgi::frames`); vct-dense both staged through the host
+//! (`VctDense`) and GPU-resident (`vxgi::resident::ResidentDense`), in the same run. The table goes
+//! to stdout as markdown; docs/frames.md holds a run.
 //!
 //! `cargo bench --bench frames [-- FRAMES]` (default 6)
 use vxgi::frames::{counted, median, FrameRow};
 use vxgi::harness::GpuContext;
 use vxgi::kernels::cone_trace::ConeSettings;
 use vxgi::render::{Pipeline, Renderer};
+use vxgi::resident::ResidentDense;
 use vxgi::scene::Scene;
 
 fn main() {
@@ -34,27 +36,11 @@ fn main() {
         scene.camera.width = 256;
         scene.camera.height = 256;
         let cones = ConeSettings::from(&scene.render);
-        for p in [
-            Pipeline::VctDense,
-            Pipeline::VctSvo,
-            Pipeline::Lrsm,
-            Pipeline::Cprc,
-        ] {
-            let mut renderer = Renderer::new(p, true);
-            let rows: Vec<FrameRow> = (0..frames)
-                .map(|k| {
-                    counted(&ctx, k, || {
-                        renderer.render(&ctx, &scene.orbited(5.0 * k as f32), &cones, |_| {})
-                    })
-                    .expect("frame")
-                    .1
-                })
-                .collect();
+        let print = |label: &str, rows: &[FrameRow]| {
             let later = &rows[1..];
             let m = |f: &dyn Fn(&FrameRow) -> f64| median(later.iter().map(f).collect());
             println!(
-                "| {} | {name} | {:.0} | {:.0} | {:.2} | {} | {} | {} | {:.1} | {:.1} |",
-                p.name(),
+                "| {label} | {name} | {:.0} | {:.0} | {:.2} | {} | {} | {} | {:.4} | {:.1} |",
                 m(&|r| r.wall_ms),
                 m(&|r| r.gpu_ms()),
                 m(&|r| r.wall_ms / r.gpu_ms()),
@@ -64,6 +50,32 @@ fn main() {
                 m(&|r| r.counters.upload_bytes as f64) / 1e6,
                 m(&|r| r.counters.readback_bytes as f64) / 1e6,
             );
+        };
+        let view = |k: u32| scene.orbited(5.0 * k as f32);
+        let mut resident = ResidentDense::new(&ctx);
+        let rows: Vec<FrameRow> = (0..frames)
+            .map(|k| {
+                counted(&ctx, k, || resident.render(&view(k), &cones))
+                    .expect("frame")
+                    .1
+            })
+            .collect();
+        print("vct-dense, GPU-resident", &rows);
+        for p in [
+            Pipeline::VctDense,
+            Pipeline::VctSvo,
+            Pipeline::Lrsm,
+            Pipeline::Cprc,
+        ] {
+            let mut renderer = Renderer::new(p, true);
+            let rows: Vec<FrameRow> = (0..frames)
+                .map(|k| {
+                    counted(&ctx, k, || renderer.render(&ctx, &view(k), &cones, |_| {}))
+                        .expect("frame")
+                        .1
+                })
+                .collect();
+            print(&format!("{}, staged", p.name()), &rows);
         }
     }
 }

@@ -38,13 +38,15 @@ impl FrameRow {
     }
 }
 
-/// Run `frame` and count what it did on `ctx`.
+/// Run `frame` on this thread and count what it did on the GPU (`vxgi_harness::thread_counters`:
+/// other threads' work on a shared context is not the frame's). `ctx` is the frame's context.
 pub fn counted<T>(
     ctx: &vxgi_harness::GpuContext,
     index: u32,
     frame: impl FnOnce() -> anyhow::Result<T>,
 ) -> anyhow::Result<(T, FrameRow)> {
-    let before = ctx.counters();
+    let _ = ctx;
+    let before = vxgi_harness::thread_counters();
     let t = std::time::Instant::now();
     let out = frame()?;
     let wall_ms = t.elapsed().as_secs_f64() * 1e3;
@@ -53,7 +55,7 @@ pub fn counted<T>(
         FrameRow {
             frame: index,
             wall_ms,
-            counters: ctx.counters().since(&before),
+            counters: vxgi_harness::thread_counters().since(&before),
         },
     ))
 }

@@ -15,6 +15,7 @@ pub mod plan;
 pub mod reference;
 pub mod render;
 pub mod report;
+pub mod resident;
 pub mod scene;
 pub mod trace;
 

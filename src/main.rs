@@ -401,6 +401,10 @@ fn run_render(
     let ctx = GpuContext::new().context("creating the GPU context")?;
     eprintln!("adapter: {}", ctx.describe());
     let mut renderer = vxgi::render::Renderer::new(pipeline, true);
+    // vct-dense frames stay on the GPU where the resident renderer draws the scene.
+    let mut resident = (pipeline == Pipeline::VctDense
+        && vxgi::resident::ResidentDense::serves(&scene))
+    .then(|| vxgi::resident::ResidentDense::new(&ctx));
     let mut rows = Vec::new();
     for k in 0..frames {
         let dir = if frames == 1 {
@@ -414,7 +418,10 @@ fn run_render(
         // The whole per-frame call is counted: the scene's update (instances, camera) and the frame.
         let ((r, memory), row) = vxgi::frames::counted(&ctx, k, || {
             let view = scene.at_frame(k).orbited(orbit * k as f32);
-            renderer.render(&ctx, &view, &cones, message)
+            match &mut resident {
+                Some(gpu_frames) => Ok((gpu_frames.render(&view, &cones)?, None)),
+                None => renderer.render(&ctx, &view, &cones, message),
+            }
         })?;
         rows.push(row);
         match memory {

@@ -1,7 +1,7 @@
 //! The frame plan: the passes a frame runs, built from the scene and the view, each with its kernel,
 //! its size, and whether it runs and why. `vxgi render --plan` prints it; [`crate::render::render`]
-//! follows it. Skip rules (DESIGN.md section 7) are the planner's job (issue 11): this is the structure
-//! they fill, with the decisions that already follow from the scene.
+//! follows it. Skip rules (skip what a scene does not need) are the planner's job: this is the
+//! structure they fill, with the decisions that already follow from the scene.
 use crate::kernels::cone_trace::ConeSettings;
 use crate::scene::Scene;
 use std::fmt;
@@ -500,6 +500,24 @@ impl FramePlan {
                     p.runs = true;
                     p.size = format!("{hierarchies} pyramids, every level");
                     p.why = format!("{hierarchies} pyramids, one per hierarchy");
+                }
+                _ => {}
+            }
+        }
+        self
+    }
+
+    /// This vct-dense plan (a first frame's) for a frame whose lights moved over an unchanged voxel
+    /// grid: voxelize is skipped (the grid is kept), voxel_light and the mips run again.
+    pub fn with_voxels_kept(mut self) -> Self {
+        for p in &mut self.passes {
+            match p.stage {
+                "voxelize" => {
+                    p.runs = false;
+                    p.why = "skipped: the geometry and the grid are unchanged: the voxels of an earlier frame are kept".into();
+                }
+                "voxel_light" | "surface_coverage_mip" => {
+                    p.why = format!("{}; again: the lights moved", p.why);
                 }
                 _ => {}
             }

@@ -263,7 +263,7 @@ impl Rendered {
 /// floating point). The kernels' f32 sums (up to 4096 texels before cprc's pre-convolution divides,
 /// N^4 in the interleaved resolve, 1/r^2 of a point light) and vct-svo's fixed point then stay in
 /// range for any finite intensity. Radiance past f32::MAX after scaling back saturates there.
-fn supersampled<T>(
+pub(crate) fn supersampled<T>(
     scene: &Scene,
     frame: impl FnOnce(&Scene) -> Result<(Rendered, T)>,
 ) -> Result<(Rendered, T)> {
@@ -319,12 +319,12 @@ pub fn render(
 /// What the radiance pyramid depends on; the camera and the cone settings are not part of it, except
 /// through `levels`, the levels built (vct-dense builds only the levels its cones can read).
 #[derive(Clone, Debug, PartialEq)]
-struct PyramidKey {
+pub(crate) struct PyramidKey {
     mesh: crate::scene::Mesh,
     materials: Vec<crate::scene::Material>,
     lights: Vec<crate::scene::Light>,
     voxels: u32,
-    levels: u32,
+    pub(crate) levels: u32,
     /// Whether the normal pyramid is kept too (only the depth-ordered blend reads it: 38 MB at 128^3
     /// not read back otherwise).
     normals: bool,
@@ -345,7 +345,15 @@ impl PyramidKey {
 
     /// The key of the levels `cones` can read (`cone_trace::pyramid_levels`), with the normal pyramid
     /// where the cones blend depth-ordered.
-    fn reading(scene: &Scene, cones: &ConeSettings) -> Self {
+    /// The key without the lights: what the voxel grid itself depends on (the lights only light it).
+    pub(crate) fn unlit(&self) -> Self {
+        Self {
+            lights: Vec::new(),
+            ..self.clone()
+        }
+    }
+
+    pub(crate) fn reading(scene: &Scene, cones: &ConeSettings) -> Self {
         let levels = cone_trace::pyramid_levels(scene, cones, scene.render.voxels);
         Self {
             levels,
@@ -613,29 +621,59 @@ impl ChainOut {
     }
 }
 
-/// Voxelize, voxel_light and the surface-coverage mips as one chain on GPU-resident buffers
-/// (`vxgi_harness::prepare_chain`): the voxel grid, its radiance and its mips never travel through the
-/// host; the mip levels are copied into the pyramid buffer on the GPU. With `cone_pass` (a G-buffer,
-/// the cone settings and the levels its cones read: the others are not built) cone_trace follows in the same chain and its `indirect` and `ao` are read back;
-/// the pyramid is read back as `keep` says. The same kernels on the same inputs as the stage-by-
-/// stage path, so the same results. Stage times are wall clock: the upload counts to voxelize, the
-/// readback to the last stage. Needs lights (voxel_light runs).
-#[allow(clippy::too_many_arguments)]
-fn chained_pyramid(
+/// vct-dense's chain as data: every stage's shader and passes over one set of named resources, the
+/// copies of the mip levels into the pyramid, and the voxel grid's frame. [`chained_pyramid`] runs it
+/// stage by stage; [`crate::resident::ResidentDense`] keeps it on the GPU for a sequence of frames.
+pub(crate) struct DenseChain {
+    pub resources: crate::harness::Resources,
+    /// (shader, kernel name, passes) in order: voxelize, voxel_light, the mips, (with the G-buffer in
+    /// the chain: gbuffer, direct_light), screen_tiles, cone_trace.
+    pub stages: Vec<(
+        crate::harness::Shader,
+        &'static str,
+        Vec<crate::harness::Pass>,
+    )>,
+    /// The mip levels' copies into `pyramid` and `pyramid_normal` (after the mips' passes).
+    pub copies: Vec<(String, String, u64)>,
+    pub frame: voxelize::VoxelFrame,
+}
+
+impl DenseChain {
+    pub fn harness_stages(&self) -> Vec<crate::harness::Stage<'_>> {
+        self.stages
+            .iter()
+            .map(|(shader, kernel, passes)| crate::harness::Stage {
+                shader,
+                kernel,
+                passes,
+            })
+            .collect()
+    }
+
+    /// The copies as [`crate::harness::Prepared::copy_into`] takes them.
+    pub fn copy_list(&self) -> Vec<(&str, &str, u64)> {
+        self.copies
+            .iter()
+            .map(|(a, b, o)| (a.as_str(), b.as_str(), *o))
+            .collect()
+    }
+}
+
+/// Build [`DenseChain`]: `cone_pass` as [`chained_pyramid`]'s; `gbuffer_in_chain`: the G-buffer and
+/// direct light are the chain's first stages (computed on the GPU, never read back) instead of
+/// inputs in `cone_pass`'s resources.
+#[allow(clippy::type_complexity)]
+pub(crate) fn dense_chain(
     ctx: &crate::harness::GpuContext,
     scene: &Scene,
     data: &SceneData,
     cone_pass: Option<(&crate::harness::Resources, &ConeSettings, u32)>,
-    keep: Keep,
-    stages: &mut Stages,
-    progress: &impl Fn(&str),
-) -> Result<ChainOut> {
+    gbuffer_in_chain: bool,
+) -> Result<DenseChain> {
     use crate::harness::run::{grid_for, Pass, Workgroups};
-    use crate::harness::{prepare_chain, HostBuffer, HostResource, ScalarKind, Stage};
+    use crate::harness::{HostBuffer, HostResource, ScalarKind};
     use crate::kernels::surface_coverage_mip::{self as scm, colour_name};
     use vxgi_cpu_mirror::cone_trace::{level_offset, pyramid_len};
-    progress("voxelize");
-    let mut t = std::time::Instant::now();
     let side = scene.render.voxels;
     let v = (side as u64).pow(3);
     let max = ctx.limits().max_compute_workgroups_per_dimension;
@@ -716,40 +754,83 @@ fn chained_pyramid(
             HostResource::Buffer(HostBuffer::zeroed(pyramid_len(side) * 16, ScalarKind::F32)),
         );
     }
-    let (vs, ls, ts, cs) = (
-        voxelize::DECL.shader()?,
-        voxel_light::DECL.shader()?,
-        screen_tiles::DECL.shader()?,
-        cone_trace::DECL.shader()?,
-    );
-    let chain = [
-        Stage {
-            shader: &vs,
-            kernel: voxelize::DECL.name,
-            passes: &vox.passes,
-        },
-        Stage {
-            shader: &ls,
-            kernel: voxel_light::DECL.name,
-            passes: &light_passes,
-        },
-        Stage {
-            shader: &mip_shader,
-            kernel: scm::DECL.name,
-            passes: &mips.passes,
-        },
-        Stage {
-            shader: &ts,
-            kernel: screen_tiles::DECL.name,
-            passes: &tiles,
-        },
-        Stage {
-            shader: &cs,
-            kernel: cone_trace::DECL.name,
-            passes: &cone,
-        },
+    let mut stages: Vec<(crate::harness::Shader, &'static str, Vec<Pass>)> = vec![
+        (voxelize::DECL.shader()?, voxelize::DECL.name, vox.passes),
+        (
+            voxel_light::DECL.shader()?,
+            voxel_light::DECL.name,
+            light_passes,
+        ),
+        (mip_shader, scm::DECL.name, mips.passes),
     ];
-    let prepared = prepare_chain(ctx, &chain, &resources).context("voxel chain")?;
+    // The G-buffer and direct light after the volume (they do not read it): a frame that reuses the
+    // volume runs one contiguous range of passes.
+    if gbuffer_in_chain {
+        let g = crate::kernels::gbuffer::case_for(data, "render".into(), 0);
+        let d = direct_light::case_with_gbuffer(ctx, data, &Default::default(), "render".into(), 0);
+        for (k, v) in g.resources.into_iter().chain(d.resources) {
+            resources.entry(k).or_insert(v);
+        }
+        let gbuffer = &crate::kernels::gbuffer::DECL;
+        stages.push((gbuffer.shader()?, gbuffer.name, g.passes));
+        stages.push((
+            direct_light::DECL.shader()?,
+            direct_light::DECL.name,
+            d.passes,
+        ));
+    }
+    stages.push((screen_tiles::DECL.shader()?, screen_tiles::DECL.name, tiles));
+    stages.push((cone_trace::DECL.shader()?, cone_trace::DECL.name, cone));
+    let names = |base: &str, f: &dyn Fn(u32) -> String| -> Vec<String> {
+        (0..levels)
+            .map(|l| if l == 0 { base.to_string() } else { f(l) })
+            .collect()
+    };
+    let copies = names("vox_radiance", &colour_name)
+        .into_iter()
+        .map(|n| (n, "pyramid"))
+        .enumerate()
+        .chain(
+            names("vox_normal", &scm::normal_name)
+                .into_iter()
+                .map(|n| (n, "pyramid_normal"))
+                .enumerate(),
+        )
+        .map(|(l, (n, to))| (n, to.to_string(), level_offset(side, l as u32) as u64 * 16))
+        .collect();
+    Ok(DenseChain {
+        resources,
+        stages,
+        copies,
+        frame: vframe,
+    })
+}
+
+/// Voxelize, voxel_light and the surface-coverage mips as one chain on GPU-resident buffers
+/// (`vxgi_harness::prepare_chain`): the voxel grid, its radiance and its mips never travel through the
+/// host; the mip levels are copied into the pyramid buffer on the GPU. With `cone_pass` (a G-buffer,
+/// the cone settings and the levels its cones read: the others are not built) cone_trace follows in the same chain and its `indirect` and `ao` are read back;
+/// the pyramid is read back as `keep` says. The same kernels on the same inputs as the stage-by-
+/// stage path, so the same results. Stage times are wall clock: the upload counts to voxelize, the
+/// readback to the last stage. Needs lights (voxel_light runs).
+#[allow(clippy::too_many_arguments)]
+fn chained_pyramid(
+    ctx: &crate::harness::GpuContext,
+    scene: &Scene,
+    data: &SceneData,
+    cone_pass: Option<(&crate::harness::Resources, &ConeSettings, u32)>,
+    keep: Keep,
+    stages: &mut Stages,
+    progress: &impl Fn(&str),
+) -> Result<ChainOut> {
+    use crate::harness::prepare_chain;
+    progress("voxelize");
+    let mut t = std::time::Instant::now();
+    let built = dense_chain(ctx, scene, data, cone_pass, false)?;
+    let vframe = built.frame;
+    let chain = built.harness_stages();
+    let cone = &built.stages[4].2;
+    let prepared = prepare_chain(ctx, &chain, &built.resources).context("voxel chain")?;
     let mut first = 0;
     let mut run_stage = |k: usize| -> Result<()> {
         let n = chain[k].passes.len();
@@ -766,37 +847,9 @@ fn chained_pyramid(
     progress("mip chain");
     t = std::time::Instant::now();
     run_stage(2).context("mip chain")?;
-    let names: Vec<String> = (0..levels)
-        .map(|l| {
-            if l == 0 {
-                "vox_radiance".to_string()
-            } else {
-                colour_name(l)
-            }
-        })
-        .collect();
-    let normal_names: Vec<String> = (0..levels)
-        .map(|l| {
-            if l == 0 {
-                "vox_normal".to_string()
-            } else {
-                scm::normal_name(l)
-            }
-        })
-        .collect();
-    let copies: Vec<(&str, &str, u64)> = names
-        .iter()
-        .map(|n| (n, "pyramid"))
-        .enumerate()
-        .chain(
-            normal_names
-                .iter()
-                .map(|n| (n, "pyramid_normal"))
-                .enumerate(),
-        )
-        .map(|(l, (n, to))| (n.as_str(), to, level_offset(side, l as u32) as u64 * 16))
-        .collect();
-    prepared.copy_into(&copies).context("mip chain")?;
+    prepared
+        .copy_into(&built.copy_list())
+        .context("mip chain")?;
     let mut names = Vec::new();
     match keep {
         Keep::Nothing => {}
@@ -1890,7 +1943,7 @@ fn cone_pass_frame(
     Ok(Rendered::assemble(direct, indirect, ao, stages, plan).with_cone_tiles(tiles.as_u32()))
 }
 
-fn image_of(w: u32, h: u32, bytes: &[u8]) -> RgbImage {
+pub(crate) fn image_of(w: u32, h: u32, bytes: &[u8]) -> RgbImage {
     let px: &[[f32; 4]] = bytemuck::cast_slice(bytes);
     RgbImage::new(w, h, px.iter().map(|p| [p[0], p[1], p[2]]).collect())
 }

@@ -1086,3 +1086,95 @@ fn sponza_renders_with_every_pipeline() {
         );
     }
 }
+
+/// vct-dense's GPU-resident frames (`vxgi::resident::ResidentDense`) over a camera orbit: the same
+/// images as `VctDense`'s bit for bit (the same kernels on the same inputs), with interleaved cone
+/// sets and the depth-ordered blend too; and every frame after the first is one submission that creates nothing, reads nothing
+/// back besides its images, uploads only the camera and did GPU work.
+#[test]
+fn resident_vct_dense_frames_equal_the_staged_ones_in_one_submission() {
+    use vxgi::kernels::cone_trace::ConeSettings;
+    use vxgi::render::VctDense;
+    use vxgi::resident::ResidentDense;
+    for (interleave, ordered) in [(1, false), (2, false), (1, true)] {
+        let mut scene = small(Scene::cornell_box(), 48, 40);
+        scene.render.voxels = 32;
+        scene.render.cone_interleave = interleave;
+        scene.render.depth_ordered_blend = ordered;
+        let cones = ConeSettings::from(&scene.render);
+        let mut staged = VctDense::new(true);
+        let mut resident = ResidentDense::new(gpu());
+        for k in 0..3u32 {
+            // Far enough round that some tiles leave the box: the tile list and the partly written
+            // outputs must start each frame fresh.
+            let view = scene.orbited(25.0 * k as f32);
+            let want = staged.render(gpu(), &view, &cones, |_| {}).unwrap();
+            let before = vxgi::harness::thread_counters();
+            let got = resident.render(&view, &cones).unwrap();
+            let c = vxgi::harness::thread_counters().since(&before);
+            for (name, a, b) in [
+                ("direct", &want.direct, &got.direct),
+                ("indirect", &want.indirect, &got.indirect),
+                ("ao", &want.ao, &got.ao),
+                ("combined", &want.combined, &got.combined),
+            ] {
+                assert!(a == b, "interleave {interleave}, frame {k}: {name} differs");
+            }
+            assert_eq!(want.cone_tiles, got.cone_tiles, "frame {k}");
+            assert_eq!(c.submissions, 1, "frame {k}: {c:?}");
+            assert!(c.gpu_ns > 0, "frame {k}: {c:?}");
+            if k > 0 {
+                assert_eq!(
+                    (
+                        c.pipelines_created,
+                        c.buffers_created,
+                        c.textures_created,
+                        c.bind_groups_created,
+                        c.readback_bytes
+                    ),
+                    (0, 0, 0, 0, 0),
+                    "frame {k}: {c:?}"
+                );
+                assert!(c.upload_bytes <= 64 << 10, "frame {k}: {c:?}");
+                assert!(got.plan.skipped().contains(&"voxelize"), "{}", got.plan);
+            }
+        }
+    }
+}
+
+/// A light moved between resident vct-dense frames: the kept voxel grid is re-lit (voxel_light and
+/// the mips over it, voxelize skipped), the image equals a full rebuild's bit for bit, and the frame
+/// is still one submission that creates nothing and uploads only the camera and the lights.
+#[test]
+fn resident_vct_dense_relights_the_kept_voxels_when_a_light_moves() {
+    use vxgi::kernels::cone_trace::ConeSettings;
+    use vxgi::resident::ResidentDense;
+    use vxgi::scene::Light;
+    let mut scene = small(Scene::cornell_box(), 40, 40);
+    scene.render.voxels = 32;
+    let cones = ConeSettings::from(&scene.render);
+    let mut resident = ResidentDense::new(gpu());
+    resident.render(&scene, &cones).unwrap();
+    let mut moved = scene.clone();
+    let Light::Point { position, .. } = &mut moved.lights[0] else {
+        panic!("the Cornell box has a point light")
+    };
+    position[0] += 0.3;
+    let before = vxgi::harness::thread_counters();
+    let got = resident.render(&moved, &cones).unwrap();
+    let c = vxgi::harness::thread_counters().since(&before);
+    let want = vxgi::render::render(gpu(), &moved, &cones, |_| {}).unwrap();
+    assert!(want.direct == got.direct && want.indirect == got.indirect && want.ao == got.ao);
+    assert_eq!(got.plan.skipped(), vec!["voxelize"], "{}", got.plan);
+    assert_eq!(
+        (
+            c.submissions,
+            c.buffers_created,
+            c.bind_groups_created,
+            c.readback_bytes
+        ),
+        (1, 0, 0, 0),
+        "{c:?}"
+    );
+    assert!(c.upload_bytes <= 64 << 10, "{c:?}");
+}

@@ -57,9 +57,35 @@ pub(crate) struct AtomicCounters {
 }
 
 impl AtomicCounters {
-    pub fn add(c: &AtomicU64, n: u64) {
+    /// Add `n` to the context's counter `c` and to the calling thread's `field` of [`thread_counters`].
+    pub fn add(c: &AtomicU64, n: u64, field: fn(&mut Counters) -> &mut u64) {
         c.fetch_add(n, Ordering::Relaxed);
+        THREAD.with(|t| {
+            let mut v = t.get();
+            *field(&mut v) += n;
+            t.set(v);
+        });
     }
+}
+
+thread_local! {
+    static THREAD: std::cell::Cell<Counters> = const { std::cell::Cell::new(Counters {
+        submissions: 0,
+        pipelines_created: 0,
+        buffers_created: 0,
+        textures_created: 0,
+        bind_groups_created: 0,
+        upload_bytes: 0,
+        readback_bytes: 0,
+        gpu_ns: 0,
+    }) };
+}
+
+/// What the calling thread has done on GPU contexts so far. A frame is drawn by one thread, so the
+/// difference of two snapshots around it is that frame's, whatever other threads (tests running in
+/// parallel on the shared context) do meanwhile; [`GpuContext::counters`] is the context's total.
+pub fn thread_counters() -> Counters {
+    THREAD.with(|t| t.get())
 }
 
 /// A device and queue plus what the harness needs to know about them.
@@ -139,7 +165,9 @@ impl GpuContext {
         cache
             .entry(key)
             .or_insert_with(|| {
-                AtomicCounters::add(&self.counts.pipelines_created, 1);
+                AtomicCounters::add(&self.counts.pipelines_created, 1, |c| {
+                    &mut c.pipelines_created
+                });
                 let module = self
                     .device
                     .create_shader_module(wgpu::ShaderModuleDescriptor {

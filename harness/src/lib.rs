@@ -16,7 +16,7 @@ pub mod run;
 pub mod shader;
 
 pub use compare::{Comparison, Indexing, Tolerance};
-pub use context::{Counters, GpuContext};
+pub use context::{thread_counters, Counters, GpuContext};
 pub use error::{HarnessError, Result};
 pub use kernel::{
     Case, Check, Corruption, DispatchRule, FloatMode, Kernel, KernelDecl, KernelReport, Output,
@@ -24,6 +24,6 @@ pub use kernel::{
 };
 pub use run::{
     prepare, prepare_chain, run_chain, HostBuffer, HostResource, HostTexture, Pass, Prepared,
-    Resources, RunOutput, Stage, TimingSource, View, Workgroups,
+    ReadbackSet, Resources, RunOutput, Stage, TimingSource, View, Workgroups,
 };
 pub use shader::{Binding, BindingKind, ScalarKind, Shader};

@@ -6,6 +6,13 @@ use std::collections::BTreeMap;
 use std::time::Instant;
 use wgpu::util::DeviceExt;
 
+/// Add `n` to counter `field` of [`crate::context::Counters`], for `ctx` and the calling thread.
+macro_rules! count {
+    ($ctx:expr, $field:ident, $n:expr) => {
+        crate::context::AtomicCounters::add(&$ctx.counts.$field, $n, |c| &mut c.$field)
+    };
+}
+
 /// Bytes of a buffer plus the scalar they hold (checked against the WGSL element type).
 #[derive(Clone, Debug, PartialEq)]
 pub struct HostBuffer {
@@ -658,9 +665,9 @@ pub fn prepare_chain<'a>(
                     let zero = !b.bytes.is_empty()
                         && b.bytes.len() % 4 == 0
                         && b.bytes.iter().all(|&x| x == 0);
-                    count(&ctx.counts.buffers_created, 1);
+                    count!(ctx, buffers_created, 1);
                     if !zero {
-                        count(&ctx.counts.upload_bytes, b.bytes.len() as u64);
+                        count!(ctx, upload_bytes, b.bytes.len() as u64);
                     }
                     GpuRes::Buffer(if zero {
                         device.create_buffer(&wgpu::BufferDescriptor {
@@ -695,7 +702,7 @@ pub fn prepare_chain<'a>(
                     {
                         usage |= wgpu::TextureUsages::STORAGE_BINDING;
                     }
-                    count(&ctx.counts.textures_created, 1);
+                    count!(ctx, textures_created, 1);
                     let tex = device.create_texture(&wgpu::TextureDescriptor {
                         label: Some(name),
                         size: wgpu::Extent3d {
@@ -712,7 +719,7 @@ pub fn prepare_chain<'a>(
                     });
                     for (m, data) in t.levels.iter().enumerate() {
                         let [w, h, d] = t.level_extent(m as u32);
-                        count(&ctx.counts.upload_bytes, data.len() as u64);
+                        count!(ctx, upload_bytes, data.len() as u64);
                         ctx.queue.write_texture(
                             wgpu::TexelCopyTextureInfo {
                                 texture: &tex,
@@ -749,7 +756,7 @@ pub fn prepare_chain<'a>(
                 ty: wgpu::QueryType::Timestamp,
                 count: n,
             });
-            count(&ctx.counts.buffers_created, 1);
+            count!(ctx, buffers_created, 1);
             let resolve = device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("timestamps"),
                 size: n as u64 * 8,
@@ -858,7 +865,7 @@ pub fn prepare_chain<'a>(
             let bind_groups = groups
                 .into_iter()
                 .map(|(g, entries)| {
-                    count(&ctx.counts.bind_groups_created, 1);
+                    count!(ctx, bind_groups_created, 1);
                     let entries: Vec<_> = entries
                         .into_iter()
                         .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource })
@@ -933,7 +940,7 @@ impl Prepared<'_> {
             enc.copy_buffer_to_buffer(s, 0, d, offset, s.size());
         }
         scoped(ctx, &self.kernel, || {
-            count(&ctx.counts.submissions, 1);
+            count!(ctx, submissions, 1);
             ctx.queue.submit([enc.finish()]);
             wait(ctx, &self.kernel)
         })
@@ -1002,7 +1009,7 @@ impl Prepared<'_> {
                 st
             });
             let start = Instant::now();
-            count(&ctx.counts.submissions, 1);
+            count!(ctx, submissions, 1);
             ctx.queue.submit([encoder.finish()]);
             wait(ctx, &self.kernel)?;
             let wall_ns = start.elapsed().as_nanos() as f64;
@@ -1024,11 +1031,11 @@ impl Prepared<'_> {
                         .map(|c| c[1].saturating_sub(c[0]) as f64 * period)
                         .collect();
                     let sum: f64 = per.iter().sum();
-                    count(&ctx.counts.gpu_ns, sum as u64);
+                    count!(ctx, gpu_ns, sum as u64);
                     Ok((per, sum, TimingSource::Timestamps))
                 }
                 None => {
-                    count(&ctx.counts.gpu_ns, wall_ns as u64);
+                    count!(ctx, gpu_ns, wall_ns as u64);
                     Ok((Vec::new(), wall_ns, TimingSource::WallClock))
                 }
             }
@@ -1058,7 +1065,7 @@ impl Prepared<'_> {
                 match (&self.gpu[*name], &self.shapes[*name]) {
                     (GpuRes::Buffer(b), HostResource::Buffer(h)) => {
                         let st = staging(ctx, b.size());
-                        count(&ctx.counts.readback_bytes, b.size());
+                        count!(ctx, readback_bytes, b.size());
                         enc.copy_buffer_to_buffer(b, 0, &st, 0, b.size());
                         staged.push((name.to_string(), st, None, h.scalar));
                     }
@@ -1074,7 +1081,7 @@ impl Prepared<'_> {
                             total += padded as u64 * hh as u64 * d as u64;
                         }
                         let st = staging(ctx, total.max(4));
-                        count(&ctx.counts.readback_bytes, total);
+                        count!(ctx, readback_bytes, total);
                         for (m, (off, _, padded, [w, hh, d])) in layout.iter().enumerate() {
                             enc.copy_texture_to_buffer(
                                 wgpu::TexelCopyTextureInfo {
@@ -1108,7 +1115,7 @@ impl Prepared<'_> {
                     _ => unreachable!("shapes mirror gpu"),
                 }
             }
-            count(&ctx.counts.submissions, 1);
+            count!(ctx, submissions, 1);
             ctx.queue.submit([enc.finish()]);
             for (_, st, _, _) in &staged {
                 st.slice(..).map_async(wgpu::MapMode::Read, |_| {});
@@ -1143,6 +1150,237 @@ impl Prepared<'_> {
             }
             Ok(out)
         })
+    }
+}
+
+/// Buffers of a [`Prepared`] read back every frame into staging buffers created once
+/// ([`Prepared::readback_set`]): recorded into the frame's encoder ([`Prepared::encode_read`]), mapped
+/// after its one submission ([`ReadbackSet::finish`]).
+pub struct ReadbackSet {
+    staged: Vec<(String, wgpu::Buffer, ScalarKind)>,
+    /// Timestamp ticks of the recorded passes (two per pass), where the adapter has timestamps.
+    timestamps: Option<wgpu::Buffer>,
+}
+
+impl Prepared<'_> {
+    /// Write `bytes` into the buffer resource `name` at offset 0 (a frame's small inputs: the camera,
+    /// the lights); counted as uploaded bytes. Sizes must match the resource's.
+    pub fn write_buffer(&self, name: &str, bytes: &[u8]) -> Result<()> {
+        match self.gpu.get(name) {
+            Some(GpuRes::Buffer(b)) if b.size() == bytes.len() as u64 => {
+                count!(self.ctx, upload_bytes, bytes.len() as u64);
+                self.ctx.queue.write_buffer(b, 0, bytes);
+                Ok(())
+            }
+            Some(GpuRes::Buffer(b)) => Err(HarnessError::Gpu {
+                kernel: self.kernel.clone(),
+                message: format!(
+                    "write of {} bytes into `{name}` ({} bytes): sizes differ",
+                    bytes.len(),
+                    b.size()
+                ),
+            }),
+            _ => Err(HarnessError::UnknownResource {
+                kernel: self.kernel.clone(),
+                pass: "write".into(),
+                resource: name.to_string(),
+            }),
+        }
+    }
+
+    /// Record the passes `range` into `encoder`, with the timestamp writes of those passes where the
+    /// adapter has timestamps ([`Prepared::encode_read`] resolves them).
+    pub fn encode_steps(&self, encoder: &mut wgpu::CommandEncoder, range: std::ops::Range<usize>) {
+        for pi in range {
+            let step = &self.steps[pi];
+            let timestamp_writes =
+                self.queries
+                    .as_ref()
+                    .map(|(set, _, _)| wgpu::ComputePassTimestampWrites {
+                        query_set: set,
+                        beginning_of_pass_write_index: Some(pi as u32 * 2),
+                        end_of_pass_write_index: Some(pi as u32 * 2 + 1),
+                    });
+            let mut cpass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some(&step.label),
+                timestamp_writes,
+            });
+            cpass.set_pipeline(&step.pipeline);
+            for (g, bg) in &step.bind_groups {
+                cpass.set_bind_group(*g, bg, &[]);
+            }
+            match &step.workgroups {
+                Workgroups::Direct([x, y, z]) => cpass.dispatch_workgroups(*x, *y, *z),
+                Workgroups::Indirect { buffer, offset } => {
+                    let GpuRes::Buffer(buf) = &self.gpu[buffer] else {
+                        unreachable!("checked")
+                    };
+                    cpass.dispatch_workgroups_indirect(buf, *offset);
+                }
+            }
+        }
+    }
+
+    /// Record zeroing the buffer resources `names` (on the GPU: nothing uploaded): outputs a frame
+    /// writes only in part, and append lists, start each frame as a fresh resource would.
+    pub fn encode_clear(&self, encoder: &mut wgpu::CommandEncoder, names: &[&str]) -> Result<()> {
+        for name in names {
+            match self.gpu.get(*name) {
+                Some(GpuRes::Buffer(b)) => encoder.clear_buffer(b, 0, None),
+                _ => {
+                    return Err(HarnessError::UnknownResource {
+                        kernel: self.kernel.clone(),
+                        pass: "clear".into(),
+                        resource: name.to_string(),
+                    })
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Record [`Prepared::copy_into`]'s copies into `encoder` (checked the same way).
+    pub fn encode_copies(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        copies: &[(&str, &str, u64)],
+    ) -> Result<()> {
+        for &(src, dst, offset) in copies {
+            let buffer = |name: &str| -> Result<&wgpu::Buffer> {
+                match self.gpu.get(name) {
+                    Some(GpuRes::Buffer(b)) => Ok(b),
+                    _ => Err(HarnessError::UnknownResource {
+                        kernel: self.kernel.clone(),
+                        pass: "copy".into(),
+                        resource: name.to_string(),
+                    }),
+                }
+            };
+            let (s, d) = (buffer(src)?, buffer(dst)?);
+            if offset % 4 != 0 || s.size() % 4 != 0 || offset + s.size() > d.size() {
+                return Err(HarnessError::Gpu {
+                    kernel: self.kernel.clone(),
+                    message: format!(
+                        "copy of `{src}` ({} bytes) into `{dst}` ({} bytes) at {offset}: misaligned or out of range",
+                        s.size(),
+                        d.size()
+                    ),
+                });
+            }
+            encoder.copy_buffer_to_buffer(s, 0, d, offset, s.size());
+        }
+        Ok(())
+    }
+
+    /// Staging buffers, created now and reused every frame, for the buffer resources `names` (and for
+    /// the passes' timestamps).
+    pub fn readback_set(&self, names: &[&str]) -> Result<ReadbackSet> {
+        let mut staged = Vec::new();
+        for name in names {
+            match (self.gpu.get(*name), self.shapes.get(*name)) {
+                (Some(GpuRes::Buffer(b)), Some(HostResource::Buffer(h))) => {
+                    staged.push((name.to_string(), staging(self.ctx, b.size()), h.scalar));
+                }
+                _ => {
+                    return Err(HarnessError::UnknownResource {
+                        kernel: self.kernel.clone(),
+                        pass: "readback".into(),
+                        resource: name.to_string(),
+                    })
+                }
+            }
+        }
+        let timestamps = self
+            .queries
+            .as_ref()
+            .map(|(_, _, n)| staging(self.ctx, *n as u64 * 8));
+        Ok(ReadbackSet { staged, timestamps })
+    }
+
+    /// Record the copies of `set`'s buffers into `encoder`, and of the timestamps of the passes
+    /// `timed` (the ones this submission records: only written queries are resolved).
+    pub fn encode_read(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        set: &ReadbackSet,
+        timed: std::ops::Range<usize>,
+    ) {
+        for (name, st, _) in &set.staged {
+            let GpuRes::Buffer(b) = &self.gpu[name] else {
+                unreachable!("checked by readback_set")
+            };
+            encoder.copy_buffer_to_buffer(b, 0, st, 0, b.size());
+        }
+        if let (Some((qs, resolve, _)), Some(st)) = (&self.queries, &set.timestamps) {
+            if !timed.is_empty() {
+                let (first, n) = (timed.start as u32 * 2, timed.len() as u32 * 2);
+                encoder.resolve_query_set(qs, first..first + n, resolve, 0);
+                encoder.copy_buffer_to_buffer(resolve, 0, st, 0, n as u64 * 8);
+            }
+        }
+    }
+
+    /// Submit `encoder` (one counted submission) and wait for it.
+    pub fn submit(&self, encoder: wgpu::CommandEncoder) -> Result<()> {
+        let ctx = self.ctx;
+        scoped(ctx, &self.kernel, || {
+            count!(ctx, submissions, 1);
+            ctx.queue.submit([encoder.finish()]);
+            wait(ctx, &self.kernel)
+        })
+    }
+
+    /// After the submission that recorded [`Prepared::encode_read`] of `set` with `timed` passes:
+    /// the buffers as host resources, and each timed pass's GPU ns (timestamps; empty without them),
+    /// whose sum is added to the context's counters. The bytes read are the frame's outputs: not
+    /// counted as readback (the counters' readback is what a frame moves besides its outputs).
+    pub fn finish_read(&self, set: &ReadbackSet, timed: usize) -> Result<(Resources, Vec<f64>)> {
+        let ctx = self.ctx;
+        let kernel = &self.kernel;
+        for (_, st, _) in &set.staged {
+            st.slice(..).map_async(wgpu::MapMode::Read, |_| {});
+        }
+        if let Some(st) = &set.timestamps {
+            st.slice(..).map_async(wgpu::MapMode::Read, |_| {});
+        }
+        wait(ctx, kernel)?;
+        let map_err = |name: &str, e: wgpu::MapRangeError| HarnessError::Gpu {
+            kernel: kernel.clone(),
+            message: format!("mapping `{name}` for readback: {e}"),
+        };
+        let mut out = Resources::new();
+        for (name, st, scalar) in &set.staged {
+            let bytes = st
+                .slice(..)
+                .get_mapped_range()
+                .map_err(|e| map_err(name, e))?
+                .to_vec();
+            st.unmap();
+            out.insert(
+                name.clone(),
+                HostResource::Buffer(HostBuffer {
+                    bytes,
+                    scalar: *scalar,
+                }),
+            );
+        }
+        let mut per = Vec::new();
+        if let Some(st) = &set.timestamps {
+            {
+                let view = st
+                    .slice(..)
+                    .get_mapped_range()
+                    .map_err(|e| map_err("timestamps", e))?;
+                let ticks: &[u64] = bytemuck::cast_slice(&view);
+                let period = ctx.queue.get_timestamp_period() as f64;
+                per = (0..timed)
+                    .map(|p| ticks[2 * p + 1].saturating_sub(ticks[2 * p]) as f64 * period)
+                    .collect();
+            }
+            st.unmap();
+        }
+        count!(ctx, gpu_ns, per.iter().sum::<f64>() as u64);
+        Ok((out, per))
     }
 }
 
@@ -1181,13 +1419,8 @@ pub fn run(
     run_chain(ctx, &[stage], resources, readback)
 }
 
-/// Add `n` to one of the context's [`crate::context::Counters`].
-fn count(c: &std::sync::atomic::AtomicU64, n: u64) {
-    crate::context::AtomicCounters::add(c, n);
-}
-
 fn staging(ctx: &GpuContext, size: u64) -> wgpu::Buffer {
-    count(&ctx.counts.buffers_created, 1);
+    count!(ctx, buffers_created, 1);
     ctx.device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("staging"),
         size,
@@ -1213,7 +1446,7 @@ pub fn copy_bandwidth(ctx: &GpuContext, bytes: u64, repeats: usize) -> Result<f6
     let device = &ctx.device;
     let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
     let mk = |usage| {
-        count(&ctx.counts.buffers_created, 1);
+        count!(ctx, buffers_created, 1);
         device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("copy bench"),
             size: bytes,
@@ -1224,7 +1457,7 @@ pub fn copy_bandwidth(ctx: &GpuContext, bytes: u64, repeats: usize) -> Result<f6
     let a = mk(wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST);
     let b = mk(wgpu::BufferUsages::COPY_DST);
     // Touch the source once so the copy reads real pages.
-    count(&ctx.counts.upload_bytes, bytes);
+    count!(ctx, upload_bytes, bytes);
     ctx.queue.write_buffer(&a, 0, &vec![1u8; bytes as usize]);
     let qs = device
         .features()
@@ -1237,7 +1470,7 @@ pub fn copy_bandwidth(ctx: &GpuContext, bytes: u64, repeats: usize) -> Result<f6
                     count: 2,
                 }),
                 {
-                    count(&ctx.counts.buffers_created, 1);
+                    count!(ctx, buffers_created, 1);
                     device.create_buffer(&wgpu::BufferDescriptor {
                         label: None,
                         size: 16,
@@ -1261,7 +1494,7 @@ pub fn copy_bandwidth(ctx: &GpuContext, bytes: u64, repeats: usize) -> Result<f6
             enc.copy_buffer_to_buffer(resolve, 0, st, 0, 16);
         }
         let start = Instant::now();
-        count(&ctx.counts.submissions, 1);
+        count!(ctx, submissions, 1);
         ctx.queue.submit([enc.finish()]);
         wait(ctx, "copy")?;
         let mut ns = start.elapsed().as_nanos() as f64;

@@ -1,0 +1,220 @@
+//! GPU-resident frame sequences: a renderer that keeps its frame's resources, compute pipelines and
+//! bind groups on the GPU across frames and records each frame into one command encoder and one
+//! submission, reading back only the images it returns.
+//!
+//! [`ResidentDense`] is vct-dense's: the same chain of kernels as [`crate::render::VctDense`]'s
+//! first frame (voxelize, voxel_light, the surface-coverage mips, the G-buffer and direct light,
+//! screen_tiles, the cone pass), prepared once by the harness (`prepare_chain`: every resource
+//! checked against reflection and the device limits, then created and uploaded). A frame whose
+//! geometry, materials, lights and settings equal the last one's (the camera may move) uploads the
+//! camera (one `Frame`, 80 bytes), records the G-buffer, direct light, tile list and cone passes and
+//! submits once; the volume stays where the first frame built it. A frame whose lights moved (their
+//! number unchanged) also uploads them and re-runs voxel_light and the mips over the kept voxel grid.
+//! Anything else rebuilds the whole chain (the plan says so). The same kernels on the same inputs as `VctDense`: the same images.
+use crate::harness::{GpuContext, Prepared, ReadbackSet};
+use crate::kernels::cone_trace::ConeSettings;
+use crate::plan::FramePlan;
+use crate::render::{image_of, PyramidKey, Rendered};
+use crate::scene::{RenderSettings, Scene};
+use crate::trace::SceneData;
+use anyhow::{Context, Result};
+
+/// What shapes the resident resources: a frame with other values rebuilds them. The lights are not
+/// part of it (only their number): a frame whose lights moved re-lights the kept voxel grid.
+#[derive(Clone, Debug, PartialEq)]
+struct Key {
+    volume: PyramidKey,
+    lights: usize,
+    render: RenderSettings,
+    cones: String,
+    size: (u32, u32),
+}
+
+impl Key {
+    fn of(scene: &Scene, cones: &ConeSettings) -> Self {
+        Self {
+            volume: PyramidKey::reading(scene, cones).unlit(),
+            lights: scene.lights.len(),
+            render: scene.render.clone(),
+            // ConeSettings is plain data without PartialEq: its Debug text is its value.
+            cones: format!("{cones:?}"),
+            size: (scene.camera.width, scene.camera.height),
+        }
+    }
+}
+
+struct Built<'c> {
+    key: Key,
+    /// The lights the voxel grid is lit by now.
+    lights: Vec<crate::scene::Light>,
+    prepared: Prepared<'c>,
+    reads: ReadbackSet,
+    /// The ray epsilon of the scene's camera frames (`Frame::eye.w`, from the mesh's extent).
+    eps: f32,
+    /// (stage, its passes' range) in chain order.
+    stages: Vec<(&'static str, std::ops::Range<usize>)>,
+    /// Where the per-frame passes start (the G-buffer) and where the chain ends.
+    per_frame: std::ops::Range<usize>,
+    /// Where voxel_light's passes start: a frame with moved lights runs from there.
+    relight: usize,
+    copies: Vec<(String, String, u64)>,
+    /// The per-frame outputs zeroed before a frame that reuses the chain (each is zero in a fresh one).
+    cleared: Vec<&'static str>,
+}
+
+/// vct-dense over a sequence of frames with everything on the GPU (see the module doc).
+pub struct ResidentDense<'c> {
+    ctx: &'c GpuContext,
+    built: Option<Built<'c>>,
+}
+
+impl<'c> ResidentDense<'c> {
+    pub fn new(ctx: &'c GpuContext) -> Self {
+        Self { ctx, built: None }
+    }
+
+    /// Whether `scene` is one this renderer draws: no instances (their hierarchies are
+    /// [`crate::render::VctDense`]'s) and at least one light (voxel_light runs).
+    pub fn serves(scene: &Scene) -> bool {
+        scene.instances.list.is_empty() && !scene.lights.is_empty()
+    }
+
+    /// One frame (supersampling and bright lights as every pipeline's, see `render::supersampled`).
+    pub fn render(&mut self, scene: &Scene, cones: &ConeSettings) -> Result<Rendered> {
+        anyhow::ensure!(
+            Self::serves(scene),
+            "the resident vct-dense renderer draws scenes without instances and with lights"
+        );
+        crate::limits::check(scene, crate::render::Pipeline::VctDense, &self.ctx.limits())
+            .map_err(anyhow::Error::msg)?;
+        crate::render::supersampled(scene, |s| Ok((self.render_samples(s, cones)?, ())))
+            .map(|(r, ())| r)
+    }
+
+    fn render_samples(&mut self, scene: &Scene, cones: &ConeSettings) -> Result<Rendered> {
+        let key = Key::of(scene, cones);
+        let reuse = self.built.as_ref().is_some_and(|b| b.key == key);
+        if !reuse {
+            self.built = None;
+            self.built = Some(self.build(scene, cones, key)?);
+        }
+        let b = self.built.as_mut().expect("built above");
+        let relit = reuse && b.lights != scene.lights;
+        b.lights = scene.lights.clone();
+        let b = &*b;
+        let p = &b.prepared;
+        let mut encoder = self
+            .ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("vct-dense frame"),
+            });
+        let copies: Vec<(&str, &str, u64)> = b
+            .copies
+            .iter()
+            .map(|(a, d, o)| (a.as_str(), d.as_str(), *o))
+            .collect();
+        let timed = if reuse {
+            // The camera (and where they moved, the lights): the inputs that differ from the last
+            // frame.
+            let frame = crate::trace::camera_frame(scene, b.eps);
+            p.write_buffer("frame", bytemuck::bytes_of(&frame))?;
+            // As fresh: the tile list is appended to, the cone pass writes the listed tiles only.
+            p.encode_clear(&mut encoder, &b.cleared)?;
+            if relit {
+                let lights = crate::trace::gpu_lights(scene);
+                p.write_buffer("lights", bytemuck::cast_slice(&lights))?;
+                // voxel_light and the mips over the kept voxel grid, into the kept pyramid.
+                p.encode_steps(&mut encoder, b.relight..b.per_frame.start);
+                p.encode_copies(&mut encoder, &copies)?;
+            }
+            p.encode_steps(&mut encoder, b.per_frame.clone());
+            if relit {
+                b.relight..b.per_frame.end
+            } else {
+                b.per_frame.clone()
+            }
+        } else {
+            let all = 0..b.per_frame.end;
+            p.encode_steps(&mut encoder, 0..b.per_frame.start);
+            p.encode_copies(&mut encoder, &copies)?;
+            p.encode_steps(&mut encoder, b.per_frame.clone());
+            all
+        };
+        p.encode_read(&mut encoder, &b.reads, timed.clone());
+        p.submit(encoder).context("vct-dense frame")?;
+        let (out, pass_ns) = p.finish_read(&b.reads, timed.len())?;
+        let bytes = |n: &str| &out[n].buffer().expect("a buffer").bytes;
+        let (w, h) = (scene.camera.width, scene.camera.height);
+        // Per stage: the GPU time of its passes (timestamps), where it ran this frame.
+        let stages = b
+            .stages
+            .iter()
+            .filter(|(_, r)| r.start >= timed.start && r.end <= timed.end)
+            .map(|(name, r)| {
+                let ns: f64 = pass_ns
+                    .get(r.start - timed.start..r.end - timed.start)
+                    .map_or(0.0, |v| v.iter().sum());
+                (*name, ns * 1e-9)
+            })
+            .collect();
+        let mut plan = FramePlan::vct_dense_after(scene, cones, reuse && !relit);
+        if relit {
+            // The voxel grid is kept; its light and mips are redone.
+            plan = plan.with_voxels_kept();
+        }
+        Ok(Rendered::assemble(
+            image_of(w, h, bytes("radiance")),
+            image_of(w, h, bytes("indirect")),
+            image_of(w, h, bytes("ao")),
+            stages,
+            plan,
+        )
+        .with_cone_tiles(bytemuck::cast_slice(bytes("tile_list"))))
+    }
+
+    fn build(&self, scene: &Scene, cones: &ConeSettings, key: Key) -> Result<Built<'c>> {
+        let data = SceneData::new(scene);
+        let levels = key.volume.levels;
+        // The G-buffer the cone pass binds, computed in the chain (zeroed here).
+        let gb = crate::kernels::gbuffer::case_for(&data, "render".into(), 0).resources;
+        let chain =
+            crate::render::dense_chain(self.ctx, scene, &data, Some((&gb, cones, levels)), true)?;
+        let prepared =
+            crate::harness::prepare_chain(self.ctx, &chain.harness_stages(), &chain.resources)
+                .context("vct-dense chain")?;
+        let mut stages = Vec::new();
+        let mut first = 0;
+        for (_, name, passes) in &chain.stages {
+            stages.push((*name, first..first + passes.len()));
+            first += passes.len();
+        }
+        let gbuffer = stages
+            .iter()
+            .find(|(n, _)| *n == crate::kernels::gbuffer::DECL.name)
+            .map(|(_, r)| r.start)
+            .expect("the chain holds the G-buffer");
+        let reads = prepared.readback_set(&["radiance", "indirect", "ao", "tile_list"])?;
+        let cleared = ["tile_list", "indirect", "ao", "irradiance"]
+            .into_iter()
+            .filter(|n| chain.resources.contains_key(*n))
+            .collect();
+        let relight = stages
+            .iter()
+            .find(|(n, _)| *n == crate::kernels::voxel_light::DECL.name)
+            .map(|(_, r)| r.start)
+            .expect("the chain holds voxel_light");
+        Ok(Built {
+            key,
+            lights: scene.lights.clone(),
+            relight,
+            eps: data.frame.eye[3],
+            stages,
+            per_frame: gbuffer..first,
+            copies: chain.copies.clone(),
+            cleared,
+            prepared,
+            reads,
+        })
+    }
+}
