@@ -62,6 +62,16 @@ struct Built<'c> {
     cleared: Vec<&'static str>,
 }
 
+/// A frame's images on the GPU, as [`ResidentDense::encode`] leaves them: `vec4<f32>` per pixel, row
+/// by row (rgb, then w): the direct and the indirect light reflected towards the camera (what
+/// `vxgi render` writes as direct.exr and indirect.exr) and ambient occlusion. Valid until the next
+/// frame is recorded.
+pub struct FrameBuffers {
+    pub direct: wgpu::Buffer,
+    pub indirect: wgpu::Buffer,
+    pub ao: wgpu::Buffer,
+}
+
 /// vct-dense over a sequence of frames with everything on the GPU (see the module doc).
 pub struct ResidentDense<'c> {
     ctx: &'c GpuContext,
@@ -91,7 +101,44 @@ impl<'c> ResidentDense<'c> {
             .map(|(r, ())| r)
     }
 
-    fn render_samples(&mut self, scene: &Scene, cones: &ConeSettings) -> Result<Rendered> {
+    /// Record the frame for `scene` into the caller's `encoder`; the caller submits it. The images
+    /// stay on the GPU in the returned buffers. The camera's pixels as they are: `supersample` and
+    /// the exposure of very bright lights are [`ResidentDense::render`]'s, refused here.
+    pub fn encode(
+        &mut self,
+        scene: &Scene,
+        cones: &ConeSettings,
+        encoder: &mut wgpu::CommandEncoder,
+    ) -> Result<FrameBuffers> {
+        anyhow::ensure!(
+            Self::serves(scene),
+            "the resident vct-dense renderer draws scenes without instances and with lights"
+        );
+        anyhow::ensure!(
+            scene.render.supersample == 1 && crate::render::exposure(scene) == 0,
+            "encode draws the camera's pixels: supersample = 1 and light intensities up to {} (render() does the rest)",
+            crate::render::EXPOSURE_LIMIT
+        );
+        crate::limits::check(scene, crate::render::Pipeline::VctDense, &self.ctx.limits())
+            .map_err(anyhow::Error::msg)?;
+        self.record(scene, cones, encoder)?;
+        let p = &self.built.as_ref().expect("recorded").prepared;
+        let buffer = |n: &str| p.buffer(n).cloned().expect("the chain's output");
+        Ok(FrameBuffers {
+            direct: buffer("radiance"),
+            indirect: buffer("indirect"),
+            ao: buffer("ao"),
+        })
+    }
+
+    /// Build (or keep) the chain for `scene` and record its frame into `encoder`: (reused, re-lit,
+    /// the passes recorded).
+    fn record(
+        &mut self,
+        scene: &Scene,
+        cones: &ConeSettings,
+        encoder: &mut wgpu::CommandEncoder,
+    ) -> Result<(bool, bool, std::ops::Range<usize>)> {
         let key = Key::of(scene, cones);
         let reuse = self.built.as_ref().is_some_and(|b| b.key == key);
         if !reuse {
@@ -103,12 +150,6 @@ impl<'c> ResidentDense<'c> {
         b.lights = scene.lights.clone();
         let b = &*b;
         let p = &b.prepared;
-        let mut encoder = self
-            .ctx
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("vct-dense frame"),
-            });
         let copies: Vec<(&str, &str, u64)> = b
             .copies
             .iter()
@@ -120,27 +161,39 @@ impl<'c> ResidentDense<'c> {
             let frame = crate::trace::camera_frame(scene, b.eps);
             p.write_buffer("frame", bytemuck::bytes_of(&frame))?;
             // As fresh: the tile list is appended to, the cone pass writes the listed tiles only.
-            p.encode_clear(&mut encoder, &b.cleared)?;
+            p.encode_clear(encoder, &b.cleared)?;
             if relit {
                 let lights = crate::trace::gpu_lights(scene);
                 p.write_buffer("lights", bytemuck::cast_slice(&lights))?;
                 // voxel_light and the mips over the kept voxel grid, into the kept pyramid.
-                p.encode_steps(&mut encoder, b.relight..b.per_frame.start);
-                p.encode_copies(&mut encoder, &copies)?;
+                p.encode_steps(encoder, b.relight..b.per_frame.start);
+                p.encode_copies(encoder, &copies)?;
             }
-            p.encode_steps(&mut encoder, b.per_frame.clone());
+            p.encode_steps(encoder, b.per_frame.clone());
             if relit {
                 b.relight..b.per_frame.end
             } else {
                 b.per_frame.clone()
             }
         } else {
-            let all = 0..b.per_frame.end;
-            p.encode_steps(&mut encoder, 0..b.per_frame.start);
-            p.encode_copies(&mut encoder, &copies)?;
-            p.encode_steps(&mut encoder, b.per_frame.clone());
-            all
+            p.encode_steps(encoder, 0..b.per_frame.start);
+            p.encode_copies(encoder, &copies)?;
+            p.encode_steps(encoder, b.per_frame.clone());
+            0..b.per_frame.end
         };
+        Ok((reuse, relit, timed))
+    }
+
+    fn render_samples(&mut self, scene: &Scene, cones: &ConeSettings) -> Result<Rendered> {
+        let mut encoder = self
+            .ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("vct-dense frame"),
+            });
+        let (reuse, relit, timed) = self.record(scene, cones, &mut encoder)?;
+        let b = self.built.as_ref().expect("recorded");
+        let p = &b.prepared;
         p.encode_read(&mut encoder, &b.reads, timed.clone());
         p.submit(encoder).context("vct-dense frame")?;
         let (out, pass_ns) = p.finish_read(&b.reads, timed.len())?;

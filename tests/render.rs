@@ -1178,3 +1178,39 @@ fn resident_vct_dense_relights_the_kept_voxels_when_a_light_moves() {
     );
     assert!(c.upload_bytes <= 64 << 10, "{c:?}");
 }
+
+/// Another renderer records vct-dense's frame into its own encoder (`ResidentDense::encode`) and
+/// submits it itself; the images are in GPU buffers it can bind or read: the same as `render`'s.
+#[test]
+fn resident_vct_dense_encodes_into_the_callers_encoder() {
+    use vxgi::kernels::cone_trace::ConeSettings;
+    use vxgi::resident::ResidentDense;
+    let mut scene = small(Scene::cornell_box(), 24, 24);
+    scene.render.voxels = 16;
+    let cones = ConeSettings::from(&scene.render);
+    let ctx = gpu();
+    let want = ResidentDense::new(ctx).render(&scene, &cones).unwrap();
+    let mut ours = ResidentDense::new(ctx);
+    let mut encoder = ctx.device.create_command_encoder(&Default::default());
+    let out = ours.encode(&scene, &cones, &mut encoder).unwrap();
+    let staging = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: None,
+        size: out.indirect.size(),
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    encoder.copy_buffer_to_buffer(&out.indirect, 0, &staging, 0, out.indirect.size());
+    ctx.queue.submit([encoder.finish()]);
+    staging.slice(..).map_async(wgpu::MapMode::Read, |_| {});
+    ctx.device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .unwrap();
+    let bytes = staging.slice(..).get_mapped_range().unwrap().to_vec();
+    let px: &[[f32; 4]] = bytemuck::cast_slice(&bytes);
+    let got: Vec<[f32; 3]> = px.iter().map(|p| [p[0], p[1], p[2]]).collect();
+    assert_eq!(got, want.indirect.pixels);
+    let mut bright = scene.clone();
+    bright.render.supersample = 2;
+    let mut encoder = ctx.device.create_command_encoder(&Default::default());
+    assert!(ours.encode(&bright, &cones, &mut encoder).is_err());
+}

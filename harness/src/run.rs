@@ -1163,6 +1163,15 @@ pub struct ReadbackSet {
 }
 
 impl Prepared<'_> {
+    /// The GPU buffer of resource `name` (to bind it elsewhere, or to read it in the caller's own
+    /// submission).
+    pub fn buffer(&self, name: &str) -> Option<&wgpu::Buffer> {
+        match self.gpu.get(name) {
+            Some(GpuRes::Buffer(b)) => Some(b),
+            _ => None,
+        }
+    }
+
     /// Write `bytes` into the buffer resource `name` at offset 0 (a frame's small inputs: the camera,
     /// the lights); counted as uploaded bytes. Sizes must match the resource's.
     pub fn write_buffer(&self, name: &str, bytes: &[u8]) -> Result<()> {
