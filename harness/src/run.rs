@@ -910,40 +910,13 @@ impl Prepared<'_> {
     /// are checked (multiples of 4, inside `dst`).
     pub fn copy_into(&self, copies: &[(&str, &str, u64)]) -> Result<()> {
         let ctx = self.ctx;
-        let buffer = |name: &str| -> Result<&wgpu::Buffer> {
-            match self.gpu.get(name) {
-                Some(GpuRes::Buffer(b)) => Ok(b),
-                _ => Err(HarnessError::UnknownResource {
-                    kernel: self.kernel.clone(),
-                    pass: "copy".into(),
-                    resource: name.to_string(),
-                }),
-            }
-        };
         let mut enc = ctx
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("copies"),
             });
-        for &(src, dst, offset) in copies {
-            let (s, d) = (buffer(src)?, buffer(dst)?);
-            if offset % 4 != 0 || s.size() % 4 != 0 || offset + s.size() > d.size() {
-                return Err(HarnessError::Gpu {
-                    kernel: self.kernel.clone(),
-                    message: format!(
-                        "copy of `{src}` ({} bytes) into `{dst}` ({} bytes) at {offset}: misaligned or out of range",
-                        s.size(),
-                        d.size()
-                    ),
-                });
-            }
-            enc.copy_buffer_to_buffer(s, 0, d, offset, s.size());
-        }
-        scoped(ctx, &self.kernel, || {
-            count!(ctx, submissions, 1);
-            ctx.queue.submit([enc.finish()]);
-            wait(ctx, &self.kernel)
-        })
+        self.encode_copies(&mut enc, copies)?;
+        self.submit(enc)
     }
 
     /// How many passes (of every stage of a chain, in order) this runs.
@@ -972,34 +945,7 @@ impl Prepared<'_> {
                 .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                     label: Some(&self.kernel),
                 });
-            for pi in range.clone() {
-                let step = &self.steps[pi];
-                let timestamp_writes =
-                    self.queries
-                        .as_ref()
-                        .map(|(set, _, _)| wgpu::ComputePassTimestampWrites {
-                            query_set: set,
-                            beginning_of_pass_write_index: Some(pi as u32 * 2),
-                            end_of_pass_write_index: Some(pi as u32 * 2 + 1),
-                        });
-                let mut cpass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                    label: Some(&step.label),
-                    timestamp_writes,
-                });
-                cpass.set_pipeline(&step.pipeline);
-                for (g, bg) in &step.bind_groups {
-                    cpass.set_bind_group(*g, bg, &[]);
-                }
-                match &step.workgroups {
-                    Workgroups::Direct([x, y, z]) => cpass.dispatch_workgroups(*x, *y, *z),
-                    Workgroups::Indirect { buffer, offset } => {
-                        let GpuRes::Buffer(buf) = &self.gpu[buffer] else {
-                            unreachable!("checked")
-                        };
-                        cpass.dispatch_workgroups_indirect(buf, *offset);
-                    }
-                }
-            }
+            self.encode_steps(&mut encoder, range.clone());
             let ts_staging = self.queries.as_ref().map(|(set, resolve, _)| {
                 let (first, n) = (range.start as u32 * 2, range.len() as u32 * 2);
                 encoder.resolve_query_set(set, first..first + n, resolve, 0);
