@@ -139,3 +139,141 @@ pub fn check(scene: &Scene, pipeline: Pipeline, limits: &wgpu::Limits) -> Result
     }
     Ok(())
 }
+
+/// What one kernel needs of a device, from its WGSL's naga reflection (the most any of its entry
+/// points needs).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct KernelNeeds {
+    pub kernel: &'static str,
+    pub storage_buffers: u32,
+    pub uniform_buffers: u32,
+    pub sampled_textures: u32,
+    pub storage_textures: u32,
+    pub bind_groups: u32,
+    /// Invocations per workgroup, and the largest workgroup side per axis.
+    pub invocations: u32,
+    pub workgroup_size: [u32; 3],
+}
+
+/// [`KernelNeeds`] of `decl`.
+pub fn kernel_needs(decl: &crate::harness::KernelDecl) -> Result<KernelNeeds, String> {
+    use crate::harness::BindingKind as K;
+    let shader = decl.shader().map_err(|e| e.to_string())?;
+    let mut n = KernelNeeds {
+        kernel: decl.name,
+        ..Default::default()
+    };
+    for e in &shader.entries {
+        let count = |f: &dyn Fn(&K) -> bool| {
+            e.uses
+                .iter()
+                .filter(|&&i| f(&shader.bindings[i].kind))
+                .count() as u32
+        };
+        n.storage_buffers = n
+            .storage_buffers
+            .max(count(&|k| matches!(k, K::Storage { .. })));
+        n.uniform_buffers = n
+            .uniform_buffers
+            .max(count(&|k| matches!(k, K::Uniform(_))));
+        n.sampled_textures = n
+            .sampled_textures
+            .max(count(&|k| matches!(k, K::SampledTexture { .. })));
+        n.storage_textures = n
+            .storage_textures
+            .max(count(&|k| matches!(k, K::StorageTexture { .. })));
+        let groups = e
+            .uses
+            .iter()
+            .map(|&i| shader.bindings[i].group + 1)
+            .max()
+            .unwrap_or(0);
+        n.bind_groups = n.bind_groups.max(groups);
+        let [x, y, z] = e.workgroup_size;
+        n.invocations = n.invocations.max(x * y * z);
+        for (a, s) in n.workgroup_size.iter_mut().zip([x, y, z]) {
+            *a = (*a).max(s);
+        }
+    }
+    Ok(n)
+}
+
+/// The limits among these that `needs` passes on a device with `limits`: "name: needs N, has M".
+pub fn exceeded(needs: &KernelNeeds, limits: &wgpu::Limits) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut check = |name: &str, need: u32, has: u32| {
+        if need > has {
+            out.push(format!("{name}: needs {need}, has {has}"));
+        }
+    };
+    check(
+        "max_storage_buffers_per_shader_stage",
+        needs.storage_buffers,
+        limits.max_storage_buffers_per_shader_stage,
+    );
+    check(
+        "max_uniform_buffers_per_shader_stage",
+        needs.uniform_buffers,
+        limits.max_uniform_buffers_per_shader_stage,
+    );
+    check(
+        "max_sampled_textures_per_shader_stage",
+        needs.sampled_textures,
+        limits.max_sampled_textures_per_shader_stage,
+    );
+    check(
+        "max_storage_textures_per_shader_stage",
+        needs.storage_textures,
+        limits.max_storage_textures_per_shader_stage,
+    );
+    check("max_bind_groups", needs.bind_groups, limits.max_bind_groups);
+    check(
+        "max_compute_invocations_per_workgroup",
+        needs.invocations,
+        limits.max_compute_invocations_per_workgroup,
+    );
+    check(
+        "max_compute_workgroup_size_x",
+        needs.workgroup_size[0],
+        limits.max_compute_workgroup_size_x,
+    );
+    check(
+        "max_compute_workgroup_size_y",
+        needs.workgroup_size[1],
+        limits.max_compute_workgroup_size_y,
+    );
+    check(
+        "max_compute_workgroup_size_z",
+        needs.workgroup_size[2],
+        limits.max_compute_workgroup_size_z,
+    );
+    out
+}
+
+/// The kernels a pipeline's frame runs: every kernel its frame plan names (for a scene with glossy
+/// materials, photons and every optional stage of the Cornell box's settings on), plus the screen
+/// tiles list of the per-pixel cone passes.
+pub fn pipeline_kernels(pipeline: Pipeline) -> Vec<&'static str> {
+    let mut scene = Scene::cornell_box();
+    scene.render.voxel_lobes = true;
+    scene.render.bounces = 2;
+    if let Some(m) = scene.materials.first_mut() {
+        m.specular = [0.2; 3];
+        m.shininess = 32.0;
+    }
+    let cones = crate::kernels::cone_trace::ConeSettings::from(&scene.render);
+    let mut kernels: Vec<&'static str> = pipeline
+        .plan(&scene, &cones, false)
+        .passes
+        .iter()
+        .map(|p| p.kernel)
+        .collect();
+    match pipeline {
+        Pipeline::Cprc => {}
+        Pipeline::VctSvo => kernels.extend(["screen_tiles", "svo_photons"]),
+        _ => kernels.push("screen_tiles"),
+    }
+    let mut seen = std::collections::BTreeSet::new();
+    kernels.retain(|k| crate::kernels::find(k).is_ok() && seen.insert(*k));
+    kernels
+}

@@ -39,6 +39,9 @@ enum Command {
     },
     /// List the declared kernels with their WGSL files and mirrors.
     List,
+    /// What each kernel needs of a device (from naga reflection: storage buffers per stage, bind
+    /// groups, workgroup size) and which pipelines run within WebGPU's default limits.
+    Limits,
     /// Write a kernel as one self-contained WGSL file for another renderer: its kernels/common/
     /// includes composed in, under a header naming its mirror, entry point, workgroup size and every
     /// binding (group, slot, access, type, byte layout) from naga reflection. Validated first.
@@ -702,6 +705,7 @@ fn real_main() -> Result<()> {
             }
             Ok(())
         }
+        Command::Limits => run_limits(),
         Command::Export { kernel, out } => run_export(&kernel, out.as_deref()),
         Command::Verify {
             kernel,
@@ -890,6 +894,64 @@ fn run_scene(path: Option<std::path::PathBuf>) -> Result<()> {
             }
         }
         Err(e) => eprintln!("device limits not checked (no GPU adapter: {e})"),
+    }
+    Ok(())
+}
+
+fn run_limits() -> Result<()> {
+    use vxgi::limits::{exceeded, kernel_needs, pipeline_kernels};
+    let webgpu = wgpu::Limits::default();
+    println!("| kernel | storage buffers | uniforms | textures (sampled, storage) | bind groups | workgroup | within WebGPU's defaults |");
+    println!("|---|---|---|---|---|---|---|");
+    let mut needs = std::collections::BTreeMap::new();
+    for k in vxgi::kernels::all() {
+        let n = kernel_needs(k.decl()).map_err(anyhow::Error::msg)?;
+        let over = exceeded(&n, &webgpu);
+        println!(
+            "| {} | {} | {} | {}, {} | {} | {}x{}x{} | {} |",
+            n.kernel,
+            n.storage_buffers,
+            n.uniform_buffers,
+            n.sampled_textures,
+            n.storage_textures,
+            n.bind_groups,
+            n.workgroup_size[0],
+            n.workgroup_size[1],
+            n.workgroup_size[2],
+            if over.is_empty() {
+                "yes".to_string()
+            } else {
+                over.join("; ")
+            }
+        );
+        needs.insert(n.kernel, over);
+    }
+    println!();
+    for p in [
+        Pipeline::VctDense,
+        Pipeline::VctSvo,
+        Pipeline::Lrsm,
+        Pipeline::Cprc,
+    ] {
+        let kernels = pipeline_kernels(p);
+        let over: Vec<&str> = kernels
+            .iter()
+            .copied()
+            .filter(|k| needs.get(k).is_some_and(|o| !o.is_empty()))
+            .collect();
+        println!(
+            "{}: {} ({})",
+            p.name(),
+            if over.is_empty() {
+                "runs within WebGPU's default limits".to_string()
+            } else {
+                format!(
+                    "needs more than WebGPU's default limits in {}",
+                    over.join(", ")
+                )
+            },
+            kernels.join(", ")
+        );
     }
     Ok(())
 }

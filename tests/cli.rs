@@ -271,3 +271,18 @@ fn render_frames_writes_the_counters_per_frame() {
     }
     assert!(rows[0][4] > 0.0, "frame 0 compiles the pipelines: {csv}");
 }
+
+/// `vxgi limits`: every kernel's needs from reflection, and a line per pipeline against WebGPU's
+/// default limits (eight storage buffers per stage: the ray-traced kernels bind more).
+#[test]
+fn limits_lists_every_kernel_and_pipeline() {
+    let (code, out, err) = vxgi(&["limits"]);
+    assert_eq!(code, 0, "{err}");
+    for k in vxgi::kernels::all() {
+        assert!(out.contains(&format!("| {} |", k.decl().name)), "{out}");
+    }
+    for p in ["vct-dense:", "vct-svo:", "lrsm:", "cprc:"] {
+        assert!(out.contains(p), "{out}");
+    }
+    assert!(out.contains("| gbuffer | 11 |"), "{out}");
+}
