@@ -525,6 +525,14 @@ impl FramePlan {
         self
     }
 
+    /// This plan with `note` added to why `stage` runs or is skipped.
+    pub fn with_note(mut self, stage: &str, note: &str) -> Self {
+        for p in self.passes.iter_mut().filter(|p| p.stage == stage) {
+            p.why = format!("{}; {note}", p.why);
+        }
+        self
+    }
+
     /// The stages the plan skips, in order.
     pub fn skipped(&self) -> Vec<&'static str> {
         let mut s: Vec<&'static str> = self

@@ -31,6 +31,36 @@ struct Key {
 }
 
 impl Key {
+    /// What differs from `self` in `next`, in words.
+    fn change_to(&self, next: &Key) -> String {
+        let mut what = Vec::new();
+        if self.size != next.size {
+            what.push(format!(
+                "the image size changed ({}x{} -> {}x{})",
+                self.size.0, self.size.1, next.size.0, next.size.1
+            ));
+        }
+        if self.render.voxels != next.render.voxels {
+            what.push(format!(
+                "voxels changed ({} -> {})",
+                self.render.voxels, next.render.voxels
+            ));
+        }
+        if self.lights != next.lights {
+            what.push(format!(
+                "the number of lights changed ({} -> {})",
+                self.lights, next.lights
+            ));
+        }
+        if self.volume != next.volume && self.render.voxels == next.render.voxels {
+            what.push("the geometry, materials or the mip levels the cones read changed".into());
+        }
+        if what.is_empty() {
+            what.push("the render or cone settings changed".into());
+        }
+        what.join("; ")
+    }
+
     fn of(scene: &Scene, cones: &ConeSettings) -> Self {
         Self {
             volume: PyramidKey::reading(scene, cones).unlit(),
@@ -76,11 +106,17 @@ pub struct FrameBuffers {
 pub struct ResidentDense<'c> {
     ctx: &'c GpuContext,
     built: Option<Built<'c>>,
+    /// Why the last frame rebuilt the chain that an earlier frame had built, for its plan.
+    rebuilt: Option<String>,
 }
 
 impl<'c> ResidentDense<'c> {
     pub fn new(ctx: &'c GpuContext) -> Self {
-        Self { ctx, built: None }
+        Self {
+            ctx,
+            built: None,
+            rebuilt: None,
+        }
     }
 
     /// Whether `scene` is one this renderer draws: no instances (their hierarchies are
@@ -141,6 +177,11 @@ impl<'c> ResidentDense<'c> {
     ) -> Result<(bool, bool, std::ops::Range<usize>)> {
         let key = Key::of(scene, cones);
         let reuse = self.built.as_ref().is_some_and(|b| b.key == key);
+        self.rebuilt = self
+            .built
+            .as_ref()
+            .filter(|_| !reuse)
+            .map(|b| b.key.change_to(&key));
         if !reuse {
             self.built = None;
             self.built = Some(self.build(scene, cones, key)?);
@@ -215,6 +256,12 @@ impl<'c> ResidentDense<'c> {
         if relit {
             // The voxel grid is kept; its light and mips are redone.
             plan = plan.with_voxels_kept();
+        }
+        if let Some(why) = &self.rebuilt {
+            plan = plan.with_note(
+                "voxelize",
+                &format!("every GPU resource of the frame made again: {why}"),
+            );
         }
         Ok(Rendered::assemble(
             image_of(w, h, bytes("radiance")),

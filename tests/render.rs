@@ -1214,3 +1214,38 @@ fn resident_vct_dense_encodes_into_the_callers_encoder() {
     let mut encoder = ctx.device.create_command_encoder(&Default::default());
     assert!(ours.encode(&bright, &cones, &mut encoder).is_err());
 }
+
+/// Changing the voxels or the image size between two resident frames rebuilds the chain (its
+/// resources are created again), and the frame's plan says what changed.
+#[test]
+fn resident_vct_dense_rebuilds_when_voxels_or_size_change_and_says_why() {
+    use vxgi::kernels::cone_trace::ConeSettings;
+    use vxgi::resident::ResidentDense;
+    let mut scene = small(Scene::cornell_box(), 24, 24);
+    scene.render.voxels = 16;
+    let cones = ConeSettings::from(&scene.render);
+    let mut resident = ResidentDense::new(gpu());
+    resident.render(&scene, &cones).unwrap();
+    for (change, want) in [
+        (
+            Box::new(|s: &mut Scene| s.render.voxels = 32) as Box<dyn Fn(&mut Scene)>,
+            "voxels changed (16 -> 32)",
+        ),
+        (
+            Box::new(|s: &mut Scene| s.camera.width = 32),
+            "the image size changed (24x24 -> 32x24)",
+        ),
+    ] {
+        let mut next = scene.clone();
+        change(&mut next);
+        let before = vxgi::harness::thread_counters();
+        let r = resident.render(&next, &cones).unwrap();
+        let c = vxgi::harness::thread_counters().since(&before);
+        assert!(c.buffers_created > 0, "{c:?}");
+        assert!(r.plan.to_string().contains(want), "{}", r.plan);
+        // Back to the first settings: rebuilt again, and the images are the first frame's.
+        let back = resident.render(&scene, &cones).unwrap();
+        let first = vxgi::render::render(gpu(), &scene, &cones, |_| {}).unwrap();
+        assert!(back.indirect == first.indirect);
+    }
+}
