@@ -1089,15 +1089,20 @@ fn sponza_renders_with_every_pipeline() {
 
 /// vct-dense's GPU-resident frames (`vxgi::resident::ResidentDense`) over a camera orbit: the same
 /// images as `VctDense`'s bit for bit (the same kernels on the same inputs), with interleaved cone
-/// sets and the depth-ordered blend too; and every frame after the first is one submission that creates nothing, reads nothing
+/// sets and the depth-ordered blend too, on the Cornell box and thin_wall; and every frame after the first is one submission that creates nothing, reads nothing
 /// back besides its images, uploads only the camera and did GPU work.
 #[test]
 fn resident_vct_dense_frames_equal_the_staged_ones_in_one_submission() {
     use vxgi::kernels::cone_trace::ConeSettings;
     use vxgi::render::VctDense;
     use vxgi::resident::ResidentDense;
-    for (interleave, ordered) in [(1, false), (2, false), (1, true)] {
-        let mut scene = small(Scene::cornell_box(), 48, 40);
+    for (base, interleave, ordered) in [
+        (Scene::cornell_box(), 1, false),
+        (Scene::cornell_box(), 2, false),
+        (Scene::cornell_box(), 1, true),
+        (Scene::thin_wall(), 1, false),
+    ] {
+        let mut scene = small(base, 48, 40);
         scene.render.voxels = 32;
         scene.render.cone_interleave = interleave;
         scene.render.depth_ordered_blend = ordered;
