@@ -36,7 +36,11 @@ fn main() {
                 .map(|p| p.replace("\\\\", "/"))
                 .find(|p| {
                     p.ends_with("/Cargo.toml")
-                        && p.rsplit('/').nth(1).is_some_and(|d| d.starts_with("bvh-"))
+                        // The registry's folder `bvh-<version>`, not another crate named `bvh-...`.
+                        && p.rsplit('/').nth(1).is_some_and(|d| {
+                            d.strip_prefix("bvh-")
+                                .is_some_and(|v| v.starts_with(|c: char| c.is_ascii_digit()))
+                        })
                 })
                 .map(|p| p.trim_end_matches("/Cargo.toml").to_string())
         }

@@ -575,7 +575,9 @@ pub fn light_views(scene: &Scene) -> usize {
         .lights
         .iter()
         .map(|l| match l {
-            Light::Spot { cone_deg, .. } if *cone_deg <= 60.0 => 1,
+            // The light views' own rule (lrsm::light_views): one view where the cone's cosine, in
+            // f32 as the GPU light holds it, is at least 0.5.
+            Light::Spot { cone_deg, .. } if cone_deg.to_radians().cos() >= 0.5 => 1,
             Light::Directional { .. } => 1,
             _ => 6,
         })

@@ -241,7 +241,13 @@ pub fn render_reference(
         let f = 2f64.powi(k);
         for img in [&mut out.direct, &mut out.indirect] {
             for p in img.iter_mut() {
-                *p = p.map(|c| (c as f64 * f).min(f32::MAX as f64) as f32);
+                *p = p.map(|c| {
+                    if c.is_nan() {
+                        c
+                    } else {
+                        (c as f64 * f).min(f32::MAX as f64) as f32
+                    }
+                });
             }
         }
         return out;

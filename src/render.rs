@@ -233,7 +233,14 @@ impl Rendered {
         let f = 2f64.powi(k);
         let scale = |mut img: RgbImage| {
             for p in &mut img.pixels {
-                *p = p.map(|c| (c as f64 * f).min(f32::MAX as f64) as f32);
+                // Saturating at f32::MAX; a NaN stays NaN (f64::min would turn it into MAX).
+                *p = p.map(|c| {
+                    if c.is_nan() {
+                        c
+                    } else {
+                        (c as f64 * f).min(f32::MAX as f64) as f32
+                    }
+                });
             }
             img
         };
@@ -1505,9 +1512,15 @@ impl VctSvo {
                     normals: normals.as_deref(),
                     spec: spec.as_deref(),
                 };
-                let ind =
-                    svo_cone_trace::bounce_on_gpu(ctx, &built.octree, extras, &params, &voxels)
-                        .context("second bounce")?;
+                let ind = svo_cone_trace::bounce_on_gpu(
+                    ctx,
+                    &built.octree,
+                    extras,
+                    scale,
+                    &params,
+                    &voxels,
+                )
+                .context("second bounce")?;
                 frags.extend(svo_cone_trace::bounce_fragments(
                     &voxels, &ind, &rad, scale,
                 )?);

@@ -139,7 +139,9 @@ impl<'c> ResidentDense<'c> {
 
     /// Record the frame for `scene` into the caller's `encoder`; the caller submits it. The images
     /// stay on the GPU in the returned buffers. The camera's pixels as they are: `supersample` and
-    /// the exposure of very bright lights are [`ResidentDense::render`]'s, refused here.
+    /// the exposure of very bright lights are [`ResidentDense::render`]'s, refused here. Submit the
+    /// encoder before the next `encode`: the frame's camera and lights are written with
+    /// `queue.write_buffer`, which takes effect at the next submission.
     pub fn encode(
         &mut self,
         scene: &Scene,
@@ -157,7 +159,11 @@ impl<'c> ResidentDense<'c> {
         );
         crate::limits::check(scene, crate::render::Pipeline::VctDense, &self.ctx.limits())
             .map_err(anyhow::Error::msg)?;
-        self.record(scene, cones, encoder)?;
+        if let Err(e) = self.record(scene, cones, encoder) {
+            // Nothing half-recorded is reused: the next frame builds the chain again.
+            self.built = None;
+            return Err(e);
+        }
         let p = &self.built.as_ref().expect("recorded").prepared;
         let buffer = |n: &str| p.buffer(n).cloned().expect("the chain's output");
         Ok(FrameBuffers {
@@ -226,6 +232,15 @@ impl<'c> ResidentDense<'c> {
     }
 
     fn render_samples(&mut self, scene: &Scene, cones: &ConeSettings) -> Result<Rendered> {
+        let frame = self.frame(scene, cones);
+        if frame.is_err() {
+            // A frame that failed part way leaves nothing the next one would trust: rebuild.
+            self.built = None;
+        }
+        frame
+    }
+
+    fn frame(&mut self, scene: &Scene, cones: &ConeSettings) -> Result<Rendered> {
         let mut encoder = self
             .ctx
             .device

@@ -341,14 +341,19 @@ impl RenderSettings {
             // The two keys bound each other: name both, and say which one holds its default.
             let default = Self::default();
             let mark = |set: bool| if set { "" } else { " (the default)" };
-            let most_splits = (1.0 / self.lrsm_overlap).floor() as i64 - 1;
+            // The most depth splits this overlap allows, by the check's own f32 comparison.
+            let most_splits = (0..=63i64)
+                .rev()
+                .find(|&a| self.lrsm_overlap <= 1.0 / (a as f32 + 1.0))
+                .unwrap_or(-1);
             return Err(format!(
-                "lrsm_overlap = {}{} must be in [0, {slice}]: at most one depth layer, which lrsm_depth_splits = {}{} makes 1/{} wide; lower lrsm_overlap{}",
+                "lrsm_overlap = {}{} must be in [0, {slice}]: at most one depth layer, which lrsm_depth_splits = {}{} makes 1/{} wide; {} lrsm_overlap{}",
                 self.lrsm_overlap,
                 mark(self.lrsm_overlap != default.lrsm_overlap),
                 self.lrsm_depth_splits,
                 mark(self.lrsm_depth_splits != default.lrsm_depth_splits),
                 self.lrsm_depth_splits + 1,
+                if self.lrsm_overlap < 0.0 { "raise" } else { "lower" },
                 if self.lrsm_overlap > 0.0 && most_splits >= 0 {
                     format!(" or lrsm_depth_splits to at most {most_splits}")
                 } else {
@@ -845,7 +850,7 @@ impl Scene {
                 loaded,
                 text: obj.to_string(),
                 dir: PathBuf::from("."),
-                mtl: Some((format!("built-in {name}.mtl"), mtl.to_string())),
+                mtl: vec![(format!("built-in {name}.mtl"), mtl.to_string())],
             }),
             Vec::new(),
         )
@@ -915,7 +920,7 @@ impl Scene {
                 loaded,
                 text,
                 dir: obj_dir,
-                mtl: mtls.into_iter().next(),
+                mtl: mtls,
             })
         };
         let base = file.mesh.as_ref().map(|m| read_obj(&m.obj)).transpose()?;
@@ -1016,8 +1021,46 @@ impl Scene {
             list,
             frame: 0,
         };
-        // Placed geometry must stay in range at every frame: at frame 0 and at each keyframe (between
-        // keyframes the parts are interpolated linearly, so the extremes are at the keyframes).
+        // Between two keyframes the scale, rotation and translation are interpolated apart, so a
+        // vertex is bounded by its distance from the origin times the larger scale plus the larger
+        // translation of the two (rotation keeps lengths); a scale changing sign is singular in between.
+        for (index, inst) in instances.list.iter().enumerate() {
+            let err = |message: String| SceneError::Instance {
+                path: obj_label.into(),
+                index,
+                message,
+            };
+            let radius = inst
+                .local
+                .positions
+                .iter()
+                .fold(0.0f64, |m, p| m.max(p.as_dvec3().length()));
+            for w in inst.keyframes.windows(2) {
+                let parts =
+                    |k: &Keyframe| match Transform::parts(k.translate, k.rotate_deg, k.scale) {
+                        Transform::Parts {
+                            translate, scale, ..
+                        } => (translate.as_dvec3(), scale.as_dvec3()),
+                        Transform::Matrix(_) => unreachable!("keyframes are parts"),
+                    };
+                let ((t0, s0), (t1, s1)) = (parts(&w[0]), parts(&w[1]));
+                if (0..3).any(|a| s0[a] * s1[a] < 0.0) {
+                    return Err(err(format!(
+                        "keyframes {} and {}: a scale changes sign between them (the transform is singular in between)",
+                        w[0].frame, w[1].frame
+                    )));
+                }
+                let bound =
+                    radius * s0.abs().max(s1.abs()).max_element() + t0.abs().max(t1.abs()).length();
+                if bound > MAX_COORDINATE as f64 {
+                    return Err(err(format!(
+                        "transform: between keyframes {} and {} its vertices may reach {bound:e}, past the renderable range (coordinates within +-{MAX_COORDINATE:e} scene units: products of larger ones overflow f32)",
+                        w[0].frame, w[1].frame
+                    )));
+                }
+            }
+        }
+        // Placed geometry must stay in range at frame 0 and at each keyframe.
         for (index, inst) in instances.list.iter().enumerate() {
             let frames = std::iter::once(0).chain(inst.keyframes.iter().map(|k| k.frame));
             for frame in frames {
@@ -1118,8 +1161,8 @@ struct ObjSource {
     loaded: tobj::LoadResult,
     text: String,
     dir: PathBuf,
-    /// The .mtl its `mtllib` names (label, text), for the lines of material errors.
-    mtl: Option<(String, String)>,
+    /// The .mtl files its `mtllib` lines name (label, text), for the lines of material errors.
+    mtl: Vec<(String, String)>,
 }
 
 /// An OBJ's mesh (triangulated, checked, flat normals where it has none) and its materials (the .mtl's,
@@ -1189,7 +1232,7 @@ fn obj_mesh(
             }
         };
         for m in &materials {
-            check_material(m, src.mtl.as_ref(), obj_label)?;
+            check_material(m, &src.mtl, obj_label)?;
         }
         let grey = materials.len() as u32;
         materials.push(Material::grey());
@@ -1263,10 +1306,6 @@ fn obj_mesh(
                 .map(|(i, _)| i + 1)
                 .unwrap_or(0)
         };
-        let fallback = mesh.material.iter().filter(|&&m| m == grey).count();
-        if fallback > 0 {
-            warnings.push(format!("{obj_label}: {fallback} triangles have no material (no .mtl or no usemtl): grey diffuse 0.8"));
-        }
         for (i, p) in mesh.positions.iter().enumerate() {
             if !p.is_finite() {
                 return Err(SceneError::NonFiniteVertex {
@@ -1323,9 +1362,37 @@ fn obj_mesh(
             mesh.triangles.retain(|_| *k.next().unwrap());
             let mut k = keep.iter();
             mesh.material.retain(|_| *k.next().unwrap());
+            // Vertices only the dropped triangles used go too: they would still count in the
+            // scene's bounds (the voxel grid's extent, the ray epsilon).
+            let mut used = vec![false; mesh.positions.len()];
+            for &v in mesh.triangles.iter().flatten() {
+                used[v as usize] = true;
+            }
+            let mut remap = vec![u32::MAX; mesh.positions.len()];
+            let mut next = 0u32;
+            for (i, u) in used.iter().enumerate() {
+                if *u {
+                    remap[i] = next;
+                    next += 1;
+                }
+            }
+            fn keep_used<T>(v: &mut Vec<T>, used: &[bool]) {
+                let mut u = used.iter();
+                v.retain(|_| *u.next().unwrap());
+            }
+            keep_used(&mut mesh.positions, &used);
+            keep_used(&mut mesh.normals, &used);
+            keep_used(&mut mesh.uvs, &used);
+            for t in &mut mesh.triangles {
+                *t = t.map(|v| remap[v as usize]);
+            }
             warnings.push(format!(
                 "{obj_label}: {dropped} of {before} triangles have zero area ({repeated} with a repeated vertex) and are dropped (the first at vertex lines {dropped_lines:?})"
             ));
+        }
+        let fallback = mesh.material.iter().filter(|&&m| m == grey).count();
+        if fallback > 0 {
+            warnings.push(format!("{obj_label}: {fallback} triangles have no material (no .mtl or no usemtl): grey diffuse 0.8"));
         }
         if mesh.triangles.is_empty() {
             return Err(SceneError::EmptyMesh {
@@ -1420,12 +1487,21 @@ fn key_line(text: &str, table: &str, index: usize, key: &str) -> Option<usize> {
             continue;
         }
         let in_table = current == table && seen == index + 1;
+        if !in_table || t.starts_with('#') {
+            continue;
+        }
         let k = t.split('=').next().unwrap_or("").trim();
-        if in_table && t.contains('=') && (k == key || k.starts_with(&format!("{key}."))) {
+        if t.contains('=') && (k == key || k.starts_with(&format!("{key}."))) {
             return Some(i + 1);
         }
-        // An inline table (`transform = { scale = 1e30 }`) names its keys on one line.
-        if in_table && t.contains(&format!("{key} =")) {
+        // An inline table (`transform = { scale = 1e30 }`) names its keys on one line: a key after
+        // `{` or `,`.
+        let code = t.split('#').next().unwrap_or("");
+        if code
+            .split(['{', ','])
+            .skip(1)
+            .any(|piece| piece.split('=').next().map(str::trim) == Some(key) && piece.contains('='))
+        {
             return Some(i + 1);
         }
     }
@@ -1549,7 +1625,7 @@ fn check_mtl_syntax(label: &str, text: &str) -> Result<(), SceneError> {
 /// light), Ns finite and >= 0 (the Phong exponent). The error names the .mtl line of the value.
 fn check_material(
     m: &Material,
-    mtl: Option<&(String, String)>,
+    mtls: &[(String, String)],
     obj_label: &str,
 ) -> Result<(), SceneError> {
     let bad3 = |v: [f32; 3]| !v.iter().all(|x| (0.0..=1.0).contains(x));
@@ -1571,7 +1647,12 @@ fn check_material(
     let Some((key, message)) = problem else {
         return Ok(());
     };
-    let (path, line) = match mtl {
+    // The .mtl that defines the material (an OBJ may name several).
+    let defines = |text: &str| {
+        text.lines()
+            .any(|l| l.trim().strip_prefix("newmtl").map(str::trim) == Some(&m.name))
+    };
+    let (path, line) = match mtls.iter().find(|(_, t)| defines(t)).or(mtls.first()) {
         Some((label, text)) => {
             let mut line = 0;
             let mut inside = false;

@@ -1254,3 +1254,19 @@ fn resident_vct_dense_rebuilds_when_voxels_or_size_change_and_says_why() {
         assert!(back.indirect == first.indirect);
     }
 }
+
+/// Scaling a frame back from its exposure saturates at f32::MAX but keeps a NaN a NaN (so the
+/// non-finite checks downstream still see it).
+#[test]
+fn exposure_scaling_saturates_and_keeps_nan() {
+    use vxgi::kernels::cone_trace::ConeSettings;
+    let scene = Scene::cornell_box();
+    let img = |v: f32| RgbImage::new(2, 1, vec![[v, 1.0, 0.5], [0.25; 3]]);
+    let plan = vxgi::plan::FramePlan::vct_dense(&scene, &ConeSettings::from(&scene.render));
+    let r = vxgi::render::Rendered::assemble(img(f32::NAN), img(3e38), img(0.5), vec![], plan)
+        .radiance_scaled(100);
+    assert!(r.direct.pixels[0][0].is_nan());
+    assert_eq!(r.indirect.pixels[0][0], f32::MAX);
+    assert_eq!(r.direct.pixels[1][0], 0.25 * 2f32.powi(100));
+    assert_eq!(r.ao.pixels[0][0], 0.5, "AO is unitless: not scaled");
+}

@@ -166,6 +166,14 @@ fn zero_area_triangles_are_dropped_with_one_warning() {
         "{}",
         w[0]
     );
+    // A dropped triangle's own vertices go with it: they do not stretch the scene's bounds.
+    let far = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 100 100 100\nv 101 100 100\nv 102 100 100\nf 1 2 3\nf 4 5 6\n";
+    let s = Scene::load(write("far-degenerate", far, &scene_toml("mesh.obj", ""))).unwrap();
+    assert!(
+        s.mesh.positions.iter().all(|p| p.max_element() <= 1.0),
+        "{:?}",
+        s.mesh.positions
+    );
     let e = Scene::load(write(
         "all-degenerate",
         "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n",
@@ -524,12 +532,16 @@ fn out_of_range_values_name_their_line_and_key() {
     let e = Scene::load(write(
         "vox-line",
         TRI_OBJ,
-        &scene_toml("mesh.obj", "[render]\nvoxels = 100\n"),
+        &scene_toml(
+            "mesh.obj",
+            "[render]\n# voxels = 64 was the old value\nanisotropic_voxels = true\nvoxels = 100\n",
+        ),
     ))
     .unwrap_err();
+    // Neither the comment nor `anisotropic_voxels` is the key: line 14 is.
     assert!(
         e.to_string()
-            .contains("scene.toml:12: [render] voxels = 100"),
+            .contains("scene.toml:14: [render] voxels = 100"),
         "{e}"
     );
     // Camera far past the range: named, with its line (eye is line 6).
@@ -593,7 +605,16 @@ fn instances_past_the_range_are_errors() {
         ("transform = { scale = 1e30 }", "at frame 0"),
         (
             "dynamic = true\nkeyframes = [{ frame = 0 }, { frame = 2, scale = 3e19 }]",
-            "at frame 2",
+            "keyframes 0 and 2",
+        ),
+        // In range at both keyframes, past it in between (scale and translation interpolate apart).
+        (
+            "dynamic = true\nkeyframes = [{ frame = 0, scale = 5e8 }, { frame = 2, translate = [6e8, 0.0, 0.0] }]",
+            "keyframes 0 and 2",
+        ),
+        (
+            "dynamic = true\nkeyframes = [{ frame = 0, scale = [-1.0, 1.0, 1.0] }, { frame = 2 }]",
+            "changes sign",
         ),
     ] {
         let p = d.join("s.toml");
@@ -606,7 +627,7 @@ fn instances_past_the_range_are_errors() {
         .unwrap();
         let e = Scene::load(&p).unwrap_err().to_string();
         assert!(
-            e.contains("instance 0") && e.contains(want) && e.contains("renderable range"),
+            e.contains("instance 0") && e.contains(want),
             "{body}: {e}"
         );
         assert!(e.contains("s.toml:6:") || e.contains("s.toml:7:"), "{e}");

@@ -1101,7 +1101,7 @@ impl Prepared<'_> {
 
 /// Buffers of a [`Prepared`] read back every frame into staging buffers created once
 /// ([`Prepared::readback_set`]): recorded into the frame's encoder ([`Prepared::encode_read`]), mapped
-/// after its one submission ([`ReadbackSet::finish`]).
+/// after its one submission ([`Prepared::finish_read`]).
 pub struct ReadbackSet {
     staged: Vec<(String, wgpu::Buffer, ScalarKind)>,
     /// Timestamp ticks of the recorded passes (two per pass), where the adapter has timestamps.
@@ -1275,13 +1275,19 @@ impl Prepared<'_> {
         }
     }
 
-    /// Submit `encoder` (one counted submission) and wait for it.
+    /// Submit `encoder` (one counted submission) and wait for it. Without timestamp queries the
+    /// wall clock around submit and wait is the counters' GPU time.
     pub fn submit(&self, encoder: wgpu::CommandEncoder) -> Result<()> {
         let ctx = self.ctx;
         scoped(ctx, &self.kernel, || {
             count!(ctx, submissions, 1);
+            let start = Instant::now();
             ctx.queue.submit([encoder.finish()]);
-            wait(ctx, &self.kernel)
+            let r = wait(ctx, &self.kernel);
+            if self.queries.is_none() {
+                count!(ctx, gpu_ns, start.elapsed().as_nanos() as u64);
+            }
+            r
         })
     }
 
@@ -1298,30 +1304,30 @@ impl Prepared<'_> {
         if let Some(st) = &set.timestamps {
             st.slice(..).map_async(wgpu::MapMode::Read, |_| {});
         }
-        wait(ctx, kernel)?;
+        let waited = wait(ctx, kernel);
         let map_err = |name: &str, e: wgpu::MapRangeError| HarnessError::Gpu {
             kernel: kernel.clone(),
             message: format!("mapping `{name}` for readback: {e}"),
         };
-        let mut out = Resources::new();
-        for (name, st, scalar) in &set.staged {
-            let bytes = st
-                .slice(..)
-                .get_mapped_range()
-                .map_err(|e| map_err(name, e))?
-                .to_vec();
-            st.unmap();
-            out.insert(
-                name.clone(),
-                HostResource::Buffer(HostBuffer {
-                    bytes,
-                    scalar: *scalar,
-                }),
-            );
-        }
-        let mut per = Vec::new();
-        if let Some(st) = &set.timestamps {
-            {
+        let read = || -> Result<(Resources, Vec<f64>)> {
+            waited?;
+            let mut out = Resources::new();
+            for (name, st, scalar) in &set.staged {
+                let bytes = st
+                    .slice(..)
+                    .get_mapped_range()
+                    .map_err(|e| map_err(name, e))?
+                    .to_vec();
+                out.insert(
+                    name.clone(),
+                    HostResource::Buffer(HostBuffer {
+                        bytes,
+                        scalar: *scalar,
+                    }),
+                );
+            }
+            let mut per = Vec::new();
+            if let Some(st) = &set.timestamps {
                 let view = st
                     .slice(..)
                     .get_mapped_range()
@@ -1332,8 +1338,20 @@ impl Prepared<'_> {
                     .map(|p| ticks[2 * p + 1].saturating_sub(ticks[2 * p]) as f64 * period)
                     .collect();
             }
+            Ok((out, per))
+        };
+        let result = read();
+        // Unmapped on every path (every buffer is mapped or pending here: unmap ends either), since
+        // the next frame copies into them again.
+        for st in set
+            .staged
+            .iter()
+            .map(|(_, st, _)| st)
+            .chain(set.timestamps.as_ref())
+        {
             st.unmap();
         }
+        let (out, per) = result?;
         count!(ctx, gpu_ns, per.iter().sum::<f64>() as u64);
         Ok((out, per))
     }

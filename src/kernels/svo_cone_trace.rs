@@ -51,31 +51,36 @@ pub const SCALE: f32 = 65536.0;
 /// The fixed-point scale of a frame's octree: [`SCALE`], or the largest power of two below it with
 /// which no sum of the build can pass u32::MAX, given `values`: every value a fragment will store,
 /// with its leaf lattice point (radiance times coverage, coverage, photons' light and specular
-/// parts), and `bounces` (each bounce's fragments at most the first's: a voxel reflects at most
-/// albedo <= 1 times the cones' mean radiance, a weighted mean of values no larger than the first's).
+/// parts), and `bounces` (headroom of that factor for a second bounce's fragments, which these
+/// values bound only roughly: a voxel's bounce is its albedo times the cones' radiance).
 ///
 /// The bound, in the build's terms (the mirror's module doc): a point's value after splat and border
-/// transfer is the sum of the fragments at that point, at most `peak` (the largest such sum over
-/// points and channels) times the scale; a parent point's share before its rounding is the [1 2 1]^3
-/// weighted sum of child points (weights 64 in all), so at most 64 (peak scale + 1), the +1 for each
-/// level's rounding up; after `(S + 32) >> 6` it is again at most a child's. So
-/// 64 (bounces peak scale + 1) <= u32::MAX suffices.
+/// transfer is the sum of the fragments at that point, each rounded to the fixed point, so at most
+/// `peak` (the largest such sum over points and channels) times the scale plus n / 2 for its n
+/// fragments; a parent point's share before its rounding is the [1 2 1]^3 weighted sum of child
+/// points (weights 64 in all), so at most 64 times a child's value plus 1 for the level's rounding
+/// up; after `(S + 32) >> 6` it is again at most a child's. So
+/// 64 (bounces (peak scale + n / 2) + 1) <= u32::MAX suffices for one bounce. For two, and where the
+/// scale would leave f32's normal range, the build's own overflow check still reports an overflow.
 pub fn fixed_scale(values: impl Iterator<Item = ([u32; 3], [f32; 4])>, bounces: u32) -> f32 {
-    let mut sums: std::collections::HashMap<[u32; 3], [f64; 4]> = Default::default();
+    // Per lattice point: the channel sums and the number of fragments.
+    let mut sums: std::collections::HashMap<[u32; 3], ([f64; 4], f64)> = Default::default();
     for (p, v) in values {
-        let s = sums.entry(p).or_default();
+        let (s, n) = sums.entry(p).or_default();
         for c in 0..4 {
             s[c] += v[c].max(0.0) as f64;
         }
+        *n += 1.0;
     }
     let peak = sums
         .values()
-        .flat_map(|s| s.iter().copied())
-        .fold(0.0f64, f64::max)
-        * bounces.max(1) as f64;
-    let fits = |scale: f64| 64.0 * (peak * scale + 1.0) <= u32::MAX as f64;
+        .flat_map(|(s, _)| s.iter().copied())
+        .fold(0.0f64, f64::max);
+    let most = sums.values().map(|(_, n)| *n).fold(0.0f64, f64::max);
+    let b = bounces.max(1) as f64;
+    let fits = |scale: f64| 64.0 * (b * (peak * scale + most / 2.0) + 1.0) <= u32::MAX as f64;
     let mut scale = SCALE as f64;
-    while !fits(scale) && scale > f64::MIN_POSITIVE {
+    while !fits(scale) && scale > f32::MIN_POSITIVE as f64 {
         scale *= 0.5;
     }
     scale as f32
@@ -582,6 +587,7 @@ pub fn bounce_on_gpu(
     ctx: &GpuContext,
     octree: &Octree,
     extras: SvoExtras,
+    scale: f32,
     params: &ConeParams,
     voxels: &BounceVoxels,
 ) -> anyhow::Result<Vec<[f32; 4]>> {
@@ -593,7 +599,7 @@ pub fn bounce_on_gpu(
         &shader,
         octree,
         extras,
-        SCALE,
+        scale,
         params,
         voxels,
         ctx,
