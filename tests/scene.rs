@@ -366,7 +366,8 @@ fn matrix_transforms_and_mirrors() {
 
 /// Every way an instance can be wrong is an error naming the instance: a matrix with parts, a last row
 /// that is not 0 0 0 1, a singular transform, keyframes on a static instance, keyframes out of order,
-/// a missing OBJ, unknown keys; and a scene with neither a mesh nor instances.
+/// vertices past the renderable range, a missing OBJ, unknown keys; and a scene with neither a mesh
+/// nor instances.
 #[test]
 fn bad_instances_are_errors() {
     let d = dir("bad-instances");
@@ -378,6 +379,12 @@ fn bad_instances_are_errors() {
         ("transform = { scale = 0.0 }", "singular"),
         ("keyframes = [{ frame = 0 }]", "dynamic = true"),
         ("dynamic = true\nkeyframes = [{ frame = 3 }, { frame = 1 }]", "must increase"),
+        // Past the renderable range (the `bvh` crate panicked on it): as placed, at a keyframe, or in
+        // between two keyframes in range (scale and translation interpolate apart).
+        ("transform = { scale = 1e30 }", "at frame 0"),
+        ("dynamic = true\nkeyframes = [{ frame = 0 }, { frame = 2, scale = 3e19 }]", "keyframes 0 and 2"),
+        ("dynamic = true\nkeyframes = [{ frame = 0, scale = 5e8 }, { frame = 2, translate = [6e8, 0.0, 0.0] }]", "keyframes 0 and 2"),
+        ("dynamic = true\nkeyframes = [{ frame = 0, scale = [-1.0, 1.0, 1.0] }, { frame = 2 }]", "changes sign"),
         ("dynamic = true\nkeyframes = [{ frame = 0 }, { frame = 2, scale = 0.0 }]", "keyframe 2"),
         ("colour = 1", "unknown field"),
     ];
@@ -592,46 +599,6 @@ fn out_of_range_values_name_their_line_and_key() {
             && e.contains("at most 19"),
         "{e}"
     );
-}
-
-/// An instance scaled past the renderable range (the `bvh` crate panicked on it) is an error at load,
-/// at any of its keyframes too.
-#[test]
-fn instances_past_the_range_are_errors() {
-    let d = dir("huge-instances");
-    std::fs::write(d.join("mesh.obj"), TRI_OBJ).unwrap();
-    let cam = "[camera]\neye = [0.0, 0.5, 3.0]\ntarget = [0.0, 0.5, 0.0]\nup = [0.0, 1.0, 0.0]\nfov_y_deg = 40.0\nwidth = 32\nheight = 32\n";
-    for (body, want) in [
-        ("transform = { scale = 1e30 }", "at frame 0"),
-        (
-            "dynamic = true\nkeyframes = [{ frame = 0 }, { frame = 2, scale = 3e19 }]",
-            "keyframes 0 and 2",
-        ),
-        // In range at both keyframes, past it in between (scale and translation interpolate apart).
-        (
-            "dynamic = true\nkeyframes = [{ frame = 0, scale = 5e8 }, { frame = 2, translate = [6e8, 0.0, 0.0] }]",
-            "keyframes 0 and 2",
-        ),
-        (
-            "dynamic = true\nkeyframes = [{ frame = 0, scale = [-1.0, 1.0, 1.0] }, { frame = 2 }]",
-            "changes sign",
-        ),
-    ] {
-        let p = d.join("s.toml");
-        std::fs::write(
-            &p,
-            format!(
-                "[mesh]\nobj = \"mesh.obj\"\n\n[[instances]]\nobj = \"mesh.obj\"\n{body}\n\n{cam}"
-            ),
-        )
-        .unwrap();
-        let e = Scene::load(&p).unwrap_err().to_string();
-        assert!(
-            e.contains("instance 0") && e.contains(want),
-            "{body}: {e}"
-        );
-        assert!(e.contains("s.toml:6:") || e.contains("s.toml:7:"), "{e}");
-    }
 }
 
 /// Resource limits are checked from the settings, before anything is allocated: light views x layers
