@@ -89,12 +89,16 @@ pub fn check(scene: &Scene, pipeline: Pipeline, limits: &wgpu::Limits) -> Result
         Pipeline::Lrsm => {
             // Every view's LRSM (all layers, whole mip chain) is gathered from one binding per
             // stream (radiance, normal, depth moments: vec4<f32> each).
-            let side0 = (r.rsm_side / 2) as u64;
-            let texels: u64 = (0..=side0.trailing_zeros())
-                .map(|k| (side0 >> k).pow(2))
-                .sum();
-            let layers = (r.lrsm_depth_splits as u64 + 1) * (r.lrsm_normal_splits as u64 + 1);
-            let per_view = texels * layers * 16;
+            let config = crate::lrsm::PartitionConfig {
+                rsm_side: r.rsm_side,
+                depth_splits: r.lrsm_depth_splits,
+                normal_splits: r.lrsm_normal_splits,
+                overlap: r.lrsm_overlap,
+            };
+            // One stream of the three `lrsm_bytes` counts.
+            let per_view = crate::lrsm::lrsm_bytes(&config) / 3;
+            let layers = config.layers() as u64;
+            let texels = per_view / (layers * 16);
             let bytes = views * per_view;
             if bytes > binding.min(limits.max_buffer_size) {
                 let fit = binding.min(limits.max_buffer_size) / per_view;

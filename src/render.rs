@@ -659,16 +659,21 @@ impl DenseChain {
 
     /// The copies as [`crate::harness::Prepared::copy_into`] takes them.
     pub fn copy_list(&self) -> Vec<(&str, &str, u64)> {
-        self.copies
-            .iter()
-            .map(|(a, b, o)| (a.as_str(), b.as_str(), *o))
-            .collect()
+        copy_refs(&self.copies)
     }
 }
 
+/// `(src, dst, offset)` copies as the harness's copy functions take them.
+pub(crate) fn copy_refs(copies: &[(String, String, u64)]) -> Vec<(&str, &str, u64)> {
+    copies
+        .iter()
+        .map(|(a, b, o)| (a.as_str(), b.as_str(), *o))
+        .collect()
+}
+
 /// Build [`DenseChain`]: `cone_pass` as [`chained_pyramid`]'s; `gbuffer_in_chain`: the G-buffer and
-/// direct light are the chain's first stages (computed on the GPU, never read back) instead of
-/// inputs in `cone_pass`'s resources.
+/// direct light are stages of the chain, after the mips (computed on the GPU, never read back),
+/// instead of inputs in `cone_pass`'s resources.
 #[allow(clippy::type_complexity)]
 pub(crate) fn dense_chain(
     ctx: &crate::harness::GpuContext,

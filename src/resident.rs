@@ -127,14 +127,20 @@ impl<'c> ResidentDense<'c> {
 
     /// One frame (supersampling and bright lights as every pipeline's, see `render::supersampled`).
     pub fn render(&mut self, scene: &Scene, cones: &ConeSettings) -> Result<Rendered> {
+        self.check(scene)?;
+        crate::render::supersampled(scene, |s| Ok((self.render_samples(s, cones)?, ())))
+            .map(|(r, ())| r)
+    }
+
+    /// What every frame must pass before anything is recorded: a scene this renderer draws, within
+    /// the device's limits.
+    fn check(&self, scene: &Scene) -> Result<()> {
         anyhow::ensure!(
             Self::serves(scene),
             "the resident vct-dense renderer draws scenes without instances and with lights"
         );
         crate::limits::check(scene, crate::render::Pipeline::VctDense, &self.ctx.limits())
-            .map_err(anyhow::Error::msg)?;
-        crate::render::supersampled(scene, |s| Ok((self.render_samples(s, cones)?, ())))
-            .map(|(r, ())| r)
+            .map_err(anyhow::Error::msg)
     }
 
     /// Record the frame for `scene` into the caller's `encoder`; the caller submits it. The images
@@ -148,17 +154,12 @@ impl<'c> ResidentDense<'c> {
         cones: &ConeSettings,
         encoder: &mut wgpu::CommandEncoder,
     ) -> Result<FrameBuffers> {
-        anyhow::ensure!(
-            Self::serves(scene),
-            "the resident vct-dense renderer draws scenes without instances and with lights"
-        );
+        self.check(scene)?;
         anyhow::ensure!(
             scene.render.supersample == 1 && crate::render::exposure(scene) == 0,
             "encode draws the camera's pixels: supersample = 1 and light intensities up to {} (render() does the rest)",
             crate::render::EXPOSURE_LIMIT
         );
-        crate::limits::check(scene, crate::render::Pipeline::VctDense, &self.ctx.limits())
-            .map_err(anyhow::Error::msg)?;
         if let Err(e) = self.record(scene, cones, encoder) {
             // Nothing half-recorded is reused: the next frame builds the chain again.
             self.built = None;
@@ -197,11 +198,7 @@ impl<'c> ResidentDense<'c> {
         b.lights = scene.lights.clone();
         let b = &*b;
         let p = &b.prepared;
-        let copies: Vec<(&str, &str, u64)> = b
-            .copies
-            .iter()
-            .map(|(a, d, o)| (a.as_str(), d.as_str(), *o))
-            .collect();
+        let copies = crate::render::copy_refs(&b.copies);
         let timed = if reuse {
             // The camera (and where they moved, the lights): the inputs that differ from the last
             // frame.
