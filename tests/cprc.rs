@@ -43,7 +43,7 @@ fn cprc_against_the_converged_reference() {
     assert!(stats.uncovered * 200 < stats.pixels, "{stats:?}");
 }
 
-/// Issue 7's goal, mean FLIP of the combined image < 0.1 at 256x256 against the converged reference,
+/// The accuracy goal, mean FLIP of the combined image < 0.1 at 256x256 against the converged reference,
 /// met by cprc on vct-dense's voxels and cone march with finer caches
 /// (scenes/cornell_box_fine_caches.toml: 4-pixel tiles, 32^2 texels, a 4^2 irradiance map, gathering
 /// over 1.5 tiles, cone level bias -1.25, mip clamp 1.5, 2 x 2 samples per pixel). Measured on

@@ -1,5 +1,5 @@
 //! Mirror of `kernels/screen_tiles.wgsl`: the work list of 8x8 screen tiles that hold a surface, and
-//! the indirect dispatch arguments of a pass over them (issue 11: empty tiles are not dispatched).
+//! the indirect dispatch arguments of a pass over them (empty tiles are not dispatched).
 //!
 //! Tiles are row-major over the image (`tiles_x = ceil(width / 8)`); tile `t` covers pixels
 //! `(8 (t % tiles_x) + i, 8 (t / tiles_x) + j)`, `i, j < 8`, clipped to the image. A tile is listed when
