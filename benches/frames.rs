@@ -2,16 +2,16 @@
 //! `frames` frames 5 degrees apart with the renderer's reuse on (as `vxgi render --frames 6 --orbit 5`).
 //! Per pipeline and scene: the medians over the frames after the first of wall clock, GPU time
 //! (timestamp queries), wall / GPU, submissions, buffers and bind groups created, bytes uploaded and
-//! read back, from the context's counters (`vxgi::frames`); vct-dense both staged through the host
-//! (`VctDense`) and GPU-resident (`vxgi::resident::ResidentDense`), in the same run. The table goes
-//! to stdout as markdown; docs/frames.md holds a run.
+//! read back, from the context's counters (`vxgi::frames`); vct-dense and lrsm both GPU-resident
+//! (`vxgi::resident::Resident`) and staged through the host (`vxgi::render::Renderer`), in the same
+//! run. The table goes to stdout as markdown; docs/frames.md holds a run.
 //!
 //! `cargo bench --bench frames [-- FRAMES]` (default 6)
 use vxgi::frames::{counted, median, FrameRow};
 use vxgi::harness::GpuContext;
 use vxgi::kernels::cone_trace::ConeSettings;
 use vxgi::render::{Pipeline, Renderer};
-use vxgi::resident::ResidentDense;
+use vxgi::resident::Resident;
 use vxgi::scene::Scene;
 
 fn main() {
@@ -52,15 +52,17 @@ fn main() {
             );
         };
         let view = |k: u32| scene.orbited(5.0 * k as f32);
-        let mut resident = ResidentDense::new(&ctx);
-        let rows: Vec<FrameRow> = (0..frames)
-            .map(|k| {
-                counted(&ctx, k, || resident.render(&view(k), &cones))
-                    .expect("frame")
-                    .1
-            })
-            .collect();
-        print("vct-dense, GPU-resident", &rows);
+        for p in Resident::PIPELINES {
+            let mut resident = Resident::new(&ctx, p).expect("a resident pipeline");
+            let rows: Vec<FrameRow> = (0..frames)
+                .map(|k| {
+                    counted(&ctx, k, || resident.render(&view(k), &cones))
+                        .expect("frame")
+                        .1
+                })
+                .collect();
+            print(&format!("{}, GPU-resident", p.name()), &rows);
+        }
         for p in [
             Pipeline::VctDense,
             Pipeline::VctSvo,

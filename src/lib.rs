@@ -1,7 +1,8 @@
 //! vxgi: WGSL compute kernels for voxel-based global illumination, each verified against a scalar Rust
-//! mirror on generated inputs. See README.md for the layout and how to add a kernel.
+//! mirror on generated inputs. See ARCHITECTURE.md for the layout and README.md for how to add a kernel.
 pub mod bench;
 pub mod bisect;
+pub mod chains;
 pub mod coverage;
 pub mod cprc;
 pub mod frames;

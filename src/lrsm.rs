@@ -240,11 +240,17 @@ pub fn synthetic_rsm(side: u32, config: &PartitionConfig, seed: u64) -> Rsm {
 /// Bytes of the LRSM for `config`: three `vec4<f32>` streams per layer texel over the whole mip chain
 /// (the paper's Table 1 stores 16-bit channels: half of this).
 pub fn lrsm_bytes(config: &PartitionConfig) -> u64 {
+    lrsm_texels(config) * 3 * 16
+}
+
+/// Texels of one view's LRSM stream: every layer over the whole mip chain, level by level (level k
+/// holds every layer's `(rsm_side / 2 >> k)^2` texels). A view's streams start at its index times this.
+pub fn lrsm_texels(config: &PartitionConfig) -> u64 {
     let side0 = (config.rsm_side / 2) as u64;
     let texels: u64 = (0..=side0.trailing_zeros())
         .map(|k| (side0 >> k).pow(2))
         .sum();
-    texels * config.layers() as u64 * 3 * 16
+    texels * config.layers() as u64
 }
 
 /// One light view of the lrsm pipeline: the G-buffer frame its RSM is ray-cast with (gbuffer.wgsl) and

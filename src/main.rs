@@ -54,7 +54,7 @@ enum Command {
     },
     /// Load a scene file (default: the built-in Cornell box), check it and print what it holds.
     Scene {
-        /// A TOML scene file (see README, "Scenes").
+        /// A TOML scene file (see docs/scenes.md).
         path: Option<std::path::PathBuf>,
     },
     /// Render a scene on the GPU into --out: direct, indirect, combined, ao (.exr linear + .png sRGB).
@@ -268,7 +268,7 @@ struct RenderFlags {
     depth_ordered_blend: Option<bool>,
     /// vct-dense, vct-svo, lrsm: interleaved cone sets of side N, 1 (off), 2, 4 or 8: the N x N pixel
     /// classes trace disjoint subsets of cones x N^2 cones, averaged (tent weights) over each pixel's (2N - 1)^2 neighbours
-    /// on its own surface (narrow cones want it: see README "Accuracy") [default 1].
+    /// on its own surface (narrow cones want it: see docs/accuracy/vct-dense.md) [default 1].
     #[arg(long = "cone-interleave", alias = "cone_interleave")]
     cone_interleave: Option<u32>,
     /// vct-svo: light bounces in the voxels, 1 or 2 (the second gathered from every voxel through the
@@ -404,10 +404,12 @@ fn run_render(
     let ctx = GpuContext::new().context("creating the GPU context")?;
     eprintln!("adapter: {}", ctx.describe());
     let mut renderer = vxgi::render::Renderer::new(pipeline, true);
-    // vct-dense frames stay on the GPU where the resident renderer draws the scene.
-    let mut resident = (pipeline == Pipeline::VctDense
-        && vxgi::resident::ResidentDense::serves(&scene))
-    .then(|| vxgi::resident::ResidentDense::new(&ctx));
+    // Frames stay on the GPU where a resident renderer draws the scene (vct-dense, lrsm).
+    let mut resident = if vxgi::resident::Resident::serves(pipeline, &scene) {
+        Some(vxgi::resident::Resident::new(&ctx, pipeline)?)
+    } else {
+        None
+    };
     let mut rows = Vec::new();
     for k in 0..frames {
         let dir = if frames == 1 {
@@ -422,7 +424,10 @@ fn run_render(
         let ((r, memory), row) = vxgi::frames::counted(&ctx, k, || {
             let view = scene.at_frame(k).orbited(orbit * k as f32);
             match &mut resident {
-                Some(gpu_frames) => Ok((gpu_frames.render(&view, &cones)?, None)),
+                Some(gpu_frames) => {
+                    let frame = gpu_frames.render(&view, &cones)?;
+                    Ok((frame, gpu_frames.memory()))
+                }
                 None => renderer.render(&ctx, &view, &cones, message),
             }
         })?;

@@ -507,16 +507,17 @@ impl FramePlan {
         self
     }
 
-    /// This vct-dense plan (a first frame's) for a frame whose lights moved over an unchanged voxel
-    /// grid: voxelize is skipped (the grid is kept), voxel_light and the mips run again.
+    /// This plan (a first frame's, vct-dense or lrsm) for a frame whose lights moved over an unchanged
+    /// voxel grid: voxelize (and lrsm's occlusion voxels) skipped, the grid is kept; what the lights
+    /// feed runs again (vct-dense: voxel_light and the mips; lrsm: the light views' RSMs and LRSMs).
     pub fn with_voxels_kept(mut self) -> Self {
         for p in &mut self.passes {
             match p.stage {
-                "voxelize" => {
+                "voxelize" | "occlusion_voxels" => {
                     p.runs = false;
                     p.why = "skipped: the geometry and the grid are unchanged: the voxels of an earlier frame are kept".into();
                 }
-                "voxel_light" | "surface_coverage_mip" => {
+                "voxel_light" | "surface_coverage_mip" | "reflective_shadow_map" => {
                     p.why = format!("{}; again: the lights moved", p.why);
                 }
                 _ => {}

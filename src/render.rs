@@ -4,12 +4,11 @@
 use crate::images::RgbImage;
 use crate::kernels::cone_trace::{self, ConeSettings};
 use crate::kernels::lrsm_cone_trace::{self, LrsmFrame, LrsmMemory, LrsmSettings};
-use crate::kernels::{direct_light, gbuffer, screen_tiles, voxel_light, voxelize};
+use crate::kernels::{direct_light, gbuffer, voxel_light, voxelize};
 use crate::plan::FramePlan;
 use crate::scene::Scene;
 use crate::trace::SceneData;
 use anyhow::{Context, Result};
-use vxgi_cpu_mirror::surface_coverage_mip::Coverage;
 use wgpu::util::DeviceExt;
 
 /// G-buffer and radiance buffers sized for a frame (row-major pixels), owned by whoever renders.
@@ -339,7 +338,7 @@ pub(crate) struct PyramidKey {
 
 impl PyramidKey {
     /// The key of `scene`'s whole pyramid.
-    fn of(scene: &Scene) -> Self {
+    pub(crate) fn of(scene: &Scene) -> Self {
         Self {
             mesh: scene.mesh.clone(),
             materials: scene.materials.clone(),
@@ -628,196 +627,6 @@ impl ChainOut {
     }
 }
 
-/// vct-dense's chain as data: every stage's shader and passes over one set of named resources, the
-/// copies of the mip levels into the pyramid, and the voxel grid's frame. [`chained_pyramid`] runs it
-/// stage by stage; [`crate::resident::ResidentDense`] keeps it on the GPU for a sequence of frames.
-pub(crate) struct DenseChain {
-    pub resources: crate::harness::Resources,
-    /// (shader, kernel name, passes) in order: voxelize, voxel_light, the mips, (with the G-buffer in
-    /// the chain: gbuffer, direct_light), screen_tiles, cone_trace.
-    pub stages: Vec<(
-        crate::harness::Shader,
-        &'static str,
-        Vec<crate::harness::Pass>,
-    )>,
-    /// The mip levels' copies into `pyramid` and `pyramid_normal` (after the mips' passes).
-    pub copies: Vec<(String, String, u64)>,
-    pub frame: voxelize::VoxelFrame,
-}
-
-impl DenseChain {
-    pub fn harness_stages(&self) -> Vec<crate::harness::Stage<'_>> {
-        self.stages
-            .iter()
-            .map(|(shader, kernel, passes)| crate::harness::Stage {
-                shader,
-                kernel,
-                passes,
-            })
-            .collect()
-    }
-
-    /// The copies as [`crate::harness::Prepared::copy_into`] takes them.
-    pub fn copy_list(&self) -> Vec<(&str, &str, u64)> {
-        copy_refs(&self.copies)
-    }
-}
-
-/// `(src, dst, offset)` copies as the harness's copy functions take them.
-pub(crate) fn copy_refs(copies: &[(String, String, u64)]) -> Vec<(&str, &str, u64)> {
-    copies
-        .iter()
-        .map(|(a, b, o)| (a.as_str(), b.as_str(), *o))
-        .collect()
-}
-
-/// Build [`DenseChain`]: `cone_pass` as [`chained_pyramid`]'s; `gbuffer_in_chain`: the G-buffer and
-/// direct light are stages of the chain, after the mips (computed on the GPU, never read back),
-/// instead of inputs in `cone_pass`'s resources.
-#[allow(clippy::type_complexity)]
-pub(crate) fn dense_chain(
-    ctx: &crate::harness::GpuContext,
-    scene: &Scene,
-    data: &SceneData,
-    cone_pass: Option<(&crate::harness::Resources, &ConeSettings, u32)>,
-    gbuffer_in_chain: bool,
-) -> Result<DenseChain> {
-    use crate::harness::run::{grid_for, Pass, Workgroups};
-    use crate::harness::{HostBuffer, HostResource, ScalarKind};
-    use crate::kernels::surface_coverage_mip::{self as scm, colour_name};
-    use vxgi_cpu_mirror::cone_trace::{level_offset, pyramid_len};
-    let side = scene.render.voxels;
-    let v = (side as u64).pow(3);
-    let max = ctx.limits().max_compute_workgroups_per_dimension;
-    let (input, vframe) = voxelize::prepare(scene, side)?;
-    let mut vox = voxelize::case_for(ctx, &input, side, "render".into(), 0)?;
-    vox.rename_resource("params", "vox_params", false);
-    // voxel_light over every entry the list could hold: the kernel stops at the GPU's count.
-    let mut light_res = crate::kernels::gbuffer::scene_resources(data);
-    light_res.remove("frame");
-    light_res.remove("materials");
-    light_res.insert(
-        "grid".into(),
-        HostResource::Buffer(HostBuffer::pod(&voxel_light::voxel_grid(
-            &vframe,
-            data.lights.len(),
-        ))),
-    );
-    light_res.insert(
-        "vox_radiance".into(),
-        HostResource::Buffer(HostBuffer::zeroed(v as usize * 16, ScalarKind::F32)),
-    );
-    let light_passes = vec![Pass {
-        label: "voxel_light".into(),
-        entry: "main".into(),
-        bindings: voxel_light::DECL.bind_by_name(),
-        workgroups: Workgroups::Direct(grid_for(v, 64, max)),
-    }];
-    // The mip chain from voxel_light's radiance and voxelize's normals, up to the levels the cones
-    // read (all of them without a cone pass: the pyramid is kept for other cones).
-    let levels = cone_pass.map_or(side.trailing_zeros() + 1, |(_, _, l)| l);
-    let mip_shader = scm::DECL.shader()?;
-    let shell = crate::grids::Grid {
-        n: side,
-        colour: Vec::new(),
-        normal: Vec::new(),
-    };
-    let mut mips = scm::chain_case_to(
-        &mip_shader,
-        ctx,
-        &shell,
-        Coverage::Surface,
-        levels,
-        "render".into(),
-        0,
-    );
-    mips.rename_resource("params", "mip_params", false);
-    mips.rename_resource(&colour_name(0), "vox_radiance", true);
-    mips.rename_resource(&scm::normal_name(0), "vox_normal", true);
-    let mut resources = vox.resources;
-    resources.extend(light_res);
-    resources.extend(mips.resources);
-    // The cone pass, dispatched over the tiles screen_tiles lists on the GPU from the G-buffer (the
-    // case's host-built list replaced by an empty one the chain fills).
-    let (tiles, cone) = match cone_pass {
-        Some((gb, cones, _)) => {
-            let mut params = cone_trace::cone_params(&vframe, cones);
-            params.levels = levels;
-            let c = cone_trace::case_for(
-                data,
-                gb,
-                &cone_trace::Pyramids::default(),
-                &params,
-                "render".into(),
-                0,
-            );
-            resources.extend(c.resources);
-            let (w, h) = (data.width(), data.height());
-            resources.insert("tile_list".into(), screen_tiles::empty_list(w, h));
-            (vec![screen_tiles::pass(w, h)], c.passes)
-        }
-        None => (Vec::new(), Vec::new()),
-    };
-    // The pyramid and its normal pyramid (the depth-ordered blend reads it; kept with the pyramid),
-    // filled below from the chain's levels.
-    for name in ["pyramid", "pyramid_normal"] {
-        resources.insert(
-            name.into(),
-            HostResource::Buffer(HostBuffer::zeroed(pyramid_len(side) * 16, ScalarKind::F32)),
-        );
-    }
-    let mut stages: Vec<(crate::harness::Shader, &'static str, Vec<Pass>)> = vec![
-        (voxelize::DECL.shader()?, voxelize::DECL.name, vox.passes),
-        (
-            voxel_light::DECL.shader()?,
-            voxel_light::DECL.name,
-            light_passes,
-        ),
-        (mip_shader, scm::DECL.name, mips.passes),
-    ];
-    // The G-buffer and direct light after the volume (they do not read it): a frame that reuses the
-    // volume runs one contiguous range of passes.
-    if gbuffer_in_chain {
-        let g = crate::kernels::gbuffer::case_for(data, "render".into(), 0);
-        let d = direct_light::case_with_gbuffer(ctx, data, &Default::default(), "render".into(), 0);
-        for (k, v) in g.resources.into_iter().chain(d.resources) {
-            resources.entry(k).or_insert(v);
-        }
-        let gbuffer = &crate::kernels::gbuffer::DECL;
-        stages.push((gbuffer.shader()?, gbuffer.name, g.passes));
-        stages.push((
-            direct_light::DECL.shader()?,
-            direct_light::DECL.name,
-            d.passes,
-        ));
-    }
-    stages.push((screen_tiles::DECL.shader()?, screen_tiles::DECL.name, tiles));
-    stages.push((cone_trace::DECL.shader()?, cone_trace::DECL.name, cone));
-    let names = |base: &str, f: &dyn Fn(u32) -> String| -> Vec<String> {
-        (0..levels)
-            .map(|l| if l == 0 { base.to_string() } else { f(l) })
-            .collect()
-    };
-    let copies = names("vox_radiance", &colour_name)
-        .into_iter()
-        .map(|n| (n, "pyramid"))
-        .enumerate()
-        .chain(
-            names("vox_normal", &scm::normal_name)
-                .into_iter()
-                .map(|n| (n, "pyramid_normal"))
-                .enumerate(),
-        )
-        .map(|(l, (n, to))| (n, to.to_string(), level_offset(side, l as u32) as u64 * 16))
-        .collect();
-    Ok(DenseChain {
-        resources,
-        stages,
-        copies,
-        frame: vframe,
-    })
-}
-
 /// Voxelize, voxel_light and the surface-coverage mips as one chain on GPU-resident buffers
 /// (`vxgi_harness::prepare_chain`): the voxel grid, its radiance and its mips never travel through the
 /// host; the mip levels are copied into the pyramid buffer on the GPU. With `cone_pass` (a G-buffer,
@@ -838,10 +647,10 @@ fn chained_pyramid(
     use crate::harness::prepare_chain;
     progress("voxelize");
     let mut t = std::time::Instant::now();
-    let built = dense_chain(ctx, scene, data, cone_pass, false)?;
+    let built = crate::chains::dense_chain(ctx, scene, data, cone_pass, false)?;
     let vframe = built.frame;
     let chain = built.harness_stages();
-    let cone = &built.stages[4].2;
+    let cone = &built.stages[4].passes;
     let prepared = prepare_chain(ctx, &chain, &built.resources).context("voxel chain")?;
     let mut first = 0;
     let mut run_stage = |k: usize| -> Result<()> {

@@ -2,29 +2,35 @@
 //! bind groups on the GPU across frames and records each frame into one command encoder and one
 //! submission, reading back only the images it returns.
 //!
-//! [`ResidentDense`] is vct-dense's: the same chain of kernels as [`crate::render::VctDense`]'s
-//! first frame (voxelize, voxel_light, the surface-coverage mips, the G-buffer and direct light,
-//! screen_tiles, the cone pass), prepared once by the harness (`prepare_chain`: every resource
-//! checked against reflection and the device limits, then created and uploaded). A frame whose
-//! geometry, materials, lights and settings equal the last one's (the camera may move) uploads the
-//! camera (one `Frame`, 80 bytes), records the G-buffer, direct light, tile list and cone passes and
-//! submits once; the volume stays where the first frame built it. A frame whose lights moved (their
-//! number unchanged) also uploads them and re-runs voxel_light and the mips over the kept voxel grid.
-//! Anything else rebuilds the whole chain (the plan says so). The same kernels on the same inputs as `VctDense`: the same images.
+//! [`Resident`] draws vct-dense and lrsm frames from their chains ([`crate::chains`]): the same
+//! kernels on the same inputs as the stage-by-stage renderers ([`crate::render::VctDense`],
+//! [`crate::render::VctLrsm`]), so the same images. A chain is prepared once by the harness
+//! (`prepare_chain`: every resource checked against reflection and the device limits, then created
+//! and uploaded). A frame whose geometry, materials, lights and settings equal the last one's (the
+//! camera may move) uploads the camera (one `Frame`, 80 bytes), records the G-buffer, direct light,
+//! tile list and cone passes and submits once; the volume stays where the first frame built it. A
+//! frame whose lights moved (their number and, for lrsm, their number of light views unchanged) also
+//! uploads them (and lrsm's light views) and re-runs what the lights feed over the kept voxels:
+//! voxel_light and the mips (vct-dense), every view's RSM and LRSM (lrsm). Anything else rebuilds
+//! the whole chain, and the plan says why.
+use crate::chains::{Chain, ChainCopy};
 use crate::harness::{GpuContext, Prepared, ReadbackSet};
 use crate::kernels::cone_trace::ConeSettings;
+use crate::kernels::lrsm_cone_trace::LrsmSettings;
 use crate::plan::FramePlan;
-use crate::render::{image_of, PyramidKey, Rendered};
+use crate::render::{image_of, Pipeline, PyramidKey, Rendered, VolumeMemory};
 use crate::scene::{RenderSettings, Scene};
 use crate::trace::SceneData;
 use anyhow::{Context, Result};
 
 /// What shapes the resident resources: a frame with other values rebuilds them. The lights are not
-/// part of it (only their number): a frame whose lights moved re-lights the kept voxel grid.
+/// part of it (only their number, and lrsm's number of light views): a frame whose lights moved
+/// re-lights the kept voxels.
 #[derive(Clone, Debug, PartialEq)]
 struct Key {
     volume: PyramidKey,
     lights: usize,
+    views: usize,
     render: RenderSettings,
     cones: String,
     size: (u32, u32),
@@ -51,6 +57,11 @@ impl Key {
                 "the number of lights changed ({} -> {})",
                 self.lights, next.lights
             ));
+        } else if self.views != next.views {
+            what.push(format!(
+                "the number of light views changed ({} -> {})",
+                self.views, next.views
+            ));
         }
         if self.volume != next.volume && self.render.voxels == next.render.voxels {
             what.push("the geometry, materials or the mip levels the cones read changed".into());
@@ -61,10 +72,16 @@ impl Key {
         what.join("; ")
     }
 
-    fn of(scene: &Scene, cones: &ConeSettings) -> Self {
+    fn of(pipeline: Pipeline, scene: &Scene, cones: &ConeSettings) -> Self {
+        let (volume, views) = match pipeline {
+            // The levels the cones read: the others are not built.
+            Pipeline::VctDense => (PyramidKey::reading(scene, cones), 0),
+            _ => (PyramidKey::of(scene), crate::plan::light_views(scene)),
+        };
         Self {
-            volume: PyramidKey::reading(scene, cones).unlit(),
+            volume: volume.unlit(),
             lights: scene.lights.len(),
+            views,
             render: scene.render.clone(),
             // ConeSettings is plain data without PartialEq: its Debug text is its value.
             cones: format!("{cones:?}"),
@@ -75,54 +92,124 @@ impl Key {
 
 struct Built<'c> {
     key: Key,
-    /// The lights the voxel grid is lit by now.
+    /// The lights the kept voxels are lit by now.
     lights: Vec<crate::scene::Light>,
     prepared: Prepared<'c>,
     reads: ReadbackSet,
-    /// The ray epsilon of the scene's camera frames (`Frame::eye.w`, from the mesh's extent).
+    /// The ray epsilon of the scene's camera frames (`Frame::eye.w`, from the mesh's extent) and
+    /// the mesh's bounds: what lrsm's light views are made from besides the lights.
     eps: f32,
-    /// (stage, its passes' range) in chain order.
+    bounds: (glam::Vec3, glam::Vec3),
+    /// (stage, its passes' range) in chain order; a stage of several kernels appears once per kernel.
     stages: Vec<(&'static str, std::ops::Range<usize>)>,
-    /// Where the per-frame passes start (the G-buffer) and where the chain ends.
+    /// Where the per-frame passes start (the camera's G-buffer) and where the chain ends.
     per_frame: std::ops::Range<usize>,
-    /// Where voxel_light's passes start: a frame with moved lights runs from there.
+    /// Where the camera's G-buffer passes end: a frame with the caller's G-buffer starts there.
+    gbuffer_end: usize,
+    /// Where the passes the lights feed start: a frame with moved lights runs from there.
     relight: usize,
-    copies: Vec<(String, String, u64)>,
+    copies: Vec<ChainCopy>,
     /// The per-frame outputs zeroed before a frame that reuses the chain (each is zero in a fresh one).
     cleared: Vec<&'static str>,
+    /// The buffer holding the direct light the camera sees.
+    direct: &'static str,
+    memory: Option<VolumeMemory>,
 }
 
-/// A frame's images on the GPU, as [`ResidentDense::encode`] leaves them: `vec4<f32>` per pixel, row
-/// by row (rgb, then w): the direct and the indirect light reflected towards the camera (what
-/// `vxgi render` writes as direct.exr and indirect.exr) and ambient occlusion. Valid until the next
-/// frame is recorded.
+/// A frame's images on the GPU, as [`Resident::encode`] leaves them: `vec4<f32>` per pixel, row by
+/// row (rgb, then w): the direct and the indirect light reflected towards the camera (what `vxgi
+/// render` writes as direct.exr and indirect.exr) and ambient occlusion. Valid until the next frame
+/// is recorded.
 pub struct FrameBuffers {
     pub direct: wgpu::Buffer,
     pub indirect: wgpu::Buffer,
     pub ao: wgpu::Buffer,
 }
 
-/// vct-dense over a sequence of frames with everything on the GPU (see the module doc).
-pub struct ResidentDense<'c> {
+/// A G-buffer the caller made (e.g. by rasterizing the scene), for [`Resident::encode_with_gbuffer`]:
+/// one element per pixel of the scene's camera, row by row from the top, in `gbuffer.wgsl`'s layouts
+/// (docs/contract.md, "Frame buffers"). Each buffer needs `COPY_SRC` usage and exactly
+/// `width * height` elements.
+pub struct GBuffer<'a> {
+    /// `vec4<f32>`: the world position of the surface seen and its distance from the eye; `(0, 0, 0,
+    /// -1)` where nothing is seen.
+    pub position: &'a wgpu::Buffer,
+    /// `vec4<f32>`: the unit shading normal and the side seen (1 front, -1 back, 0 nothing).
+    pub normal: &'a wgpu::Buffer,
+    /// `u32`: the index of the triangle seen in [`SceneData::triangles`] of the scene, `u32::MAX`
+    /// where none.
+    pub triangle: &'a wgpu::Buffer,
+    /// `vec4<f32>`: the diffuse albedo (rgb, 0).
+    pub albedo: &'a wgpu::Buffer,
+}
+
+impl GBuffer<'_> {
+    /// Record the copies of these buffers into the chain's G-buffer, sizes checked first.
+    fn copy_into(&self, p: &Prepared, encoder: &mut wgpu::CommandEncoder) -> Result<()> {
+        for (src, name) in [
+            (self.position, "gb_position"),
+            (self.normal, "gb_normal"),
+            (self.triangle, "gb_triangle"),
+            (self.albedo, "gb_albedo"),
+        ] {
+            let dst = p.buffer(name).context("the chain's G-buffer")?;
+            anyhow::ensure!(
+                src.size() == dst.size(),
+                "the caller's {name} holds {} bytes; the camera's image needs {}",
+                src.size(),
+                dst.size()
+            );
+            anyhow::ensure!(
+                src.usage().contains(wgpu::BufferUsages::COPY_SRC),
+                "the caller's {name} needs COPY_SRC usage (it is copied into the frame's G-buffer)"
+            );
+            encoder.copy_buffer_to_buffer(src, 0, dst, 0, src.size());
+        }
+        Ok(())
+    }
+}
+
+/// A pipeline's frames with everything on the GPU (see the module doc).
+pub struct Resident<'c> {
     ctx: &'c GpuContext,
+    pipeline: Pipeline,
     built: Option<Built<'c>>,
     /// Why the last frame rebuilt the chain that an earlier frame had built, for its plan.
     rebuilt: Option<String>,
 }
 
-impl<'c> ResidentDense<'c> {
-    pub fn new(ctx: &'c GpuContext) -> Self {
-        Self {
+impl<'c> Resident<'c> {
+    /// The pipelines with GPU-resident frames.
+    pub const PIPELINES: [Pipeline; 2] = [Pipeline::VctDense, Pipeline::Lrsm];
+
+    /// A renderer of `pipeline`'s frames on `ctx`; refused for a pipeline without resident frames
+    /// ([`Resident::PIPELINES`]; the others run stage by stage, [`crate::render::Renderer`]).
+    pub fn new(ctx: &'c GpuContext, pipeline: Pipeline) -> Result<Self> {
+        anyhow::ensure!(
+            Self::PIPELINES.contains(&pipeline),
+            "{} has no GPU-resident frames yet (those are {}); vxgi::render::Renderer draws it stage by stage",
+            pipeline.name(),
+            Self::PIPELINES.map(|p| p.name()).join(" and ")
+        );
+        Ok(Self {
             ctx,
+            pipeline,
             built: None,
             rebuilt: None,
-        }
+        })
     }
 
-    /// Whether `scene` is one this renderer draws: no instances (their hierarchies are
-    /// [`crate::render::VctDense`]'s) and at least one light (voxel_light runs).
-    pub fn serves(scene: &Scene) -> bool {
-        scene.instances.list.is_empty() && !scene.lights.is_empty()
+    /// Whether `pipeline`'s resident renderer draws `scene`: a pipeline of [`Resident::PIPELINES`],
+    /// no instances (their hierarchies are the staged renderers') and at least one light.
+    pub fn serves(pipeline: Pipeline, scene: &Scene) -> bool {
+        Self::PIPELINES.contains(&pipeline)
+            && scene.instances.list.is_empty()
+            && !scene.lights.is_empty()
+    }
+
+    /// What the last frame's volume holds (lrsm: its structures' bytes); `None` for vct-dense.
+    pub fn memory(&self) -> Option<VolumeMemory> {
+        self.built.as_ref().and_then(|b| b.memory.clone())
     }
 
     /// One frame (supersampling and bright lights as every pipeline's, see `render::supersampled`).
@@ -136,16 +223,16 @@ impl<'c> ResidentDense<'c> {
     /// the device's limits.
     fn check(&self, scene: &Scene) -> Result<()> {
         anyhow::ensure!(
-            Self::serves(scene),
-            "the resident vct-dense renderer draws scenes without instances and with lights"
+            Self::serves(self.pipeline, scene),
+            "the resident {} renderer draws scenes without instances and with lights",
+            self.pipeline.name()
         );
-        crate::limits::check(scene, crate::render::Pipeline::VctDense, &self.ctx.limits())
-            .map_err(anyhow::Error::msg)
+        crate::limits::check(scene, self.pipeline, &self.ctx.limits()).map_err(anyhow::Error::msg)
     }
 
     /// Record the frame for `scene` into the caller's `encoder`; the caller submits it. The images
     /// stay on the GPU in the returned buffers. The camera's pixels as they are: `supersample` and
-    /// the exposure of very bright lights are [`ResidentDense::render`]'s, refused here. Submit the
+    /// the exposure of very bright lights are [`Resident::render`]'s, refused here. Submit the
     /// encoder before the next `encode`: the frame's camera and lights are written with
     /// `queue.write_buffer`, which takes effect at the next submission.
     pub fn encode(
@@ -154,35 +241,61 @@ impl<'c> ResidentDense<'c> {
         cones: &ConeSettings,
         encoder: &mut wgpu::CommandEncoder,
     ) -> Result<FrameBuffers> {
+        self.encode_frame(scene, cones, None, encoder)
+    }
+
+    /// [`Resident::encode`] with the caller's G-buffer (e.g. from its raster pass) in place of the
+    /// chain's ray-cast `gbuffer` stage: copied into the chain's G-buffer on the GPU in `encoder`,
+    /// then direct light, the tile list and the cone pass read it. Everything else (the camera of
+    /// `scene`, the lights, the reuse rules) as `encode`.
+    pub fn encode_with_gbuffer(
+        &mut self,
+        scene: &Scene,
+        cones: &ConeSettings,
+        gbuffer: &GBuffer,
+        encoder: &mut wgpu::CommandEncoder,
+    ) -> Result<FrameBuffers> {
+        self.encode_frame(scene, cones, Some(gbuffer), encoder)
+    }
+
+    fn encode_frame(
+        &mut self,
+        scene: &Scene,
+        cones: &ConeSettings,
+        gbuffer: Option<&GBuffer>,
+        encoder: &mut wgpu::CommandEncoder,
+    ) -> Result<FrameBuffers> {
         self.check(scene)?;
         anyhow::ensure!(
             scene.render.supersample == 1 && crate::render::exposure(scene) == 0,
             "encode draws the camera's pixels: supersample = 1 and light intensities up to {} (render() does the rest)",
             crate::render::EXPOSURE_LIMIT
         );
-        if let Err(e) = self.record(scene, cones, encoder) {
+        if let Err(e) = self.record(scene, cones, gbuffer, encoder) {
             // Nothing half-recorded is reused: the next frame builds the chain again.
             self.built = None;
             return Err(e);
         }
-        let p = &self.built.as_ref().expect("recorded").prepared;
-        let buffer = |n: &str| p.buffer(n).cloned().expect("the chain's output");
+        let b = self.built.as_ref().expect("recorded");
+        let buffer = |n: &str| b.prepared.buffer(n).cloned().expect("the chain's output");
         Ok(FrameBuffers {
-            direct: buffer("radiance"),
+            direct: buffer(b.direct),
             indirect: buffer("indirect"),
             ao: buffer("ao"),
         })
     }
 
-    /// Build (or keep) the chain for `scene` and record its frame into `encoder`: (reused, re-lit,
-    /// the passes recorded).
+    /// Build (or keep) the chain for `scene` and record its frame into `encoder` (with `gbuffer`,
+    /// the caller's G-buffer copied in place of the chain's): (reused, re-lit, the passes recorded;
+    /// with the caller's G-buffer the camera's G-buffer pass is not among them).
     fn record(
         &mut self,
         scene: &Scene,
         cones: &ConeSettings,
+        gbuffer: Option<&GBuffer>,
         encoder: &mut wgpu::CommandEncoder,
     ) -> Result<(bool, bool, std::ops::Range<usize>)> {
-        let key = Key::of(scene, cones);
+        let key = Key::of(self.pipeline, scene, cones);
         let reuse = self.built.as_ref().is_some_and(|b| b.key == key);
         self.rebuilt = self
             .built
@@ -198,8 +311,7 @@ impl<'c> ResidentDense<'c> {
         b.lights = scene.lights.clone();
         let b = &*b;
         let p = &b.prepared;
-        let copies = crate::render::copy_refs(&b.copies);
-        let timed = if reuse {
+        if reuse {
             // The camera (and where they moved, the lights): the inputs that differ from the last
             // frame.
             let frame = crate::trace::camera_frame(scene, b.eps);
@@ -207,25 +319,33 @@ impl<'c> ResidentDense<'c> {
             // As fresh: the tile list is appended to, the cone pass writes the listed tiles only.
             p.encode_clear(encoder, &b.cleared)?;
             if relit {
-                let lights = crate::trace::gpu_lights(scene);
-                p.write_buffer("lights", bytemuck::cast_slice(&lights))?;
-                // voxel_light and the mips over the kept voxel grid, into the kept pyramid.
-                p.encode_steps(encoder, b.relight..b.per_frame.start);
-                p.encode_copies(encoder, &copies)?;
+                for (name, bytes) in light_inputs(self.pipeline, b, scene)? {
+                    p.write_buffer(&name, &bytes)?;
+                }
             }
-            p.encode_steps(encoder, b.per_frame.clone());
-            if relit {
-                b.relight..b.per_frame.end
-            } else {
-                b.per_frame.clone()
-            }
-        } else {
-            p.encode_steps(encoder, 0..b.per_frame.start);
-            p.encode_copies(encoder, &copies)?;
-            p.encode_steps(encoder, b.per_frame.clone());
-            0..b.per_frame.end
+        }
+        // The volume (a new chain), or what the lights feed over the kept voxels (moved lights).
+        let first = match (reuse, relit) {
+            (false, _) => Some(0),
+            (true, true) => Some(b.relight),
+            (true, false) => None,
         };
-        Ok((reuse, relit, timed))
+        if let Some(first) = first {
+            encode_range(p, encoder, first..b.per_frame.start, &b.copies)?;
+        }
+        let camera = match gbuffer {
+            None => b.per_frame.clone(),
+            Some(g) => {
+                g.copy_into(p, encoder)?;
+                b.gbuffer_end..b.per_frame.end
+            }
+        };
+        encode_range(p, encoder, camera, &b.copies)?;
+        Ok((
+            reuse,
+            relit,
+            first.unwrap_or(b.per_frame.start)..b.per_frame.end,
+        ))
     }
 
     fn render_samples(&mut self, scene: &Scene, cones: &ConeSettings) -> Result<Rendered> {
@@ -238,35 +358,42 @@ impl<'c> ResidentDense<'c> {
     }
 
     fn frame(&mut self, scene: &Scene, cones: &ConeSettings) -> Result<Rendered> {
+        let name = self.pipeline.name();
         let mut encoder = self
             .ctx
             .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("vct-dense frame"),
-            });
-        let (reuse, relit, timed) = self.record(scene, cones, &mut encoder)?;
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(name) });
+        let (reuse, relit, timed) = self.record(scene, cones, None, &mut encoder)?;
         let b = self.built.as_ref().expect("recorded");
         let p = &b.prepared;
         p.encode_read(&mut encoder, &b.reads, timed.clone());
-        p.submit(encoder).context("vct-dense frame")?;
+        p.submit(encoder).with_context(|| format!("{name} frame"))?;
         let (out, pass_ns) = p.finish_read(&b.reads, timed.len())?;
         let bytes = |n: &str| &out[n].buffer().expect("a buffer").bytes;
         let (w, h) = (scene.camera.width, scene.camera.height);
         // Per stage: the GPU time of its passes (timestamps), where it ran this frame.
-        let stages = b
-            .stages
-            .iter()
-            .filter(|(_, r)| r.start >= timed.start && r.end <= timed.end)
-            .map(|(name, r)| {
-                let ns: f64 = pass_ns
-                    .get(r.start - timed.start..r.end - timed.start)
-                    .map_or(0.0, |v| v.iter().sum());
-                (*name, ns * 1e-9)
-            })
-            .collect();
-        let mut plan = FramePlan::vct_dense_after(scene, cones, reuse && !relit);
+        let mut stages: Vec<(&'static str, f64)> = Vec::new();
+        for (name, r) in &b.stages {
+            if r.start < timed.start || r.end > timed.end {
+                continue;
+            }
+            let ns: f64 = pass_ns
+                .get(r.start - timed.start..r.end - timed.start)
+                .map_or(0.0, |v| v.iter().sum());
+            match stages.iter_mut().find(|(n, _)| n == name) {
+                Some((_, s)) => *s += ns * 1e-9,
+                None => stages.push((name, ns * 1e-9)),
+            }
+        }
+        let cached = reuse && !relit;
+        let mut plan = match self.pipeline {
+            Pipeline::Lrsm => {
+                FramePlan::lrsm_after(scene, cones, &LrsmSettings::from(&scene.render), cached)
+            }
+            _ => FramePlan::vct_dense_after(scene, cones, cached),
+        };
         if relit {
-            // The voxel grid is kept; its light and mips are redone.
+            // The voxels are kept; what the lights feed is redone.
             plan = plan.with_voxels_kept();
         }
         if let Some(why) = &self.rebuilt {
@@ -276,7 +403,7 @@ impl<'c> ResidentDense<'c> {
             );
         }
         Ok(Rendered::assemble(
-            image_of(w, h, bytes("radiance")),
+            image_of(w, h, bytes(b.direct)),
             image_of(w, h, bytes("indirect")),
             image_of(w, h, bytes("ao")),
             stages,
@@ -287,46 +414,115 @@ impl<'c> ResidentDense<'c> {
 
     fn build(&self, scene: &Scene, cones: &ConeSettings, key: Key) -> Result<Built<'c>> {
         let data = SceneData::new(scene);
-        let levels = key.volume.levels;
-        // The G-buffer the cone pass binds, computed in the chain (zeroed here).
-        let gb = crate::kernels::gbuffer::case_for(&data, "render".into(), 0).resources;
-        let chain =
-            crate::render::dense_chain(self.ctx, scene, &data, Some((&gb, cones, levels)), true)?;
+        let (chain, memory, direct, relight_stage): (Chain, _, _, _) = match self.pipeline {
+            Pipeline::Lrsm => {
+                let (chain, memory) = crate::chains::lrsm_chain(self.ctx, scene, &data, cones)?;
+                // With shadow cones the gather's shadow pass writes the direct light.
+                let soft = scene.render.shadow_cone_angle > 0.0;
+                let direct = if soft { "soft_direct" } else { "radiance" };
+                let rsm = crate::kernels::reflective_shadow_map::DECL.name;
+                (chain, Some(VolumeMemory::Lrsm(memory)), direct, rsm)
+            }
+            _ => {
+                // The G-buffer the cone pass binds, computed in the chain (zeroed here).
+                let gb = crate::kernels::gbuffer::case_for(&data, "render".into(), 0).resources;
+                let levels = key.volume.levels;
+                let cone_pass = Some((&gb, cones, levels));
+                let chain = crate::chains::dense_chain(self.ctx, scene, &data, cone_pass, true)?;
+                (
+                    chain,
+                    None,
+                    "radiance",
+                    crate::kernels::voxel_light::DECL.name,
+                )
+            }
+        };
+        let name = self.pipeline.name();
         let prepared =
             crate::harness::prepare_chain(self.ctx, &chain.harness_stages(), &chain.resources)
-                .context("vct-dense chain")?;
+                .with_context(|| format!("{name} chain"))?;
         let mut stages = Vec::new();
         let mut first = 0;
-        for (_, name, passes) in &chain.stages {
-            stages.push((*name, first..first + passes.len()));
-            first += passes.len();
+        for s in &chain.stages {
+            stages.push((s.stage, first..first + s.passes.len()));
+            first += s.passes.len();
         }
-        let gbuffer = stages
-            .iter()
-            .find(|(n, _)| *n == crate::kernels::gbuffer::DECL.name)
-            .map(|(_, r)| r.start)
-            .expect("the chain holds the G-buffer");
-        let reads = prepared.readback_set(&["radiance", "indirect", "ao", "tile_list"])?;
-        let cleared = ["tile_list", "indirect", "ao", "irradiance"]
+        let start_of = |stage: &str| {
+            stages
+                .iter()
+                .find(|(n, _)| *n == stage)
+                .map(|(_, r)| r.start)
+                .with_context(|| format!("{name}'s chain holds no {stage} stage"))
+        };
+        let gbuffer = start_of(crate::kernels::gbuffer::DECL.name)?;
+        let gbuffer_end = gbuffer
+            + chain
+                .stages
+                .iter()
+                .find(|s| s.stage == crate::kernels::gbuffer::DECL.name)
+                .map_or(0, |s| s.passes.len());
+        let relight = start_of(relight_stage)?;
+        let reads = prepared.readback_set(&[direct, "indirect", "ao", "tile_list"])?;
+        let cleared = ["tile_list", "indirect", "ao", "irradiance", "soft_direct"]
             .into_iter()
             .filter(|n| chain.resources.contains_key(*n))
             .collect();
-        let relight = stages
-            .iter()
-            .find(|(n, _)| *n == crate::kernels::voxel_light::DECL.name)
-            .map(|(_, r)| r.start)
-            .expect("the chain holds voxel_light");
         Ok(Built {
             key,
             lights: scene.lights.clone(),
             relight,
             eps: data.frame.eye[3],
+            bounds: data.bounds,
             stages,
             per_frame: gbuffer..first,
-            copies: chain.copies.clone(),
+            gbuffer_end,
+            copies: chain.copies,
             cleared,
+            direct,
+            memory,
             prepared,
             reads,
         })
     }
+}
+
+/// The buffers a frame with moved lights rewrites: the lights, and lrsm's light views (each view's
+/// G-buffer frame and projection, and the gather's list of them), by the rule the chain was built
+/// with.
+fn light_inputs(pipeline: Pipeline, b: &Built, scene: &Scene) -> Result<Vec<(String, Vec<u8>)>> {
+    let lights = crate::trace::gpu_lights(scene);
+    let mut out = vec![("lights".to_string(), bytemuck::cast_slice(&lights).to_vec())];
+    if pipeline == Pipeline::Lrsm {
+        let config = LrsmSettings::from(&scene.render).partition();
+        let views = crate::chains::lrsm_views(&lights, b.bounds, b.eps, &config)?;
+        for (v, view) in views.iter().enumerate() {
+            let (frame, projection) = crate::chains::light_view_names(v);
+            out.push((frame, bytemuck::bytes_of(&view.frame).to_vec()));
+            out.push((projection, bytemuck::bytes_of(&view.view).to_vec()));
+        }
+        let all: Vec<_> = views.iter().map(|v| v.view).collect();
+        out.push(("views".into(), bytemuck::cast_slice(&all).to_vec()));
+    }
+    Ok(out)
+}
+
+/// Record the passes `range` of `p` into `encoder` with the chain's copies that follow a pass in it
+/// (a copy after pass `k` with `range.start < k <= range.end`), each where it falls.
+fn encode_range(
+    p: &Prepared,
+    encoder: &mut wgpu::CommandEncoder,
+    range: std::ops::Range<usize>,
+    copies: &[ChainCopy],
+) -> Result<()> {
+    let mut at = range.start;
+    for c in copies
+        .iter()
+        .filter(|c| c.after > range.start && c.after <= range.end)
+    {
+        p.encode_steps(encoder, at..c.after.max(at));
+        at = at.max(c.after);
+        p.encode_copies(encoder, &[(c.src.as_str(), c.dst.as_str(), c.offset)])?;
+    }
+    p.encode_steps(encoder, at..range.end);
+    Ok(())
 }

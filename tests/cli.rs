@@ -218,7 +218,9 @@ fn settings_past_the_device_limits_are_refused_at_once() {
 
 /// `vxgi render --frames N --out DIR` writes DIR/frames.csv: exactly the header, one row per frame
 /// counted from 0, the counts read from the GPU context; compute pipelines are compiled once per
-/// renderer (no frame after the first creates one) and every frame did GPU work.
+/// renderer (no frame after the first creates one) and every frame did GPU work. The GPU-resident
+/// pipelines (vct-dense, lrsm): every frame after the first is one submission that creates nothing,
+/// reads nothing back but its images and uploads at most 64 KiB.
 #[test]
 fn render_frames_writes_the_counters_per_frame() {
     let d = std::env::temp_dir().join(format!("vxgi-cli-{}-frames", std::process::id()));
@@ -233,43 +235,57 @@ fn render_frames_writes_the_counters_per_frame() {
         .replace("height = 256", "height = 32");
     let p = d.join("small.toml");
     std::fs::write(&p, toml).unwrap();
-    let out = d.join("out");
-    let (code, stdout, err) = vxgi(&[
-        "render",
-        p.to_str().unwrap(),
-        "--voxels",
-        "32",
-        "--frames",
-        "3",
-        "--orbit",
-        "5",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    assert_eq!(code, 0, "{err}");
-    assert!(
-        stdout.contains("fps over 2 frames after the first"),
-        "{stdout}"
-    );
-    let csv = std::fs::read_to_string(out.join("frames.csv")).unwrap();
-    let mut lines = csv.lines();
-    assert_eq!(
-        lines.next(),
-        Some("frame,wall_ms,gpu_ms,submissions,pipelines_created,buffers_created,textures_created,bind_groups_created,upload_bytes,readback_bytes")
-    );
-    let rows: Vec<Vec<f64>> = lines
-        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
-        .collect();
-    assert_eq!(rows.len(), 3, "{csv}");
-    for (k, r) in rows.iter().enumerate() {
-        assert_eq!(r.len(), 10, "{csv}");
-        assert_eq!(r[0], k as f64);
-        assert!(r[1] > 0.0 && r[2] > 0.0 && r[3] >= 1.0, "frame {k}: {csv}");
-        if k > 0 {
-            assert_eq!(r[4], 0.0, "frame {k} compiled a pipeline: {csv}");
+    for pipeline in ["vct-dense", "lrsm"] {
+        let out = d.join(pipeline);
+        let (code, stdout, err) = vxgi(&[
+            "render",
+            p.to_str().unwrap(),
+            "--pipeline",
+            pipeline,
+            "--voxels",
+            "32",
+            "--rsm-side",
+            "32",
+            "--frames",
+            "3",
+            "--orbit",
+            "5",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert_eq!(code, 0, "{err}");
+        assert!(
+            stdout.contains("fps over 2 frames after the first"),
+            "{stdout}"
+        );
+        let csv = std::fs::read_to_string(out.join("frames.csv")).unwrap();
+        let mut lines = csv.lines();
+        assert_eq!(
+            lines.next(),
+            Some("frame,wall_ms,gpu_ms,submissions,pipelines_created,buffers_created,textures_created,bind_groups_created,upload_bytes,readback_bytes")
+        );
+        let rows: Vec<Vec<f64>> = lines
+            .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+            .collect();
+        assert_eq!(rows.len(), 3, "{csv}");
+        for (k, r) in rows.iter().enumerate() {
+            assert_eq!(r.len(), 10, "{csv}");
+            assert_eq!(r[0], k as f64);
+            assert!(r[1] > 0.0 && r[2] > 0.0 && r[3] >= 1.0, "frame {k}: {csv}");
+            if k > 0 {
+                assert_eq!(
+                    r[3..8],
+                    [1.0, 0.0, 0.0, 0.0, 0.0],
+                    "{pipeline} frame {k}: {csv}"
+                );
+                assert!(
+                    r[8] <= 65536.0 && r[9] == 0.0,
+                    "{pipeline} frame {k}: {csv}"
+                );
+            }
         }
+        assert!(rows[0][4] > 0.0, "frame 0 compiles the pipelines: {csv}");
     }
-    assert!(rows[0][4] > 0.0, "frame 0 compiles the pipelines: {csv}");
 }
 
 /// `vxgi limits`: every kernel's needs from reflection, and a line per pipeline against WebGPU's

@@ -1087,47 +1087,95 @@ fn sponza_renders_with_every_pipeline() {
     }
 }
 
-/// vct-dense's GPU-resident frames (`vxgi::resident::ResidentDense`) over a camera orbit: the same
-/// images as `VctDense`'s bit for bit (the same kernels on the same inputs), with interleaved cone
-/// sets and the depth-ordered blend too, on the Cornell box and thin_wall; and every frame after the first is one submission that creates nothing, reads nothing
-/// back besides its images, uploads only the camera and did GPU work.
+/// GPU-resident frames (`vxgi::resident::Resident`) over a camera orbit: the same images as the
+/// staged renderers' bit for bit (the same kernels on the same inputs): vct-dense with interleaved
+/// cone sets and the depth-ordered blend too, lrsm with exact shadow rays and with shadow cones and
+/// surface-coverage occlusion, on the Cornell box (a point light: six light views) and thin_wall;
+/// and every frame after the first is one submission that creates nothing, reads nothing back
+/// besides its images, uploads only the camera and did GPU work.
 #[test]
-fn resident_vct_dense_frames_equal_the_staged_ones_in_one_submission() {
+fn resident_frames_equal_the_staged_ones_in_one_submission() {
     use vxgi::kernels::cone_trace::ConeSettings;
-    use vxgi::render::VctDense;
-    use vxgi::resident::ResidentDense;
-    for (base, interleave, ordered) in [
-        (Scene::cornell_box(), 1, false),
-        (Scene::cornell_box(), 2, false),
-        (Scene::cornell_box(), 1, true),
-        (Scene::thin_wall(), 1, false),
-    ] {
+    use vxgi::render::{Pipeline, Renderer};
+    use vxgi::resident::Resident;
+    let dense = |interleave, ordered| {
+        move |s: &mut Scene| {
+            s.render.cone_interleave = interleave;
+            s.render.depth_ordered_blend = ordered;
+        }
+    };
+    let lrsm = |shadow: f32, surface| {
+        move |s: &mut Scene| {
+            s.render.rsm_side = 32;
+            s.render.shadow_cone_angle = shadow;
+            s.render.lrsm_surface_coverage = surface;
+        }
+    };
+    type Setting = Box<dyn Fn(&mut Scene)>;
+    let cases: Vec<(Pipeline, Scene, Setting)> = vec![
+        (
+            Pipeline::VctDense,
+            Scene::cornell_box(),
+            Box::new(dense(1, false)),
+        ),
+        (
+            Pipeline::VctDense,
+            Scene::cornell_box(),
+            Box::new(dense(2, false)),
+        ),
+        (
+            Pipeline::VctDense,
+            Scene::cornell_box(),
+            Box::new(dense(1, true)),
+        ),
+        (
+            Pipeline::VctDense,
+            Scene::thin_wall(),
+            Box::new(dense(1, false)),
+        ),
+        (
+            Pipeline::Lrsm,
+            Scene::cornell_box(),
+            Box::new(lrsm(0.0, false)),
+        ),
+        (
+            Pipeline::Lrsm,
+            Scene::cornell_box(),
+            Box::new(lrsm(5.0, true)),
+        ),
+        (
+            Pipeline::Lrsm,
+            Scene::thin_wall(),
+            Box::new(lrsm(0.0, false)),
+        ),
+    ];
+    for (pipeline, base, set) in cases {
         let mut scene = small(base, 48, 40);
         scene.render.voxels = 32;
-        scene.render.cone_interleave = interleave;
-        scene.render.depth_ordered_blend = ordered;
+        set(&mut scene);
         let cones = ConeSettings::from(&scene.render);
-        let mut staged = VctDense::new(true);
-        let mut resident = ResidentDense::new(gpu());
+        let mut staged = Renderer::new(pipeline, true);
+        let mut resident = Resident::new(gpu(), pipeline).unwrap();
         for k in 0..3u32 {
             // Far enough round that some tiles leave the box: the tile list and the partly written
             // outputs must start each frame fresh.
             let view = scene.orbited(25.0 * k as f32);
-            let want = staged.render(gpu(), &view, &cones, |_| {}).unwrap();
+            let (want, _) = staged.render(gpu(), &view, &cones, |_| {}).unwrap();
             let before = vxgi::harness::thread_counters();
             let got = resident.render(&view, &cones).unwrap();
             let c = vxgi::harness::thread_counters().since(&before);
+            let at = format!("{pipeline:?} {:?}, frame {k}", scene.render);
             for (name, a, b) in [
                 ("direct", &want.direct, &got.direct),
                 ("indirect", &want.indirect, &got.indirect),
                 ("ao", &want.ao, &got.ao),
                 ("combined", &want.combined, &got.combined),
             ] {
-                assert!(a == b, "interleave {interleave}, frame {k}: {name} differs");
+                assert!(a == b, "{at}: {name} differs");
             }
-            assert_eq!(want.cone_tiles, got.cone_tiles, "frame {k}");
-            assert_eq!(c.submissions, 1, "frame {k}: {c:?}");
-            assert!(c.gpu_ns > 0, "frame {k}: {c:?}");
+            assert_eq!(want.cone_tiles, got.cone_tiles, "{at}");
+            assert_eq!(c.submissions, 1, "{at}: {c:?}");
+            assert!(c.gpu_ns > 0, "{at}: {c:?}");
             if k > 0 {
                 assert_eq!(
                     (
@@ -1138,64 +1186,81 @@ fn resident_vct_dense_frames_equal_the_staged_ones_in_one_submission() {
                         c.readback_bytes
                     ),
                     (0, 0, 0, 0, 0),
-                    "frame {k}: {c:?}"
+                    "{at}: {c:?}"
                 );
-                assert!(c.upload_bytes <= 64 << 10, "frame {k}: {c:?}");
+                assert!(c.upload_bytes <= 64 << 10, "{at}: {c:?}");
                 assert!(got.plan.skipped().contains(&"voxelize"), "{}", got.plan);
             }
         }
     }
 }
 
-/// A light moved between resident vct-dense frames: the kept voxel grid is re-lit (voxel_light and
-/// the mips over it, voxelize skipped), the image equals a full rebuild's bit for bit, and the frame
-/// is still one submission that creates nothing and uploads only the camera and the lights.
+/// A light moved between resident frames: the kept voxels are re-lit (vct-dense: voxel_light and
+/// the mips over the kept grid; lrsm: every light view's RSM and LRSM over the kept occlusion
+/// voxels; voxelize skipped), the image equals a full rebuild's bit for bit, and the frame is still
+/// one submission that creates nothing and uploads only the camera, the lights and lrsm's views.
 #[test]
-fn resident_vct_dense_relights_the_kept_voxels_when_a_light_moves() {
+fn resident_frames_relight_the_kept_voxels_when_a_light_moves() {
     use vxgi::kernels::cone_trace::ConeSettings;
-    use vxgi::resident::ResidentDense;
+    use vxgi::render::{Pipeline, Renderer};
+    use vxgi::resident::Resident;
     use vxgi::scene::Light;
-    let mut scene = small(Scene::cornell_box(), 40, 40);
-    scene.render.voxels = 32;
-    let cones = ConeSettings::from(&scene.render);
-    let mut resident = ResidentDense::new(gpu());
-    resident.render(&scene, &cones).unwrap();
-    let mut moved = scene.clone();
-    let Light::Point { position, .. } = &mut moved.lights[0] else {
-        panic!("the Cornell box has a point light")
-    };
-    position[0] += 0.3;
-    let before = vxgi::harness::thread_counters();
-    let got = resident.render(&moved, &cones).unwrap();
-    let c = vxgi::harness::thread_counters().since(&before);
-    let want = vxgi::render::render(gpu(), &moved, &cones, |_| {}).unwrap();
-    assert!(want.direct == got.direct && want.indirect == got.indirect && want.ao == got.ao);
-    assert_eq!(got.plan.skipped(), vec!["voxelize"], "{}", got.plan);
-    assert_eq!(
-        (
-            c.submissions,
-            c.buffers_created,
-            c.bind_groups_created,
-            c.readback_bytes
-        ),
-        (1, 0, 0, 0),
-        "{c:?}"
-    );
-    assert!(c.upload_bytes <= 64 << 10, "{c:?}");
+    for (pipeline, kept) in [
+        (Pipeline::VctDense, vec!["voxelize"]),
+        (Pipeline::Lrsm, vec!["voxelize", "occlusion_voxels"]),
+    ] {
+        let mut scene = small(Scene::cornell_box(), 40, 40);
+        scene.render.voxels = 32;
+        scene.render.rsm_side = 32;
+        let cones = ConeSettings::from(&scene.render);
+        let mut resident = Resident::new(gpu(), pipeline).unwrap();
+        resident.render(&scene, &cones).unwrap();
+        let mut moved = scene.clone();
+        let Light::Point { position, .. } = &mut moved.lights[0] else {
+            panic!("the Cornell box has a point light")
+        };
+        position[0] += 0.3;
+        let before = vxgi::harness::thread_counters();
+        let got = resident.render(&moved, &cones).unwrap();
+        let c = vxgi::harness::thread_counters().since(&before);
+        let (want, _) = Renderer::new(pipeline, false)
+            .render(gpu(), &moved, &cones, |_| {})
+            .unwrap();
+        assert!(
+            want.direct == got.direct && want.indirect == got.indirect && want.ao == got.ao,
+            "{pipeline:?}"
+        );
+        assert_eq!(got.plan.skipped(), kept, "{}", got.plan);
+        assert_eq!(
+            (
+                c.submissions,
+                c.buffers_created,
+                c.bind_groups_created,
+                c.readback_bytes
+            ),
+            (1, 0, 0, 0),
+            "{pipeline:?}: {c:?}"
+        );
+        assert!(c.upload_bytes <= 64 << 10, "{pipeline:?}: {c:?}");
+    }
 }
 
-/// Another renderer records vct-dense's frame into its own encoder (`ResidentDense::encode`) and
+/// Another renderer records vct-dense's frame into its own encoder (`Resident::encode`) and
 /// submits it itself; the images are in GPU buffers it can bind or read: the same as `render`'s.
 #[test]
 fn resident_vct_dense_encodes_into_the_callers_encoder() {
     use vxgi::kernels::cone_trace::ConeSettings;
-    use vxgi::resident::ResidentDense;
+    use vxgi::render::Pipeline::VctDense;
+    use vxgi::resident::Resident;
     let mut scene = small(Scene::cornell_box(), 24, 24);
     scene.render.voxels = 16;
     let cones = ConeSettings::from(&scene.render);
     let ctx = gpu();
-    let want = ResidentDense::new(ctx).render(&scene, &cones).unwrap();
-    let mut ours = ResidentDense::new(ctx);
+    let want = Resident::new(ctx, VctDense)
+        .unwrap()
+        .render(&scene, &cones)
+        .unwrap();
+    let mut ours = Resident::new(ctx, VctDense).unwrap();
     let mut encoder = ctx.device.create_command_encoder(&Default::default());
     let out = ours.encode(&scene, &cones, &mut encoder).unwrap();
     let staging = ctx.device.create_buffer(&wgpu::BufferDescriptor {
@@ -1218,18 +1283,44 @@ fn resident_vct_dense_encodes_into_the_callers_encoder() {
     bright.render.supersample = 2;
     let mut encoder = ctx.device.create_command_encoder(&Default::default());
     assert!(ours.encode(&bright, &cones, &mut encoder).is_err());
+    // A caller's G-buffer of another size is refused before anything is recorded.
+    let wrong = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: None,
+        size: 16,
+        usage: wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    });
+    let g = vxgi::resident::GBuffer {
+        position: &wrong,
+        normal: &wrong,
+        triangle: &wrong,
+        albedo: &wrong,
+    };
+    let mut encoder = ctx.device.create_command_encoder(&Default::default());
+    let e = ours
+        .encode_with_gbuffer(&scene, &cones, &g, &mut encoder)
+        .err()
+        .expect("refused")
+        .to_string();
+    assert!(e.contains("gb_position holds 16 bytes"), "{e}");
 }
 
 /// Changing the voxels or the image size between two resident frames rebuilds the chain (its
-/// resources are created again), and the frame's plan says what changed.
+/// resources are created again), and the frame's plan says what changed; the pipelines without
+/// resident frames are refused by name.
 #[test]
 fn resident_vct_dense_rebuilds_when_voxels_or_size_change_and_says_why() {
     use vxgi::kernels::cone_trace::ConeSettings;
-    use vxgi::resident::ResidentDense;
+    use vxgi::render::Pipeline;
+    use vxgi::resident::Resident;
+    for p in [Pipeline::VctSvo, Pipeline::Cprc] {
+        let e = Resident::new(gpu(), p).err().expect("refused").to_string();
+        assert!(e.contains(p.name()), "{e}");
+    }
     let mut scene = small(Scene::cornell_box(), 24, 24);
     scene.render.voxels = 16;
     let cones = ConeSettings::from(&scene.render);
-    let mut resident = ResidentDense::new(gpu());
+    let mut resident = Resident::new(gpu(), Pipeline::VctDense).unwrap();
     resident.render(&scene, &cones).unwrap();
     for (change, want) in [
         (
@@ -1269,4 +1360,25 @@ fn exposure_scaling_saturates_and_keeps_nan() {
     assert_eq!(r.indirect.pixels[0][0], f32::MAX);
     assert_eq!(r.direct.pixels[1][0], 0.25 * 2f32.powi(100));
     assert_eq!(r.ao.pixels[0][0], 0.5, "AO is unitless: not scaled");
+}
+
+#[path = "../examples/embed_pipeline.rs"]
+mod embed_pipeline;
+
+/// examples/embed_pipeline.rs, each GPU-resident pipeline: a program with its own device, its own
+/// raster G-buffer and its own encoder gets `vxgi render`'s image (FLIP < 0.02: a raster G-buffer
+/// may pick another triangle at edges); a width its row copies cannot take is refused.
+#[test]
+fn embedded_pipeline_frames_match_vxgi_render() {
+    let scene = small(Scene::cornell_box(), 128, 128);
+    for p in vxgi::resident::Resident::PIPELINES {
+        let flip = embed_pipeline::embedded_flip(p, &scene).unwrap();
+        assert!(flip < 0.02, "{}: FLIP {flip}", p.name());
+    }
+    let mut narrow = scene.clone();
+    narrow.camera.width = 100;
+    let e = embed_pipeline::embedded_flip(vxgi::render::Pipeline::VctDense, &narrow)
+        .expect_err("refused")
+        .to_string();
+    assert!(e.contains("multiple of 64"), "{e}");
 }

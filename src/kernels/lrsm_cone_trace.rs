@@ -104,6 +104,18 @@ impl From<&crate::scene::RenderSettings> for LrsmSettings {
     }
 }
 
+impl LrsmSettings {
+    /// The RSM's partition into layers these settings ask for.
+    pub fn partition(&self) -> PartitionConfig {
+        PartitionConfig {
+            rsm_side: self.rsm_side,
+            depth_splits: self.depth_splits,
+            normal_splits: self.normal_splits,
+            overlap: self.overlap,
+        }
+    }
+}
+
 impl Default for LrsmSettings {
     /// The `[render]` defaults: 4 layers (2 x 2, the paper's Sibenik/Sponza setting), 128^2 RSM per view.
     fn default() -> Self {
@@ -284,12 +296,7 @@ impl LrsmFrame {
         stages.push(("occlusion_voxels", t.elapsed().as_secs_f64()));
         let t = std::time::Instant::now();
         let (occ, occ_offsets) = concat_levels(&levels);
-        let config = PartitionConfig {
-            rsm_side: settings.rsm_side,
-            depth_splits: settings.depth_splits,
-            normal_splits: settings.normal_splits,
-            overlap: settings.overlap,
-        };
+        let config = settings.partition();
         if let Some(ctx) = gpu {
             config.validate(ctx.limits().max_storage_buffer_binding_size)?;
         }

@@ -1,0 +1,512 @@
+//! Each pipeline's frame as a chain of GPU stages over one set of named resources: the kernels in
+//! order, each with its passes (direct or indirect dispatch), and the buffer copies between them.
+//! Built from the kernels' own cases (the resources and passes `vxgi verify` checks), so a chain runs
+//! exactly the verified kernels. [`crate::render`] runs vct-dense's stage by stage;
+//! [`crate::resident::Resident`] prepares a chain once and records it as one submission per frame.
+use crate::harness::{HostResource, Pass, Resources, Shader};
+use crate::kernels::cone_trace::{self, ConeSettings};
+use crate::kernels::lrsm_cone_trace::{self, LrsmFrame, LrsmMemory, LrsmSettings};
+use crate::kernels::{direct_light, screen_tiles, voxel_light, voxelize};
+use crate::lrsm::{LightView, PartitionConfig};
+use crate::scene::Scene;
+use crate::trace::SceneData;
+use anyhow::{Context, Result};
+use vxgi_cpu_mirror::surface_coverage_mip::Coverage;
+
+/// One kernel's passes in a [`Chain`].
+pub(crate) struct ChainStage {
+    pub shader: Shader,
+    pub kernel: &'static str,
+    /// The frame stage it counts to (the plan's and the stage times' name; lrsm's light-view
+    /// G-buffers, RSMs and LRSMs are all `reflective_shadow_map`).
+    pub stage: &'static str,
+    pub passes: Vec<Pass>,
+}
+
+/// A buffer copy on the GPU, recorded after the chain's first `after` passes.
+#[derive(Clone, Debug)]
+pub(crate) struct ChainCopy {
+    pub after: usize,
+    pub src: String,
+    pub dst: String,
+    pub offset: u64,
+}
+
+/// A pipeline's frame as data (see the module doc).
+pub(crate) struct Chain {
+    pub resources: Resources,
+    pub stages: Vec<ChainStage>,
+    pub copies: Vec<ChainCopy>,
+    /// The voxel grid's frame.
+    pub frame: voxelize::VoxelFrame,
+}
+
+impl Chain {
+    fn push(&mut self, shader: Shader, kernel: &'static str, passes: Vec<Pass>) {
+        self.push_as(shader, kernel, kernel, passes);
+    }
+
+    fn push_as(
+        &mut self,
+        shader: Shader,
+        kernel: &'static str,
+        stage: &'static str,
+        passes: Vec<Pass>,
+    ) {
+        self.stages.push(ChainStage {
+            shader,
+            kernel,
+            stage,
+            passes,
+        });
+    }
+
+    /// Add a case's resources: a name two stages share must hold the same data (it is one GPU
+    /// resource); anything else is a wiring error, refused with both stages' view of it.
+    fn merge(&mut self, kernel: &str, resources: Resources) -> Result<()> {
+        for (name, r) in resources {
+            match self.resources.get(&name) {
+                None => {
+                    self.resources.insert(name, r);
+                }
+                Some(old) if same_data(old, &r) => {}
+                Some(_) => anyhow::bail!(
+                    "chain wiring: {kernel}'s resource `{name}` differs from the one an earlier stage binds under that name"
+                ),
+            }
+        }
+        Ok(())
+    }
+
+    /// How many passes the chain holds so far.
+    pub fn pass_count(&self) -> usize {
+        self.stages.iter().map(|s| s.passes.len()).sum()
+    }
+
+    pub fn harness_stages(&self) -> Vec<crate::harness::Stage<'_>> {
+        self.stages
+            .iter()
+            .map(|s| crate::harness::Stage {
+                shader: &s.shader,
+                kernel: s.kernel,
+                passes: &s.passes,
+            })
+            .collect()
+    }
+
+    /// The copies as [`crate::harness::Prepared::copy_into`] takes them.
+    pub fn copy_list(&self) -> Vec<(&str, &str, u64)> {
+        self.copies
+            .iter()
+            .map(|c| (c.src.as_str(), c.dst.as_str(), c.offset))
+            .collect()
+    }
+}
+
+/// Equal bytes (buffers: the scalar kind only tells the comparison how to read them) or equal
+/// textures.
+fn same_data(a: &HostResource, b: &HostResource) -> bool {
+    match (a, b) {
+        (HostResource::Buffer(x), HostResource::Buffer(y)) => x.bytes == y.bytes,
+        _ => a == b,
+    }
+}
+
+/// vct-dense's chain: voxelize, voxel_light, the surface-coverage mips (each level copied into
+/// `pyramid` and `pyramid_normal` after them), then (with `gbuffer_in_chain`) gbuffer and
+/// direct_light, screen_tiles and cone_trace. `cone_pass`: the G-buffer the cone pass reads (zeroed
+/// where the chain computes it), the cone settings and the pyramid levels the cones read (the others
+/// are not built); without it the chain ends with the mips and builds every level.
+/// `gbuffer_in_chain`: the G-buffer and direct light are stages of the chain, after the mips
+/// (computed on the GPU, never read back), instead of inputs in `cone_pass`'s resources.
+pub(crate) fn dense_chain(
+    ctx: &crate::harness::GpuContext,
+    scene: &Scene,
+    data: &SceneData,
+    cone_pass: Option<(&crate::harness::Resources, &ConeSettings, u32)>,
+    gbuffer_in_chain: bool,
+) -> Result<Chain> {
+    use crate::harness::run::{grid_for, Pass, Workgroups};
+    use crate::harness::{HostBuffer, HostResource, ScalarKind};
+    use crate::kernels::surface_coverage_mip::{self as scm, colour_name};
+    use vxgi_cpu_mirror::cone_trace::{level_offset, pyramid_len};
+    let side = scene.render.voxels;
+    let v = (side as u64).pow(3);
+    let max = ctx.limits().max_compute_workgroups_per_dimension;
+    let (input, vframe) = voxelize::prepare(scene, side)?;
+    let mut vox = voxelize::case_for(ctx, &input, side, "render".into(), 0)?;
+    vox.rename_resource("params", "vox_params", false);
+    // voxel_light over every entry the list could hold: the kernel stops at the GPU's count.
+    let mut light_res = crate::kernels::gbuffer::scene_resources(data);
+    light_res.remove("frame");
+    light_res.remove("materials");
+    light_res.insert(
+        "grid".into(),
+        HostResource::Buffer(HostBuffer::pod(&voxel_light::voxel_grid(
+            &vframe,
+            data.lights.len(),
+        ))),
+    );
+    light_res.insert(
+        "vox_radiance".into(),
+        HostResource::Buffer(HostBuffer::zeroed(v as usize * 16, ScalarKind::F32)),
+    );
+    let light_passes = vec![Pass {
+        label: "voxel_light".into(),
+        entry: "main".into(),
+        bindings: voxel_light::DECL.bind_by_name(),
+        workgroups: Workgroups::Direct(grid_for(v, 64, max)),
+    }];
+    // The mip chain from voxel_light's radiance and voxelize's normals, up to the levels the cones
+    // read (all of them without a cone pass: the pyramid is kept for other cones).
+    let levels = cone_pass.map_or(side.trailing_zeros() + 1, |(_, _, l)| l);
+    let mip_shader = scm::DECL.shader()?;
+    let shell = crate::grids::Grid {
+        n: side,
+        colour: Vec::new(),
+        normal: Vec::new(),
+    };
+    let mut mips = scm::chain_case_to(
+        &mip_shader,
+        ctx,
+        &shell,
+        Coverage::Surface,
+        levels,
+        "render".into(),
+        0,
+    );
+    mips.rename_resource("params", "mip_params", false);
+    mips.rename_resource(&colour_name(0), "vox_radiance", true);
+    mips.rename_resource(&scm::normal_name(0), "vox_normal", true);
+    let mut resources = vox.resources;
+    resources.extend(light_res);
+    resources.extend(mips.resources);
+    // The cone pass, dispatched over the tiles screen_tiles lists on the GPU from the G-buffer (the
+    // case's host-built list replaced by an empty one the chain fills).
+    let (tiles, cone) = match cone_pass {
+        Some((gb, cones, _)) => {
+            let mut params = cone_trace::cone_params(&vframe, cones);
+            params.levels = levels;
+            let c = cone_trace::case_for(
+                data,
+                gb,
+                &cone_trace::Pyramids::default(),
+                &params,
+                "render".into(),
+                0,
+            );
+            resources.extend(c.resources);
+            let (w, h) = (data.width(), data.height());
+            resources.insert("tile_list".into(), screen_tiles::empty_list(w, h));
+            (vec![screen_tiles::pass(w, h)], c.passes)
+        }
+        None => (Vec::new(), Vec::new()),
+    };
+    // The pyramid and its normal pyramid (the depth-ordered blend reads it; kept with the pyramid),
+    // filled below from the chain's levels.
+    for name in ["pyramid", "pyramid_normal"] {
+        resources.insert(
+            name.into(),
+            HostResource::Buffer(HostBuffer::zeroed(pyramid_len(side) * 16, ScalarKind::F32)),
+        );
+    }
+    let mut chain = Chain {
+        resources,
+        stages: Vec::new(),
+        copies: Vec::new(),
+        frame: vframe,
+    };
+    chain.push(voxelize::DECL.shader()?, voxelize::DECL.name, vox.passes);
+    chain.push(
+        voxel_light::DECL.shader()?,
+        voxel_light::DECL.name,
+        light_passes,
+    );
+    chain.push(mip_shader, scm::DECL.name, mips.passes);
+    let after_mips = chain.pass_count();
+    // The G-buffer and direct light after the volume (they do not read it): a frame that reuses the
+    // volume runs one contiguous range of passes.
+    if gbuffer_in_chain {
+        let g = crate::kernels::gbuffer::case_for(data, "render".into(), 0);
+        let d = direct_light::case_with_gbuffer(ctx, data, &Default::default(), "render".into(), 0);
+        for (k, v) in g.resources.into_iter().chain(d.resources) {
+            chain.resources.entry(k).or_insert(v);
+        }
+        let gbuffer = &crate::kernels::gbuffer::DECL;
+        chain.push(gbuffer.shader()?, gbuffer.name, g.passes);
+        chain.push(
+            direct_light::DECL.shader()?,
+            direct_light::DECL.name,
+            d.passes,
+        );
+    }
+    chain.push(screen_tiles::DECL.shader()?, screen_tiles::DECL.name, tiles);
+    chain.push(cone_trace::DECL.shader()?, cone_trace::DECL.name, cone);
+    let names = |base: &str, f: &dyn Fn(u32) -> String| -> Vec<String> {
+        (0..levels)
+            .map(|l| if l == 0 { base.to_string() } else { f(l) })
+            .collect()
+    };
+    chain.copies = names("vox_radiance", &colour_name)
+        .into_iter()
+        .map(|n| (n, "pyramid"))
+        .enumerate()
+        .chain(
+            names("vox_normal", &scm::normal_name)
+                .into_iter()
+                .map(|n| (n, "pyramid_normal"))
+                .enumerate(),
+        )
+        .map(|(l, (src, to))| ChainCopy {
+            after: after_mips,
+            src,
+            dst: to.to_string(),
+            offset: level_offset(side, l as u32) as u64 * 16,
+        })
+        .collect();
+    Ok(chain)
+}
+
+/// lrsm's light views of `lights` (the GPU's lights of the scene; `bounds` and `eps` from its
+/// [`SceneData`]), each with its first texel in the concatenated LRSM streams (`view.info[2]`): view
+/// `i` starts at `i` times one view's streams ([`crate::lrsm::lrsm_texels`]), as
+/// `LrsmFrame::build_with` concatenates them.
+pub(crate) fn lrsm_views(
+    lights: &[vxgi_cpu_mirror::direct_light::GpuLight],
+    bounds: (glam::Vec3, glam::Vec3),
+    eps: f32,
+    config: &PartitionConfig,
+) -> Result<Vec<LightView>> {
+    let per_view = crate::lrsm::lrsm_texels(config);
+    let mut views = crate::lrsm::light_views(lights, bounds, config.rsm_side, eps)?;
+    for (i, v) in views.iter_mut().enumerate() {
+        v.view.info[2] = u32::try_from(i as u64 * per_view)
+            .context("the LRSM streams of every light view past 2^32 texels")?;
+    }
+    Ok(views)
+}
+
+/// The names of light view `v`'s own inputs: its G-buffer frame and its projection.
+pub(crate) fn light_view_names(v: usize) -> (String, String) {
+    (format!("light_frame_{v}"), format!("light_view_{v}"))
+}
+
+/// The LRSM streams the gather reads, in the order of the prefilter's streams.
+const LRSM_STREAMS: [&str; 3] = ["lrsm_radiance", "lrsm_normal", "lrsm_moments"];
+
+/// lrsm's chain (Sugihara et al. 2014), the same kernels on the same inputs as
+/// [`crate::render::VctLrsm`]'s frame: voxelize and occlusion_voxels (its levels copied into `occ`);
+/// per light view the G-buffer ray-cast from the light, reflective_shadow_map, lrsm_partition and
+/// lrsm_prefilter (its levels copied into the three LRSM streams at the view's offset; every view
+/// reuses one set of RSM buffers, as the staged frame holds one RSM at a time); then the camera's
+/// gbuffer, direct_light (exact shadow rays; not with shadow cones, whose soft direct light the
+/// gather's shadow pass writes), screen_tiles and lrsm_cone_trace. Needs lights.
+pub(crate) fn lrsm_chain(
+    ctx: &crate::harness::GpuContext,
+    scene: &Scene,
+    data: &SceneData,
+    cones: &ConeSettings,
+) -> Result<(Chain, LrsmMemory)> {
+    use crate::kernels::{
+        gbuffer, lrsm_partition, lrsm_prefilter, occlusion_voxels as occv,
+        reflective_shadow_map as rsmk,
+    };
+    use vxgi_cpu_mirror::occlusion_voxels::level_words;
+    anyhow::ensure!(!data.lights.is_empty(), "lrsm's chain needs lights");
+    let settings = LrsmSettings::from(&scene.render);
+    let config = settings.partition();
+    config.validate(ctx.limits().max_storage_buffer_binding_size)?;
+    let side = scene.render.voxels;
+    let (input, vframe) = voxelize::prepare(scene, side)?;
+    let mut chain = Chain {
+        resources: Resources::new(),
+        stages: Vec::new(),
+        copies: Vec::new(),
+        frame: vframe,
+    };
+    let mut vox = voxelize::case_for(ctx, &input, side, "render".into(), 0)?;
+    vox.rename_resource("params", "vox_params", false);
+    chain.merge(voxelize::DECL.name, vox.resources)?;
+    chain.push(voxelize::DECL.shader()?, voxelize::DECL.name, vox.passes);
+    // The occlusion voxels of voxelize's grid (the case's zeroed copy of it is the same resource).
+    let coverage = if settings.surface_coverage {
+        vxgi_cpu_mirror::occlusion_voxels::Coverage::Surface
+    } else {
+        vxgi_cpu_mirror::occlusion_voxels::Coverage::Volume
+    };
+    let shell = crate::grids::Grid {
+        n: side,
+        colour: vec![[0.0; 4]; (side as usize).pow(3)],
+        normal: Vec::new(),
+    };
+    let occ_shader = occv::DECL.shader()?;
+    let occ = occv::case_for(&occ_shader, ctx, &shell, coverage, "render".into(), 0);
+    chain.merge(occv::DECL.name, occ.resources)?;
+    chain.push(occ_shader, occv::DECL.name, occ.passes);
+    let mut occ_offsets = Vec::new();
+    let mut words = 0u32;
+    for k in 0..=side.trailing_zeros() {
+        occ_offsets.push(words);
+        chain.copies.push(ChainCopy {
+            after: chain.pass_count(),
+            src: occv::level_name(k),
+            dst: "occ".into(),
+            offset: words as u64 * 4,
+        });
+        words += level_words(((side >> k) as u64).pow(3)) as u32;
+    }
+    // Every light view: its G-buffer, RSM and LRSM, into the streams at its offset.
+    let views = lrsm_views(&data.lights, data.bounds, data.frame.eye[3], &config)?;
+    let per_view = crate::lrsm::lrsm_texels(&config);
+    let rsm_side = config.rsm_side;
+    let texels = (rsm_side as usize).pow(2);
+    let side0 = rsm_side / 2;
+    let levels = side0.trailing_zeros() + 1;
+    let rsm_gb = |n: &str| format!("rsm_{n}");
+    // One parsed shader per stage (a stage owns its shader); the cases read these for reflection.
+    let (rshader, pshader) = (rsmk::DECL.shader()?, lrsm_partition::DECL.shader()?);
+    let fshader = lrsm_prefilter::DECL.shader()?;
+    const RSM: &str = "reflective_shadow_map";
+    for (v, view) in views.iter().enumerate() {
+        let (frame_name, view_name) = light_view_names(v);
+        let mut d = data.clone();
+        d.frame = view.frame;
+        let mut g = gbuffer::case_for(&d, "light view".into(), 0);
+        g.rename_resource("frame", &frame_name, false);
+        for n in ["gb_position", "gb_normal", "gb_triangle", "gb_albedo"] {
+            g.rename_resource(n, &rsm_gb(n), false);
+        }
+        let zero_gb: Resources = ["gb_position", "gb_normal", "gb_albedo"]
+            .into_iter()
+            .map(|n| (n.to_string(), g.resources[&rsm_gb(n)].clone()))
+            .collect();
+        chain.merge(gbuffer::DECL.name, g.resources)?;
+        chain.push_as(gbuffer::DECL.shader()?, gbuffer::DECL.name, RSM, g.passes);
+        let mut r = rsmk::case_for(
+            &rshader,
+            ctx,
+            &data.lights,
+            view,
+            &zero_gb,
+            "render".into(),
+            0,
+        );
+        r.rename_resource("view", &view_name, false);
+        for n in ["gb_position", "gb_normal", "gb_albedo"] {
+            r.rename_resource(n, &rsm_gb(n), false);
+        }
+        chain.merge(rsmk::DECL.name, r.resources)?;
+        chain.push_as(rsmk::DECL.shader()?, rsmk::DECL.name, RSM, r.passes);
+        let zero_rsm = crate::lrsm::Rsm {
+            side: rsm_side,
+            radiance: vec![[0.0; 4]; texels],
+            normal: vec![[0.0; 4]; texels],
+            depth: vec![0.0; texels],
+        };
+        let mut p =
+            lrsm_partition::case_for(&pshader, ctx, &zero_rsm, &config, "render".into(), 0)?;
+        p.rename_resource("params", "partition_params", false);
+        for (s, out) in ["out_radiance", "out_normal", "out_moments"]
+            .iter()
+            .enumerate()
+        {
+            p.rename_resource(out, &lrsm_prefilter::stream_name(s, 0), false);
+        }
+        chain.merge(lrsm_partition::DECL.name, p.resources)?;
+        chain.push_as(
+            lrsm_partition::DECL.shader()?,
+            lrsm_partition::DECL.name,
+            RSM,
+            p.passes,
+        );
+        if levels > 1 {
+            let n0 = (config.layers() as u64 * (side0 as u64).pow(2)) as usize;
+            let level0: [Vec<[f32; 4]>; 3] = std::array::from_fn(|_| vec![[0.0; 4]; n0]);
+            let f = lrsm_prefilter::chain_case(
+                &fshader,
+                ctx,
+                &level0,
+                config.layers(),
+                side0,
+                "render".into(),
+                0,
+            );
+            chain.merge(lrsm_prefilter::DECL.name, f.resources)?;
+            chain.push_as(
+                lrsm_prefilter::DECL.shader()?,
+                lrsm_prefilter::DECL.name,
+                RSM,
+                f.passes,
+            );
+        }
+        let after = chain.pass_count();
+        let mut first = v as u64 * per_view;
+        for k in 0..levels {
+            for (s, dst) in LRSM_STREAMS.iter().enumerate() {
+                chain.copies.push(ChainCopy {
+                    after,
+                    src: lrsm_prefilter::stream_name(s, k),
+                    dst: dst.to_string(),
+                    offset: first * 16,
+                });
+            }
+            first += config.layers() as u64 * ((side0 >> k) as u64).pow(2);
+        }
+    }
+    // The camera's G-buffer and direct light, then the gather over the tiles screen_tiles lists.
+    let g = gbuffer::case_for(data, "render".into(), 0);
+    let camera_gb = g.resources.clone();
+    chain.merge(gbuffer::DECL.name, g.resources)?;
+    chain.push(gbuffer::DECL.shader()?, gbuffer::DECL.name, g.passes);
+    let soft = settings.shadow_cone_angle > 0.0;
+    if !soft {
+        let d = direct_light::case_with_gbuffer(ctx, data, &Default::default(), "render".into(), 0);
+        chain.merge(direct_light::DECL.name, d.resources)?;
+        chain.push(
+            direct_light::DECL.shader()?,
+            direct_light::DECL.name,
+            d.passes,
+        );
+    }
+    let stream = vec![[0.0f32; 4]; (per_view * views.len() as u64) as usize];
+    let frame = LrsmFrame {
+        voxels: vframe,
+        occ: vec![0; words as usize],
+        occ_offsets,
+        views: views.iter().map(|v| v.view).collect(),
+        params: crate::kernels::sample_lrsm::sample_params(&config, 0),
+        depth_ranges: config.depth_ranges(),
+        streams: [stream.clone(), stream.clone(), stream],
+        memory: LrsmMemory::default(),
+    };
+    let memory = LrsmMemory {
+        occlusion: words as u64 * 4,
+        rsm: texels as u64 * 36,
+        lrsm: per_view * views.len() as u64 * 48,
+        views: views.len() as u32,
+    };
+    let params = cone_trace::cone_params(&vframe, cones);
+    let tan = if soft {
+        settings.shadow_cone_angle.to_radians().tan()
+    } else {
+        0.0
+    };
+    let mut c =
+        lrsm_cone_trace::case_for(data, &camera_gb, &frame, &params, tan, "render".into(), 0);
+    let (w, h) = (data.width(), data.height());
+    // The case's host-built tile list replaced by an empty one screen_tiles fills on the GPU.
+    c.resources
+        .insert("tile_list".into(), screen_tiles::empty_list(w, h));
+    chain.merge(lrsm_cone_trace::DECL.name, c.resources)?;
+    chain.push(
+        screen_tiles::DECL.shader()?,
+        screen_tiles::DECL.name,
+        vec![screen_tiles::pass(w, h)],
+    );
+    chain.push(
+        lrsm_cone_trace::DECL.shader()?,
+        lrsm_cone_trace::DECL.name,
+        c.passes,
+    );
+    Ok((chain, memory))
+}
