@@ -64,7 +64,7 @@ pub struct BenchRow {
 /// {0.5, 1} x blend {trilinear, depth-ordered} = 288 (16 cones: `diffuse_cones`' spiral, the others
 /// its ring), level bias and coverage correlation at `base`'s; plus the narrow spiral sets at 128^3
 /// (32 cones of 18 deg, 64 of 12 deg; clamp 2, step 0.5, trilinear) with level bias / coverage
-/// correlation 0 / 0, -1 / 0 and -1 / 1 = 6 (README "Accuracy": where those options pay); plus 5
+/// correlation 0 / 0, -1 / 0 and -1 / 1 = 6 (docs/accuracy/vct-dense.md: where those options pay); plus 5
 /// interleaved narrow sets (2.5 deg, bias -1.25: 16 and 8 cones of 8 x 8 classes at 1 and 2 x 2
 /// samples, 64 of 4 x 4 at 1). Quick (for
 /// CI): voxels {32, 64} x cones {1, 5} at 30 degrees, clamp 2, step 0.5 = 4.
@@ -122,7 +122,7 @@ pub fn sweep(base: &RenderSettings, quick: bool, pipeline: Pipeline) -> Vec<Rend
         }
     }
     if !quick {
-        // Interleaved narrow cones (README "Interleaved cone sets"): 2.5 deg, level bias -1.25, the
+        // Interleaved narrow cones (docs/accuracy/vct-dense.md, "Interleaved cone sets"): 2.5 deg, level bias -1.25, the
         // scene file's 16 cones from 8 x 8 classes and half of them, each at 1 and 2 x 2 samples;
         // and 64 cones from 4 x 4 classes at 1 sample.
         for (c, n, supersample) in [(16, 8, 2), (8, 8, 2), (16, 8, 1), (8, 8, 1), (64, 4, 1)] {
@@ -238,7 +238,7 @@ pub fn lrsm_sweep(base: &RenderSettings, quick: bool) -> Vec<RenderSettings> {
 /// about 1.7 caches per tile at 256x256 in the Cornell box) x cache resolution {16, 32} = 6, the
 /// voxels and cones at `base`'s; plus the fine caches of scenes/cornell_box_fine_caches.toml (32^2
 /// texels, 4^2 irradiance, radius 1.5 tiles, level bias -1.25, mip clamp 1.5) at tile {8, 4} x
-/// samples per pixel {1, 2} = 4 (README "Meeting the FLIP goal"). Quick: tile {8, 16} x resolution
+/// samples per pixel {1, 2} = 4 (docs/accuracy/cprc.md). Quick: tile {8, 16} x resolution
 /// {8, 16} = 4.
 pub fn cprc_sweep(base: &RenderSettings, quick: bool) -> Vec<RenderSettings> {
     let (tiles, res): (&[u32], &[u32]) = if quick {

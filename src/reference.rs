@@ -1,4 +1,4 @@
-//! The yardstick: a CPU Monte Carlo renderer of the light-transport contract (README, "Scenes"),
+//! The yardstick: a CPU Monte Carlo renderer of the light-transport contract (docs/contract.md),
 //! direct + exactly one bounce (two with `[render] bounces = 2`), kept separate, plus ambient
 //! occlusion.
 //!

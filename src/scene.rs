@@ -196,11 +196,11 @@ pub struct RenderSettings {
     pub cone_step: f32,
     /// Every cone tracer: sampled mip level relative to the paper's log2(diameter / s0), in [-3, 0]
     /// (0 = the paper's rule). Narrow cones match their footprint about one level finer
-    /// (`cone_trace::ConeParams::level_bias`; README "Accuracy").
+    /// (`cone_trace::ConeParams::level_bias`; docs/accuracy/vct-dense.md).
     pub cone_level_bias: f32,
     /// Every cone tracer: how far a sample's coverage is taken as rays already blocked, in [0, 1]
     /// (0 = the paper's independent layers; 1: the cone's opacity is its densest sample's)
-    /// (`cone_trace::ConeParams::coverage_correlation`; README "Accuracy").
+    /// (`cone_trace::ConeParams::coverage_correlation`; docs/accuracy/vct-dense.md).
     pub coverage_correlation: f32,
     /// vct-dense and cprc (the dense pyramid's cones): the depth-ordered blend — along the cone's main
     /// axis an opaque cell facing the cone hides the opaque cell behind it in the trilinear pair
@@ -211,7 +211,7 @@ pub struct RenderSettings {
     /// interleaved cone sets of side N in {1, 2, 4, 8} (1 = off, the paper's one set per pixel). The
     /// N x N pixel classes trace disjoint subsets of one spiral of `cones` N^2 cones and a resolve
     /// pass averages irradiance and occlusion over each pixel's (2N - 1)^2 neighbours on its own surface (tent weights)
-    /// (`cone_trace::cone_dirs`, `cone_trace::resolve`; README "Accuracy"): N^2 times the cones for
+    /// (`cone_trace::cone_dirs`, `cone_trace::resolve`; docs/accuracy/vct-dense.md): N^2 times the cones for
     /// the price of `cones` per pixel, blurred over N pixels.
     pub cone_interleave: u32,
     /// lrsm: RSM side per light view (a power of two, 4..=1024; the LRSM is half of it).
@@ -441,7 +441,7 @@ impl Default for RenderSettings {
             cones: 5,
             cone_half_angle: 30.0,
             cone_offset: 2.0,
-            // Measured on the Cornell box vs a 256-spp reference (README, "Accuracy"): combined FLIP
+            // Measured on the Cornell box vs a 256-spp reference (docs/accuracy/vct-dense.md): combined FLIP
             // 0.287 without the clamp, 0.237 with 2; AO FLIP 0.85 -> 0.42.
             mip_clamp: 2.0,
             cone_step: 0.5,

@@ -143,7 +143,7 @@ fn marching_is_stable_on_extreme_pyramids() {
 /// The vct-dense pipeline against the reference on the Cornell box at 64x64 (64 spp: the reference's
 /// own noise is a large part of these numbers). Printed for the record; the bounds only catch a broken
 /// pipeline (an indirect image off by a factor, NaN, black). Measured at 256x256 against a 256-spp
-/// reference: combined FLIP 0.24, indirect 0.43 (README, "Accuracy").
+/// reference: combined FLIP 0.24, indirect 0.43 (docs/accuracy/vct-dense.md).
 #[test]
 fn vct_dense_against_the_reference() {
     let mut scene = Scene::cornell_box();
@@ -181,7 +181,7 @@ fn vct_dense_against_the_reference() {
 /// from it, so this measures the method, not the reference's noise). Measured on lavapipe: combined
 /// FLIP 0.238, indirect 0.419, AO 0.417. A regression guard at the measured values plus margin; the
 /// vct-dense issue's goal (combined < 0.1) is met with interleaved narrow cones (next test), not by
-/// the defaults (README, "Accuracy").
+/// the defaults (docs/accuracy/vct-dense.md).
 #[test]
 fn vct_dense_against_the_converged_reference() {
     let dir =
@@ -206,7 +206,7 @@ fn vct_dense_against_the_converged_reference() {
 /// with interleaved cone sets (scenes/cornell_box_interleaved.toml: 16 cones of 2.5 deg per sample
 /// from an 8 x 8 pattern, resolved over each sample's neighbours on its surface; level bias -1.25; 2 x 2
 /// samples per pixel). Measured on lavapipe: 0.0912, indirect energy 0.975 of the reference's; the
-/// default settings 0.238 (above). The scene file is the README's recipe, so test and recipe cannot
+/// default settings 0.238 (above). The scene file is docs/accuracy/vct-dense.md's recipe, so test and recipe cannot
 /// drift.
 #[test]
 fn interleaved_narrow_cones_meet_the_flip_goal_on_the_cornell_box() {

@@ -51,7 +51,7 @@ fn cprc_against_the_converged_reference() {
 /// `vxgi bisect` on the scene file (one sample per pixel): from the G-buffer on, every GPU stage
 /// agrees with its mirror to 4e-7; the GPU G-buffer's 3 edge pixels move a few caches (indirect FLIP
 /// 0.0003 between the two frames), so the margin to 0.1 is not a driver's rounding. The scene file is
-/// the recipe the README gives, so test and recipe cannot drift.
+/// the recipe docs/accuracy/cprc.md gives, so test and recipe cannot drift.
 #[test]
 fn fine_caches_meet_the_flip_goal_on_the_cornell_box() {
     let scene = common::scene_file("cornell_box_fine_caches.toml");

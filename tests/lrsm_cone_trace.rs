@@ -46,7 +46,7 @@ fn the_cornell_box_gathers_indirect_light_and_reports_its_memory() {
 /// walls opaque at the coarse levels, so the gather's samples weigh the LRSMs' radiance by a full
 /// alpha where the paper's volume coverage gives 1/2^k (eq. 1's alpha_i L_i). Measured at 256x256 /
 /// 128^3 against the 4096-spp reference: indirect energy 0.088 -> 0.361 of the reference's, combined
-/// FLIP 0.471 -> 0.400 with nearest-texel LRSM fetches, 0.464 -> 0.374 with trilinear ones (README, lrsm). Here (48x48, 64^3: measured 2.5x; at 32^3, where a wall is a
+/// FLIP 0.471 -> 0.400 with nearest-texel LRSM fetches, 0.464 -> 0.374 with trilinear ones (docs/accuracy/lrsm.md). Here (48x48, 64^3: measured 2.5x; at 32^3, where a wall is a
 /// thicker share of each cell, 1.5x) the indirect energy must at least double, and the frame is the
 /// mirror frame's to float rounding.
 #[test]
@@ -165,7 +165,7 @@ fn a_soft_direct_term_at_the_bottom_of_the_normal_range_may_flush() {
 /// reference (4096 spp), with the paper's volume-coverage occlusion and with `lrsm_surface_coverage`.
 /// Measured on lavapipe with the trilinear LRSM fetch and the views' seam weights (`disc_share`):
 /// combined FLIP 0.471 / 0.370, indirect 0.839 / 0.659, indirect energy 0.081 / 0.388 of the
-/// reference's (README, lrsm; without the seam weights 0.464 / 0.374, the bands along the cube-face
+/// reference's (docs/accuracy/lrsm.md; without the seam weights 0.464 / 0.374, the bands along the cube-face
 /// seams adding light to a frame that lacks it; the nearest-texel fetch scored 0.471 / 0.400). A
 /// regression guard at the measured values plus a small margin, and the indirect energy's share (the
 /// volume coverage's darkening: a one-voxel wall is 1/2^k opaque at level k).

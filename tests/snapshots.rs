@@ -83,7 +83,7 @@ fn cornell_box_64_snapshots_and_gpu_agreement() {
     );
 }
 
-/// vct-dense with interleaved narrow cones (README "Interleaved cone sets"): the same 64x64 Cornell
+/// vct-dense with interleaved narrow cones (docs/accuracy/vct-dense.md, "Interleaved cone sets"): the same 64x64 Cornell
 /// box at 64^3, 8 cones of 4 deg per pixel from 4 x 4 classes (128 per window) with level bias -1.25,
 /// resolved; by the mirrors alone, and the GPU's frame (its cone pass's `resolve` entry) against it.
 #[test]

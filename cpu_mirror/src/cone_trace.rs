@@ -1356,7 +1356,7 @@ mod tests {
                 }
             }
         }
-        // README's numbers: at 128^3 a 30-degree cone reads every level, a 2-degree one up to 4.
+        // docs/performance.md's numbers: at 128^3 a 30-degree cone reads every level, a 2-degree one up to 4.
         assert_eq!(levels_read(30f32.to_radians().tan(), 0.5, 128), 8);
         assert_eq!(levels_read(2f32.to_radians().tan(), 0.5, 128), 5);
     }

@@ -4,7 +4,7 @@
 //! `(L * alpha, alpha)` a cone travelling that way sees through the voxel's cell.
 //!
 //! The isotropic octree averages a parent point's 27 child lattice points with [1 2 1]^3 / 64 weights:
-//! a volume average, so a one-voxel wall is half transparent one level up (the leak README measures).
+//! a volume average, so a one-voxel wall is half transparent one level up (the leak docs/accuracy/vct-svo.md measures).
 //! Here, for direction +a, each of the 9 rows of child points along `a` (weights [1 2 1]^2 / 16 over
 //! the other two axes) is composited front to back, in the order the cone meets them. The row's end
 //! points are shared with the neighbouring parents (they are half inside this one's cell), so they
