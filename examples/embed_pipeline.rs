@@ -5,7 +5,9 @@
 //! non-zero where they differ by FLIP 0.02 or more (a raster G-buffer may differ at edges).
 //!
 //! `cargo run --release --example embed_pipeline [-- vct-dense|lrsm]` (default: both GPU-resident
-//! pipelines) on the built-in Cornell box at 256x256.
+//! pipelines) on the built-in Cornell box at 256x256. The G-buffer's layouts: docs/contract.md,
+//! "Frame buffers". The albedo here is each material's Kd (the Cornell box has no textures; a
+//! textured scene's raster samples map_Kd as kernels/gbuffer.wgsl defines).
 use anyhow::{Context, Result};
 use vxgi::harness::GpuContext;
 use vxgi::images::RgbImage;

@@ -3,7 +3,7 @@
 //! Built from the kernels' own cases (the resources and passes `vxgi verify` checks), so a chain runs
 //! exactly the verified kernels. [`crate::render`] runs vct-dense's stage by stage;
 //! [`crate::resident::Resident`] prepares a chain once and records it as one submission per frame.
-use crate::harness::{HostResource, Pass, Resources, Shader};
+use crate::harness::{Case, HostResource, KernelDecl, Pass, Resources, Shader};
 use crate::kernels::cone_trace::{self, ConeSettings};
 use crate::kernels::lrsm_cone_trace::{self, LrsmFrame, LrsmMemory, LrsmSettings};
 use crate::kernels::{direct_light, screen_tiles, voxel_light, voxelize};
@@ -59,6 +59,14 @@ impl Chain {
             stage,
             passes,
         });
+    }
+
+    /// Add `case` as a stage of `decl`'s kernel counted to `stage`: its resources merged
+    /// ([`Chain::merge`]), its passes appended.
+    fn add(&mut self, decl: &'static KernelDecl, stage: &'static str, case: Case) -> Result<()> {
+        self.merge(decl.name, case.resources)?;
+        self.push_as(decl.shader()?, decl.name, stage, case.passes);
+        Ok(())
     }
 
     /// Add a case's resources: a name two stages share must hold the same data (it is one GPU
@@ -326,8 +334,7 @@ pub(crate) fn lrsm_chain(
     };
     let mut vox = voxelize::case_for(ctx, &input, side, "render".into(), 0)?;
     vox.rename_resource("params", "vox_params", false);
-    chain.merge(voxelize::DECL.name, vox.resources)?;
-    chain.push(voxelize::DECL.shader()?, voxelize::DECL.name, vox.passes);
+    chain.add(&voxelize::DECL, voxelize::DECL.name, vox)?;
     // The occlusion voxels of voxelize's grid (the case's zeroed copy of it is the same resource).
     let coverage = if settings.surface_coverage {
         vxgi_cpu_mirror::occlusion_voxels::Coverage::Surface
@@ -341,8 +348,7 @@ pub(crate) fn lrsm_chain(
     };
     let occ_shader = occv::DECL.shader()?;
     let occ = occv::case_for(&occ_shader, ctx, &shell, coverage, "render".into(), 0);
-    chain.merge(occv::DECL.name, occ.resources)?;
-    chain.push(occ_shader, occv::DECL.name, occ.passes);
+    chain.add(&occv::DECL, occv::DECL.name, occ)?;
     let mut occ_offsets = Vec::new();
     let mut words = 0u32;
     for k in 0..=side.trailing_zeros() {
@@ -380,8 +386,7 @@ pub(crate) fn lrsm_chain(
             .into_iter()
             .map(|n| (n.to_string(), g.resources[&rsm_gb(n)].clone()))
             .collect();
-        chain.merge(gbuffer::DECL.name, g.resources)?;
-        chain.push_as(gbuffer::DECL.shader()?, gbuffer::DECL.name, RSM, g.passes);
+        chain.add(&gbuffer::DECL, RSM, g)?;
         let mut r = rsmk::case_for(
             &rshader,
             ctx,
@@ -395,8 +400,7 @@ pub(crate) fn lrsm_chain(
         for n in ["gb_position", "gb_normal", "gb_albedo"] {
             r.rename_resource(n, &rsm_gb(n), false);
         }
-        chain.merge(rsmk::DECL.name, r.resources)?;
-        chain.push_as(rsmk::DECL.shader()?, rsmk::DECL.name, RSM, r.passes);
+        chain.add(&rsmk::DECL, RSM, r)?;
         let zero_rsm = crate::lrsm::Rsm {
             side: rsm_side,
             radiance: vec![[0.0; 4]; texels],
@@ -412,13 +416,7 @@ pub(crate) fn lrsm_chain(
         {
             p.rename_resource(out, &lrsm_prefilter::stream_name(s, 0), false);
         }
-        chain.merge(lrsm_partition::DECL.name, p.resources)?;
-        chain.push_as(
-            lrsm_partition::DECL.shader()?,
-            lrsm_partition::DECL.name,
-            RSM,
-            p.passes,
-        );
+        chain.add(&lrsm_partition::DECL, RSM, p)?;
         if levels > 1 {
             let n0 = (config.layers() as u64 * (side0 as u64).pow(2)) as usize;
             let level0: [Vec<[f32; 4]>; 3] = std::array::from_fn(|_| vec![[0.0; 4]; n0]);
@@ -431,13 +429,7 @@ pub(crate) fn lrsm_chain(
                 "render".into(),
                 0,
             );
-            chain.merge(lrsm_prefilter::DECL.name, f.resources)?;
-            chain.push_as(
-                lrsm_prefilter::DECL.shader()?,
-                lrsm_prefilter::DECL.name,
-                RSM,
-                f.passes,
-            );
+            chain.add(&lrsm_prefilter::DECL, RSM, f)?;
         }
         let after = chain.pass_count();
         let mut first = v as u64 * per_view;
@@ -456,17 +448,11 @@ pub(crate) fn lrsm_chain(
     // The camera's G-buffer and direct light, then the gather over the tiles screen_tiles lists.
     let g = gbuffer::case_for(data, "render".into(), 0);
     let camera_gb = g.resources.clone();
-    chain.merge(gbuffer::DECL.name, g.resources)?;
-    chain.push(gbuffer::DECL.shader()?, gbuffer::DECL.name, g.passes);
+    chain.add(&gbuffer::DECL, gbuffer::DECL.name, g)?;
     let soft = settings.shadow_cone_angle > 0.0;
     if !soft {
         let d = direct_light::case_with_gbuffer(ctx, data, &Default::default(), "render".into(), 0);
-        chain.merge(direct_light::DECL.name, d.resources)?;
-        chain.push(
-            direct_light::DECL.shader()?,
-            direct_light::DECL.name,
-            d.passes,
-        );
+        chain.add(&direct_light::DECL, direct_light::DECL.name, d)?;
     }
     let stream = vec![[0.0f32; 4]; (per_view * views.len() as u64) as usize];
     let frame = LrsmFrame {

@@ -39,6 +39,7 @@ pub fn check_ordered_instances(scene: &Scene, depth_ordered_blend: bool) -> Resu
 /// implement for these settings, or Ok.
 pub fn check(scene: &Scene, pipeline: Pipeline, limits: &wgpu::Limits) -> Result<(), String> {
     check_bounces(scene, pipeline)?;
+    check_kernels(pipeline, limits)?;
     if matches!(pipeline, Pipeline::VctDense | Pipeline::Cprc) {
         check_ordered_instances(scene, scene.render.depth_ordered_blend)?;
     }
@@ -142,6 +143,53 @@ pub fn check(scene: &Scene, pipeline: Pipeline, limits: &wgpu::Limits) -> Result
         _ => {}
     }
     Ok(())
+}
+
+/// Whether every kernel of `pipeline`'s frame fits a device with `limits` (bindings per stage, bind
+/// groups, workgroup sizes), or the kernels that do not and by how much: a device that cannot
+/// create a frame's compute pipelines is refused by name before anything is allocated.
+pub fn check_kernels(pipeline: Pipeline, limits: &wgpu::Limits) -> Result<(), String> {
+    use std::sync::OnceLock;
+    // Reflection of a pipeline's kernels, once per process (every frame checks).
+    static NEEDS: OnceLock<Vec<(Pipeline, Vec<KernelNeeds>)>> = OnceLock::new();
+    let all = NEEDS.get_or_init(|| {
+        [
+            Pipeline::VctDense,
+            Pipeline::VctSvo,
+            Pipeline::Lrsm,
+            Pipeline::Cprc,
+        ]
+        .into_iter()
+        .map(|p| {
+            let needs = pipeline_kernels(p)
+                .into_iter()
+                .filter_map(|k| crate::kernels::find(k).ok())
+                .filter_map(|k| kernel_needs(k.decl()).ok())
+                .collect();
+            (p, needs)
+        })
+        .collect()
+    });
+    let needs = all
+        .iter()
+        .find(|(p, _)| *p == pipeline)
+        .map_or(&[][..], |(_, n)| n.as_slice());
+    let short: Vec<String> = needs
+        .iter()
+        .filter_map(|n| {
+            let e = exceeded(n, limits);
+            (!e.is_empty()).then(|| format!("{} ({})", n.kernel, e.join(", ")))
+        })
+        .collect();
+    if short.is_empty() {
+        Ok(())
+    } else {
+        Err(format!(
+            "this device cannot run {}: {} (request the adapter's own limits when creating the device; `vxgi limits` lists every kernel's needs)",
+            pipeline.name(),
+            short.join("; ")
+        ))
+    }
 }
 
 /// What one kernel needs of a device, from its WGSL's naga reflection (the most any of its entry
@@ -280,4 +328,34 @@ pub fn pipeline_kernels(pipeline: Pipeline) -> Vec<&'static str> {
     let mut seen = std::collections::BTreeSet::new();
     kernels.retain(|k| crate::kernels::find(k).is_ok() && seen.insert(*k));
     kernels
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A device with fewer storage buffers per stage than a pipeline's kernels bind (a GL adapter
+    /// has 16; WebGPU's default is 8) is refused by name, kernel and limit; the adapter's own
+    /// limits as lavapipe reports them pass.
+    #[test]
+    fn kernels_past_the_device_limits_are_refused_by_name() {
+        let scene = Scene::cornell_box();
+        let limits = wgpu::Limits {
+            max_storage_buffers_per_shader_stage: 16,
+            ..wgpu::Limits::default()
+        };
+        let e = check(&scene, Pipeline::Lrsm, &limits).unwrap_err();
+        assert!(
+            e.contains("cannot run lrsm")
+                && e.contains(
+                    "lrsm_cone_trace (max_storage_buffers_per_shader_stage: needs 20, has 16"
+                ),
+            "{e}"
+        );
+        let roomy = wgpu::Limits {
+            max_storage_buffers_per_shader_stage: 32,
+            ..limits
+        };
+        assert_eq!(check_kernels(Pipeline::Lrsm, &roomy), Ok(()));
+    }
 }

@@ -584,3 +584,33 @@ fn a_chain_of_kernels_shares_gpu_resources() {
     }];
     assert!(prepare_chain(gpu(), &chain, &res).is_err());
 }
+
+#[path = "../examples/tdd_own_kernel.rs"]
+mod tdd_own_kernel;
+
+/// examples/tdd_own_kernel.rs: a kernel declared outside vxgi (its WGSL beside the example) verifies
+/// with the harness on its generated cases; the same kernel with one coefficient wrong in its WGSL
+/// fails, and the report names the kernel, the case and the worst elements.
+#[test]
+fn an_outside_kernel_verifies_and_its_bug_is_reported() {
+    use tdd_own_kernel::{Luminance, DECL};
+    let opts = vxgi::harness::VerifyOptions {
+        cases: 5,
+        seed: 3,
+        corrupt: None,
+    };
+    let rep = vxgi::harness::verify(gpu(), &Luminance(&DECL), &opts, &mut |_| {}).unwrap();
+    assert!(rep.passed() && rep.elements > 10_000, "{rep:?}");
+    let wrong: &'static str = Box::leak(DECL.wgsl.replace("0.7152", "0.7150").into_boxed_str());
+    let bad: &'static vxgi::harness::KernelDecl = Box::leak(Box::new(vxgi::harness::KernelDecl {
+        wgsl: wrong,
+        ..DECL
+    }));
+    let rep = vxgi::harness::verify(gpu(), &Luminance(bad), &opts, &mut |_| {}).unwrap();
+    assert!(!rep.passed());
+    let report = rep.failures[0].report();
+    assert!(
+        report.contains("luminance") && report.contains("luma"),
+        "{report}"
+    );
+}

@@ -606,10 +606,11 @@ fn out_of_range_values_name_their_line_and_key() {
 #[test]
 fn resource_limits_are_checked_from_the_settings() {
     use vxgi::render::Pipeline;
-    // lavapipe's storage-binding limit.
+    // lavapipe's storage-binding limit, and the storage buffers per stage the kernels bind.
     let limits = wgpu::Limits {
         max_storage_buffer_binding_size: 128 << 20,
         max_buffer_size: (2 << 30) - 1,
+        max_storage_buffers_per_shader_stage: 32,
         ..Default::default()
     };
     let mut s = Scene::cornell_box();

@@ -182,6 +182,77 @@ impl KernelDecl {
         )
     }
 
+    /// The case of a kernel that computes one output element per input element, `n` of them: `inputs`
+    /// as given (by WGSL binding name), every declared output zeroed at `n` elements of its WGSL
+    /// array's stride (from reflection), one pass of the declared entry over `n` elements, and each
+    /// output compared element by element (linear indexing). An output binding that is not a
+    /// runtime-sized storage array is refused, naming it and its WGSL line.
+    pub fn elementwise_case(
+        &self,
+        shader: &Shader,
+        ctx: &GpuContext,
+        n: usize,
+        inputs: Resources,
+        label: String,
+        seed: u64,
+    ) -> Result<Case> {
+        use crate::shader::BindingKind;
+        let mut resources = inputs;
+        let mut checks = Vec::new();
+        let mut bytes: u64 = resources
+            .values()
+            .filter_map(HostResource::buffer)
+            .map(|b| b.bytes.len() as u64)
+            .sum();
+        for o in self.outputs {
+            let b = shader.binding(o.binding).ok_or_else(|| {
+                crate::error::HarnessError::UnknownBinding {
+                    kernel: self.name.into(),
+                    path: self.wgsl_path.into(),
+                    binding: o.binding.into(),
+                    available: shader
+                        .bindings
+                        .iter()
+                        .map(|b| b.name.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                }
+            })?;
+            let layout = match &b.kind {
+                BindingKind::Storage { layout, .. } if layout.runtime_stride.is_some() => layout,
+                _ => {
+                    return Err(crate::error::HarnessError::Invalid {
+                        kernel: self.name.into(),
+                        message: format!(
+                            "output `{}` ({}:{}) is `{}`, not a runtime-sized storage array: an elementwise case cannot size it",
+                            o.binding, self.wgsl_path, b.line, b.ty
+                        ),
+                    })
+                }
+            };
+            let len = n * layout.runtime_stride.expect("matched") as usize;
+            bytes += len as u64;
+            resources.insert(
+                o.binding.into(),
+                HostResource::Buffer(HostBuffer::zeroed(len, layout.scalar)),
+            );
+            checks.push(Check {
+                resource: o.binding.into(),
+                output: o.binding,
+                indexing: Indexing::Linear,
+            });
+        }
+        let pass = self.pass(shader, ctx, self.name.into(), self.bind_by_name(), n as u64);
+        Ok(Case {
+            label,
+            seed,
+            resources,
+            passes: vec![pass],
+            checks,
+            effective_bytes: bytes,
+        })
+    }
+
     /// A pass of the declared entry with `bindings` (WGSL name -> view), its grid from the dispatch rule
     /// applied to `elements` elements of the rule's binding.
     pub fn pass(

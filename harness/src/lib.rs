@@ -19,11 +19,11 @@ pub use compare::{Comparison, Indexing, Tolerance};
 pub use context::{thread_counters, Counters, GpuContext};
 pub use error::{HarnessError, Result};
 pub use kernel::{
-    Case, Check, Corruption, DispatchRule, FloatMode, Kernel, KernelDecl, KernelReport, Output,
-    VerifyOptions,
+    verify, Case, Check, Corruption, DispatchRule, FloatMode, Kernel, KernelDecl, KernelReport,
+    Output, VerifyOptions,
 };
 pub use run::{
-    prepare, prepare_chain, run_chain, HostBuffer, HostResource, HostTexture, Pass, Prepared,
-    ReadbackSet, Resources, RunOutput, Stage, TimingSource, View, Workgroups,
+    buffer_as, prepare, prepare_chain, run_chain, HostBuffer, HostResource, HostTexture, Pass,
+    Prepared, ReadbackSet, Resources, RunOutput, Stage, TimingSource, View, Workgroups,
 };
 pub use shader::{Binding, BindingKind, ScalarKind, Shader};

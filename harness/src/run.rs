@@ -139,6 +139,12 @@ impl HostResource {
 /// Named host resources: the inputs and zeroed outputs of a run, or what a run read back.
 pub type Resources = BTreeMap<String, HostResource>;
 
+/// The buffer resource `name` of `data` as a slice of `T` (a mirror's view of its inputs), or `None`
+/// where there is no such buffer or its bytes are not a whole number of `T`.
+pub fn buffer_as<'a, T: bytemuck::Pod>(data: &'a Resources, name: &str) -> Option<&'a [T]> {
+    bytemuck::try_cast_slice(&data.get(name)?.buffer()?.bytes).ok()
+}
+
 /// What a WGSL binding is bound to in one pass.
 #[derive(Clone, Debug)]
 pub enum View {
