@@ -3,7 +3,7 @@
 //! splits that run the G-buffer on the mirror agree with it to 1e-3 everywhere (the later kernels are
 //! exact or within ULPs), and the all-GPU split departs only where the G-buffer's triangle pick is
 //! decided by rounding (which `vxgi verify` accepts).
-mod common;
+use crate::common;
 
 use common::gpu;
 use vxgi::bisect::{bisect, render_split, split_after, stages, table, STAGES};

@@ -1,6 +1,6 @@
 //! GPU vs mirror for `kernels/cache_creation.wgsl` (one cone per radiance-cache texel, CPRC 3.1) on
 //! generated scenes whose earlier stages ran on the GPU, and what a cache sees in a known volume.
-mod common;
+use crate::common;
 
 use common::{gpu, verified};
 use vxgi::harness::kernel::verify;

@@ -1,6 +1,6 @@
 //! GPU vs mirror for `kernels/cache_placement.wgsl` (CPRC 3.2): scores within their bounds, picks
 //! accepted by score, and how often the picks differ.
-mod common;
+use crate::common;
 
 use common::{case_passes, gpu, verified};
 use vxgi::gbuffers::GPattern;

@@ -1,6 +1,6 @@
 //! GPU vs mirror for `kernels/cache_preconvolve.wgsl` (radiance caches' mip chains, exact, and their
 //! cosine-folded irradiance maps) on generated caches, and what the irradiance means.
-mod common;
+use crate::common;
 
 use common::{gpu, verified};
 use vxgi::harness::kernel::verify;

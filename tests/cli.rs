@@ -1,5 +1,5 @@
 //! The `vxgi` command line as a user runs it.
-mod common;
+use crate::common;
 
 use common::vxgi;
 

@@ -1,5 +1,5 @@
 //! GPU vs mirror for `kernels/cluster_extract.wgsl` (CPRC 3.2), and what clusters must satisfy.
-mod common;
+use crate::common;
 
 use common::{case_passes, gpu, verified};
 use vxgi::gbuffers::GPattern;

@@ -1,5 +1,5 @@
 //! GPU vs mirror for `kernels/cluster_keys.wgsl`, and keys through the GPU radix sort (CPRC 3.2).
-mod common;
+use crate::common;
 
 use common::{gpu, verified};
 use vxgi::gbuffers::{normals, packed, GPattern};

@@ -1,7 +1,7 @@
 //! GPU vs mirror for `kernels/cone_trace.wgsl` (AO, diffuse and glossy cones through the radiance
 //! pyramid) on generated scenes whose earlier stages ran on the GPU; marching stability; and the
 //! vct-dense pipeline's accuracy against the reference, printed.
-mod common;
+use crate::common;
 
 use common::{gpu, verified};
 use vxgi::harness::kernel::verify;

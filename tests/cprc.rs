@@ -1,7 +1,7 @@
 //! The cprc pipeline end to end (Rehfeld et al. 2014): its accuracy against the converged reference,
 //! and the paper's Fig. 6 argument on rendered scenes — clustered cache placement leaves fewer pixels
 //! without a valid cache than an equidistant grid of as many caches.
-mod common;
+use crate::common;
 
 use common::gpu;
 use vxgi::cprc::{self, CprcSettings};

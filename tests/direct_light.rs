@@ -1,6 +1,6 @@
 //! GPU vs mirror for `kernels/direct_light.wgsl` (exact hard shadows, diffuse + normalised Phong, point /
 //! spot / directional lights) on generated scenes, fed the GPU's own G-buffer.
-mod common;
+use crate::common;
 
 use common::{assert_case_passes, gpu, verified};
 use vxgi::harness::kernel::verify;

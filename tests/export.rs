@@ -1,7 +1,7 @@
 //! `vxgi export`: a kernel as one self-contained WGSL file for another renderer — its includes
 //! composed in, an interface header from naga reflection (entry, workgroup size, every binding's
 //! group, slot, access and layout), checked by parsing the exported text again.
-mod common;
+use crate::common;
 
 use common::vxgi;
 use vxgi::harness::shader::{BindingKind, Shader};

@@ -1,7 +1,7 @@
 //! GPU vs mirror for `kernels/gather_caches.wgsl` (CPRC 3.3: weights and cache evaluation), the
 //! evaluation's meaning on known maps, and the distribution's quality as the paper's Fig. 6 argues it:
 //! clustered placement vs an equidistant grid of caches.
-mod common;
+use crate::common;
 
 use common::{case_passes, gpu, verified};
 use vxgi::gbuffers::GPattern;

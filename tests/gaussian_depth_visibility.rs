@@ -1,7 +1,7 @@
 //! GPU vs mirror for `kernels/gaussian_depth_visibility.wgsl`, numerical stress, the [0,1]-and-finite
 //! property for every finite input, and the approximation error of the Gaussian model (eq. 12) against
 //! the exact fraction of RSM texels inside the cone sample.
-mod common;
+use crate::common;
 
 use common::{assert_case_passes, gpu, verified};
 use proptest::prelude::*;

@@ -1,7 +1,7 @@
 //! GPU vs mirror for `kernels/gbuffer.wgsl`: primary rays through the flattened BVH on generated scenes
 //! (Cornell box, smooth-normal triangle soups, box stacks with rays on shared edges, scenes far from the
 //! origin and tiny ones).
-mod common;
+use crate::common;
 
 use common::{gpu, verified};
 use vxgi::harness::kernel::{verify, verify_case};

@@ -1,7 +1,7 @@
 //! The harness's own machinery on small inline kernels: 3D textures with mips and padded-row readback,
 //! multi-pass runs with an indirect dispatch from a GPU-built work list, and comparison after
 //! canonicalising an order the GPU leaves free (atomic allocation).
-mod common;
+use crate::common;
 
 use common::gpu;
 use std::collections::BTreeMap;

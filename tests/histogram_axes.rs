@@ -1,6 +1,6 @@
 //! `kernels/histogram_axes.wgsl` (CPRC 3.2): degenerate histograms. GPU vs mirror over generated
 //! G-buffers runs in tests/tile_normal_histogram.rs, on the histograms that kernel produces.
-mod common;
+use crate::common;
 
 use common::gpu;
 use vxgi::gbuffers::{normals, packed, GPattern};

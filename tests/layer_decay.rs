@@ -1,6 +1,6 @@
 //! GPU vs mirror for `kernels/layer_decay.wgsl` (LRSM eq. 15), its range property, and the partition of
 //! unity across an overlap.
-mod common;
+use crate::common;
 
 use common::{assert_case_passes, gpu, verified};
 use proptest::prelude::*;

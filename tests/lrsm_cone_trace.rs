@@ -2,7 +2,7 @@
 //! occlusion_voxels, gbuffer -> reflective_shadow_map -> lrsm_partition -> lrsm_prefilter run on the
 //! GPU first); the lrsm pipeline end to end: light reaches the Cornell box's floor indirectly, the plan
 //! says what runs, a directional light is rendered through its orthographic view.
-mod common;
+use crate::common;
 
 use common::{assert_case_passes, gpu, verified};
 use vxgi::kernels::cone_trace::ConeSettings;

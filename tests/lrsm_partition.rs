@@ -1,6 +1,6 @@
 //! GPU vs mirror for `kernels/lrsm_partition.wgsl`, bad input refused at the API boundary, and what a
 //! partition must conserve.
-mod common;
+use crate::common;
 
 use common::{case_passes, gpu, verified};
 use vxgi::harness::kernel::{verify, verify_case};

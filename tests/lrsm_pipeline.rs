@@ -1,7 +1,7 @@
 //! The LRSM kernels composed on the GPU: lrsm_partition -> lrsm_prefilter (every level) -> sample_lrsm,
 //! each stage fed with the previous stage's GPU output, ends where the mirrors end (the first two stages
 //! exactly, up to the z^2 moment's contraction allowance, Sample LRSM within its bounds).
-mod common;
+use crate::common;
 
 use common::gpu;
 use vxgi::harness::kernel::verify_case;

@@ -1,6 +1,6 @@
 //! GPU vs mirror for `kernels/lrsm_prefilter.wgsl`: every level of every layer, bit for bit; and the point
 //! of carrying opacity: normalised moments of a coarse texel are the moments of the covered texels.
-mod common;
+use crate::common;
 
 use common::{case_passes, gpu, verified};
 use vxgi::harness::kernel::{verify, verify_case};

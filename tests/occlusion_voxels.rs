@@ -2,7 +2,7 @@
 //! family, sides 2..128, random seeds through proptest, both coverage rules); each level's byte
 //! against the exact solid fraction of the leaves under it (volume coverage); one-voxel walls opaque
 //! at every level (surface coverage); and the memory the paper's Table 2 states.
-mod common;
+use crate::common;
 
 use common::{gpu, verified};
 use proptest::prelude::*;

@@ -1,5 +1,5 @@
 //! GPU vs mirror for `kernels/radix_sort.wgsl`: the stable sort is unique, so exact.
-mod common;
+use crate::common;
 
 use common::{assert_case_passes, case_passes, gpu, verified};
 use vxgi::harness::kernel::verify;

@@ -1,7 +1,7 @@
 //! GPU vs mirror for `kernels/reflective_shadow_map.wgsl` (generated scenes, every view of their lights),
 //! and what an RSM of the Cornell box's ceiling light must hold: the six cube faces see the whole room
 //! (but its open front), the face looking down sees the floor lit at <n.l> near 1, depths inside [0, 1].
-mod common;
+use crate::common;
 
 use common::{gpu, verified};
 use vxgi::kernels::reflective_shadow_map::{rsm_on_gpu, ReflectiveShadowMap};

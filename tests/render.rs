@@ -1,6 +1,6 @@
 //! Our GPU direct light against the CPU reference's (both exact), on the Cornell box and thin_wall;
 //! the reference's one-bounce and AO images; the render / reference / compare commands.
-mod common;
+use crate::common;
 
 use common::{gpu, vxgi};
 use std::path::Path;

@@ -1,5 +1,5 @@
 //! GPU vs mirror for `kernels/sample_lrsm.wgsl` (LRSM Algorithm 1) on LRSMs built from synthetic RSMs.
-mod common;
+use crate::common;
 
 use common::{case_passes, gpu, verified};
 use vxgi::harness::kernel::{verify, verify_case};

@@ -1,6 +1,6 @@
 //! Scene input: the built-in Cornell box, and every kind of bad file a user can hand us — each an error
 //! with file and line, never a panic.
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 use vxgi::scene::{Light, Scene, SceneError};
@@ -655,7 +655,7 @@ fn resource_limits_are_checked_from_the_settings() {
 /// Fuzzing the loader: arbitrary scene text, and the shipped Cornell box's TOML, OBJ and MTL with
 /// random edits (bytes replaced, removed, or tokens that break parsers: nan, inf, 1e30, brackets,
 /// indices) — loading returns a scene or an error, never panics. 256 cases per file and 256 of arbitrary
-/// text in the default run (a fraction of a second); `cargo test --test scene -- --ignored` runs 8192
+/// text in the default run (a fraction of a second); `cargo test --test integration scene:: -- --ignored` runs 8192
 /// of each.
 mod fuzz {
     use super::*;
@@ -794,7 +794,7 @@ mod fuzz {
     }
 
     #[test]
-    #[ignore = "a long fuzz run: cargo test --test scene -- --ignored"]
+    #[ignore = "a long fuzz run: cargo test --test integration scene:: -- --ignored"]
     fn the_loader_never_panics_long_run() {
         run(8192);
         eprintln!(

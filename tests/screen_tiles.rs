@@ -1,6 +1,6 @@
 //! GPU vs mirror for `kernels/screen_tiles.wgsl` (the work list of screen tiles holding a surface), and
 //! the skip rule it implements: empty tiles are listed nowhere, so the cone passes never dispatch them.
-mod common;
+use crate::common;
 
 use common::{assert_case_passes, gpu, verified};
 use vxgi::harness::kernel::verify;

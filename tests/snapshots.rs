@@ -1,7 +1,7 @@
 //! Image snapshots (DESIGN.md section 8): the 64x64 Cornell box at 64^3 voxels rendered by the scalar
 //! mirrors alone (deterministic, no GPU), quantised to 8-bit sRGB PNG and stored under snapshots/;
 //! the GPU's images are compared to those numerically. Review changes with `cargo insta review`.
-mod common;
+use crate::common;
 
 use common::gpu;
 use std::path::Path;

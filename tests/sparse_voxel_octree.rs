@@ -1,7 +1,7 @@
 //! GPU vs mirror for `kernels/sparse_voxel_octree.wgsl` (exact, after canonicalising the atomic tile
 //! order), every brick voxel of every level against a dense reference lattice, shared voxels
 //! consistent, work skipped, memory, and bad input.
-mod common;
+use crate::common;
 
 use common::{gpu, verified};
 use proptest::prelude::*;

@@ -1,6 +1,6 @@
 //! GPU vs mirror for `kernels/surface_coverage_mip.wgsl`, every level of every generated grid, plus the
 //! failure paths the harness must catch.
-mod common;
+use crate::common;
 
 use common::{assert_case_passes, gpu};
 use proptest::prelude::*;

@@ -3,7 +3,7 @@
 //! What the directional values mean (walls stay opaque, media integrate exactly, the front layer is
 //! what a cone sees) is tested on the mirror (cpu_mirror/src/svo_anisotropic.rs); their effect on
 //! images (leak, accuracy) in tests/svo_cone_trace.rs.
-mod common;
+use crate::common;
 
 use common::{gpu, verified};
 use vxgi::harness::kernel::verify;

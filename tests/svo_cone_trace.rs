@@ -1,6 +1,6 @@
 //! GPU vs mirror for `kernels/svo_cone_trace.wgsl` (per-element bounds, as cone_trace), and the octree
 //! read at the voxels' own level gives the dense pyramid's level 0 back.
-mod common;
+use crate::common;
 
 use common::{gpu, verified};
 use vxgi::harness::kernel::verify;

@@ -1,6 +1,6 @@
 //! GPU vs mirror for `kernels/svo_photons.wgsl` (generated scenes, every view of their lights), and what
 //! the photons of the Cornell box must carry: the light voxel_light computes per voxel, in total.
-mod common;
+use crate::common;
 
 use common::{gpu, verified};
 use vxgi::kernels::svo_photons::{photon_fragments, SvoPhotons};

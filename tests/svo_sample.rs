@@ -1,6 +1,6 @@
 //! GPU vs mirror for `kernels/svo_sample.wgsl`, and sampling the octree at a whole level equals
 //! trilinear interpolation of the dense lattice of that level (sparsity loses nothing).
-mod common;
+use crate::common;
 
 use common::{gpu, verified};
 use proptest::prelude::*;

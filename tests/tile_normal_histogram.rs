@@ -1,6 +1,6 @@
 //! GPU vs mirror for `kernels/tile_normal_histogram.wgsl` (CPRC 3.2), with `histogram_axes` on its
 //! output in the same property test; stress cases and bad input.
-mod common;
+use crate::common;
 
 use common::{case_passes, gpu};
 use vxgi::gbuffers::{normals, packed, GPattern};

@@ -1,6 +1,6 @@
 //! GPU vs mirror for `kernels/voxel_light.wgsl` (direct light into voxels, exact shadow rays), on
 //! generated scenes voxelized by the GPU; and the analytic value on the Cornell box floor.
-mod common;
+use crate::common;
 
 use common::{gpu, verified};
 use vxgi::harness::kernel::verify;

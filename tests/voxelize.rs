@@ -1,6 +1,6 @@
 //! GPU vs mirror for `kernels/voxelize.wgsl` (surface-sampling voxelization, CPRC 3.1), its output fed to
 //! `surface_coverage_mip`, coverage without holes, and bad grid sizes.
-mod common;
+use crate::common;
 
 use common::{gpu, verified};
 use std::path::Path;

@@ -2,9 +2,27 @@
 #![allow(dead_code)]
 use vxgi::harness::GpuContext;
 
-/// The process-wide GPU context. No adapter is a test *failure* with the install hint, never a skip.
+/// Devices the test threads share out: all the integration tests run in one process (one binary),
+/// and a device's queue runs its submissions one after another, so each test thread gets one of
+/// these (the same one for all of its calls).
+const DEVICES: usize = 2;
+
+/// A GPU context for this test thread. No adapter is a test *failure* with the install hint, never
+/// a skip.
 pub fn gpu() -> &'static GpuContext {
-    match GpuContext::shared() {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    use std::sync::OnceLock;
+    static CONTEXTS: OnceLock<Vec<Result<GpuContext, String>>> = OnceLock::new();
+    static NEXT: AtomicUsize = AtomicUsize::new(0);
+    thread_local! {
+        static PICK: usize = NEXT.fetch_add(1, Ordering::Relaxed) % DEVICES;
+    }
+    let all = CONTEXTS.get_or_init(|| {
+        (0..DEVICES)
+            .map(|_| GpuContext::new().map_err(|e| e.to_string()))
+            .collect()
+    });
+    match &all[PICK.with(|p| *p)] {
         Ok(ctx) => ctx,
         Err(e) => panic!("GPU tests need a wgpu adapter: {e}"),
     }
