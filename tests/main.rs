@@ -15,6 +15,7 @@ mod cone_trace;
 mod coverage_error;
 mod cprc;
 mod direct_light;
+mod every_kernel;
 mod export;
 mod gather_caches;
 mod gaussian_depth_visibility;
