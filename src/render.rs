@@ -289,7 +289,7 @@ pub(crate) fn supersampled<T>(
 }
 
 /// The largest light intensity component rendered as it is; brighter scenes are rendered at an
-/// exposure (see [`supersampled`]). Every shipped scene's lights are far below it, so their frames are
+/// exposure (see `supersampled`). Every shipped scene's lights are far below it, so their frames are
 /// unchanged bit for bit.
 pub const EXPOSURE_LIMIT: f32 = 65536.0;
 
