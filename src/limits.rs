@@ -151,7 +151,8 @@ pub fn check(scene: &Scene, pipeline: Pipeline, limits: &wgpu::Limits) -> Result
 pub fn check_kernels(pipeline: Pipeline, limits: &wgpu::Limits) -> Result<(), String> {
     use std::sync::OnceLock;
     // Reflection of a pipeline's kernels, once per process (every frame checks).
-    static NEEDS: OnceLock<Vec<(Pipeline, Vec<KernelNeeds>)>> = OnceLock::new();
+    type Needs = Result<Vec<KernelNeeds>, String>;
+    static NEEDS: OnceLock<Vec<(Pipeline, Needs)>> = OnceLock::new();
     let all = NEEDS.get_or_init(|| {
         [
             Pipeline::VctDense,
@@ -161,19 +162,23 @@ pub fn check_kernels(pipeline: Pipeline, limits: &wgpu::Limits) -> Result<(), St
         ]
         .into_iter()
         .map(|p| {
+            // A kernel that cannot be found or reflected is an error, never a pass.
             let needs = pipeline_kernels(p)
                 .into_iter()
-                .filter_map(|k| crate::kernels::find(k).ok())
-                .filter_map(|k| kernel_needs(k.decl()).ok())
-                .collect();
+                .map(|k| {
+                    let kernel = crate::kernels::find(k).map_err(|e| e.to_string())?;
+                    kernel_needs(kernel.decl())
+                })
+                .collect::<Result<Vec<_>, String>>();
             (p, needs)
         })
         .collect()
     });
-    let needs = all
-        .iter()
-        .find(|(p, _)| *p == pipeline)
-        .map_or(&[][..], |(_, n)| n.as_slice());
+    let needs = match all.iter().find(|(p, _)| *p == pipeline) {
+        Some((_, Ok(n))) => n.as_slice(),
+        Some((_, Err(e))) => return Err(format!("{}'s kernels: {e}", pipeline.name())),
+        None => &[],
+    };
     let short: Vec<String> = needs
         .iter()
         .filter_map(|n| {

@@ -349,8 +349,6 @@ impl PyramidKey {
         }
     }
 
-    /// The key of the levels `cones` can read (`cone_trace::pyramid_levels`), with the normal pyramid
-    /// where the cones blend depth-ordered.
     /// The key without the lights: what the voxel grid itself depends on (the lights only light it).
     pub(crate) fn unlit(&self) -> Self {
         Self {
@@ -359,6 +357,8 @@ impl PyramidKey {
         }
     }
 
+    /// The key of the levels `cones` can read (`cone_trace::pyramid_levels`), with the normal pyramid
+    /// where the cones blend depth-ordered.
     pub(crate) fn reading(scene: &Scene, cones: &ConeSettings) -> Self {
         let levels = cone_trace::pyramid_levels(scene, cones, scene.render.voxels);
         Self {

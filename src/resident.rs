@@ -7,8 +7,8 @@
 //! [`crate::render::VctLrsm`]), so the same images. A chain is prepared once by the harness
 //! (`prepare_chain`: every resource checked against reflection and the device limits, then created
 //! and uploaded). A frame whose geometry, materials, lights and settings equal the last one's (the
-//! camera may move) uploads the camera (one `Frame`, 80 bytes), records the G-buffer, direct light,
-//! tile list and cone passes and submits once; the volume stays where the first frame built it. A
+//! camera may move) uploads the camera (one `Frame`, 80 bytes), records the G-buffer, direct light
+//! (lrsm with shadow cones: the gather's shadow pass), tile list and cone passes and submits once; the volume stays where the first frame built it. A
 //! frame whose lights moved (their number and, for lrsm, their number of light views unchanged) also
 //! uploads them (and lrsm's light views) and re-runs what the lights feed over the kept voxels:
 //! voxel_light and the mips (vct-dense), every view's RSM and LRSM (lrsm). Anything else rebuilds
@@ -144,7 +144,31 @@ pub struct GBuffer<'a> {
 }
 
 impl GBuffer<'_> {
-    /// Record the copies of these buffers into the chain's G-buffer, sizes checked first.
+    /// Whether these buffers fit the camera of `scene` (sizes and `COPY_SRC` usage): checked before
+    /// anything of the frame is built or recorded.
+    fn check(&self, scene: &Scene) -> Result<()> {
+        let pixels = scene.camera.width as u64 * scene.camera.height as u64;
+        for (src, name, bytes) in [
+            (self.position, "gb_position", 16),
+            (self.normal, "gb_normal", 16),
+            (self.triangle, "gb_triangle", 4),
+            (self.albedo, "gb_albedo", 16),
+        ] {
+            anyhow::ensure!(
+                src.size() == pixels * bytes,
+                "the caller's {name} holds {} bytes; the camera's image needs {}",
+                src.size(),
+                pixels * bytes
+            );
+            anyhow::ensure!(
+                src.usage().contains(wgpu::BufferUsages::COPY_SRC),
+                "the caller's {name} needs COPY_SRC usage (it is copied into the frame's G-buffer)"
+            );
+        }
+        Ok(())
+    }
+
+    /// Record the copies of these buffers into the chain's G-buffer ([`GBuffer::check`]ed).
     fn copy_into(&self, p: &Prepared, encoder: &mut wgpu::CommandEncoder) -> Result<()> {
         for (src, name) in [
             (self.position, "gb_position"),
@@ -155,13 +179,7 @@ impl GBuffer<'_> {
             let dst = p.buffer(name).context("the chain's G-buffer")?;
             anyhow::ensure!(
                 src.size() == dst.size(),
-                "the caller's {name} holds {} bytes; the camera's image needs {}",
-                src.size(),
-                dst.size()
-            );
-            anyhow::ensure!(
-                src.usage().contains(wgpu::BufferUsages::COPY_SRC),
-                "the caller's {name} needs COPY_SRC usage (it is copied into the frame's G-buffer)"
+                "the caller's {name}: size changed"
             );
             encoder.copy_buffer_to_buffer(src, 0, dst, 0, src.size());
         }
@@ -266,6 +284,9 @@ impl<'c> Resident<'c> {
         encoder: &mut wgpu::CommandEncoder,
     ) -> Result<FrameBuffers> {
         self.check(scene)?;
+        if let Some(g) = gbuffer {
+            g.check(scene)?;
+        }
         anyhow::ensure!(
             scene.render.supersample == 1 && crate::render::exposure(scene) == 0,
             "encode draws the camera's pixels: supersample = 1 and light intensities up to {} (render() does the rest)",
@@ -286,8 +307,8 @@ impl<'c> Resident<'c> {
     }
 
     /// Build (or keep) the chain for `scene` and record its frame into `encoder` (with `gbuffer`,
-    /// the caller's G-buffer copied in place of the chain's): (reused, re-lit, the passes recorded;
-    /// with the caller's G-buffer the camera's G-buffer pass is not among them).
+    /// the caller's G-buffer copied in place of the chain's): (reused, re-lit, the range of passes
+    /// the frame spans; with the caller's G-buffer the camera's G-buffer pass in it is not recorded).
     fn record(
         &mut self,
         scene: &Scene,

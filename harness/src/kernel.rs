@@ -219,12 +219,16 @@ impl KernelDecl {
                 }
             })?;
             let layout = match &b.kind {
-                BindingKind::Storage { layout, .. } if layout.runtime_stride.is_some() => layout,
+                BindingKind::Storage { layout, .. }
+                    if layout.runtime_stride.is_some() && layout.fixed_size == 0 =>
+                {
+                    layout
+                }
                 _ => {
                     return Err(crate::error::HarnessError::Invalid {
                         kernel: self.name.into(),
                         message: format!(
-                            "output `{}` ({}:{}) is `{}`, not a runtime-sized storage array: an elementwise case cannot size it",
+                            "output `{}` ({}:{}) is `{}`, not a plain runtime-sized storage array: an elementwise case cannot size it",
                             o.binding, self.wgsl_path, b.line, b.ty
                         ),
                     })

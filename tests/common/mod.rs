@@ -3,8 +3,9 @@
 use vxgi::harness::GpuContext;
 
 /// Devices the test threads share out: all the integration tests run in one process (one binary),
-/// and a device's queue runs its submissions one after another, so each test thread gets one of
-/// these (the same one for all of its calls).
+/// and a device's queue runs its submissions one after another, so each test gets one of these in
+/// turn (libtest runs every test on a thread of its own; all of a test's calls get the same one, as
+/// long as it makes them from its own thread).
 const DEVICES: usize = 2;
 
 /// A GPU context for this test thread. No adapter is a test *failure* with the install hint, never
