@@ -148,12 +148,7 @@ impl GBuffer<'_> {
     /// anything of the frame is built or recorded.
     fn check(&self, scene: &Scene) -> Result<()> {
         let pixels = scene.camera.width as u64 * scene.camera.height as u64;
-        for (src, name, bytes) in [
-            (self.position, "gb_position", 16),
-            (self.normal, "gb_normal", 16),
-            (self.triangle, "gb_triangle", 4),
-            (self.albedo, "gb_albedo", 16),
-        ] {
+        for (src, name, bytes) in self.parts() {
             anyhow::ensure!(
                 src.size() == pixels * bytes,
                 "the caller's {name} holds {} bytes; the camera's image needs {}",
@@ -168,14 +163,19 @@ impl GBuffer<'_> {
         Ok(())
     }
 
+    /// Each buffer with the chain's name for it and its bytes per pixel.
+    fn parts(&self) -> [(&wgpu::Buffer, &'static str, u64); 4] {
+        [
+            (self.position, "gb_position", 16),
+            (self.normal, "gb_normal", 16),
+            (self.triangle, "gb_triangle", 4),
+            (self.albedo, "gb_albedo", 16),
+        ]
+    }
+
     /// Record the copies of these buffers into the chain's G-buffer ([`GBuffer::check`]ed).
     fn copy_into(&self, p: &Prepared, encoder: &mut wgpu::CommandEncoder) -> Result<()> {
-        for (src, name) in [
-            (self.position, "gb_position"),
-            (self.normal, "gb_normal"),
-            (self.triangle, "gb_triangle"),
-            (self.albedo, "gb_albedo"),
-        ] {
+        for (src, name, _) in self.parts() {
             let dst = p.buffer(name).context("the chain's G-buffer")?;
             anyhow::ensure!(
                 src.size() == dst.size(),

@@ -205,19 +205,7 @@ impl KernelDecl {
             .map(|b| b.bytes.len() as u64)
             .sum();
         for o in self.outputs {
-            let b = shader.binding(o.binding).ok_or_else(|| {
-                crate::error::HarnessError::UnknownBinding {
-                    kernel: self.name.into(),
-                    path: self.wgsl_path.into(),
-                    binding: o.binding.into(),
-                    available: shader
-                        .bindings
-                        .iter()
-                        .map(|b| b.name.as_str())
-                        .collect::<Vec<_>>()
-                        .join(", "),
-                }
-            })?;
+            let b = shader.require_binding(self.name, o.binding)?;
             let layout = match &b.kind {
                 BindingKind::Storage { layout, .. }
                     if layout.runtime_stride.is_some() && layout.fixed_size == 0 =>

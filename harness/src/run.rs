@@ -382,20 +382,7 @@ impl Checker<'_> {
         for pass in passes {
             let entry = self.shader.require_entry(self.kernel, &pass.entry)?;
             for (name, _) in &pass.bindings {
-                if self.shader.binding(name).is_none() {
-                    return Err(HarnessError::UnknownBinding {
-                        kernel: self.kernel.into(),
-                        path: self.shader.path.clone(),
-                        binding: name.clone(),
-                        available: self
-                            .shader
-                            .bindings
-                            .iter()
-                            .map(|b| b.name.as_str())
-                            .collect::<Vec<_>>()
-                            .join(", "),
-                    });
-                }
+                self.shader.require_binding(self.kernel, name)?;
             }
             for &bi in &entry.uses {
                 let b = &self.shader.bindings[bi];

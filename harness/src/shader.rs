@@ -229,6 +229,22 @@ impl Shader {
         })
     }
 
+    /// [`Self::binding`], or the error naming `kernel`, this file and the bindings it has.
+    pub fn require_binding(&self, kernel: &str, name: &str) -> Result<&Binding> {
+        self.binding(name)
+            .ok_or_else(|| HarnessError::UnknownBinding {
+                kernel: kernel.into(),
+                path: self.path.clone(),
+                binding: name.into(),
+                available: self
+                    .bindings
+                    .iter()
+                    .map(|b| b.name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            })
+    }
+
     /// Reflected layout of a named struct type (for checking `#[repr(C)]` parameter structs):
     /// total size and (member name, offset) pairs.
     pub fn struct_layout(&self, type_name: &str) -> Option<(u32, Vec<(String, u32)>)> {
