@@ -1,7 +1,6 @@
 //! Kernel-level TDD for a kernel that is not part of vxgi: its WGSL beside this file
 //! (tdd_own_kernel.wgsl), a scalar mirror, a tolerance, generated cases, and the harness's verify.
 //! `cargo run --example tdd_own_kernel` (exit 1 with the mismatch report where the GPU disagrees).
-use std::collections::BTreeMap;
 use vxgi::harness::*;
 
 pub static DECL: KernelDecl = KernelDecl {
@@ -13,13 +12,7 @@ pub static DECL: KernelDecl = KernelDecl {
     inputs: &["rgb"],
     // Three products and two sums of non-negative terms, each correctly rounded or fused: within
     // 3 ULP; flushing subnormal inputs or products (WGSL allows it) moves the sum by under 1e-37.
-    outputs: &[Output {
-        binding: "luma",
-        tolerance: Tolerance::Ulp {
-            ulps: 3,
-            abs_floor: 1e-37,
-        },
-    }],
+    outputs: &[Output::ulp("luma", 3, 1e-37)],
     dispatch: DispatchRule::PerElement { binding: "luma" },
     mirror: "tdd_own_kernel::luminance",
     summary: "Rec. 709 luminance of linear RGB",
@@ -39,44 +32,28 @@ impl Kernel for Luminance {
     }
     /// Random colours mixed with hard values (zero, the smallest subnormal, huge, exact halves).
     fn case(&self, shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
-        let hard = [0.0, f32::from_bits(1), 1.0e30, 0.5, 1.0];
-        let mut x = seed ^ (index as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15);
-        let mut next = || {
-            x = x
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            let r = (x >> 40) as usize;
-            [hard[r % 5], (r % 100_000) as f32 * 1e-4][!r.is_multiple_of(8) as usize]
-        };
+        let mut next = generated_floats(seed ^ index as u64, &[0.0, 1e-45, 1e30, 0.5, 1.0]);
         let n = [1, 63, 64, 65, 10_000][index % 5];
         let rgb: Vec<[f32; 4]> = (0..n).map(|_| [next(), next(), next(), 0.0]).collect();
         let input = HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(&rgb)));
         let inputs = Resources::from([("rgb".to_string(), input)]);
-        self.0
-            .elementwise_case(shader, ctx, n, inputs, format!("{n} pixels"), seed)
-            .expect("luma is a runtime-sized array")
+        let label = format!("{n} px");
+        let case = self.0.elementwise_case(shader, ctx, n, inputs, label, seed);
+        case.expect("luma is a runtime-sized array")
     }
-    fn mirror(&self, _: &Case, data: &Resources, _: FloatMode) -> BTreeMap<String, HostBuffer> {
+    fn mirror(&self, _: &Case, data: &Resources, _: FloatMode) -> MirrorOutputs {
         let rgb: &[[f32; 4]] = buffer_as(data, "rgb").expect("rgb");
         let luma: Vec<f32> = rgb.iter().map(luminance).collect();
-        BTreeMap::from([("luma".to_string(), HostBuffer::f32(&luma))])
+        MirrorOutputs::from([("luma".to_string(), HostBuffer::f32(&luma))])
     }
 }
 
-#[allow(dead_code)]
 fn main() -> anyhow::Result<()> {
-    let opts = VerifyOptions {
-        cases: 10,
-        seed: 1,
-        corrupt: None,
-    };
-    let rep = verify(&GpuContext::new()?, &Luminance(&DECL), &opts, &mut |_| {})?;
-    if let Some(f) = rep.failures.first() {
-        anyhow::bail!("{}", f.report());
-    }
-    println!(
-        "luminance: {} elements, max {} ULP",
-        rep.elements, rep.max_ulp
-    );
+    let opts = VerifyOptions::cases(10);
+    let rep = verify(&GpuContext::new()?, &Luminance(&DECL), &opts, &mut |_| {})?
+        .check()
+        .map_err(anyhow::Error::msg)?;
+    let (n, ulp) = (rep.elements, rep.max_ulp);
+    println!("luminance: {n} elements, max {ulp} ULP");
     Ok(())
 }

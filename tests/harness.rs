@@ -585,6 +585,7 @@ fn a_chain_of_kernels_shares_gpu_resources() {
     assert!(prepare_chain(gpu(), &chain, &res).is_err());
 }
 
+#[allow(dead_code)] // its main
 #[path = "../examples/tdd_own_kernel.rs"]
 mod tdd_own_kernel;
 

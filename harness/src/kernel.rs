@@ -23,6 +23,16 @@ pub struct Output {
     pub tolerance: Tolerance,
 }
 
+impl Output {
+    /// An output checked to `ulps` units in the last place, or `abs_floor` absolutely near zero.
+    pub const fn ulp(binding: &'static str, ulps: u32, abs_floor: f32) -> Self {
+        Self {
+            binding,
+            tolerance: Tolerance::Ulp { ulps, abs_floor },
+        }
+    }
+}
+
 /// How the dispatch grid follows from the data.
 #[derive(Clone, Copy, Debug)]
 pub enum DispatchRule {
@@ -337,6 +347,9 @@ impl Case {
 }
 
 /// A declared kernel with its case generator and mirror.
+/// What a mirror returns: the value of every checked resource, by name.
+pub type MirrorOutputs = BTreeMap<String, HostBuffer>;
+
 pub trait Kernel: Sync {
     fn decl(&self) -> &'static KernelDecl;
 
@@ -345,12 +358,7 @@ pub trait Kernel: Sync {
 
     /// The mirror's value of every checked resource. `data` holds the case's inputs overlaid with what
     /// the GPU read back, so a multi-pass kernel verifies each pass on exactly the input the GPU pass saw.
-    fn mirror(
-        &self,
-        case: &Case,
-        data: &Resources,
-        mode: FloatMode,
-    ) -> BTreeMap<String, HostBuffer>;
+    fn mirror(&self, case: &Case, data: &Resources, mode: FloatMode) -> MirrorOutputs;
 
     /// Put an output whose order the GPU leaves free (atomic allocation) into a canonical order before
     /// comparing; applied to GPU and mirror alike. `all` holds every checked buffer of the same side as
@@ -379,6 +387,34 @@ pub struct VerifyOptions {
     pub corrupt: Option<Corruption>,
 }
 
+impl VerifyOptions {
+    /// `cases` generated cases from seed 1, nothing corrupted.
+    pub fn cases(cases: usize) -> Self {
+        Self {
+            cases,
+            seed: 1,
+            corrupt: None,
+        }
+    }
+}
+
+/// Test values for generated cases: each call draws, from `seed`, one of `hard` (one draw in eight)
+/// or a uniform value in [0, 10) on a 1e-4 grid; the same seed gives the same sequence.
+pub fn generated_floats(seed: u64, hard: &[f32]) -> impl FnMut() -> f32 + '_ {
+    let mut x = seed ^ 0x9e37_79b9_7f4a_7c15;
+    move || {
+        x = x
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        let r = (x >> 40) as usize;
+        if r.is_multiple_of(8) && !hard.is_empty() {
+            hard[(r / 8) % hard.len()]
+        } else {
+            (r % 100_000) as f32 * 1e-4
+        }
+    }
+}
+
 /// What verifying one kernel over many cases found.
 #[derive(Clone, Debug)]
 pub struct KernelReport {
@@ -405,6 +441,13 @@ pub struct KernelReport {
 impl KernelReport {
     pub fn passed(&self) -> bool {
         self.failures.is_empty()
+    }
+    /// This report, or the first failure's mismatch report (which names its case) as the error.
+    pub fn check(self) -> Result<Self, String> {
+        match self.failures.first() {
+            Some(f) => Err(f.report()),
+            None => Ok(self),
+        }
     }
     pub fn p99_ulp(&self) -> u64 {
         self.histogram.quantile(0.99)

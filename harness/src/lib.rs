@@ -19,8 +19,8 @@ pub use compare::{Comparison, Indexing, Tolerance};
 pub use context::{thread_counters, Counters, GpuContext};
 pub use error::{HarnessError, Result};
 pub use kernel::{
-    verify, Case, Check, Corruption, DispatchRule, FloatMode, Kernel, KernelDecl, KernelReport,
-    Output, VerifyOptions,
+    generated_floats, verify, Case, Check, Corruption, DispatchRule, FloatMode, Kernel, KernelDecl,
+    KernelReport, MirrorOutputs, Output, VerifyOptions,
 };
 pub use run::{
     buffer_as, prepare, prepare_chain, run_chain, HostBuffer, HostResource, HostTexture, Pass,
