@@ -48,7 +48,7 @@ fn bench(c: &mut Criterion) {
         normal_splits: 1,
         overlap: 0.05,
     };
-    let built = sample_lrsm::build_lrsm(config, 1, 0);
+    let built = sample_lrsm::build_lrsm(config, 1, 0, false);
     let (pos, dir) = sample_lrsm::cone_samples(&built, 2, 1 << 18);
     let shader = sample_lrsm::DECL.shader().expect("WGSL validates");
     let case = sample_lrsm::case_for(&shader, &ctx, &built, &pos, &dir, "bench".into(), 0);

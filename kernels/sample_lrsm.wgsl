@@ -20,7 +20,13 @@
 // For every layer (d, j) whose depth range contains zc (Algorithm 1's test; layers outside are not
 // sampled):  N = dot(n / A_n, vc) (eq. 8, normal normalised by opacity; skipped when A_n <= min_alpha);
 // if N > 0: V = eq. 12 on the layer's moments with zc, rc warped into the layer; if V > 0:
-// L += f(zc) * r * V * N with r = A R (already opacity-weighted = A of eq. 14) and f of eq. 15.
+// L += f(zc) * r * V * N' with r = A R (already opacity-weighted = A of eq. 14), f of eq. 15, and
+// N' = N with params.view_weight = 1 (Algorithm 1 as written), else min(N / LRSM_CULL_RAMP, 1) (N only
+// culls back faces, continuously over the last 1.8 degrees before edge-on: eq. 2's
+// view weight w' = w V(x,v) <n.v> stands in its numerator and denominator, so for one surface it
+// cancels, and the paper itself introduces N to approximate backface culling; weighing by it too
+// darkens every sample by the cosine it is seen at, a factor 1.8 of the Cornell box's indirect energy,
+// docs/accuracy/lrsm.md).
 // Output radiance[i] = (L, number of layers whose depth range contains zc).
 // Accuracy: a per-element bound from the WGSL rules on this path (see sample_bound in the mirror).
 

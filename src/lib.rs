@@ -12,6 +12,7 @@ pub mod images;
 pub mod kernels;
 pub mod limits;
 pub mod lrsm;
+pub mod lrsm_factors;
 pub mod plan;
 pub mod reference;
 pub mod render;

@@ -164,6 +164,24 @@ enum Command {
         #[command(flatten)]
         render: RenderFlags,
     },
+    /// Where lrsm's light goes: its mirror frame with each cone sample's occlusion and radiance
+    /// swapped, one factor at a time, for vct-dense's voxels' or for variants of Algorithm 1; each
+    /// row's indirect energy and FLIP against a reference. Writes factors.md and each row's images.
+    LrsmFactors {
+        /// A TOML scene file (default: the built-in Cornell box).
+        scene: Option<PathBuf>,
+        /// The reference directory (its indirect.exr and combined.exr at the scene camera's size,
+        /// e.g. references/cornell_box_256_4096spp); without it one is rendered at --spp.
+        #[arg(long)]
+        reference: Option<PathBuf>,
+        /// Reference samples per pixel when no --reference is given.
+        #[arg(long, default_value_t = 256)]
+        spp: u32,
+        #[arg(long, default_value = "lrsm-factors")]
+        out: PathBuf,
+        #[command(flatten)]
+        render: RenderFlags,
+    },
     /// Compare a test image against a reference: relative MSE and mean LDR-FLIP, optional heat map.
     Compare {
         reference: PathBuf,
@@ -226,10 +244,14 @@ struct RenderFlags {
     /// lrsm: overlap of neighbouring depth layers [default 0.05].
     #[arg(long = "lrsm-overlap", alias = "lrsm_overlap")]
     lrsm_overlap: Option<f32>,
-    /// lrsm: occlusion mips by surface coverage (a one-voxel wall stays opaque at every level)
-    /// instead of the paper's volume coverage (the solid fraction) [default false].
+    /// lrsm: occlusion mips by surface coverage (a one-voxel wall stays opaque at every level;
+    /// false: the paper's volume coverage, the solid fraction) [default true].
     #[arg(long = "lrsm-surface-coverage", alias = "lrsm_surface_coverage")]
     lrsm_surface_coverage: Option<bool>,
+    /// lrsm: N = <n, vc> weighs each layer's radiance as the paper's Algorithm 1 writes it (false:
+    /// N only culls back faces) [default false].
+    #[arg(long = "lrsm-view-weight", alias = "lrsm_view_weight")]
+    lrsm_view_weight: Option<bool>,
     /// lrsm: soft shadows from shadow cones of this half-angle through the occlusion voxels, degrees
     /// (0 = exact shadow rays) [default 0].
     #[arg(long = "shadow-cone-angle", alias = "shadow_cone_angle")]
@@ -316,6 +338,7 @@ fn load_scene(path: &Option<PathBuf>, flags: &RenderFlags) -> Result<vxgi::scene
         lrsm_normal_splits,
         lrsm_overlap,
         lrsm_surface_coverage,
+        lrsm_view_weight,
         shadow_cone_angle,
         cache_resolution,
         irradiance_resolution,
@@ -666,6 +689,110 @@ fn run_report(scenes: Vec<String>, spp: u32, out: PathBuf) -> Result<()> {
     Ok(())
 }
 
+fn run_lrsm_factors(
+    scene_path: Option<PathBuf>,
+    reference: Option<PathBuf>,
+    spp: u32,
+    out: PathBuf,
+    flags: RenderFlags,
+) -> Result<()> {
+    use vxgi::images::compare;
+    let scene = load_scene(&scene_path, &flags)?;
+    if scene.render.supersample > 1 {
+        bail!("lrsm-factors renders one sample per pixel: set supersample = 1");
+    }
+    create_out(&out)?;
+    let (ref_indirect, ref_combined, ref_name) = match &reference {
+        Some(dir) => (
+            read_exr(&dir.join("indirect.exr"))?,
+            read_exr(&dir.join("combined.exr"))?,
+            dir.display().to_string(),
+        ),
+        None => {
+            if spp == 0 {
+                bail!("--spp must be at least 1");
+            }
+            let bar = spinner();
+            bar.set_message(format!("reference, {spp} spp"));
+            let opts = vxgi::reference::ReferenceOptions::spp(spp);
+            let img = vxgi::reference::render_reference(&scene, &opts, |_| {});
+            bar.finish_and_clear();
+            let rgb = |px: Vec<[f32; 3]>| RgbImage::new(img.width, img.height, px);
+            (
+                rgb(img.indirect.clone()),
+                rgb(img.combined()),
+                format!("Monte Carlo reference, {spp} spp, seed 1"),
+            )
+        }
+    };
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    if (ref_indirect.width, ref_indirect.height) != (w, h) {
+        bail!(
+            "the reference is {}x{}, the scene's camera {w}x{h}",
+            ref_indirect.width,
+            ref_indirect.height
+        );
+    }
+    let cones = ConeSettings::from(&scene.render);
+    let name = scene_path
+        .as_ref()
+        .map_or("cornell_box".into(), |p| p.display().to_string());
+    // The thin wall's leak (dark room over lit room, as `vxgi report` measures it).
+    let thin_wall = name.contains("thin_wall");
+    let positions = if thin_wall {
+        vxgi::reference::pixel_positions(&scene)
+    } else {
+        Vec::new()
+    };
+    let header = format!(
+        "| row | indirect energy | indirect FLIP | combined FLIP |{}\n|---|---|---|---|{}",
+        if thin_wall { " leak |" } else { "" },
+        if thin_wall { "---|" } else { "" }
+    );
+    let mut md = format!(
+        "# lrsm per-factor diagnostic: {name}\n\n{w}x{h}, {} voxels, occlusion mips by {} coverage; \
+         against {ref_name}.\n\n{header}\n",
+        scene.render.voxels,
+        if scene.render.lrsm_surface_coverage { "surface" } else { "volume" },
+    );
+    println!("{header}");
+    for (k, (label, swap)) in vxgi::lrsm_factors::rows().into_iter().enumerate() {
+        let t = std::time::Instant::now();
+        let f = vxgi::render::render_lrsm_factors(&scene, &cones, swap)?;
+        let dir = out.join(format!("row_{k}"));
+        create_out(&dir)?;
+        write_frame(&dir, [&f.direct, &f.indirect, &f.combined, &f.ao])?;
+        let ind = compare(
+            &ref_indirect,
+            Path::new("reference indirect"),
+            &f.indirect,
+            &dir,
+        )?;
+        let comb = compare(
+            &ref_combined,
+            Path::new("reference combined"),
+            &f.combined,
+            &dir,
+        )?;
+        let leak = if thin_wall {
+            let l = vxgi::reference::leak(&f.indirect.pixels, &positions, 0.0, 1.0 / 64.0);
+            format!(" {l:.4} |")
+        } else {
+            String::new()
+        };
+        let line = format!(
+            "| {label} | {:.3} | {:.3} | {:.3} |{leak}",
+            ind.energy_ratio, ind.flip_mean, comb.flip_mean
+        );
+        println!("{line}  ({:.1} s)", t.elapsed().as_secs_f64());
+        md.push_str(&line);
+        md.push('\n');
+    }
+    std::fs::write(out.join("factors.md"), md)?;
+    println!("wrote {}", out.join("factors.md").display());
+    Ok(())
+}
+
 fn run_compare(reference: PathBuf, test: PathBuf, heatmap: Option<PathBuf>) -> Result<()> {
     let r = read_exr(&reference)?;
     let t = read_exr(&test)?;
@@ -761,6 +888,13 @@ fn real_main() -> Result<()> {
             heatmap,
         } => run_compare(reference, test, heatmap),
         Command::Report { scenes, spp, out } => run_report(scenes, spp, out),
+        Command::LrsmFactors {
+            scene,
+            reference,
+            spp,
+            out,
+            render,
+        } => run_lrsm_factors(scene, reference, spp, out, render),
         Command::Bisect {
             scene,
             mirror_until,

@@ -985,20 +985,47 @@ pub struct VctSvo {
     statics: StaticVoxels,
 }
 
+/// What vct-svo's octree depends on ([`VctSvo::key`]).
+type SvoKey = (PyramidKey, u32, bool, bool, u32);
+
 /// vct-svo's octree as the cone pass reads it, and the key it was built for.
-struct SvoCache {
-    /// The pyramid key, photon_map, anisotropic_voxels, voxel_lobes and bounces.
-    key: (PyramidKey, u32, bool, bool, u32),
-    built: crate::kernels::sparse_voxel_octree::GpuOctree,
-    frame: voxelize::VoxelFrame,
+pub(crate) struct SvoCache {
+    key: SvoKey,
+    pub built: crate::kernels::sparse_voxel_octree::GpuOctree,
+    pub frame: voxelize::VoxelFrame,
     /// Directional values (anisotropic voxels).
-    aniso: Option<Vec<[f32; 4]>>,
+    pub aniso: Option<Vec<[f32; 4]>>,
     /// The Gaussian lobes' normal pool, in `built`'s node layout.
-    normals: Option<Vec<u32>>,
+    pub normals: Option<Vec<u32>>,
     /// The glossy voxels' specular pool (lobes on and glossy photons), in `built`'s node layout.
-    spec: Option<Vec<u32>>,
+    pub spec: Option<Vec<u32>>,
     /// The fixed-point scale of every pool (`svo_cone_trace::fixed_scale`).
-    scale: f32,
+    pub scale: f32,
+}
+
+impl SvoCache {
+    /// The octree's bytes, its directional values and pools included.
+    pub fn memory(&self) -> crate::kernels::sparse_voxel_octree::MemoryReport {
+        use crate::kernels::sparse_voxel_octree as svo;
+        let mut memory = svo::MemoryReport::of(&self.built.octree);
+        memory.anisotropic_bytes = self.aniso.as_ref().map_or(0, |a| a.len() as u64 * 16);
+        // The normal and specular pools: one more brick per node each (their buffers end at the
+        // last used node).
+        memory.normal_bytes = (self.normals.is_some() as u64 + self.spec.is_some() as u64)
+            * memory.bricks
+            * svo::BRICK_BYTES;
+        memory.bytes += memory.anisotropic_bytes + memory.normal_bytes;
+        memory
+    }
+
+    /// The directional values and pools as the cone pass binds them.
+    pub fn extras(&self) -> crate::kernels::svo_cone_trace::SvoExtras<'_> {
+        crate::kernels::svo_cone_trace::SvoExtras {
+            aniso: self.aniso.as_deref(),
+            normals: self.normals.as_deref(),
+            spec: self.spec.as_deref(),
+        }
+    }
 }
 
 /// vct-svo's voxels across the frames of an animation with dynamic instances: the static part (the
@@ -1176,15 +1203,8 @@ impl VctSvo {
         cones: &ConeSettings,
         progress: impl Fn(&str),
     ) -> Result<(Rendered, crate::kernels::sparse_voxel_octree::MemoryReport)> {
-        use crate::kernels::{sparse_voxel_octree as svo, svo_cone_trace};
-        let r = &scene.render;
-        let key = (
-            PyramidKey::of(scene),
-            r.photon_map,
-            r.anisotropic_voxels,
-            r.voxel_lobes,
-            r.bounces,
-        );
+        use crate::kernels::svo_cone_trace;
+        let key = Self::key(scene);
         let cached = self.reuse && self.cache.as_ref().is_some_and(|c| c.key == key);
         let mut plan = FramePlan::vct_svo_after(scene, cones, cached);
         let data = SceneData::new(scene);
@@ -1193,188 +1213,27 @@ impl VctSvo {
         if cached {
             progress("octree: reused");
         } else {
-            self.cache = None;
-            let split = self.statics.voxels(ctx, scene, &progress)?;
-            // With dynamic instances: the static part's octree structure, replayed (VCT 4.2.2).
-            let replay = self.replay && split.is_some();
-            let (rad, normal, colour, frame) = match split {
-                Some((grid, list, frame, secs)) => {
-                    stages.push(("voxelize", secs));
-                    let p = plan.passes.iter_mut().find(|p| p.stage == "voxelize");
-                    if let Some(p) = p {
-                        p.size = format!(
-                            "{} dynamic triangles into {}^3 (static part {})",
-                            self.statics.dynamic_triangles,
-                            frame.side,
-                            if self.statics.reused {
-                                "kept"
-                            } else {
-                                "voxelized now"
-                            }
-                        );
-                        p.why = "static part voxelized once into a grid kept for the sequence; dynamic instances each frame, merged in".into();
-                    }
-                    light_grid(
-                        ctx,
-                        &data,
-                        &plan,
-                        grid,
-                        &list,
-                        frame,
-                        &mut stages,
-                        &progress,
-                    )?
-                }
-                None => lit_voxels(ctx, scene, &data, &plan, &mut stages, &progress)?,
-            };
-            // Geometry fragments: the lit voxels, or with photon injection their coverage alone
-            // (voxel_light did not run) and the photons carrying the light.
-            let photons = if plan.runs("svo_photons") {
-                progress("photons");
-                let t = std::time::Instant::now();
-                let photons = crate::kernels::svo_photons::photons_on_gpu(
-                    ctx,
-                    &data,
-                    &frame,
-                    scene.render.photon_map,
-                )
-                .context("photon injection")?;
-                stages.push(("svo_photons", t.elapsed().as_secs_f64()));
-                Some(photons)
-            } else {
-                None
-            };
-            // The fixed point from the values it must hold (any finite light fits).
-            let scale = svo_cone_trace::fixed_scale(
-                svo_cone_trace::grid_values(&rad).chain(photons.iter().flat_map(|p| p.values())),
-                scene.render.bounces,
-            );
-            let mut frags = svo_cone_trace::grid_fragments(&rad, scale)?;
-            // With the lobes, the glossy surfaces' specular photons (their points join the structure).
-            let mut spec_frags = Vec::new();
-            if let Some(photons) = &photons {
-                spec_frags = photons
-                    .fragments(scale)?
-                    .join_into(&mut frags, plan.runs("svo_lobes"));
-            }
-            progress("sparse voxel octree");
-            let t = std::time::Instant::now();
-            let depth = frame.side.trailing_zeros() - 1;
-            let statics = self.statics.structure().filter(|_| replay);
-            if statics.is_some() {
-                if let Some(p) = plan
-                    .passes
-                    .iter_mut()
-                    .find(|p| p.stage == "sparse_voxel_octree")
-                {
-                    p.why.push_str("; the static part's subdivisions replayed (recorded once, VCT 4.2.2): only fragments off its points flag nodes");
-                }
-            }
-            let build = |frags: &[vxgi_cpu_mirror::sparse_voxel_octree::Fragment]| {
-                svo::build_on_gpu_replayed(ctx, depth, frags, None, statics)
-                    .context("sparse voxel octree")
-            };
-            let built = build(&frags)?;
-            stages.push(("sparse_voxel_octree", t.elapsed().as_secs_f64()));
-            let directional = |built: &svo::GpuOctree, stages: &mut Stages| -> Result<_> {
-                if !plan.runs("svo_anisotropic") {
-                    return Ok(None);
-                }
-                progress("anisotropic voxels");
-                let t = std::time::Instant::now();
-                let a =
-                    crate::kernels::svo_anisotropic::build_on_gpu(ctx, &built.octree, 1.0 / scale)
-                        .context("anisotropic voxels")?;
-                stages.push(("svo_anisotropic", t.elapsed().as_secs_f64()));
-                Ok(Some(a))
-            };
-            // The Gaussian lobes' normal pool and the glossy voxels' specular pool: more builds over
-            // the fragments' points.
-            let lobes = |built: &svo::GpuOctree,
-                         frags: &[vxgi_cpu_mirror::sparse_voxel_octree::Fragment],
-                         stages: &mut Stages|
-             -> Result<_> {
-                if !plan.runs("svo_lobes") {
-                    return Ok((None, None));
-                }
-                progress("normal pool (Gaussian lobes)");
-                let t = std::time::Instant::now();
-                let pools = svo_cone_trace::lobe_pools(
-                    Some(ctx),
-                    &built.octree,
-                    frags,
-                    [&rad, &normal],
-                    &spec_frags,
-                    scale,
-                )
-                .context("normal and specular pools")?;
-                stages.push(("svo_lobes", t.elapsed().as_secs_f64()));
-                Ok((Some(pools.0), pools.1))
-            };
-            let mut aniso = directional(&built, &mut stages)?;
-            let (mut normals, mut spec) = lobes(&built, &frags, &mut stages)?;
-            let mut built = built;
-            if plan.runs("svo_bounce") {
-                // Second bounce: every non-empty voxel gathers through the octree of the first, its
-                // reflected light joins the fragments, and the octree is built again.
-                progress("second bounce");
-                let t = std::time::Instant::now();
-                let voxels = svo_cone_trace::bounce_voxels(&rad, &normal, &colour, &frame);
-                let params = svo_cone_trace::svo_cone_params(&frame, cones);
-                let extras = svo_cone_trace::SvoExtras {
-                    aniso: aniso.as_deref(),
-                    normals: normals.as_deref(),
-                    spec: spec.as_deref(),
-                };
-                let ind = svo_cone_trace::bounce_on_gpu(
-                    ctx,
-                    &built.octree,
-                    extras,
-                    scale,
-                    &params,
-                    &voxels,
-                )
-                .context("second bounce")?;
-                frags.extend(svo_cone_trace::bounce_fragments(
-                    &voxels, &ind, &rad, scale,
-                )?);
-                built = build(&frags)?;
-                stages.push(("svo_bounce", t.elapsed().as_secs_f64()));
-                aniso = directional(&built, &mut stages)?;
-                (normals, spec) = lobes(&built, &frags, &mut stages)?;
-            }
-            self.cache = Some(SvoCache {
+            self.build_volume(
+                ctx,
+                scene,
+                cones,
+                &data,
                 key,
-                built,
-                frame,
-                aniso,
-                normals,
-                spec,
-                scale,
-            });
+                &mut plan,
+                &mut stages,
+                &progress,
+            )?;
         }
         let c = self.cache.as_ref().expect("built or reused above");
-        let mut memory = svo::MemoryReport::of(&c.built.octree);
-        memory.anisotropic_bytes = c.aniso.as_ref().map_or(0, |a| a.len() as u64 * 16);
-        // The normal and specular pools: one more brick per node each (their buffers end at the last
-        // used node).
-        memory.normal_bytes = (c.normals.is_some() as u64 + c.spec.is_some() as u64)
-            * memory.bricks
-            * svo::BRICK_BYTES;
-        memory.bytes += memory.anisotropic_bytes + memory.normal_bytes;
+        let memory = c.memory();
         progress("cone tracing");
         let t = std::time::Instant::now();
         let params = svo_cone_trace::svo_cone_params(&c.frame, cones);
-        let extras = svo_cone_trace::SvoExtras {
-            aniso: c.aniso.as_deref(),
-            normals: c.normals.as_deref(),
-            spec: c.spec.as_deref(),
-        };
         let case = svo_cone_trace::case_for(
             &data,
             &gb,
             &c.built.octree,
-            extras,
+            c.extras(),
             c.scale,
             &params,
             "render".into(),
@@ -1382,6 +1241,207 @@ impl VctSvo {
         );
         let frame = cone_pass_frame(ctx, &svo_cone_trace::DECL, &case, direct, stages, plan, t)?;
         Ok((frame, memory))
+    }
+
+    /// The octree (and its directional values and pools) `scene` and `cones` need, built on the GPU
+    /// with the host steps between its passes; kept for later frames under `key`.
+    #[allow(clippy::too_many_arguments)]
+    fn build_volume(
+        &mut self,
+        ctx: &crate::harness::GpuContext,
+        scene: &Scene,
+        cones: &ConeSettings,
+        data: &SceneData,
+        key: SvoKey,
+        plan: &mut FramePlan,
+        stages: &mut Stages,
+        progress: &impl Fn(&str),
+    ) -> Result<()> {
+        use crate::kernels::{sparse_voxel_octree as svo, svo_cone_trace};
+        self.cache = None;
+        let split = self.statics.voxels(ctx, scene, &progress)?;
+        // With dynamic instances: the static part's octree structure, replayed (VCT 4.2.2).
+        let replay = self.replay && split.is_some();
+        let (rad, normal, colour, frame) = match split {
+            Some((grid, list, frame, secs)) => {
+                stages.push(("voxelize", secs));
+                let p = plan.passes.iter_mut().find(|p| p.stage == "voxelize");
+                if let Some(p) = p {
+                    p.size = format!(
+                        "{} dynamic triangles into {}^3 (static part {})",
+                        self.statics.dynamic_triangles,
+                        frame.side,
+                        if self.statics.reused {
+                            "kept"
+                        } else {
+                            "voxelized now"
+                        }
+                    );
+                    p.why = "static part voxelized once into a grid kept for the sequence; dynamic instances each frame, merged in".into();
+                }
+                light_grid(ctx, data, plan, grid, &list, frame, stages, &progress)?
+            }
+            None => lit_voxels(ctx, scene, data, plan, stages, &progress)?,
+        };
+        // Geometry fragments: the lit voxels, or with photon injection their coverage alone
+        // (voxel_light did not run) and the photons carrying the light.
+        let photons = if plan.runs("svo_photons") {
+            progress("photons");
+            let t = std::time::Instant::now();
+            let photons = crate::kernels::svo_photons::photons_on_gpu(
+                ctx,
+                data,
+                &frame,
+                scene.render.photon_map,
+            )
+            .context("photon injection")?;
+            stages.push(("svo_photons", t.elapsed().as_secs_f64()));
+            Some(photons)
+        } else {
+            None
+        };
+        // The fixed point from the values it must hold (any finite light fits).
+        let scale = svo_cone_trace::fixed_scale(
+            svo_cone_trace::grid_values(&rad).chain(photons.iter().flat_map(|p| p.values())),
+            scene.render.bounces,
+        );
+        let mut frags = svo_cone_trace::grid_fragments(&rad, scale)?;
+        // With the lobes, the glossy surfaces' specular photons (their points join the structure).
+        let mut spec_frags = Vec::new();
+        if let Some(photons) = &photons {
+            spec_frags = photons
+                .fragments(scale)?
+                .join_into(&mut frags, plan.runs("svo_lobes"));
+        }
+        progress("sparse voxel octree");
+        let t = std::time::Instant::now();
+        let depth = frame.side.trailing_zeros() - 1;
+        let statics = self.statics.structure().filter(|_| replay);
+        if statics.is_some() {
+            if let Some(p) = plan
+                .passes
+                .iter_mut()
+                .find(|p| p.stage == "sparse_voxel_octree")
+            {
+                p.why.push_str("; the static part's subdivisions replayed (recorded once, VCT 4.2.2): only fragments off its points flag nodes");
+            }
+        }
+        let build = |frags: &[vxgi_cpu_mirror::sparse_voxel_octree::Fragment]| {
+            svo::build_on_gpu_replayed(ctx, depth, frags, None, statics)
+                .context("sparse voxel octree")
+        };
+        let built = build(&frags)?;
+        stages.push(("sparse_voxel_octree", t.elapsed().as_secs_f64()));
+        let directional = |built: &svo::GpuOctree, stages: &mut Stages| -> Result<_> {
+            if !plan.runs("svo_anisotropic") {
+                return Ok(None);
+            }
+            progress("anisotropic voxels");
+            let t = std::time::Instant::now();
+            let a = crate::kernels::svo_anisotropic::build_on_gpu(ctx, &built.octree, 1.0 / scale)
+                .context("anisotropic voxels")?;
+            stages.push(("svo_anisotropic", t.elapsed().as_secs_f64()));
+            Ok(Some(a))
+        };
+        // The Gaussian lobes' normal pool and the glossy voxels' specular pool: more builds over
+        // the fragments' points.
+        let lobes = |built: &svo::GpuOctree,
+                     frags: &[vxgi_cpu_mirror::sparse_voxel_octree::Fragment],
+                     stages: &mut Stages|
+         -> Result<_> {
+            if !plan.runs("svo_lobes") {
+                return Ok((None, None));
+            }
+            progress("normal pool (Gaussian lobes)");
+            let t = std::time::Instant::now();
+            let pools = svo_cone_trace::lobe_pools(
+                Some(ctx),
+                &built.octree,
+                frags,
+                [&rad, &normal],
+                &spec_frags,
+                scale,
+            )
+            .context("normal and specular pools")?;
+            stages.push(("svo_lobes", t.elapsed().as_secs_f64()));
+            Ok((Some(pools.0), pools.1))
+        };
+        let mut aniso = directional(&built, stages)?;
+        let (mut normals, mut spec) = lobes(&built, &frags, stages)?;
+        let mut built = built;
+        if plan.runs("svo_bounce") {
+            // Second bounce: every non-empty voxel gathers through the octree of the first, its
+            // reflected light joins the fragments, and the octree is built again.
+            progress("second bounce");
+            let t = std::time::Instant::now();
+            let voxels = svo_cone_trace::bounce_voxels(&rad, &normal, &colour, &frame);
+            let params = svo_cone_trace::svo_cone_params(&frame, cones);
+            let extras = svo_cone_trace::SvoExtras {
+                aniso: aniso.as_deref(),
+                normals: normals.as_deref(),
+                spec: spec.as_deref(),
+            };
+            let ind =
+                svo_cone_trace::bounce_on_gpu(ctx, &built.octree, extras, scale, &params, &voxels)
+                    .context("second bounce")?;
+            frags.extend(svo_cone_trace::bounce_fragments(
+                &voxels, &ind, &rad, scale,
+            )?);
+            built = build(&frags)?;
+            stages.push(("svo_bounce", t.elapsed().as_secs_f64()));
+            aniso = directional(&built, stages)?;
+            (normals, spec) = lobes(&built, &frags, stages)?;
+        }
+        self.cache = Some(SvoCache {
+            key,
+            built,
+            frame,
+            aniso,
+            normals,
+            spec,
+            scale,
+        });
+        Ok(())
+    }
+
+    /// The octree for `scene`'s frames (built now unless the last one serves): what a GPU-resident
+    /// frame's cone pass binds.
+    pub(crate) fn volume(
+        &mut self,
+        ctx: &crate::harness::GpuContext,
+        scene: &Scene,
+        cones: &ConeSettings,
+    ) -> Result<&SvoCache> {
+        crate::limits::check(scene, Pipeline::VctSvo, &ctx.limits()).map_err(anyhow::Error::msg)?;
+        let key = Self::key(scene);
+        if !self.cache.as_ref().is_some_and(|c| c.key == key) {
+            let mut plan = FramePlan::vct_svo_after(scene, cones, false);
+            let data = SceneData::new(scene);
+            self.build_volume(
+                ctx,
+                scene,
+                cones,
+                &data,
+                key,
+                &mut plan,
+                &mut Vec::new(),
+                &|_| {},
+            )?;
+        }
+        Ok(self.cache.as_ref().expect("built above"))
+    }
+
+    /// What the octree depends on: the pyramid key, photon_map, anisotropic_voxels, voxel_lobes and
+    /// bounces.
+    fn key(scene: &Scene) -> SvoKey {
+        let r = &scene.render;
+        (
+            PyramidKey::of(scene),
+            r.photon_map,
+            r.anisotropic_voxels,
+            r.voxel_lobes,
+            r.bounces,
+        )
     }
 }
 
@@ -1811,6 +1871,37 @@ fn render_lrsm_mirror_samples(scene: &Scene, cones: &ConeSettings) -> Result<Ren
     Ok(m.shade(
         &vol,
         lmax,
+        FramePlan::lrsm_after(scene, cones, &settings, false),
+    ))
+}
+
+/// The lrsm mirror frame with each cone sample's alpha and L taken as `swap` says
+/// ([`crate::lrsm_factors`]): the per-factor diagnostic's frames. One sample per pixel.
+pub fn render_lrsm_factors(
+    scene: &Scene,
+    cones: &ConeSettings,
+    swap: crate::lrsm_factors::Swap,
+) -> Result<Rendered> {
+    use crate::lrsm_factors::{Alpha, Radiance};
+    let m = MirrorFrame::new(scene)?;
+    let mut settings = LrsmSettings::from(&scene.render);
+    // The row's occlusion mips and Algorithm 1's N.
+    match swap.alpha {
+        Alpha::Volume => settings.surface_coverage = false,
+        Alpha::Surface => settings.surface_coverage = true,
+        Alpha::Voxels => {}
+    }
+    if let Radiance::Lrsm(a) = swap.radiance {
+        settings.view_weight = a.view_weight;
+    }
+    let built = lrsm_cone_trace::mirror_frame(&m.data, &m.lit, m.frame, &settings)?;
+    let params = cone_trace::cone_params(&built.voxels, cones);
+    let vol = built.volume(&params);
+    let pyramids = m.pyramid();
+    let factors = crate::lrsm_factors::FactorVolume::new(&vol, &pyramids, swap);
+    Ok(m.shade(
+        &factors,
+        vol.lmax,
         FramePlan::lrsm_after(scene, cones, &settings, false),
     ))
 }

@@ -2,17 +2,20 @@
 //! bind groups on the GPU across frames and records each frame into one command encoder and one
 //! submission, reading back only the images it returns.
 //!
-//! [`Resident`] draws vct-dense and lrsm frames from their chains ([`crate::chains`]): the same
-//! kernels on the same inputs as the stage-by-stage renderers ([`crate::render::VctDense`],
-//! [`crate::render::VctLrsm`]), so the same images. A chain is prepared once by the harness
+//! [`Resident`] draws vct-dense, vct-svo and lrsm frames from their chains ([`crate::chains`]): the
+//! same kernels on the same inputs as the stage-by-stage renderers ([`crate::render::VctDense`],
+//! [`crate::render::VctSvo`], [`crate::render::VctLrsm`]), so the same images. vct-svo's octree is
+//! built by the staged passes when the chain is built (their host steps between passes run then,
+//! once); its chain is the camera's stages over it. A chain is prepared once by the harness
 //! (`prepare_chain`: every resource checked against reflection and the device limits, then created
 //! and uploaded). A frame whose geometry, materials, lights and settings equal the last one's (the
 //! camera may move) uploads the camera (one `Frame`, 80 bytes), records the G-buffer, direct light
 //! (lrsm with shadow cones: the gather's shadow pass), tile list and cone passes and submits once; the volume stays where the first frame built it. A
 //! frame whose lights moved (their number and, for lrsm, their number of light views unchanged) also
 //! uploads them (and lrsm's light views) and re-runs what the lights feed over the kept voxels:
-//! voxel_light and the mips (vct-dense), every view's RSM and LRSM (lrsm). Anything else rebuilds
-//! the whole chain, and the plan says why.
+//! voxel_light and the mips (vct-dense), every view's RSM and LRSM (lrsm); vct-svo's octree values
+//! hold the light, so there moved lights rebuild. Anything else rebuilds the whole chain, and the
+//! plan says why.
 use crate::chains::{Chain, ChainCopy};
 use crate::harness::{GpuContext, Prepared, ReadbackSet};
 use crate::kernels::cone_trace::ConeSettings;
@@ -64,7 +67,13 @@ impl Key {
             ));
         }
         if self.volume != next.volume && self.render.voxels == next.render.voxels {
-            what.push("the geometry, materials or the mip levels the cones read changed".into());
+            if self.volume.unlit() == next.volume.unlit() {
+                what.push("the lights moved (vct-svo's octree values hold the light)".into());
+            } else {
+                what.push(
+                    "the geometry, materials or the mip levels the cones read changed".into(),
+                );
+            }
         }
         if what.is_empty() {
             what.push("the render or cone settings changed".into());
@@ -75,11 +84,16 @@ impl Key {
     fn of(pipeline: Pipeline, scene: &Scene, cones: &ConeSettings) -> Self {
         let (volume, views) = match pipeline {
             // The levels the cones read: the others are not built.
-            Pipeline::VctDense => (PyramidKey::reading(scene, cones), 0),
-            _ => (PyramidKey::of(scene), crate::plan::light_views(scene)),
+            Pipeline::VctDense => (PyramidKey::reading(scene, cones).unlit(), 0),
+            // The octree's values hold the light: moved lights rebuild it.
+            Pipeline::VctSvo => (PyramidKey::of(scene), 0),
+            _ => (
+                PyramidKey::of(scene).unlit(),
+                crate::plan::light_views(scene),
+            ),
         };
         Self {
-            volume: volume.unlit(),
+            volume,
             lights: scene.lights.len(),
             views,
             render: scene.render.clone(),
@@ -198,7 +212,7 @@ pub struct Resident<'c> {
 
 impl<'c> Resident<'c> {
     /// The pipelines with GPU-resident frames.
-    pub const PIPELINES: [Pipeline; 2] = [Pipeline::VctDense, Pipeline::Lrsm];
+    pub const PIPELINES: [Pipeline; 3] = [Pipeline::VctDense, Pipeline::VctSvo, Pipeline::Lrsm];
 
     /// A renderer of `pipeline`'s frames on `ctx`; refused for a pipeline without resident frames
     /// ([`Resident::PIPELINES`]; the others run stage by stage, [`crate::render::Renderer`]).
@@ -225,7 +239,8 @@ impl<'c> Resident<'c> {
             && !scene.lights.is_empty()
     }
 
-    /// What the last frame's volume holds (lrsm: its structures' bytes); `None` for vct-dense.
+    /// What the last frame's volume holds (vct-svo: the octree's bytes; lrsm: its structures'
+    /// bytes); `None` for vct-dense.
     pub fn memory(&self) -> Option<VolumeMemory> {
         self.built.as_ref().and_then(|b| b.memory.clone())
     }
@@ -411,6 +426,7 @@ impl<'c> Resident<'c> {
             Pipeline::Lrsm => {
                 FramePlan::lrsm_after(scene, cones, &LrsmSettings::from(&scene.render), cached)
             }
+            Pipeline::VctSvo => FramePlan::vct_svo_after(scene, cones, cached),
             _ => FramePlan::vct_dense_after(scene, cones, cached),
         };
         if relit {
@@ -443,6 +459,20 @@ impl<'c> Resident<'c> {
                 let direct = if soft { "soft_direct" } else { "radiance" };
                 let rsm = crate::kernels::reflective_shadow_map::DECL.name;
                 (chain, Some(VolumeMemory::Lrsm(memory)), direct, rsm)
+            }
+            Pipeline::VctSvo => {
+                // The octree by the staged passes (their host steps run once, here); a frame then
+                // records only the camera's stages over it. Moved lights rebuild (the key holds them).
+                let mut svo = crate::render::VctSvo::new(false);
+                let volume = svo.volume(self.ctx, scene, cones)?;
+                let chain = crate::chains::svo_chain(self.ctx, &data, cones, volume)?;
+                let memory = VolumeMemory::Octree(volume.memory());
+                (
+                    chain,
+                    Some(memory),
+                    "radiance",
+                    crate::kernels::gbuffer::DECL.name,
+                )
             }
             _ => {
                 // The G-buffer the cone pass binds, computed in the chain (zeroed here).

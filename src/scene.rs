@@ -222,9 +222,14 @@ pub struct RenderSettings {
     /// lrsm: overlap of neighbouring depth layers (delta of eq. 15), in [0, 1 / (a + 1)].
     pub lrsm_overlap: f32,
     /// lrsm: occlusion mips by CPRC's surface coverage (a quarter of the children's sum, capped: a
-    /// one-voxel wall stays opaque at every level) instead of the paper's volume coverage (the solid
-    /// fraction: such a wall is 1/2^k opaque at level k, and cones see through it).
+    /// one-voxel wall stays opaque at every level; the default) instead of the paper's volume
+    /// coverage (false: the solid fraction, so such a wall is 1/2^k opaque at level k and cones see
+    /// through it).
     pub lrsm_surface_coverage: bool,
+    /// lrsm: N = <n, vc> weighs each layer's radiance, as the paper's Algorithm 1 writes it, instead
+    /// of only culling back faces (false, the default: a Lambertian surface's radiance does not
+    /// depend on where it is seen from; eq. 2's view weight cancels for one surface).
+    pub lrsm_view_weight: bool,
     /// lrsm: soft shadows — direct light's visibility from one cone of this half-angle (degrees) per
     /// light through the occlusion voxels instead of an exact shadow ray; 0 (the default) = exact rays,
     /// the light-transport contract. In [0, 45].
@@ -455,7 +460,8 @@ impl Default for RenderSettings {
             lrsm_depth_splits: 1,
             lrsm_normal_splits: 1,
             lrsm_overlap: 0.05,
-            lrsm_surface_coverage: false,
+            lrsm_surface_coverage: true,
+            lrsm_view_weight: false,
             shadow_cone_angle: 0.0,
             // The paper's 16^2 caches and two-tile gathering radius; 16-pixel tiles give ~1000
             // caches at 256x256.

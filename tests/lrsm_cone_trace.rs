@@ -42,13 +42,16 @@ fn the_cornell_box_gathers_indirect_light_and_reports_its_memory() {
     assert_eq!(names, Pipeline::Lrsm.stages());
 }
 
-/// `lrsm_surface_coverage`: the occlusion mips by surface coverage keep the Cornell box's one-voxel
+/// `lrsm_surface_coverage` (the default): the occlusion mips by surface coverage keep the Cornell box's one-voxel
 /// walls opaque at the coarse levels, so the gather's samples weigh the LRSMs' radiance by a full
 /// alpha where the paper's volume coverage gives 1/2^k (eq. 1's alpha_i L_i). Measured at 256x256 /
 /// 128^3 against the 4096-spp reference: indirect energy 0.088 -> 0.361 of the reference's, combined
 /// FLIP 0.471 -> 0.400 with nearest-texel LRSM fetches, 0.464 -> 0.374 with trilinear ones (docs/accuracy/lrsm.md). Here (48x48, 64^3: measured 2.5x; at 32^3, where a wall is a
 /// thicker share of each cell, 1.5x) the indirect energy must at least double, and the frame is the
-/// mirror frame's to float rounding.
+/// mirror frame's to float rounding: relative MSE 1.3e-5, because with N only culling back faces a
+/// sample whose N is within rounding of 0 takes a layer's whole term on one side and leaves it on the
+/// other (the kernel's per-element bound allows it; with N as a weight such a term is near 0 and the
+/// frames agreed to 1e-6).
 #[test]
 fn surface_coverage_occlusion_lets_the_gather_see_the_walls() {
     let mut scene = Scene::cornell_box();
@@ -59,6 +62,7 @@ fn surface_coverage_occlusion_lets_the_gather_see_the_walls() {
     let energy = |img: &vxgi::images::RgbImage| -> f64 {
         img.pixels.iter().flatten().map(|&c| c as f64).sum()
     };
+    scene.render.lrsm_surface_coverage = false;
     let volume = render_lrsm(gpu(), &scene, &ConeSettings::default(), |_| {})
         .unwrap()
         .0;
@@ -72,7 +76,7 @@ fn surface_coverage_occlusion_lets_the_gather_see_the_walls() {
     let m = vxgi::render::render_lrsm_mirror(&scene, &ConeSettings::default()).unwrap();
     let p = std::path::Path::new("");
     let c = vxgi::images::compare(&m.indirect, p, &surface.indirect, p).unwrap();
-    assert!(c.rel_mse < 1e-6, "GPU vs mirror: rel MSE {}", c.rel_mse);
+    assert!(c.rel_mse < 1e-4, "GPU vs mirror: rel MSE {}", c.rel_mse);
 }
 
 #[test]
@@ -161,14 +165,12 @@ fn a_soft_direct_term_at_the_bottom_of_the_normal_range_may_flush() {
     assert_case_passes(&shader, &LrsmConeTrace, &case);
 }
 
-/// lrsm at the Cornell box's own 256x256 with the default settings against the committed converged
-/// reference (4096 spp), with the paper's volume-coverage occlusion and with `lrsm_surface_coverage`.
-/// Measured on lavapipe with the trilinear LRSM fetch and the views' seam weights (`disc_share`):
-/// combined FLIP 0.471 / 0.370, indirect 0.839 / 0.659, indirect energy 0.081 / 0.388 of the
-/// reference's (docs/accuracy/lrsm.md; without the seam weights 0.464 / 0.374, the bands along the cube-face
-/// seams adding light to a frame that lacks it; the nearest-texel fetch scored 0.471 / 0.400). A
-/// regression guard at the measured values plus a small margin, and the indirect energy's share (the
-/// volume coverage's darkening: a one-voxel wall is 1/2^k opaque at level k).
+/// lrsm at the Cornell box's own 256x256 against the committed converged reference (4096 spp): the
+/// paper's literal settings (volume-coverage occlusion, N weighing L) and the defaults (surface
+/// coverage, N only culling). Measured on lavapipe with the trilinear LRSM fetch and the views' seam
+/// weights (`disc_share`): combined FLIP 0.471 / 0.329, indirect 0.839 / 0.569, indirect energy
+/// 0.081 / 0.667 of the reference's (docs/accuracy/lrsm.md has the per-factor table between them). A regression guard at the measured values
+/// plus a small margin, and the indirect energy's share.
 #[test]
 fn lrsm_against_the_converged_reference() {
     let dir =
@@ -179,18 +181,19 @@ fn lrsm_against_the_converged_reference() {
         img.pixels.iter().flatten().map(|&c| c as f64).sum()
     };
     let p = std::path::Path::new("");
-    for (surface, max_combined, max_indirect, share) in [
-        (false, 0.48, 0.85, 0.06..0.12),
-        (true, 0.38, 0.67, 0.3..0.5),
+    for (paper, max_combined, max_indirect, share) in [
+        (true, 0.48, 0.85, 0.06..0.12),
+        (false, 0.34, 0.58, 0.6..0.75),
     ] {
         let mut scene = Scene::cornell_box();
-        scene.render.lrsm_surface_coverage = surface;
+        scene.render.lrsm_surface_coverage = !paper;
+        scene.render.lrsm_view_weight = paper;
         let (r, _) = render_lrsm(gpu(), &scene, &ConeSettings::default(), |_| {}).unwrap();
         let comb = vxgi::images::compare(&ref_combined, p, &r.combined, p).unwrap();
         let ind = vxgi::images::compare(&ref_indirect, p, &r.indirect, p).unwrap();
         let ratio = energy(&r.indirect) / energy(&ref_indirect);
         println!(
-            "lrsm (surface coverage {surface}) vs 4096 spp: combined FLIP {:.3}, indirect {:.3}, indirect energy {ratio:.3} of the reference's",
+            "lrsm (the paper's settings: {paper}) vs 4096 spp: combined FLIP {:.3}, indirect {:.3}, indirect energy {ratio:.3} of the reference's",
             comb.flip_mean, ind.flip_mean
         );
         assert!(
@@ -243,6 +246,43 @@ fn samples_crossing_a_cube_face_seam_take_radiance_continuously() {
             (l1 - l0).abs() <= 0.05 * largest,
             "L jumps from {l0} at x = {x0} to {l1} at x = {x1} (largest {largest}; seam at x = {})",
             1.9 - y
+        );
+    }
+}
+
+/// `vxgi lrsm-factors` swaps what it says it swaps: its row with the default settings is the lrsm
+/// mirror frame, and its row with both factors from the lit voxels is vct-dense's mirror frame (the
+/// same march over the same voxel grid), so a row's difference from another is the factor it swaps.
+#[test]
+fn the_factor_diagnostic_reproduces_the_frames_it_swaps_between() {
+    use vxgi::lrsm_factors::{rows, Alpha, Radiance};
+    let mut scene = Scene::cornell_box();
+    scene.camera.width = 32;
+    scene.camera.height = 32;
+    scene.render.voxels = 32;
+    scene.render.rsm_side = 16;
+    let cones = ConeSettings::from(&scene.render);
+    let row = |alpha: Alpha, radiance: Radiance| {
+        let (_, swap) = rows()
+            .into_iter()
+            .find(|(_, s)| s.alpha == alpha && s.radiance == radiance)
+            .expect("a row of the diagnostic");
+        vxgi::render::render_lrsm_factors(&scene, &cones, swap).unwrap()
+    };
+    let p = std::path::Path::new("");
+    let default = row(Alpha::Surface, Radiance::Lrsm(Default::default()));
+    let lrsm = vxgi::render::render_lrsm_mirror(&scene, &cones).unwrap();
+    let voxels = row(Alpha::Voxels, Radiance::Voxels);
+    let dense = vxgi::render::render_mirror(&scene, &cones).unwrap();
+    for (name, a, b) in [
+        ("lrsm", &default.indirect, &lrsm.indirect),
+        ("vct-dense", &voxels.indirect, &dense.indirect),
+    ] {
+        let c = vxgi::images::compare(b, p, a, p).unwrap();
+        assert!(c.rel_mse < 1e-8, "{name}: relative MSE {}", c.rel_mse);
+        assert!(
+            a.pixels.iter().flatten().any(|&v| v > 0.0),
+            "{name}: no light"
         );
     }
 }

@@ -81,7 +81,7 @@ fn partition_prefilter_sample_compose_on_the_gpu() {
     .unwrap();
 
     // 3. Sample the GPU-built LRSM; the CPU-built one (mirrors throughout) must agree with it.
-    let mut built = sample_lrsm::build_lrsm(config, 3, 0);
+    let mut built = sample_lrsm::build_lrsm(config, 3, 0, true);
     let mut gpu_streams = streams.clone();
     for k in 1..levels {
         for (s, stream) in gpu_streams.iter_mut().enumerate() {

@@ -23,7 +23,7 @@ fn one_layer_64() -> (PartitionConfig, BuiltLrsm) {
         normal_splits: 1,
         overlap: 0.05,
     };
-    (config, build_lrsm(config, 5, 0))
+    (config, build_lrsm(config, 5, 0, true))
 }
 
 /// Sample LRSM on the GPU for these samples, checked against the mirror first.
@@ -107,6 +107,10 @@ fn params_struct_matches_the_reflected_wgsl_layout() {
         "min_variance",
         "min_alpha",
         "overlap",
+        "view_weight",
+        "_pad0",
+        "_pad1",
+        "_pad2",
     ];
     let offsets = [
         std::mem::offset_of!(SampleParams, depth_slices),
@@ -117,6 +121,10 @@ fn params_struct_matches_the_reflected_wgsl_layout() {
         std::mem::offset_of!(SampleParams, min_variance),
         std::mem::offset_of!(SampleParams, min_alpha),
         std::mem::offset_of!(SampleParams, overlap),
+        std::mem::offset_of!(SampleParams, view_weight),
+        std::mem::offset_of!(SampleParams, _pad),
+        std::mem::offset_of!(SampleParams, _pad) + 4,
+        std::mem::offset_of!(SampleParams, _pad) + 8,
     ];
     let want: Vec<(String, u32)> = names
         .iter()

@@ -12,6 +12,10 @@ use crate::gaussian_depth_visibility::{visibility, visibility_bound_inexact, Vis
 use crate::layer_decay::layer_decay;
 use crate::{ftz, morton};
 
+/// With N as a cull, the width of its ramp from 0 to 1 (`LRSM_CULL_RAMP`, see the WGSL): the factor
+/// is `min(N / CULL_RAMP, 1)` where N > 0.
+pub const CULL_RAMP: f32 = 0.03125;
+
 /// The kernel's uniform block (`struct SampleParams`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
@@ -26,6 +30,10 @@ pub struct SampleParams {
     pub min_alpha: f32,
     /// Overlap delta of eq. 15.
     pub overlap: f32,
+    /// 1: N = <n, vc> weighs each layer's radiance (Algorithm 1 as written); 0: N only culls back
+    /// faces (see kernels/common/lrsm_sample.wgsl).
+    pub view_weight: u32,
+    pub _pad: [u32; 3],
 }
 
 /// The LRSM as the kernel binds it: every level of every layer, levels concatenated.
@@ -189,7 +197,12 @@ pub fn sample(
             }
             let decay = layer_decay(zc, range[0], range[1], f(p.overlap), flush);
             let r = fetch(lrsm.radiance, &taps, layer, flush);
-            let w = f(f(decay * vis) * big_n);
+            let n_w = if p.view_weight == 1 {
+                big_n
+            } else {
+                f(big_n * (1.0 / CULL_RAMP)).min(1.0)
+            };
+            let w = f(f(decay * vis) * n_w);
             for c in 0..3 {
                 l[c] = f(l[c] + f(r[c] * w));
             }
@@ -231,8 +244,13 @@ pub fn sample_bound(lrsm: &Lrsm, p: &SampleParams, pos: [f32; 4], dir: [f32; 4])
                 if nm[3] + e_nm[3] > min_alpha {
                     // The GPU may take this layer where the mirror does not, or leave it: the whole
                     // term, decay and V at most 1, |n| at most |A n| over the opacity's floor.
-                    let n_max = (0..3).map(|c| nm[c].abs() + e_nm[c]).sum::<f64>()
-                        / (nm[3] - e_nm[3]).max(min_alpha);
+                    // (Where N only culls, its factor is at most 1.)
+                    let n_max = if p.view_weight == 1 {
+                        (0..3).map(|c| nm[c].abs() + e_nm[c]).sum::<f64>()
+                            / (nm[3] - e_nm[3]).max(min_alpha)
+                    } else {
+                        1.0
+                    };
                     for c in 0..3 {
                         bound[c] += n_max * (r[c] + e_r[c]);
                         total[c] += n_max * (r[c] + e_r[c]);
@@ -251,7 +269,15 @@ pub fn sample_bound(lrsm: &Lrsm, p: &SampleParams, pos: [f32; 4], dir: [f32; 4])
             let d_n = (2.5 + 3.0) * u * abs_terms
                 + 2.0 * u * big_n.abs()
                 + (0..3).map(|c| v[c].abs() * e_n[c]).sum::<f64>();
-            if big_n + d_n <= 0.0 {
+            // Where N only culls, its ramp also moves with the gather's vc = -d, a few ULP off the
+            // mirror's (lrsm_cone_trace's bound takes that relative change of L for the weight, not
+            // for the ramp's steeper slope): 1e-4 of |n|_1 more.
+            let d_branch = if p.view_weight == 1 {
+                d_n
+            } else {
+                d_n + 1e-4 * n.iter().map(|c| c.abs()).sum::<f64>()
+            };
+            if big_n + d_branch <= 0.0 {
                 continue; // N <= 0 on every conforming GPU: no contribution anywhere
             }
             let zw = ((zc - range[0]) * range[2]) as f64;
@@ -273,10 +299,22 @@ pub fn sample_bound(lrsm: &Lrsm, p: &SampleParams, pos: [f32; 4], dir: [f32; 4])
                 + d_window;
             let decay = layer_decay(zc, range[0], range[1], p.overlap, false) as f64;
             let d_decay = 8.0 * u * decay;
-            let (bn, bv) = (big_n.max(0.0) + d_n, vis + d_vis);
+            // N's factor in the weight and its error: with the view weight N itself; as a cull the
+            // ramp min(N / CULL_RAMP, 1), which moves by at most d_branch / CULL_RAMP (its
+            // product 0.5 ULP more), at most 1.
+            let ramp = f64::from(CULL_RAMP);
+            let (n_w, d_nw) = if p.view_weight == 1 {
+                (big_n.max(0.0), d_n)
+            } else {
+                (
+                    (big_n / ramp).clamp(0.0, 1.0),
+                    (d_branch / ramp + u).min(1.0),
+                )
+            };
+            let (bn, bv) = (n_w + d_nw, vis + d_vis);
             let dw =
-                d_decay * bv * bn + (decay + d_decay) * d_vis * bn + (decay + d_decay) * bv * d_n;
-            let w = decay * vis * big_n.max(0.0);
+                d_decay * bv * bn + (decay + d_decay) * d_vis * bn + (decay + d_decay) * bv * d_nw;
+            let w = decay * vis * n_w;
             for c in 0..3 {
                 bound[c] += r[c] * dw + 4.0 * u * r[c] * w + e_r[c] * (w + dw);
                 total[c] += (r[c] + e_r[c]) * (w + dw);
@@ -309,6 +347,8 @@ mod tests {
             min_variance: 1e-4,
             min_alpha: 1e-6,
             overlap: 0.05,
+            view_weight: 1,
+            _pad: [0; 3],
         }
     }
 

@@ -4,6 +4,12 @@
 // `lrsm_radiance`, `lrsm_normal` and `lrsm_moments` (see sample_lrsm.wgsl's header for the layout) and
 // includes common/lrsm_math.wgsl.
 
+// With N as a cull, its factor ramps from 0 to 1 over N in [0, LRSM_CULL_RAMP] (surfaces within 1.8
+// degrees of edge-on fade out) instead of stepping at 0: continuous in N, so a sample whose N rounds
+// to either side of 0 (a cone parallel to a wall: exactly 0 in exact arithmetic) is not a whole term
+// apart on two GPUs. An edge-on surface's projected area is 0, so the ramp removes nothing visible.
+const LRSM_CULL_RAMP: f32 = 0.03125;
+
 struct SampleParams {
     depth_slices: u32,
     normal_slices: u32,
@@ -13,6 +19,13 @@ struct SampleParams {
     min_variance: f32,
     min_alpha: f32,
     overlap: f32,
+    // 1: N = <n, vc> weighs each layer's radiance, as Algorithm 1 writes it; 0: N only culls back
+    // faces (eq. 2's w' holds <n.v> in its numerator and denominator alike, so for one surface it
+    // cancels: a Lambertian surface's radiance does not depend on where it is seen from).
+    view_weight: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 fn spread2(v_in: u32) -> u32 {
@@ -153,7 +166,7 @@ fn lrsm_sample(pos: vec4<f32>, dir: vec4<f32>, base: u32) -> vec4<f32> {
                 continue;
             }
             let decay = lrsm_layer_decay(zc, range.x, range.y, params.overlap);
-            let w = (decay * vis) * big_n;
+            let w = (decay * vis) * select(min(big_n * (1.0 / LRSM_CULL_RAMP), 1.0), big_n, params.view_weight == 1u);
             l = l + fetch_radiance(&taps, layer, base).xyz * w;
         }
     }

@@ -89,6 +89,8 @@ pub struct LrsmSettings {
     pub overlap: f32,
     /// Occlusion mips by CPRC's surface coverage instead of the paper's volume coverage.
     pub surface_coverage: bool,
+    /// N weighs each layer's radiance (Algorithm 1 as written) instead of only culling back faces.
+    pub view_weight: bool,
 }
 
 impl From<&crate::scene::RenderSettings> for LrsmSettings {
@@ -100,6 +102,7 @@ impl From<&crate::scene::RenderSettings> for LrsmSettings {
             normal_splits: r.lrsm_normal_splits,
             overlap: r.lrsm_overlap,
             surface_coverage: r.lrsm_surface_coverage,
+            view_weight: r.lrsm_view_weight,
         }
     }
 }
@@ -348,7 +351,7 @@ impl LrsmFrame {
             occ,
             occ_offsets,
             views: views.iter().map(|v| v.view).collect(),
-            params: super::sample_lrsm::sample_params(&config, 0),
+            params: super::sample_lrsm::sample_params(&config, 0, settings.view_weight),
             depth_ranges: config.depth_ranges(),
             streams,
             memory,
@@ -596,8 +599,10 @@ impl Kernel for LrsmConeTrace {
             depth_splits: (index / 2 % 2) as u32,
             normal_splits: (index / 2 % 2) as u32,
             overlap: 0.05,
-            // The occlusion mips by surface coverage in one case of eight.
+            // The occlusion mips by surface coverage in one case of eight; N as the paper's
+            // weight in every third case.
             surface_coverage: index % 8 == 6,
+            view_weight: index % 3 == 1,
         };
         let frame = LrsmFrame::build(
             ctx,

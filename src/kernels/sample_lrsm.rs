@@ -74,8 +74,9 @@ pub fn lrsm_mirror(rsm: &crate::lrsm::Rsm, config: &PartitionConfig) -> [Vec<[f3
 }
 
 /// Sample LRSM's parameters for LRSMs made with `config` (variance floor 1e-4: sigma >= 1% of a layer;
-/// opacity floor 1e-6).
-pub fn sample_params(config: &PartitionConfig, cdf: u32) -> SampleParams {
+/// opacity floor 1e-6); `view_weight`: N weighs each layer's radiance (Algorithm 1 as written) instead
+/// of only culling back faces.
+pub fn sample_params(config: &PartitionConfig, cdf: u32, view_weight: bool) -> SampleParams {
     let side0 = config.rsm_side / 2;
     SampleParams {
         depth_slices: config.depth_slices(),
@@ -86,16 +87,18 @@ pub fn sample_params(config: &PartitionConfig, cdf: u32) -> SampleParams {
         min_variance: 1.0e-4,
         min_alpha: 1.0e-6,
         overlap: config.overlap,
+        view_weight: view_weight as u32,
+        _pad: [0; 3],
     }
 }
 
 /// Partition a synthetic RSM and pre-filter it, on the CPU (the GPU kernels for these are verified
 /// against exactly these mirrors).
-pub fn build_lrsm(config: PartitionConfig, seed: u64, cdf: u32) -> BuiltLrsm {
+pub fn build_lrsm(config: PartitionConfig, seed: u64, cdf: u32, view_weight: bool) -> BuiltLrsm {
     let rsm = synthetic_rsm(config.rsm_side, &config, seed);
     let ranges = config.depth_ranges();
     let streams = lrsm_mirror(&rsm, &config);
-    let params = sample_params(&config, cdf);
+    let params = sample_params(&config, cdf, view_weight);
     BuiltLrsm {
         config,
         params,
@@ -211,14 +214,22 @@ impl Kernel for SampleLrsm {
 
     fn case(&self, shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
         let config = super::lrsm_partition::config_for(index);
-        let lrsm = build_lrsm(config, seed.wrapping_add(index as u64), (index % 2) as u32);
+        // The two CDFs alternate, and N as a weight or a cull every other pair of cases.
+        let view_weight = index % 4 < 2;
+        let lrsm = build_lrsm(
+            config,
+            seed.wrapping_add(index as u64),
+            (index % 2) as u32,
+            view_weight,
+        );
         let count = [4096, 1, 100, 20_000][index % 4];
         let (pos, dir) = cone_samples(&lrsm, seed ^ index as u64, count);
         let label = format!(
-            "#{index} {}^2 RSM, {} layers, {count} samples, cdf {}",
+            "#{index} {}^2 RSM, {} layers, {count} samples, cdf {}, N {}",
             config.rsm_side,
             config.layers(),
-            index % 2
+            index % 2,
+            if view_weight { "weighs" } else { "culls" }
         );
         case_for(shader, ctx, &lrsm, &pos, &dir, label, seed)
     }

@@ -1,0 +1,413 @@
+//! Where lrsm's light goes: the gather's two factors per cone sample, eq. 1's occlusion alpha_i and
+//! outgoing radiance L_i, each swapped for a better-known value one at a time, on the mirror frame
+//! (`vxgi lrsm-factors`, docs/accuracy/lrsm.md).
+//!
+//! alpha_i comes from the binary occlusion voxels' mips (the paper's volume coverage, or the surface
+//! coverage of `lrsm_surface_coverage`) or from vct-dense's lit-voxel pyramid (surface coverage of
+//! the voxels' own fragments). L_i comes from the LRSMs (Algorithm 1 and its variants below) or from
+//! that pyramid (`rgb / alpha`: voxel_light's radiance of the voxels in the sample, with exact shadow
+//! rays, averaged over the voxels' coverage: the radiance of the surface the sample holds, which is
+//! what eq. 1's L_i asks for). Both sources share the voxel grid, the march and the cone set, so a
+//! row differs from another only in the factor it swaps.
+// Negated comparisons as in the kernel, so NaN takes the skip branch.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+use crate::kernels::cone_trace::Pyramids;
+use glam::{Vec3, Vec4};
+use vxgi_cpu_mirror::cone_trace::{ConeParams, Pyramid, SampleError, Volume};
+use vxgi_cpu_mirror::gaussian_depth_visibility::{normal_cdf, visibility, Cdf, VisibilityParams};
+use vxgi_cpu_mirror::layer_decay::layer_decay;
+use vxgi_cpu_mirror::lrsm_cone_trace::{disc_share, LrsmVolume};
+use vxgi_cpu_mirror::sample_lrsm::{fetch, taps, Lrsm, SampleParams, CULL_RAMP};
+
+/// Where a sample's occlusion comes from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Alpha {
+    /// The occlusion voxels' mips by the paper's volume coverage (the solid fraction).
+    Volume,
+    /// The occlusion voxels' mips by CPRC's surface coverage (`lrsm_surface_coverage`).
+    Surface,
+    /// vct-dense's surface-coverage pyramid of the lit voxels.
+    Voxels,
+}
+
+/// Where a sample's outgoing radiance comes from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Radiance {
+    /// The LRSMs, Algorithm 1 with the given changes.
+    Lrsm(Algorithm),
+    /// vct-dense's pyramid: `rgb / alpha` of the lit voxels in the sample.
+    Voxels,
+}
+
+/// Algorithm 1 (`L += f A R V N` over the layers holding zc) and what may be changed in it. The
+/// default is the kernel's default (N only culls); with nothing but `view_weight` set it is the
+/// kernel's mirror, otherwise this module's copy of Algorithm 1 with the changes.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Algorithm {
+    /// N = <n, vc> weighs L, as Algorithm 1 writes it (`lrsm_view_weight`); else it only culls back
+    /// faces (a Lambertian surface's radiance does not depend on the direction it is seen from;
+    /// eq. 2's w' carries <n.v> in numerator and denominator alike).
+    pub view_weight: bool,
+    /// V = 1 wherever the layer holds zc (no depth test inside the layer).
+    pub v_one: bool,
+    /// Divide by the weights' own sum `sum f A V N` (eq. 2's denominator over the surface inside the
+    /// sample instead of eq. 3's over the whole projected disc): L is then the mean radiance of what
+    /// the sample holds, its coverage left to alpha.
+    pub normalized: bool,
+    /// With `normalized`: the sum also counts, per layer, the share of its rays that stop in front of
+    /// the sample (`f A P_front N`, P_front the Gaussian's mass below zc - rc): what lies in the
+    /// sample along them is in shadow (the paper's second assumption, kept where it holds), while a
+    /// ray that ends behind the sample saw nothing in it and weighs nothing.
+    pub front_shadowed: bool,
+    /// Algorithm 1's L is already a premultiplied colour (its `A V` is the coverage seen from the
+    /// light): the march reads `(L, alpha)` instead of `(L alpha, alpha)`, so eq. 1's `alpha_i L_i`
+    /// is that L, not alpha times it.
+    pub premultiplied: bool,
+    /// Keep eq. 3's Jacobian: a layer's rays weigh `1 / <n, l>` (its surface's area per solid angle,
+    /// n the layer's mean normal, l towards the light), and L is eq. 3's ratio over the whole
+    /// projected disc, the rays that miss the sample weighing 1 (the paper's second assumption:
+    /// shadowed surface facing the light): `sum f A R V / c / (sum f A V / c + 1 - sum f A V)`.
+    pub jacobian: bool,
+}
+
+/// One row of the diagnostic: a frame's two sources.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Swap {
+    pub alpha: Alpha,
+    pub radiance: Radiance,
+}
+
+/// The volume the diagnostic frame marches: alpha and L each from its [`Swap`] source.
+pub struct FactorVolume<'a> {
+    pub lrsm: &'a LrsmVolume<'a>,
+    pub voxels: Pyramid<'a>,
+    pub swap: Swap,
+}
+
+impl<'a> FactorVolume<'a> {
+    pub fn new(lrsm: &'a LrsmVolume<'a>, pyramids: &'a Pyramids, swap: Swap) -> Self {
+        Self {
+            lrsm,
+            voxels: Pyramid {
+                p: lrsm.p,
+                voxels: &pyramids.colour,
+            },
+            swap,
+        }
+    }
+
+    fn radiance(&self, x: Vec3, lf: f32, diam: f32, d: Vec3) -> Vec3 {
+        match self.swap.radiance {
+            Radiance::Voxels => {
+                let (s, _) = self.voxels.sample(x, lf);
+                if s.w > 0.0 {
+                    s.truncate() / s.w
+                } else {
+                    Vec3::ZERO
+                }
+            }
+            Radiance::Lrsm(a) if a.is_kernel() => self.lrsm.radiance(x, diam, d).0,
+            Radiance::Lrsm(a) => lrsm_radiance(self.lrsm, x, diam, d, a),
+        }
+    }
+}
+
+impl Volume for FactorVolume<'_> {
+    fn params(&self) -> &ConeParams {
+        self.lrsm.p
+    }
+
+    fn level(&self, x: Vec3, l: u32) -> (Vec4, SampleError) {
+        match self.swap.alpha {
+            Alpha::Volume | Alpha::Surface => self.lrsm.level(x, l),
+            Alpha::Voxels => {
+                let (s, e) = self.voxels.level(x, l);
+                (Vec4::new(0.0, 0.0, 0.0, s.w), e)
+            }
+        }
+    }
+
+    fn sample_cone(
+        &self,
+        x: Vec3,
+        lf: f32,
+        diam: f32,
+        d: Vec3,
+        _tan_half: f32,
+    ) -> (Vec4, SampleError) {
+        let (s, e) = self.sample(x, lf);
+        if !(s.w > 0.0) {
+            return (s, e);
+        }
+        let l = self.radiance(x, lf, diam, d);
+        let pre = matches!(self.swap.radiance, Radiance::Lrsm(a) if a.premultiplied);
+        if pre {
+            // Premultiplied: the covered share of the sample's colour, at most its alpha's worth.
+            return (l.extend(s.w), e);
+        }
+        ((l * s.w).extend(s.w), e)
+    }
+}
+
+/// lrsm_cone_trace's per-sample radiance (every view's disc share times its Sample LRSM) with
+/// Algorithm 1 changed as `a` says; no error bound (a diagnostic, not a mirror).
+pub fn lrsm_radiance(vol: &LrsmVolume, x: Vec3, diam: f32, d: Vec3, a: Algorithm) -> Vec3 {
+    let mut sum = Vec3::ZERO;
+    for v in vol.views {
+        let Some((nx, ny, zv)) = v.project(x) else {
+            continue;
+        };
+        let texels = if v.orthographic() {
+            diam * v.right[3]
+        } else {
+            diam * v.right[3] / zv
+        };
+        let r = (texels / vol.sp.side0 as f32).clamp(1e-30, 64.0);
+        let w = disc_share(nx, r) * disc_share(ny, r);
+        if w <= 0.0 {
+            continue;
+        }
+        let base = v.info[2] as usize;
+        let lrsm = Lrsm {
+            depth_ranges: vol.lrsm.depth_ranges,
+            radiance: &vol.lrsm.radiance[base..],
+            normal: &vol.lrsm.normal[base..],
+            moments: &vol.lrsm.moments[base..],
+        };
+        let (cx, cy) = (nx.clamp(-1.0, 1.0), ny.clamp(-1.0, 1.0));
+        let pos = [
+            (cx + 1.0) * 0.5,
+            (1.0 - cy) * 0.5,
+            texels.log2(),
+            (zv - v.eye[3]) * v.forward[3],
+        ];
+        let rc = 0.5 * diam * v.forward[3];
+        let eye = Vec3::new(v.eye[0], v.eye[1], v.eye[2]);
+        let l = if v.orthographic() {
+            -Vec3::new(v.forward[0], v.forward[1], v.forward[2]).normalize()
+        } else {
+            (eye - x).normalize()
+        };
+        sum += sample(&lrsm, vol.sp, pos, -d, rc, l, a) * w;
+    }
+    sum
+}
+
+/// Algorithm 1 at `pos = (u, v, mip, zc)` seen along `vc`, sample radius `rc` (depth units), with
+/// `a`'s changes.
+#[allow(clippy::too_many_arguments)]
+fn sample(
+    lrsm: &Lrsm,
+    p: &SampleParams,
+    pos: [f32; 4],
+    vc: Vec3,
+    rc: f32,
+    light: Vec3,
+    a: Algorithm,
+) -> Vec3 {
+    let [u, v, mip, zc] = pos;
+    let taps = taps(p, u, v, mip);
+    let vp = VisibilityParams {
+        cdf: p.cdf,
+        min_variance: p.min_variance,
+        min_alpha: p.min_alpha,
+        _pad: 0,
+    };
+    let (mut num, mut den) = (Vec3::ZERO, 0.0f32);
+    // The Jacobian variant's sums: area-weighted radiance and area, and the rays' share in the sample.
+    let (mut jnum, mut jden, mut hit) = (Vec3::ZERO, 0.0f32, 0.0f32);
+    for d in 0..p.depth_slices {
+        let range = lrsm.depth_ranges[d as usize];
+        if !(zc >= range[0] && zc <= range[1]) {
+            continue;
+        }
+        for j in 0..p.normal_slices {
+            let layer = d * p.normal_slices + j;
+            let nm = fetch(lrsm.normal, &taps, layer, false);
+            if !(nm[3] > p.min_alpha) {
+                continue;
+            }
+            let n = Vec3::new(nm[0], nm[1], nm[2]) / nm[3];
+            let big_n = n.dot(vc);
+            if !(big_n > 0.0) {
+                continue;
+            }
+            let vis = if a.v_one {
+                1.0
+            } else {
+                let m = fetch(lrsm.moments, &taps, layer, false);
+                let zw = (zc - range[0]) * range[2];
+                visibility(m, zw, rc * range[2], &vp, false)
+            };
+            if !(vis > 0.0) && !a.front_shadowed {
+                continue;
+            }
+            let decay = layer_decay(zc, range[0], range[1], p.overlap, false);
+            let w = decay
+                * vis
+                * if a.view_weight {
+                    big_n
+                } else {
+                    (big_n / CULL_RAMP).min(1.0)
+                };
+            let r = fetch(lrsm.radiance, &taps, layer, false);
+            num += Vec3::new(r[0], r[1], r[2]) * w;
+            den += nm[3] * w;
+            let c = n.dot(light).max(1e-3);
+            jnum += Vec3::new(r[0], r[1], r[2]) * (w / c);
+            jden += nm[3] * (w / c);
+            hit += nm[3] * decay * vis;
+            if a.front_shadowed {
+                let m = fetch(lrsm.moments, &taps, layer, false);
+                let mu = m[0] / m[2];
+                let sigma = (m[1] / m[2] - mu * mu).max(p.min_variance).sqrt();
+                let zw = (zc - range[0]) * range[2];
+                let t = (zw - rc * range[2] - mu) / sigma;
+                let front = normal_cdf(t, cdf_of(p), false);
+                den += nm[3]
+                    * decay
+                    * front
+                    * if a.view_weight {
+                        big_n
+                    } else {
+                        (big_n / CULL_RAMP).min(1.0)
+                    };
+            }
+        }
+    }
+    if a.jacobian {
+        let d = jden + (1.0 - hit).max(0.0);
+        return if d > 0.0 { jnum / d } else { Vec3::ZERO };
+    }
+    if a.normalized {
+        if den > 0.0 {
+            num / den
+        } else {
+            Vec3::ZERO
+        }
+    } else {
+        num
+    }
+}
+
+fn cdf_of(p: &SampleParams) -> Cdf {
+    if p.cdf == 1 {
+        Cdf::AS7127
+    } else {
+        Cdf::AS7126
+    }
+}
+
+impl Algorithm {
+    /// Algorithm 1 as the paper writes it.
+    pub const PAPER: Self = Self {
+        view_weight: true,
+        v_one: false,
+        normalized: false,
+        front_shadowed: false,
+        premultiplied: false,
+        jacobian: false,
+    };
+
+    /// Whether the kernel computes this L (its mirror, `lrsm_cone_trace`'s, gives it); the
+    /// premultiplied reading changes only how the march takes it.
+    fn is_kernel(&self) -> bool {
+        Self {
+            view_weight: false,
+            premultiplied: false,
+            ..*self
+        } == Self::default()
+    }
+}
+
+/// The rows `vxgi lrsm-factors` renders, with their names: the frame as built, then each factor
+/// swapped alone, then the combinations that isolate L's terms over the voxels' alpha.
+pub fn rows() -> Vec<(&'static str, Swap)> {
+    use Alpha::{Surface, Volume, Voxels};
+    let paper = Radiance::Lrsm(Algorithm::PAPER);
+    let lrsm = |a| Radiance::Lrsm(a);
+    let default = Algorithm::default();
+    let s = |alpha, radiance| Swap { alpha, radiance };
+    vec![
+        (
+            "the paper: volume-coverage alpha, Algorithm 1 (N weighs L)",
+            s(Volume, paper),
+        ),
+        (
+            "alpha <- the occlusion voxels' surface coverage",
+            s(Surface, paper),
+        ),
+        (
+            "alpha <- the lit voxels' surface coverage (vct-dense's)",
+            s(Voxels, paper),
+        ),
+        (
+            "L <- the lit voxels' radiance, volume-coverage alpha",
+            s(Volume, Radiance::Voxels),
+        ),
+        (
+            "L <- the lit voxels' radiance, surface-coverage alpha",
+            s(Surface, Radiance::Voxels),
+        ),
+        (
+            "both <- the lit voxels' (vct-dense's sample)",
+            s(Voxels, Radiance::Voxels),
+        ),
+        (
+            "**the default: surface coverage, N only culls**",
+            s(Surface, lrsm(default)),
+        ),
+        ("volume coverage, N only culls", s(Volume, lrsm(default))),
+        (
+            "the default with V = 1 (no depth test)",
+            s(
+                Surface,
+                lrsm(Algorithm {
+                    v_one: true,
+                    ..default
+                }),
+            ),
+        ),
+        (
+            "the default, L normalized by sum f A V",
+            s(
+                Surface,
+                lrsm(Algorithm {
+                    normalized: true,
+                    ..default
+                }),
+            ),
+        ),
+        (
+            "the default, normalized, rays stopped in front as shadow",
+            s(
+                Surface,
+                lrsm(Algorithm {
+                    normalized: true,
+                    front_shadowed: true,
+                    ..default
+                }),
+            ),
+        ),
+        (
+            "the default with eq. 3's Jacobian",
+            s(
+                Surface,
+                lrsm(Algorithm {
+                    jacobian: true,
+                    ..default
+                }),
+            ),
+        ),
+        (
+            "the default, L premultiplied (alpha L = L)",
+            s(
+                Surface,
+                lrsm(Algorithm {
+                    premultiplied: true,
+                    ..default
+                }),
+            ),
+        ),
+    ]
+}
