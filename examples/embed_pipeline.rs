@@ -4,8 +4,8 @@
 //! into its texture. It checks the image against `vxgi render`'s (the ray-cast G-buffer) and exits
 //! non-zero where they differ by FLIP 0.02 or more (a raster G-buffer may differ at edges).
 //!
-//! `cargo run --release --example embed_pipeline [-- vct-dense|lrsm]` (default: both GPU-resident
-//! pipelines) on the built-in Cornell box at 256x256. The G-buffer's layouts: docs/contract.md,
+//! `cargo run --release --example embed_pipeline [-- vct-dense|vct-svo|lrsm]` (default: every
+//! GPU-resident pipeline) on the built-in Cornell box at 256x256. The G-buffer's layouts: docs/contract.md,
 //! "Frame buffers". The albedo here is each material's Kd (the Cornell box has no textures; a
 //! textured scene's raster samples map_Kd as kernels/gbuffer.wgsl defines).
 use anyhow::{Context, Result};
@@ -25,9 +25,8 @@ fn main() {
         Some(name) => match Resident::PIPELINES.iter().find(|p| p.name() == name) {
             Some(p) => vec![*p],
             None => {
-                eprintln!(
-                    "embed_pipeline: `{name}` is not a GPU-resident pipeline (vct-dense, lrsm)"
-                );
+                let all = Resident::PIPELINES.map(|p| p.name()).join(", ");
+                eprintln!("embed_pipeline: `{name}` is not a GPU-resident pipeline ({all})");
                 std::process::exit(2);
             }
         },

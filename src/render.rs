@@ -1405,13 +1405,14 @@ impl VctSvo {
     }
 
     /// The octree for `scene`'s frames (built now unless the last one serves): what a GPU-resident
-    /// frame's cone pass binds.
+    /// frame's cone pass binds, and the wall clock of each stage that built it (none if kept).
     pub(crate) fn volume(
         &mut self,
         ctx: &crate::harness::GpuContext,
         scene: &Scene,
         cones: &ConeSettings,
-    ) -> Result<&SvoCache> {
+    ) -> Result<(&SvoCache, Stages)> {
+        let mut stages = Vec::new();
         crate::limits::check(scene, Pipeline::VctSvo, &ctx.limits()).map_err(anyhow::Error::msg)?;
         let key = Self::key(scene);
         if !self.cache.as_ref().is_some_and(|c| c.key == key) {
@@ -1424,11 +1425,11 @@ impl VctSvo {
                 &data,
                 key,
                 &mut plan,
-                &mut Vec::new(),
+                &mut stages,
                 &|_| {},
             )?;
         }
-        Ok(self.cache.as_ref().expect("built above"))
+        Ok((self.cache.as_ref().expect("built above"), stages))
     }
 
     /// What the octree depends on: the pyramid key, photon_map, anisotropic_voxels, voxel_lobes and

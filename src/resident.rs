@@ -127,6 +127,9 @@ struct Built<'c> {
     cleared: Vec<&'static str>,
     /// The buffer holding the direct light the camera sees.
     direct: &'static str,
+    /// Wall clock of the stages that ran outside the chain to build it (vct-svo's octree), counted
+    /// to the frame that built it.
+    build_stages: Vec<(&'static str, f64)>,
     memory: Option<VolumeMemory>,
 }
 
@@ -221,7 +224,7 @@ impl<'c> Resident<'c> {
             Self::PIPELINES.contains(&pipeline),
             "{} has no GPU-resident frames yet (those are {}); vxgi::render::Renderer draws it stage by stage",
             pipeline.name(),
-            Self::PIPELINES.map(|p| p.name()).join(" and ")
+            Self::PIPELINES.map(|p| p.name()).join(", ")
         );
         Ok(Self {
             ctx,
@@ -407,8 +410,13 @@ impl<'c> Resident<'c> {
         let (out, pass_ns) = p.finish_read(&b.reads, timed.len())?;
         let bytes = |n: &str| &out[n].buffer().expect("a buffer").bytes;
         let (w, h) = (scene.camera.width, scene.camera.height);
-        // Per stage: the GPU time of its passes (timestamps), where it ran this frame.
-        let mut stages: Vec<(&'static str, f64)> = Vec::new();
+        // Per stage: the GPU time of its passes (timestamps), where it ran this frame; a frame that
+        // built the chain first the stages that built it outside the chain.
+        let mut stages: Vec<(&'static str, f64)> = if reuse {
+            Vec::new()
+        } else {
+            b.build_stages.clone()
+        };
         for (name, r) in &b.stages {
             if r.start < timed.start || r.end > timed.end {
                 continue;
@@ -451,6 +459,7 @@ impl<'c> Resident<'c> {
 
     fn build(&self, scene: &Scene, cones: &ConeSettings, key: Key) -> Result<Built<'c>> {
         let data = SceneData::new(scene);
+        let mut build_stages = Vec::new();
         let (chain, memory, direct, relight_stage): (Chain, _, _, _) = match self.pipeline {
             Pipeline::Lrsm => {
                 let (chain, memory) = crate::chains::lrsm_chain(self.ctx, scene, &data, cones)?;
@@ -464,7 +473,8 @@ impl<'c> Resident<'c> {
                 // The octree by the staged passes (their host steps run once, here); a frame then
                 // records only the camera's stages over it. Moved lights rebuild (the key holds them).
                 let mut svo = crate::render::VctSvo::new(false);
-                let volume = svo.volume(self.ctx, scene, cones)?;
+                let (volume, built) = svo.volume(self.ctx, scene, cones)?;
+                build_stages = built;
                 let chain = crate::chains::svo_chain(self.ctx, &data, cones, volume)?;
                 let memory = VolumeMemory::Octree(volume.memory());
                 (
@@ -530,6 +540,7 @@ impl<'c> Resident<'c> {
             copies: chain.copies,
             cleared,
             direct,
+            build_stages,
             memory,
             prepared,
             reads,
