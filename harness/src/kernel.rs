@@ -398,19 +398,16 @@ impl VerifyOptions {
     }
 }
 
-/// Test values for generated cases: each call draws, from `seed`, one of `hard` (one draw in eight)
-/// or a uniform value in [0, 10) on a 1e-4 grid; the same seed gives the same sequence.
+/// Test values for generated cases: each call draws, from `seed` (ChaCha8), one of `hard` (one draw
+/// in eight) or a uniform value in [0, 10) on a 1e-4 grid; the same seed gives the same sequence.
 pub fn generated_floats(seed: u64, hard: &[f32]) -> impl FnMut() -> f32 + '_ {
-    let mut x = seed ^ 0x9e37_79b9_7f4a_7c15;
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     move || {
-        x = x
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        let r = (x >> 40) as usize;
-        if r.is_multiple_of(8) && !hard.is_empty() {
-            hard[(r / 8) % hard.len()]
+        if !hard.is_empty() && rng.random_ratio(1, 8) {
+            hard[rng.random_range(0..hard.len())]
         } else {
-            (r % 100_000) as f32 * 1e-4
+            rng.random_range(0..100_000u32) as f32 * 1e-4
         }
     }
 }
