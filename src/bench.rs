@@ -413,32 +413,10 @@ pub fn bench(
     let repeats = if quick { 1 } else { 2 };
     let total = configs.len() + 2;
     let (w, h) = (scene.camera.width, scene.camera.height);
-    let (ref_indirect, ref_combined) = match reference {
-        Some(dir) => {
-            let read = |name: &str| -> Result<RgbImage> {
-                let path = dir.join(name);
-                let img = crate::images::read_exr(&path)?;
-                if (img.width, img.height) != (w, h) {
-                    anyhow::bail!(
-                        "{}: {}x{}, the scene's camera is {w}x{h}",
-                        path.display(),
-                        img.width,
-                        img.height
-                    );
-                }
-                Ok(img)
-            };
-            (read("indirect.exr")?, read("combined.exr")?)
-        }
-        None => {
-            progress(0, total, &format!("reference ({spp} spp)"));
-            let r = render_reference(scene, &ReferenceOptions::spp(spp), |_| {});
-            (
-                RgbImage::new(w, h, r.indirect.clone()),
-                RgbImage::new(w, h, r.combined()),
-            )
-        }
-    };
+    if reference.is_none() {
+        progress(0, total, &format!("reference ({spp} spp)"));
+    }
+    let (ref_indirect, ref_combined) = crate::reference::images_for(scene, spp, reference)?;
     let mut rows = Vec::new();
     let frame = |settings: &RenderSettings| {
         let s = Scene {

@@ -142,7 +142,7 @@ impl Volume for FactorVolume<'_> {
         let l = self.radiance(x, lf, diam, d);
         let pre = matches!(self.swap.radiance, Radiance::Lrsm(a) if a.premultiplied);
         if pre {
-            // Premultiplied: the covered share of the sample's colour, at most its alpha's worth.
+            // Premultiplied: L is the colour the march adds, not alpha times it.
             return (l.extend(s.w), e);
         }
         ((l * s.w).extend(s.w), e)
@@ -232,24 +232,24 @@ fn sample(
             if !(big_n > 0.0) {
                 continue;
             }
+            let moments = fetch(lrsm.moments, &taps, layer, false);
+            let (zw, rw) = ((zc - range[0]) * range[2], rc * range[2]);
             let vis = if a.v_one {
                 1.0
             } else {
-                let m = fetch(lrsm.moments, &taps, layer, false);
-                let zw = (zc - range[0]) * range[2];
-                visibility(m, zw, rc * range[2], &vp, false)
+                visibility(moments, zw, rw, &vp, false)
             };
             if !(vis > 0.0) && !a.front_shadowed {
                 continue;
             }
             let decay = layer_decay(zc, range[0], range[1], p.overlap, false);
-            let w = decay
-                * vis
-                * if a.view_weight {
-                    big_n
-                } else {
-                    (big_n / CULL_RAMP).min(1.0)
-                };
+            // N's factor: the paper's weight, or the kernel's cull ramp.
+            let n_w = if a.view_weight {
+                big_n
+            } else {
+                (big_n / CULL_RAMP).min(1.0)
+            };
+            let w = decay * vis * n_w;
             let r = fetch(lrsm.radiance, &taps, layer, false);
             num += Vec3::new(r[0], r[1], r[2]) * w;
             den += nm[3] * w;
@@ -258,20 +258,12 @@ fn sample(
             jden += nm[3] * (w / c);
             hit += nm[3] * decay * vis;
             if a.front_shadowed {
-                let m = fetch(lrsm.moments, &taps, layer, false);
-                let mu = m[0] / m[2];
-                let sigma = (m[1] / m[2] - mu * mu).max(p.min_variance).sqrt();
-                let zw = (zc - range[0]) * range[2];
-                let t = (zw - rc * range[2] - mu) / sigma;
-                let front = normal_cdf(t, cdf_of(p), false);
-                den += nm[3]
-                    * decay
-                    * front
-                    * if a.view_weight {
-                        big_n
-                    } else {
-                        (big_n / CULL_RAMP).min(1.0)
-                    };
+                let mu = moments[0] / moments[2];
+                let sigma = (moments[1] / moments[2] - mu * mu)
+                    .max(p.min_variance)
+                    .sqrt();
+                let front = normal_cdf((zw - rw - mu) / sigma, cdf_of(p), false);
+                den += nm[3] * decay * front * n_w;
             }
         }
     }

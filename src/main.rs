@@ -702,37 +702,19 @@ fn run_lrsm_factors(
         bail!("lrsm-factors renders one sample per pixel: set supersample = 1");
     }
     create_out(&out)?;
-    let (ref_indirect, ref_combined, ref_name) = match &reference {
-        Some(dir) => (
-            read_exr(&dir.join("indirect.exr"))?,
-            read_exr(&dir.join("combined.exr"))?,
-            dir.display().to_string(),
-        ),
-        None => {
-            if spp == 0 {
-                bail!("--spp must be at least 1");
-            }
-            let bar = spinner();
-            bar.set_message(format!("reference, {spp} spp"));
-            let opts = vxgi::reference::ReferenceOptions::spp(spp);
-            let img = vxgi::reference::render_reference(&scene, &opts, |_| {});
-            bar.finish_and_clear();
-            let rgb = |px: Vec<[f32; 3]>| RgbImage::new(img.width, img.height, px);
-            (
-                rgb(img.indirect.clone()),
-                rgb(img.combined()),
-                format!("Monte Carlo reference, {spp} spp, seed 1"),
-            )
-        }
+    if reference.is_none() && spp == 0 {
+        bail!("--spp must be at least 1");
+    }
+    let bar = spinner();
+    bar.set_message(vxgi::bench::against(spp, reference.as_deref()));
+    let (ref_indirect, ref_combined) =
+        vxgi::reference::images_for(&scene, spp, reference.as_deref())?;
+    bar.finish_and_clear();
+    let ref_name = match &reference {
+        Some(dir) => dir.display().to_string(),
+        None => format!("Monte Carlo reference, {spp} spp, seed 1"),
     };
     let (w, h) = (scene.camera.width, scene.camera.height);
-    if (ref_indirect.width, ref_indirect.height) != (w, h) {
-        bail!(
-            "the reference is {}x{}, the scene's camera {w}x{h}",
-            ref_indirect.width,
-            ref_indirect.height
-        );
-    }
     let cones = ConeSettings::from(&scene.render);
     let name = scene_path
         .as_ref()

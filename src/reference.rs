@@ -27,6 +27,43 @@ use vxgi_cpu_mirror::bvh_trace::FAR;
 use vxgi_cpu_mirror::direct_light::{brdf, face_normal, shade_with, GpuMaterial};
 use vxgi_cpu_mirror::gbuffer::{albedo, ray_through, texel};
 
+/// The (indirect, combined) images a frame of `scene` is compared against: read from `dir` (its
+/// `indirect.exr` and `combined.exr`, at the scene camera's size, e.g. a converged one such as
+/// references/cornell_box_256_4096spp), or without one rendered at `spp` samples per pixel.
+pub fn images_for(
+    scene: &Scene,
+    spp: u32,
+    dir: Option<&std::path::Path>,
+) -> anyhow::Result<(crate::images::RgbImage, crate::images::RgbImage)> {
+    use crate::images::RgbImage;
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    match dir {
+        Some(dir) => {
+            let read = |name: &str| -> anyhow::Result<RgbImage> {
+                let path = dir.join(name);
+                let img = crate::images::read_exr(&path)?;
+                if (img.width, img.height) != (w, h) {
+                    anyhow::bail!(
+                        "{}: {}x{}, the scene's camera is {w}x{h}",
+                        path.display(),
+                        img.width,
+                        img.height
+                    );
+                }
+                Ok(img)
+            };
+            Ok((read("indirect.exr")?, read("combined.exr")?))
+        }
+        None => {
+            let r = render_reference(scene, &ReferenceOptions::spp(spp), |_| {});
+            Ok((
+                RgbImage::new(w, h, r.indirect.clone()),
+                RgbImage::new(w, h, r.combined()),
+            ))
+        }
+    }
+}
+
 /// Linear RGB images of one view, row-major, y down.
 #[derive(Clone, Debug, Default)]
 pub struct Images {

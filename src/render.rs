@@ -1405,7 +1405,8 @@ impl VctSvo {
     }
 
     /// The octree for `scene`'s frames (built now unless the last one serves): what a GPU-resident
-    /// frame's cone pass binds, and the wall clock of each stage that built it (none if kept).
+    /// frame's cone pass binds, and the wall clock of each stage that built it (none if kept). The
+    /// caller has checked `scene` against the device's limits (`limits::check`, as `render` does).
     pub(crate) fn volume(
         &mut self,
         ctx: &crate::harness::GpuContext,
@@ -1413,7 +1414,6 @@ impl VctSvo {
         cones: &ConeSettings,
     ) -> Result<(&SvoCache, Stages)> {
         let mut stages = Vec::new();
-        crate::limits::check(scene, Pipeline::VctSvo, &ctx.limits()).map_err(anyhow::Error::msg)?;
         let key = Self::key(scene);
         if !self.cache.as_ref().is_some_and(|c| c.key == key) {
             let mut plan = FramePlan::vct_svo_after(scene, cones, false);
