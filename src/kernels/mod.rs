@@ -4,9 +4,11 @@
 pub mod cache_creation;
 pub mod cache_placement;
 pub mod cache_preconvolve;
+pub mod cache_records;
 pub mod cluster_extract;
 pub mod cluster_keys;
 pub mod cone_trace;
+pub mod cprc_pixels;
 pub mod direct_light;
 pub mod gather_caches;
 pub mod gaussian_depth_visibility;
@@ -172,6 +174,8 @@ pub fn all() -> Vec<&'static dyn Kernel> {
         &cache_creation::CacheCreation,
         &cache_creation::CacheCreationInstanced,
         &cache_preconvolve::CachePreconvolve,
+        &cprc_pixels::CprcPixels,
+        &cache_records::CacheRecords,
         &gbuffer::Gbuffer,
         &direct_light::DirectLight,
         &voxelize::Voxelize,
