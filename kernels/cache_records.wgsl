@@ -5,7 +5,7 @@
 // Uses kernels/common/octahedral_bins.wgsl (oct_is_geometry, oct_unpack).
 //
 // One invocation per cache slot c < capacity: count = min(cluster_count, capacity) caches. Invocation
-// 0 also writes count_out (copied into the cache stages' uniform blocks) and args (count, clusters
+// 0 also writes cache_count (copied into the cache stages' uniform blocks) and cache_args (count, clusters
 // past the capacity, then per stage the workgroups (x, y, 1) of 64 covering count * per invocations).
 // Accuracy: pixels, ranges, counts and arguments exact (integers); positions copied; the normal,
 // r_w and the creation origin within the mirror's per-element bounds.
@@ -41,8 +41,8 @@ struct Cluster {
 @group(0) @binding(8) var<storage, read_write> cache_normal: array<vec4<f32>>;
 @group(0) @binding(9) var<storage, read_write> caches: array<vec4<f32>>;
 @group(0) @binding(10) var<storage, read_write> tile_ranges: array<vec2<u32>>;
-@group(0) @binding(11) var<storage, read_write> count_out: array<u32>;
-@group(0) @binding(12) var<storage, read_write> args: array<u32>;
+@group(0) @binding(11) var<storage, read_write> cache_count: array<u32>;
+@group(0) @binding(12) var<storage, read_write> cache_args: array<u32>;
 
 fn groups_for(n: u32) -> vec3<u32> {
     let g = (n + 63u) / 64u;
@@ -66,17 +66,17 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
     let total = cluster_count[0];
     let count = min(total, records_params.capacity);
     if (c == 0u) {
-        count_out[0] = count;
-        args[0] = count;
-        args[1] = total - count;
-        args[2] = 0u;
-        args[3] = 0u;
+        cache_count[0] = count;
+        cache_args[0] = count;
+        cache_args[1] = total - count;
+        cache_args[2] = 0u;
+        cache_args[3] = 0u;
         for (var k = 0u; k < 3u; k++) {
             let g = groups_for(count * records_params.per[k]);
-            args[4u * (k + 1u)] = g.x;
-            args[4u * (k + 1u) + 1u] = g.y;
-            args[4u * (k + 1u) + 2u] = g.z;
-            args[4u * (k + 1u) + 3u] = 0u;
+            cache_args[4u * (k + 1u)] = g.x;
+            cache_args[4u * (k + 1u) + 1u] = g.y;
+            cache_args[4u * (k + 1u) + 2u] = g.z;
+            cache_args[4u * (k + 1u) + 3u] = 0u;
         }
     }
     if (c >= count) {

@@ -91,7 +91,8 @@ pub fn glossy_level(e: f32, res: u32) -> f32 {
 }
 
 /// The per-pixel inputs from a G-buffer's positions, normals (w: 1 front, -1 back, 0 none), triangles
-/// and albedos.
+/// and albedos: `kernels/cprc_pixels.wgsl`'s `inputs` by its mirror (the resident frame runs the
+/// kernel).
 pub fn pixel_inputs(
     data: &SceneData,
     pos: &[[f32; 4]],
@@ -100,15 +101,22 @@ pub fn pixel_inputs(
     albedo: &[[f32; 4]],
     res: u32,
 ) -> PixelInputs {
+    use vxgi_cpu_mirror::cprc_pixels as m;
     let f = &data.frame;
-    let eye = glam::Vec3::new(f.eye[0], f.eye[1], f.eye[2]);
-    let fwd = glam::Vec3::new(f.forward[0], f.forward[1], f.forward[2]);
+    let lobes = crate::kernels::cprc_pixels::lobes(&data.materials, res);
+    let material = |t: u32| data.triangles[t as usize].material();
+    let scene = m::Scene {
+        eye: f.eye,
+        forward: f.forward,
+        materials: &material,
+        triangles: data.triangles.len() as u32,
+        lobes: &lobes,
+    };
     let n = pos.len();
-    let mut normals = Vec::with_capacity(n);
     let mut px = PixelInputs {
         width: data.width(),
         height: data.height(),
-        normals: Vec::new(),
+        normals: Vec::with_capacity(n),
         depth: Vec::with_capacity(n),
         positions: Vec::with_capacity(n),
         pixel_dirs: Vec::with_capacity(2 * n),
@@ -117,40 +125,25 @@ pub fn pixel_inputs(
         geometry: nrm.iter().map(|v| v[3] != 0.0).collect(),
     };
     for i in 0..n {
-        let p = glam::Vec3::new(pos[i][0], pos[i][1], pos[i][2]);
-        let t = tri[i] as usize;
-        let front = nrm[i][3] > 0.0 && t < data.triangles.len() && p.is_finite();
-        if !front {
-            normals.push(None);
-            px.depth.push(0.0);
-            px.positions.push([0.0; 4]);
-            px.pixel_dirs.extend([[0.0; 4], [0.0, 0.0, 0.0, -1.0]]);
-            px.albedo.push([0.0; 4]);
-            px.specular.push([0.0; 4]);
-            continue;
-        }
-        let nv = glam::Vec3::new(nrm[i][0], nrm[i][1], nrm[i][2]).normalize_or(glam::Vec3::Z);
-        let m =
-            &data.materials[(data.triangles[t].material() as usize).min(data.materials.len() - 1)];
-        let wo = (eye - p).normalize_or(nv);
-        let r = nv * (2.0 * nv.dot(wo)) - wo;
-        let glossy = m.specular[..3].iter().any(|&k| k != 0.0);
-        let lf = if glossy {
-            glossy_level(m.diffuse[3], res)
+        let o = m::pixel(
+            &scene,
+            &m::GPixel {
+                position: pos[i],
+                normal: nrm[i],
+                triangle: tri[i],
+            },
+        );
+        px.normals.push(o.normal);
+        px.depth.push(o.depth);
+        px.positions.push(o.position);
+        px.pixel_dirs.extend(o.dirs);
+        px.albedo.push(if o.position[3] == 1.0 {
+            albedo[i]
         } else {
-            -1.0
-        };
-        normals.push(Some([nv.x, nv.y, nv.z]));
-        px.depth.push((p - eye).dot(fwd));
-        px.positions.push([p.x, p.y, p.z, 1.0]);
-        px.pixel_dirs
-            .extend([[nv.x, nv.y, nv.z, 0.0], [r.x, r.y, r.z, lf]]);
-        px.albedo.push(albedo[i]);
-        px.specular
-            .push([m.specular[0], m.specular[1], m.specular[2], 0.0]);
+            [0.0; 4]
+        });
+        px.specular.push(o.specular);
     }
-    px.normals = crate::gbuffers::packed(&normals);
-    cluster_keys::sanitise(&mut px.normals, &px.depth);
     px
 }
 
@@ -236,41 +229,40 @@ fn sorted_inputs(
     }
 }
 
-/// Cache distribution on the GPU as one chain of kernels on one set of GPU resources (histograms,
-/// axes, keys, radix sort, clusters, placement): each kernel reads what the previous wrote, nothing
-/// goes through the host until the clusters and picks are read back. The resources shared by name are
-/// renamed where two kernels use one name for different things (`params`, `scan_partials`).
-pub fn distribute_gpu(
+/// A chain's stages: each kernel's declaration and passes, in order.
+pub(crate) type Stages = Vec<(
+    &'static vxgi_harness::KernelDecl,
+    Vec<vxgi_harness::run::Pass>,
+)>;
+
+/// The distribution's six kernels (histograms, axes, keys, radix sort, clusters, placement) as chain
+/// stages over one set of resources, each kernel reading what the previous wrote: the resources
+/// (`normals`, `depth` and `positions` hold `px`'s; the distribution reads positions' xyz only) and
+/// the stages. The resources shared by name are renamed where two kernels use one name for different
+/// things (`params`, `scan_partials`); the sorted pixels are bound as cache_placement's `pixels`.
+pub(crate) fn distribution_stages(
     ctx: &GpuContext,
     px: &PixelInputs,
     s: &CprcSettings,
-    offset: f32,
-) -> Result<CacheSet> {
+) -> Result<(Resources, Stages)> {
     use vxgi_harness::run::{grid_for, Pass, Workgroups};
-    use vxgi_harness::{prepare_chain, ScalarKind, Stage};
+    use vxgi_harness::ScalarKind;
     let (w, h) = (px.width, px.height);
     let n = (w * h) as usize;
     let hp = tile_normal_histogram::params(w, h, s.tile)?;
     let tiles = (hp.tiles_x * h.div_ceil(s.tile)) as usize;
-    let shaders = [
-        tile_normal_histogram::DECL.shader()?,
-        histogram_axes::DECL.shader()?,
-        cluster_keys::DECL.shader()?,
-        radix_sort::DECL.shader()?,
-        cluster_extract::DECL.shader()?,
-        cache_placement::DECL.shader()?,
-    ];
+    let shaders = [histogram_axes::DECL.shader()?, cluster_keys::DECL.shader()?];
     let mut hist = tile_normal_histogram::case_for(&px.normals, hp, "cprc".into(), 0)?;
     hist.rename_resource("params", "hist_params", false);
     let empty = vec![0u32; tiles * 64];
-    let mut axes = histogram_axes::axes_case(&shaders[1], ctx, &empty, &empty, "cprc".into(), 0);
+    let mut axes = histogram_axes::axes_case(&shaders[0], ctx, &empty, &empty, "cprc".into(), 0);
     axes.rename_resource("params", "axes_params", false);
     for r in ["histogram", "blurred"] {
         axes.resources.remove(r);
     }
     // The axes come from the axes kernel: a placeholder the chain drops.
     let mut keys = cluster_keys::case_with_axes(
-        &shaders[2],
+        &shaders[1],
         ctx,
         &px.normals,
         &px.depth,
@@ -342,30 +334,42 @@ pub fn distribute_gpu(
             workgroups: Workgroups::Direct(grid),
         })
         .collect();
-    let names = [
-        tile_normal_histogram::DECL.name,
-        histogram_axes::DECL.name,
-        cluster_keys::DECL.name,
-        radix_sort::DECL.name,
-        cluster_extract::DECL.name,
-        cache_placement::DECL.name,
+    let stages = vec![
+        (&tile_normal_histogram::DECL, hist.passes),
+        (&histogram_axes::DECL, axes.passes),
+        (&cluster_keys::DECL, keys.passes),
+        (&radix_sort::DECL, sort.passes),
+        (&cluster_extract::DECL, extract.passes),
+        (&cache_placement::DECL, place),
     ];
-    let passes = [
-        &hist.passes,
-        &axes.passes,
-        &keys.passes,
-        &sort.passes,
-        &extract.passes,
-        &place,
-    ];
-    let chain: Vec<Stage> = (0..6)
-        .map(|k| Stage {
-            shader: &shaders[k],
-            kernel: names[k],
-            passes: passes[k],
+    Ok((resources, stages))
+}
+
+/// Cache distribution on the GPU ([`distribution_stages`] as one chain on one set of GPU resources):
+/// nothing goes through the host until the clusters and picks are read back.
+pub fn distribute_gpu(
+    ctx: &GpuContext,
+    px: &PixelInputs,
+    s: &CprcSettings,
+    offset: f32,
+) -> Result<CacheSet> {
+    let (w, h) = (px.width, px.height);
+    let (resources, stages) = distribution_stages(ctx, px, s)?;
+    let shaders = stages
+        .iter()
+        .map(|(d, _)| d.shader())
+        .collect::<Result<Vec<_>, _>>()?;
+    let chain: Vec<vxgi_harness::Stage> = stages
+        .iter()
+        .zip(&shaders)
+        .map(|((d, passes), shader)| vxgi_harness::Stage {
+            shader,
+            kernel: d.name,
+            passes,
         })
         .collect();
-    let prepared = prepare_chain(ctx, &chain, &resources).context("cache distribution")?;
+    let prepared =
+        vxgi_harness::prepare_chain(ctx, &chain, &resources).context("cache distribution")?;
     prepared.dispatch().context("cache distribution")?;
     let out = prepared
         .read(&["cluster_count", "clusters", "picks"])
@@ -375,7 +379,7 @@ pub fn distribute_gpu(
     let clusters = &bytemuck::cast_slice::<u8, Cluster>(b("clusters"))[..count];
     let picks = &bytemuck::cast_slice::<u8, u32>(b("picks"))[..count];
     let caches =
-        gather_caches::caches_at(w, h, s.tile, &px.normals, &inp.positions, clusters, picks);
+        gather_caches::caches_at(w, h, s.tile, &px.normals, &px.positions, clusters, picks);
     Ok(CacheSet::new(caches, offset))
 }
 
@@ -454,10 +458,12 @@ pub fn gather_data(
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct CprcStats {
     pub caches: usize,
+    /// Clusters past the frame's cache capacity, left without a cache (the resident renderer's
+    /// buffers hold [`crate::chains`]' capacity; the staged one sizes them to each frame's count).
+    pub dropped: usize,
     /// Front-facing geometry pixels, and those left without a valid cache ([`coverage`]: the paper's
-    /// Fig. 6 measure).
-    pub pixels: usize,
-    pub uncovered: usize,
+    /// Fig. 6 measure); `None` where not measured (resident frames: the caches stay on the GPU).
+    pub coverage: Option<(usize, usize)>,
 }
 
 /// Indirect (albedo / pi * E + Ks * G) and AO (1 on geometry) images from the gather's outputs;
@@ -467,68 +473,86 @@ pub fn compose(
     gathered: &(Vec<[f32; 4]>, Vec<[f32; 4]>, gather_caches::GatherData),
 ) -> (RgbImage, RgbImage, CprcStats) {
     let (diffuse, glossy, data) = gathered;
-    let inv_pi = std::f32::consts::FRAC_1_PI;
     let (pixels, uncovered) = coverage(data);
     let stats = CprcStats {
         caches: data.cache_pos.len(),
-        pixels,
-        uncovered,
+        dropped: 0,
+        coverage: Some((pixels, uncovered)),
     };
     let mut ind = Vec::with_capacity(diffuse.len());
     let mut ao = Vec::with_capacity(diffuse.len());
     for i in 0..diffuse.len() {
-        if px.positions[i][3] != 1.0 {
-            ind.push([0.0; 3]);
-            ao.push([px.geometry[i] as u8 as f32; 3]);
-            continue;
-        }
-        let (a, k) = (px.albedo[i], px.specular[i]);
-        ind.push([0, 1, 2].map(|c| a[c] * inv_pi * diffuse[i][c] + k[c] * glossy[i][c]));
-        ao.push([1.0; 3]);
+        let geometry = [0.0, 0.0, 0.0, px.geometry[i] as u8 as f32];
+        let (c, a) = vxgi_cpu_mirror::cprc_pixels::compose(
+            px.positions[i],
+            geometry,
+            px.albedo[i],
+            px.specular[i],
+            diffuse[i],
+            glossy[i],
+        );
+        ind.push([c[0], c[1], c[2]]);
+        ao.push([a[0], a[1], a[2]]);
     }
     let (w, h) = (px.width, px.height);
     (RgbImage::new(w, h, ind), RgbImage::new(w, h, ao), stats)
 }
 
-/// Run creation, pre-convolution and the gather on the GPU for a frame's caches as one chain on one set
-/// of GPU buffers: the caches' texels, mips and irradiance maps never leave the GPU (DESIGN 7 / issue
-/// 11's device-side chaining); each stage is its own submission, timed alone (wall clock) and pushed
-/// to `stages`. Returns the gather's (diffuse, glossy) and what it read (its maps left empty: they
-/// stayed on the GPU).
-#[allow(clippy::type_complexity, clippy::too_many_arguments)]
-pub fn evaluate_gpu(
+/// Creation, pre-convolution and the gather as chain stages over one set of resources for the
+/// caches of `set` (`capacity` slots at least: a chain whose caches the GPU writes sizes them for
+/// the most it may hold): creation's (its `caches` are the creation records), pre-convolution's
+/// (its `cache_radiance` is creation's, its uniform block `pre_params`), the gather's (its maps are
+/// pre-convolution's, its uniform block `gather_params`). Without `glossy` pixels the `mips` pass is
+/// left out (and its buffer is a placeholder); without caches (and no capacity) only the gather runs.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn cache_stages(
     ctx: &GpuContext,
     px: &PixelInputs,
     set: &CacheSet,
+    capacity: usize,
     s: &CprcSettings,
     volume: CacheVolume,
     cone: &vxgi_cpu_mirror::cone_trace::ConeParams,
-    stages: &mut Vec<(&'static str, f64)>,
-    progress: &impl Fn(&str),
-) -> Result<(Vec<[f32; 4]>, Vec<[f32; 4]>, gather_caches::GatherData)> {
-    use vxgi_harness::{prepare_chain, Stage, View};
-    let count = set.caches.pos.len();
-    let data = gather_data(px, set, s, Vec::new(), Vec::new());
+    glossy: bool,
+) -> Result<(Resources, Stages)> {
+    use vxgi_harness::View;
+    let count = set.caches.pos.len().max(capacity);
+    let mut slots = CacheSet::empty();
+    let sized = if count > set.caches.pos.len() {
+        // Zeroed records for every slot: the chain's records kernel fills them.
+        let tiles = (px.width.div_ceil(s.tile) * px.height.div_ceil(s.tile)) as usize;
+        slots.caches.pos = vec![[0.0; 4]; count];
+        slots.caches.pixel = vec![[0; 2]; count];
+        slots.caches.normal = vec![[0.0; 4]; count];
+        slots.caches.tile_ranges = vec![[0; 2]; tiles];
+        slots.creation = vec![[0.0; 4]; 2 * count];
+        &slots
+    } else {
+        set
+    };
+    let data = gather_data(px, sized, s, Vec::new(), Vec::new());
     let cdecl = match volume {
         CacheVolume::One(_) => &cache_creation::DECL,
         CacheVolume::Placed(..) => &cache_creation::INSTANCED_DECL,
     };
-    let (cshader, pshader, gshader) = (
-        cdecl.shader()?,
-        cache_preconvolve::DECL.shader()?,
-        gather_caches::DECL.shader()?,
-    );
+    let gshader = gather_caches::DECL.shader()?;
     let mut gcase = gather_caches::case_for(&gshader, ctx, &data, "cprc".into(), 0);
     let ccase = match volume {
-        CacheVolume::One(pyramids) => {
-            cache_creation::case_for(ctx, pyramids, cone, &set.creation, s.res, "cprc".into(), 0)
-        }
+        CacheVolume::One(pyramids) => cache_creation::case_for(
+            ctx,
+            pyramids,
+            cone,
+            &sized.creation,
+            s.res,
+            "cprc".into(),
+            0,
+        ),
         CacheVolume::Placed(pyramids, placed) => cache_creation::instanced_case_for(
             ctx,
             pyramids,
             placed,
             cone,
-            &set.creation,
+            &sized.creation,
             s.res,
             "cprc".into(),
             0,
@@ -536,7 +560,8 @@ pub fn evaluate_gpu(
     };
     let mut pcase =
         cache_preconvolve::case_for_count(ctx, count, None, s.res, s.irr, "cprc".into(), 0);
-    if !any_glossy(px) {
+    pcase.rename_resource("params", "pre_params", false);
+    if !glossy {
         // No pixel reads a mip chain: the plan skips the `mips` pass (and its buffer).
         pcase.passes.retain(|p| p.entry != "mips");
         pcase.resources.insert(
@@ -548,8 +573,6 @@ pub fn evaluate_gpu(
         // Nothing to create: the gather alone (it reads no map without caches).
         pcase.passes.clear();
     }
-    // One set of resources: creation's, pre-convolution's (its cache_radiance is creation's), the
-    // gather's (its maps are pre-convolution's; its uniform block renamed: both call it `params`).
     let mut resources = ccase.resources;
     for (k, v) in pcase.resources {
         if k != "cache_radiance" || count == 0 {
@@ -573,23 +596,47 @@ pub fn evaluate_gpu(
         }
     }
     let creation_passes = if count == 0 { Vec::new() } else { ccase.passes };
-    let chain = [
-        Stage {
-            shader: &cshader,
-            kernel: cdecl.name,
-            passes: &creation_passes,
-        },
-        Stage {
-            shader: &pshader,
-            kernel: cache_preconvolve::DECL.name,
-            passes: &pcase.passes,
-        },
-        Stage {
-            shader: &gshader,
-            kernel: gather_caches::DECL.name,
-            passes: &gcase.passes,
-        },
-    ];
+    Ok((
+        resources,
+        vec![
+            (cdecl, creation_passes),
+            (&cache_preconvolve::DECL, pcase.passes),
+            (&gather_caches::DECL, gcase.passes),
+        ],
+    ))
+}
+
+/// Run creation, pre-convolution and the gather on the GPU for a frame's caches as one chain on one set
+/// of GPU buffers ([`cache_stages`]): the caches' texels, mips and irradiance maps never leave the
+/// GPU; each stage is its own submission, timed alone (wall clock) and pushed to `stages`. Returns
+/// the gather's (diffuse, glossy) and what it read (its maps left empty: they stayed on the GPU).
+#[allow(clippy::type_complexity, clippy::too_many_arguments)]
+pub fn evaluate_gpu(
+    ctx: &GpuContext,
+    px: &PixelInputs,
+    set: &CacheSet,
+    s: &CprcSettings,
+    volume: CacheVolume,
+    cone: &vxgi_cpu_mirror::cone_trace::ConeParams,
+    stages: &mut Vec<(&'static str, f64)>,
+    progress: &impl Fn(&str),
+) -> Result<(Vec<[f32; 4]>, Vec<[f32; 4]>, gather_caches::GatherData)> {
+    use vxgi_harness::{prepare_chain, Stage};
+    let data = gather_data(px, set, s, Vec::new(), Vec::new());
+    let (resources, parts) = cache_stages(ctx, px, set, 0, s, volume, cone, any_glossy(px))?;
+    let shaders = parts
+        .iter()
+        .map(|(d, _)| d.shader())
+        .collect::<Result<Vec<_>, _>>()?;
+    let chain: Vec<Stage> = parts
+        .iter()
+        .zip(&shaders)
+        .map(|((d, passes), shader)| Stage {
+            shader,
+            kernel: d.name,
+            passes,
+        })
+        .collect();
     // Wall clock per stage, transfers included: the upload counts to the first stage that runs, the
     // readback to the gather.
     progress("cache creation");

@@ -427,7 +427,7 @@ fn run_render(
     let ctx = GpuContext::new().context("creating the GPU context")?;
     eprintln!("adapter: {}", ctx.describe());
     let mut renderer = vxgi::render::Renderer::new(pipeline, true);
-    // Frames stay on the GPU where a resident renderer draws the scene (vct-dense, lrsm).
+    // Frames stay on the GPU where a resident renderer draws the scene (no instances, some light).
     let mut resident = if vxgi::resident::Resident::serves(pipeline, &scene) {
         Some(vxgi::resident::Resident::new(&ctx, pipeline)?)
     } else {
@@ -472,13 +472,22 @@ fn run_render(
             Some(vxgi::render::VolumeMemory::Caches(_)) if !r.plan.runs("gather_caches") => {
                 println!("cprc: no radiance caches (the plan skipped them, see below)")
             }
-            Some(vxgi::render::VolumeMemory::Caches(c)) => println!(
-                "cprc: {} radiance caches; {} of {} front-facing pixels without a valid cache ({:.2}%)",
-                c.caches,
-                c.uncovered,
-                c.pixels,
-                100.0 * c.uncovered as f64 / c.pixels.max(1) as f64
-            ),
+            Some(vxgi::render::VolumeMemory::Caches(c)) => {
+                match c.coverage {
+                    Some((pixels, uncovered)) => println!(
+                        "cprc: {} radiance caches; {uncovered} of {pixels} front-facing pixels without a valid cache ({:.2}%)",
+                        c.caches,
+                        100.0 * uncovered as f64 / pixels.max(1) as f64
+                    ),
+                    None => println!("cprc: {} radiance caches", c.caches),
+                }
+                if c.dropped > 0 {
+                    eprintln!(
+                        "warning: {} clusters got no radiance cache: past the cache buffers' capacity (lower the image size or cache_depth_slices, or raise cache_tile)",
+                        c.dropped
+                    );
+                }
+            }
             None => {}
         }
         bar.finish_and_clear();

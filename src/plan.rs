@@ -416,6 +416,13 @@ impl FramePlan {
                 }
                 p
             };
+            passes.push(no_light(PlannedPass {
+                stage: "cache_distribution",
+                kernel: "cprc_pixels",
+                size: format!("{w}x{h} pixels"),
+                runs: true,
+                why: "the distribution's and the gather's per-pixel inputs from the G-buffer (entry inputs)".into(),
+            }));
             for kernel in [
                 "tile_normal_histogram",
                 "histogram_axes",
@@ -432,6 +439,14 @@ impl FramePlan {
                     why: "one cache per cluster of the view's pixels (tile x normal axis x depth slice)".into(),
                 }));
             }
+            passes.push(no_light(PlannedPass {
+                stage: "cache_distribution",
+                kernel: "cache_records",
+                size: "one per cluster".into(),
+                runs: true,
+                why: "each cluster's cache record, and the cache stages' workgroups from the count"
+                    .into(),
+            }));
             passes.push(no_light(PlannedPass {
                 stage: "cache_creation",
                 kernel: "cache_creation",
@@ -469,6 +484,13 @@ impl FramePlan {
                 } else {
                     "irradiance by normal; no glossy lookups: no material has Ks".into()
                 },
+            }));
+            passes.push(no_light(PlannedPass {
+                stage: "gather_caches",
+                kernel: "cprc_pixels",
+                size: format!("{w}x{h} pixels"),
+                runs: true,
+                why: "indirect = albedo / pi x irradiance + Ks x glossy; AO 1 on geometry (entry compose)".into(),
             }));
         }
         Self {

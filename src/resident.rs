@@ -17,6 +17,7 @@
 //! hold the light, so there moved lights rebuild. Anything else rebuilds the whole chain, and the
 //! plan says why.
 use crate::chains::{Chain, ChainCopy};
+use crate::harness::HostResource;
 use crate::harness::{GpuContext, Prepared, ReadbackSet};
 use crate::kernels::cone_trace::ConeSettings;
 use crate::kernels::lrsm_cone_trace::LrsmSettings;
@@ -87,7 +88,9 @@ impl Key {
             Pipeline::VctDense => (PyramidKey::reading(scene, cones).unlit(), 0),
             // The octree's values hold the light: moved lights rebuild it.
             Pipeline::VctSvo => (PyramidKey::of(scene), 0),
-            _ => (
+            // The caches' cones read every level.
+            Pipeline::Cprc => (PyramidKey::of(scene).unlit(), 0),
+            Pipeline::Lrsm => (
                 PyramidKey::of(scene).unlit(),
                 crate::plan::light_views(scene),
             ),
@@ -125,6 +128,11 @@ struct Built<'c> {
     copies: Vec<ChainCopy>,
     /// The per-frame outputs zeroed before a frame that reuses the chain (each is zero in a fresh one).
     cleared: Vec<&'static str>,
+    /// The per-frame outputs a frame reads before it has written all of them, restored before a
+    /// frame that reuses the chain from a copy of their first contents: (copy, output).
+    restored: Vec<(String, String)>,
+    /// cprc: the cache buffers' capacity.
+    room: Option<crate::chains::CacheRoom>,
     /// The buffer holding the direct light the camera sees.
     direct: &'static str,
     /// Wall clock of the stages that ran outside the chain to build it (vct-svo's octree), counted
@@ -209,13 +217,20 @@ pub struct Resident<'c> {
     ctx: &'c GpuContext,
     pipeline: Pipeline,
     built: Option<Built<'c>>,
+    /// cprc: what the last frame's caches did.
+    caches: Option<crate::cprc::CprcStats>,
     /// Why the last frame rebuilt the chain that an earlier frame had built, for its plan.
     rebuilt: Option<String>,
 }
 
 impl<'c> Resident<'c> {
     /// The pipelines with GPU-resident frames.
-    pub const PIPELINES: [Pipeline; 3] = [Pipeline::VctDense, Pipeline::VctSvo, Pipeline::Lrsm];
+    pub const PIPELINES: [Pipeline; 4] = [
+        Pipeline::VctDense,
+        Pipeline::VctSvo,
+        Pipeline::Lrsm,
+        Pipeline::Cprc,
+    ];
 
     /// A renderer of `pipeline`'s frames on `ctx`; refused for a pipeline without resident frames
     /// ([`Resident::PIPELINES`]; the others run stage by stage, [`crate::render::Renderer`]).
@@ -230,6 +245,7 @@ impl<'c> Resident<'c> {
             ctx,
             pipeline,
             built: None,
+            caches: None,
             rebuilt: None,
         })
     }
@@ -243,8 +259,11 @@ impl<'c> Resident<'c> {
     }
 
     /// What the last frame's volume holds (vct-svo: the octree's bytes; lrsm: its structures'
-    /// bytes); `None` for vct-dense.
+    /// bytes; cprc: its caches); `None` for vct-dense.
     pub fn memory(&self) -> Option<VolumeMemory> {
+        if let Some(c) = self.caches {
+            return Some(VolumeMemory::Caches(c));
+        }
         self.built.as_ref().and_then(|b| b.memory.clone())
     }
 
@@ -357,6 +376,12 @@ impl<'c> Resident<'c> {
             p.write_buffer("frame", bytemuck::bytes_of(&frame))?;
             // As fresh: the tile list is appended to, the cone pass writes the listed tiles only.
             p.encode_clear(encoder, &b.cleared)?;
+            let restore: Vec<_> = b
+                .restored
+                .iter()
+                .map(|(src, dst)| (src.as_str(), dst.as_str(), 0))
+                .collect();
+            p.encode_copies(encoder, &restore)?;
             if relit {
                 for (name, bytes) in light_inputs(self.pipeline, b, scene)? {
                     p.write_buffer(&name, &bytes)?;
@@ -431,11 +456,37 @@ impl<'c> Resident<'c> {
         }
         let cached = reuse && !relit;
         let mut plan = match self.pipeline {
+            Pipeline::Cprc => {
+                let a = bytemuck::cast_slice::<u8, u32>(bytes("cache_args"));
+                self.caches = Some(crate::cprc::CprcStats {
+                    caches: a[0] as usize,
+                    dropped: a[1] as usize,
+                    coverage: None,
+                });
+                let s = crate::cprc::CprcSettings::from(&scene.render);
+                let mut plan = FramePlan::cprc_after(scene, cones, &s, cached);
+                if let Some(room) = b.room {
+                    plan = plan.with_note(
+                        "cache_creation",
+                        &format!(
+                            "{} caches this frame, in buffers for {} (indirect dispatch from the GPU's count{})",
+                            a[0],
+                            room.capacity,
+                            if a[1] > 0 {
+                                format!("; {} clusters past the capacity got none", a[1])
+                            } else {
+                                String::new()
+                            }
+                        ),
+                    );
+                }
+                plan
+            }
             Pipeline::Lrsm => {
                 FramePlan::lrsm_after(scene, cones, &LrsmSettings::from(&scene.render), cached)
             }
             Pipeline::VctSvo => FramePlan::vct_svo_after(scene, cones, cached),
-            _ => FramePlan::vct_dense_after(scene, cones, cached),
+            Pipeline::VctDense => FramePlan::vct_dense_after(scene, cones, cached),
         };
         if relit {
             // The voxels are kept; what the lights feed is redone.
@@ -447,20 +498,36 @@ impl<'c> Resident<'c> {
                 &format!("every GPU resource of the frame made again: {why}"),
             );
         }
-        Ok(Rendered::assemble(
+        let frame = Rendered::assemble(
             image_of(w, h, bytes(b.direct)),
             image_of(w, h, bytes("indirect")),
             image_of(w, h, bytes("ao")),
             stages,
             plan,
-        )
-        .with_cone_tiles(bytemuck::cast_slice(bytes("tile_list"))))
+        );
+        Ok(match out.get("tile_list") {
+            Some(t) => {
+                frame.with_cone_tiles(bytemuck::cast_slice(&t.buffer().expect("a buffer").bytes))
+            }
+            None => frame,
+        })
     }
 
     fn build(&self, scene: &Scene, cones: &ConeSettings, key: Key) -> Result<Built<'c>> {
         let data = SceneData::new(scene);
         let mut build_stages = Vec::new();
-        let (chain, memory, direct, relight_stage): (Chain, _, _, _) = match self.pipeline {
+        let mut room = None;
+        let (mut chain, memory, direct, relight_stage): (Chain, _, _, _) = match self.pipeline {
+            Pipeline::Cprc => {
+                let (chain, r) = crate::chains::cprc_chain(self.ctx, scene, &data, cones)?;
+                room = Some(r);
+                (
+                    chain,
+                    None,
+                    "radiance",
+                    crate::kernels::voxel_light::DECL.name,
+                )
+            }
             Pipeline::Lrsm => {
                 let (chain, memory) = crate::chains::lrsm_chain(self.ctx, scene, &data, cones)?;
                 // With shadow cones the gather's shadow pass writes the direct light.
@@ -484,7 +551,7 @@ impl<'c> Resident<'c> {
                     crate::kernels::gbuffer::DECL.name,
                 )
             }
-            _ => {
+            Pipeline::VctDense => {
                 // The G-buffer the cone pass binds, computed in the chain (zeroed here).
                 let gb = crate::kernels::gbuffer::case_for(&data, "render".into(), 0).resources;
                 let levels = key.volume.levels;
@@ -499,6 +566,8 @@ impl<'c> Resident<'c> {
             }
         };
         let name = self.pipeline.name();
+        let start = gbuffer_start(&chain);
+        let restored = first_contents(&mut chain, start);
         let prepared =
             crate::harness::prepare_chain(self.ctx, &chain.harness_stages(), &chain.resources)
                 .with_context(|| format!("{name} chain"))?;
@@ -523,11 +592,26 @@ impl<'c> Resident<'c> {
                 .find(|s| s.stage == crate::kernels::gbuffer::DECL.name)
                 .map_or(0, |s| s.passes.len());
         let relight = start_of(relight_stage)?;
-        let reads = prepared.readback_set(&[direct, "indirect", "ao", "tile_list"])?;
-        let cleared = ["tile_list", "indirect", "ao", "irradiance", "soft_direct"]
-            .into_iter()
-            .filter(|n| chain.resources.contains_key(*n))
-            .collect();
+        let mut outputs = vec![direct, "indirect", "ao"];
+        for extra in ["tile_list", "cache_args"] {
+            if chain.resources.contains_key(extra) {
+                outputs.push(extra);
+            }
+        }
+        let reads = prepared.readback_set(&outputs)?;
+        // Appended to (tile_list), written where listed (indirect, ao, irradiance, soft_direct), or
+        // written per cache (cprc's tile_ranges): zero at the start of every frame.
+        let cleared = [
+            "tile_list",
+            "indirect",
+            "ao",
+            "irradiance",
+            "soft_direct",
+            "tile_ranges",
+        ]
+        .into_iter()
+        .filter(|n| chain.resources.contains_key(*n))
+        .collect();
         Ok(Built {
             key,
             lights: scene.lights.clone(),
@@ -539,6 +623,8 @@ impl<'c> Resident<'c> {
             gbuffer_end,
             copies: chain.copies,
             cleared,
+            restored,
+            room,
             direct,
             build_stages,
             memory,
@@ -546,6 +632,63 @@ impl<'c> Resident<'c> {
             reads,
         })
     }
+}
+
+/// Where the camera's G-buffer passes start in `chain` (the first per-frame pass).
+fn gbuffer_start(chain: &Chain) -> usize {
+    let mut first = 0;
+    for s in &chain.stages {
+        if s.stage == crate::kernels::gbuffer::DECL.name {
+            return first;
+        }
+        first += s.passes.len();
+    }
+    first
+}
+
+/// The buffers the passes from `first` on write (writable storage bindings) that do not start as
+/// zeros (e.g. cprc's sort values 0..n, which the sort's ping-pong overwrites, and its "no cluster"
+/// marks, which clusters overwrite only where they lie): a frame that reuses the chain starts from
+/// their first contents, kept in a copy added to the chain here. (copy, buffer) pairs.
+fn first_contents(chain: &mut Chain, first: usize) -> Vec<(String, String)> {
+    use crate::harness::{BindingKind, View};
+    let mut out: Vec<(String, String)> = Vec::new();
+    let mut at = 0;
+    for st in &chain.stages {
+        for pass in &st.passes {
+            at += 1;
+            if at <= first {
+                continue;
+            }
+            for (binding, view) in &pass.bindings {
+                let writable = st.shader.bindings.iter().any(|b| {
+                    b.name == *binding
+                        && matches!(
+                            b.kind,
+                            BindingKind::Storage {
+                                read_only: false,
+                                ..
+                            }
+                        )
+                });
+                let (View::Buffer(name) | View::BufferRange { name, .. }) = view else {
+                    continue;
+                };
+                let nonzero = matches!(
+                    chain.resources.get(name),
+                    Some(HostResource::Buffer(b)) if b.bytes.iter().any(|&x| x != 0)
+                );
+                if writable && nonzero && !out.iter().any(|(_, n)| n == name) {
+                    out.push((format!("{name}@first"), name.clone()));
+                }
+            }
+        }
+    }
+    for (copy, name) in &out {
+        let first = chain.resources[name].clone();
+        chain.resources.insert(copy.clone(), first);
+    }
+    out
 }
 
 /// The buffers a frame with moved lights rewrites: the lights, and lrsm's light views (each view's

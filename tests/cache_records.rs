@@ -31,10 +31,10 @@ fn clusters_past_the_capacity_are_counted_and_get_no_cache() {
             DECL.name,
             &case.resources,
             &case.passes,
-            &["args"],
+            &["cache_args"],
         )
         .unwrap();
-        let args = out.buffer("args").as_u32().to_vec();
+        let args = out.buffer("cache_args").as_u32().to_vec();
         let clusters = case.resources["cluster_count"].buffer().unwrap().as_u32()[0];
         assert!(
             clusters > 5,

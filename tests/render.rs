@@ -735,8 +735,9 @@ fn direct_renderer_writes_into_caller_owned_buffers() {
     }
 }
 
-/// `vxgi render --pipeline cprc` on a tobj scene file: four images, the cache count and the pixels left
-/// without a valid cache printed, every stage timed; a cache resolution that is not a power of two is
+/// `vxgi render --pipeline cprc` on a tobj scene file: four images, the cache count printed (the
+/// resident frame keeps its caches on the GPU: coverage is the staged renderer's measure), every
+/// stage timed; a cache resolution that is not a power of two is
 /// refused with the key's name.
 #[test]
 fn cprc_renders_a_tobj_scene_and_refuses_bad_cache_settings() {
@@ -763,10 +764,7 @@ fn cprc_renders_a_tobj_scene_and_refuses_bad_cache_settings() {
     }
     let ind = read_exr(&out.join("indirect.exr")).unwrap();
     assert!(ind.pixels.iter().any(|p| p[0] > 0.0), "some indirect light");
-    assert!(
-        stdout.contains("radiance caches;") && stdout.contains("without a valid cache"),
-        "{stdout}"
-    );
+    assert!(stdout.contains("radiance caches"), "{stdout}");
     for stage in [
         "cache_distribution",
         "cache_creation",
@@ -1206,8 +1204,87 @@ fn resident_frames_equal_the_staged_ones_in_one_submission() {
     }
 }
 
-/// A light moved between resident frames: the kept voxels are re-lit (vct-dense: voxel_light and
-/// the mips over the kept grid; lrsm: every light view's RSM and LRSM over the kept occlusion
+/// cprc's resident frames: the distribution, the cache records, creation and pre-convolution
+/// (dispatched from the GPU's cache count) and the gather in the one submission, over three orbit
+/// frames of the Cornell box and the glossy thin wall (mip chains built): after the first frame
+/// nothing is created or read back, and the images are the staged renderer's within float rounding
+/// (the staged one computes the pixel inputs and cache records by the kernels' mirrors on the host:
+/// normalisations and dot products differ by ULPs, which moves cache origins and gather directions
+/// by as much; on lavapipe they are bit for bit), with the same number of caches.
+#[test]
+fn resident_cprc_frames_stay_on_the_gpu_and_match_the_staged_frames() {
+    use vxgi::kernels::cone_trace::ConeSettings;
+    use vxgi::render::{Pipeline, Renderer, VolumeMemory};
+    use vxgi::resident::Resident;
+    let glossy =
+        Scene::load(Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/thin_wall_glossy.toml"))
+            .unwrap();
+    for base in [Scene::cornell_box(), glossy] {
+        let mut scene = small(base, 48, 40);
+        scene.render.voxels = 32;
+        let cones = ConeSettings::from(&scene.render);
+        let mut staged = Renderer::new(Pipeline::Cprc, true);
+        let mut resident = Resident::new(gpu(), Pipeline::Cprc).unwrap();
+        for k in 0..3u32 {
+            let view = scene.orbited(25.0 * k as f32);
+            let (want, memory) = staged.render(gpu(), &view, &cones, |_| {}).unwrap();
+            let before = vxgi::harness::thread_counters();
+            let got = resident.render(&view, &cones).unwrap();
+            let c = vxgi::harness::thread_counters().since(&before);
+            let at = format!("cprc {:?}, frame {k}", scene.mesh.positions.len());
+            assert!(want.direct == got.direct, "{at}: direct differs");
+            assert!(want.ao == got.ao, "{at}: ao differs");
+            let flip = vxgi::images::compare(
+                &want.combined,
+                Path::new("staged"),
+                &got.combined,
+                Path::new("resident"),
+            )
+            .unwrap()
+            .flip_mean;
+            let (Some(VolumeMemory::Caches(a)), Some(VolumeMemory::Caches(b))) =
+                (memory, resident.memory())
+            else {
+                panic!("{at}: cprc reports its caches")
+            };
+            let worst = want
+                .indirect
+                .pixels
+                .iter()
+                .zip(&got.indirect.pixels)
+                .flat_map(|(x, y)| (0..3).map(move |c| (x[c] - y[c]).abs()))
+                .fold(0.0f32, f32::max);
+            println!(
+                "{at}: combined FLIP staged vs resident {flip:.2e}, largest indirect difference {worst:.2e}, bit for bit {}; caches {} / {}",
+                want.indirect == got.indirect,
+                a.caches,
+                b.caches
+            );
+            assert!(flip < 1e-3, "{at}: FLIP {flip}");
+            assert_eq!((a.caches, b.dropped), (b.caches, 0), "{at}");
+            assert_eq!(c.submissions, 1, "{at}: {c:?}");
+            assert!(c.gpu_ns > 0, "{at}: {c:?}");
+            if k > 0 {
+                assert_eq!(
+                    (
+                        c.pipelines_created,
+                        c.buffers_created,
+                        c.textures_created,
+                        c.bind_groups_created,
+                        c.readback_bytes
+                    ),
+                    (0, 0, 0, 0, 0),
+                    "{at}: {c:?}"
+                );
+                assert!(c.upload_bytes <= 64 << 10, "{at}: {c:?}");
+                assert!(got.plan.skipped().contains(&"voxelize"), "{}", got.plan);
+            }
+        }
+    }
+}
+
+/// A light moved between resident frames: the kept voxels are re-lit (vct-dense and cprc:
+/// voxel_light and the mips over the kept grid; lrsm: every light view's RSM and LRSM over the kept occlusion
 /// voxels; voxelize skipped), the image equals a full rebuild's bit for bit, and the frame is still
 /// one submission that creates nothing and uploads only the camera, the lights and lrsm's views.
 #[test]
@@ -1219,6 +1296,7 @@ fn resident_frames_relight_the_kept_voxels_when_a_light_moves() {
     for (pipeline, kept) in [
         (Pipeline::VctDense, vec!["voxelize"]),
         (Pipeline::Lrsm, vec!["voxelize", "occlusion_voxels"]),
+        (Pipeline::Cprc, vec!["voxelize", "cache_mips"]),
     ] {
         let mut scene = small(Scene::cornell_box(), 40, 40);
         scene.render.voxels = 32;
@@ -1237,10 +1315,25 @@ fn resident_frames_relight_the_kept_voxels_when_a_light_moves() {
         let (want, _) = Renderer::new(pipeline, false)
             .render(gpu(), &moved, &cones, |_| {})
             .unwrap();
-        assert!(
-            want.direct == got.direct && want.indirect == got.indirect && want.ao == got.ao,
-            "{pipeline:?}"
-        );
+        if pipeline == Pipeline::Cprc {
+            // The staged cprc frame computes its pixel inputs and cache records by the kernels'
+            // mirrors (bit for bit on lavapipe, within rounding elsewhere).
+            assert!(want.direct == got.direct && want.ao == got.ao);
+            let flip = vxgi::images::compare(
+                &want.combined,
+                Path::new("staged"),
+                &got.combined,
+                Path::new("resident"),
+            )
+            .unwrap()
+            .flip_mean;
+            assert!(flip < 1e-3, "cprc: FLIP {flip}");
+        } else {
+            assert!(
+                want.direct == got.direct && want.indirect == got.indirect && want.ao == got.ao,
+                "{pipeline:?}"
+            );
+        }
         assert_eq!(got.plan.skipped(), kept, "{}", got.plan);
         assert_eq!(
             (
@@ -1317,15 +1410,12 @@ fn resident_vct_dense_encodes_into_the_callers_encoder() {
 }
 
 /// Changing the voxels or the image size between two resident frames rebuilds the chain (its
-/// resources are created again), and the frame's plan says what changed; the pipelines without
-/// resident frames are refused by name.
+/// resources are created again), and the frame's plan says what changed.
 #[test]
 fn resident_vct_dense_rebuilds_when_voxels_or_size_change_and_says_why() {
     use vxgi::kernels::cone_trace::ConeSettings;
     use vxgi::render::Pipeline;
     use vxgi::resident::Resident;
-    let e = Resident::new(gpu(), Pipeline::Cprc).err().expect("refused");
-    assert!(e.to_string().contains(Pipeline::Cprc.name()), "{e}");
     let mut scene = small(Scene::cornell_box(), 24, 24);
     scene.render.voxels = 16;
     let cones = ConeSettings::from(&scene.render);

@@ -4,7 +4,7 @@
 //! pre-convolution and the gather follow the distribution on the GPU without the host.
 //!
 //! `count = min(cluster_count, capacity)` caches (the clusters past the capacity get none, and
-//! `args[1]` counts them). Cache `c`, at pixel `p = picks[c]` (`x = p % width`, `y = p / width`):
+//! `cache_args[1]` counts them). Cache `c`, at pixel `p = picks[c]` (`x = p % width`, `y = p / width`):
 //! - `cache_pos[c] = (position of p, r_w)`, `r_w = max(1.5 |bbox_max - bbox_min|, 1e-3)` (every pixel
 //!   of the cluster lies within the box's diagonal of the cache, which is one of them);
 //! - `cache_pixel[c] = (x, y)`;
@@ -15,7 +15,7 @@
 //!   starts its tile's range where cache `c - 1` lies in another tile and ends it where `c + 1` does.
 //!   Clusters come tile-major (the keys start with the tile), so each tile's caches are one range.
 //!   Tiles without caches keep what the buffer held (0: the caller clears it).
-//! - `count_out[0] = count`; `args = [count, clusters - count, 0, 0]` then, per stage with `per`
+//! - `cache_count[0] = count`; `cache_args = [count, clusters - count, 0, 0]` then, per stage with `per`
 //!   invocations per cache (creation: texels; mips: the chain's texels, 0 without glossy pixels;
 //!   irradiance: the map's texels), the workgroups `(x, y, 1)` of 64 covering `count * per`
 //!   invocations, `x <= max_groups` (the kernels index `gid.x + gid.y * groups.x * 64`), and a pad.
@@ -41,10 +41,10 @@ pub struct RecordsParams {
     pub _pad: [u32; 3],
 }
 
-/// Elements of `args`: the header and three stages' (x, y, z, pad).
+/// Elements of `cache_args`: the header and three stages' (x, y, z, pad).
 pub const ARGS_LEN: usize = 16;
 
-/// Byte offset in `args` of stage `k`'s indirect arguments (0 creation, 1 mips, 2 irradiance).
+/// Byte offset in `cache_args` of stage `k`'s indirect arguments (0 creation, 1 mips, 2 irradiance).
 pub const fn args_offset(k: usize) -> u64 {
     16 * (k as u64 + 1)
 }

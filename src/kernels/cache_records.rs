@@ -38,8 +38,8 @@ pub static DECL: KernelDecl = KernelDecl {
         Output { binding: "caches", tolerance: Tolerance::MirrorBound },
         // Integer comparisons of neighbours' tiles, counts and workgroup arithmetic: exact.
         Output { binding: "tile_ranges", tolerance: Tolerance::Exact },
-        Output { binding: "count_out", tolerance: Tolerance::Exact },
-        Output { binding: "args", tolerance: Tolerance::Exact },
+        Output { binding: "cache_count", tolerance: Tolerance::Exact },
+        Output { binding: "cache_args", tolerance: Tolerance::Exact },
     ],
     dispatch: DispatchRule::PerItem {
         what: "cache slot up to the capacity (slot 0 also writes the count and the arguments)",
@@ -58,8 +58,8 @@ pub fn outputs(capacity: usize, tiles: usize) -> Resources {
         ("cache_normal".into(), z(c * 16, ScalarKind::F32)),
         ("caches".into(), z(c * 32, ScalarKind::F32)),
         ("tile_ranges".into(), z(tiles.max(1) * 8, ScalarKind::U32)),
-        ("count_out".into(), z(4, ScalarKind::U32)),
-        ("args".into(), z(ARGS_LEN * 4, ScalarKind::U32)),
+        ("cache_count".into(), z(4, ScalarKind::U32)),
+        ("cache_args".into(), z(ARGS_LEN * 4, ScalarKind::U32)),
     ])
 }
 
@@ -149,8 +149,8 @@ pub fn case_for(
             "cache_normal",
             "caches",
             "tile_ranges",
-            "count_out",
-            "args",
+            "cache_count",
+            "cache_args",
         ]
         .map(check)
         .to_vec(),
@@ -251,8 +251,8 @@ impl Kernel for CacheRecords {
                 "tile_ranges".to_string(),
                 HostBuffer::u32(bytemuck::cast_slice(&r.tile_ranges)),
             ),
-            ("count_out".to_string(), HostBuffer::u32(&[r.count])),
-            ("args".to_string(), HostBuffer::u32(&r.args)),
+            ("cache_count".to_string(), HostBuffer::u32(&[r.count])),
+            ("cache_args".to_string(), HostBuffer::u32(&r.args)),
         ])
     }
 }

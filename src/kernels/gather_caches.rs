@@ -74,8 +74,9 @@ pub fn place_caches(inp: &DistributionInputs) -> Caches {
 }
 
 /// One cache per cluster at its picked pixel (`picks[c]`, from cache_placement): position, pixel,
-/// normal (the pixel's snorm16 normal, normalised) and world radius r_w; caches are in cluster order,
-/// which is tile-major (keys start with the tile), so each tile's caches form one range.
+/// normal and world radius r_w by `kernels/cache_records.wgsl`'s rule (its mirror); caches are in
+/// cluster order, which is tile-major (keys start with the tile), so each tile's caches form one
+/// range.
 pub fn caches_at(
     width: u32,
     height: u32,
@@ -85,36 +86,31 @@ pub fn caches_at(
     clusters: &[vxgi_cpu_mirror::cluster_extract::Cluster],
     picks: &[u32],
 ) -> Caches {
+    use vxgi_cpu_mirror::cache_records::{records, RecordsParams};
     let tiles_x = width.div_ceil(tile);
     let tiles = (tiles_x * height.div_ceil(tile)) as usize;
-    let mut c = Caches {
-        pos: Vec::new(),
-        pixel: Vec::new(),
-        normal: Vec::new(),
-        tile_ranges: vec![[0, 0]; tiles],
+    let p = RecordsParams {
+        width,
+        tile,
+        tiles_x,
+        capacity: picks.len() as u32,
+        ..Default::default()
     };
-    for (i, &p) in picks.iter().enumerate() {
-        let (x, y) = (p % width, p / width);
-        let q = unpack(normals[p as usize]).unwrap_or([0, 0, 32767]);
-        // r_w: 1.5 x the cluster's bounding-box diagonal (every pixel of the cluster lies within the
-        // diagonal of the cache, which is one of them), at least 1e-3 scene units.
-        let cl = &clusters[i];
-        let diag = (0..3)
-            .map(|a| (cl.bbox_max[a] - cl.bbox_min[a]).powi(2))
-            .sum::<f32>()
-            .sqrt();
-        let wp = positions[p as usize];
-        c.pos.push([wp[0], wp[1], wp[2], (1.5 * diag).max(1.0e-3)]);
-        c.pixel.push([x, y]);
-        let n = glam::Vec3::new(q[0] as f32, q[1] as f32, q[2] as f32).normalize_or(glam::Vec3::Z);
-        c.normal.push([n.x, n.y, n.z, 0.0]);
-        let t = ((y / tile) * tiles_x + x / tile) as usize;
-        if c.tile_ranges[t][1] == 0 {
-            c.tile_ranges[t][0] = i as u32;
-        }
-        c.tile_ranges[t][1] = i as u32 + 1;
+    let r = records(
+        &p,
+        clusters,
+        picks.len() as u32,
+        picks,
+        normals,
+        positions,
+        &vec![[0; 2]; tiles],
+    );
+    Caches {
+        pos: r.cache_pos,
+        pixel: r.cache_pixel,
+        normal: r.cache_normal,
+        tile_ranges: r.tile_ranges,
     }
-    c
 }
 
 /// Pixel positions with w = 1 on geometry, 0 on background.
