@@ -235,6 +235,11 @@ pub(crate) type Stages = Vec<(
     Vec<vxgi_harness::run::Pass>,
 )>;
 
+/// The shaders of `stages`' kernels, in order.
+fn shaders_of(stages: &Stages) -> Result<Vec<vxgi_harness::Shader>> {
+    stages.iter().map(|(d, _)| Ok(d.shader()?)).collect()
+}
+
 /// The distribution's six kernels (histograms, axes, keys, radix sort, clusters, placement) as chain
 /// stages over one set of resources, each kernel reading what the previous wrote: the resources
 /// (`normals`, `depth` and `positions` hold `px`'s; the distribution reads positions' xyz only) and
@@ -355,10 +360,7 @@ pub fn distribute_gpu(
 ) -> Result<CacheSet> {
     let (w, h) = (px.width, px.height);
     let (resources, stages) = distribution_stages(ctx, px, s)?;
-    let shaders = stages
-        .iter()
-        .map(|(d, _)| d.shader())
-        .collect::<Result<Vec<_>, _>>()?;
+    let shaders = shaders_of(&stages)?;
     let chain: Vec<vxgi_harness::Stage> = stages
         .iter()
         .zip(&shaders)
@@ -624,10 +626,7 @@ pub fn evaluate_gpu(
     use vxgi_harness::{prepare_chain, Stage};
     let data = gather_data(px, set, s, Vec::new(), Vec::new());
     let (resources, parts) = cache_stages(ctx, px, set, 0, s, volume, cone, any_glossy(px))?;
-    let shaders = parts
-        .iter()
-        .map(|(d, _)| d.shader())
-        .collect::<Result<Vec<_>, _>>()?;
+    let shaders = shaders_of(&parts)?;
     let chain: Vec<Stage> = parts
         .iter()
         .zip(&shaders)
