@@ -2,7 +2,7 @@
 //! `frames` frames 5 degrees apart with the renderer's reuse on (as `vxgi render --frames 6 --orbit 5`).
 //! Per pipeline and scene: the medians over the frames after the first of wall clock, GPU time
 //! (timestamp queries), wall / GPU, submissions, buffers and bind groups created, bytes uploaded and
-//! read back, from the context's counters (`vxgi::frames`); vct-dense, vct-svo and lrsm both GPU-resident
+//! read back, from the context's counters (`vxgi::frames`); every pipeline both GPU-resident
 //! (`vxgi::resident::Resident`) and staged through the host (`vxgi::render::Renderer`), in the same
 //! run. The table goes to stdout as markdown; docs/frames.md holds a run.
 //!

@@ -9,9 +9,11 @@
 //!
 //! Indirect = albedo / pi * E + Ks * G (E the gathered irradiance, G the gathered glossy radiance);
 //! the caches hold one bounce of the voxels' direct light, as vct-dense's cones do. cprc has no AO
-//! pass: its AO image is 1 (unoccluded) on geometry. The distribution (six kernels) and the cache
-//! stages (three) each run as one chain on GPU-resident buffers (`vxgi_harness::prepare_chain`); the
-//! pyramid before them still comes through the host like the other pipelines' stages.
+//! pass: its AO image is 1 (unoccluded) on geometry. Here the distribution (six kernels) and the
+//! cache stages (three) each run as one chain on GPU-resident buffers (`vxgi_harness::prepare_chain`),
+//! with the per-pixel inputs, the cache records and the composed images computed between them on the
+//! host by the mirrors of `cprc_pixels` and `cache_records`; [`crate::resident::Resident`] runs the
+//! whole frame, those two kernels included, as one chain ([`crate::chains::cprc_chain`]).
 use crate::images::RgbImage;
 use crate::kernels::{
     cache_creation, cache_placement, cache_preconvolve, cluster_extract, cluster_keys,

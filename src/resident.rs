@@ -2,9 +2,14 @@
 //! bind groups on the GPU across frames and records each frame into one command encoder and one
 //! submission, reading back only the images it returns.
 //!
-//! [`Resident`] draws vct-dense, vct-svo and lrsm frames from their chains ([`crate::chains`]): the
-//! same kernels on the same inputs as the stage-by-stage renderers ([`crate::render::VctDense`],
-//! [`crate::render::VctSvo`], [`crate::render::VctLrsm`]), so the same images. vct-svo's octree is
+//! [`Resident`] draws every pipeline's frames from its chain ([`crate::chains`]): the same kernels on
+//! the same inputs as the stage-by-stage renderers ([`crate::render::VctDense`],
+//! [`crate::render::VctSvo`], [`crate::render::VctLrsm`]), so the same images; cprc's chain runs on
+//! the GPU what [`crate::render::VctCprc`] computes between its chains by the kernels' mirrors (the
+//! per-pixel inputs, the cache records, the composed images), so its images agree within the
+//! mirrors' bounds (bit for bit on lavapipe), and its cache stages are dispatched from the cache
+//! count the GPU found, in buffers sized for the most caches a frame can place
+//! ([`crate::chains::cache_room`]). vct-svo's octree is
 //! built by the staged passes when the chain is built (their host steps between passes run then,
 //! once); its chain is the camera's stages over it. A chain is prepared once by the harness
 //! (`prepare_chain`: every resource checked against reflection and the device limits, then created
@@ -443,7 +448,9 @@ impl<'c> Resident<'c> {
             b.build_stages.clone()
         };
         for (name, r) in &b.stages {
-            if r.start < timed.start || r.end > timed.end {
+            // Stages outside this frame's passes, and those without passes (cprc's chain keeps
+            // vct-dense's empty cone stages), report no time.
+            if r.is_empty() || r.start < timed.start || r.end > timed.end {
                 continue;
             }
             let ns: f64 = pass_ns
