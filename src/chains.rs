@@ -594,19 +594,26 @@ pub(crate) fn cache_room(
 /// and direct_light; then cprc_pixels' `inputs`, the distribution's six kernels, cache_records (its
 /// count copied into creation's and pre-convolution's uniform blocks), cache creation and
 /// pre-convolution dispatched from the GPU-built arguments, the gather, and cprc_pixels' `compose`
-/// (`indirect`, `ao`). Nothing between the G-buffer and the images goes through the host.
+/// (`indirect`, `ao`). Nothing between the G-buffer and the images goes through the host. With
+/// `[[instances]]` the volume is [`instanced_volume`]'s hierarchies (their grid frames returned) and
+/// creation marches through all of them.
 pub(crate) fn cprc_chain(
     ctx: &crate::harness::GpuContext,
     scene: &Scene,
     data: &SceneData,
     cones: &ConeSettings,
-) -> Result<(Chain, CacheRoom)> {
+) -> Result<(Chain, CacheRoom, Option<Vec<voxelize::VoxelFrame>>)> {
     use crate::cprc::{self, CacheSet, CacheVolume, CprcSettings, PixelInputs};
     use crate::harness::run::Workgroups;
     use crate::kernels::{cache_records, cprc_pixels};
     use vxgi_cpu_mirror::cache_records::args_offset;
-    use vxgi_cpu_mirror::cone_trace::pyramid_len;
-    let mut chain = dense_chain(ctx, scene, data, None, true)?;
+    let (mut chain, hierarchies) = if scene.instances.list.is_empty() {
+        (dense_chain(ctx, scene, data, None, true)?, None)
+    } else {
+        let (mut chain, frames, at) = instanced_volume(ctx, scene, data)?;
+        push_camera_gbuffer(ctx, data, &mut chain)?;
+        (chain, Some((frames, at.placed)))
+    };
     let s = CprcSettings::from(&scene.render);
     let room = cache_room(ctx, scene, &s);
     let (w, h) = (data.width(), data.height());
@@ -691,10 +698,19 @@ pub(crate) fn cprc_chain(
     );
     let after_records = chain.pass_count();
     // Creation, pre-convolution and the gather over every slot, dispatched from the arguments.
-    let side = scene.render.voxels;
+    let len = chain.resources["pyramid"]
+        .buffer()
+        .expect("a buffer")
+        .bytes
+        .len()
+        / 16;
     let zeros = cone_trace::Pyramids {
-        colour: vec![[0.0; 4]; pyramid_len(side)],
+        colour: vec![[0.0; 4]; len],
         normal: Vec::new(),
+    };
+    let volume = match &hierarchies {
+        None => CacheVolume::One(&zeros),
+        Some((_, placed)) => CacheVolume::Placed(&zeros.colour, placed),
     };
     let (mut caches, parts) = cprc::cache_stages(
         ctx,
@@ -702,7 +718,7 @@ pub(crate) fn cprc_chain(
         &CacheSet::empty(),
         room.capacity as usize,
         &s,
-        CacheVolume::One(&zeros),
+        volume,
         &cone,
         room.mips,
     )?;
@@ -750,5 +766,278 @@ pub(crate) fn cprc_chain(
             offset: 0,
         });
     }
-    Ok((chain, room))
+    Ok((chain, room, hierarchies.map(|(frames, _)| frames)))
+}
+
+/// Where a scene's voxel hierarchies stand this frame (CPRC 3.1): what the cones read (`placed`, one
+/// record per hierarchy) and what voxel_light lights each hierarchy with (its grid record, placed by
+/// the instance's transform), in [`instanced_volume`]'s order; the march's world grid.
+pub(crate) struct Placement {
+    pub placed: Vec<vxgi_cpu_mirror::cache_creation::Placed>,
+    pub grids: Vec<vxgi_cpu_mirror::voxel_light::VoxelGrid>,
+    pub world: voxelize::VoxelFrame,
+}
+
+/// The name of hierarchy `k`'s copy of a per-hierarchy resource.
+pub(crate) fn hierarchy_name(name: &str, k: usize) -> String {
+    format!("{name}#{k}")
+}
+
+/// [`Placement`] of `scene`'s hierarchies whose grids are `frames` (each in its own frame, as
+/// [`instanced_volume`] voxelized them), stored in the concatenated pyramid one after another.
+pub(crate) fn placement(scene: &Scene, frames: &[voxelize::VoxelFrame]) -> Result<Placement> {
+    use vxgi_cpu_mirror::cache_creation::Placed;
+    use vxgi_cpu_mirror::cone_trace::pyramid_len;
+    let (world, parts) = crate::render::hierarchy_parts(scene);
+    anyhow::ensure!(
+        parts.len() == frames.len(),
+        "{} voxel hierarchies where the chain holds {}",
+        parts.len(),
+        frames.len()
+    );
+    let (mut placed, mut grids, mut base) = (Vec::new(), Vec::new(), 0usize);
+    for ((_, _, m), f) in parts.iter().zip(frames) {
+        placed.push(Placed::new(
+            f.origin.to_array(),
+            f.voxel,
+            f.side,
+            base as u32,
+            *m,
+            world.voxel,
+        ));
+        let grid = voxel_light::voxel_grid(f, scene.lights.len());
+        grids.push(if *m != glam::Mat4::IDENTITY {
+            grid.placed(*m)
+        } else {
+            grid
+        });
+        base += pyramid_len(f.side);
+    }
+    Ok(Placement {
+        placed,
+        grids,
+        world,
+    })
+}
+
+/// The voxel hierarchies of a scene with `[[instances]]` as stages of a new chain: each hierarchy
+/// voxelized in its own frame (the instance's mesh alone), lit where it stands (voxel_light with its
+/// placed grid record: shadows from the whole scene), its surface-coverage mips built, and its levels
+/// copied into the concatenated `pyramid` (what the instanced cone passes read with `placed`). Every
+/// per-hierarchy resource is named `name#k`; the voxelize stages come first, then the voxel_light
+/// stages, then the mips, so that re-lighting is one range of passes. Returns the chain, each
+/// hierarchy's grid frame and where the hierarchies stand (their `grid#k` records are in the chain).
+pub(crate) fn instanced_volume(
+    ctx: &crate::harness::GpuContext,
+    scene: &Scene,
+    data: &SceneData,
+) -> Result<(Chain, Vec<voxelize::VoxelFrame>, Placement)> {
+    use crate::harness::run::{grid_for, Pass, Workgroups};
+    use crate::harness::{HostBuffer, ScalarKind};
+    use crate::kernels::surface_coverage_mip::{self as scm, colour_name};
+    use vxgi_cpu_mirror::cone_trace::{level_offset, pyramid_len};
+    let (world, parts) = crate::render::hierarchy_parts(scene);
+    let max = ctx.limits().max_compute_workgroups_per_dimension;
+    let mut chain = Chain {
+        resources: Resources::new(),
+        stages: Vec::new(),
+        copies: Vec::new(),
+        frame: world,
+    };
+    let mip_shader = scm::DECL.shader()?;
+    let (mut vox, mut light, mut mips, mut frames) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let mut base = 0usize;
+    let mut levels_at = Vec::new();
+    for (k, (mesh, side, _)) in parts.iter().enumerate() {
+        let local = Scene {
+            mesh: mesh.clone(),
+            instances: Default::default(),
+            ..scene.clone()
+        };
+        let (input, frame) = voxelize::prepare(&local, *side)?;
+        let mut v = voxelize::case_for(ctx, &input, *side, "render".into(), 0)?;
+        v.rename_resource("params", "vox_params", false);
+        let own: Vec<String> = v.resources.keys().cloned().collect();
+        for name in own {
+            v.rename_resource(&name, &hierarchy_name(&name, k), false);
+        }
+        let cells = (*side as u64).pow(3);
+        let mut l = Case {
+            label: "render".into(),
+            seed: 0,
+            resources: Resources::from([
+                (
+                    "grid".to_string(),
+                    HostResource::Buffer(HostBuffer::pod(&voxel_light::voxel_grid(
+                        &frame,
+                        data.lights.len(),
+                    ))),
+                ),
+                (
+                    "vox_radiance".to_string(),
+                    HostResource::Buffer(HostBuffer::zeroed(cells as usize * 16, ScalarKind::F32)),
+                ),
+            ]),
+            passes: vec![Pass {
+                label: "voxel_light".into(),
+                entry: "main".into(),
+                bindings: voxel_light::DECL.bind_by_name(),
+                workgroups: Workgroups::Direct(grid_for(cells, 64, max)),
+            }],
+            checks: Vec::new(),
+            effective_bytes: 0,
+        };
+        for name in [
+            "grid",
+            "vox_radiance",
+            "vox_colour",
+            "vox_normal",
+            "list",
+            "list_count",
+        ] {
+            l.rename_resource(name, &hierarchy_name(name, k), false);
+        }
+        let shell = crate::grids::Grid {
+            n: *side,
+            colour: Vec::new(),
+            normal: Vec::new(),
+        };
+        let levels = side.trailing_zeros() + 1;
+        let mut m = scm::chain_case_to(
+            &mip_shader,
+            ctx,
+            &shell,
+            Coverage::Surface,
+            levels,
+            "render".into(),
+            0,
+        );
+        m.rename_resource("params", "mip_params", false);
+        m.rename_resource(&colour_name(0), &hierarchy_name("vox_radiance", k), true);
+        m.rename_resource(&scm::normal_name(0), &hierarchy_name("vox_normal", k), true);
+        let own: Vec<String> = m.resources.keys().cloned().collect();
+        for name in own {
+            m.rename_resource(&name, &hierarchy_name(&name, k), false);
+        }
+        levels_at.push((k, *side, base));
+        base += pyramid_len(*side);
+        frames.push(frame);
+        vox.push(v);
+        light.push(l);
+        mips.push(m);
+    }
+    let mut light_res = crate::kernels::gbuffer::scene_resources(data);
+    light_res.remove("frame");
+    light_res.remove("materials");
+    chain.merge(voxel_light::DECL.name, light_res)?;
+    chain.resources.insert(
+        "pyramid".into(),
+        HostResource::Buffer(HostBuffer::zeroed(base.max(1) * 16, ScalarKind::F32)),
+    );
+    for v in vox {
+        chain.merge(voxelize::DECL.name, v.resources)?;
+        chain.push(voxelize::DECL.shader()?, voxelize::DECL.name, v.passes);
+    }
+    for l in light {
+        chain.merge(voxel_light::DECL.name, l.resources)?;
+        chain.push(
+            voxel_light::DECL.shader()?,
+            voxel_light::DECL.name,
+            l.passes,
+        );
+    }
+    for m in mips {
+        chain.merge(scm::DECL.name, m.resources)?;
+        chain.push(scm::DECL.shader()?, scm::DECL.name, m.passes);
+    }
+    let after_mips = chain.pass_count();
+    for (k, side, base) in levels_at {
+        for l in 0..side.trailing_zeros() + 1 {
+            let src = if l == 0 {
+                hierarchy_name("vox_radiance", k)
+            } else {
+                hierarchy_name(&colour_name(l), k)
+            };
+            chain.copies.push(ChainCopy {
+                after: after_mips,
+                src,
+                dst: "pyramid".into(),
+                offset: (base + level_offset(side, l) as usize) as u64 * 16,
+            });
+        }
+    }
+    let at = placement(scene, &frames)?;
+    for (k, grid) in at.grids.iter().enumerate() {
+        chain.resources.insert(
+            hierarchy_name("grid", k),
+            HostResource::Buffer(HostBuffer::pod(grid)),
+        );
+    }
+    Ok((chain, frames, at))
+}
+
+/// vct-dense's chain for a scene with `[[instances]]`: [`instanced_volume`], gbuffer, direct_light,
+/// screen_tiles and the instanced cone pass through every hierarchy.
+pub(crate) fn instanced_dense_chain(
+    ctx: &crate::harness::GpuContext,
+    scene: &Scene,
+    data: &SceneData,
+    cones: &ConeSettings,
+) -> Result<(Chain, Vec<voxelize::VoxelFrame>)> {
+    let (mut chain, frames, at) = instanced_volume(ctx, scene, data)?;
+    push_camera_gbuffer(ctx, data, &mut chain)?;
+    let g = crate::kernels::gbuffer::case_for(data, "render".into(), 0).resources;
+    let params = cone_trace::cone_params(&at.world, cones);
+    let len = chain.resources["pyramid"]
+        .buffer()
+        .expect("a buffer")
+        .bytes
+        .len()
+        / 16;
+    let mut c = cone_trace::instanced_case_for(
+        data,
+        &g,
+        &vec![[0.0; 4]; len],
+        &at.placed,
+        &params,
+        "render".into(),
+        0,
+    );
+    let (w, h) = (data.width(), data.height());
+    c.resources
+        .insert("tile_list".into(), screen_tiles::empty_list(w, h));
+    chain.merge(cone_trace::INSTANCED_DECL.name, c.resources)?;
+    chain.push(
+        screen_tiles::DECL.shader()?,
+        screen_tiles::DECL.name,
+        vec![screen_tiles::pass(w, h)],
+    );
+    chain.push_as(
+        cone_trace::INSTANCED_DECL.shader()?,
+        cone_trace::INSTANCED_DECL.name,
+        cone_trace::DECL.name,
+        c.passes,
+    );
+    Ok((chain, frames))
+}
+
+/// The camera's G-buffer and direct light as the next stages of `chain`.
+fn push_camera_gbuffer(
+    ctx: &crate::harness::GpuContext,
+    data: &SceneData,
+    chain: &mut Chain,
+) -> Result<()> {
+    let g = crate::kernels::gbuffer::case_for(data, "render".into(), 0);
+    let d = direct_light::case_with_gbuffer(ctx, data, &Default::default(), "render".into(), 0);
+    chain.merge(crate::kernels::gbuffer::DECL.name, g.resources)?;
+    chain.merge(direct_light::DECL.name, d.resources)?;
+    let gbuffer = &crate::kernels::gbuffer::DECL;
+    chain.push(gbuffer.shader()?, gbuffer.name, g.passes);
+    chain.push(
+        direct_light::DECL.shader()?,
+        direct_light::DECL.name,
+        d.passes,
+    );
+    Ok(())
 }

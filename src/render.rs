@@ -1577,33 +1577,12 @@ impl InstanceVoxels {
         progress: &impl Fn(&str),
     ) -> Result<Hierarchies> {
         use vxgi_cpu_mirror::cache_creation::Placed;
-        let world = voxelize::frame_of(&scene.mesh, scene.render.voxels);
-        let inst = &scene.instances;
-        let mut parts: Vec<(crate::scene::Mesh, glam::Mat4)> = Vec::new();
-        if !inst.base.triangles.is_empty() {
-            parts.push((inst.base.clone(), glam::Mat4::IDENTITY));
-        }
-        for i in &inst.list {
-            parts.push((i.local.clone(), i.transform_at(inst.frame).matrix()));
-        }
+        let (world, parts) = hierarchy_parts(scene);
         let (mut vox_t, mut light_t, mut mip_t) = (0.0, 0.0, 0.0);
         self.voxelized_now = 0;
         let mut pyramids = Vec::new();
         let mut placed = Vec::new();
-        for (mesh, m) in parts {
-            // The side at the world's voxel size (its scale applied), a power of two in 8..=voxels.
-            let (lo, hi) = mesh.positions.iter().fold(
-                (
-                    glam::Vec3::splat(f32::INFINITY),
-                    glam::Vec3::splat(f32::NEG_INFINITY),
-                ),
-                |(lo, hi), p| (lo.min(*p), hi.max(*p)),
-            );
-            let scale = glam::Mat3::from_mat4(m).determinant().abs().cbrt();
-            let cells = ((hi - lo).max_element() * scale / world.voxel)
-                .ceil()
-                .max(8.0) as u32;
-            let side = cells.next_power_of_two().min(scene.render.voxels);
+        for (mesh, side, m) in parts {
             progress("voxelize (per instance, once)");
             let t = std::time::Instant::now();
             let k = match self
@@ -1660,6 +1639,46 @@ impl InstanceVoxels {
         stages.push(("surface_coverage_mip", mip_t));
         Ok((pyramids, placed, world))
     }
+}
+
+/// The voxel hierarchies of a scene with `[[instances]]` (CPRC 3.1): the march's world grid and, per
+/// hierarchy, its mesh in its own frame, its grid side and where it stands (`[mesh]` in place, then
+/// every instance at the scene's frame). The side is the world's voxel size with the instance's
+/// scale applied, a power of two in 8..=voxels.
+pub(crate) fn hierarchy_parts(
+    scene: &Scene,
+) -> (
+    voxelize::VoxelFrame,
+    Vec<(crate::scene::Mesh, u32, glam::Mat4)>,
+) {
+    let world = voxelize::frame_of(&scene.mesh, scene.render.voxels);
+    let inst = &scene.instances;
+    let mut parts: Vec<(crate::scene::Mesh, glam::Mat4)> = Vec::new();
+    if !inst.base.triangles.is_empty() {
+        parts.push((inst.base.clone(), glam::Mat4::IDENTITY));
+    }
+    for i in &inst.list {
+        parts.push((i.local.clone(), i.transform_at(inst.frame).matrix()));
+    }
+    let parts = parts
+        .into_iter()
+        .map(|(mesh, m)| {
+            let (lo, hi) = mesh.positions.iter().fold(
+                (
+                    glam::Vec3::splat(f32::INFINITY),
+                    glam::Vec3::splat(f32::NEG_INFINITY),
+                ),
+                |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+            );
+            let scale = glam::Mat3::from_mat4(m).determinant().abs().cbrt();
+            let cells = ((hi - lo).max_element() * scale / world.voxel)
+                .ceil()
+                .max(8.0) as u32;
+            let side = cells.next_power_of_two().min(scene.render.voxels);
+            (mesh, side, m)
+        })
+        .collect();
+    (world, parts)
 }
 
 /// A hierarchy's pyramids concatenated, where each is placed, and the march's world grid.

@@ -38,6 +38,11 @@ use anyhow::{Context, Result};
 #[derive(Clone, Debug, PartialEq)]
 struct Key {
     volume: PyramidKey,
+    /// With `[[instances]]`: each voxel hierarchy's mesh (in its own frame) and grid side, and the
+    /// sizes of the scene's triangle and BVH buffers; where the instances stand is not part of it (a
+    /// frame whose instances moved re-lights the kept hierarchies).
+    hierarchies: Vec<(crate::scene::Mesh, u32)>,
+    scene_sizes: (usize, usize),
     lights: usize,
     views: usize,
     render: RenderSettings,
@@ -72,6 +77,9 @@ impl Key {
                 self.views, next.views
             ));
         }
+        if self.hierarchies != next.hierarchies || self.scene_sizes != next.scene_sizes {
+            what.push("the instances' meshes, grid sides or the scene's BVH size changed".into());
+        }
         if self.volume != next.volume && self.render.voxels == next.render.voxels {
             if self.volume.unlit() == next.volume.unlit() {
                 what.push("the lights moved (vct-svo's octree values hold the light)".into());
@@ -87,7 +95,35 @@ impl Key {
         what.join("; ")
     }
 
-    fn of(pipeline: Pipeline, scene: &Scene, cones: &ConeSettings) -> Self {
+    /// The key of `scene`'s frame; `data` is the scene's [`SceneData`] where it has instances.
+    fn of(
+        pipeline: Pipeline,
+        scene: &Scene,
+        cones: &ConeSettings,
+        data: Option<&SceneData>,
+    ) -> Self {
+        let instanced = !scene.instances.list.is_empty();
+        let (hierarchies, scene_sizes) = match data {
+            Some(d) if instanced => {
+                let (_, parts) = crate::render::hierarchy_parts(scene);
+                (
+                    parts.into_iter().map(|(m, side, _)| (m, side)).collect(),
+                    (d.triangles.len(), d.nodes.len()),
+                )
+            }
+            _ => (Vec::new(), (0, 0)),
+        };
+        // With instances the voxels depend on the meshes in their own frames, not where they stand.
+        let base;
+        let scene = if instanced {
+            base = Scene {
+                mesh: scene.instances.base.clone(),
+                ..scene.clone()
+            };
+            &base
+        } else {
+            scene
+        };
         let (volume, views) = match pipeline {
             // The levels the cones read: the others are not built.
             Pipeline::VctDense => (PyramidKey::reading(scene, cones).unlit(), 0),
@@ -102,6 +138,8 @@ impl Key {
         };
         Self {
             volume,
+            hierarchies,
+            scene_sizes,
             lights: scene.lights.len(),
             views,
             render: scene.render.clone(),
@@ -116,6 +154,10 @@ struct Built<'c> {
     key: Key,
     /// The lights the kept voxels are lit by now.
     lights: Vec<crate::scene::Light>,
+    /// The scene's mesh as the last frame placed it (with instances: where they stood).
+    mesh: crate::scene::Mesh,
+    /// With instances: each voxel hierarchy's grid frame, in the chain's order.
+    hierarchies: Option<Vec<crate::kernels::voxelize::VoxelFrame>>,
     prepared: Prepared<'c>,
     reads: ReadbackSet,
     /// The ray epsilon of the scene's camera frames (`Frame::eye.w`, from the mesh's extent) and
@@ -255,11 +297,13 @@ impl<'c> Resident<'c> {
         })
     }
 
-    /// Whether `pipeline`'s resident renderer draws `scene`: a pipeline of [`Resident::PIPELINES`],
-    /// no instances (their hierarchies are the staged renderers') and at least one light.
+    /// Whether `pipeline`'s resident renderer draws `scene`: a pipeline of [`Resident::PIPELINES`]
+    /// and at least one light; with `[[instances]]` vct-dense and cprc (their per-instance
+    /// hierarchies; vct-svo's and lrsm's instanced frames are the staged renderers').
     pub fn serves(pipeline: Pipeline, scene: &Scene) -> bool {
         Self::PIPELINES.contains(&pipeline)
-            && scene.instances.list.is_empty()
+            && (scene.instances.list.is_empty()
+                || matches!(pipeline, Pipeline::VctDense | Pipeline::Cprc))
             && !scene.lights.is_empty()
     }
 
@@ -284,7 +328,7 @@ impl<'c> Resident<'c> {
     fn check(&self, scene: &Scene) -> Result<()> {
         anyhow::ensure!(
             Self::serves(self.pipeline, scene),
-            "the resident {} renderer draws scenes without instances and with lights",
+            "the resident {} renderer draws scenes with lights (with instances: vct-dense and cprc)",
             self.pipeline.name()
         );
         crate::limits::check(scene, self.pipeline, &self.ctx.limits()).map_err(anyhow::Error::msg)
@@ -358,7 +402,11 @@ impl<'c> Resident<'c> {
         gbuffer: Option<&GBuffer>,
         encoder: &mut wgpu::CommandEncoder,
     ) -> Result<(bool, bool, std::ops::Range<usize>)> {
-        let key = Key::of(self.pipeline, scene, cones);
+        crate::limits::check_ordered_instances(scene, cones.depth_ordered_blend)
+            .map_err(anyhow::Error::msg)?;
+        // With instances: the scene as the ray caster binds it this frame (where they stand).
+        let data = (!scene.instances.list.is_empty()).then(|| SceneData::new(scene));
+        let key = Key::of(self.pipeline, scene, cones, data.as_ref());
         let reuse = self.built.as_ref().is_some_and(|b| b.key == key);
         self.rebuilt = self
             .built
@@ -370,8 +418,15 @@ impl<'c> Resident<'c> {
             self.built = Some(self.build(scene, cones, key)?);
         }
         let b = self.built.as_mut().expect("built above");
-        let relit = reuse && b.lights != scene.lights;
+        // Moved instances re-light the kept hierarchies where they stand now, as moved lights do.
+        let moved = reuse && b.mesh != scene.mesh;
+        let relit = reuse && (b.lights != scene.lights || moved);
         b.lights = scene.lights.clone();
+        b.mesh = scene.mesh.clone();
+        if let (true, Some(d)) = (moved, &data) {
+            b.eps = d.frame.eye[3];
+            b.bounds = d.bounds;
+        }
         let b = &*b;
         let p = &b.prepared;
         if reuse {
@@ -389,6 +444,11 @@ impl<'c> Resident<'c> {
             p.encode_copies(encoder, &restore)?;
             if relit {
                 for (name, bytes) in light_inputs(self.pipeline, b, scene)? {
+                    p.write_buffer(&name, &bytes)?;
+                }
+            }
+            if let (true, Some(d), Some(frames)) = (moved, &data, &b.hierarchies) {
+                for (name, bytes) in placed_inputs(d, scene, cones, frames)? {
                     p.write_buffer(&name, &bytes)?;
                 }
             }
@@ -495,9 +555,15 @@ impl<'c> Resident<'c> {
             Pipeline::VctSvo => FramePlan::vct_svo_after(scene, cones, cached),
             Pipeline::VctDense => FramePlan::vct_dense_after(scene, cones, cached),
         };
-        if relit {
+        match &b.hierarchies {
+            // Each hierarchy voxelized by the chain's first frame, re-lit where it stands in every
+            // frame that ran the volume.
+            Some(h) if !cached => {
+                plan = plan.with_hierarchies(h.len(), if reuse { 0 } else { h.len() });
+            }
             // The voxels are kept; what the lights feed is redone.
-            plan = plan.with_voxels_kept();
+            _ if relit => plan = plan.with_voxels_kept(),
+            _ => {}
         }
         if let Some(why) = &self.rebuilt {
             plan = plan.with_note(
@@ -524,10 +590,13 @@ impl<'c> Resident<'c> {
         let data = SceneData::new(scene);
         let mut build_stages = Vec::new();
         let mut room = None;
+        let mut hierarchies = None;
+        let instanced = !scene.instances.list.is_empty();
         let (mut chain, memory, direct, relight_stage): (Chain, _, _, _) = match self.pipeline {
             Pipeline::Cprc => {
-                let (chain, r) = crate::chains::cprc_chain(self.ctx, scene, &data, cones)?;
+                let (chain, r, frames) = crate::chains::cprc_chain(self.ctx, scene, &data, cones)?;
                 room = Some(r);
+                hierarchies = frames;
                 (
                     chain,
                     None,
@@ -556,6 +625,17 @@ impl<'c> Resident<'c> {
                     Some(memory),
                     "radiance",
                     crate::kernels::gbuffer::DECL.name,
+                )
+            }
+            Pipeline::VctDense if instanced => {
+                let (chain, frames) =
+                    crate::chains::instanced_dense_chain(self.ctx, scene, &data, cones)?;
+                hierarchies = Some(frames);
+                (
+                    chain,
+                    None,
+                    "radiance",
+                    crate::kernels::voxel_light::DECL.name,
                 )
             }
             Pipeline::VctDense => {
@@ -622,6 +702,8 @@ impl<'c> Resident<'c> {
         Ok(Built {
             key,
             lights: scene.lights.clone(),
+            mesh: scene.mesh.clone(),
+            hierarchies,
             relight,
             eps: data.frame.eye[3],
             bounds: data.bounds,
@@ -696,6 +778,43 @@ fn first_contents(chain: &mut Chain, first: usize) -> Vec<(String, String)> {
         chain.resources.insert(copy.clone(), first);
     }
     out
+}
+
+/// The buffers a frame whose instances moved rewrites: the scene's triangles and BVH (the ray caster's,
+/// the same sizes: the key holds them), each hierarchy's placed voxel_light grid, the cone passes'
+/// placements and their march parameters (the world grid follows the scene's extent).
+fn placed_inputs(
+    data: &SceneData,
+    scene: &Scene,
+    cones: &ConeSettings,
+    frames: &[crate::kernels::voxelize::VoxelFrame],
+) -> Result<Vec<(String, Vec<u8>)>> {
+    let at = crate::chains::placement(scene, frames)?;
+    let mut out = vec![
+        (
+            "triangles".to_string(),
+            bytemuck::cast_slice(&data.triangles).to_vec(),
+        ),
+        (
+            "nodes".to_string(),
+            bytemuck::cast_slice(&data.nodes).to_vec(),
+        ),
+        (
+            "placed".to_string(),
+            bytemuck::cast_slice(&at.placed).to_vec(),
+        ),
+        (
+            "cone".to_string(),
+            bytemuck::bytes_of(&crate::kernels::cone_trace::cone_params(&at.world, cones)).to_vec(),
+        ),
+    ];
+    for (k, g) in at.grids.iter().enumerate() {
+        out.push((
+            crate::chains::hierarchy_name("grid", k),
+            bytemuck::bytes_of(g).to_vec(),
+        ));
+    }
+    Ok(out)
 }
 
 /// The buffers a frame with moved lights rewrites: the lights, and lrsm's light views (each view's
