@@ -1,5 +1,6 @@
 //! Frames of a camera orbit, counted: every pipeline on the Cornell box and thin_wall at 256x256,
-//! `frames` frames 5 degrees apart with the renderer's reuse on (as `vxgi render --frames 6 --orbit 5`).
+//! `frames` frames 5 degrees apart with the renderer's reuse on (as `vxgi render --frames 6 --orbit 5`),
+//! and scenes/instances.toml's 7-frame animation (`vxgi render scenes/instances.toml --frames 7`).
 //! Per pipeline and scene: the medians over the frames after the first of wall clock, GPU time
 //! (timestamp queries), wall / GPU, submissions, buffers and bind groups created, bytes uploaded and
 //! read back, from the context's counters (`vxgi::frames`); every pipeline both GPU-resident
@@ -28,13 +29,20 @@ fn main() {
     );
     println!("| pipeline | scene | wall ms | GPU ms | wall / GPU | submissions | buffers | bind groups | upload MB | readback MB |");
     println!("|---|---|---|---|---|---|---|---|---|---|");
-    for (name, scene) in [
-        ("cornell_box", Scene::cornell_box()),
-        ("thin_wall", Scene::thin_wall()),
+    let instances =
+        Scene::load(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/instances.toml"))
+            .expect("scenes/instances.toml");
+    // The instance scene's frames are its animation (a box sliding and turning over frames 0-6),
+    // the camera still; the others orbit.
+    for (name, scene, animated) in [
+        ("cornell_box", Scene::cornell_box(), false),
+        ("thin_wall", Scene::thin_wall(), false),
+        ("instances", instances, true),
     ] {
         let mut scene = scene;
         scene.camera.width = 256;
         scene.camera.height = 256;
+        let frames = if animated { frames.max(7) } else { frames };
         let cones = ConeSettings::from(&scene.render);
         let print = |label: &str, rows: &[FrameRow]| {
             let later = &rows[1..];
@@ -51,8 +59,17 @@ fn main() {
                 m(&|r| r.counters.readback_bytes as f64) / 1e6,
             );
         };
-        let view = |k: u32| scene.orbited(5.0 * k as f32);
+        let view = |k: u32| {
+            if animated {
+                scene.at_frame(k)
+            } else {
+                scene.orbited(5.0 * k as f32)
+            }
+        };
         for p in Resident::PIPELINES {
+            if !Resident::serves(p, &scene) {
+                continue;
+            }
             let mut resident = Resident::new(&ctx, p).expect("a resident pipeline");
             let rows: Vec<FrameRow> = (0..frames)
                 .map(|k| {

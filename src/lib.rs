@@ -19,6 +19,7 @@ pub mod render;
 pub mod report;
 pub mod resident;
 pub mod scene;
+pub mod temporal;
 pub mod trace;
 
 pub use vxgi_cpu_mirror as cpu_mirror;

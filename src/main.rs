@@ -182,6 +182,41 @@ enum Command {
         #[command(flatten)]
         render: RenderFlags,
     },
+    /// Temporal stability: each pipeline's frames over a motion (a slow orbit, a moving light, the
+    /// scene's instance animation) against the ideal cones' frames; per pipeline and motion the mean
+    /// frame-to-frame change the pipeline adds beyond the reference's (docs/temporal.md defines it)
+    /// and frame 0's combined FLIP against the path-traced reference. Writes temporal.md,
+    /// temporal.csv and temporal.svg (per step) into --out.
+    Temporal {
+        /// A TOML scene file (default: the built-in Cornell box).
+        scene: Option<PathBuf>,
+        /// The pipelines measured (default: all four).
+        #[arg(long, value_enum, num_args = 1..)]
+        pipelines: Vec<Pipeline>,
+        /// Frames per motion.
+        #[arg(long, default_value_t = 8)]
+        frames: u32,
+        /// Camera orbit per frame, degrees (0: no orbit row).
+        #[arg(long, default_value_t = 0.25)]
+        orbit: f32,
+        /// Light motion per frame: point and spot lights move this far along x, directional ones
+        /// turn this many degrees (0: no light row).
+        #[arg(long, default_value_t = 0.01)]
+        light_step: f32,
+        /// Rays per cone of the ideal-cones reference.
+        #[arg(long, default_value_t = 64)]
+        rays: u32,
+        /// Samples per pixel of the path-traced reference of frame 0 (the FLIP column).
+        #[arg(long, default_value_t = 64)]
+        spp: u32,
+        /// Also measure the reference against one with 4x the rays (its own floor).
+        #[arg(long)]
+        check_reference: bool,
+        #[arg(long, default_value = "temporal")]
+        out: PathBuf,
+        #[command(flatten)]
+        render: RenderFlags,
+    },
     /// Compare a test image against a reference: relative MSE and mean LDR-FLIP, optional heat map.
     Compare {
         reference: PathBuf,
@@ -893,6 +928,25 @@ fn real_main() -> Result<()> {
             out,
             render,
         } => run_bisect(scene, pipeline, mirror_until, out, render),
+        Command::Temporal {
+            scene,
+            pipelines,
+            frames,
+            orbit,
+            light_step,
+            rays,
+            spp,
+            check_reference,
+            out,
+            render,
+        } => run_temporal(
+            scene,
+            pipelines,
+            (frames, orbit, light_step),
+            (rays, spp, check_reference),
+            out,
+            render,
+        ),
         Command::Bench {
             scene,
             quick,
@@ -903,6 +957,121 @@ fn real_main() -> Result<()> {
             render,
         } => run_bench(scene, pipeline, quick, (spp, reference), out, render),
     }
+}
+
+fn run_temporal(
+    scene: Option<PathBuf>,
+    pipelines: Vec<Pipeline>,
+    (frames, orbit, light_step): (u32, f32, f32),
+    (rays, spp, check_reference): (u32, u32, bool),
+    out: PathBuf,
+    flags: RenderFlags,
+) -> Result<()> {
+    use vxgi::temporal::{self, Motion};
+    if frames < 2 || rays == 0 || spp == 0 {
+        bail!("--frames must be at least 2, --rays and --spp at least 1");
+    }
+    let scene = load_scene(&scene, &flags)?;
+    let pipelines = if pipelines.is_empty() {
+        vec![
+            Pipeline::VctDense,
+            Pipeline::VctSvo,
+            Pipeline::Lrsm,
+            Pipeline::Cprc,
+        ]
+    } else {
+        pipelines
+    };
+    for p in &pipelines {
+        check_bounces(*p, &scene)?;
+    }
+    let mut motions = Vec::new();
+    if orbit != 0.0 {
+        motions.push(Motion::Orbit { degrees: orbit });
+    }
+    if light_step != 0.0 && !scene.lights.is_empty() {
+        motions.push(Motion::Light { step: light_step });
+    }
+    if !scene.instances.list.is_empty() {
+        motions.push(Motion::Instances);
+    }
+    if motions.is_empty() {
+        bail!("nothing moves: give --orbit or --light-step (and lights), or a scene with [[instances]]");
+    }
+    create_out(&out)?;
+    let ctx = GpuContext::new().context("creating the GPU context")?;
+    eprintln!("adapter: {}", ctx.describe());
+    let bar = spinner();
+    bar.set_message(format!("path-traced reference of frame 0 ({spp} spp)"));
+    let first = vxgi::reference::render_reference(
+        &scene,
+        &vxgi::reference::ReferenceOptions::spp(spp),
+        |_| {},
+    );
+    let ref_combined =
+        vxgi::images::RgbImage::new(scene.camera.width, scene.camera.height, first.combined());
+    let mut rows = Vec::new();
+    let mut floors = Vec::new();
+    for motion in motions {
+        bar.set_message(format!(
+            "{}: ideal cones ({rays} rays per cone)",
+            motion.name()
+        ));
+        let reference = temporal::reference_frames(&scene, motion, frames, rays);
+        if check_reference {
+            bar.set_message(format!("{}: the reference's floor", motion.name()));
+            floors.push((
+                motion.name(),
+                temporal::reference_floor(&reference, &scene, motion, rays),
+            ));
+        }
+        for &p in &pipelines {
+            bar.set_message(format!("{}: {}", motion.name(), p.name()));
+            let got = temporal::pipeline_frames(&ctx, p, &scene, motion, frames)?;
+            let indirect: Vec<_> = got.iter().map(|f| f.indirect.clone()).collect();
+            let name = Path::new(p.name());
+            let flip =
+                vxgi::images::compare(&ref_combined, name, &got[0].combined, name)?.flip_mean;
+            rows.push(temporal::Row {
+                pipeline: p.name(),
+                motion: motion.name(),
+                measure: temporal::instability(&indirect, &reference),
+                combined_flip: flip,
+            });
+        }
+    }
+    bar.finish_and_clear();
+    let mut md = String::from(
+        "| pipeline | motion | instability | own change | reference's change | combined FLIP (frame 0) |\n|---|---|---|---|---|---|\n",
+    );
+    let mut csv =
+        String::from("pipeline,motion,instability,change,reference_change,combined_flip\n");
+    for r in &rows {
+        let m = &r.measure;
+        md.push_str(&format!(
+            "| {} | {} | {:.4} | {:.4} | {:.4} | {:.3} |\n",
+            r.pipeline, r.motion, m.instability, m.change, m.reference_change, r.combined_flip
+        ));
+        csv.push_str(&format!(
+            "{},{},{},{},{},{}\n",
+            r.pipeline, r.motion, m.instability, m.change, m.reference_change, r.combined_flip
+        ));
+    }
+    for (motion, floor) in &floors {
+        md.push_str(&format!(
+            "\nThe reference's own floor ({motion}: {rays} against {} rays per cone): {floor:.4}\n",
+            rays * 4
+        ));
+    }
+    print!("{md}");
+    std::fs::write(out.join("temporal.md"), &md)?;
+    std::fs::write(out.join("temporal.csv"), &csv)?;
+    temporal::plot(&out.join("temporal.svg"), &rows)?;
+    println!(
+        "wrote temporal.md, temporal.csv and temporal.svg to {}",
+        out.display()
+    );
+    Ok(())
 }
 
 fn run_bisect(

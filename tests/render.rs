@@ -179,6 +179,58 @@ fn small_scene_file(dir: &Path) -> String {
     path.display().to_string()
 }
 
+/// `vxgi temporal` on a 32x32 Cornell box: a row per pipeline and motion (orbit and light), the
+/// files it says it writes, and the reference's floor when asked; a motionless request is refused.
+#[test]
+fn temporal_command_measures_every_pipeline_and_motion() {
+    let dir = std::env::temp_dir().join(format!("vxgi-cli-temporal-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = small_scene_file(&dir);
+    let out = dir.join("t");
+    let s = out.display().to_string();
+    let args = [
+        "temporal",
+        &scene,
+        "--frames",
+        "3",
+        "--voxels",
+        "16",
+        "--rays",
+        "4",
+        "--spp",
+        "2",
+        "--check-reference",
+        "--out",
+        &s,
+    ];
+    let (code, stdout, err) = vxgi(&args);
+    assert_eq!(code, 0, "{stdout}\n{err}");
+    for name in ["temporal.md", "temporal.csv", "temporal.svg"] {
+        assert!(out.join(name).exists(), "{name}");
+    }
+    let csv = std::fs::read_to_string(out.join("temporal.csv")).unwrap();
+    // A header and 4 pipelines x 2 motions, each instability a finite number >= 0.
+    assert_eq!(csv.lines().count(), 9, "{csv}");
+    for line in csv.lines().skip(1) {
+        let v: f64 = line.split(',').nth(2).unwrap().parse().unwrap();
+        assert!(v.is_finite() && v >= 0.0, "{line}");
+    }
+    assert!(stdout.contains("own floor"), "{stdout}");
+    let (code, _, err) = vxgi(&[
+        "temporal",
+        &scene,
+        "--orbit",
+        "0",
+        "--light-step",
+        "0",
+        "--out",
+        &s,
+    ]);
+    assert_ne!(code, 0);
+    assert!(err.contains("nothing moves"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 #[test]
 fn render_reference_and_compare_commands() {
     let dir = std::env::temp_dir().join(format!("vxgi-cli-render-{}", std::process::id()));

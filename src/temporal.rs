@@ -1,0 +1,265 @@
+//! Temporal stability: how much a pipeline's indirect image changes between consecutive frames beyond
+//! what the light itself does (`vxgi temporal`).
+//!
+//! For frames `t = 0..T` of a motion (a slow camera orbit, the scene's instance animation, or a light
+//! moving), with `P[t]` the pipeline's indirect image and `R[t]` the reference's:
+//!
+//! `instability = mean over t < T-1 of mean over pixels and channels of
+//!                |(P[t+1] - P[t]) - (R[t+1] - R[t])|, divided by the mean of R over all frames`.
+//!
+//! A pipeline whose error is the same in every frame scores 0 however large that error is; flicker
+//! (cone sets, cache placement or re-voxelization changing the image more than the scene changed)
+//! scores what it adds. The reference is the ideal cones ([`crate::reference::ideal_cones`]: the
+//! scene's diffuse cone set with exact visibility and radiance, deterministic stratified rays): what
+//! the cone tracers would give with perfect voxels, so the measure is of the pipelines' own
+//! frame-to-frame noise. Its own noise floor is the measure between two references with different
+//! ray counts ([`reference_floor`]).
+use crate::images::RgbImage;
+use crate::kernels::cone_trace::ConeSettings;
+use crate::render::{Pipeline, Renderer};
+use crate::resident::Resident;
+use crate::scene::{Light, Scene};
+use anyhow::Result;
+
+/// How the frames of a sequence differ.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Motion {
+    /// The camera orbits its target by `degrees` per frame.
+    Orbit { degrees: f32 },
+    /// The scene's `[[instances]]` animation: frame `t` is the scene at frame `t`.
+    Instances,
+    /// Every light moves: point and spot lights by `step` (scene units) along x per frame,
+    /// directional lights turn by `step` degrees per frame about the camera's up axis.
+    Light { step: f32 },
+}
+
+impl Motion {
+    /// The name the table prints.
+    pub fn name(&self) -> String {
+        match self {
+            Motion::Orbit { degrees } => format!("orbit {degrees} deg/frame"),
+            Motion::Instances => "instances".into(),
+            Motion::Light { step } => format!("light {step}/frame"),
+        }
+    }
+
+    /// Frame `t` of `scene` under this motion.
+    pub fn at(&self, scene: &Scene, t: u32) -> Scene {
+        match *self {
+            Motion::Orbit { degrees } => scene.orbited(degrees * t as f32),
+            Motion::Instances => scene.at_frame(t),
+            Motion::Light { step } => {
+                let mut s = scene.clone();
+                let up = glam::Vec3::from(s.camera.up).normalize_or(glam::Vec3::Y);
+                let turn = glam::Quat::from_axis_angle(up, (step * t as f32).to_radians());
+                for l in &mut s.lights {
+                    match l {
+                        Light::Point { position, .. } | Light::Spot { position, .. } => {
+                            position[0] += step * t as f32;
+                        }
+                        Light::Directional { direction, .. } => {
+                            *direction = (turn * glam::Vec3::from(*direction)).to_array();
+                        }
+                    }
+                }
+                s
+            }
+        }
+    }
+}
+
+/// The measure over two sequences of indirect images of one size: (instability, per step values).
+/// Also returns the mean |P[t+1] - P[t]| and |R[t+1] - R[t]| relative to the same mean (how much each
+/// changes on its own).
+pub fn instability(p: &[RgbImage], r: &[RgbImage]) -> Measure {
+    assert_eq!(p.len(), r.len(), "one pipeline frame per reference frame");
+    let mean_r = r
+        .iter()
+        .flat_map(|f| f.pixels.iter().flatten())
+        .map(|&v| v as f64)
+        .sum::<f64>()
+        / r.iter().map(|f| f.pixels.len() * 3).sum::<usize>().max(1) as f64;
+    let scale = if mean_r > 0.0 { 1.0 / mean_r } else { 0.0 };
+    let mut steps = Vec::new();
+    let (mut own_p, mut own_r) = (0.0, 0.0);
+    for t in 0..p.len().saturating_sub(1) {
+        let n = (p[t].pixels.len() * 3).max(1) as f64;
+        let (mut d, mut dp, mut dr) = (0.0, 0.0, 0.0);
+        for i in 0..p[t].pixels.len() {
+            for c in 0..3 {
+                let a = p[t + 1].pixels[i][c] as f64 - p[t].pixels[i][c] as f64;
+                let b = r[t + 1].pixels[i][c] as f64 - r[t].pixels[i][c] as f64;
+                d += (a - b).abs();
+                dp += a.abs();
+                dr += b.abs();
+            }
+        }
+        steps.push(d / n * scale);
+        own_p += dp / n * scale;
+        own_r += dr / n * scale;
+    }
+    let k = steps.len().max(1) as f64;
+    Measure {
+        instability: steps.iter().sum::<f64>() / k,
+        steps,
+        change: own_p / k,
+        reference_change: own_r / k,
+    }
+}
+
+/// [`instability`]'s result.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Measure {
+    pub instability: f64,
+    /// Per step `t -> t + 1`.
+    pub steps: Vec<f64>,
+    /// Mean |P[t+1] - P[t]| and |R[t+1] - R[t]|, relative to R's mean.
+    pub change: f64,
+    pub reference_change: f64,
+}
+
+/// The reference's indirect images of `frames` frames of `motion` (ideal cones with `rays` rays per
+/// cone; frames in parallel).
+pub fn reference_frames(scene: &Scene, motion: Motion, frames: u32, rays: u32) -> Vec<RgbImage> {
+    use rayon::prelude::*;
+    (0..frames)
+        .into_par_iter()
+        .map(|t| {
+            let s = motion.at(scene, t);
+            let px = crate::reference::ideal_cones(
+                &s,
+                s.render.cones,
+                s.render.cone_half_angle.to_radians().tan(),
+                rays,
+                |_| {},
+            );
+            RgbImage::new(s.camera.width, s.camera.height, px)
+        })
+        .collect()
+}
+
+/// The reference's own floor: the measure of the reference at `rays` against the reference at four
+/// times as many rays over the same frames. Below the pipelines' values, the reference does not
+/// decide their ranking.
+pub fn reference_floor(reference: &[RgbImage], scene: &Scene, motion: Motion, rays: u32) -> f64 {
+    let finer = reference_frames(scene, motion, reference.len() as u32, rays * 4);
+    instability(reference, &finer).instability
+}
+
+/// `pipeline`'s frames of the sequence, one renderer drawing them all in order (GPU-resident where
+/// it serves the scene, else staged with its reuse rules on): the frames a viewer would show.
+pub fn pipeline_frames(
+    ctx: &crate::harness::GpuContext,
+    pipeline: Pipeline,
+    scene: &Scene,
+    motion: Motion,
+    frames: u32,
+) -> Result<Vec<crate::render::Rendered>> {
+    let cones = ConeSettings::from(&scene.render);
+    let mut out = Vec::new();
+    if Resident::serves(pipeline, scene) {
+        let mut r = Resident::new(ctx, pipeline)?;
+        for t in 0..frames {
+            out.push(r.render(&motion.at(scene, t), &cones)?);
+        }
+    } else {
+        let mut r = Renderer::new(pipeline, true);
+        for t in 0..frames {
+            out.push(r.render(ctx, &motion.at(scene, t), &cones, |_| {})?.0);
+        }
+    }
+    Ok(out)
+}
+
+/// One row of the table.
+#[derive(Clone, Debug)]
+pub struct Row {
+    pub pipeline: &'static str,
+    pub motion: String,
+    pub measure: Measure,
+    /// Combined FLIP of frame 0 against the path-traced reference.
+    pub combined_flip: f32,
+}
+
+/// The per-step instability of every row, one line each (`temporal.svg`).
+pub fn plot(path: &std::path::Path, rows: &[Row]) -> Result<()> {
+    use plotters::prelude::*;
+    let root = SVGBackend::new(path, (800, 500)).into_drawing_area();
+    let err = |e: DrawingAreaErrorKind<_>| anyhow::anyhow!("plotting {}: {e:?}", path.display());
+    root.fill(&WHITE).map_err(err)?;
+    let steps = rows
+        .iter()
+        .map(|r| r.measure.steps.len())
+        .max()
+        .unwrap_or(1)
+        .max(1);
+    let top = rows
+        .iter()
+        .flat_map(|r| r.measure.steps.iter().copied())
+        .fold(1e-6, f64::max)
+        * 1.1;
+    let mut chart = ChartBuilder::on(&root)
+        .caption("frame-to-frame instability", ("sans-serif", 22))
+        .margin(15)
+        .x_label_area_size(45)
+        .y_label_area_size(60)
+        .build_cartesian_2d(0.0..steps as f64, 0.0..top)
+        .map_err(err)?;
+    chart
+        .configure_mesh()
+        .x_desc("step (frame t to t + 1)")
+        .y_desc("|dP - dR| / mean R")
+        .draw()
+        .map_err(err)?;
+    for (k, r) in rows.iter().enumerate() {
+        let colour = Palette99::pick(k).to_rgba();
+        let points: Vec<(f64, f64)> = r
+            .measure
+            .steps
+            .iter()
+            .enumerate()
+            .map(|(t, &v)| (t as f64 + 0.5, v))
+            .collect();
+        chart
+            .draw_series(LineSeries::new(points, colour.stroke_width(2)))
+            .map_err(err)?
+            .label(format!("{} ({})", r.pipeline, r.motion))
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour));
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .draw()
+        .map_err(err)?;
+    root.present().map_err(err)?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn img(v: &[f32]) -> RgbImage {
+        RgbImage::new(v.len() as u32, 1, v.iter().map(|&x| [x; 3]).collect())
+    }
+
+    #[test]
+    fn a_constant_error_is_stable_and_added_change_is_measured() {
+        let r = [img(&[1.0, 2.0]), img(&[1.5, 2.5]), img(&[2.0, 3.0])];
+        // The same change as the reference, offset by a constant error: 0.
+        let p: Vec<_> = r
+            .iter()
+            .map(|f| img(&f.pixels.iter().map(|p| p[0] + 0.3).collect::<Vec<_>>()))
+            .collect();
+        let m = instability(&p, &r);
+        assert!(m.instability.abs() < 1e-12, "{m:?}");
+        // One pixel 0.2 too bright in frame 1 only: off by 0.2 in both steps on one pixel of two,
+        // 0.1 on average, over mean R = 2: 0.05.
+        let q = [img(&[1.0, 2.0]), img(&[1.7, 2.5]), img(&[2.0, 3.0])];
+        let m = instability(&q, &r);
+        assert!((m.instability - 0.05).abs() < 1e-6, "{m:?}");
+        assert_eq!(m.steps.len(), 2);
+        assert!((m.reference_change - 0.25).abs() < 1e-6, "{m:?}");
+    }
+}
