@@ -536,23 +536,14 @@ pub(crate) fn lrsm_chain(
     } else {
         0.0
     };
-    let mut c =
-        lrsm_cone_trace::case_for(data, &camera_gb, &frame, &params, tan, "render".into(), 0);
-    let (w, h) = (data.width(), data.height());
-    // The case's host-built tile list replaced by an empty one screen_tiles fills on the GPU.
-    c.resources
-        .insert("tile_list".into(), screen_tiles::empty_list(w, h));
-    chain.merge(lrsm_cone_trace::DECL.name, c.resources)?;
-    chain.push(
-        screen_tiles::DECL.shader()?,
-        screen_tiles::DECL.name,
-        vec![screen_tiles::pass(w, h)],
-    );
-    chain.push(
-        lrsm_cone_trace::DECL.shader()?,
+    let c = lrsm_cone_trace::case_for(data, &camera_gb, &frame, &params, tan, "render".into(), 0);
+    push_tiled_cone_pass(
+        &mut chain,
+        data,
+        &lrsm_cone_trace::DECL,
         lrsm_cone_trace::DECL.name,
-        c.passes,
-    );
+        c,
+    )?;
     Ok((chain, memory))
 }
 
@@ -995,7 +986,7 @@ pub(crate) fn instanced_dense_chain(
         .bytes
         .len()
         / 16;
-    let mut c = cone_trace::instanced_case_for(
+    let c = cone_trace::instanced_case_for(
         data,
         &g,
         &vec![[0.0; 4]; len],
@@ -1004,21 +995,13 @@ pub(crate) fn instanced_dense_chain(
         "render".into(),
         0,
     );
-    let (w, h) = (data.width(), data.height());
-    c.resources
-        .insert("tile_list".into(), screen_tiles::empty_list(w, h));
-    chain.merge(cone_trace::INSTANCED_DECL.name, c.resources)?;
-    chain.push(
-        screen_tiles::DECL.shader()?,
-        screen_tiles::DECL.name,
-        vec![screen_tiles::pass(w, h)],
-    );
-    chain.push_as(
-        cone_trace::INSTANCED_DECL.shader()?,
-        cone_trace::INSTANCED_DECL.name,
+    push_tiled_cone_pass(
+        &mut chain,
+        data,
+        &cone_trace::INSTANCED_DECL,
         cone_trace::DECL.name,
-        c.passes,
-    );
+        c,
+    )?;
     Ok((chain, frames))
 }
 
@@ -1039,5 +1022,28 @@ fn push_camera_gbuffer(
         direct_light::DECL.name,
         d.passes,
     );
+    Ok(())
+}
+
+/// A cone pass (`decl`'s `case`, counted to `stage`) as the chain's last stages: screen_tiles lists
+/// the tiles holding a surface on the GPU (the case's host-built list replaced by an empty one it
+/// fills), then the pass is dispatched over them.
+fn push_tiled_cone_pass(
+    chain: &mut Chain,
+    data: &SceneData,
+    decl: &'static KernelDecl,
+    stage: &'static str,
+    mut case: Case,
+) -> Result<()> {
+    let (w, h) = (data.width(), data.height());
+    case.resources
+        .insert("tile_list".into(), screen_tiles::empty_list(w, h));
+    chain.merge(decl.name, case.resources)?;
+    chain.push(
+        screen_tiles::DECL.shader()?,
+        screen_tiles::DECL.name,
+        vec![screen_tiles::pass(w, h)],
+    );
+    chain.push_as(decl.shader()?, decl.name, stage, case.passes);
     Ok(())
 }

@@ -8,6 +8,23 @@ use vxgi::images::{compare, read_exr, relative_mse, RgbImage};
 use vxgi::reference::{leak, pixel_positions, render_reference, ReferenceOptions};
 use vxgi::scene::Scene;
 
+/// A resident renderer's frame after its first: nothing created, nothing read back but the images,
+/// at most 64 KiB uploaded (the bound for per-frame inputs).
+fn assert_reused_frame(at: &str, c: &vxgi::harness::Counters) {
+    assert_eq!(
+        (
+            c.pipelines_created,
+            c.buffers_created,
+            c.textures_created,
+            c.bind_groups_created,
+            c.readback_bytes
+        ),
+        (0, 0, 0, 0, 0),
+        "{at}: {c:?}"
+    );
+    assert!(c.upload_bytes <= 64 << 10, "{at}: {c:?}");
+}
+
 fn small(mut scene: Scene, w: u32, h: u32) -> Scene {
     scene.camera.width = w;
     scene.camera.height = h;
@@ -1238,18 +1255,7 @@ fn resident_frames_equal_the_staged_ones_in_one_submission() {
             }
             assert!(c.gpu_ns > 0, "{at}: {c:?}");
             if k > 0 {
-                assert_eq!(
-                    (
-                        c.pipelines_created,
-                        c.buffers_created,
-                        c.textures_created,
-                        c.bind_groups_created,
-                        c.readback_bytes
-                    ),
-                    (0, 0, 0, 0, 0),
-                    "{at}: {c:?}"
-                );
-                assert!(c.upload_bytes <= 64 << 10, "{at}: {c:?}");
+                assert_reused_frame(&at, &c);
                 assert!(got.plan.skipped().contains(&"voxelize"), "{}", got.plan);
             }
         }
@@ -1317,18 +1323,7 @@ fn resident_cprc_frames_stay_on_the_gpu_and_match_the_staged_frames() {
             assert_eq!(c.submissions, 1, "{at}: {c:?}");
             assert!(c.gpu_ns > 0, "{at}: {c:?}");
             if k > 0 {
-                assert_eq!(
-                    (
-                        c.pipelines_created,
-                        c.buffers_created,
-                        c.textures_created,
-                        c.bind_groups_created,
-                        c.readback_bytes
-                    ),
-                    (0, 0, 0, 0, 0),
-                    "{at}: {c:?}"
-                );
-                assert!(c.upload_bytes <= 64 << 10, "{at}: {c:?}");
+                assert_reused_frame(&at, &c);
                 assert!(got.plan.skipped().contains(&"voxelize"), "{}", got.plan);
             }
         }
@@ -1377,18 +1372,7 @@ fn resident_frames_relight_moved_instances_in_one_submission() {
             }
             assert_eq!(c.submissions, 1, "{at}: {c:?}");
             if k > 0 {
-                assert_eq!(
-                    (
-                        c.pipelines_created,
-                        c.buffers_created,
-                        c.textures_created,
-                        c.bind_groups_created,
-                        c.readback_bytes
-                    ),
-                    (0, 0, 0, 0, 0),
-                    "{at}: {c:?}"
-                );
-                assert!(c.upload_bytes <= 64 << 10, "{at}: {c:?}");
+                assert_reused_frame(&at, &c);
                 let skipped = got.plan.skipped();
                 assert_eq!(skipped.first(), Some(&"voxelize"), "{at}: {}", got.plan);
             }

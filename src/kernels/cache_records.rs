@@ -4,9 +4,8 @@
 //! G-buffers, with capacities above, at and below the cluster count (overflow), and none.
 use super::cluster_extract::DistributionInputs;
 use std::collections::BTreeMap;
-use vxgi_cpu_mirror::cache_placement::{best_pixels, score};
 use vxgi_cpu_mirror::cache_records::{bounds, records, RecordsParams, ARGS_LEN};
-use vxgi_cpu_mirror::cluster_extract::{extract, Cluster};
+use vxgi_cpu_mirror::cluster_extract::Cluster;
 use vxgi_harness::compare::bound_name;
 use vxgi_harness::run::{grid_for, Pass, Workgroups};
 use vxgi_harness::{
@@ -85,19 +84,7 @@ pub fn case_for(
     label: String,
     seed: u64,
 ) -> Case {
-    let (clusters, pixel_cluster) = extract(
-        &inp.sorted_keys,
-        &inp.sorted_pixels,
-        &inp.normals,
-        &inp.positions,
-    );
-    let scores: Vec<f32> = (0..inp.normals.len())
-        .map(|i| match pixel_cluster[i] {
-            u32::MAX => 0.0,
-            c => score(inp.normals[i], inp.positions[i], &clusters[c as usize]),
-        })
-        .collect();
-    let picks = best_pixels(&clusters, &inp.sorted_pixels, &scores);
+    let (clusters, picks) = super::gather_caches::clusters_and_picks(inp);
     let tiles = (p.tiles_x * inp.height.div_ceil(p.tile)) as usize;
     let mut resources = outputs(p.capacity as usize, tiles);
     let nonempty = |v: Vec<u32>| if v.is_empty() { vec![0] } else { v };

@@ -48,7 +48,11 @@ pub struct Caches {
     pub tile_ranges: Vec<[u32; 2]>,
 }
 
-pub fn place_caches(inp: &DistributionInputs) -> Caches {
+/// The clusters of `inp`'s sorted pixels and each one's picked pixel, by the mirrors of
+/// cluster_extract and cache_placement.
+pub fn clusters_and_picks(
+    inp: &DistributionInputs,
+) -> (Vec<vxgi_cpu_mirror::cluster_extract::Cluster>, Vec<u32>) {
     let (clusters, pixel_cluster) = extract(
         &inp.sorted_keys,
         &inp.sorted_pixels,
@@ -62,6 +66,11 @@ pub fn place_caches(inp: &DistributionInputs) -> Caches {
         })
         .collect();
     let best = best_pixels(&clusters, &inp.sorted_pixels, &scores);
+    (clusters, best)
+}
+
+pub fn place_caches(inp: &DistributionInputs) -> Caches {
+    let (clusters, best) = clusters_and_picks(inp);
     caches_at(
         inp.width,
         inp.height,
