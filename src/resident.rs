@@ -43,6 +43,9 @@ struct Key {
     /// frame whose instances moved re-lights the kept hierarchies).
     hierarchies: Vec<(crate::scene::Mesh, u32)>,
     scene_sizes: (usize, usize),
+    /// lrsm with `[[instances]]`: the voxel grid's origin and voxel size (the flattened mesh's extent
+    /// decides it; within the same grid a frame whose instances moved re-voxelizes in the chain).
+    world: Option<[f32; 4]>,
     lights: usize,
     views: usize,
     render: RenderSettings,
@@ -80,6 +83,9 @@ impl Key {
         if self.hierarchies != next.hierarchies || self.scene_sizes != next.scene_sizes {
             what.push("the instances' meshes, grid sides or the scene's BVH size changed".into());
         }
+        if self.world != next.world {
+            what.push("the scene's extent, and with it the voxel grid, changed".into());
+        }
         if self.volume != next.volume && self.render.voxels == next.render.voxels {
             if self.volume.unlit() == next.volume.unlit() {
                 what.push("the lights moved (vct-svo's octree values hold the light)".into());
@@ -103,7 +109,14 @@ impl Key {
         data: Option<&SceneData>,
     ) -> Self {
         let instanced = !scene.instances.list.is_empty();
+        let world = (instanced && pipeline == Pipeline::Lrsm).then(|| {
+            let f = crate::kernels::voxelize::frame_of(&scene.mesh, scene.render.voxels);
+            [f.origin.x, f.origin.y, f.origin.z, f.voxel]
+        });
         let (hierarchies, scene_sizes) = match data {
+            Some(d) if instanced && pipeline == Pipeline::Lrsm => {
+                (Vec::new(), (d.triangles.len(), d.nodes.len()))
+            }
             Some(d) if instanced => {
                 let (_, parts) = crate::render::hierarchy_parts(scene);
                 (
@@ -140,6 +153,7 @@ impl Key {
             volume,
             hierarchies,
             scene_sizes,
+            world,
             lights: scene.lights.len(),
             views,
             render: scene.render.clone(),
@@ -158,6 +172,9 @@ struct Built<'c> {
     mesh: crate::scene::Mesh,
     /// With instances: each voxel hierarchy's grid frame, in the chain's order.
     hierarchies: Option<Vec<crate::kernels::voxelize::VoxelFrame>>,
+    /// lrsm with instances: what a frame whose instances moved resets before re-running the volume
+    /// passes from voxelize on ([`written_in`]: cleared, restored).
+    revoxelize: Option<Resets>,
     prepared: Prepared<'c>,
     reads: ReadbackSet,
     /// The ray epsilon of the scene's camera frames (`Frame::eye.w`, from the mesh's extent) and
@@ -299,11 +316,15 @@ impl<'c> Resident<'c> {
 
     /// Whether `pipeline`'s resident renderer draws `scene`: a pipeline of [`Resident::PIPELINES`]
     /// and at least one light; with `[[instances]]` vct-dense and cprc (their per-instance
-    /// hierarchies; vct-svo's and lrsm's instanced frames are the staged renderers').
+    /// hierarchies) and lrsm (which re-voxelizes the scene where the instances moved); vct-svo's
+    /// instanced frames are the staged renderer's.
     pub fn serves(pipeline: Pipeline, scene: &Scene) -> bool {
         Self::PIPELINES.contains(&pipeline)
             && (scene.instances.list.is_empty()
-                || matches!(pipeline, Pipeline::VctDense | Pipeline::Cprc))
+                || matches!(
+                    pipeline,
+                    Pipeline::VctDense | Pipeline::Cprc | Pipeline::Lrsm
+                ))
             && !scene.lights.is_empty()
     }
 
@@ -328,7 +349,7 @@ impl<'c> Resident<'c> {
     fn check(&self, scene: &Scene) -> Result<()> {
         anyhow::ensure!(
             Self::serves(self.pipeline, scene),
-            "the resident {} renderer draws scenes with lights (with instances: vct-dense and cprc)",
+            "the resident {} renderer draws scenes with lights (with instances: vct-dense, cprc and lrsm)",
             self.pipeline.name()
         );
         crate::limits::check(scene, self.pipeline, &self.ctx.limits()).map_err(anyhow::Error::msg)
@@ -452,10 +473,24 @@ impl<'c> Resident<'c> {
                     p.write_buffer(&name, &bytes)?;
                 }
             }
+            if let (true, Some(d), Some((zero, first))) = (moved, &data, &b.revoxelize) {
+                // The volume as a fresh chain holds it, then the moved scene voxelized into it.
+                let zero: Vec<&str> = zero.iter().map(String::as_str).collect();
+                p.encode_clear(encoder, &zero)?;
+                let first: Vec<_> = first
+                    .iter()
+                    .map(|(src, dst)| (src.as_str(), dst.as_str(), 0))
+                    .collect();
+                p.encode_copies(encoder, &first)?;
+                for (name, bytes) in voxelize_inputs(self.ctx, d, scene)? {
+                    p.write_buffer(&name, &bytes)?;
+                }
+            }
         }
         // The volume (a new chain), or what the lights feed over the kept voxels (moved lights).
         let first = match (reuse, relit) {
             (false, _) => Some(0),
+            (true, true) if moved && b.revoxelize.is_some() => Some(0),
             (true, true) => Some(b.relight),
             (true, false) => None,
         };
@@ -561,6 +596,13 @@ impl<'c> Resident<'c> {
             Some(h) if !cached => {
                 plan = plan.with_hierarchies(h.len(), if reuse { 0 } else { h.len() });
             }
+            // lrsm's moved instances: the whole volume again, in the kept chain.
+            _ if reuse && timed.start == 0 => {
+                plan = plan.with_note(
+                    "voxelize",
+                    "again: the instances moved (the chain's resources kept)",
+                );
+            }
             // The voxels are kept; what the lights feed is redone.
             _ if relit => plan = plan.with_voxels_kept(),
             _ => {}
@@ -654,7 +696,9 @@ impl<'c> Resident<'c> {
         };
         let name = self.pipeline.name();
         let start = gbuffer_start(&chain);
-        let restored = first_contents(&mut chain, start);
+        let (_, restored) = written_in(&mut chain, start..usize::MAX);
+        let revoxelize = (instanced && self.pipeline == Pipeline::Lrsm)
+            .then(|| written_in(&mut chain, 0..start));
         let prepared =
             crate::harness::prepare_chain(self.ctx, &chain.harness_stages(), &chain.resources)
                 .with_context(|| format!("{name} chain"))?;
@@ -704,6 +748,7 @@ impl<'c> Resident<'c> {
             lights: scene.lights.clone(),
             mesh: scene.mesh.clone(),
             hierarchies,
+            revoxelize,
             relight,
             eps: data.frame.eye[3],
             bounds: data.bounds,
@@ -735,18 +780,22 @@ fn gbuffer_start(chain: &Chain) -> usize {
     first
 }
 
-/// The buffers the passes from `first` on write (writable storage bindings) that do not start as
-/// zeros (e.g. cprc's sort values 0..n, which the sort's ping-pong overwrites, and its "no cluster"
-/// marks, which clusters overwrite only where they lie): a frame that reuses the chain starts from
-/// their first contents, kept in a copy added to the chain here. (copy, buffer) pairs.
-fn first_contents(chain: &mut Chain, first: usize) -> Vec<(String, String)> {
+/// The buffers a re-run of passes clears, and those it restores from a copy: (copy, buffer).
+type Resets = (Vec<String>, Vec<(String, String)>);
+
+/// What a frame that re-runs the passes `range` of a reused chain must reset first, so that they see
+/// what they saw in the fresh chain: the buffers they write (writable storage bindings) that start as
+/// zeros (`.0`, cleared) and those that do not (`.1`, restored from a copy of their first contents
+/// added to the chain here: e.g. cprc's sort values 0..n, which the sort's ping-pong overwrites, and
+/// its "no cluster" marks, which clusters overwrite only where they lie; (copy, buffer) pairs).
+fn written_in(chain: &mut Chain, range: std::ops::Range<usize>) -> Resets {
     use crate::harness::{BindingKind, View};
-    let mut out: Vec<(String, String)> = Vec::new();
+    let (mut zero, mut first): (Vec<String>, Vec<(String, String)>) = (Vec::new(), Vec::new());
     let mut at = 0;
     for st in &chain.stages {
         for pass in &st.passes {
             at += 1;
-            if at <= first {
+            if !range.contains(&(at - 1)) {
                 continue;
             }
             for (binding, view) in &pass.bindings {
@@ -763,21 +812,26 @@ fn first_contents(chain: &mut Chain, first: usize) -> Vec<(String, String)> {
                 let (View::Buffer(name) | View::BufferRange { name, .. }) = view else {
                     continue;
                 };
-                let nonzero = matches!(
-                    chain.resources.get(name),
-                    Some(HostResource::Buffer(b)) if b.bytes.iter().any(|&x| x != 0)
-                );
-                if writable && nonzero && !out.iter().any(|(_, n)| n == name) {
-                    out.push((format!("{name}@first"), name.clone()));
+                let Some(HostResource::Buffer(b)) = chain.resources.get(name) else {
+                    continue;
+                };
+                let known = zero.contains(name) || first.iter().any(|(_, n)| n == name);
+                if !writable || known {
+                    continue;
+                }
+                if b.bytes.iter().any(|&x| x != 0) {
+                    first.push((format!("{name}@first"), name.clone()));
+                } else {
+                    zero.push(name.clone());
                 }
             }
         }
     }
-    for (copy, name) in &out {
-        let first = chain.resources[name].clone();
-        chain.resources.insert(copy.clone(), first);
+    for (copy, name) in &first {
+        let contents = chain.resources[name].clone();
+        chain.resources.insert(copy.clone(), contents);
     }
-    out
+    (zero, first)
 }
 
 /// The buffers a frame whose instances moved rewrites: the scene's triangles and BVH (the ray caster's,
@@ -815,6 +869,39 @@ fn placed_inputs(
         ));
     }
     Ok(out)
+}
+
+/// The buffers a frame that re-voxelizes moved instances rewrites (lrsm): voxelize's triangles and
+/// parameters for the scene as it stands (the same grid and triangle count: the key holds them),
+/// and the ray caster's triangles and BVH.
+fn voxelize_inputs(
+    ctx: &GpuContext,
+    data: &SceneData,
+    scene: &Scene,
+) -> Result<Vec<(String, Vec<u8>)>> {
+    use crate::kernels::voxelize;
+    let side = scene.render.voxels;
+    let (input, _) = voxelize::prepare(scene, side)?;
+    let case = voxelize::case_for(ctx, &input, side, "render".into(), 0)?;
+    let bytes = |n: &str| -> Result<Vec<u8>> {
+        Ok(case.resources[n]
+            .buffer()
+            .with_context(|| format!("voxelize's {n}"))?
+            .bytes
+            .clone())
+    };
+    Ok(vec![
+        ("vox_params".to_string(), bytes("params")?),
+        ("vox_triangles".to_string(), bytes("vox_triangles")?),
+        (
+            "triangles".to_string(),
+            bytemuck::cast_slice(&data.triangles).to_vec(),
+        ),
+        (
+            "nodes".to_string(),
+            bytemuck::cast_slice(&data.nodes).to_vec(),
+        ),
+    ])
 }
 
 /// The buffers a frame with moved lights rewrites: the lights, and lrsm's light views (each view's
