@@ -13,7 +13,7 @@
 //! cache stages (three) each run as one chain on GPU-resident buffers (`vxgi_harness::prepare_chain`),
 //! with the per-pixel inputs, the cache records and the composed images computed between them on the
 //! host by the mirrors of `cprc_pixels` and `cache_records`; [`crate::resident::Resident`] runs the
-//! whole frame, those two kernels included, as one chain ([`crate::chains::cprc_chain`]).
+//! whole frame, those two kernels included, as one chain (`crate::chains::cprc_chain`).
 use crate::images::RgbImage;
 use crate::kernels::{
     cache_creation, cache_placement, cache_preconvolve, cluster_extract, cluster_keys,
@@ -352,7 +352,7 @@ pub(crate) fn distribution_stages(
     Ok((resources, stages))
 }
 
-/// Cache distribution on the GPU ([`distribution_stages`] as one chain on one set of GPU resources):
+/// Cache distribution on the GPU (`distribution_stages` as one chain on one set of GPU resources):
 /// nothing goes through the host until the clusters and picks are read back.
 pub fn distribute_gpu(
     ctx: &GpuContext,
@@ -611,7 +611,7 @@ pub(crate) fn cache_stages(
 }
 
 /// Run creation, pre-convolution and the gather on the GPU for a frame's caches as one chain on one set
-/// of GPU buffers ([`cache_stages`]): the caches' texels, mips and irradiance maps never leave the
+/// of GPU buffers (`cache_stages`): the caches' texels, mips and irradiance maps never leave the
 /// GPU; each stage is its own submission, timed alone (wall clock) and pushed to `stages`. Returns
 /// the gather's (diffuse, glossy) and what it read (its maps left empty: they stayed on the GPU).
 #[allow(clippy::type_complexity, clippy::too_many_arguments)]

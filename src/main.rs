@@ -462,7 +462,7 @@ fn run_render(
     let ctx = GpuContext::new().context("creating the GPU context")?;
     eprintln!("adapter: {}", ctx.describe());
     let mut renderer = vxgi::render::Renderer::new(pipeline, true);
-    // Frames stay on the GPU where a resident renderer draws the scene (no instances, some light).
+    // Frames stay on the GPU where a resident renderer draws the scene (`Resident::serves`).
     let mut resident = if vxgi::resident::Resident::serves(pipeline, &scene) {
         Some(vxgi::resident::Resident::new(&ctx, pipeline)?)
     } else {

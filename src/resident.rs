@@ -9,7 +9,7 @@
 //! per-pixel inputs, the cache records, the composed images), so its images agree within the
 //! mirrors' bounds (bit for bit on lavapipe), and its cache stages are dispatched from the cache
 //! count the GPU found, in buffers sized for the most caches a frame can place
-//! ([`crate::chains::cache_room`]). vct-svo's octree is
+//! (`crate::chains::cache_room`). vct-svo's octree is
 //! built by the staged passes when the chain is built (their host steps between passes run then,
 //! once); its chain is the camera's stages over it. A chain is prepared once by the harness
 //! (`prepare_chain`: every resource checked against reflection and the device limits, then created

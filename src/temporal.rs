@@ -4,8 +4,10 @@
 //! For frames `t = 0..T` of a motion (a slow camera orbit, the scene's instance animation, or a light
 //! moving), with `P[t]` the pipeline's indirect image and `R[t]` the reference's:
 //!
-//! `instability = mean over t < T-1 of mean over pixels and channels of
-//!                |(P[t+1] - P[t]) - (R[t+1] - R[t])|, divided by the mean of R over all frames`.
+//! ```text
+//! instability = mean over t < T-1 of mean over pixels and channels of
+//!               |(P[t+1] - P[t]) - (R[t+1] - R[t])|, divided by the mean of R over all frames
+//! ```
 //!
 //! A pipeline whose error is the same in every frame scores 0 however large that error is; flicker
 //! (cone sets, cache placement or re-voxelization changing the image more than the scene changed)
@@ -69,7 +71,7 @@ impl Motion {
 }
 
 /// The measure over two sequences of indirect images of one size: (instability, per step values).
-/// Also returns the mean |P[t+1] - P[t]| and |R[t+1] - R[t]| relative to the same mean (how much each
+/// Also returns the mean `|P[t+1] - P[t]|` and `|R[t+1] - R[t]|` relative to the same mean (how much each
 /// changes on its own).
 pub fn instability(p: &[RgbImage], r: &[RgbImage]) -> Measure {
     assert_eq!(p.len(), r.len(), "one pipeline frame per reference frame");
@@ -113,7 +115,7 @@ pub struct Measure {
     pub instability: f64,
     /// Per step `t -> t + 1`.
     pub steps: Vec<f64>,
-    /// Mean |P[t+1] - P[t]| and |R[t+1] - R[t]|, relative to R's mean.
+    /// Mean `|P[t+1] - P[t]|` and `|R[t+1] - R[t]|`, relative to R's mean.
     pub change: f64,
     pub reference_change: f64,
 }
