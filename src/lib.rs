@@ -14,6 +14,7 @@ pub mod limits;
 pub mod lrsm;
 pub mod lrsm_factors;
 pub mod plan;
+pub mod quality;
 pub mod reference;
 pub mod render;
 pub mod report;

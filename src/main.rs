@@ -230,6 +230,10 @@ enum Command {
 /// Flags overriding the scene file's `[render]` keys (same names).
 #[derive(clap::Args, Clone, Debug, Default)]
 struct RenderFlags {
+    /// A quality preset: fast, balanced (the defaults) or accurate; the keys it sets apply where
+    /// the scene file and the other flags give none (docs/accuracy/presets.md).
+    #[arg(long, value_enum)]
+    quality: Option<vxgi::quality::Quality>,
     /// Voxel grid side (power of two, 8..=512).
     #[arg(long, alias = "voxels")]
     voxels: Option<u32>,
@@ -352,10 +356,12 @@ fn load_scene(path: &Option<PathBuf>, flags: &RenderFlags) -> Result<vxgi::scene
         ($($key:ident),*) => {
             $(if let Some(v) = flags.$key {
                 scene.render.$key = v;
+                scene.explicit_render.insert(stringify!($key).to_string());
             })*
         };
     }
     override_keys!(
+        quality,
         voxels,
         ao_range,
         ao_lambda,
@@ -419,6 +425,19 @@ fn run_render(
     flags: RenderFlags,
 ) -> Result<()> {
     let scene = load_scene(&scene, &flags)?;
+    let (scene, preset) = vxgi::quality::resolved(&scene, pipeline).map_err(anyhow::Error::msg)?;
+    let quality = format!(
+        "quality {} for {}: {} (at most {} loop iterations per invocation in the kernels it sizes; lavapipe stops loops past {})",
+        scene.render.quality.name(),
+        pipeline.name(),
+        if preset.is_empty() {
+            "the defaults".to_string()
+        } else {
+            preset.join(", ")
+        },
+        vxgi::quality::loop_iterations(&scene, pipeline),
+        vxgi::quality::LOOP_LIMIT
+    );
     check_bounces(pipeline, &scene)?;
     if pipeline == Pipeline::Cprc && scene.render.cone_interleave > 1 {
         eprintln!(
@@ -432,6 +451,7 @@ fn run_render(
         bail!("--frames must be at least 1 and --orbit finite");
     }
     if plan_only {
+        println!("{quality}");
         // A supersampled frame's passes run on its samples: the plan of the sampled scene.
         let samples = scene.supersampled().map_err(anyhow::Error::msg)?;
         if scene.render.supersample > 1 {
@@ -461,6 +481,7 @@ fn run_render(
     create_out(&out)?;
     let ctx = GpuContext::new().context("creating the GPU context")?;
     eprintln!("adapter: {}", ctx.describe());
+    eprintln!("{quality}");
     let mut renderer = vxgi::render::Renderer::new(pipeline, true);
     // Frames stay on the GPU where a resident renderer draws the scene (`Resident::serves`).
     let mut resident = if vxgi::resident::Resident::serves(pipeline, &scene) {
@@ -647,6 +668,9 @@ fn run_bench(
         bail!("--spp must be at least 1");
     }
     let scene = load_scene(&scene, &flags)?;
+    let scene = vxgi::quality::resolved(&scene, pipeline)
+        .map_err(anyhow::Error::msg)?
+        .0;
     check_bounces(pipeline, &scene)?;
     create_out(&out)?;
     let ctx = GpuContext::new().context("creating the GPU context")?;
@@ -1027,7 +1051,10 @@ fn run_temporal(
         }
         for &p in &pipelines {
             bar.set_message(format!("{}: {}", motion.name(), p.name()));
-            let got = temporal::pipeline_frames(&ctx, p, &scene, motion, frames)?;
+            let own = vxgi::quality::resolved(&scene, p)
+                .map_err(anyhow::Error::msg)?
+                .0;
+            let got = temporal::pipeline_frames(&ctx, p, &own, motion, frames)?;
             let indirect: Vec<_> = got.iter().map(|f| f.indirect.clone()).collect();
             let name = Path::new(p.name());
             let flip =
@@ -1082,6 +1109,9 @@ fn run_bisect(
     flags: RenderFlags,
 ) -> Result<()> {
     let scene = load_scene(&scene, &flags)?;
+    let scene = vxgi::quality::resolved(&scene, pipeline)
+        .map_err(anyhow::Error::msg)?
+        .0;
     check_bounces(pipeline, &scene)?;
     // The splits are compared sample for sample: a supersampled frame's samples are its pixels here.
     let scene = if scene.render.supersample > 1 {

@@ -857,6 +857,18 @@ pub enum Pipeline {
 }
 
 impl Pipeline {
+    /// The pipeline named `name` (its `--pipeline` value).
+    pub fn from_name(name: &str) -> Option<Self> {
+        [
+            Pipeline::VctDense,
+            Pipeline::VctSvo,
+            Pipeline::Lrsm,
+            Pipeline::Cprc,
+        ]
+        .into_iter()
+        .find(|p| p.name() == name)
+    }
+
     pub fn name(self) -> &'static str {
         match self {
             Pipeline::VctDense => "vct-dense",

@@ -87,7 +87,6 @@ pub fn report(
             [&ref_direct, &ref_indirect, &ref_combined, &ref_ao],
         )?;
 
-        let cones = ConeSettings::from(&scene.render);
         // Ideal cones gather one bounce: against a two-bounce reference they would be a wrong row.
         // They trace one plain cone set per pixel: an interleaved scene's set is not theirs.
         if scene.render.cone_interleave > 1 {
@@ -134,6 +133,11 @@ pub fn report(
                 continue;
             }
             progress(&format!("{name}: {pipeline}"));
+            // The scene's quality preset for this pipeline (the file's explicit keys kept).
+            let kind = crate::render::Pipeline::from_name(pipeline).expect("a pipeline's name");
+            let (scene, _) = crate::quality::resolved(scene, kind).map_err(anyhow::Error::msg)?;
+            let scene = &scene;
+            let cones = ConeSettings::from(&scene.render);
             let (r, memory) = if pipeline == "vct-dense" {
                 let r = crate::render::render(ctx, scene, &cones, |_| {})?;
                 (r, vct_dense_memory(scene))

@@ -176,6 +176,9 @@ impl Light {
 #[derive(Clone, Debug, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields, default)]
 pub struct RenderSettings {
+    /// The quality preset (`crate::quality`): the keys it sets apply where this file and the command
+    /// line give none. `balanced` (the default) sets none.
+    pub quality: crate::quality::Quality,
     /// Voxel grid side (a power of two, 8..=512).
     pub voxels: u32,
     /// AO occluder range in scene units.
@@ -440,6 +443,7 @@ impl RenderSettings {
 impl Default for RenderSettings {
     fn default() -> Self {
         Self {
+            quality: crate::quality::Quality::Balanced,
             voxels: 128,
             ao_range: 0.5,
             ao_lambda: 1.0,
@@ -540,6 +544,16 @@ struct SceneFile {
     render: RenderSettings,
 }
 
+/// The keys of a scene file's `[render]` table (none where the text does not parse: the scene's own
+/// parse reports that).
+fn render_keys(text: &str) -> std::collections::BTreeSet<String> {
+    text.parse::<toml::Table>()
+        .ok()
+        .and_then(|t| t.get("render").and_then(|r| r.as_table()).cloned())
+        .map(|r| r.keys().cloned().collect())
+        .unwrap_or_default()
+}
+
 /// Diffuse albedo (Kd) and normalised Phong lobe (Ks, Ns).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
@@ -589,6 +603,9 @@ pub struct Scene {
     pub warnings: Vec<String>,
     /// `[[instances]]`: rigid instances of OBJ meshes; `mesh` holds them placed at `frame`.
     pub instances: Instances,
+    /// The `[render]` keys the scene file gave (and, from the command line, the flags set): a
+    /// quality preset leaves them as they are.
+    pub explicit_render: std::collections::BTreeSet<String>,
 }
 
 /// A scene's rigid instances and what they are placed on: `mesh` = `base` + every instance's local
@@ -842,6 +859,7 @@ impl Scene {
     }
 
     fn embedded(name: &str, toml_text: &str, obj: &str, mtl: &str) -> Self {
+        let explicit = render_keys(toml_text);
         let file: SceneFile = toml::from_str(toml_text).expect("built-in scene parses");
         let mut reader = std::io::BufReader::new(obj.as_bytes());
         let loaded = tobj::load_obj_buf(&mut reader, &load_options(), |_| {
@@ -860,6 +878,10 @@ impl Scene {
             }),
             Vec::new(),
         )
+        .map(|s| Scene {
+            explicit_render: explicit,
+            ..s
+        })
         .expect("built-in scene is valid")
     }
 
@@ -946,28 +968,33 @@ impl Scene {
             Some(line) => format!("{p}:{line}"),
             None => p.clone(),
         };
-        Self::assemble(&label, file, base, instances).map_err(|e| match e {
-            SceneError::Camera { message, .. } => SceneError::Camera {
-                path: at("camera", 0, &message),
-                message,
-            },
-            SceneError::Light { index, message, .. } => SceneError::Light {
-                path: at("lights", index, &message),
-                index,
-                message,
-            },
-            SceneError::Render { message, .. } => SceneError::Render {
-                path: at("render", 0, &message),
-                message,
-            },
-            SceneError::Instance { index, message, .. } => SceneError::Instance {
-                path: at("instances", index, &message),
-                index,
-                message,
-            },
-            SceneError::NoGeometry { .. } => SceneError::NoGeometry { path: p.clone() },
-            other => other,
-        })
+        Self::assemble(&label, file, base, instances)
+            .map_err(|e| match e {
+                SceneError::Camera { message, .. } => SceneError::Camera {
+                    path: at("camera", 0, &message),
+                    message,
+                },
+                SceneError::Light { index, message, .. } => SceneError::Light {
+                    path: at("lights", index, &message),
+                    index,
+                    message,
+                },
+                SceneError::Render { message, .. } => SceneError::Render {
+                    path: at("render", 0, &message),
+                    message,
+                },
+                SceneError::Instance { index, message, .. } => SceneError::Instance {
+                    path: at("instances", index, &message),
+                    index,
+                    message,
+                },
+                SceneError::NoGeometry { .. } => SceneError::NoGeometry { path: p.clone() },
+                other => other,
+            })
+            .map(|s| Scene {
+                explicit_render: render_keys(&text),
+                ..s
+            })
     }
 
     /// The scene from its file and OBJs: the `[mesh]` (if any) and every instance's mesh, placed at
@@ -1135,6 +1162,7 @@ impl Scene {
             render: file.render,
             warnings,
             instances,
+            explicit_render: Default::default(),
         })
     }
 

@@ -248,6 +248,33 @@ fn temporal_command_measures_every_pipeline_and_motion() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// `--quality` resolves to its preset's keys, printed with the plan; an explicit flag wins.
+#[test]
+fn quality_presets_resolve_and_explicit_flags_win() {
+    let (code, out, err) = vxgi(&["render", "--plan", "--quality", "accurate"]);
+    assert_eq!(code, 0, "{out}\n{err}");
+    assert!(
+        out.contains("quality accurate for vct-dense: cones = 16, cone_half_angle = 2.5, cone_interleave = 8, cone_level_bias = -1.25, supersample = 2"),
+        "{out}"
+    );
+    let (code, out, err) = vxgi(&[
+        "render",
+        "--plan",
+        "--quality",
+        "fast",
+        "--voxels",
+        "32",
+        "--pipeline",
+        "cprc",
+    ]);
+    assert_eq!(code, 0, "{out}\n{err}");
+    assert!(
+        out.contains("quality fast for cprc: voxels: kept as given (the preset's 64 not applied)"),
+        "{out}"
+    );
+    assert!(out.contains("into 32^3"), "{out}");
+}
+
 #[test]
 fn render_reference_and_compare_commands() {
     let dir = std::env::temp_dir().join(format!("vxgi-cli-render-{}", std::process::id()));

@@ -282,6 +282,7 @@ pub fn generated_scene(seed: u64, index: usize) -> (Scene, String) {
         render: RenderSettings::default(),
         warnings: vec![],
         instances: Default::default(),
+        explicit_render: Default::default(),
     };
     (scene, label)
 }

@@ -1,0 +1,256 @@
+//! Quality presets: `[render] quality = "fast" | "balanced" | "accurate"` (`--quality`), each a point
+//! of a pipeline's measured time/error front (docs/accuracy/presets.md has the table and how each
+//! point was chosen). A preset sets only the keys the scene file and the command line leave out:
+//! an explicit key always wins. `balanced` is the defaults.
+use crate::render::Pipeline;
+use crate::scene::{RenderSettings, Scene};
+use serde::Deserialize;
+
+/// A quality preset.
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum Quality {
+    /// Half the voxel resolution: the frame's volume an eighth of the default's.
+    Fast,
+    /// The defaults.
+    #[default]
+    Balanced,
+    /// The settings that reach combined FLIP < 0.1 on the Cornell box against the converged
+    /// reference (vct-dense, vct-svo: narrow interleaved cones; cprc: finer caches), 2 x 2 samples
+    /// per pixel (lrsm, which reaches 0.1 nowhere: those samples alone).
+    Accurate,
+}
+
+impl Quality {
+    pub fn name(self) -> &'static str {
+        match self {
+            Quality::Fast => "fast",
+            Quality::Balanced => "balanced",
+            Quality::Accurate => "accurate",
+        }
+    }
+}
+
+/// A `[render]` value a preset sets.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Value {
+    U32(u32),
+    F32(f32),
+}
+
+impl std::fmt::Display for Value {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Value::U32(v) => write!(f, "{v}"),
+            Value::F32(v) => write!(f, "{v}"),
+        }
+    }
+}
+
+/// The keys `quality` sets for `pipeline`, in `[render]`'s names.
+pub fn preset(quality: Quality, pipeline: Pipeline) -> Vec<(&'static str, Value)> {
+    use Value::{F32, U32};
+    match (quality, pipeline) {
+        (Quality::Balanced, _) => Vec::new(),
+        (Quality::Fast, _) => vec![("voxels", U32(64))],
+        // scenes/cornell_box_fine_caches.toml: four times the caches, 32^2 texels (one ~2.5 degree
+        // cone each), a 4^2 irradiance map, narrow-cone level bias, a tighter mip clamp.
+        (Quality::Accurate, Pipeline::Cprc) => vec![
+            ("cache_tile", U32(4)),
+            ("gather_radius", F32(1.5)),
+            ("cache_resolution", U32(32)),
+            ("irradiance_resolution", U32(4)),
+            ("cone_level_bias", F32(-1.25)),
+            ("mip_clamp", F32(1.5)),
+            ("supersample", U32(2)),
+        ],
+        // lrsm: narrow interleaved cones lose light (Cornell box: combined FLIP 0.352, indirect
+        // energy 0.35 of the reference's), and the mip clamp 4 that helps the Cornell box (0.302
+        // against 0.329) hurts thin_wall (0.331 against 0.316): 2 x 2 samples alone, which helps
+        // both a little (docs/accuracy/presets.md).
+        (Quality::Accurate, Pipeline::Lrsm) => vec![("supersample", U32(2))],
+        // scenes/cornell_box_interleaved.toml: 16 cones of 2.5 degrees from an 8 x 8 interleaved
+        // pattern (1024 per neighbourhood), narrow-cone level bias.
+        (Quality::Accurate, _) => vec![
+            ("cones", U32(16)),
+            ("cone_half_angle", F32(2.5)),
+            ("cone_interleave", U32(8)),
+            ("cone_level_bias", F32(-1.25)),
+            ("supersample", U32(2)),
+        ],
+    }
+}
+
+fn set(r: &mut RenderSettings, key: &str, v: Value) {
+    match (key, v) {
+        ("voxels", Value::U32(x)) => r.voxels = x,
+        ("cones", Value::U32(x)) => r.cones = x,
+        ("cone_half_angle", Value::F32(x)) => r.cone_half_angle = x,
+        ("cone_interleave", Value::U32(x)) => r.cone_interleave = x,
+        ("cone_level_bias", Value::F32(x)) => r.cone_level_bias = x,
+        ("supersample", Value::U32(x)) => r.supersample = x,
+        ("cache_tile", Value::U32(x)) => r.cache_tile = x,
+        ("gather_radius", Value::F32(x)) => r.gather_radius = x,
+        ("cache_resolution", Value::U32(x)) => r.cache_resolution = x,
+        ("irradiance_resolution", Value::U32(x)) => r.irradiance_resolution = x,
+        ("mip_clamp", Value::F32(x)) => r.mip_clamp = x,
+        _ => unreachable!("a preset sets `{key}` = {v}, which `set` does not know"),
+    }
+}
+
+/// `scene` with its quality preset applied for `pipeline` (the keys the scene file and the command
+/// line gave, `Scene::explicit_render`, are kept), and what the preset set, as `key = value` lines
+/// (those an explicit key overrode marked so).
+pub fn resolved(scene: &Scene, pipeline: Pipeline) -> Result<(Scene, Vec<String>), String> {
+    let mut s = scene.clone();
+    let mut said = Vec::new();
+    for (key, v) in preset(scene.render.quality, pipeline) {
+        if scene.explicit_render.contains(key) {
+            said.push(format!(
+                "{key}: kept as given (the preset's {v} not applied)"
+            ));
+        } else {
+            set(&mut s.render, key, v);
+            said.push(format!("{key} = {v}"));
+        }
+    }
+    s.render.validate()?;
+    Ok((s, said))
+}
+
+/// lavapipe stops a loop silently past this many iterations in all per invocation.
+pub const LOOP_LIMIT: u64 = 65535;
+
+/// The most steps one cone of half-angle tangent `tan` takes through a grid of `side` voxels
+/// (kernels/common/cone_march.wgsl: the diameter starts at 0.75 s0 and grows by `1 + 2 step tan`
+/// each step, the distance by `step` diameters, until sqrt(3) side s0), one more for rounding.
+pub fn march_steps(side: u32, tan: f32, step: f32) -> u64 {
+    let (tan, step) = (tan as f64, step as f64);
+    let reach = 1.0 + 2.0 * tan * (side as f64 * 3f64.sqrt()) / 0.75;
+    (reach.ln() / (2.0 * step * tan).ln_1p()).ceil() as u64 + 1
+}
+
+/// The worst case of loop iterations in one invocation of the kernels whose loops the settings
+/// size, for `pipeline` on `scene` (its settings as resolved): per pixel, every cone's march plus
+/// the interleaved resolve's (2N - 1)^2 neighbours (vct-dense, vct-svo, lrsm; lrsm's Algorithm 1
+/// loops over its layers within each step, `lrsm_depth_splits x lrsm_normal_splits` of them); cprc
+/// the largest of a cache texel's march, a pre-convolved texel's sum over the cache (res^2 texels)
+/// and the gather's caches (the tiles within its radius, at most 3 x slices caches and no more than
+/// pixels each). Data-dependent loops (the BVH's traversal) are not counted.
+pub fn loop_iterations(scene: &Scene, pipeline: Pipeline) -> u64 {
+    let r = &scene.render;
+    let side = r.voxels;
+    match pipeline {
+        Pipeline::Cprc => {
+            let s = crate::cprc::CprcSettings::from(r);
+            let tan = vxgi_cpu_mirror::cache_creation::cone_tan(s.res);
+            let creation = march_steps(side, tan, r.cone_step);
+            let preconvolve = (s.res * s.res) as u64;
+            let reach = s.radius_px.div_ceil(s.tile) as u64;
+            let per_tile = (3 * s.slices as u64).min((s.tile * s.tile) as u64);
+            let gather = (2 * reach + 1).pow(2) * per_tile;
+            creation.max(preconvolve).max(gather)
+        }
+        _ => {
+            let tan = r.cone_half_angle.to_radians().tan();
+            let layers = if pipeline == Pipeline::Lrsm {
+                (r.lrsm_depth_splits * r.lrsm_normal_splits) as u64
+            } else {
+                1
+            };
+            let marches = r.cones as u64 * march_steps(side, tan, r.cone_step) * layers;
+            let n = r.cone_interleave as u64;
+            marches + (2 * n - 1).pow(2)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn march_steps_follow_the_marchs_growth() {
+        // 30 degree cones through 128^3: the diameter grows 1.577x a step, 13 steps reach the far
+        // corner; 2.5 degrees: 77.
+        assert_eq!(march_steps(128, 30f32.to_radians().tan(), 0.5), 14);
+        assert_eq!(march_steps(128, 2.5f32.to_radians().tan(), 0.5), 78);
+        // The march itself, stepped as the kernel steps it, never takes more.
+        for (side, deg, step) in [
+            (128, 30.0f32, 0.5f32),
+            (64, 2.5, 0.5),
+            (256, 10.0, 0.25),
+            (32, 1.0, 1.0),
+        ] {
+            let tan = deg.to_radians().tan();
+            let (s0, grow) = (1.0f32, 1.0 + 2.0 * step * tan);
+            let max_dist = side as f32 * s0 * 1.7320508;
+            let (mut diam, mut t, mut n) = (0.75 * s0, 0.75 * s0 * 0.5 * step, 0u64);
+            while t <= max_dist {
+                n += 1;
+                t += diam * step;
+                diam *= grow;
+            }
+            assert!(
+                n <= march_steps(side, tan, step),
+                "{side} {deg} {step}: {n}"
+            );
+        }
+    }
+
+    #[test]
+    fn explicit_keys_override_the_preset_and_the_file_can_name_one() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+        // The interleaved scene gives voxels, cones, the cone angle, interleave, level bias and
+        // supersample: fast's voxels = 64 does not apply.
+        let mut scene = Scene::load(root.join("cornell_box_interleaved.toml")).unwrap();
+        scene.render.quality = Quality::Fast;
+        let (s, said) = resolved(&scene, Pipeline::VctDense).unwrap();
+        assert_eq!(s.render.voxels, 128);
+        assert!(said[0].contains("kept as given"), "{said:?}");
+        // The fine-caches scene under accurate for cprc: every key it sets was given already, so
+        // the settings stay as the file has them.
+        let mut fine = Scene::load(root.join("cornell_box_fine_caches.toml")).unwrap();
+        fine.render.quality = Quality::Accurate;
+        let (s, _) = resolved(&fine, Pipeline::Cprc).unwrap();
+        assert_eq!(s.render, fine.render);
+        // A file naming a preset.
+        let dir = std::env::temp_dir().join(format!("vxgi-quality-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let toml = std::fs::read_to_string(root.join("cornell_box.toml"))
+            .unwrap()
+            .replace(
+                "\"cornell_box.obj\"",
+                &format!("{:?}", root.join("cornell_box.obj").display().to_string()),
+            )
+            + "\n[render]\nquality = \"accurate\"\n";
+        std::fs::write(dir.join("q.toml"), toml).unwrap();
+        let q = Scene::load(dir.join("q.toml")).unwrap();
+        assert_eq!(q.render.quality, Quality::Accurate);
+        let (s, _) = resolved(&q, Pipeline::VctDense).unwrap();
+        assert_eq!((s.render.cones, s.render.cone_interleave), (16, 8));
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn every_preset_sets_only_keys_it_knows_and_validates() {
+        for q in [Quality::Fast, Quality::Balanced, Quality::Accurate] {
+            for p in [
+                Pipeline::VctDense,
+                Pipeline::VctSvo,
+                Pipeline::Lrsm,
+                Pipeline::Cprc,
+            ] {
+                let mut scene = Scene::cornell_box();
+                scene.render.quality = q;
+                let (s, said) = resolved(&scene, p).unwrap();
+                assert_eq!(said.len(), preset(q, p).len());
+                let loops = loop_iterations(&s, p);
+                assert!(loops < LOOP_LIMIT, "{q:?} {p:?}: {loops} iterations");
+                if q == Quality::Balanced {
+                    assert_eq!(s.render, scene.render);
+                }
+            }
+        }
+    }
+}
