@@ -553,12 +553,21 @@ pub(crate) fn lrsm_chain(
 pub(crate) struct CacheRoom {
     pub capacity: u32,
     pub mips: bool,
+    /// cache_records' parameters as the chain was built (a frame whose instances moved rewrites its
+    /// offset: the world grid's voxel follows the scene's extent).
+    pub records: vxgi_cpu_mirror::cache_records::RecordsParams,
 }
+
+/// The most bytes a cprc chain spends on its caches' texels, mip chains and irradiance maps: the
+/// capacity stops there even where the device's bindings would hold more (the frame's actual count is
+/// usually a small part of the worst case: 447 of 12288 on the Cornell box at 256x256).
+pub(crate) const CACHE_BUDGET: u64 = 256 << 20;
 
 /// The most caches a frame of `scene` can place (one per cluster: clusters are keyed by tile, normal
 /// axis and depth slice, so at most `tiles * 3 * slices` of them, and no more than pixels), within
-/// what one storage binding holds of each cache buffer: texels, mip chains (where built) and
-/// irradiance maps. A frame with more clusters than that keeps the first and counts the rest.
+/// what one storage binding holds of each cache buffer (texels, mip chains where built, irradiance
+/// maps) and within [`CACHE_BUDGET`] for all of them. A frame with more clusters than that keeps the
+/// first and counts the rest (`CprcStats::dropped`, warned by `vxgi render`).
 pub(crate) fn cache_room(
     ctx: &crate::harness::GpuContext,
     scene: &Scene,
@@ -574,10 +583,16 @@ pub(crate) fn cache_room(
         per.push(mip_len(s.res) as u64);
     }
     let fit = per.iter().map(|t| limit / (t * 16)).min().unwrap_or(0);
-    let capacity = (tiles * 3 * s.slices as u64).min(w * h).min(fit).max(1);
+    let budget = CACHE_BUDGET / (per.iter().sum::<u64>() * 16);
+    let capacity = (tiles * 3 * s.slices as u64)
+        .min(w * h)
+        .min(fit)
+        .min(budget)
+        .max(1);
     CacheRoom {
         capacity: capacity as u32,
         mips,
+        records: Default::default(),
     }
 }
 
@@ -606,7 +621,7 @@ pub(crate) fn cprc_chain(
         (chain, Some((frames, at.placed)))
     };
     let s = CprcSettings::from(&scene.render);
-    let room = cache_room(ctx, scene, &s);
+    let mut room = cache_room(ctx, scene, &s);
     let (w, h) = (data.width(), data.height());
     let n = (w * h) as usize;
     // The per-pixel inputs, computed by `inputs` from the G-buffer (zeroed here).
@@ -674,6 +689,7 @@ pub(crate) fn cprc_chain(
         offset: cone.offset_voxels * cone.origin[3],
         _pad: [0; 3],
     };
+    room.records = params;
     let tiles = (params.tiles_x * h.div_ceil(s.tile)) as usize;
     let mut records = cache_records::outputs(room.capacity as usize, tiles);
     records.insert(

@@ -439,6 +439,14 @@ fn run_render(
         vxgi::quality::LOOP_LIMIT
     );
     check_bounces(pipeline, &scene)?;
+    let loops = vxgi::quality::loop_iterations(&scene, pipeline);
+    if loops > vxgi::quality::LOOP_LIMIT {
+        eprintln!(
+            "warning: these settings give up to {loops} loop iterations per invocation; lavapipe stops \
+             loops past {} without an error (fewer cones, a wider cone angle or fewer voxels keep under it)",
+            vxgi::quality::LOOP_LIMIT
+        );
+    }
     if pipeline == Pipeline::Cprc && scene.render.cone_interleave > 1 {
         eprintln!(
             "warning: cone_interleave = {} is for the per-pixel cone tracers (vct-dense, vct-svo, \
@@ -593,6 +601,9 @@ fn run_reference(
     flags: RenderFlags,
 ) -> Result<()> {
     let scene = load_scene(&scene, &flags)?;
+    if scene.render.quality != vxgi::quality::Quality::Balanced {
+        bail!("the reference renders the scene's light transport: a quality preset (--quality or [render] quality) applies to a pipeline's frame, not to it");
+    }
     if opts.spp == 0 {
         bail!("--spp must be at least 1");
     }
@@ -766,6 +777,9 @@ fn run_lrsm_factors(
 ) -> Result<()> {
     use vxgi::images::compare;
     let scene = load_scene(&scene_path, &flags)?;
+    let scene = vxgi::quality::resolved(&scene, Pipeline::Lrsm)
+        .map_err(anyhow::Error::msg)?
+        .0;
     if scene.render.supersample > 1 {
         bail!("lrsm-factors renders one sample per pixel: set supersample = 1");
     }
@@ -992,8 +1006,11 @@ fn run_temporal(
     flags: RenderFlags,
 ) -> Result<()> {
     use vxgi::temporal::{self, Motion};
-    if frames < 2 || rays == 0 || spp == 0 {
-        bail!("--frames must be at least 2, --rays and --spp at least 1");
+    if frames < 2 || rays == 0 || spp == 0 || rays.checked_mul(4).is_none() {
+        bail!("--frames must be at least 2, --rays and --spp at least 1 (and --rays at most 2^30)");
+    }
+    if !(orbit.is_finite() && light_step.is_finite()) {
+        bail!("--orbit and --light-step must be finite");
     }
     let scene = load_scene(&scene, &flags)?;
     let pipelines = if pipelines.is_empty() {
@@ -1037,23 +1054,34 @@ fn run_temporal(
     let mut rows = Vec::new();
     let mut floors = Vec::new();
     for motion in motions {
-        bar.set_message(format!(
-            "{}: ideal cones ({rays} rays per cone)",
-            motion.name()
-        ));
-        let reference = temporal::reference_frames(&scene, motion, frames, rays);
-        if check_reference {
-            bar.set_message(format!("{}: the reference's floor", motion.name()));
-            floors.push((
-                motion.name(),
-                temporal::reference_floor(&reference, &scene, motion, rays),
-            ));
-        }
+        // The ideal cones of each cone set a pipeline traces (a preset may narrow it), once each.
+        let mut references: Vec<((u32, u32), Vec<vxgi::images::RgbImage>)> = Vec::new();
         for &p in &pipelines {
-            bar.set_message(format!("{}: {}", motion.name(), p.name()));
             let own = vxgi::quality::resolved(&scene, p)
                 .map_err(anyhow::Error::msg)?
                 .0;
+            let set = (own.render.cones, own.render.cone_half_angle.to_bits());
+            if !references.iter().any(|(k, _)| *k == set) {
+                bar.set_message(format!(
+                    "{}: ideal cones ({rays} rays per cone)",
+                    motion.name()
+                ));
+                let ideal = temporal::reference_frames(&own, motion, frames, rays);
+                if check_reference {
+                    bar.set_message(format!("{}: the reference's floor", motion.name()));
+                    floors.push((
+                        motion.name(),
+                        temporal::reference_floor(&ideal, &own, motion, rays),
+                    ));
+                }
+                references.push((set, ideal));
+            }
+            let reference = &references
+                .iter()
+                .find(|(k, _)| *k == set)
+                .expect("computed above")
+                .1;
+            bar.set_message(format!("{}: {}", motion.name(), p.name()));
             let got = temporal::pipeline_frames(&ctx, p, &own, motion, frames)?;
             let indirect: Vec<_> = got.iter().map(|f| f.indirect.clone()).collect();
             let name = Path::new(p.name());
@@ -1062,7 +1090,7 @@ fn run_temporal(
             rows.push(temporal::Row {
                 pipeline: p.name(),
                 motion: motion.name(),
-                measure: temporal::instability(&indirect, &reference),
+                measure: temporal::instability(&indirect, reference),
                 combined_flip: flip,
             });
         }

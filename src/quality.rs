@@ -131,12 +131,14 @@ pub fn march_steps(side: u32, tan: f32, step: f32) -> u64 {
 }
 
 /// The worst case of loop iterations in one invocation of the kernels whose loops the settings
-/// size, for `pipeline` on `scene` (its settings as resolved): per pixel, every cone's march plus
-/// the interleaved resolve's (2N - 1)^2 neighbours (vct-dense, vct-svo, lrsm; lrsm's Algorithm 1
-/// loops over its layers within each step, `lrsm_depth_splits x lrsm_normal_splits` of them); cprc
-/// the largest of a cache texel's march, a pre-convolved texel's sum over the cache (res^2 texels)
-/// and the gather's caches (the tiles within its radius, at most 3 x slices caches and no more than
-/// pixels each). Data-dependent loops (the BVH's traversal) are not counted.
+/// size, for `pipeline` on `scene` (its settings as resolved): per pixel, every diffuse cone's march,
+/// the glossy cone's where a material has Ks (its narrowest aperture, tan 0.02), and the interleaved
+/// resolve's (2N - 1)^2 neighbours (vct-dense, vct-svo, lrsm; lrsm's Algorithm 1 loops over its
+/// layers within each step, `lrsm_depth_splits x lrsm_normal_splits` of them); cprc the largest of a
+/// cache texel's march, a pre-convolved texel's sum over the cache (res^2 texels) and the gather's
+/// caches (the tiles within its radius, at most 3 x slices caches and no more than pixels each).
+/// Not counted: data-dependent loops (the BVH's traversal) and the instanced kernels' loop over
+/// hierarchies within each step (a factor of the hierarchy count).
 pub fn loop_iterations(scene: &Scene, pipeline: Pipeline) -> u64 {
     let r = &scene.render;
     let side = r.voxels;
@@ -158,7 +160,12 @@ pub fn loop_iterations(scene: &Scene, pipeline: Pipeline) -> u64 {
             } else {
                 1
             };
-            let marches = r.cones as u64 * march_steps(side, tan, r.cone_step) * layers;
+            let glossy = if scene.materials.iter().any(|m| m.is_glossy()) {
+                march_steps(side, 0.02, r.cone_step)
+            } else {
+                0
+            };
+            let marches = (r.cones as u64 * march_steps(side, tan, r.cone_step) + glossy) * layers;
             let n = r.cone_interleave as u64;
             marches + (2 * n - 1).pow(2)
         }

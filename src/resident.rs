@@ -44,8 +44,9 @@ struct Key {
     hierarchies: Vec<(crate::scene::Mesh, u32)>,
     scene_sizes: (usize, usize),
     /// lrsm with `[[instances]]`: the voxel grid's origin and voxel size (the flattened mesh's extent
-    /// decides it; within the same grid a frame whose instances moved re-voxelizes in the chain).
-    world: Option<[f32; 4]>,
+    /// decides it; within the same grid a frame whose instances moved re-voxelizes in the chain) and
+    /// the most samples a triangle splats (voxelize's dispatch is sized by it).
+    world: Option<([f32; 4], u32)>,
     lights: usize,
     views: usize,
     render: RenderSettings,
@@ -84,7 +85,10 @@ impl Key {
             what.push("the instances' meshes, grid sides or the scene's BVH size changed".into());
         }
         if self.world != next.world {
-            what.push("the scene's extent, and with it the voxel grid, changed".into());
+            what.push(
+                "the scene's extent (the voxel grid) or its triangles' largest splat changed"
+                    .into(),
+            );
         }
         if self.volume != next.volume && self.render.voxels == next.render.voxels {
             if self.volume.unlit() == next.volume.unlit() {
@@ -107,12 +111,15 @@ impl Key {
         scene: &Scene,
         cones: &ConeSettings,
         data: Option<&SceneData>,
-    ) -> Self {
+    ) -> Result<Self> {
         let instanced = !scene.instances.list.is_empty();
-        let world = (instanced && pipeline == Pipeline::Lrsm).then(|| {
-            let f = crate::kernels::voxelize::frame_of(&scene.mesh, scene.render.voxels);
-            [f.origin.x, f.origin.y, f.origin.z, f.voxel]
-        });
+        let world = if instanced && pipeline == Pipeline::Lrsm {
+            let (input, f) = crate::kernels::voxelize::prepare(scene, scene.render.voxels)?;
+            let rows = input.tris.iter().map(|t| t.a[3] + 1).max().unwrap_or(1) as u32;
+            Some(([f.origin.x, f.origin.y, f.origin.z, f.voxel], rows))
+        } else {
+            None
+        };
         let (hierarchies, scene_sizes) = match data {
             Some(d) if instanced && pipeline == Pipeline::Lrsm => {
                 (Vec::new(), (d.triangles.len(), d.nodes.len()))
@@ -149,7 +156,7 @@ impl Key {
                 crate::plan::light_views(scene),
             ),
         };
-        Self {
+        Ok(Self {
             volume,
             hierarchies,
             scene_sizes,
@@ -160,7 +167,7 @@ impl Key {
             // ConeSettings is plain data without PartialEq: its Debug text is its value.
             cones: format!("{cones:?}"),
             size: (scene.camera.width, scene.camera.height),
-        }
+        })
     }
 }
 
@@ -427,7 +434,7 @@ impl<'c> Resident<'c> {
             .map_err(anyhow::Error::msg)?;
         // With instances: the scene as the ray caster binds it this frame (where they stand).
         let data = (!scene.instances.list.is_empty()).then(|| SceneData::new(scene));
-        let key = Key::of(self.pipeline, scene, cones, data.as_ref());
+        let key = Key::of(self.pipeline, scene, cones, data.as_ref())?;
         let reuse = self.built.as_ref().is_some_and(|b| b.key == key);
         self.rebuilt = self
             .built
@@ -469,7 +476,7 @@ impl<'c> Resident<'c> {
                 }
             }
             if let (true, Some(d), Some(frames)) = (moved, &data, &b.hierarchies) {
-                for (name, bytes) in placed_inputs(d, scene, cones, frames)? {
+                for (name, bytes) in placed_inputs(d, scene, cones, frames, b.room.as_ref())? {
                     p.write_buffer(&name, &bytes)?;
                 }
             }
@@ -482,7 +489,7 @@ impl<'c> Resident<'c> {
                     .map(|(src, dst)| (src.as_str(), dst.as_str(), 0))
                     .collect();
                 p.encode_copies(encoder, &first)?;
-                for (name, bytes) in voxelize_inputs(self.ctx, d, scene)? {
+                for (name, bytes) in voxelize_inputs(d, scene)? {
                     p.write_buffer(&name, &bytes)?;
                 }
             }
@@ -836,14 +843,17 @@ fn written_in(chain: &mut Chain, range: std::ops::Range<usize>) -> Resets {
 
 /// The buffers a frame whose instances moved rewrites: the scene's triangles and BVH (the ray caster's,
 /// the same sizes: the key holds them), each hierarchy's placed voxel_light grid, the cone passes'
-/// placements and their march parameters (the world grid follows the scene's extent).
+/// placements and their march parameters, and (cprc, `room`) cache_records' cone offset: the world
+/// grid follows the scene's extent.
 fn placed_inputs(
     data: &SceneData,
     scene: &Scene,
     cones: &ConeSettings,
     frames: &[crate::kernels::voxelize::VoxelFrame],
+    room: Option<&crate::chains::CacheRoom>,
 ) -> Result<Vec<(String, Vec<u8>)>> {
     let at = crate::chains::placement(scene, frames)?;
+    let cone = crate::kernels::cone_trace::cone_params(&at.world, cones);
     let mut out = vec![
         (
             "triangles".to_string(),
@@ -857,11 +867,18 @@ fn placed_inputs(
             "placed".to_string(),
             bytemuck::cast_slice(&at.placed).to_vec(),
         ),
-        (
-            "cone".to_string(),
-            bytemuck::bytes_of(&crate::kernels::cone_trace::cone_params(&at.world, cones)).to_vec(),
-        ),
+        ("cone".to_string(), bytemuck::bytes_of(&cone).to_vec()),
     ];
+    if let Some(room) = room {
+        let records = vxgi_cpu_mirror::cache_records::RecordsParams {
+            offset: cone.offset_voxels * cone.origin[3],
+            ..room.records
+        };
+        out.push((
+            "records_params".to_string(),
+            bytemuck::bytes_of(&records).to_vec(),
+        ));
+    }
     for (k, g) in at.grids.iter().enumerate() {
         out.push((
             crate::chains::hierarchy_name("grid", k),
@@ -874,25 +891,27 @@ fn placed_inputs(
 /// The buffers a frame that re-voxelizes moved instances rewrites (lrsm): voxelize's triangles and
 /// parameters for the scene as it stands (the same grid and triangle count: the key holds them),
 /// and the ray caster's triangles and BVH.
-fn voxelize_inputs(
-    ctx: &GpuContext,
-    data: &SceneData,
-    scene: &Scene,
-) -> Result<Vec<(String, Vec<u8>)>> {
+fn voxelize_inputs(data: &SceneData, scene: &Scene) -> Result<Vec<(String, Vec<u8>)>> {
     use crate::kernels::voxelize;
     let side = scene.render.voxels;
     let (input, _) = voxelize::prepare(scene, side)?;
-    let case = voxelize::case_for(ctx, &input, side, "render".into(), 0)?;
-    let bytes = |n: &str| -> Result<Vec<u8>> {
-        Ok(case.resources[n]
-            .buffer()
-            .with_context(|| format!("voxelize's {n}"))?
-            .bytes
-            .clone())
+    // As voxelize::case_for writes them (an empty mesh's one default triangle record included).
+    let params = voxelize::VoxParams {
+        side,
+        triangles: input.tris.len() as u32,
+        _pad: [0; 2],
+    };
+    let tris = if input.tris.is_empty() {
+        bytemuck::bytes_of(&vxgi_cpu_mirror::voxelize::VoxTriangle::default()).to_vec()
+    } else {
+        bytemuck::cast_slice(&input.tris).to_vec()
     };
     Ok(vec![
-        ("vox_params".to_string(), bytes("params")?),
-        ("vox_triangles".to_string(), bytes("vox_triangles")?),
+        (
+            "vox_params".to_string(),
+            bytemuck::bytes_of(&params).to_vec(),
+        ),
+        ("vox_triangles".to_string(), tris),
         (
             "triangles".to_string(),
             bytemuck::cast_slice(&data.triangles).to_vec(),

@@ -9,7 +9,7 @@ use vxgi::reference::{leak, pixel_positions, render_reference, ReferenceOptions}
 use vxgi::scene::Scene;
 
 /// A resident renderer's frame after its first: nothing created, nothing read back but the images,
-/// at most 64 KiB uploaded (the bound for per-frame inputs).
+/// at most 64 KiB uploaded (the per-frame inputs: camera, lights, placements).
 fn assert_reused_frame(at: &str, c: &vxgi::harness::Counters) {
     assert_eq!(
         (
