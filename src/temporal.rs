@@ -12,7 +12,8 @@
 //! A pipeline whose error is the same in every frame scores 0 however large that error is; flicker
 //! (cone sets, cache placement or re-voxelization changing the image more than the scene changed)
 //! scores what it adds. The reference is the ideal cones ([`crate::reference::ideal_cones`]: the
-//! scene's diffuse cone set with exact visibility and radiance, deterministic stratified rays): what
+//! diffuse cone set the pipeline traces, with exact visibility and radiance, deterministic stratified
+//! rays): what
 //! the cone tracers would give with perfect voxels, so the measure is of the pipelines' own
 //! frame-to-frame noise. Its own noise floor is the measure between two references with different
 //! ray counts ([`reference_floor`]).
