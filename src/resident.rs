@@ -702,13 +702,6 @@ impl<'c> Resident<'c> {
             }
         };
         let name = self.pipeline.name();
-        let start = gbuffer_start(&chain);
-        let (_, restored) = written_in(&mut chain, start..usize::MAX);
-        let revoxelize = (instanced && self.pipeline == Pipeline::Lrsm)
-            .then(|| written_in(&mut chain, 0..start));
-        let prepared =
-            crate::harness::prepare_chain(self.ctx, &chain.harness_stages(), &chain.resources)
-                .with_context(|| format!("{name} chain"))?;
         let mut stages = Vec::new();
         let mut first = 0;
         for s in &chain.stages {
@@ -730,6 +723,12 @@ impl<'c> Resident<'c> {
                 .find(|s| s.stage == crate::kernels::gbuffer::DECL.name)
                 .map_or(0, |s| s.passes.len());
         let relight = start_of(relight_stage)?;
+        let (_, restored) = written_in(&mut chain, gbuffer..usize::MAX);
+        let revoxelize = (instanced && self.pipeline == Pipeline::Lrsm)
+            .then(|| written_in(&mut chain, 0..gbuffer));
+        let prepared =
+            crate::harness::prepare_chain(self.ctx, &chain.harness_stages(), &chain.resources)
+                .with_context(|| format!("{name} chain"))?;
         let mut outputs = vec![direct, "indirect", "ao"];
         for extra in ["tile_list", "cache_args"] {
             if chain.resources.contains_key(extra) {
@@ -773,18 +772,6 @@ impl<'c> Resident<'c> {
             reads,
         })
     }
-}
-
-/// Where the camera's G-buffer passes start in `chain` (the first per-frame pass).
-fn gbuffer_start(chain: &Chain) -> usize {
-    let mut first = 0;
-    for s in &chain.stages {
-        if s.stage == crate::kernels::gbuffer::DECL.name {
-            return first;
-        }
-        first += s.passes.len();
-    }
-    first
 }
 
 /// The buffers a re-run of passes clears, and those it restores from a copy: (copy, buffer).

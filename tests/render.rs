@@ -25,6 +25,18 @@ fn assert_reused_frame(at: &str, c: &vxgi::harness::Counters) {
     assert!(c.upload_bytes <= 64 << 10, "{at}: {c:?}");
 }
 
+/// Combined FLIP of a resident frame against the staged renderer's frame of the same view.
+fn staged_vs_resident(want: &vxgi::render::Rendered, got: &vxgi::render::Rendered) -> f32 {
+    compare(
+        &want.combined,
+        Path::new("staged"),
+        &got.combined,
+        Path::new("resident"),
+    )
+    .unwrap()
+    .flip_mean
+}
+
 fn small(mut scene: Scene, w: u32, h: u32) -> Scene {
     scene.camera.width = w;
     scene.camera.height = h;
@@ -1319,14 +1331,7 @@ fn resident_cprc_frames_stay_on_the_gpu_and_match_the_staged_frames() {
             let at = format!("cprc {:?}, frame {k}", scene.mesh.positions.len());
             assert!(want.direct == got.direct, "{at}: direct differs");
             assert!(want.ao == got.ao, "{at}: ao differs");
-            let flip = vxgi::images::compare(
-                &want.combined,
-                Path::new("staged"),
-                &got.combined,
-                Path::new("resident"),
-            )
-            .unwrap()
-            .flip_mean;
+            let flip = staged_vs_resident(&want, &got);
             let (Some(VolumeMemory::Caches(a)), Some(VolumeMemory::Caches(b))) =
                 (memory, resident.memory())
             else {
@@ -1389,14 +1394,7 @@ fn resident_frames_relight_moved_instances_in_one_submission() {
             if pipeline != Pipeline::Cprc {
                 assert!(want.indirect == got.indirect, "{at}: indirect differs");
             } else {
-                let flip = vxgi::images::compare(
-                    &want.combined,
-                    Path::new("staged"),
-                    &got.combined,
-                    Path::new("resident"),
-                )
-                .unwrap()
-                .flip_mean;
+                let flip = staged_vs_resident(&want, &got);
                 assert!(flip < 1e-3, "{at}: FLIP {flip}");
             }
             assert_eq!(c.submissions, 1, "{at}: {c:?}");
@@ -1446,14 +1444,7 @@ fn resident_frames_relight_the_kept_voxels_when_a_light_moves() {
             // The staged cprc frame computes its pixel inputs and cache records by the kernels'
             // mirrors (bit for bit on lavapipe, within rounding elsewhere).
             assert!(want.direct == got.direct && want.ao == got.ao);
-            let flip = vxgi::images::compare(
-                &want.combined,
-                Path::new("staged"),
-                &got.combined,
-                Path::new("resident"),
-            )
-            .unwrap()
-            .flip_mean;
+            let flip = staged_vs_resident(&want, &got);
             assert!(flip < 1e-3, "cprc: FLIP {flip}");
         } else {
             assert!(
