@@ -105,21 +105,20 @@ impl Key {
         what.join("; ")
     }
 
-    /// The key of `scene`'s frame; `data` is the scene's [`SceneData`] where it has instances.
+    /// The key of `scene`'s frame; `data` is the scene's [`SceneData`] where it has instances, `vox`
+    /// voxelize's input and grid where lrsm re-voxelizes moved instances ([`revoxelized`]).
     fn of(
         pipeline: Pipeline,
         scene: &Scene,
         cones: &ConeSettings,
         data: Option<&SceneData>,
-    ) -> Result<Self> {
+        vox: Option<&Voxelized>,
+    ) -> Self {
         let instanced = !scene.instances.list.is_empty();
-        let world = if instanced && pipeline == Pipeline::Lrsm {
-            let (input, f) = crate::kernels::voxelize::prepare(scene, scene.render.voxels)?;
+        let world = vox.map(|(input, f)| {
             let rows = input.tris.iter().map(|t| t.a[3] + 1).max().unwrap_or(1) as u32;
-            Some(([f.origin.x, f.origin.y, f.origin.z, f.voxel], rows))
-        } else {
-            None
-        };
+            ([f.origin.x, f.origin.y, f.origin.z, f.voxel], rows)
+        });
         let (hierarchies, scene_sizes) = match data {
             Some(d) if instanced && pipeline == Pipeline::Lrsm => {
                 (Vec::new(), (d.triangles.len(), d.nodes.len()))
@@ -156,7 +155,7 @@ impl Key {
                 crate::plan::light_views(scene),
             ),
         };
-        Ok(Self {
+        Self {
             volume,
             hierarchies,
             scene_sizes,
@@ -167,7 +166,7 @@ impl Key {
             // ConeSettings is plain data without PartialEq: its Debug text is its value.
             cones: format!("{cones:?}"),
             size: (scene.camera.width, scene.camera.height),
-        })
+        }
     }
 }
 
@@ -434,7 +433,8 @@ impl<'c> Resident<'c> {
             .map_err(anyhow::Error::msg)?;
         // With instances: the scene as the ray caster binds it this frame (where they stand).
         let data = (!scene.instances.list.is_empty()).then(|| SceneData::new(scene));
-        let key = Key::of(self.pipeline, scene, cones, data.as_ref())?;
+        let vox = revoxelized(self.pipeline, scene)?;
+        let key = Key::of(self.pipeline, scene, cones, data.as_ref(), vox.as_ref());
         let reuse = self.built.as_ref().is_some_and(|b| b.key == key);
         self.rebuilt = self
             .built
@@ -489,7 +489,8 @@ impl<'c> Resident<'c> {
                     .map(|(src, dst)| (src.as_str(), dst.as_str(), 0))
                     .collect();
                 p.encode_copies(encoder, &first)?;
-                for (name, bytes) in voxelize_inputs(d, scene)? {
+                let input = &vox.as_ref().expect("lrsm with instances prepares it").0;
+                for (name, bytes) in voxelize_inputs(d, scene, input) {
                     p.write_buffer(&name, &bytes)?;
                 }
             }
@@ -878,10 +879,13 @@ fn placed_inputs(
 /// The buffers a frame that re-voxelizes moved instances rewrites (lrsm): voxelize's triangles and
 /// parameters for the scene as it stands (the same grid and triangle count: the key holds them),
 /// and the ray caster's triangles and BVH.
-fn voxelize_inputs(data: &SceneData, scene: &Scene) -> Result<Vec<(String, Vec<u8>)>> {
+fn voxelize_inputs(
+    data: &SceneData,
+    scene: &Scene,
+    input: &vxgi_cpu_mirror::voxelize::VoxInput,
+) -> Vec<(String, Vec<u8>)> {
     use crate::kernels::voxelize;
     let side = scene.render.voxels;
-    let (input, _) = voxelize::prepare(scene, side)?;
     // As voxelize::case_for writes them (an empty mesh's one default triangle record included).
     let params = voxelize::VoxParams {
         side,
@@ -893,7 +897,7 @@ fn voxelize_inputs(data: &SceneData, scene: &Scene) -> Result<Vec<(String, Vec<u
     } else {
         bytemuck::cast_slice(&input.tris).to_vec()
     };
-    Ok(vec![
+    vec![
         (
             "vox_params".to_string(),
             bytemuck::bytes_of(&params).to_vec(),
@@ -907,7 +911,24 @@ fn voxelize_inputs(data: &SceneData, scene: &Scene) -> Result<Vec<(String, Vec<u
             "nodes".to_string(),
             bytemuck::cast_slice(&data.nodes).to_vec(),
         ),
-    ])
+    ]
+}
+
+/// voxelize's input and grid for `scene` as it stands, prepared once per frame, where lrsm draws
+/// `[[instances]]` (its key holds the grid and the largest splat; a moved frame uploads the input).
+type Voxelized = (
+    vxgi_cpu_mirror::voxelize::VoxInput,
+    crate::kernels::voxelize::VoxelFrame,
+);
+
+fn revoxelized(pipeline: Pipeline, scene: &Scene) -> Result<Option<Voxelized>> {
+    if pipeline != Pipeline::Lrsm || scene.instances.list.is_empty() {
+        return Ok(None);
+    }
+    Ok(Some(crate::kernels::voxelize::prepare(
+        scene,
+        scene.render.voxels,
+    )?))
 }
 
 /// The buffers a frame with moved lights rewrites: the lights, and lrsm's light views (each view's
