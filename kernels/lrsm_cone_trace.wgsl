@@ -5,8 +5,9 @@
 // src/kernels/lrsm_cone_trace.rs. Uses common/cone_march.wgsl, common/lrsm_sample.wgsl,
 // common/lrsm_math.wgsl and common/lrsm_view.wgsl.
 //
-// Occlusion: level l of the occlusion pyramid starts at word occ_offsets[l] of `occ` (bytes, four per
-// word, Morton order: occlusion_voxels.wgsl); alpha = byte / 255, trilinear within a level, blended
+// Occlusion: level l of the occlusion pyramid starts at word occ_offsets[l] of `occ` (Morton order,
+// occlusion_voxels.wgsl: level 0 a bit per voxel, read as 0 or 255; above it bytes, four per word);
+// alpha = byte / 255, trilinear within a level, blended
 // between levels by cone_march's sample_volume (so the march's alpha is the paper's alpha_i).
 // Radiance of a sample (x, diameter D, cone direction d), where alpha > 0 (a sample with no occlusion
 // adds nothing, eq. 1, so its LRSMs are not read): for every view in front of which x lies
@@ -83,7 +84,12 @@ fn sample_level(x: vec3<f32>, l: u32) -> vec4<f32> {
         }
         let u = vec3<u32>(i);
         let m = spread3(u.x) | (spread3(u.y) << 1u) | (spread3(u.z) << 2u);
-        let b = (occ[off + (m >> 2u)] >> (8u * (m & 3u))) & 255u;
+        var b: u32;
+        if (l == 0u) {
+            b = ((occ[off + (m >> 5u)] >> (m & 31u)) & 1u) * 255u;
+        } else {
+            b = (occ[off + (m >> 2u)] >> (8u * (m & 3u))) & 255u;
+        }
         acc += (f32(b) * (1.0 / 255.0)) * (w.x * w.y * w.z);
     }
     return vec4<f32>(0.0, 0.0, 0.0, acc);

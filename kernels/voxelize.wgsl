@@ -18,7 +18,11 @@
 //   normal = (sum_normal / count / 4096, 0) — the mean, not renormalised — or zeros when empty; a
 //   non-empty voxel appends its index to `list` (atomic counter list_count[0]; order is the GPU's, the
 //   comparison sorts it).
-// Accuracy: counts, lists, alpha exact; colour and normal: one division (2.5 ULP) then an exact
+// Pass `occupancy_bits` (dispatched as splat): the same samples, no albedo or normal: sets bit (v mod 32) of
+//   occupancy[v / 32] for the sample's voxel v (Morton index) by atomicOr: binary occlusion voxels, one
+//   bit per voxel (level 0 of occlusion_voxels.wgsl's pyramid), where splat's accumulators take 32
+//   bytes per voxel. occupancy must start zeroed.
+// Accuracy: counts, lists, alpha, occupancy exact; colour and normal: one division (2.5 ULP) then an exact
 // power-of-two scale, and the integer-to-float conversions are exact below 2^24 (sums of up to 4096
 // samples): 3 ULP, 4 past that.
 
@@ -51,6 +55,7 @@ struct VoxParams {
 @group(0) @binding(6) var<storage, read_write> list_count: array<atomic<u32>>;
 @group(0) @binding(7) var<storage, read> vox_texels: array<u32>;
 @group(0) @binding(8) var<storage, read> vox_lut: array<u32>;
+@group(0) @binding(9) var<storage, read_write> occupancy: array<atomic<u32>>;
 
 fn wrap(a: i32, n: u32) -> u32 {
     let m = a % i32(n);
@@ -110,6 +115,26 @@ fn splat(@builtin(global_invocation_id) gid: vec3<u32>) {
         atomicAdd(&acc[base + 4u], bitcast<u32>(nrm.y));
         atomicAdd(&acc[base + 5u], bitcast<u32>(nrm.z));
         atomicAdd(&acc[base + 6u], 1u);
+    }
+}
+
+@compute @workgroup_size(64)
+fn occupancy_bits(@builtin(global_invocation_id) gid: vec3<u32>) {
+    if (gid.x >= params.triangles) {
+        return;
+    }
+    let t = vox_triangles[gid.x];
+    let n = t.a.w;
+    let i = i32(gid.y);
+    if (i > n) {
+        return;
+    }
+    let side = i32(params.side);
+    for (var j = 0; j <= n - i; j++) {
+        let p = t.a.xyz + ((t.b.xyz - t.a.xyz) * i + (t.c.xyz - t.a.xyz) * j) / vec3<i32>(n);
+        let v = vec3<u32>(clamp(p / vec3<i32>(256), vec3<i32>(0), vec3<i32>(side - 1)));
+        let m = morton3(v);
+        atomicOr(&occupancy[m >> 5u], 1u << (m & 31u));
     }
 }
 

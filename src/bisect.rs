@@ -156,7 +156,22 @@ pub fn render_split(
     progress("voxelize");
     let t = std::time::Instant::now();
     let side = scene.render.voxels;
-    let (grid, list, frame) = if on_mirror("voxelize") {
+    // lrsm's voxels are binary: its voxelize stage writes occupancy bits alone (no accumulators).
+    let mut bits = Vec::new();
+    let (grid, list, frame) = if pipeline == Pipeline::Lrsm {
+        let (input, frame) = voxelize::prepare(scene, side)?;
+        bits = if on_mirror("voxelize") {
+            vxgi_cpu_mirror::voxelize::occupancy(&input.tris, side)
+        } else {
+            voxelize::occupancy_on_gpu(ctx, scene, side)?.0
+        };
+        let empty = crate::grids::Grid {
+            n: side,
+            colour: Vec::new(),
+            normal: Vec::new(),
+        };
+        (empty, Vec::new(), frame)
+    } else if on_mirror("voxelize") {
         let (input, frame) = voxelize::prepare(scene, side)?;
         let (colour, normal, list) = vxgi_cpu_mirror::voxelize::voxelize(&input, side);
         let grid = crate::grids::Grid {
@@ -182,7 +197,7 @@ pub fn render_split(
                 Some(ctx),
                 &on_mirror,
                 &data,
-                &grid.colour,
+                &bits,
                 frame,
                 &settings,
                 &progress,

@@ -362,7 +362,8 @@ pub(crate) fn light_view_names(v: usize) -> (String, String) {
 const LRSM_STREAMS: [&str; 3] = ["lrsm_radiance", "lrsm_normal", "lrsm_moments"];
 
 /// lrsm's chain (Sugihara et al. 2014), the same kernels on the same inputs as
-/// [`crate::render::VctLrsm`]'s frame: voxelize and occlusion_voxels (its levels copied into `occ`);
+/// [`crate::render::VctLrsm`]'s frame: voxelize's occupancy bits and occlusion_voxels' mips over them
+/// (every level copied into `occ`);
 /// per light view the G-buffer ray-cast from the light, reflective_shadow_map, lrsm_partition and
 /// lrsm_prefilter (its levels copied into the three LRSM streams at the view's offset; every view
 /// reuses one set of RSM buffers, as the staged frame holds one RSM at a time); then the camera's
@@ -391,22 +392,28 @@ pub(crate) fn lrsm_chain(
         copies: Vec::new(),
         frame: vframe,
     };
-    let mut vox = voxelize::case_for(ctx, &input, side, "render".into(), 0)?;
+    // Voxelize's occupancy bits are level 0 of the occlusion voxels (the same resource), their mips
+    // follow; every level is copied into `occ`.
+    let mut vox = voxelize::occupancy_case(ctx, &input, side, "render".into(), 0)?;
     vox.rename_resource("params", "vox_params", false);
+    vox.rename_resource("occupancy", &occv::level_name(0), false);
     chain.add(&voxelize::DECL, voxelize::DECL.name, vox)?;
-    // The occlusion voxels of voxelize's grid (the case's zeroed copy of it is the same resource).
     let coverage = if settings.surface_coverage {
         vxgi_cpu_mirror::occlusion_voxels::Coverage::Surface
     } else {
         vxgi_cpu_mirror::occlusion_voxels::Coverage::Volume
     };
-    let shell = crate::grids::Grid {
-        n: side,
-        colour: vec![[0.0; 4]; (side as usize).pow(3)],
-        normal: Vec::new(),
-    };
+    let zero_bits = vec![0u32; level_words(side, 0)];
     let occ_shader = occv::DECL.shader()?;
-    let occ = occv::case_for(&occ_shader, ctx, &shell, coverage, "render".into(), 0);
+    let occ = occv::case_for(
+        &occ_shader,
+        ctx,
+        &zero_bits,
+        side,
+        coverage,
+        "render".into(),
+        0,
+    );
     chain.add(&occv::DECL, occv::DECL.name, occ)?;
     let mut occ_offsets = Vec::new();
     let mut words = 0u32;
@@ -418,7 +425,7 @@ pub(crate) fn lrsm_chain(
             dst: "occ".into(),
             offset: words as u64 * 4,
         });
-        words += level_words(((side >> k) as u64).pow(3)) as u32;
+        words += level_words(side, k) as u32;
     }
     // Every light view: its G-buffer, RSM and LRSM, into the streams at its offset.
     let views = lrsm_views(&data.lights, data.bounds, data.frame.eye[3], &config)?;

@@ -1,7 +1,7 @@
 //! The device limits a frame's settings must fit, checked from the scene before anything large is
 //! allocated: the light views' layered RSMs (lrsm), the photon maps (vct-svo), the image (every
-//! pipeline, with its supersampling) and the dense voxel accumulators. Each refusal names the
-//! quantity, the limit and the setting to change. `vxgi scene` runs the same checks.
+//! pipeline, with its supersampling), the dense voxel accumulators (lrsm: its occlusion voxels). Each
+//! refusal names the quantity, the limit and the setting to change. `vxgi scene` runs the same checks.
 use crate::render::Pipeline;
 use crate::scene::Scene;
 
@@ -70,9 +70,23 @@ pub fn check(scene: &Scene, pipeline: Pipeline, limits: &wgpu::Limits) -> Result
             "lower the camera's width and height or supersample",
         );
     }
-    // Voxelization's dense accumulators (every pipeline voxelizes).
+    // lrsm voxelizes into occupancy bits (level 0 of its occlusion voxels; the mips above it are
+    // bytes), gathered from one binding; every other pipeline into the dense accumulators.
+    if pipeline == Pipeline::Lrsm {
+        let occ = vxgi_cpu_mirror::occlusion_voxels::pyramid_bytes(r.voxels);
+        if occ > binding {
+            return past(
+                format!(
+                    "voxels = {}: lrsm's occlusion voxels (a bit per voxel, their mips a byte)",
+                    r.voxels
+                ),
+                occ,
+                "lower voxels",
+            );
+        }
+    }
     let voxel_bytes = (r.voxels as u64).pow(3) * VOXEL_ACCUMULATOR_BYTES;
-    if voxel_bytes > binding {
+    if pipeline != Pipeline::Lrsm && voxel_bytes > binding {
         let most = (1u32..=512)
             .filter(|v| {
                 v.is_power_of_two() && (*v as u64).pow(3) * VOXEL_ACCUMULATOR_BYTES <= binding

@@ -299,7 +299,7 @@ impl FramePlan {
                 }
                 "voxelize" => {
                     if p.runs {
-                        p.why = "the occlusion voxels' geometry".into();
+                        p.why = "the occlusion voxels' level 0: a bit per voxel a surface sample lands in (entry occupancy_bits; no accumulators)".into();
                     } else {
                         p.why = CACHED.into();
                     }
@@ -310,8 +310,8 @@ impl FramePlan {
                         stage: "occlusion_voxels",
                         kernel: "occlusion_voxels",
                         size: format!(
-                            "{side}^3 voxels, 1 byte each, {} levels",
-                            side.trailing_zeros() + 1
+                            "{} mip levels over {side}^3 bits (a byte per voxel above level 0)",
+                            side.trailing_zeros()
                         ),
                         runs: !cached,
                         why: if cached {

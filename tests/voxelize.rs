@@ -17,10 +17,34 @@ fn generated_scenes_match_the_mirror() {
     verified(&Voxelize, 12, 4);
 }
 
+/// lrsm's voxelize stage (entry `occupancy_bits` alone, no accumulators) marks exactly the voxels the
+/// dense voxelization fills, on the Cornell box and a textured scene; and it takes grids the
+/// accumulators cannot: 512^3 on the Cornell box needs 16 MiB of bits where they would need 4 GiB.
+#[test]
+fn occupancy_bits_are_the_non_empty_voxels() {
+    use vxgi::kernels::voxelize::occupancy_on_gpu;
+    use vxgi_cpu_mirror::occlusion_voxels::binarize;
+    let textured = Scene::load(Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/textured_cornell.toml"
+    )))
+    .unwrap();
+    for (scene, side) in [(Scene::cornell_box(), 64), (textured, 32)] {
+        let (grid, _, frame) = voxelize_on_gpu(gpu(), &scene, side).unwrap();
+        let (bits, bits_frame) = occupancy_on_gpu(gpu(), &scene, side).unwrap();
+        assert_eq!(frame, bits_frame);
+        assert_eq!(bits, binarize(&grid.colour, false));
+    }
+    let (bits, _) = occupancy_on_gpu(gpu(), &Scene::cornell_box(), 512).unwrap();
+    let (input, _) = prepare(&Scene::cornell_box(), 512).unwrap();
+    assert_eq!(bits, vxgi_cpu_mirror::voxelize::occupancy(&input.tris, 512));
+    assert!(bits.iter().map(|w| w.count_ones()).sum::<u32>() > 512 * 512 * 5);
+}
+
 #[test]
 fn corrupted_sums_and_lists_are_caught() {
     // Case 0: the Cornell box at 8^3; voxel 0 (the floor corner) is non-empty.
-    for resource in ["acc", "list", "vox_colour"] {
+    for resource in ["acc", "list", "vox_colour", "occupancy"] {
         let opts = VerifyOptions {
             cases: 1,
             seed: 4,

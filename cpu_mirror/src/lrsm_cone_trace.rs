@@ -13,7 +13,7 @@
 //! point's: 16 ULP of the magnitudes of x and the eye, through the projection's divisions (2.5 ULP) and
 //! log2 (absolute 2^-21).
 use crate::cone_trace::{trilinear_level, ConeParams, SampleError, Volume};
-use crate::occlusion_voxels::byte;
+use crate::occlusion_voxels::level_byte;
 use crate::reflective_shadow_map::GpuView;
 use crate::sample_lrsm::{sample, sample_bound, Lrsm, SampleParams};
 use glam::{Vec3, Vec4};
@@ -165,8 +165,9 @@ impl Volume for LrsmVolume<'_> {
         self.p
     }
 
-    /// (0, 0, 0, occlusion) at `x`, trilinear in occlusion level `l` (byte / 255; the kernel computes
-    /// `(f32(b) * (1 / 255)) * weight`, the same products in the same order).
+    /// (0, 0, 0, occlusion) at `x`, trilinear in occlusion level `l` (byte / 255, level 0's bits as 0
+    /// or 255; the kernel computes `(f32(b) * (1 / 255)) * weight`, the same products in the same
+    /// order).
     fn level(&self, x: Vec3, l: u32) -> (Vec4, SampleError) {
         let off = self.occ_offsets[l as usize] as usize;
         trilinear_level(self.p, x, l, |m| {
@@ -174,7 +175,7 @@ impl Volume for LrsmVolume<'_> {
                 0.0,
                 0.0,
                 0.0,
-                byte(&self.occ[off..], m) as f32 * (1.0 / 255.0),
+                level_byte(&self.occ[off..], l, m) as f32 * (1.0 / 255.0),
             )
         })
     }

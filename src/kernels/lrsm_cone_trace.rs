@@ -5,7 +5,7 @@
 use super::cone_trace::{bounded_outputs, cone_params, shade_all, tracer_case, ConeSettings};
 use super::occlusion_voxels::occlusion_on_gpu;
 use super::reflective_shadow_map::{rsm_on_gpu, LRSM_VIEW};
-use super::voxelize::{voxelize_on_gpu, VoxelFrame};
+use super::voxelize::{occupancy_on_gpu, VoxelFrame};
 use super::{lrsm_partition, lrsm_prefilter, BRDF, CONE_MARCH, LIGHTS, LRSM_MATH, LRSM_SAMPLE};
 use crate::lrsm::{light_views, PartitionConfig, Rsm};
 use crate::scene::Scene;
@@ -245,13 +245,13 @@ impl LrsmFrame {
     ) -> anyhow::Result<Self> {
         progress("voxelize");
         let t = std::time::Instant::now();
-        let (grid, _, voxels) = voxelize_on_gpu(ctx, scene, side)?;
+        let (bits, voxels) = occupancy_on_gpu(ctx, scene, side)?;
         stages.push(("voxelize", t.elapsed().as_secs_f64()));
         Self::build_with(
             Some(ctx),
             &|_| false,
             data,
-            &grid.colour,
+            &bits,
             voxels,
             settings,
             progress,
@@ -259,7 +259,8 @@ impl LrsmFrame {
         )
     }
 
-    /// The frame from a voxelized grid (`colour`: its alpha is the occlusion), each stage —
+    /// The frame from a voxelized grid's occupancy (`bits`: level 0 of the occlusion voxels, voxelize's
+    /// `occupancy_bits`), each stage —
     /// `occlusion_voxels`, `reflective_shadow_map` (a view's RSM from its ray-cast G-buffer),
     /// `lrsm_partition` (partition + pre-filter) — by the mirror where `mirror(stage)` says so or no
     /// GPU is given, else on the GPU. Stage times go to `stages` (the RSMs and LRSMs together, as
@@ -269,7 +270,7 @@ impl LrsmFrame {
         gpu: Option<&GpuContext>,
         mirror: &dyn Fn(&str) -> bool,
         data: &SceneData,
-        colour: &[[f32; 4]],
+        bits: &[u32],
         voxels: VoxelFrame,
         settings: &LrsmSettings,
         progress: &dyn Fn(&str),
@@ -285,16 +286,13 @@ impl LrsmFrame {
         };
         let levels = match on_gpu("occlusion_voxels") {
             Some(ctx) => {
-                let grid = crate::grids::Grid {
-                    n: voxels.side,
-                    colour: colour.to_vec(),
-                    normal: vec![[0.0; 4]; colour.len()],
-                };
-                occlusion_on_gpu(ctx, &grid, coverage).context("occlusion voxels")?
+                occlusion_on_gpu(ctx, bits, voxels.side, coverage).context("occlusion voxels")?
             }
-            None => {
-                vxgi_cpu_mirror::occlusion_voxels::pyramid(colour, voxels.side, false, coverage)
-            }
+            None => vxgi_cpu_mirror::occlusion_voxels::pyramid_of_bits(
+                bits.to_vec(),
+                voxels.side,
+                coverage,
+            ),
         };
         stages.push(("occlusion_voxels", t.elapsed().as_secs_f64()));
         let t = std::time::Instant::now();
@@ -398,8 +396,9 @@ impl LrsmFrame {
 }
 
 /// The same frame data computed by the mirrors alone (no GPU): occlusion pyramid of the voxelized grid
-/// `colour` (alpha > 0 = solid), every view's RSM from a mirror G-buffer ray-cast from the light, then
-/// partition and pre-filter. For the snapshot tests' lrsm images.
+/// `colour` (alpha > 0 = solid: the bits voxelize's `occupancy_bits` writes), every view's RSM from a
+/// mirror G-buffer ray-cast from the light, then partition and pre-filter. For the snapshot tests'
+/// lrsm images.
 pub fn mirror_frame(
     data: &SceneData,
     colour: &[[f32; 4]],
@@ -410,7 +409,7 @@ pub fn mirror_frame(
         None,
         &|_| true,
         data,
-        colour,
+        &vxgi_cpu_mirror::occlusion_voxels::binarize(colour, false),
         voxels,
         settings,
         &|_| {},

@@ -1,9 +1,10 @@
-//! Declaration of `kernels/occlusion_voxels.wgsl` (mirror: `vxgi_cpu_mirror::occlusion_voxels`): LRSM's
-//! binary occlusion voxels (one byte per voxel, four per u32 word) and their mips, from the voxelized
-//! grid. Verified level by level: level 0 from the grid, level k from the GPU's level k - 1.
-use crate::grids::{generate, Grid, Pattern};
+//! Declaration of `kernels/occlusion_voxels.wgsl` (mirror: `vxgi_cpu_mirror::occlusion_voxels`): the
+//! mips of LRSM's binary occlusion voxels (level 0 one bit per voxel, written by voxelize's
+//! `occupancy_bits`; levels above a byte per voxel, four per u32 word). Verified level by level:
+//! level 1 from the given bits, level k from the GPU's level k - 1.
+use crate::grids::{generate, Pattern};
 use std::collections::BTreeMap;
-use vxgi_cpu_mirror::occlusion_voxels::{binarize, level_words, reduce, Coverage};
+use vxgi_cpu_mirror::occlusion_voxels::{binarize, level_words, reduce, reduce_bits, Coverage};
 use vxgi_harness::run::{run, View};
 use vxgi_harness::{
     Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
@@ -17,22 +18,16 @@ pub static DECL: KernelDecl = KernelDecl {
     wgsl_path: "kernels/occlusion_voxels.wgsl",
     wgsl: WGSL,
     includes: &[],
-    entry: "binarize",
-    inputs: &["vox_colour", "src"],
+    entry: "reduce_bits",
+    inputs: &["src"],
     // Integers only: bit for bit.
-    outputs: &[
-        Output {
-            binding: "occ0",
-            tolerance: Tolerance::Exact,
-        },
-        Output {
-            binding: "dst",
-            tolerance: Tolerance::Exact,
-        },
-    ],
-    dispatch: DispatchRule::PerElement { binding: "occ0" },
-    mirror: "vxgi_cpu_mirror::occlusion_voxels::{binarize, reduce}",
-    summary: "LRSM binary occlusion voxels, 1 byte per voxel packed 4 per u32 (no atomics), and their mips: mean of 8 children rounded half up = solid fraction (LRSM 3.2, 5), or (entry reduce_surface) CPRC's surface coverage min(1, sum/4)",
+    outputs: &[Output {
+        binding: "dst",
+        tolerance: Tolerance::Exact,
+    }],
+    dispatch: DispatchRule::PerElement { binding: "dst" },
+    mirror: "vxgi_cpu_mirror::occlusion_voxels::{reduce_bits, reduce}",
+    summary: "mips of LRSM's binary occlusion voxels (level 0 a bit per voxel, above a byte, 4 per u32; no atomics): mean of 8 children rounded half up = solid fraction (LRSM 3.2, 5), or (entries *_surface) CPRC's surface coverage min(1, sum/4)",
 };
 
 /// Host resource of level `k`.
@@ -40,55 +35,40 @@ pub fn level_name(k: u32) -> String {
     format!("occ_{k}")
 }
 
-/// The reduce entry point of a coverage rule.
-pub fn reduce_entry(coverage: Coverage) -> &'static str {
-    match coverage {
-        Coverage::Volume => "reduce",
-        Coverage::Surface => "reduce_surface",
+/// The entry point that builds level `k` (>= 1) by a coverage rule.
+pub fn reduce_entry(k: u32, coverage: Coverage) -> &'static str {
+    match (k, coverage) {
+        (1, Coverage::Volume) => "reduce_bits",
+        (1, Coverage::Surface) => "reduce_bits_surface",
+        (_, Coverage::Volume) => "reduce",
+        (_, Coverage::Surface) => "reduce_surface",
     }
 }
 
-/// Resources and passes for the whole pyramid of `grid` (side >= 2, a power of two), mips by
-/// `coverage`'s rule.
+/// Resources and passes for the mips of a grid of side `side` (>= 2, a power of two) whose level 0 is
+/// `bits` (`vxgi_cpu_mirror::occlusion_voxels::level_words(side, 0)` words), mips by `coverage`'s
+/// rule.
 pub fn case_for(
     shader: &Shader,
     ctx: &GpuContext,
-    grid: &Grid,
+    bits: &[u32],
+    side: u32,
     coverage: Coverage,
     label: String,
     seed: u64,
 ) -> Case {
-    let n = grid.n;
+    let levels = side.trailing_zeros();
+    let words: Vec<usize> = (0..=levels).map(|k| level_words(side, k)).collect();
     let mut resources = Resources::new();
-    resources.insert(
-        "vox_colour".into(),
-        HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(&grid.colour))),
-    );
-    let levels = n.trailing_zeros();
-    let words: Vec<usize> = (0..=levels)
-        .map(|k| level_words(((n >> k) as u64).pow(3)))
-        .collect();
-    for (k, &w) in (0u32..).zip(&words) {
+    resources.insert(level_name(0), HostResource::Buffer(HostBuffer::u32(bits)));
+    for (k, &w) in (1u32..).zip(&words[1..]) {
         resources.insert(
             level_name(k),
             HostResource::Buffer(HostBuffer::zeroed(w * 4, ScalarKind::U32)),
         );
     }
-    let mut passes = vec![DECL.pass(
-        shader,
-        ctx,
-        "binarize".into(),
-        vec![
-            ("vox_colour".into(), View::Buffer("vox_colour".into())),
-            ("occ0".into(), View::Buffer(level_name(0))),
-        ],
-        words[0] as u64,
-    )];
-    let mut checks = vec![Check {
-        resource: level_name(0),
-        output: "occ0",
-        indexing: Indexing::Linear,
-    }];
+    let mut passes = Vec::new();
+    let mut checks = Vec::new();
     for k in 1..=levels {
         let mut pass = DECL.pass(
             shader,
@@ -100,7 +80,7 @@ pub fn case_for(
             ],
             words[k as usize] as u64,
         );
-        pass.entry = reduce_entry(coverage).into();
+        pass.entry = reduce_entry(k, coverage).into();
         passes.push(pass);
         checks.push(Check {
             resource: level_name(k),
@@ -108,8 +88,7 @@ pub fn case_for(
             indexing: Indexing::Linear,
         });
     }
-    let effective =
-        (grid.colour.len() * 16) as u64 + words.iter().map(|&w| w as u64 * 4).sum::<u64>() * 2;
+    let effective = words.iter().map(|&w| w as u64 * 4).sum::<u64>() * 2;
     Case {
         label,
         seed,
@@ -120,15 +99,17 @@ pub fn case_for(
     }
 }
 
-/// The occlusion pyramid of `grid` on the GPU, mips by `coverage`'s rule: every level's words.
+/// The occlusion pyramid on the GPU of a grid of side `side` whose level 0 is `bits`, mips by
+/// `coverage`'s rule: every level's words (level 0 the bits as given).
 pub fn occlusion_on_gpu(
     ctx: &GpuContext,
-    grid: &Grid,
+    bits: &[u32],
+    side: u32,
     coverage: Coverage,
 ) -> anyhow::Result<Vec<Vec<u32>>> {
     let shader = DECL.shader()?;
-    let case = case_for(&shader, ctx, grid, coverage, "occlusion".into(), 0);
-    let names: Vec<String> = (0..=grid.n.trailing_zeros()).map(level_name).collect();
+    let case = case_for(&shader, ctx, bits, side, coverage, "occlusion".into(), 0);
+    let names: Vec<String> = (1..=side.trailing_zeros()).map(level_name).collect();
     let refs: Vec<&str> = names.iter().map(String::as_str).collect();
     let out = run(
         ctx,
@@ -138,9 +119,8 @@ pub fn occlusion_on_gpu(
         &case.passes,
         &refs,
     )?;
-    Ok(names
-        .iter()
-        .map(|n| out.buffer(n).as_u32().to_vec())
+    Ok(std::iter::once(bits.to_vec())
+        .chain(names.iter().map(|n| out.buffer(n).as_u32().to_vec()))
         .collect())
 }
 
@@ -167,39 +147,37 @@ impl Kernel for OcclusionVoxels {
         case_for(
             shader,
             ctx,
-            &grid,
+            &binarize(&grid.colour, false),
+            n,
             coverage,
             format!("#{index} {n}^3 {pattern:?} {coverage:?} coverage"),
             seed,
         )
     }
 
+    /// Level 1 from the case's bits, level k from the GPU's level k - 1 (integers: no float mode).
     fn mirror(
         &self,
         case: &Case,
         data: &Resources,
-        mode: FloatMode,
+        _mode: FloatMode,
     ) -> BTreeMap<String, HostBuffer> {
-        let colour: &[[f32; 4]] =
-            bytemuck::cast_slice(&data["vox_colour"].buffer().expect("vox_colour").bytes);
-        let mut out = BTreeMap::new();
-        out.insert(
-            level_name(0),
-            HostBuffer::u32(&binarize(colour, mode == FloatMode::FlushToZero)),
-        );
         // The rule the case's reduce passes run.
-        let coverage = if case.passes.iter().any(|p| p.entry == "reduce_surface") {
+        let coverage = if case.passes.iter().any(|p| p.entry.ends_with("_surface")) {
             Coverage::Surface
         } else {
             Coverage::Volume
         };
-        for k in 1..case.checks.len() as u32 {
+        let mut out = BTreeMap::new();
+        for k in 1..=case.checks.len() as u32 {
             let src = data[&level_name(k - 1)].buffer().expect("level").as_u32();
             let words = data[&level_name(k)].buffer().expect("level").as_u32().len();
-            out.insert(
-                level_name(k),
-                HostBuffer::u32(&reduce(src, words, coverage)),
-            );
+            let level = if k == 1 {
+                reduce_bits(src, words, coverage)
+            } else {
+                reduce(src, words, coverage)
+            };
+            out.insert(level_name(k), HostBuffer::u32(&level));
         }
         out
     }

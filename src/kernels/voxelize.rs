@@ -7,7 +7,9 @@ use crate::grids::Grid;
 use crate::scene::Scene;
 use glam::Vec3;
 use std::collections::BTreeMap;
-use vxgi_cpu_mirror::voxelize::{accumulate, resolve, VoxInput, VoxTriangle, FIXED, SUB};
+use vxgi_cpu_mirror::voxelize::{
+    accumulate, occupancy, occupancy_words, resolve, VoxInput, VoxTriangle, FIXED, SUB,
+};
 use vxgi_harness::run::{grid_for, run, Pass, Workgroups};
 use vxgi_harness::{
     Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
@@ -31,10 +33,12 @@ pub static DECL: KernelDecl = KernelDecl {
         // Exact; the list's order is the GPU's (atomic append): both sides are sorted before comparing.
         Output { binding: "list", tolerance: Tolerance::Exact },
         Output { binding: "list_count", tolerance: Tolerance::Exact },
+        // Entry occupancy_bits: integer samples, atomicOr: exact in any order.
+        Output { binding: "occupancy", tolerance: Tolerance::Exact },
     ],
     dispatch: DispatchRule::PerElement { binding: "vox_colour" },
-    mirror: "vxgi_cpu_mirror::voxelize::voxelize",
-    summary: "surface-sampling voxelization (CPRC 3.1): mean albedo and normal per voxel, alpha 1, non-empty list",
+    mirror: "vxgi_cpu_mirror::voxelize::{voxelize, occupancy}",
+    summary: "surface-sampling voxelization (CPRC 3.1): mean albedo and normal per voxel, alpha 1, non-empty list; or (entry occupancy_bits) one bit per non-empty voxel",
 };
 
 #[repr(C)]
@@ -63,6 +67,11 @@ pub enum VoxelizeError {
          max_storage_buffer_binding_size ({limit}); use a smaller grid"
     )]
     TooLarge { side: u32, bytes: u64, limit: u64 },
+    #[error(
+        "voxels = {side}: the occupancy bits need {bytes} bytes in one binding, past the device's \
+         max_storage_buffer_binding_size ({limit}); use a smaller grid"
+    )]
+    OccupancyTooLarge { side: u32, bytes: u64, limit: u64 },
     #[error(
         "triangle {triangle}: its texture coordinates span too many repeats of the texture for the \
          kernel's 32-bit fixed point (1/16 texel) at voxels = {side}"
@@ -229,18 +238,7 @@ pub fn case_for(
             _pad: [0; 2],
         })),
     );
-    let tri_bytes = if tris.is_empty() {
-        bytemuck::bytes_of(&VoxTriangle::default()).to_vec()
-    } else {
-        bytemuck::cast_slice(tris).to_vec()
-    };
-    resources.insert(
-        "vox_triangles".into(),
-        HostResource::Buffer(HostBuffer {
-            bytes: tri_bytes,
-            scalar: ScalarKind::Mixed,
-        }),
-    );
+    resources.insert("vox_triangles".into(), triangle_buffer(tris));
     let v = voxels as usize;
     let zeroed = |bytes: usize, s| HostResource::Buffer(HostBuffer::zeroed(bytes, s));
     resources.insert("acc".into(), zeroed(v * 32, ScalarKind::U32));
@@ -248,6 +246,10 @@ pub fn case_for(
     resources.insert("vox_normal".into(), zeroed(v * 16, ScalarKind::F32));
     resources.insert("list".into(), zeroed(v * 4, ScalarKind::U32));
     resources.insert("list_count".into(), zeroed(4, ScalarKind::U32));
+    resources.insert(
+        "occupancy".into(),
+        zeroed(occupancy_words(voxels) * 4, ScalarKind::U32),
+    );
     let texels = if input.texels.is_empty() {
         vec![0]
     } else {
@@ -289,6 +291,7 @@ pub fn case_for(
                 bindings,
                 workgroups: Workgroups::Direct(grid_for(voxels, 64, max)),
             },
+            occupancy_pass(tris, max_rows),
         ],
         checks: vec![
             Check {
@@ -316,9 +319,104 @@ pub fn case_for(
                 output: "list_count",
                 indexing: Indexing::Linear,
             },
+            Check {
+                resource: "occupancy".into(),
+                output: "occupancy",
+                indexing: Indexing::Linear,
+            },
         ],
-        effective_bytes: voxels * 68,
+        effective_bytes: voxels * 68 + occupancy_words(voxels) as u64 * 4,
     })
+}
+
+/// The `occupancy_bits` pass over `tris`, dispatched as splat (a triangle's rows on y).
+fn occupancy_pass(tris: &[VoxTriangle], max_rows: u32) -> Pass {
+    Pass {
+        label: "occupancy".into(),
+        entry: "occupancy_bits".into(),
+        bindings: vxgi_harness::run::bind_same_names(["params", "vox_triangles", "occupancy"]),
+        workgroups: Workgroups::Direct([(tris.len() as u32).div_ceil(64).max(1), max_rows, 1]),
+    }
+}
+
+/// The triangles as the kernel binds them (one zero triangle when there are none: a binding is never
+/// empty).
+fn triangle_buffer(tris: &[VoxTriangle]) -> HostResource {
+    let bytes = if tris.is_empty() {
+        bytemuck::bytes_of(&VoxTriangle::default()).to_vec()
+    } else {
+        bytemuck::cast_slice(tris).to_vec()
+    };
+    HostResource::Buffer(HostBuffer {
+        bytes,
+        scalar: ScalarKind::Mixed,
+    })
+}
+
+/// Resources and the one pass that write `input`'s occupancy bits (entry `occupancy_bits`) for a grid
+/// of side `side`: binary occlusion voxels without the accumulators, which is what lets lrsm reach
+/// 512^3 (16 MiB of bits where the accumulators would take 4 GiB).
+pub fn occupancy_case(
+    ctx: &GpuContext,
+    input: &VoxInput,
+    side: u32,
+    label: String,
+    seed: u64,
+) -> Result<Case, VoxelizeError> {
+    let tris = &input.tris;
+    let voxels = (side as u64).pow(3);
+    let bytes = occupancy_words(voxels) as u64 * 4;
+    let limit = ctx.limits().max_storage_buffer_binding_size;
+    if bytes > limit {
+        return Err(VoxelizeError::OccupancyTooLarge { side, bytes, limit });
+    }
+    let mut resources = Resources::new();
+    resources.insert(
+        "params".into(),
+        HostResource::Buffer(HostBuffer::pod(&VoxParams {
+            side,
+            triangles: tris.len() as u32,
+            _pad: [0; 2],
+        })),
+    );
+    resources.insert("vox_triangles".into(), triangle_buffer(tris));
+    resources.insert(
+        "occupancy".into(),
+        HostResource::Buffer(HostBuffer::zeroed(bytes as usize, ScalarKind::U32)),
+    );
+    let max_rows = tris.iter().map(|t| t.a[3] + 1).max().unwrap_or(1) as u32;
+    Ok(Case {
+        label,
+        seed,
+        resources,
+        passes: vec![occupancy_pass(tris, max_rows)],
+        checks: vec![Check {
+            resource: "occupancy".into(),
+            output: "occupancy",
+            indexing: Indexing::Linear,
+        }],
+        effective_bytes: tris.len() as u64 * 160 + bytes,
+    })
+}
+
+/// `scene`'s occupancy bits on the GPU in the grid `prepare` puts around it at `side` (level 0 of
+/// lrsm's occlusion voxels), and the grid's frame.
+pub fn occupancy_on_gpu(
+    ctx: &GpuContext,
+    scene: &Scene,
+    side: u32,
+) -> anyhow::Result<(Vec<u32>, VoxelFrame)> {
+    let (input, frame) = prepare(scene, side)?;
+    let case = occupancy_case(ctx, &input, side, "occupancy".into(), 0)?;
+    let out = run(
+        ctx,
+        &DECL.shader()?,
+        DECL.name,
+        &case.resources,
+        &case.passes,
+        &["occupancy"],
+    )?;
+    Ok((out.buffer("occupancy").as_u32().to_vec(), frame))
 }
 
 /// Voxelize `scene` on the GPU: the level-0 grid for `surface_coverage_mip`, the non-empty voxels
@@ -416,12 +514,14 @@ impl Kernel for Voxelize {
             0,
         );
         let f = |v: &[[f32; 4]]| HostBuffer::f32(bytemuck::cast_slice(v));
+        let bits = occupancy(&tris[..p.triangles as usize], p.side);
         BTreeMap::from([
             ("acc".to_string(), HostBuffer::u32(&raw)),
             ("vox_colour".to_string(), f(&colour)),
             ("vox_normal".to_string(), f(&normal)),
             ("list".to_string(), HostBuffer::u32(&list)),
             ("list_count".to_string(), HostBuffer::u32(&[count])),
+            ("occupancy".to_string(), HostBuffer::u32(&bits)),
         ])
     }
     fn canonicalise(
