@@ -200,8 +200,9 @@ pub fn svo_sweep(base: &RenderSettings, quick: bool) -> Vec<RenderSettings> {
 }
 
 /// lrsm's sweep: voxels {32, 64, 128} x cones {1, 5} x RSM side {64, 128, 256} x layers {1 x 1, 2 x 2,
-/// 3 x 2} = 54 (the cone angle, clamp and step at `base`'s). Quick: 32^3, 5 cones, RSM {32, 64} x layers
-/// {1 x 1, 2 x 2} = 4.
+/// 3 x 2} = 54 (the cone angle, clamp and step at `base`'s); plus `base` at voxels 256 and 512 (its
+/// occlusion voxels are bits: the papers' 512^3 fits) = 56. Quick: 32^3, 5 cones, RSM {32, 64} x
+/// layers {1 x 1, 2 x 2} = 4.
 pub fn lrsm_sweep(base: &RenderSettings, quick: bool) -> Vec<RenderSettings> {
     type Axes<'a> = (&'a [u32], &'a [u32], &'a [u32], &'a [(u32, u32)]);
     let (voxels, cones, sides, layers): Axes = if quick {
@@ -229,6 +230,14 @@ pub fn lrsm_sweep(base: &RenderSettings, quick: bool) -> Vec<RenderSettings> {
                     });
                 }
             }
+        }
+    }
+    if !quick {
+        for v in [256, 512] {
+            out.push(RenderSettings {
+                voxels: v,
+                ..base.clone()
+            });
         }
     }
     out
@@ -785,7 +794,8 @@ mod tests {
             .all(|s| s.ao_range == 0.25 && s.validate().is_ok()));
         assert_eq!(svo.iter().filter(|s| s.anisotropic_voxels).count(), 24);
         let lrsm = sweep(&base, false, Pipeline::Lrsm);
-        assert_eq!(lrsm.len(), 54);
+        assert_eq!(lrsm.len(), 56);
+        assert_eq!(lrsm.iter().filter(|s| s.voxels > 128).count(), 2);
         assert!(lrsm
             .iter()
             .all(|s| s.ao_range == 0.25 && s.validate().is_ok()));

@@ -855,6 +855,11 @@ fn placed_inputs(
             "placed".to_string(),
             bytemuck::cast_slice(&at.placed).to_vec(),
         ),
+        (
+            "placed_cells".to_string(),
+            bytemuck::cast_slice(&vxgi_cpu_mirror::cache_creation::placed_cells(&at.placed))
+                .to_vec(),
+        ),
         ("cone".to_string(), bytemuck::bytes_of(&cone).to_vec()),
     ];
     if let Some(room) = room {

@@ -149,6 +149,136 @@ impl Placed {
     }
 }
 
+/// Header words of [`placed_cells`]' layout before the cells' bit masks.
+pub const CELLS_HEADER: usize = 12;
+
+/// The most words [`placed_cells`] spends on its masks (4 MiB): the cells per axis shrink as the
+/// hierarchies grow so that a cell's mask of one bit per hierarchy stays within it.
+pub const CELLS_WORDS: usize = 1 << 20;
+
+/// Cells per axis and mask words per cell of [`placed_cells`] for `hierarchies` hierarchies: about 4
+/// cbrt(hierarchies) cells per axis (6 for three hierarchies, a kilobyte), at most 32, fewer where the
+/// masks would pass [`CELLS_WORDS`] (18 at 5000). Fixed by the count alone, so a frame whose instances
+/// moved keeps its buffer's size.
+pub fn cells_shape(hierarchies: usize) -> (u32, u32) {
+    let words = hierarchies.div_ceil(32).max(1);
+    let mut dims = ((4.0 * (hierarchies.max(1) as f64).cbrt()).ceil() as u32).min(32);
+    while dims > 1 && (dims as usize).pow(3) * words > CELLS_WORDS {
+        dims -= 1;
+    }
+    (dims, words as u32)
+}
+
+/// Words of [`placed_cells`] for `hierarchies` hierarchies.
+pub fn cells_words(hierarchies: usize) -> usize {
+    let (dims, words) = cells_shape(hierarchies);
+    CELLS_HEADER + (dims as usize).pow(3) * words as usize
+}
+
+/// The world box outside which hierarchy `h` adds exactly zero to any sample: its grid's local box
+/// grown by half its top level's voxel (trilinear reaches half a voxel past a level's last centre; no
+/// coarser level exists, finer ones reach less) and one level-0 voxel more (the kernel's local point
+/// carries rounding far below a voxel), taken into the world (corners through the inverse of
+/// `to_local`, in f64) and grown by a relative margin for the kernel's rounding of world points.
+pub fn influence_box(h: &Placed) -> ([f64; 3], [f64; 3]) {
+    let [side, _, _, _] = h.side_levels_base;
+    let s0 = 1.0 / h.origin[3] as f64;
+    let extent = side as f64 * s0;
+    let reach = 0.5 * extent + s0;
+    let lo = [0, 1, 2].map(|k| h.origin[k] as f64 - reach);
+    let hi = [0, 1, 2].map(|k| h.origin[k] as f64 + extent + reach);
+    let r = glam::DMat3::from_cols_array_2d(
+        &[0, 1, 2].map(|c| [0, 1, 2].map(|row| h.to_local[row][c] as f64)),
+    );
+    let t = glam::DVec3::new(
+        h.to_local[0][3] as f64,
+        h.to_local[1][3] as f64,
+        h.to_local[2][3] as f64,
+    );
+    let inv = r.inverse();
+    let (mut wlo, mut whi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    for corner in 0..8 {
+        let local = glam::DVec3::new(
+            if corner & 1 == 0 { lo[0] } else { hi[0] },
+            if corner & 2 == 0 { lo[1] } else { hi[1] },
+            if corner & 4 == 0 { lo[2] } else { hi[2] },
+        );
+        let w = inv * (local - t);
+        for k in 0..3 {
+            wlo[k] = wlo[k].min(w[k]);
+            whi[k] = whi[k].max(w[k]);
+        }
+    }
+    let margin = 1e-4 * (0..3).fold(0.0f64, |m, k| m.max(wlo[k].abs()).max(whi[k].abs()));
+    (wlo.map(|v| v - margin), whi.map(|v| v + margin))
+}
+
+/// Which hierarchies may add to a sample in each cell of a world grid over their influence boxes
+/// (kernels/common/placed_pyramids.wgsl's `placed_cells`): words 0..4 = (cells per axis D, mask words
+/// per cell W, 0, 0); 4..8 = the grid's low corner (f32 bits, then 0); 8..12 = cells per world unit
+/// along each axis (f32 bits, then 0); then cell `x + D (y + D z)`'s W words, bit `k mod 32` of word
+/// `k / 32` set where hierarchy k's [`influence_box`] meets the cell (grown by a hundredth of a cell,
+/// for the kernel's rounding of the cell index). A sample reads only its cell's hierarchies, in
+/// ascending order; the others add exactly zero (radiance + 0, keep x 1), so the result is the loop
+/// over every hierarchy's, bit for bit. A point outside the grid is outside every influence box.
+pub fn placed_cells(placed: &[Placed]) -> Vec<u32> {
+    let (dims, words) = cells_shape(placed.len());
+    let boxes: Vec<_> = placed.iter().map(influence_box).collect();
+    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    for (blo, bhi) in &boxes {
+        for k in 0..3 {
+            lo[k] = lo[k].min(blo[k]);
+            hi[k] = hi[k].max(bhi[k]);
+        }
+    }
+    if placed.is_empty() {
+        (lo, hi) = ([0.0; 3], [1.0; 3]);
+    }
+    let d = dims as f64;
+    let size = [0, 1, 2].map(|k| (hi[k] - lo[k]).max(1e-6) / d);
+    let mut out = vec![0u32; cells_words(placed.len())];
+    out[0] = dims;
+    out[1] = words;
+    for k in 0..3 {
+        out[4 + k] = (lo[k] as f32).to_bits();
+        out[8 + k] = ((1.0 / size[k]) as f32).to_bits();
+    }
+    for (h, (blo, bhi)) in boxes.iter().enumerate() {
+        // The cells the box meets, each grown by a hundredth of a cell.
+        let range = |k: usize| {
+            let a = ((blo[k] - lo[k]) / size[k] - 0.01).floor().max(0.0) as u32;
+            let b = ((bhi[k] - lo[k]) / size[k] + 0.01).floor().min(d - 1.0) as u32;
+            a..=b
+        };
+        for z in range(2) {
+            for y in range(1) {
+                for x in range(0) {
+                    let cell = (x + dims * (y + dims * z)) as usize;
+                    out[CELLS_HEADER + cell * words as usize + h / 32] |= 1 << (h % 32);
+                }
+            }
+        }
+    }
+    out
+}
+
+/// The hierarchies `cells` ([`placed_cells`]) lists for world point `x`, as the kernel finds its cell.
+pub fn cell_hierarchies(cells: &[u32], x: Vec3) -> Vec<usize> {
+    let (dims, words) = (cells[0], cells[1] as usize);
+    let f = |w: usize| f32::from_bits(cells[w]);
+    let o = Vec3::new(f(4), f(5), f(6));
+    let inv = Vec3::new(f(8), f(9), f(10));
+    let q = ((x - o) * inv).floor();
+    if q.min_element() < 0.0 || q.max_element() >= dims as f32 {
+        return Vec::new();
+    }
+    let cell = (q.x as u32 + dims * (q.y as u32 + dims * q.z as u32)) as usize;
+    let mask = &cells[CELLS_HEADER + cell * words..][..words];
+    (0..words * 32)
+        .filter(|k| mask[k / 32] >> (k % 32) & 1 == 1)
+        .collect()
+}
+
 /// Several pyramids placed in the world by rigid transforms, as one [`Volume`] (the mirror of
 /// kernels/common/placed_pyramids.wgsl): a world point reads every hierarchy at its local point
 /// (quadrilinear at the march's level plus the hierarchy's shift, clamped to its levels) and the
@@ -251,5 +381,81 @@ mod tests {
             assert!((u as f64 - texel_centre(i, res)).abs() < 1e-5);
             assert!((v as f64 - texel_centre(j, res)).abs() < 1e-5);
         }
+    }
+
+    /// Every hierarchy that adds anything at a point is among its cell's (`placed_cells`): placements
+    /// rotated, scaled and spread apart, pyramids solid at every level, points all over and just
+    /// outside the influence boxes, at every level.
+    #[test]
+    fn the_cells_list_every_hierarchy_that_adds_to_a_sample() {
+        let mut state = 0x853c_49e6_748f_ea9bu64;
+        let mut rand = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut placed = Vec::new();
+        let mut voxels = Vec::new();
+        for k in 0..70u32 {
+            let side = 8u32 << (k % 3);
+            let base = voxels.len() as u32;
+            let levels = side.trailing_zeros() + 1;
+            voxels.extend(std::iter::repeat_n([1.0f32; 4], level_offset(side, levels)));
+            let rot = glam::Quat::from_euler(
+                glam::EulerRot::YXZ,
+                rand() as f32 * 6.3,
+                rand() as f32 * 6.3,
+                0.0,
+            );
+            let world = glam::Mat4::from_scale_rotation_translation(
+                glam::Vec3::splat(0.05 + rand() as f32 * 0.2),
+                rot,
+                glam::Vec3::new(
+                    rand() as f32 * 4.0 - 2.0,
+                    rand() as f32,
+                    rand() as f32 * 4.0 - 2.0,
+                ),
+            );
+            let s0 = 1.0 / side as f32;
+            placed.push(Placed::new([0.0; 3], s0, side, base, world, 0.01));
+        }
+        let cells = placed_cells(&placed);
+        assert_eq!(cells.len(), cells_words(placed.len()));
+        let p = ConeParams {
+            origin: [-3.0, -1.0, -3.0, 0.01],
+            inv_s0: 100.0,
+            side: 512,
+            levels: 10,
+            ..ConeParams::default()
+        };
+        let vol = PlacedPyramids {
+            p: &p,
+            placed: &placed,
+            voxels: &voxels,
+        };
+        let mut listed = 0;
+        for _ in 0..20000 {
+            let x = Vec3::new(
+                rand() as f32 * 6.0 - 3.0,
+                rand() as f32 * 2.0 - 0.5,
+                rand() as f32 * 6.0 - 3.0,
+            );
+            let near = cell_hierarchies(&cells, x);
+            listed += near.len();
+            for lf in [0.0f32, 1.5, 3.0, 9.0] {
+                for (k, h) in placed.iter().enumerate() {
+                    let (s, _) = vol.one(h, x, lf);
+                    if s != glam::Vec4::ZERO {
+                        assert!(
+                            near.contains(&k),
+                            "hierarchy {k} adds {s} at {x} (lf {lf}), not listed"
+                        );
+                    }
+                }
+            }
+        }
+        // The lists are short: a point's cell holds a few of the 70.
+        assert!(listed < 20000 * 10, "{listed}");
     }
 }

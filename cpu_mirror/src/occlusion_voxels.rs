@@ -213,7 +213,12 @@ mod tests {
                 state ^= state << 13;
                 state ^= state >> 7;
                 state ^= state << 17;
-                [0.0, 0.0, 0.0, if state.is_multiple_of(3) { 1.0 } else { 0.0 }]
+                [
+                    0.0,
+                    0.0,
+                    0.0,
+                    if state.is_multiple_of(3) { 1.0 } else { 0.0 },
+                ]
             })
             .collect();
         let mut bytes = vec![0u32; voxels / 4];

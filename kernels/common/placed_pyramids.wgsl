@@ -13,6 +13,12 @@
 // where two overlap their light adds, as two surfaces in one voxel would). The march's stepping (start
 // diameter, steps, the alpha's step correction, the far end) follows `cone`: set it to a grid covering
 // all hierarchies.
+// placed_cells (host: cpu_mirror cache_creation::placed_cells): a world grid of D^3 cells over the
+// hierarchies' influence boxes, each cell a mask of the hierarchies that can add to a sample in it
+// (words 0..4: D, mask words per cell W; 4..7: the grid's low corner; 8..11: cells per world unit per
+// axis, f32 bits; then cell x + D (y + D z)'s W words). A sample reads its cell's hierarchies in
+// ascending order; the others add exactly zero, so the result is the loop over all of them bit for
+// bit, at the cost of the ones near the sample.
 
 struct Placed {
     to_local: array<vec4<f32>, 3>,
@@ -22,6 +28,7 @@ struct Placed {
 }
 
 @group(0) @binding(16) var<storage, read> placed: array<Placed>;
+@group(0) @binding(17) var<storage, read> placed_cells: array<u32>;
 
 fn placed_level(h: Placed, x: vec3<f32>, l: u32) -> vec4<f32> {
     return sample_grid(x, l, h.origin.xyz, h.origin.w, h.side_levels_base.x, h.side_levels_base.z);
@@ -47,10 +54,24 @@ fn placed_sample(h: Placed, xw: vec3<f32>, lf_in: f32) -> vec4<f32> {
 fn placed_combined(x: vec3<f32>, lf: f32) -> vec4<f32> {
     var c = vec3<f32>(0.0);
     var keep = 1.0;
-    for (var k = 0u; k < arrayLength(&placed); k++) {
-        let s = placed_sample(placed[k], x, lf);
-        c += s.xyz;
-        keep *= 1.0 - clamp(s.w, 0.0, 1.0);
+    let dims = placed_cells[0];
+    let words = placed_cells[1];
+    let low = vec3<f32>(bitcast<f32>(placed_cells[4]), bitcast<f32>(placed_cells[5]), bitcast<f32>(placed_cells[6]));
+    let per = vec3<f32>(bitcast<f32>(placed_cells[8]), bitcast<f32>(placed_cells[9]), bitcast<f32>(placed_cells[10]));
+    let q = floor((x - low) * per);
+    if (all(q >= vec3<f32>(0.0)) && all(q < vec3<f32>(f32(dims)))) {
+        let cell = u32(q.x) + dims * (u32(q.y) + dims * u32(q.z));
+        let first = 12u + cell * words;
+        for (var w = 0u; w < words; w++) {
+            var mask = placed_cells[first + w];
+            while (mask != 0u) {
+                let k = 32u * w + firstTrailingBit(mask);
+                mask &= mask - 1u;
+                let s = placed_sample(placed[k], x, lf);
+                c += s.xyz;
+                keep *= 1.0 - clamp(s.w, 0.0, 1.0);
+            }
+        }
     }
     return vec4<f32>(c, 1.0 - keep);
 }

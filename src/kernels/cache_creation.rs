@@ -45,7 +45,7 @@ pub static INSTANCED_DECL: KernelDecl = KernelDecl {
         super::PLACED_PYRAMIDS,
     ],
     entry: "create",
-    inputs: &["cone", "pyramid", "placed", "cache_params", "caches", "texel_dirs"],
+    inputs: &["cone", "pyramid", "placed", "placed_cells", "cache_params", "caches", "texel_dirs"],
     outputs: &[
         // cone_trace's march bound, each sample's error the sum of its hierarchies' (their local
         // points' rounding included) plus a rounding per combined factor.
@@ -160,6 +160,12 @@ fn case_with(
                 bytes: bytemuck::cast_slice(placed).to_vec(),
                 scalar: ScalarKind::Mixed,
             }),
+        );
+        resources.insert(
+            "placed_cells".into(),
+            HostResource::Buffer(HostBuffer::u32(
+                &vxgi_cpu_mirror::cache_creation::placed_cells(placed),
+            )),
         );
     }
     resources.insert(

@@ -62,7 +62,7 @@ pub static INSTANCED_DECL: KernelDecl = KernelDecl {
     entry: "main",
     inputs: &[
         "frame", "triangles", "materials", "gb_position", "gb_normal", "gb_triangle", "gb_albedo", "cone", "cone_dirs", "tile_list",
-        "pyramid", "placed",
+        "pyramid", "placed", "placed_cells",
     ],
     outputs: &[
         // As cone_trace's, each sample's error the sum of its hierarchies' (their local points'
@@ -310,6 +310,12 @@ pub fn instanced_case_for(
                 bytes: bytemuck::cast_slice(placed).to_vec(),
                 scalar: ScalarKind::Mixed,
             }),
+        ),
+        (
+            "placed_cells".to_string(),
+            HostResource::Buffer(HostBuffer::u32(
+                &vxgi_cpu_mirror::cache_creation::placed_cells(placed),
+            )),
         ),
     ]);
     tracer_case(&INSTANCED_DECL, data, gbuffer, params, volume, label, seed)
