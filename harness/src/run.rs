@@ -335,7 +335,8 @@ impl Checker<'_> {
         }
     }
 
-    fn check(&self, resources: &Resources, passes: &[Pass]) -> Result<()> {
+    /// Every resource against the device's size limits (once per chain: its stages share them).
+    fn check_resources(&self, resources: &Resources) -> Result<()> {
         let limits = self.ctx.limits();
         for (name, res) in resources {
             let size = match res {
@@ -379,6 +380,12 @@ impl Checker<'_> {
                 }
             }
         }
+        Ok(())
+    }
+
+    /// Every pass's entry point and bindings against the shader's reflection and `resources`.
+    fn check_passes(&self, resources: &Resources, passes: &[Pass]) -> Result<()> {
+        let limits = self.ctx.limits();
         for pass in passes {
             let entry = self.shader.require_entry(self.kernel, &pass.entry)?;
             for (name, _) in &pass.bindings {
@@ -616,13 +623,16 @@ pub fn prepare_chain<'a>(
     stages: &[Stage],
     resources: &Resources,
 ) -> Result<Prepared<'a>> {
-    for st in stages {
-        Checker {
+    for (k, st) in stages.iter().enumerate() {
+        let checker = Checker {
             ctx,
             shader: st.shader,
             kernel: st.kernel,
+        };
+        if k == 0 {
+            checker.check_resources(resources)?;
         }
-        .check(resources, st.passes)?;
+        checker.check_passes(resources, st.passes)?;
     }
     let kernel = stages
         .iter()
