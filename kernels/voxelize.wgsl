@@ -90,6 +90,13 @@ fn morton3(p: vec3<u32>) -> u32 {
     return spread3(p.x) | (spread3(p.y) << 1u) | (spread3(p.z) << 2u);
 }
 
+// The Morton index of the voxel sample (i, j) of t lands in (clamped to the grid).
+fn sample_voxel(t: VoxTriangle, i: i32, j: i32, side: i32) -> u32 {
+    let n = t.a.w;
+    let p = t.a.xyz + ((t.b.xyz - t.a.xyz) * i + (t.c.xyz - t.a.xyz) * j) / vec3<i32>(n);
+    return morton3(vec3<u32>(clamp(p / vec3<i32>(256), vec3<i32>(0), vec3<i32>(side - 1))));
+}
+
 @compute @workgroup_size(64)
 fn splat(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (gid.x >= params.triangles) {
@@ -103,10 +110,8 @@ fn splat(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let side = i32(params.side);
     for (var j = 0; j <= n - i; j++) {
-        let p = t.a.xyz + ((t.b.xyz - t.a.xyz) * i + (t.c.xyz - t.a.xyz) * j) / vec3<i32>(n);
         let nrm = (t.na.xyz * (n - i - j) + t.nb.xyz * i + t.nc.xyz * j) / vec3<i32>(n);
-        let v = vec3<u32>(clamp(p / vec3<i32>(256), vec3<i32>(0), vec3<i32>(side - 1)));
-        let base = morton3(v) * 8u;
+        let base = sample_voxel(t, i, j, side) * 8u;
         let albedo = sample_albedo(t, i, j);
         atomicAdd(&acc[base], albedo.x);
         atomicAdd(&acc[base + 1u], albedo.y);
@@ -131,9 +136,7 @@ fn occupancy_bits(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let side = i32(params.side);
     for (var j = 0; j <= n - i; j++) {
-        let p = t.a.xyz + ((t.b.xyz - t.a.xyz) * i + (t.c.xyz - t.a.xyz) * j) / vec3<i32>(n);
-        let v = vec3<u32>(clamp(p / vec3<i32>(256), vec3<i32>(0), vec3<i32>(side - 1)));
-        let m = morton3(v);
+        let m = sample_voxel(t, i, j, side);
         atomicOr(&occupancy[m >> 5u], 1u << (m & 31u));
     }
 }

@@ -229,16 +229,7 @@ pub fn case_for(
             limit,
         });
     }
-    let mut resources = Resources::new();
-    resources.insert(
-        "params".into(),
-        HostResource::Buffer(HostBuffer::pod(&VoxParams {
-            side,
-            triangles: tris.len() as u32,
-            _pad: [0; 2],
-        })),
-    );
-    resources.insert("vox_triangles".into(), triangle_buffer(tris));
+    let mut resources = sampling_inputs(tris, side);
     let v = voxels as usize;
     let zeroed = |bytes: usize, s| HostResource::Buffer(HostBuffer::zeroed(bytes, s));
     resources.insert("acc".into(), zeroed(v * 32, ScalarKind::U32));
@@ -339,18 +330,31 @@ fn occupancy_pass(tris: &[VoxTriangle], max_rows: u32) -> Pass {
     }
 }
 
-/// The triangles as the kernel binds them (one zero triangle when there are none: a binding is never
-/// empty).
-fn triangle_buffer(tris: &[VoxTriangle]) -> HostResource {
+/// What every entry's sampling binds: the parameters and the triangles (one zero triangle when there
+/// are none: a binding is never empty).
+fn sampling_inputs(tris: &[VoxTriangle], side: u32) -> Resources {
     let bytes = if tris.is_empty() {
         bytemuck::bytes_of(&VoxTriangle::default()).to_vec()
     } else {
         bytemuck::cast_slice(tris).to_vec()
     };
-    HostResource::Buffer(HostBuffer {
-        bytes,
-        scalar: ScalarKind::Mixed,
-    })
+    Resources::from([
+        (
+            "params".to_string(),
+            HostResource::Buffer(HostBuffer::pod(&VoxParams {
+                side,
+                triangles: tris.len() as u32,
+                _pad: [0; 2],
+            })),
+        ),
+        (
+            "vox_triangles".to_string(),
+            HostResource::Buffer(HostBuffer {
+                bytes,
+                scalar: ScalarKind::Mixed,
+            }),
+        ),
+    ])
 }
 
 /// Resources and the one pass that write `input`'s occupancy bits (entry `occupancy_bits`) for a grid
@@ -370,16 +374,7 @@ pub fn occupancy_case(
     if bytes > limit {
         return Err(VoxelizeError::OccupancyTooLarge { side, bytes, limit });
     }
-    let mut resources = Resources::new();
-    resources.insert(
-        "params".into(),
-        HostResource::Buffer(HostBuffer::pod(&VoxParams {
-            side,
-            triangles: tris.len() as u32,
-            _pad: [0; 2],
-        })),
-    );
-    resources.insert("vox_triangles".into(), triangle_buffer(tris));
+    let mut resources = sampling_inputs(tris, side);
     resources.insert(
         "occupancy".into(),
         HostResource::Buffer(HostBuffer::zeroed(bytes as usize, ScalarKind::U32)),
