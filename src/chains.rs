@@ -834,8 +834,33 @@ pub(crate) fn placement(scene: &Scene, frames: &[voxelize::VoxelFrame]) -> Resul
     })
 }
 
-/// The voxel hierarchies of a scene with `[[instances]]` as stages of a new chain: each hierarchy
-/// voxelized in its own frame (the instance's mesh alone), lit where it stands (voxel_light with its
+/// For each voxel hierarchy of `parts` (`hierarchy_parts`' order), the first hierarchy with the same
+/// mesh and grid side: instances of one mesh share one voxelization, since in their own frame it
+/// does not depend on where they stand (only their lighting and mips are per hierarchy).
+pub(crate) fn voxelized_by(parts: &[(crate::scene::Mesh, u32, glam::Mat4)]) -> Vec<usize> {
+    let mut distinct: Vec<usize> = Vec::new();
+    parts
+        .iter()
+        .enumerate()
+        .map(|(k, (mesh, side, _))| {
+            let same = |&&d: &&usize| {
+                let (m, s, _) = &parts[d];
+                s == side && m.triangles.len() == mesh.triangles.len() && m == mesh
+            };
+            match distinct.iter().find(same) {
+                Some(&d) => d,
+                None => {
+                    distinct.push(k);
+                    k
+                }
+            }
+        })
+        .collect()
+}
+
+/// The voxel hierarchies of a scene with `[[instances]]` as stages of a new chain: each distinct
+/// mesh voxelized once in its own frame (the instance's mesh alone, [`voxelized_by`]; its outputs
+/// named after the first hierarchy of that mesh), each hierarchy lit where it stands (voxel_light with its
 /// placed grid record: shadows from the whole scene), its surface-coverage mips built, and its levels
 /// copied into the concatenated `pyramid` (what the instanced cone passes read with `placed`). Every
 /// per-hierarchy resource is named `name#k`; the voxelize stages come first, then the voxel_light
@@ -863,19 +888,23 @@ pub(crate) fn instanced_volume(
         (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let mut base = 0usize;
     let mut levels_at = Vec::new();
+    let first = voxelized_by(&parts);
     for (k, (mesh, side, _)) in parts.iter().enumerate() {
-        let local = Scene {
-            mesh: mesh.clone(),
-            instances: Default::default(),
-            ..scene.clone()
+        let d = first[k];
+        let frame = if d < k {
+            frames[d]
+        } else {
+            let local = scene.with_mesh_alone(mesh.clone());
+            let (input, frame) = voxelize::prepare(&local, *side)?;
+            let mut v = voxelize::case_for(ctx, &input, *side, "render".into(), 0)?;
+            v.rename_resource("params", "vox_params", false);
+            let own: Vec<String> = v.resources.keys().cloned().collect();
+            for name in own {
+                v.rename_resource(&name, &hierarchy_name(&name, k), false);
+            }
+            vox.push(v);
+            frame
         };
-        let (input, frame) = voxelize::prepare(&local, *side)?;
-        let mut v = voxelize::case_for(ctx, &input, *side, "render".into(), 0)?;
-        v.rename_resource("params", "vox_params", false);
-        let own: Vec<String> = v.resources.keys().cloned().collect();
-        for name in own {
-            v.rename_resource(&name, &hierarchy_name(&name, k), false);
-        }
         let cells = (*side as u64).pow(3);
         let mut l = Case {
             label: "render".into(),
@@ -902,15 +931,11 @@ pub(crate) fn instanced_volume(
             checks: Vec::new(),
             effective_bytes: 0,
         };
-        for name in [
-            "grid",
-            "vox_radiance",
-            "vox_colour",
-            "vox_normal",
-            "list",
-            "list_count",
-        ] {
+        for name in ["grid", "vox_radiance"] {
             l.rename_resource(name, &hierarchy_name(name, k), false);
+        }
+        for name in ["vox_colour", "vox_normal", "list", "list_count"] {
+            l.rename_resource(name, &hierarchy_name(name, d), false);
         }
         let shell = crate::grids::Grid {
             n: *side,
@@ -929,7 +954,7 @@ pub(crate) fn instanced_volume(
         );
         m.rename_resource("params", "mip_params", false);
         m.rename_resource(&colour_name(0), &hierarchy_name("vox_radiance", k), true);
-        m.rename_resource(&scm::normal_name(0), &hierarchy_name("vox_normal", k), true);
+        m.rename_resource(&scm::normal_name(0), &hierarchy_name("vox_normal", d), true);
         let own: Vec<String> = m.resources.keys().cloned().collect();
         for name in own {
             m.rename_resource(&name, &hierarchy_name(&name, k), false);
@@ -937,7 +962,6 @@ pub(crate) fn instanced_volume(
         levels_at.push((k, *side, base));
         base += pyramid_len(*side);
         frames.push(frame);
-        vox.push(v);
         light.push(l);
         mips.push(m);
     }
@@ -949,21 +973,18 @@ pub(crate) fn instanced_volume(
         "pyramid".into(),
         HostResource::Buffer(HostBuffer::zeroed(base.max(1) * 16, ScalarKind::F32)),
     );
-    for v in vox {
-        chain.merge(voxelize::DECL.name, v.resources)?;
-        chain.push(voxelize::DECL.shader()?, voxelize::DECL.name, v.passes);
-    }
-    for l in light {
-        chain.merge(voxel_light::DECL.name, l.resources)?;
-        chain.push(
-            voxel_light::DECL.shader()?,
-            voxel_light::DECL.name,
-            l.passes,
-        );
-    }
-    for m in mips {
-        chain.merge(scm::DECL.name, m.resources)?;
-        chain.push(scm::DECL.shader()?, scm::DECL.name, m.passes);
+    // One stage per kernel, its passes every hierarchy's in order (one shader each).
+    for (decl, cases) in [
+        (&voxelize::DECL, vox),
+        (&voxel_light::DECL, light),
+        (&scm::DECL, mips),
+    ] {
+        let mut passes = Vec::new();
+        for c in cases {
+            chain.merge(decl.name, c.resources)?;
+            passes.extend(c.passes);
+        }
+        chain.push(decl.shader()?, decl.name, passes);
     }
     let after_mips = chain.pass_count();
     for (k, side, base) in levels_at {

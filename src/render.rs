@@ -1104,11 +1104,7 @@ impl StaticVoxels {
                 .all(|p| p.cmpge(f.origin - slack).all() && p.cmple(hi + slack).all())
         };
         self.reused = matches!(self.kept.as_deref(), Some((m, f, ..)) if *m == fixed && f.side == side && fits(f));
-        let only = |mesh: crate::scene::Mesh| Scene {
-            mesh,
-            instances: Default::default(),
-            ..scene.clone()
-        };
+        let only = |mesh: crate::scene::Mesh| scene.with_mesh_alone(mesh);
         if !self.reused {
             progress("voxelize (static part, kept)");
             let frame = voxelize::frame_of(&scene.mesh, side);
@@ -1604,11 +1600,7 @@ impl InstanceVoxels {
             {
                 Some(k) => k,
                 None => {
-                    let local = Scene {
-                        mesh: mesh.clone(),
-                        instances: Default::default(),
-                        ..scene.clone()
-                    };
+                    let local = scene.with_mesh_alone(mesh.clone());
                     let (grid, list, frame) = voxelize::voxelize_on_gpu(ctx, &local, side)?;
                     self.voxelized.push((mesh, side, grid, list, frame));
                     self.voxelized_now += 1;

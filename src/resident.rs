@@ -599,10 +599,17 @@ impl<'c> Resident<'c> {
             Pipeline::VctDense => FramePlan::vct_dense_after(scene, cones, cached),
         };
         match &b.hierarchies {
-            // Each hierarchy voxelized by the chain's first frame, re-lit where it stands in every
-            // frame that ran the volume.
+            // Each distinct mesh voxelized by the chain's first frame, every hierarchy re-lit where
+            // it stands in every frame that ran the volume.
             Some(h) if !cached => {
-                plan = plan.with_hierarchies(h.len(), if reuse { 0 } else { h.len() });
+                let voxelized = if reuse {
+                    0
+                } else {
+                    let first =
+                        crate::chains::voxelized_by(&crate::render::hierarchy_parts(scene).1);
+                    first.iter().enumerate().filter(|&(k, &d)| k == d).count()
+                };
+                plan = plan.with_hierarchies(h.len(), voxelized);
             }
             // lrsm's moved instances: the whole volume again, in the kept chain.
             _ if reuse && timed.start == 0 => {

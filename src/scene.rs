@@ -812,6 +812,22 @@ impl Scene {
         Self::embedded("thin_wall", THIN_WALL_TOML, THIN_WALL_OBJ, THIN_WALL_MTL)
     }
 
+    /// `mesh` alone in this scene's settings, materials, camera and lights, without instances:
+    /// what one voxel hierarchy is voxelized from. Copies neither this scene's mesh nor its
+    /// instance list, so building one per instance stays linear in the instances.
+    pub fn with_mesh_alone(&self, mesh: Mesh) -> Self {
+        Self {
+            mesh,
+            materials: self.materials.clone(),
+            camera: self.camera.clone(),
+            lights: self.lights.clone(),
+            render: self.render.clone(),
+            warnings: Vec::new(),
+            instances: Instances::default(),
+            explicit_render: self.explicit_render.clone(),
+        }
+    }
+
     /// This scene with every light's intensity times `f`.
     pub fn with_lights_scaled(&self, f: f32) -> Self {
         let mut s = self.clone();
@@ -1019,11 +1035,21 @@ impl Scene {
             };
             let name = src.label.clone();
             let (mut local, mats) = obj_mesh(src, &mut warnings)?;
-            let offset = materials.len() as u32;
+            // A material equal to one already loaded (the same OBJ instanced again) is that one:
+            // instances of one OBJ then have equal meshes, which share one voxelization.
+            let index: Vec<u32> = mats
+                .into_iter()
+                .map(|mat| match materials.iter().position(|m| *m == mat) {
+                    Some(k) => k as u32,
+                    None => {
+                        materials.push(mat);
+                        materials.len() as u32 - 1
+                    }
+                })
+                .collect();
             for m in &mut local.material {
-                *m += offset;
+                *m = index[*m as usize];
             }
-            materials.extend(mats);
             let transform = Transform::from_desc(&desc.transform).map_err(err)?;
             if !desc.keyframes.is_empty() && !desc.dynamic {
                 return Err(err("keyframes need dynamic = true".into()));

@@ -300,7 +300,7 @@ fn map_kd_textures_are_loaded_and_sampled_by_the_gbuffer() {
 }
 
 /// `[[instances]]`: the shipped instance scene loads (room as `[mesh]`, a static and a dynamic box);
-/// the instances equal the Cornell box's boxes in kind (12 triangles each, their own materials); a
+/// the instances equal the Cornell box's boxes in kind (12 triangles each, one OBJ's materials); a
 /// dynamic instance follows its keyframes (held before the first and after the last, linear between);
 /// a static one never moves; frame k's mesh is `[mesh]` + every instance placed at k.
 #[test]
@@ -311,8 +311,11 @@ fn instances_load_and_follow_their_keyframes() {
     assert_eq!(s.mesh.triangles.len(), 10 + 12 + 12);
     let (a, b) = (&s.instances.list[0], &s.instances.list[1]);
     assert!(!a.dynamic && b.dynamic && b.keyframes.len() == 2);
-    // Materials: the room's (white, red, green, grey) then each box OBJ's (yellow, grey).
-    assert_eq!(s.materials.len(), 8);
+    // Materials: the room's (white, red, green, grey) then the box OBJ's yellow; its grey is the
+    // room's, and the second box's are the first's (an equal material is loaded once), so the two
+    // instances of one OBJ have equal meshes (one voxelization serves both).
+    assert_eq!(s.materials.len(), 5);
+    assert_eq!(s.instances.list[0].local, s.instances.list[1].local);
     assert_eq!(s.materials[s.mesh.material[10] as usize].name, "yellow");
     let centre = |frame: u32| {
         let m = b.placed(frame);
