@@ -130,6 +130,25 @@ pub fn march_steps(side: u32, tan: f32, step: f32) -> u64 {
     (reach.ln() / (2.0 * step * tan).ln_1p()).ceil() as u64 + 1
 }
 
+/// The loop iterations of one march step of the instanced kernels (cone_trace_instanced,
+/// cache_creation_instanced) for `scene` as it stands: its placed hierarchies' cells
+/// (`cache_creation::placed_cells`, what the frame uploads) read by the step's sample, in the cell
+/// that lists the most (`cache_creation::sample_iterations`); 1 where a step reads one volume (no
+/// instances, or a pipeline that flattens them). Moving the instances changes it.
+pub fn placed_iterations(scene: &Scene, pipeline: Pipeline) -> u64 {
+    if scene.instances.list.is_empty() || !matches!(pipeline, Pipeline::VctDense | Pipeline::Cprc) {
+        return 1;
+    }
+    let (_, parts) = crate::render::hierarchy_parts(scene);
+    let frames: Vec<_> = parts
+        .iter()
+        .map(|(mesh, side, _)| crate::kernels::voxelize::frame_of(mesh, *side))
+        .collect();
+    let at = crate::chains::placement(scene, &frames).expect("one grid frame per hierarchy");
+    let cells = vxgi_cpu_mirror::cache_creation::placed_cells(&at.placed);
+    (vxgi_cpu_mirror::cache_creation::sample_iterations(&cells) as u64).max(1)
+}
+
 /// The worst case of loop iterations in one invocation of the kernels whose loops the settings
 /// size, for `pipeline` on `scene` (its settings as resolved): per pixel, every diffuse cone's march,
 /// the glossy cone's where a material has Ks (its narrowest aperture, tan 0.02), and the interleaved
@@ -137,16 +156,18 @@ pub fn march_steps(side: u32, tan: f32, step: f32) -> u64 {
 /// layers within each step, `lrsm_depth_splits x lrsm_normal_splits` of them); cprc the largest of a
 /// cache texel's march, a pre-convolved texel's sum over the cache (res^2 texels) and the gather's
 /// caches (the tiles within its radius, at most 3 x slices caches and no more than pixels each).
-/// Not counted: data-dependent loops (the BVH's traversal) and the instanced kernels' loop over
-/// hierarchies within each step (a factor of the hierarchy count).
+/// With `[[instances]]` (vct-dense and cprc, which march through one hierarchy per instance) every
+/// step of a march reads its cell's hierarchies ([`placed_iterations`]), a factor on the marches.
+/// Not counted: data-dependent loops (the BVH's traversal).
 pub fn loop_iterations(scene: &Scene, pipeline: Pipeline) -> u64 {
+    let placed = placed_iterations(scene, pipeline);
     let r = &scene.render;
     let side = r.voxels;
     match pipeline {
         Pipeline::Cprc => {
             let s = crate::cprc::CprcSettings::from(r);
             let tan = vxgi_cpu_mirror::cache_creation::cone_tan(s.res);
-            let creation = march_steps(side, tan, r.cone_step);
+            let creation = march_steps(side, tan, r.cone_step) * placed;
             let preconvolve = (s.res * s.res) as u64;
             let reach = s.radius_px.div_ceil(s.tile) as u64;
             let per_tile = (3 * s.slices as u64).min((s.tile * s.tile) as u64);
@@ -165,7 +186,8 @@ pub fn loop_iterations(scene: &Scene, pipeline: Pipeline) -> u64 {
             } else {
                 0
             };
-            let marches = (r.cones as u64 * march_steps(side, tan, r.cone_step) + glossy) * layers;
+            let marches =
+                (r.cones as u64 * march_steps(side, tan, r.cone_step) + glossy) * layers * placed;
             let n = r.cone_interleave as u64;
             marches + (2 * n - 1).pow(2)
         }
@@ -203,6 +225,38 @@ mod tests {
                 "{side} {deg} {step}: {n}"
             );
         }
+    }
+
+    #[test]
+    fn instanced_marches_count_the_hierarchies_each_step_reads() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+        let scene = Scene::load(root.join("instances.toml")).unwrap();
+        let flat = Scene {
+            instances: Default::default(),
+            ..scene.clone()
+        };
+        for p in [Pipeline::VctDense, Pipeline::Cprc] {
+            // The room and three boxes in cells of one mask word: a step reads that word and at
+            // most the four hierarchies.
+            let per_step = placed_iterations(&scene, p);
+            assert!((2..=5).contains(&per_step), "{p:?}: {per_step}");
+            let marches = match p {
+                Pipeline::Cprc => {
+                    let s = crate::cprc::CprcSettings::from(&scene.render);
+                    let tan = vxgi_cpu_mirror::cache_creation::cone_tan(s.res);
+                    march_steps(scene.render.voxels, tan, scene.render.cone_step)
+                }
+                _ => {
+                    loop_iterations(&flat, p) - (2 * scene.render.cone_interleave as u64 - 1).pow(2)
+                }
+            };
+            let want = marches * per_step;
+            let got = loop_iterations(&scene, p);
+            assert!(got >= want, "{p:?}: {got} < {want}");
+        }
+        // vct-svo and lrsm march one volume whatever the instances.
+        assert_eq!(placed_iterations(&scene, Pipeline::Lrsm), 1);
+        assert_eq!(placed_iterations(&flat, Pipeline::VctDense), 1);
     }
 
     #[test]

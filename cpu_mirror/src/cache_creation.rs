@@ -175,6 +175,18 @@ pub fn cells_words(hierarchies: usize) -> usize {
     CELLS_HEADER + (dims as usize).pow(3) * words as usize
 }
 
+/// The most loop iterations one sample of [`placed_cells`]' layout `cells` takes in
+/// kernels/common/placed_pyramids.wgsl: its cell's mask words (one iteration each) and the
+/// hierarchies the cell lists (one each), in the cell that lists the most; 0 past the grid.
+pub fn sample_iterations(cells: &[u32]) -> u32 {
+    let words = cells[1] as usize;
+    cells[CELLS_HEADER..]
+        .chunks(words.max(1))
+        .map(|mask| mask.iter().map(|w| w.count_ones()).sum::<u32>())
+        .max()
+        .map_or(0, |most| words as u32 + most)
+}
+
 /// The world box outside which hierarchy `h` adds exactly zero to any sample: its grid's local box
 /// grown by half its top level's voxel (trilinear reaches half a voxel past a level's last centre; no
 /// coarser level exists, finer ones reach less) and one level-0 voxel more (the kernel's local point
@@ -353,6 +365,18 @@ impl Volume for PlacedPyramids<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_sample_iterates_its_cells_words_and_listed_hierarchies() {
+        // Two cells of two words: the second lists hierarchies 0, 33 and 40.
+        let mut cells = vec![0u32; CELLS_HEADER + 4];
+        cells[0] = 1;
+        cells[1] = 2;
+        cells[CELLS_HEADER] = 1 << 3;
+        cells[CELLS_HEADER + 2] = 1;
+        cells[CELLS_HEADER + 3] = (1 << 1) | (1 << 8);
+        assert_eq!(sample_iterations(&cells), 2 + 3);
+    }
 
     #[test]
     fn texel_directions_cover_the_hemisphere() {
