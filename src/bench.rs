@@ -57,6 +57,9 @@ pub struct BenchRow {
     pub combined_flip: f32,
     /// No other configuration is both faster and more accurate (combined FLIP).
     pub pareto: bool,
+    /// Temporal instability over the bench's orbit ([`crate::temporal::Orbit`]; `None`: not
+    /// measured).
+    pub orbit_instability: Option<f64>,
 }
 
 /// The configurations of a sweep around `base` (its other keys, e.g. AO, kept). Full: voxels
@@ -406,7 +409,8 @@ pub fn against(spp: u32, reference: Option<&Path>) -> String {
 
 /// `reference`: a directory holding the scene camera's `combined.exr` and `indirect.exr` (e.g. a
 /// converged one, references/cornell_box_256_4096spp) to compare against instead of a reference
-/// rendered at `spp` (the planner row renders its own view's at `spp` either way).
+/// rendered at `spp` (the planner row renders its own view's at `spp` either way). With `temporal`,
+/// each configuration's temporal instability over that orbit too.
 #[allow(clippy::too_many_arguments)]
 pub fn bench(
     ctx: &crate::harness::GpuContext,
@@ -414,7 +418,7 @@ pub fn bench(
     scene: &Scene,
     spp: u32,
     reference: Option<&Path>,
-    quick: bool,
+    (quick, temporal): (bool, Option<crate::temporal::Orbit>),
     out: &Path,
     mut progress: impl FnMut(usize, usize, &str),
 ) -> Result<(Vec<BenchRow>, PlannerRow)> {
@@ -426,6 +430,7 @@ pub fn bench(
         progress(0, total, &format!("reference ({spp} spp)"));
     }
     let (ref_indirect, ref_combined) = crate::reference::images_for(scene, spp, reference)?;
+    let mut ideal_frames = temporal.map(|t| t.ideal_frames());
     let mut rows = Vec::new();
     let frame = |settings: &RenderSettings| {
         let s = Scene {
@@ -471,6 +476,23 @@ pub fn bench(
             r = Some(f);
         }
         let r = r.expect("at least one frame");
+        // The ideal cones gather one bounce: no instability against them for two.
+        let orbit_instability = match &mut ideal_frames {
+            Some(ideal) if settings.bounces == 1 => {
+                let s = Scene {
+                    render: settings.clone(),
+                    ..scene.clone()
+                };
+                let motion = ideal.motion;
+                let (reference, _) = ideal.of(&s);
+                Some(
+                    crate::temporal::measure(ctx, pipeline, &s, motion, reference)?
+                        .0
+                        .instability,
+                )
+            }
+            _ => None,
+        };
         let p = Path::new("bench");
         let ind = compare(&ref_indirect, p, &r.indirect, p)?;
         let comb = compare(&ref_combined, p, &r.combined, p)?;
@@ -506,6 +528,7 @@ pub fn bench(
             combined_rel_mse: comb.rel_mse,
             combined_flip: comb.flip_mean,
             pareto: false,
+            orbit_instability,
         });
     }
     let points: Vec<(f64, f64)> = rows
@@ -557,6 +580,7 @@ fn write_csv(path: &Path, pipeline: Pipeline, rows: &[BenchRow]) -> Result<()> {
         "combined_rel_mse",
         "combined_flip",
         "pareto",
+        "orbit_instability",
     ]
     .iter()
     .map(|s| s.to_string())
@@ -591,6 +615,9 @@ fn write_csv(path: &Path, pipeline: Pipeline, rows: &[BenchRow]) -> Result<()> {
             format!("{:.5}", r.combined_rel_mse),
             format!("{:.4}", r.combined_flip),
             r.pareto.to_string(),
+            r.orbit_instability
+                .map(|v| format!("{v:.5}"))
+                .unwrap_or_default(),
         ];
         rec.extend(r.stage_seconds.iter().map(|s| format!("{s:.4}")));
         w.write_record(&rec)?;
@@ -618,8 +645,8 @@ pub fn table(rows: &[BenchRow], pipeline: Pipeline, against: &str, w: u32, h: u3
     };
     let mut md = format!(
         "# vxgi bench ({name}, {w}x{h}, {against})\n\n\
-         | voxels | cones | half-angle | mip clamp | step | level bias / coverage corr. | blend | samples | RSM | layers | caches | cache res (irradiance, radius) | octree | time | {shading} | voxelize | indirect FLIP | combined FLIP | combined rel. MSE | Pareto |\n\
-         |---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n"
+         | voxels | cones | half-angle | mip clamp | step | level bias / coverage corr. | blend | samples | RSM | layers | caches | cache res (irradiance, radius) | octree | time | {shading} | voxelize | indirect FLIP | combined FLIP | combined rel. MSE | orbit instability | Pareto |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n"
     );
     let lrsm = pipeline == Pipeline::Lrsm;
     let cprc = pipeline == Pipeline::Cprc;
@@ -627,7 +654,7 @@ pub fn table(rows: &[BenchRow], pipeline: Pipeline, against: &str, w: u32, h: u3
     for r in sorted {
         let _ = writeln!(
             md,
-            "| {}^3 | {} | {} | {} | {} | {} / {} | {} | {}x{} | {} | {} | {} | {} | {} | {:.0} ms | {:.0} ms | {:.0} ms | {:.3} | {:.3} | {:.4} | {} |",
+            "| {}^3 | {} | {} | {} | {} | {} / {} | {} | {}x{} | {} | {} | {} | {} | {} | {:.0} ms | {:.0} ms | {:.0} ms | {:.3} | {:.3} | {:.4} | {} | {} |",
             r.voxels,
             if r.cone_interleave > 1 {
                 format!("{0} ({1}x{1} interleaved)", r.cones, r.cone_interleave)
@@ -684,13 +711,17 @@ pub fn table(rows: &[BenchRow], pipeline: Pipeline, against: &str, w: u32, h: u3
             r.indirect_flip,
             r.combined_flip,
             r.combined_rel_mse,
+            r.orbit_instability
+                .map_or("-".to_string(), |v| format!("{v:.4}")),
             if r.pareto { "**yes**" } else { "" }
         );
     }
     md.push_str(
         "\ntime: wall clock of the frame's stages, transfers between stages included (per stage in \
          bench.csv); FLIP and rel. MSE as `vxgi compare` defines them, against the Monte Carlo \
-         reference; Pareto: no other configuration is both faster and more accurate.\n\n![time vs error](bench.svg)\n",
+         reference; orbit instability (with `--temporal-frames`): the frame-to-frame change of the \
+         indirect image beyond the ideal cones' over a camera orbit, relative to the mean indirect \
+         light (docs/temporal.md); Pareto: no other configuration is both faster and more accurate.\n\n![time vs error](bench.svg)\n",
     );
     md
 }

@@ -115,6 +115,8 @@ enum Command {
         spp: u32,
         #[arg(long, default_value = "report")]
         out: PathBuf,
+        #[command(flatten)]
+        temporal: TemporalArgs,
     },
     /// Run time against error: sweep voxels, cone count and aperture, mip clamp on a scene; each
     /// configuration rendered and compared with one Monte Carlo reference. Writes bench.csv, bench.md
@@ -141,6 +143,8 @@ enum Command {
         /// The keys the sweep does not vary (e.g. --ao-range) apply to every configuration.
         #[command(flatten)]
         render: RenderFlags,
+        #[command(flatten)]
+        temporal: TemporalArgs,
     },
     /// The bisection switch (every pipeline): render the frame with its first stages on the scalar mirrors
     /// and the rest on the GPU, at every split, and print how far each is from the all-mirror frame
@@ -225,6 +229,41 @@ enum Command {
         #[arg(long)]
         heatmap: Option<PathBuf>,
     },
+}
+
+/// `vxgi report` and `vxgi bench`: the orbit over which each frame's temporal instability is
+/// measured (docs/temporal.md).
+#[derive(clap::Args, Clone, Debug)]
+struct TemporalArgs {
+    /// Also measure the temporal instability over this many frames of a camera orbit (0: not
+    /// measured; the ideal-cone reference frames cost seconds each on the CPU).
+    #[arg(long, default_value_t = 0)]
+    temporal_frames: u32,
+    /// Degrees the orbit turns per frame.
+    #[arg(long, default_value_t = 0.25)]
+    temporal_orbit: f32,
+    /// Rays per cone of the ideal-cone reference frames (their own floor: about 0.005 at 1024).
+    #[arg(long, default_value_t = 1024)]
+    temporal_rays: u32,
+}
+
+impl TemporalArgs {
+    fn orbit(&self) -> Result<Option<vxgi::temporal::Orbit>> {
+        match self.temporal_frames {
+            0 => Ok(None),
+            1 => bail!("--temporal-frames must be 0 (off) or at least 2"),
+            frames => {
+                if !self.temporal_orbit.is_finite() || self.temporal_rays == 0 {
+                    bail!("--temporal-orbit must be finite and --temporal-rays at least 1");
+                }
+                Ok(Some(vxgi::temporal::Orbit {
+                    frames,
+                    degrees: self.temporal_orbit,
+                    rays: self.temporal_rays,
+                }))
+            }
+        }
+    }
 }
 
 /// Flags overriding the scene file's `[render]` keys (same names).
@@ -670,7 +709,7 @@ fn run_bench(
     scene: Option<PathBuf>,
     pipeline: Pipeline,
     quick: bool,
-    (spp, reference): (Option<u32>, Option<PathBuf>),
+    (spp, reference, temporal): (Option<u32>, Option<PathBuf>, Option<vxgi::temporal::Orbit>),
     out: PathBuf,
     flags: RenderFlags,
 ) -> Result<()> {
@@ -697,7 +736,7 @@ fn run_bench(
         &scene,
         spp,
         reference.as_deref(),
-        quick,
+        (quick, temporal),
         &out,
         |done, total, what| {
             bar.set_length(total as u64);
@@ -721,7 +760,12 @@ fn run_bench(
     Ok(())
 }
 
-fn run_report(scenes: Vec<String>, spp: u32, out: PathBuf) -> Result<()> {
+fn run_report(
+    scenes: Vec<String>,
+    spp: u32,
+    temporal: Option<vxgi::temporal::Orbit>,
+    out: PathBuf,
+) -> Result<()> {
     if spp == 0 {
         bail!("--spp must be at least 1");
     }
@@ -746,22 +790,32 @@ fn run_report(scenes: Vec<String>, spp: u32, out: PathBuf) -> Result<()> {
     let ctx = GpuContext::new().context("creating the GPU context")?;
     eprintln!("adapter: {}", ctx.describe());
     let bar = spinner();
-    let rows = vxgi::report::report(&ctx, &loaded, spp, &out, |m| bar.set_message(m.to_string()))?;
+    let rows = vxgi::report::report(&ctx, &loaded, spp, temporal, &out, |m| {
+        bar.set_message(m.to_string())
+    })?;
     bar.finish_and_clear();
     println!(
-        "{:<11} {:<14} {:>8} {:>14} {:>14} {:>10} {:>8}",
-        "pipeline", "scene", "time", "indirect FLIP", "combined FLIP", "memory", "leak"
+        "{:<11} {:<14} {:>8} {:>14} {:>14} {:>10} {:>8} {:>18}",
+        "pipeline",
+        "scene",
+        "time",
+        "indirect FLIP",
+        "combined FLIP",
+        "memory",
+        "leak",
+        "orbit instability"
     );
     for r in &rows {
         println!(
-            "{:<11} {:<14} {:>7.2}s {:>14.3} {:>14.3} {:>10} {:>8}",
+            "{:<11} {:<14} {:>7.2}s {:>14.3} {:>14.3} {:>10} {:>8} {:>18}",
             r.pipeline,
             r.scene,
             r.seconds,
             r.indirect_flip,
             r.combined_flip,
             r.memory_text(),
-            r.leak_text()
+            r.leak_text(),
+            r.instability_text()
         );
     }
     println!("wrote {}", out.join("report.md").display());
@@ -951,7 +1005,12 @@ fn real_main() -> Result<()> {
             test,
             heatmap,
         } => run_compare(reference, test, heatmap),
-        Command::Report { scenes, spp, out } => run_report(scenes, spp, out),
+        Command::Report {
+            scenes,
+            spp,
+            out,
+            temporal,
+        } => run_report(scenes, spp, temporal.orbit()?, out),
         Command::LrsmFactors {
             scene,
             reference,
@@ -993,7 +1052,15 @@ fn real_main() -> Result<()> {
             out,
             pipeline,
             render,
-        } => run_bench(scene, pipeline, quick, (spp, reference), out, render),
+            temporal,
+        } => run_bench(
+            scene,
+            pipeline,
+            quick,
+            (spp, reference, temporal.orbit()?),
+            out,
+            render,
+        ),
     }
 }
 
@@ -1055,42 +1122,32 @@ fn run_temporal(
     let mut floors = Vec::new();
     for motion in motions {
         // The ideal cones of each cone set a pipeline traces (a preset may narrow it), once each.
-        let mut references: Vec<((u32, u32), Vec<vxgi::images::RgbImage>)> = Vec::new();
+        let mut references = temporal::IdealFrames::new(motion, frames, rays);
         for &p in &pipelines {
             let own = vxgi::quality::resolved(&scene, p)
                 .map_err(anyhow::Error::msg)?
                 .0;
-            let set = (own.render.cones, own.render.cone_half_angle.to_bits());
-            if !references.iter().any(|(k, _)| *k == set) {
-                bar.set_message(format!(
-                    "{}: ideal cones ({rays} rays per cone)",
-                    motion.name()
+            bar.set_message(format!(
+                "{}: ideal cones ({rays} rays per cone)",
+                motion.name()
+            ));
+            let (reference, new) = references.of(&own);
+            if new && check_reference {
+                bar.set_message(format!("{}: the reference's floor", motion.name()));
+                floors.push((
+                    motion.name(),
+                    temporal::reference_floor(reference, &own, motion, rays),
                 ));
-                let ideal = temporal::reference_frames(&own, motion, frames, rays);
-                if check_reference {
-                    bar.set_message(format!("{}: the reference's floor", motion.name()));
-                    floors.push((
-                        motion.name(),
-                        temporal::reference_floor(&ideal, &own, motion, rays),
-                    ));
-                }
-                references.push((set, ideal));
             }
-            let reference = &references
-                .iter()
-                .find(|(k, _)| *k == set)
-                .expect("computed above")
-                .1;
             bar.set_message(format!("{}: {}", motion.name(), p.name()));
-            let got = temporal::pipeline_frames(&ctx, p, &own, motion, frames)?;
-            let indirect: Vec<_> = got.iter().map(|f| f.indirect.clone()).collect();
+            let (measure, got) = temporal::measure(&ctx, p, &own, motion, reference)?;
             let name = Path::new(p.name());
             let flip =
                 vxgi::images::compare(&ref_combined, name, &got[0].combined, name)?.flip_mean;
             rows.push(temporal::Row {
                 pipeline: p.name(),
                 motion: motion.name(),
-                measure: temporal::instability(&indirect, reference),
+                measure,
                 combined_flip: flip,
             });
         }

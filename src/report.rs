@@ -21,6 +21,9 @@ pub struct ReportRow {
     pub memory: Option<u64>,
     /// Light leak (thin_wall only): indirect energy seen in the dark room / in the lit room.
     pub leak: Option<f64>,
+    /// Temporal instability over the report's orbit ([`crate::temporal::Orbit`]; `None`: not
+    /// measured).
+    pub instability: Option<f64>,
 }
 
 impl ReportRow {
@@ -28,6 +31,13 @@ impl ReportRow {
     pub fn memory_text(&self) -> String {
         self.memory
             .map(|m| format!("{:.1} MB", m as f64 / 1e6))
+            .unwrap_or_else(|| "-".into())
+    }
+
+    /// The instability to four places (`-` for none), as the table prints it.
+    pub fn instability_text(&self) -> String {
+        self.instability
+            .map(|l| format!("{l:.4}"))
             .unwrap_or_else(|| "-".into())
     }
 
@@ -61,19 +71,21 @@ pub const IDEAL_CONE_RAYS: u32 = 64;
 /// `out` (`<scene>/reference/`, `<scene>/<pipeline>/`) and report.md; return the rows. Each scene also
 /// gets an "ideal cones" row: the scene's diffuse cone set with exact visibility and radiance
 /// ([`crate::reference::ideal_cones`], CPU), the error the cone tracers would keep with perfect
-/// voxels.
+/// voxels. With `temporal`, each pipeline row also measures its instability over that orbit.
 pub fn report(
     ctx: &crate::harness::GpuContext,
     scenes: &[(String, Scene)],
     spp: u32,
+    temporal: Option<crate::temporal::Orbit>,
     out: &Path,
     progress: impl Fn(&str),
 ) -> Result<Vec<ReportRow>> {
     let mut rows = Vec::new();
-    let mut md = String::from("# vxgi report\n\n| pipeline | scene | time | indirect FLIP | combined FLIP | memory | leak |\n|---|---|---|---|---|---|---|\n");
+    let mut md = String::from("# vxgi report\n\n| pipeline | scene | time | indirect FLIP | combined FLIP | memory | leak | orbit instability |\n|---|---|---|---|---|---|---|---|\n");
     let mut images = String::new();
     for (name, scene) in scenes {
         let dir = out.join(name);
+        let mut ideal_frames = temporal.map(|t| t.ideal_frames());
         progress(&format!("{name}: reference ({spp} spp)"));
         let reference = render_reference(scene, &ReferenceOptions::spp(spp), |_| {});
         let (w, h) = (reference.width, reference.height);
@@ -124,6 +136,7 @@ pub fn report(
                 leak: name
                     .contains("thin_wall")
                     .then(|| leak(&ideal.pixels, &pixel_positions(scene), 0.0, 1.0 / 64.0)),
+                instability: None,
             };
             push_row(&mut md, &mut rows, row);
         }
@@ -172,6 +185,20 @@ pub fn report(
             let leak = name
                 .contains("thin_wall")
                 .then(|| leak(&r.indirect.pixels, &pixel_positions(scene), 0.0, 1.0 / 64.0));
+            // The ideal cones gather one bounce: no instability against them for two.
+            let instability = match &mut ideal_frames {
+                Some(ideal) if scene.render.bounces == 1 => {
+                    progress(&format!(
+                        "{name}: {pipeline}: orbit ({} frames)",
+                        ideal.frames
+                    ));
+                    let motion = ideal.motion;
+                    let (reference, _) = ideal.of(scene);
+                    let (m, _) = crate::temporal::measure(ctx, kind, scene, motion, reference)?;
+                    Some(m.instability)
+                }
+                _ => None,
+            };
             let row = ReportRow {
                 pipeline,
                 scene: name.clone(),
@@ -180,6 +207,7 @@ pub fn report(
                 combined_flip: comb.flip_mean,
                 memory: Some(memory),
                 leak,
+                instability,
             };
             push_row(&mut md, &mut rows, row);
         }
@@ -188,7 +216,7 @@ pub fn report(
             "\n### {name}\n\nreference ({spp} spp) | ideal cones | vct-dense | vct-svo | lrsm | cprc\n---|---|---|---|---|---\n![]({name}/reference/combined.png) | ![]({name}/ideal-cones/combined.png) | ![]({name}/vct-dense/combined.png) | ![]({name}/vct-svo/combined.png) | ![]({name}/lrsm/combined.png) | ![]({name}/cprc/combined.png)\n![]({name}/reference/indirect.png) | ![]({name}/ideal-cones/indirect.png) | ![]({name}/vct-dense/indirect.png) | ![]({name}/vct-svo/indirect.png) | ![]({name}/lrsm/indirect.png) | ![]({name}/cprc/indirect.png)\n![]({name}/reference/ao.png) | ![]({name}/ideal-cones/ao.png) | ![]({name}/vct-dense/ao.png) | ![]({name}/vct-svo/ao.png) | ![]({name}/lrsm/ao.png) | ![]({name}/cprc/ao.png)"
         );
     }
-    md.push_str("\ntime: wall clock of the pipeline's stages, transfers between stages included; FLIP: mean LDR-FLIP against the reference (`vxgi compare`); leak: thin_wall only. ideal cones: the scene's diffuse cone set with exact visibility and radiance (CPU, 64 rays per cone; direct and AO the reference's), what the cone tracers would score with perfect voxels.\n");
+    md.push_str("\ntime: wall clock of the pipeline's stages, transfers between stages included; FLIP: mean LDR-FLIP against the reference (`vxgi compare`); leak: thin_wall only. ideal cones: the scene's diffuse cone set with exact visibility and radiance (CPU, 64 rays per cone; direct and AO the reference's), what the cone tracers would score with perfect voxels. orbit instability (with `--temporal-frames`): the mean frame-to-frame change of the pipeline's indirect image beyond the ideal cones' over a camera orbit, relative to the mean indirect light (docs/temporal.md).\n");
     md.push_str(&images);
     std::fs::write(out.join("report.md"), md)
         .with_context(|| format!("writing {}", out.join("report.md").display()))?;
@@ -199,14 +227,15 @@ pub fn report(
 fn push_row(md: &mut String, rows: &mut Vec<ReportRow>, row: ReportRow) {
     let _ = writeln!(
         md,
-        "| {} | {} | {:.2} s | {:.3} | {:.3} | {} | {} |",
+        "| {} | {} | {:.2} s | {:.3} | {:.3} | {} | {} | {} |",
         row.pipeline,
         row.scene,
         row.seconds,
         row.indirect_flip,
         row.combined_flip,
         row.memory_text(),
-        row.leak_text()
+        row.leak_text(),
+        row.instability_text()
     );
     rows.push(row);
 }

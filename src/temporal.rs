@@ -149,6 +149,82 @@ pub fn reference_floor(reference: &[RgbImage], scene: &Scene, motion: Motion, ra
     instability(reference, &finer).instability
 }
 
+/// A camera orbit over which `vxgi report` and `vxgi bench` measure each frame's temporal
+/// instability (the measure of this module).
+#[derive(Clone, Copy, Debug)]
+pub struct Orbit {
+    pub frames: u32,
+    pub degrees: f32,
+    /// Rays per cone of the ideal-cone reference frames (its own floor falls about 2x per 4x rays:
+    /// about 0.005 at 1024 on the Cornell box, docs/temporal.md).
+    pub rays: u32,
+}
+
+impl Orbit {
+    /// Its reference frames (none computed yet).
+    pub fn ideal_frames(&self) -> IdealFrames {
+        IdealFrames::new(
+            Motion::Orbit {
+                degrees: self.degrees,
+            },
+            self.frames,
+            self.rays,
+        )
+    }
+}
+
+/// The ideal-cone reference frames of one motion, computed once per cone set (cone count and
+/// aperture: a quality preset may narrow a pipeline's set) and reused by every pipeline tracing it.
+pub struct IdealFrames {
+    pub motion: Motion,
+    pub frames: u32,
+    pub rays: u32,
+    sets: Vec<((u32, u32), Vec<RgbImage>)>,
+}
+
+impl IdealFrames {
+    pub fn new(motion: Motion, frames: u32, rays: u32) -> Self {
+        Self {
+            motion,
+            frames,
+            rays,
+            sets: Vec::new(),
+        }
+    }
+
+    /// The reference frames for `scene`'s cone set (as a pipeline resolved it), and whether they
+    /// were computed by this call.
+    pub fn of(&mut self, scene: &Scene) -> (&[RgbImage], bool) {
+        let set = (scene.render.cones, scene.render.cone_half_angle.to_bits());
+        let new = !self.sets.iter().any(|(k, _)| *k == set);
+        if new {
+            let frames = reference_frames(scene, self.motion, self.frames, self.rays);
+            self.sets.push((set, frames));
+        }
+        let frames = &self
+            .sets
+            .iter()
+            .find(|(k, _)| *k == set)
+            .expect("computed above")
+            .1;
+        (frames, new)
+    }
+}
+
+/// `pipeline`'s instability over the frames of `motion` against `reference` (the ideal cones of
+/// those frames, one per frame), with its frames as [`pipeline_frames`] draws them.
+pub fn measure(
+    ctx: &crate::harness::GpuContext,
+    pipeline: Pipeline,
+    scene: &Scene,
+    motion: Motion,
+    reference: &[RgbImage],
+) -> Result<(Measure, Vec<crate::render::Rendered>)> {
+    let got = pipeline_frames(ctx, pipeline, scene, motion, reference.len() as u32)?;
+    let indirect: Vec<_> = got.iter().map(|f| f.indirect.clone()).collect();
+    Ok((instability(&indirect, reference), got))
+}
+
 /// `pipeline`'s frames of the sequence, one renderer drawing them all in order (GPU-resident where
 /// it serves the scene, else staged with its reuse rules on): the frames a viewer would show.
 pub fn pipeline_frames(

@@ -419,6 +419,10 @@ fn report_and_plan_commands() {
         &scene,
         "--spp",
         "2",
+        "--temporal-frames",
+        "2",
+        "--temporal-rays",
+        "4",
         "--out",
         &out.display().to_string(),
     ]);
@@ -431,6 +435,7 @@ fn report_and_plan_commands() {
         "combined FLIP",
         "memory",
         "leak",
+        "orbit instability",
         "vct-dense",
     ] {
         assert!(stdout.contains(col), "{col}: {stdout}");
@@ -446,6 +451,21 @@ fn report_and_plan_commands() {
     assert!(md.contains("| vct-svo | small |"), "{md}");
     assert!(md.contains("| lrsm | small |"), "{md}");
     assert!(md.contains("| cprc | small |"), "{md}");
+    // Every pipeline row measured its orbit instability (a finite, non-negative number); the ideal
+    // cones, the reference it is measured against, have none.
+    for p in ["vct-dense", "vct-svo", "lrsm", "cprc", "ideal cones"] {
+        let row = md
+            .lines()
+            .find(|l| l.starts_with(&format!("| {p} | small |")))
+            .unwrap();
+        let last = row.trim_end_matches('|').rsplit('|').next().unwrap().trim();
+        if p == "ideal cones" {
+            assert_eq!(last, "-", "{row}");
+        } else {
+            let v: f64 = last.parse().unwrap_or_else(|_| panic!("{row}"));
+            assert!(v.is_finite() && v >= 0.0, "{row}");
+        }
+    }
     assert!(
         out.join("small/vct-dense/combined.png").exists()
             && out.join("small/vct-svo/combined.png").exists()
@@ -492,7 +512,19 @@ fn bench_quick_writes_csv_table_and_plot() {
     let scene = small_scene_file(&dir);
     let out = dir.join("bench");
     let o = out.display().to_string();
-    let (code, stdout, err) = vxgi(&["bench", &scene, "--quick", "--spp", "2", "--out", &o]);
+    let (code, stdout, err) = vxgi(&[
+        "bench",
+        &scene,
+        "--quick",
+        "--spp",
+        "2",
+        "--temporal-frames",
+        "2",
+        "--temporal-rays",
+        "4",
+        "--out",
+        &o,
+    ]);
     assert_eq!(code, 0, "{stdout}\n{err}");
     let csv = std::fs::read_to_string(out.join("bench.csv")).unwrap();
     let lines: Vec<&str> = csv.lines().collect();
@@ -508,6 +540,8 @@ fn bench_quick_writes_csv_table_and_plot() {
         let secs: f64 = f[col("seconds")].parse().unwrap();
         let flip: f64 = f[col("combined_flip")].parse().unwrap();
         assert!(secs > 0.0 && (0.0..=1.0).contains(&flip), "{l}");
+        let orbit: f64 = f[col("orbit_instability")].parse().unwrap();
+        assert!(orbit.is_finite() && orbit >= 0.0, "{l}");
     }
     assert!(
         lines[1..]
