@@ -163,7 +163,7 @@ pub fn render_split(
         bits = if on_mirror("voxelize") {
             vxgi_cpu_mirror::voxelize::occupancy(&input.tris, side)
         } else {
-            voxelize::occupancy_on_gpu(ctx, scene, side)?.0
+            voxelize::occupancy_of_input(ctx, &input, side)?
         };
         let empty = crate::grids::Grid {
             n: side,

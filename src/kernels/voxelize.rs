@@ -402,7 +402,16 @@ pub fn occupancy_on_gpu(
     side: u32,
 ) -> anyhow::Result<(Vec<u32>, VoxelFrame)> {
     let (input, frame) = prepare(scene, side)?;
-    let case = occupancy_case(ctx, &input, side, "occupancy".into(), 0)?;
+    Ok((occupancy_of_input(ctx, &input, side)?, frame))
+}
+
+/// [`occupancy_on_gpu`] of an input [`prepare`]d already (at `side`).
+pub fn occupancy_of_input(
+    ctx: &GpuContext,
+    input: &VoxInput,
+    side: u32,
+) -> anyhow::Result<Vec<u32>> {
+    let case = occupancy_case(ctx, input, side, "occupancy".into(), 0)?;
     let out = run(
         ctx,
         &DECL.shader()?,
@@ -411,7 +420,7 @@ pub fn occupancy_on_gpu(
         &case.passes,
         &["occupancy"],
     )?;
-    Ok((out.buffer("occupancy").as_u32().to_vec(), frame))
+    Ok(out.buffer("occupancy").as_u32().to_vec())
 }
 
 /// Voxelize `scene` on the GPU: the level-0 grid for `surface_coverage_mip`, the non-empty voxels
