@@ -476,13 +476,13 @@ pub fn bench(
             r = Some(f);
         }
         let r = r.expect("at least one frame");
-        // The ideal cones gather one bounce: no instability against them for two.
+        // Only where the ideal cones are this frame's reference: one bounce, the plain cone set.
+        let s = Scene {
+            render: settings.clone(),
+            ..scene.clone()
+        };
         let orbit_instability = match &mut ideal_frames {
-            Some(ideal) if settings.bounces == 1 => {
-                let s = Scene {
-                    render: settings.clone(),
-                    ..scene.clone()
-                };
+            Some(ideal) if crate::temporal::ideal_reference_fits(&s) => {
                 let motion = ideal.motion;
                 let (reference, _) = ideal.of(&s);
                 Some(

@@ -863,8 +863,9 @@ pub(crate) fn voxelized_by(parts: &[(crate::scene::Mesh, u32, glam::Mat4)]) -> V
 /// named after the first hierarchy of that mesh), each hierarchy lit where it stands (voxel_light with its
 /// placed grid record: shadows from the whole scene), its surface-coverage mips built, and its levels
 /// copied into the concatenated `pyramid` (what the instanced cone passes read with `placed`). Every
-/// per-hierarchy resource is named `name#k`; the voxelize stages come first, then the voxel_light
-/// stages, then the mips, so that re-lighting is one range of passes. Returns the chain, each
+/// per-hierarchy resource is named `name#k`; the chain holds one stage per kernel (every
+/// hierarchy's passes): voxelize first, then voxel_light, then the mips, so that re-lighting is one
+/// range of passes. Returns the chain, each
 /// hierarchy's grid frame and where the hierarchies stand (their `grid#k` records are in the chain).
 pub(crate) fn instanced_volume(
     ctx: &crate::harness::GpuContext,

@@ -508,7 +508,7 @@ impl FramePlan {
                     p.runs = voxelized > 0;
                     p.size = format!("{hierarchies} hierarchies, each in its own frame");
                     p.why = if voxelized > 0 {
-                        format!("{voxelized} hierarchies not voxelized before (once each; moving an instance does not re-voxelize it)")
+                        format!("{voxelized} meshes not voxelized before (one voxelization per distinct mesh and grid side, shared by its instances; moving an instance does not re-voxelize it)")
                     } else {
                         "skipped: every hierarchy was voxelized in an earlier frame (instances are lit where they stand)".into()
                     };

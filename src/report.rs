@@ -185,9 +185,9 @@ pub fn report(
             let leak = name
                 .contains("thin_wall")
                 .then(|| leak(&r.indirect.pixels, &pixel_positions(scene), 0.0, 1.0 / 64.0));
-            // The ideal cones gather one bounce: no instability against them for two.
+            // Only where the ideal cones are this frame's reference: one bounce, the plain cone set.
             let instability = match &mut ideal_frames {
-                Some(ideal) if scene.render.bounces == 1 => {
+                Some(ideal) if crate::temporal::ideal_reference_fits(scene) => {
                     progress(&format!(
                         "{name}: {pipeline}: orbit ({} frames)",
                         ideal.frames

@@ -1014,7 +1014,7 @@ impl Scene {
     }
 
     /// The scene from its file and OBJs: the `[mesh]` (if any) and every instance's mesh, placed at
-    /// frame 0; materials of each OBJ one after another.
+    /// frame 0; materials of each OBJ after the earlier ones, an equal material loaded once.
     fn assemble(
         obj_label: &str,
         mut file: SceneFile,
@@ -1037,7 +1037,7 @@ impl Scene {
             let (mut local, mats) = obj_mesh(src, &mut warnings)?;
             // A material equal to one already loaded (the same OBJ instanced again) is that one:
             // instances of one OBJ then have equal meshes, which share one voxelization.
-            let index: Vec<u32> = mats
+            let shared: Vec<u32> = mats
                 .into_iter()
                 .map(|mat| match materials.iter().position(|m| *m == mat) {
                     Some(k) => k as u32,
@@ -1048,7 +1048,7 @@ impl Scene {
                 })
                 .collect();
             for m in &mut local.material {
-                *m = index[*m as usize];
+                *m = shared[*m as usize];
             }
             let transform = Transform::from_desc(&desc.transform).map_err(err)?;
             if !desc.keyframes.is_empty() && !desc.dynamic {

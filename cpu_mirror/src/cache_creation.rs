@@ -177,7 +177,8 @@ pub fn cells_words(hierarchies: usize) -> usize {
 
 /// The most loop iterations one sample of [`placed_cells`]' layout `cells` takes in
 /// kernels/common/placed_pyramids.wgsl: its cell's mask words (one iteration each) and the
-/// hierarchies the cell lists (one each), in the cell that lists the most; 0 past the grid.
+/// hierarchies the cell lists (one each), in the cell of the layout that lists the most (a sample
+/// past the grid takes none).
 pub fn sample_iterations(cells: &[u32]) -> u32 {
     let words = cells[1] as usize;
     cells[CELLS_HEADER..]
@@ -368,7 +369,8 @@ mod tests {
 
     #[test]
     fn a_sample_iterates_its_cells_words_and_listed_hierarchies() {
-        // Two cells of two words: the second lists hierarchies 0, 33 and 40.
+        // Two cells' masks of two words each (the count ignores the grid's size): the second lists
+        // hierarchies 0, 33 and 40.
         let mut cells = vec![0u32; CELLS_HEADER + 4];
         cells[0] = 1;
         cells[1] = 2;
