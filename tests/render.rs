@@ -1432,6 +1432,18 @@ fn resident_frames_relight_moved_instances_in_one_submission() {
                 assert!(flip < 1e-3, "{at}: FLIP {flip}");
             }
             assert_eq!(c.submissions, 1, "{at}: {c:?}");
+            if k == 0 && pipeline != Pipeline::Lrsm {
+                // Three hierarchies (the room, two instances of one box OBJ), two voxelizations:
+                // the boxes share one, in the staged frame and in the chain alike.
+                for plan in [&want.plan, &got.plan] {
+                    let text = plan.to_string();
+                    assert!(
+                        text.contains("3 hierarchies")
+                            && text.contains("2 meshes not voxelized before"),
+                        "{at}: {text}"
+                    );
+                }
+            }
             if k > 0 {
                 assert_reused_frame(&at, &c);
                 // lrsm's occlusion voxels are the whole scene's: voxelized again where it moved.
