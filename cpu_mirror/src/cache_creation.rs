@@ -149,43 +149,38 @@ impl Placed {
     }
 }
 
-/// Header words of [`placed_cells`]' layout before the cells' bit masks.
+/// Header words of [`placed_cells`]' layout before the cells' offsets.
 pub const CELLS_HEADER: usize = 12;
 
-/// The most words [`placed_cells`] spends on its masks (4 MiB): the cells per axis shrink as the
-/// hierarchies grow so that a cell's mask of one bit per hierarchy stays within it.
-pub const CELLS_WORDS: usize = 1 << 20;
+/// Cells per axis [`placed_cells`] aims at for `hierarchies` hierarchies: about 4
+/// cbrt(hierarchies) (6 for three hierarchies), at most 32.
+pub fn cells_dims(hierarchies: usize) -> u32 {
+    ((4.0 * (hierarchies.max(1) as f64).cbrt()).ceil() as u32).min(32)
+}
 
-/// Cells per axis and mask words per cell of [`placed_cells`] for `hierarchies` hierarchies: about 4
-/// cbrt(hierarchies) cells per axis (6 for three hierarchies, a kilobyte), at most 32, fewer where the
-/// masks would pass [`CELLS_WORDS`] (18 at 5000). Fixed by the count alone, so a frame whose instances
-/// moved keeps its buffer's size.
-pub fn cells_shape(hierarchies: usize) -> (u32, u32) {
-    let words = hierarchies.div_ceil(32).max(1);
-    let mut dims = ((4.0 * (hierarchies.max(1) as f64).cbrt()).ceil() as u32).min(32);
-    while dims > 1 && (dims as usize).pow(3) * words > CELLS_WORDS {
-        dims -= 1;
-    }
-    (dims, words as u32)
+/// Room for list entries in [`placed_cells`]' layout for `hierarchies` hierarchies: one hierarchy
+/// in every cell of the aimed-at grid (a room around the instances) and 27 cells for each other.
+/// Fixed by the count alone, so a frame whose instances moved keeps its buffer's size; a placement
+/// that needs more entries gets a coarser grid.
+pub fn cells_room(hierarchies: usize) -> usize {
+    (cells_dims(hierarchies) as usize).pow(3) + 27 * hierarchies
 }
 
 /// Words of [`placed_cells`] for `hierarchies` hierarchies.
 pub fn cells_words(hierarchies: usize) -> usize {
-    let (dims, words) = cells_shape(hierarchies);
-    CELLS_HEADER + (dims as usize).pow(3) * words as usize
+    CELLS_HEADER + (cells_dims(hierarchies) as usize).pow(3) + 1 + cells_room(hierarchies)
 }
 
 /// The most loop iterations one sample of [`placed_cells`]' layout `cells` takes in
-/// kernels/common/placed_pyramids.wgsl: its cell's mask words (one iteration each) and the
-/// hierarchies the cell lists (one each), in the cell of the layout that lists the most (a sample
-/// past the grid takes none).
+/// kernels/common/placed_pyramids.wgsl: one per hierarchy its cell lists, in the cell of the layout
+/// that lists the most (a sample past the grid takes none).
 pub fn sample_iterations(cells: &[u32]) -> u32 {
-    let words = cells[1] as usize;
-    cells[CELLS_HEADER..]
-        .chunks(words.max(1))
-        .map(|mask| mask.iter().map(|w| w.count_ones()).sum::<u32>())
+    let n = (cells[0] as usize).pow(3);
+    cells[CELLS_HEADER..=CELLS_HEADER + n]
+        .windows(2)
+        .map(|w| w[1] - w[0])
         .max()
-        .map_or(0, |most| words as u32 + most)
+        .unwrap_or(0)
 }
 
 /// The world box outside which hierarchy `h` adds exactly zero to any sample: its grid's local box
@@ -227,15 +222,16 @@ pub fn influence_box(h: &Placed) -> ([f64; 3], [f64; 3]) {
 }
 
 /// Which hierarchies may add to a sample in each cell of a world grid over their influence boxes
-/// (kernels/common/placed_pyramids.wgsl's `placed_cells`): words 0..4 = (cells per axis D, mask words
-/// per cell W, 0, 0); 4..8 = the grid's low corner (f32 bits, then 0); 8..12 = cells per world unit
-/// along each axis (f32 bits, then 0); then cell `x + D (y + D z)`'s W words, bit `k mod 32` of word
-/// `k / 32` set where hierarchy k's [`influence_box`] meets the cell (grown by a hundredth of a cell,
-/// for the kernel's rounding of the cell index). A sample reads only its cell's hierarchies, in
-/// ascending order; the others add exactly zero (radiance + 0, keep x 1), so the result is the loop
-/// over every hierarchy's, bit for bit. A point outside the grid is outside every influence box.
+/// (kernels/common/placed_pyramids.wgsl's `placed_cells`), [`cells_words`] long: words 0..4 =
+/// (cells per axis D, list entries, 0, 0); 4..8 = the grid's low corner (f32 bits, then 0); 8..12 =
+/// cells per world unit along each axis (f32 bits, then 0); then D^3 + 1 offsets, cell `x + D (y +
+/// D z)` listing entries `offsets[cell]..offsets[cell + 1]`; then the entries, each a hierarchy k
+/// whose [`influence_box`] meets the cell (grown by a hundredth of a cell, for the kernel's rounding
+/// of the cell index), ascending within a cell. D is [`cells_dims`], or less where the entries
+/// would pass [`cells_room`]. A sample reads only its cell's hierarchies, in ascending order; the
+/// others add exactly zero (radiance + 0, keep x 1), so the result is the loop over every
+/// hierarchy's, bit for bit. A point outside the grid is outside every influence box.
 pub fn placed_cells(placed: &[Placed]) -> Vec<u32> {
-    let (dims, words) = cells_shape(placed.len());
     let boxes: Vec<_> = placed.iter().map(influence_box).collect();
     let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
     for (blo, bhi) in &boxes {
@@ -247,37 +243,73 @@ pub fn placed_cells(placed: &[Placed]) -> Vec<u32> {
     if placed.is_empty() {
         (lo, hi) = ([0.0; 3], [1.0; 3]);
     }
-    let d = dims as f64;
-    let size = [0, 1, 2].map(|k| (hi[k] - lo[k]).max(1e-6) / d);
-    let mut out = vec![0u32; cells_words(placed.len())];
-    out[0] = dims;
-    out[1] = words;
-    for k in 0..3 {
-        out[4 + k] = (lo[k] as f32).to_bits();
-        out[8 + k] = ((1.0 / size[k]) as f32).to_bits();
-    }
-    for (h, (blo, bhi)) in boxes.iter().enumerate() {
-        // The cells the box meets, each grown by a hundredth of a cell.
-        let range = |k: usize| {
-            let a = ((blo[k] - lo[k]) / size[k] - 0.01).floor().max(0.0) as u32;
-            let b = ((bhi[k] - lo[k]) / size[k] + 0.01).floor().min(d - 1.0) as u32;
-            a..=b
+    let room = cells_room(placed.len());
+    let mut dims = cells_dims(placed.len());
+    loop {
+        let d = dims as f64;
+        let size = [0, 1, 2].map(|k| (hi[k] - lo[k]).max(1e-6) / d);
+        // Each box's cells, grown by a hundredth of a cell.
+        let ranges: Vec<[std::ops::RangeInclusive<u32>; 3]> = boxes
+            .iter()
+            .map(|(blo, bhi)| {
+                [0, 1, 2].map(|k| {
+                    let a = ((blo[k] - lo[k]) / size[k] - 0.01).floor().max(0.0) as u32;
+                    let b = ((bhi[k] - lo[k]) / size[k] + 0.01).floor().min(d - 1.0) as u32;
+                    a..=b
+                })
+            })
+            .collect();
+        let entries: usize = ranges
+            .iter()
+            .map(|r| r.iter().map(|a| a.clone().count()).product::<usize>())
+            .sum();
+        if entries > room && dims > 1 {
+            dims -= 1;
+            continue;
+        }
+        let n = (dims as usize).pow(3);
+        let mut count = vec![0u32; n + 1];
+        let cells_of = |r: &[std::ops::RangeInclusive<u32>; 3]| {
+            let [rx, ry, rz] = r.clone();
+            rz.flat_map(move |z| {
+                let rx = rx.clone();
+                ry.clone().flat_map(move |y| {
+                    rx.clone()
+                        .map(move |x| (x + dims * (y + dims * z)) as usize)
+                })
+            })
         };
-        for z in range(2) {
-            for y in range(1) {
-                for x in range(0) {
-                    let cell = (x + dims * (y + dims * z)) as usize;
-                    out[CELLS_HEADER + cell * words as usize + h / 32] |= 1 << (h % 32);
-                }
+        for r in &ranges {
+            for cell in cells_of(r) {
+                count[cell + 1] += 1;
             }
         }
+        for c in 0..n {
+            count[c + 1] += count[c];
+        }
+        let mut out = vec![0u32; cells_words(placed.len())];
+        out[0] = dims;
+        out[1] = entries as u32;
+        for k in 0..3 {
+            out[4 + k] = (lo[k] as f32).to_bits();
+            out[8 + k] = ((1.0 / size[k]) as f32).to_bits();
+        }
+        out[CELLS_HEADER..=CELLS_HEADER + n].copy_from_slice(&count);
+        let first = CELLS_HEADER + n + 1;
+        let mut next = count;
+        for (h, r) in ranges.iter().enumerate() {
+            for cell in cells_of(r) {
+                out[first + next[cell] as usize] = h as u32;
+                next[cell] += 1;
+            }
+        }
+        return out;
     }
-    out
 }
 
 /// The hierarchies `cells` ([`placed_cells`]) lists for world point `x`, as the kernel finds its cell.
 pub fn cell_hierarchies(cells: &[u32], x: Vec3) -> Vec<usize> {
-    let (dims, words) = (cells[0], cells[1] as usize);
+    let dims = cells[0];
     let f = |w: usize| f32::from_bits(cells[w]);
     let o = Vec3::new(f(4), f(5), f(6));
     let inv = Vec3::new(f(8), f(9), f(10));
@@ -286,9 +318,11 @@ pub fn cell_hierarchies(cells: &[u32], x: Vec3) -> Vec<usize> {
         return Vec::new();
     }
     let cell = (q.x as u32 + dims * (q.y as u32 + dims * q.z as u32)) as usize;
-    let mask = &cells[CELLS_HEADER + cell * words..][..words];
-    (0..words * 32)
-        .filter(|k| mask[k / 32] >> (k % 32) & 1 == 1)
+    let first = CELLS_HEADER + (dims as usize).pow(3) + 1;
+    let (a, b) = (cells[CELLS_HEADER + cell], cells[CELLS_HEADER + cell + 1]);
+    cells[first + a as usize..first + b as usize]
+        .iter()
+        .map(|&k| k as usize)
         .collect()
 }
 
@@ -368,16 +402,15 @@ mod tests {
     use super::*;
 
     #[test]
-    fn a_sample_iterates_its_cells_words_and_listed_hierarchies() {
-        // Two cells' masks of two words each (the count ignores the grid's size): the second lists
-        // hierarchies 0, 33 and 40.
-        let mut cells = vec![0u32; CELLS_HEADER + 4];
-        cells[0] = 1;
-        cells[1] = 2;
-        cells[CELLS_HEADER] = 1 << 3;
-        cells[CELLS_HEADER + 2] = 1;
-        cells[CELLS_HEADER + 3] = (1 << 1) | (1 << 8);
-        assert_eq!(sample_iterations(&cells), 2 + 3);
+    fn a_sample_iterates_its_cells_listed_hierarchies() {
+        // Two cells per axis: eight cells, the first listing hierarchy 3, the second 0, 33 and 40.
+        let mut cells = vec![0u32; CELLS_HEADER + 9 + 4];
+        cells[0] = 2;
+        cells[1] = 4;
+        let offsets = [0, 1, 4, 4, 4, 4, 4, 4, 4];
+        cells[CELLS_HEADER..CELLS_HEADER + 9].copy_from_slice(&offsets);
+        cells[CELLS_HEADER + 9..].copy_from_slice(&[3, 0, 33, 40]);
+        assert_eq!(sample_iterations(&cells), 3);
     }
 
     #[test]

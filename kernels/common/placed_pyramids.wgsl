@@ -14,11 +14,12 @@
 // diameter, steps, the alpha's step correction, the far end) follows `cone`: set it to a grid covering
 // all hierarchies.
 // placed_cells (host: cpu_mirror cache_creation::placed_cells): a world grid of D^3 cells over the
-// hierarchies' influence boxes, each cell a mask of the hierarchies that can add to a sample in it
-// (words 0..4: D, mask words per cell W; 4..7: the grid's low corner; 8..11: cells per world unit per
-// axis, f32 bits; then cell x + D (y + D z)'s W words). A sample reads its cell's hierarchies in
-// ascending order; the others add exactly zero, so the result is the loop over all of them bit for
-// bit, at the cost of the ones near the sample.
+// hierarchies' influence boxes, each cell a list of the hierarchies that can add to a sample in it
+// (words 0..4: D, entries; 4..7: the grid's low corner; 8..11: cells per world unit per axis, f32
+// bits; then D^3 + 1 offsets, cell x + D (y + D z) listing entries offsets[cell]..offsets[cell + 1];
+// then the entries, ascending within a cell). A sample reads its cell's hierarchies in ascending
+// order; the others add exactly zero, so the result is the loop over all of them bit for bit, at
+// the cost of the ones near the sample.
 
 struct Placed {
     to_local: array<vec4<f32>, 3>,
@@ -55,22 +56,16 @@ fn placed_combined(x: vec3<f32>, lf: f32) -> vec4<f32> {
     var c = vec3<f32>(0.0);
     var keep = 1.0;
     let dims = placed_cells[0];
-    let words = placed_cells[1];
     let low = vec3<f32>(bitcast<f32>(placed_cells[4]), bitcast<f32>(placed_cells[5]), bitcast<f32>(placed_cells[6]));
     let per = vec3<f32>(bitcast<f32>(placed_cells[8]), bitcast<f32>(placed_cells[9]), bitcast<f32>(placed_cells[10]));
     let q = floor((x - low) * per);
     if (all(q >= vec3<f32>(0.0)) && all(q < vec3<f32>(f32(dims)))) {
         let cell = u32(q.x) + dims * (u32(q.y) + dims * u32(q.z));
-        let first = 12u + cell * words;
-        for (var w = 0u; w < words; w++) {
-            var mask = placed_cells[first + w];
-            while (mask != 0u) {
-                let k = 32u * w + firstTrailingBit(mask);
-                mask &= mask - 1u;
-                let s = placed_sample(placed[k], x, lf);
-                c += s.xyz;
-                keep *= 1.0 - clamp(s.w, 0.0, 1.0);
-            }
+        let first = 13u + dims * dims * dims;
+        for (var i = placed_cells[12u + cell]; i < placed_cells[13u + cell]; i++) {
+            let s = placed_sample(placed[placed_cells[first + i]], x, lf);
+            c += s.xyz;
+            keep *= 1.0 - clamp(s.w, 0.0, 1.0);
         }
     }
     return vec4<f32>(c, 1.0 - keep);
