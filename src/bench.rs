@@ -477,12 +477,12 @@ pub fn bench(
         }
         let r = r.expect("at least one frame");
         // Only where the ideal cones are this frame's reference: one bounce, the plain cone set.
-        let s = Scene {
-            render: settings.clone(),
-            ..scene.clone()
-        };
         let orbit_instability = match &mut ideal_frames {
-            Some(ideal) if crate::temporal::ideal_reference_fits(&s) => {
+            Some(ideal) if crate::temporal::ideal_reference_fits(settings) => {
+                let s = Scene {
+                    render: settings.clone(),
+                    ..scene.clone()
+                };
                 let motion = ideal.motion;
                 let (reference, _) = ideal.of(&s);
                 Some(

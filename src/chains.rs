@@ -845,7 +845,7 @@ pub(crate) fn voxelized_by(parts: &[(crate::scene::Mesh, u32, glam::Mat4)]) -> V
         .map(|(k, (mesh, side, _))| {
             let same = |&&d: &&usize| {
                 let (m, s, _) = &parts[d];
-                s == side && m.triangles.len() == mesh.triangles.len() && m == mesh
+                s == side && m == mesh
             };
             match distinct.iter().find(same) {
                 Some(&d) => d,

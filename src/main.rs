@@ -465,6 +465,8 @@ fn run_render(
 ) -> Result<()> {
     let scene = load_scene(&scene, &flags)?;
     let (scene, preset) = vxgi::quality::resolved(&scene, pipeline).map_err(anyhow::Error::msg)?;
+    // With instances this places every hierarchy's cells: computed once.
+    let loops = vxgi::quality::loop_iterations(&scene, pipeline);
     let quality = format!(
         "quality {} for {}: {} (at most {} loop iterations per invocation in the kernels it sizes; lavapipe stops loops past {})",
         scene.render.quality.name(),
@@ -474,11 +476,10 @@ fn run_render(
         } else {
             preset.join(", ")
         },
-        vxgi::quality::loop_iterations(&scene, pipeline),
+        loops,
         vxgi::quality::LOOP_LIMIT
     );
     check_bounces(pipeline, &scene)?;
-    let loops = vxgi::quality::loop_iterations(&scene, pipeline);
     if loops > vxgi::quality::LOOP_LIMIT {
         eprintln!(
             "warning: these settings give up to {loops} loop iterations per invocation; lavapipe stops \

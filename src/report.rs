@@ -187,7 +187,7 @@ pub fn report(
                 .then(|| leak(&r.indirect.pixels, &pixel_positions(scene), 0.0, 1.0 / 64.0));
             // Only where the ideal cones are this frame's reference: one bounce, the plain cone set.
             let instability = match &mut ideal_frames {
-                Some(ideal) if crate::temporal::ideal_reference_fits(scene) => {
+                Some(ideal) if crate::temporal::ideal_reference_fits(&scene.render) => {
                     progress(&format!(
                         "{name}: {pipeline}: orbit ({} frames)",
                         ideal.frames

@@ -149,12 +149,12 @@ pub fn reference_floor(reference: &[RgbImage], scene: &Scene, motion: Motion, ra
     instability(reference, &finer).instability
 }
 
-/// Whether the ideal cones are `scene`'s frame's own reference, as `vxgi report` and `vxgi bench`
+/// Whether the ideal cones are the own reference of a frame with these settings, as `vxgi report` and `vxgi bench`
 /// measure against them: one bounce (they gather one) and the plain cone set per pixel (an
 /// interleaved frame traces a class of it and resolves its neighbours'). `vxgi temporal` measures
 /// interleaved frames against the plain set's ideal cones all the same.
-pub fn ideal_reference_fits(scene: &Scene) -> bool {
-    scene.render.bounces == 1 && scene.render.cone_interleave == 1
+pub fn ideal_reference_fits(render: &crate::scene::RenderSettings) -> bool {
+    render.bounces == 1 && render.cone_interleave == 1
 }
 
 /// A camera orbit over which `vxgi report` and `vxgi bench` measure each frame's temporal
