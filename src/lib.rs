@@ -22,6 +22,8 @@ pub mod resident;
 pub mod scene;
 pub mod temporal;
 pub mod trace;
+#[cfg(feature = "view")]
+pub mod view;
 
 pub use vxgi_cpu_mirror as cpu_mirror;
 pub use vxgi_harness as harness;

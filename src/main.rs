@@ -81,6 +81,38 @@ enum Command {
         #[command(flatten)]
         render: RenderFlags,
     },
+    /// A window drawing the pipeline's GPU-resident frames continuously. Mouse: left drag orbits,
+    /// right drag pans, the wheel zooms; keys: W A S D Q E fly, 1-4 or Tab switch the pipeline, V
+    /// the view (combined, direct, indirect, AO), [ ] the cone count, - = the voxel grid, the arrow
+    /// keys and PageUp/PageDown move the first light, P plays the instances' keyframes, H hides the
+    /// overlay, Esc quits. Without a display: `xvfb-run -a vxgi view --frames N --screenshot F.png`.
+    #[cfg(feature = "view")]
+    View {
+        /// A TOML scene file (default: the built-in Cornell box).
+        scene: Option<PathBuf>,
+        #[arg(long, value_enum, default_value_t = Pipeline::VctDense)]
+        pipeline: Pipeline,
+        /// Timed actions, a file or inline, one per line or `;`-separated: `FRAME ACTION ARGS`
+        /// with the actions orbit YAW [PITCH], pan X Y, zoom F, fly FORWARD RIGHT UP, pipeline
+        /// NAME, view combined|direct|indirect|ao, cones N, voxels N, light DX DY DZ, resize W H,
+        /// play, pause, overlay on|off (e.g. "1 orbit 20; 2 pipeline lrsm; 3 light 0.1 0 0").
+        #[arg(long)]
+        script: Option<String>,
+        /// Stop after this many frames (a scripted run: other input is ignored).
+        #[arg(long)]
+        frames: Option<u32>,
+        /// Write the last presented frame (with --frames) to this PNG.
+        #[arg(long, requires = "frames")]
+        screenshot: Option<PathBuf>,
+        /// Write frames.csv (vxgi render's counters per frame) and overlay.txt here.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Start with the overlay hidden.
+        #[arg(long)]
+        no_overlay: bool,
+        #[command(flatten)]
+        render: RenderFlags,
+    },
     /// CPU Monte Carlo reference (direct + one bounce, AO) into --out: direct, indirect, combined, ao
     /// as .exr (linear) and .png (sRGB preview).
     Reference {
@@ -980,6 +1012,34 @@ fn real_main() -> Result<()> {
             orbit,
             render,
         } => run_render(plan, pipeline, scene, out, (frames, orbit), render),
+        #[cfg(feature = "view")]
+        Command::View {
+            scene,
+            pipeline,
+            script,
+            frames,
+            screenshot,
+            out,
+            no_overlay,
+            render,
+        } => {
+            if frames == Some(0) {
+                bail!("--frames must be at least 1");
+            }
+            let script = match script {
+                Some(s) => vxgi::view::Script::from_arg(&s)?,
+                None => vxgi::view::Script::default(),
+            };
+            vxgi::view::run(vxgi::view::ViewOptions {
+                scene: load_scene(&scene, &render)?,
+                pipeline,
+                script,
+                frames,
+                screenshot,
+                out,
+                overlay: !no_overlay,
+            })
+        }
         Command::Reference {
             scene,
             spp,

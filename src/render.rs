@@ -253,10 +253,15 @@ impl Rendered {
 
     /// The frame with the cone pass's tile counts, from its screen_tiles list buffer.
     pub fn with_cone_tiles(mut self, list: &[u32]) -> Self {
-        use vxgi_cpu_mirror::screen_tiles::HEADER;
-        self.cone_tiles = Some((list[3], (list.len() - HEADER) as u32));
+        self.cone_tiles = Some(cone_tiles_of(list));
         self
     }
+}
+
+/// The cone pass's 8x8 screen tiles in screen_tiles' list buffer: (listed, all).
+pub(crate) fn cone_tiles_of(list: &[u32]) -> (u32, u32) {
+    use vxgi_cpu_mirror::screen_tiles::HEADER;
+    (list[3], (list.len() - HEADER) as u32)
 }
 
 /// `frame` run on [`Scene::supersampled`] (the camera's `supersample` x `supersample` samples per

@@ -182,7 +182,10 @@ struct Built<'c> {
     /// passes from voxelize on ([`written_in`]: cleared, restored).
     revoxelize: Option<Resets>,
     prepared: Prepared<'c>,
+    /// The frame's images and the small outputs its plan reads ([`Resident::render`]).
     reads: ReadbackSet,
+    /// The small outputs alone: the tile list and cprc's cache counts ([`Resident::present`]).
+    counts: ReadbackSet,
     /// The ray epsilon of the scene's camera frames (`Frame::eye.w`, from the mesh's extent) and
     /// the mesh's bounds: what lrsm's light views are made from besides the lights.
     eps: f32,
@@ -282,6 +285,19 @@ impl GBuffer<'_> {
     }
 }
 
+/// What a caller records after a frame's passes, over its images, into the frame's encoder (e.g. a
+/// display pass into a window's surface texture): [`Resident::present`].
+pub type Draw<'a> = &'a mut dyn FnMut(&mut wgpu::CommandEncoder, &FrameBuffers) -> Result<()>;
+
+/// What a frame ran: its stages' GPU time (timestamp queries; a frame that built the chain first
+/// also the stages that built it outside the chain, by wall clock), its plan, and the cone pass's
+/// screen tiles (listed, all) where it has one.
+pub struct FrameReport {
+    pub stages: Vec<(&'static str, f64)>,
+    pub plan: FramePlan,
+    pub cone_tiles: Option<(u32, u32)>,
+}
+
 /// A pipeline's frames with everything on the GPU (see the module doc).
 pub struct Resident<'c> {
     ctx: &'c GpuContext,
@@ -320,6 +336,11 @@ impl<'c> Resident<'c> {
         })
     }
 
+    /// The pipeline whose frames this renderer draws.
+    pub fn pipeline(&self) -> Pipeline {
+        self.pipeline
+    }
+
     /// Whether `pipeline`'s resident renderer draws `scene`: a pipeline of [`Resident::PIPELINES`]
     /// and at least one light; with `[[instances]]` vct-dense and cprc (their per-instance
     /// hierarchies) and lrsm (which re-voxelizes the scene where the instances moved); vct-svo's
@@ -343,6 +364,12 @@ impl<'c> Resident<'c> {
         self.built.as_ref().and_then(|b| b.memory.clone())
     }
 
+    /// The bytes the last frame's chain holds on the GPU (buffers and textures; `None` before the
+    /// first frame).
+    pub fn gpu_bytes(&self) -> Option<u64> {
+        self.built.as_ref().map(|b| b.prepared.gpu_bytes())
+    }
+
     /// One frame (supersampling and bright lights as every pipeline's, see `render::supersampled`).
     pub fn render(&mut self, scene: &Scene, cones: &ConeSettings) -> Result<Rendered> {
         self.check(scene)?;
@@ -359,6 +386,37 @@ impl<'c> Resident<'c> {
             self.pipeline.name()
         );
         crate::limits::check(scene, self.pipeline, &self.ctx.limits()).map_err(anyhow::Error::msg)
+    }
+
+    /// One frame, submitted and waited for, with `draw`'s passes recorded after the frame's in the
+    /// same encoder and submission: the images stay on the GPU (`draw` reads them); only the plan's
+    /// small outputs and the timestamps are read back. The camera's pixels as they are, as
+    /// [`Resident::encode`]'s.
+    pub fn present(
+        &mut self,
+        scene: &Scene,
+        cones: &ConeSettings,
+        draw: Draw<'_>,
+    ) -> Result<FrameReport> {
+        self.check_pixels(scene)?;
+        let frame = self.submitted(scene, cones, false, Some(draw));
+        if frame.is_err() {
+            // As render's: a frame that failed part way leaves nothing the next one would trust.
+            self.built = None;
+        }
+        frame.map(|(_, report)| report)
+    }
+
+    /// [`Resident::check`], and a scene whose pixels are the camera's: what `encode` and `present`
+    /// draw (supersampling and the exposure of very bright lights are [`Resident::render`]'s).
+    fn check_pixels(&self, scene: &Scene) -> Result<()> {
+        self.check(scene)?;
+        anyhow::ensure!(
+            scene.render.supersample == 1 && crate::render::exposure(scene) == 0,
+            "encode and present draw the camera's pixels: supersample = 1 and light intensities up to {} (render() does the rest)",
+            crate::render::EXPOSURE_LIMIT
+        );
+        Ok(())
     }
 
     /// Record the frame for `scene` into the caller's `encoder`; the caller submits it. The images
@@ -396,15 +454,10 @@ impl<'c> Resident<'c> {
         gbuffer: Option<&GBuffer>,
         encoder: &mut wgpu::CommandEncoder,
     ) -> Result<FrameBuffers> {
-        self.check(scene)?;
+        self.check_pixels(scene)?;
         if let Some(g) = gbuffer {
             g.check(scene)?;
         }
-        anyhow::ensure!(
-            scene.render.supersample == 1 && crate::render::exposure(scene) == 0,
-            "encode draws the camera's pixels: supersample = 1 and light intensities up to {} (render() does the rest)",
-            crate::render::EXPOSURE_LIMIT
-        );
         if let Err(e) = self.record(scene, cones, gbuffer, encoder) {
             // Nothing half-recorded is reused: the next frame builds the chain again.
             self.built = None;
@@ -530,6 +583,33 @@ impl<'c> Resident<'c> {
     }
 
     fn frame(&mut self, scene: &Scene, cones: &ConeSettings) -> Result<Rendered> {
+        let (out, report) = self.submitted(scene, cones, true, None)?;
+        let bytes = |n: &str| &out[n].buffer().expect("a buffer").bytes;
+        let (w, h) = (scene.camera.width, scene.camera.height);
+        let b = self.built.as_ref().expect("recorded");
+        let frame = Rendered::assemble(
+            image_of(w, h, bytes(b.direct)),
+            image_of(w, h, bytes("indirect")),
+            image_of(w, h, bytes("ao")),
+            report.stages,
+            report.plan,
+        );
+        Ok(Rendered {
+            cone_tiles: report.cone_tiles,
+            ..frame
+        })
+    }
+
+    /// Record the frame (then `draw`'s passes over its images), submit it once and wait: the
+    /// outputs read back (the images where `images`, else only the small ones the plan reads) and
+    /// what the frame ran.
+    fn submitted(
+        &mut self,
+        scene: &Scene,
+        cones: &ConeSettings,
+        images: bool,
+        draw: Option<Draw<'_>>,
+    ) -> Result<(crate::harness::Resources, FrameReport)> {
         let name = self.pipeline.name();
         let mut encoder = self
             .ctx
@@ -538,11 +618,20 @@ impl<'c> Resident<'c> {
         let (reuse, relit, timed) = self.record(scene, cones, None, &mut encoder)?;
         let b = self.built.as_ref().expect("recorded");
         let p = &b.prepared;
-        p.encode_read(&mut encoder, &b.reads, timed.clone());
+        if let Some(draw) = draw {
+            let buffer = |n: &str| b.prepared.buffer(n).cloned().context("the chain's output");
+            let frame = FrameBuffers {
+                direct: buffer(b.direct)?,
+                indirect: buffer("indirect")?,
+                ao: buffer("ao")?,
+            };
+            draw(&mut encoder, &frame)?;
+        }
+        let reads = if images { &b.reads } else { &b.counts };
+        p.encode_read(&mut encoder, reads, timed.clone());
         p.submit(encoder).with_context(|| format!("{name} frame"))?;
-        let (out, pass_ns) = p.finish_read(&b.reads, timed.len())?;
+        let (out, pass_ns) = p.finish_read(reads, timed.len())?;
         let bytes = |n: &str| &out[n].buffer().expect("a buffer").bytes;
-        let (w, h) = (scene.camera.width, scene.camera.height);
         // Per stage: the GPU time of its passes (timestamps), where it ran this frame; a frame that
         // built the chain first the stages that built it outside the chain.
         let mut stages: Vec<(&'static str, f64)> = if reuse {
@@ -628,19 +717,17 @@ impl<'c> Resident<'c> {
                 &format!("every GPU resource of the frame made again: {why}"),
             );
         }
-        let frame = Rendered::assemble(
-            image_of(w, h, bytes(b.direct)),
-            image_of(w, h, bytes("indirect")),
-            image_of(w, h, bytes("ao")),
-            stages,
-            plan,
-        );
-        Ok(match out.get("tile_list") {
-            Some(t) => {
-                frame.with_cone_tiles(bytemuck::cast_slice(&t.buffer().expect("a buffer").bytes))
-            }
-            None => frame,
-        })
+        let cone_tiles = out.get("tile_list").map(|t| {
+            crate::render::cone_tiles_of(bytemuck::cast_slice(&t.buffer().expect("a buffer").bytes))
+        });
+        Ok((
+            out,
+            FrameReport {
+                stages,
+                plan,
+                cone_tiles,
+            },
+        ))
     }
 
     fn build(&self, scene: &Scene, cones: &ConeSettings, key: Key) -> Result<Built<'c>> {
@@ -744,6 +831,7 @@ impl<'c> Resident<'c> {
             }
         }
         let reads = prepared.readback_set(&outputs)?;
+        let counts = prepared.readback_set(&outputs[3..])?;
         // Appended to (tile_list), written where listed (indirect, ao, irradiance, soft_direct), or
         // written per cache (cprc's tile_ranges): zero at the start of every frame.
         let cleared = [
@@ -778,6 +866,7 @@ impl<'c> Resident<'c> {
             memory,
             prepared,
             reads,
+            counts,
         })
     }
 }

@@ -46,3 +46,5 @@ mod svo_sample;
 mod tile_normal_histogram;
 mod voxel_light;
 mod voxelize;
+#[cfg(feature = "view")]
+mod view;

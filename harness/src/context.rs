@@ -112,6 +112,12 @@ impl GpuContext {
             ..Default::default()
         }))
         .map_err(|e| HarnessError::NoAdapter(e.to_string()))?;
+        Self::for_adapter(&adapter)
+    }
+
+    /// A device on `adapter` (e.g. one chosen to present to a window's surface) as [`GpuContext::new`]
+    /// requests it: the adapter's own limits and timestamp queries when it has them.
+    pub fn for_adapter(adapter: &wgpu::Adapter) -> Result<Self> {
         let info = adapter.get_info();
         let wanted =
             wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS;

@@ -1230,6 +1230,29 @@ impl Prepared<'_> {
         Ok(())
     }
 
+    /// The bytes of the GPU resources this holds: each buffer's size and each texture's texels over
+    /// its mip levels (what the chain keeps on the device; staging and query buffers not included).
+    pub fn gpu_bytes(&self) -> u64 {
+        self.gpu
+            .values()
+            .map(|r| match r {
+                GpuRes::Buffer(b) => b.size(),
+                GpuRes::Texture(t) => {
+                    let e = t.size();
+                    let shape = HostTexture {
+                        format: t.format(),
+                        dimension: t.dimension(),
+                        size: [e.width, e.height, e.depth_or_array_layers],
+                        levels: Vec::new(),
+                    };
+                    (0..t.mip_level_count())
+                        .map(|m| shape.level_bytes(m) as u64)
+                        .sum()
+                }
+            })
+            .sum()
+    }
+
     /// Staging buffers, created now and reused every frame, for the buffer resources `names` (and for
     /// the passes' timestamps).
     pub fn readback_set(&self, names: &[&str]) -> Result<ReadbackSet> {
