@@ -44,7 +44,7 @@ mod svo_cone_trace;
 mod svo_photons;
 mod svo_sample;
 mod tile_normal_histogram;
-mod voxel_light;
-mod voxelize;
 #[cfg(feature = "view")]
 mod view;
+mod voxel_light;
+mod voxelize;

@@ -134,7 +134,11 @@ fn a_script_orbits_switches_and_moves_the_light_and_the_overlay_reports_the_coun
     // The orbited frame (1) and lrsm's frame over its kept chain (3): one submission creating no
     // pipeline, buffer or texture.
     for k in [1, 3] {
-        assert_eq!(&rows[k][3..=6], &[1.0, 0.0, 0.0, 0.0], "frame {k}: {rows:?}");
+        assert_eq!(
+            &rows[k][3..=6],
+            &[1.0, 0.0, 0.0, 0.0],
+            "frame {k}: {rows:?}"
+        );
     }
 }
 
