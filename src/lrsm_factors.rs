@@ -68,6 +68,18 @@ pub struct Algorithm {
     /// projected disc, the rays that miss the sample weighing 1 (the paper's second assumption:
     /// shadowed surface facing the light): `sum f A R V / c / (sum f A V / c + 1 - sum f A V)`.
     pub jacobian: bool,
+    /// Weigh each layer's rays by the area of the surface they hit per unit of the light's image,
+    /// `1 / <n, l>`, and take L as a sum, not a ratio: with `premultiplied` and `view_weight`,
+    /// `alpha_i L_i = sum f (A R) V <n, vc> / <n, l>`, the lit surface in the sample (its area from
+    /// the light's footprint, V keeping what lies inside the sample) times its radiance, projected
+    /// along the cone, over the cone's cross-section (the footprint's disc is the cone's at the
+    /// sample, so the two areas cancel). eq. 1's product with no factor counted twice.
+    pub area: bool,
+    /// With `premultiplied`: the lit surface the LRSMs find in the sample (`sum f A V N` with the
+    /// same weights as L) is at most the surface the occlusion voxels find there (alpha_i): where
+    /// it is more, L is scaled down to alpha_i's. A bound, not a fit: light reflected by more
+    /// surface than the sample holds is not in the sample.
+    pub capped: bool,
 }
 
 /// One row of the diagnostic: a frame's two sources.
@@ -96,17 +108,19 @@ impl<'a> FactorVolume<'a> {
         }
     }
 
-    fn radiance(&self, x: Vec3, lf: f32, diam: f32, d: Vec3) -> Vec3 {
+    /// The sample's L and, from the LRSMs by this module's Algorithm 1, the lit coverage its
+    /// weights sum to (0 otherwise).
+    fn radiance(&self, x: Vec3, lf: f32, diam: f32, d: Vec3) -> (Vec3, f32) {
         match self.swap.radiance {
             Radiance::Voxels => {
                 let (s, _) = self.voxels.sample(x, lf);
                 if s.w > 0.0 {
-                    s.truncate() / s.w
+                    (s.truncate() / s.w, 0.0)
                 } else {
-                    Vec3::ZERO
+                    (Vec3::ZERO, 0.0)
                 }
             }
-            Radiance::Lrsm(a) if a.is_kernel() => self.lrsm.radiance(x, diam, d).0,
+            Radiance::Lrsm(a) if a.is_kernel() => (self.lrsm.radiance(x, diam, d).0, 0.0),
             Radiance::Lrsm(a) => lrsm_radiance(self.lrsm, x, diam, d, a),
         }
     }
@@ -139,11 +153,17 @@ impl Volume for FactorVolume<'_> {
         if !(s.w > 0.0) {
             return (s, e);
         }
-        let l = self.radiance(x, lf, diam, d);
-        let pre = matches!(self.swap.radiance, Radiance::Lrsm(a) if a.premultiplied);
-        if pre {
-            // Premultiplied: L is the colour the march adds, not alpha times it.
-            return (l.extend(s.w), e);
+        let (l, lit) = self.radiance(x, lf, diam, d);
+        if let Radiance::Lrsm(a) = self.swap.radiance {
+            if a.premultiplied {
+                // Premultiplied: L is the colour the march adds, not alpha times it.
+                let l = if a.capped && lit > s.w {
+                    l * (s.w / lit)
+                } else {
+                    l
+                };
+                return (l.extend(s.w), e);
+            }
         }
         ((l * s.w).extend(s.w), e)
     }
@@ -151,8 +171,8 @@ impl Volume for FactorVolume<'_> {
 
 /// lrsm_cone_trace's per-sample radiance (every view's disc share times its Sample LRSM) with
 /// Algorithm 1 changed as `a` says; no error bound (a diagnostic, not a mirror).
-pub fn lrsm_radiance(vol: &LrsmVolume, x: Vec3, diam: f32, d: Vec3, a: Algorithm) -> Vec3 {
-    let mut sum = Vec3::ZERO;
+pub fn lrsm_radiance(vol: &LrsmVolume, x: Vec3, diam: f32, d: Vec3, a: Algorithm) -> (Vec3, f32) {
+    let (mut sum, mut lit) = (Vec3::ZERO, 0.0);
     for v in vol.views {
         let Some((nx, ny, zv)) = v.project(x) else {
             continue;
@@ -188,9 +208,11 @@ pub fn lrsm_radiance(vol: &LrsmVolume, x: Vec3, diam: f32, d: Vec3, a: Algorithm
         } else {
             (eye - x).normalize()
         };
-        sum += sample(&lrsm, vol.sp, pos, -d, rc, l, a) * w;
+        let (r, c) = sample(&lrsm, vol.sp, pos, -d, rc, l, a);
+        sum += r * w;
+        lit += c * w;
     }
-    sum
+    (sum, lit)
 }
 
 /// Algorithm 1 at `pos = (u, v, mip, zc)` seen along `vc`, sample radius `rc` (depth units), with
@@ -204,7 +226,7 @@ fn sample(
     rc: f32,
     light: Vec3,
     a: Algorithm,
-) -> Vec3 {
+) -> (Vec3, f32) {
     let [u, v, mip, zc] = pos;
     let taps = taps(p, u, v, mip);
     let vp = VisibilityParams {
@@ -251,9 +273,10 @@ fn sample(
             };
             let w = decay * vis * n_w;
             let r = fetch(lrsm.radiance, &taps, layer, false);
-            num += Vec3::new(r[0], r[1], r[2]) * w;
-            den += nm[3] * w;
             let c = n.dot(light).max(1e-3);
+            let wr = if a.area { w / c } else { w };
+            num += Vec3::new(r[0], r[1], r[2]) * wr;
+            den += nm[3] * wr;
             jnum += Vec3::new(r[0], r[1], r[2]) * (w / c);
             jden += nm[3] * (w / c);
             hit += nm[3] * decay * vis;
@@ -269,16 +292,12 @@ fn sample(
     }
     if a.jacobian {
         let d = jden + (1.0 - hit).max(0.0);
-        return if d > 0.0 { jnum / d } else { Vec3::ZERO };
+        return (if d > 0.0 { jnum / d } else { Vec3::ZERO }, den);
     }
     if a.normalized {
-        if den > 0.0 {
-            num / den
-        } else {
-            Vec3::ZERO
-        }
+        (if den > 0.0 { num / den } else { Vec3::ZERO }, den)
     } else {
-        num
+        (num, den)
     }
 }
 
@@ -299,6 +318,8 @@ impl Algorithm {
         front_shadowed: false,
         premultiplied: false,
         jacobian: false,
+        area: false,
+        capped: false,
     };
 
     /// Whether the kernel computes this L (its mirror, `lrsm_cone_trace`'s, gives it); the
@@ -397,6 +418,54 @@ pub fn rows() -> Vec<(&'static str, Swap)> {
                 Surface,
                 lrsm(Algorithm {
                     premultiplied: true,
+                    ..default
+                }),
+            ),
+        ),
+        (
+            "L premultiplied, N weighs L",
+            s(
+                Surface,
+                lrsm(Algorithm {
+                    premultiplied: true,
+                    view_weight: true,
+                    ..default
+                }),
+            ),
+        ),
+        (
+            "L premultiplied, N weighs L, rays weighed by their area 1 / <n.l>",
+            s(
+                Surface,
+                lrsm(Algorithm {
+                    premultiplied: true,
+                    view_weight: true,
+                    area: true,
+                    ..default
+                }),
+            ),
+        ),
+        (
+            "L premultiplied, N weighs L, area 1 / <n.l>, lit coverage at most alpha",
+            s(
+                Surface,
+                lrsm(Algorithm {
+                    premultiplied: true,
+                    view_weight: true,
+                    area: true,
+                    capped: true,
+                    ..default
+                }),
+            ),
+        ),
+        (
+            "L premultiplied, N weighs L, lit coverage at most alpha",
+            s(
+                Surface,
+                lrsm(Algorithm {
+                    premultiplied: true,
+                    view_weight: true,
+                    capped: true,
                     ..default
                 }),
             ),

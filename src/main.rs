@@ -215,6 +215,9 @@ enum Command {
         spp: u32,
         #[arg(long, default_value = "lrsm-factors")]
         out: PathBuf,
+        /// Only the rows whose name contains this text.
+        #[arg(long)]
+        rows: Option<String>,
         #[command(flatten)]
         render: RenderFlags,
     },
@@ -860,6 +863,7 @@ fn run_lrsm_factors(
     reference: Option<PathBuf>,
     spp: u32,
     out: PathBuf,
+    only: Option<String>,
     flags: RenderFlags,
 ) -> Result<()> {
     use vxgi::images::compare;
@@ -908,6 +912,9 @@ fn run_lrsm_factors(
     );
     println!("{header}");
     for (k, (label, swap)) in vxgi::lrsm_factors::rows().into_iter().enumerate() {
+        if only.as_ref().is_some_and(|o| !label.contains(o.as_str())) {
+            continue;
+        }
         let t = std::time::Instant::now();
         let f = vxgi::render::render_lrsm_factors(&scene, &cones, swap)?;
         let dir = out.join(format!("row_{k}"));
@@ -1077,8 +1084,9 @@ fn real_main() -> Result<()> {
             reference,
             spp,
             out,
+            rows,
             render,
-        } => run_lrsm_factors(scene, reference, spp, out, render),
+        } => run_lrsm_factors(scene, reference, spp, out, rows, render),
         Command::Bisect {
             scene,
             mirror_until,

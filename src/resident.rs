@@ -19,8 +19,10 @@
 //! frame whose lights moved (their number and, for lrsm, their number of light views unchanged) also
 //! uploads them (and lrsm's light views) and re-runs what the lights feed over the kept voxels:
 //! voxel_light and the mips (vct-dense), every view's RSM and LRSM (lrsm); vct-svo's octree values
-//! hold the light, so there moved lights rebuild. Anything else rebuilds the whole chain, and the
-//! plan says why.
+//! hold the light, so there moved lights rebuild. A frame that differs in the image size alone
+//! builds a new chain that takes the kept volume by GPU copies instead of computing it again
+//! (vct-svo, whose octree is built outside its chain, builds it again). Anything else rebuilds the
+//! whole chain, and the plan says why.
 use crate::chains::{Chain, ChainCopy};
 use crate::harness::HostResource;
 use crate::harness::{GpuContext, Prepared, ReadbackSet};
@@ -55,6 +57,15 @@ struct Key {
 }
 
 impl Key {
+    /// Whether `next` differs from `self` in the image size alone: what shapes the volume is the
+    /// same, so a new chain can take the kept volume's buffers.
+    fn resized_to(&self, next: &Key) -> bool {
+        Key {
+            size: next.size,
+            ..self.clone()
+        } == *next
+    }
+
     /// What differs from `self` in `next`, in words.
     fn change_to(&self, next: &Key) -> String {
         let mut what = Vec::new();
@@ -198,6 +209,10 @@ struct Built<'c> {
     gbuffer_end: usize,
     /// Where the passes the lights feed start: a frame with moved lights runs from there.
     relight: usize,
+    /// The buffers the volume's passes (those before the camera's G-buffer) write, and the copies
+    /// between them fill: what a chain built for another image size takes from this one
+    /// ([`Resident::take_volume`]).
+    volume: Vec<String>,
     copies: Vec<ChainCopy>,
     /// The per-frame outputs zeroed before a frame that reuses the chain (each is zero in a fresh one).
     cleared: Vec<&'static str>,
@@ -307,6 +322,8 @@ pub struct Resident<'c> {
     caches: Option<crate::cprc::CprcStats>,
     /// Why the last frame rebuilt the chain that an earlier frame had built, for its plan.
     rebuilt: Option<String>,
+    /// Whether the last frame's new chain took the volume of the chain before it (a resize).
+    kept_volume: bool,
 }
 
 impl<'c> Resident<'c> {
@@ -333,6 +350,7 @@ impl<'c> Resident<'c> {
             built: None,
             caches: None,
             rebuilt: None,
+            kept_volume: false,
         })
     }
 
@@ -494,9 +512,19 @@ impl<'c> Resident<'c> {
             .as_ref()
             .filter(|_| !reuse)
             .map(|b| b.key.change_to(&key));
+        self.kept_volume = false;
         if !reuse {
-            self.built = None;
-            self.built = Some(self.build(scene, cones, key)?);
+            // A resize keeps the old chain until the new one has taken its volume; any other
+            // change frees it first.
+            let old = self
+                .built
+                .take()
+                .filter(|b| b.key.resized_to(&key) && self.pipeline != Pipeline::VctSvo);
+            let built = self.build(scene, cones, key)?;
+            if let Some(old) = &old {
+                self.kept_volume = Self::take_volume(old, &built, scene, encoder);
+            }
+            self.built = Some(built);
         }
         let b = self.built.as_mut().expect("built above");
         // Moved instances re-light the kept hierarchies where they stand now, as moved lights do.
@@ -548,8 +576,10 @@ impl<'c> Resident<'c> {
                 }
             }
         }
-        // The volume (a new chain), or what the lights feed over the kept voxels (moved lights).
+        // The volume (a new chain that did not take the last one's), or what the lights feed over
+        // the kept voxels (moved lights).
         let first = match (reuse, relit) {
+            (false, _) if self.kept_volume => None,
             (false, _) => Some(0),
             (true, true) if moved && b.revoxelize.is_some() => Some(0),
             (true, true) => Some(b.relight),
@@ -571,6 +601,37 @@ impl<'c> Resident<'c> {
             relit,
             first.unwrap_or(b.per_frame.start)..b.per_frame.end,
         ))
+    }
+
+    /// Record the copies of `old`'s volume into `new`'s, a chain built for the same scene at
+    /// another image size, and say whether it was taken: only where the lights and the mesh are
+    /// the ones `old`'s volume holds and every buffer the volume's passes write has its size in
+    /// both (a buffer sized by the image there would be the volume's passes' to write).
+    /// vct-svo's octree is built outside its chain: it is never taken (the caller leaves it out).
+    fn take_volume(
+        old: &Built,
+        new: &Built,
+        scene: &Scene,
+        encoder: &mut wgpu::CommandEncoder,
+    ) -> bool {
+        if old.lights != scene.lights || old.mesh != scene.mesh || old.volume != new.volume {
+            return false;
+        }
+        let mut pairs = Vec::new();
+        for name in &new.volume {
+            let (Some(src), Some(dst)) = (old.prepared.buffer(name), new.prepared.buffer(name))
+            else {
+                return false;
+            };
+            if src.size() != dst.size() {
+                return false;
+            }
+            pairs.push((src.clone(), dst.clone()));
+        }
+        for (src, dst) in &pairs {
+            encoder.copy_buffer_to_buffer(src, 0, dst, 0, src.size());
+        }
+        true
     }
 
     fn render_samples(&mut self, scene: &Scene, cones: &ConeSettings) -> Result<Rendered> {
@@ -653,7 +714,7 @@ impl<'c> Resident<'c> {
                 None => stages.push((name, ns * 1e-9)),
             }
         }
-        let cached = reuse && !relit;
+        let cached = (reuse && !relit) || self.kept_volume;
         let mut plan = match self.pipeline {
             Pipeline::Cprc => {
                 let a = bytemuck::cast_slice::<u8, u32>(bytes("cache_args"));
@@ -711,11 +772,22 @@ impl<'c> Resident<'c> {
             _ if relit => plan = plan.with_voxels_kept(),
             _ => {}
         }
-        if let Some(why) = &self.rebuilt {
-            plan = plan.with_note(
-                "voxelize",
-                &format!("every GPU resource of the frame made again: {why}"),
-            );
+        match &self.rebuilt {
+            Some(why) if self.kept_volume => {
+                plan = plan.with_note(
+                    "voxelize",
+                    &format!(
+                        "the frame's GPU resources made again ({why}); the volume copied from the last frame's on the GPU, not computed again"
+                    ),
+                );
+            }
+            Some(why) => {
+                plan = plan.with_note(
+                    "voxelize",
+                    &format!("every GPU resource of the frame made again: {why}"),
+                );
+            }
+            None => {}
         }
         let cone_tiles = out.get("tile_list").map(|t| {
             crate::render::cone_tiles_of(bytemuck::cast_slice(&t.buffer().expect("a buffer").bytes))
@@ -818,6 +890,16 @@ impl<'c> Resident<'c> {
                 .find(|s| s.stage == crate::kernels::gbuffer::DECL.name)
                 .map_or(0, |s| s.passes.len());
         let relight = start_of(relight_stage)?;
+        // What the camera's passes also write starts each reused frame as a fresh chain has it
+        // (cleared or restored), so a new chain keeps its own.
+        let per_frame = written(&chain, gbuffer..usize::MAX);
+        let mut volume = written(&chain, 0..gbuffer);
+        for c in &chain.copies {
+            if c.after <= gbuffer && !volume.contains(&c.dst) {
+                volume.push(c.dst.clone());
+            }
+        }
+        volume.retain(|n| !per_frame.contains(n));
         let (_, restored) = written_in(&mut chain, gbuffer..usize::MAX);
         let revoxelize = (instanced && self.pipeline == Pipeline::Lrsm)
             .then(|| written_in(&mut chain, 0..gbuffer));
@@ -852,6 +934,7 @@ impl<'c> Resident<'c> {
             hierarchies,
             revoxelize,
             relight,
+            volume,
             eps: data.frame.eye[3],
             bounds: data.bounds,
             stages,
@@ -880,8 +963,28 @@ type Resets = (Vec<String>, Vec<(String, String)>);
 /// added to the chain here: e.g. cprc's sort values 0..n, which the sort's ping-pong overwrites, and
 /// its "no cluster" marks, which clusters overwrite only where they lie; (copy, buffer) pairs).
 fn written_in(chain: &mut Chain, range: std::ops::Range<usize>) -> Resets {
-    use crate::harness::{BindingKind, View};
     let (mut zero, mut first): (Vec<String>, Vec<(String, String)>) = (Vec::new(), Vec::new());
+    for name in written(chain, range) {
+        let Some(HostResource::Buffer(b)) = chain.resources.get(&name) else {
+            continue;
+        };
+        if b.bytes.iter().any(|&x| x != 0) {
+            first.push((format!("{name}@first"), name));
+        } else {
+            zero.push(name);
+        }
+    }
+    for (copy, name) in &first {
+        let contents = chain.resources[name].clone();
+        chain.resources.insert(copy.clone(), contents);
+    }
+    (zero, first)
+}
+
+/// The buffers the passes `range` of `chain` bind as writable storage, each once, in chain order.
+fn written(chain: &Chain, range: std::ops::Range<usize>) -> Vec<String> {
+    use crate::harness::{BindingKind, View};
+    let mut out: Vec<String> = Vec::new();
     let mut at = 0;
     for st in &chain.stages {
         for pass in &st.passes {
@@ -903,26 +1006,14 @@ fn written_in(chain: &mut Chain, range: std::ops::Range<usize>) -> Resets {
                 let (View::Buffer(name) | View::BufferRange { name, .. }) = view else {
                     continue;
                 };
-                let Some(HostResource::Buffer(b)) = chain.resources.get(name) else {
-                    continue;
-                };
-                let known = zero.contains(name) || first.iter().any(|(_, n)| n == name);
-                if !writable || known {
-                    continue;
-                }
-                if b.bytes.iter().any(|&x| x != 0) {
-                    first.push((format!("{name}@first"), name.clone()));
-                } else {
-                    zero.push(name.clone());
+                let buffer = matches!(chain.resources.get(name), Some(HostResource::Buffer(_)));
+                if writable && buffer && !out.contains(name) {
+                    out.push(name.clone());
                 }
             }
         }
     }
-    for (copy, name) in &first {
-        let contents = chain.resources[name].clone();
-        chain.resources.insert(copy.clone(), contents);
-    }
-    (zero, first)
+    out
 }
 
 /// The buffers a frame whose instances moved rewrites: the scene's triangles and BVH (the ray caster's,

@@ -789,7 +789,7 @@ impl App {
                 scale,
                 pad: [0.0; 3],
             };
-            let paint = overlay.map(|text| paint_overlay(&g.egui, text, size));
+            let paint = overlay.map(|text| paint_overlay(&g.egui, &mut g.overlay, ctx, text, size));
             let shot_buffer = shoot.then(|| Readback::new(&ctx.device, size, g.config.format));
             let offscreen = (shoot && !g.copyable).then(|| {
                 ctx.device.create_texture(&wgpu::TextureDescriptor {
@@ -867,6 +867,9 @@ impl App {
                 ctx.queue.submit([encoder.finish()]);
                 (frame.stages, frame.plan.skipped(), None, memory)
             };
+            if let Some(p) = paint {
+                p.finish(&mut g.overlay);
+            }
             let image = match &shot_buffer {
                 Some(rb) => Some(rb.read(ctx)?),
                 None => None,
@@ -1146,14 +1149,21 @@ fn upload(
     }
 }
 
-/// The overlay's shapes for one frame, tessellated.
+/// The overlay's shapes for one frame, tessellated, its new textures already uploaded; the
+/// textures egui no longer needs are freed once the frame's passes are recorded (`finish`).
 struct OverlayPaint {
     jobs: Vec<egui::ClippedPrimitive>,
-    textures: egui::TexturesDelta,
+    free: Vec<egui::TextureId>,
     screen: egui_wgpu::ScreenDescriptor,
 }
 
-fn paint_overlay(egui: &egui::Context, text: &str, size: (u32, u32)) -> OverlayPaint {
+fn paint_overlay(
+    egui: &egui::Context,
+    renderer: &mut egui_wgpu::Renderer,
+    ctx: &GpuContext,
+    text: &str,
+    size: (u32, u32),
+) -> OverlayPaint {
     let input = egui::RawInput {
         screen_rect: Some(egui::Rect::from_min_size(
             egui::Pos2::ZERO,
@@ -1161,7 +1171,7 @@ fn paint_overlay(egui: &egui::Context, text: &str, size: (u32, u32)) -> OverlayP
         )),
         ..Default::default()
     };
-    let out = egui.run_pass(input, |ctx| {
+    let mut out = egui.run_pass(input, |ctx| {
         egui::Area::new(egui::Id::unique("vxgi overlay"))
             .fixed_pos(egui::pos2(6.0, 6.0))
             .show(ctx, |ui| {
@@ -1178,9 +1188,18 @@ fn paint_overlay(egui: &egui::Context, text: &str, size: (u32, u32)) -> OverlayP
                     });
             });
     });
+    // egui hands each texture change out once: applied here, once per frame, whatever number
+    // of targets the frame draws into.
+    for (id, deltas) in std::mem::take(&mut out.textures_delta.set) {
+        for delta in &deltas {
+            renderer.update_texture(&ctx.device, &ctx.queue, id, delta);
+        }
+    }
     OverlayPaint {
         jobs: egui.tessellate(out.shapes, out.pixels_per_point),
-        textures: out.textures_delta,
+        free: std::mem::take(&mut out.textures_delta.free)
+            .into_iter()
+            .collect(),
         screen: egui_wgpu::ScreenDescriptor {
             size_in_pixels: [size.0, size.1],
             pixels_per_point: out.pixels_per_point,
@@ -1196,11 +1215,6 @@ impl OverlayPaint {
         encoder: &mut wgpu::CommandEncoder,
         target: &wgpu::TextureView,
     ) {
-        for (id, deltas) in &self.textures.set {
-            for delta in deltas {
-                renderer.update_texture(&ctx.device, &ctx.queue, *id, delta);
-            }
-        }
         let extra =
             renderer.update_buffers(&ctx.device, &ctx.queue, encoder, &self.jobs, &self.screen);
         debug_assert!(extra.is_empty(), "no paint callbacks");
@@ -1221,7 +1235,11 @@ impl OverlayPaint {
             multiview_mask: None,
         });
         renderer.render(&mut pass.forget_lifetime(), &self.jobs, &self.screen);
-        for id in &self.textures.free {
+    }
+
+    /// Free what egui retired this frame (wgpu keeps a texture alive while recorded work uses it).
+    fn finish(self, renderer: &mut egui_wgpu::Renderer) {
+        for id in &self.free {
             renderer.free_texture(id);
         }
     }

@@ -1609,6 +1609,56 @@ fn resident_vct_dense_rebuilds_when_voxels_or_size_change_and_says_why() {
     }
 }
 
+/// A frame at another image size (a resized window) makes the frame's resources again but takes
+/// the kept volume by GPU copies: voxelize and the volume's passes do not run, and the images are
+/// bit for bit a fresh renderer's at that size. vct-svo builds its octree outside the chain and
+/// builds it again.
+#[test]
+fn a_resized_resident_frame_keeps_the_volume_and_draws_a_fresh_frames_images() {
+    use vxgi::kernels::cone_trace::ConeSettings;
+    use vxgi::render::Pipeline;
+    use vxgi::resident::Resident;
+    let mut scene = small(Scene::cornell_box(), 24, 24);
+    scene.render.voxels = 16;
+    scene.render.rsm_side = 32;
+    let cones = ConeSettings::from(&scene.render);
+    let mut resized = scene.clone();
+    resized.camera.width = 32;
+    resized.camera.height = 20;
+    for p in Resident::PIPELINES {
+        let mut resident = Resident::new(gpu(), p).unwrap();
+        resident.render(&scene, &cones).unwrap();
+        let r = resident.render(&resized, &cones).unwrap();
+        let plan = r.plan.to_string();
+        assert!(
+            plan.contains("the image size changed (24x24 -> 32x20)"),
+            "{plan}"
+        );
+        let voxelize = r
+            .plan
+            .passes
+            .iter()
+            .find(|q| q.stage == "voxelize")
+            .unwrap();
+        assert_eq!(voxelize.runs, p == Pipeline::VctSvo, "{}: {plan}", p.name());
+        let fresh = Resident::new(gpu(), p)
+            .unwrap()
+            .render(&resized, &cones)
+            .unwrap();
+        for (name, got, want) in [
+            ("direct", &r.direct, &fresh.direct),
+            ("indirect", &r.indirect, &fresh.indirect),
+            ("ao", &r.ao, &fresh.ao),
+        ] {
+            assert!(
+                got == want,
+                "{}: {name} differs from a fresh frame's",
+                p.name()
+            );
+        }
+    }
+}
+
 /// Scaling a frame back from its exposure saturates at f32::MAX but keeps a NaN a NaN (so the
 /// non-finite checks downstream still see it).
 #[test]

@@ -71,7 +71,6 @@ fn flip_against_render(pipeline: Pipeline, scene: &Scene, shot: &Path) -> f32 {
 }
 
 #[test]
-#[ignore = "window tests: failing on first run, not yet investigated (docs/view.md)"]
 fn every_pipelines_window_shows_what_render_draws() {
     let dir = tempfile_dir("view_pipelines");
     let scene = Scene::cornell_box();
@@ -93,7 +92,6 @@ fn every_pipelines_window_shows_what_render_draws() {
 }
 
 #[test]
-#[ignore = "window tests: failing on first run, not yet investigated (docs/view.md)"]
 fn a_script_orbits_switches_and_moves_the_light_and_the_overlay_reports_the_counters() {
     let dir = tempfile_dir("view_script");
     let shot = dir.join("scripted.png");
