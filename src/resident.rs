@@ -21,8 +21,8 @@
 //! voxel_light and the mips (vct-dense), every view's RSM and LRSM (lrsm); vct-svo's octree values
 //! hold the light, so there moved lights rebuild. A frame that differs in the image size alone
 //! builds a new chain that takes the kept volume by GPU copies instead of computing it again
-//! (vct-svo, whose octree is built outside its chain, builds it again). Anything else rebuilds the
-//! whole chain, and the plan says why.
+//! (vct-svo uploads the octree its staged passes built, without building it again). Anything else
+//! rebuilds the whole chain, and the plan says why.
 use crate::chains::{Chain, ChainCopy};
 use crate::harness::HostResource;
 use crate::harness::{GpuContext, Prepared, ReadbackSet};
@@ -324,6 +324,9 @@ pub struct Resident<'c> {
     rebuilt: Option<String>,
     /// Whether the last frame's new chain took the volume of the chain before it (a resize).
     kept_volume: bool,
+    /// vct-svo: the staged passes that build the octree, holding the last one and what it was
+    /// built for (a chain at another image size uploads it again instead of building it).
+    svo: crate::render::VctSvo,
 }
 
 impl<'c> Resident<'c> {
@@ -351,6 +354,7 @@ impl<'c> Resident<'c> {
             caches: None,
             rebuilt: None,
             kept_volume: false,
+            svo: crate::render::VctSvo::new(false),
         })
     }
 
@@ -516,13 +520,13 @@ impl<'c> Resident<'c> {
         if !reuse {
             // A resize keeps the old chain until the new one has taken its volume; any other
             // change frees it first.
-            let old = self
-                .built
-                .take()
-                .filter(|b| b.key.resized_to(&key) && self.pipeline != Pipeline::VctSvo);
+            let old = self.built.take().filter(|b| b.key.resized_to(&key));
             let built = self.build(scene, cones, key)?;
             if let Some(old) = &old {
-                self.kept_volume = Self::take_volume(old, &built, scene, encoder);
+                // vct-svo's chain has no volume passes: its octree is kept where the staged
+                // passes found it built for this scene already.
+                self.kept_volume =
+                    Self::take_volume(old, &built, scene, encoder) && built.build_stages.is_empty();
             }
             self.built = Some(built);
         }
@@ -607,7 +611,7 @@ impl<'c> Resident<'c> {
     /// another image size, and say whether it was taken: only where the lights and the mesh are
     /// the ones `old`'s volume holds and every buffer the volume's passes write has its size in
     /// both (a buffer sized by the image there would be the volume's passes' to write).
-    /// vct-svo's octree is built outside its chain: it is never taken (the caller leaves it out).
+    /// vct-svo's octree is built outside its chain (its chain has no volume passes to skip).
     fn take_volume(
         old: &Built,
         new: &Built,
@@ -802,7 +806,7 @@ impl<'c> Resident<'c> {
         ))
     }
 
-    fn build(&self, scene: &Scene, cones: &ConeSettings, key: Key) -> Result<Built<'c>> {
+    fn build(&mut self, scene: &Scene, cones: &ConeSettings, key: Key) -> Result<Built<'c>> {
         let data = SceneData::new(scene);
         let mut build_stages = Vec::new();
         let mut room = None;
@@ -830,9 +834,9 @@ impl<'c> Resident<'c> {
             }
             Pipeline::VctSvo => {
                 // The octree by the staged passes (their host steps run once, here); a frame then
-                // records only the camera's stages over it. Moved lights rebuild (the key holds them).
-                let mut svo = crate::render::VctSvo::new(false);
-                let (volume, built) = svo.volume(self.ctx, scene, cones)?;
+                // records only the camera's stages over it. Moved lights rebuild (the key holds them);
+                // an octree already built for this scene is uploaded again, not built.
+                let (volume, built) = self.svo.volume(self.ctx, scene, cones)?;
                 build_stages = built;
                 let chain = crate::chains::svo_chain(self.ctx, &data, cones, volume)?;
                 let memory = VolumeMemory::Octree(volume.memory());

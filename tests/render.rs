@@ -1610,13 +1610,11 @@ fn resident_vct_dense_rebuilds_when_voxels_or_size_change_and_says_why() {
 }
 
 /// A frame at another image size (a resized window) makes the frame's resources again but takes
-/// the kept volume by GPU copies: voxelize and the volume's passes do not run, and the images are
-/// bit for bit a fresh renderer's at that size. vct-svo builds its octree outside the chain and
-/// builds it again.
+/// the kept volume (GPU copies; vct-svo uploads the octree it built before): voxelize and the
+/// volume's passes do not run, and the images are bit for bit a fresh renderer's at that size.
 #[test]
 fn a_resized_resident_frame_keeps_the_volume_and_draws_a_fresh_frames_images() {
     use vxgi::kernels::cone_trace::ConeSettings;
-    use vxgi::render::Pipeline;
     use vxgi::resident::Resident;
     let mut scene = small(Scene::cornell_box(), 24, 24);
     scene.render.voxels = 16;
@@ -1640,7 +1638,7 @@ fn a_resized_resident_frame_keeps_the_volume_and_draws_a_fresh_frames_images() {
             .iter()
             .find(|q| q.stage == "voxelize")
             .unwrap();
-        assert_eq!(voxelize.runs, p == Pipeline::VctSvo, "{}: {plan}", p.name());
+        assert!(!voxelize.runs, "{}: {plan}", p.name());
         let fresh = Resident::new(gpu(), p)
             .unwrap()
             .render(&resized, &cones)
