@@ -1,38 +1,8 @@
 //! GPU vs mirror for `kernels/cache_preconvolve.wgsl` (radiance caches' mip chains, exact, and their
 //! cosine-folded irradiance maps) on generated caches, and what the irradiance means.
-use crate::common;
 
-use common::{gpu, verified};
-use vxgi::harness::kernel::verify;
-use vxgi::harness::{Corruption, VerifyOptions};
-use vxgi::kernels::cache_preconvolve::CachePreconvolve;
 use vxgi_cpu_mirror::cache_creation::texel_directions;
 use vxgi_cpu_mirror::cache_preconvolve::{irradiance_texel, irradiance_weights};
-
-#[test]
-fn generated_caches_match_the_mirror() {
-    verified(&CachePreconvolve, 16, 9);
-}
-
-#[test]
-fn a_corrupted_mip_or_irradiance_texel_is_caught() {
-    for resource in ["cache_mips", "cache_irradiance"] {
-        let opts = VerifyOptions {
-            cases: 1,
-            seed: 9,
-            corrupt: Some(Corruption {
-                resource: resource.into(),
-                index: 4 * 3,
-            }),
-        };
-        assert!(
-            !verify(gpu(), &CachePreconvolve, &opts, &mut |_| {})
-                .unwrap()
-                .passed(),
-            "{resource}"
-        );
-    }
-}
 
 /// Irradiance of known radiance fields against their integrals: a uniform sky L gives E(n) = L pi at
 /// the normal and L pi (1 + cos theta) / 2 for a direction theta off it (the part of its cosine lobe

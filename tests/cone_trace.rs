@@ -4,44 +4,11 @@
 use crate::common;
 
 use common::{gpu, verified};
-use vxgi::harness::kernel::verify;
-use vxgi::harness::{Corruption, VerifyOptions};
 use vxgi::images::{compare, RgbImage};
-use vxgi::kernels::cone_trace::{ConeSettings, ConeTrace};
+use vxgi::kernels::cone_trace::ConeSettings;
 use vxgi::reference::{render_reference, ReferenceOptions};
 use vxgi::scene::Scene;
 use vxgi_cpu_mirror::cone_trace::{diffuse_cones, march, ConeParams, Pyramid};
-
-#[test]
-fn generated_scenes_match_the_mirror() {
-    let rep = verified(&ConeTrace, 8, 13);
-    println!(
-        "max bound use {:.4}, max ULP {}",
-        rep.max_bound_use, rep.max_ulp
-    );
-    assert!(rep.max_bound_use < 1.0);
-}
-
-#[test]
-fn a_corrupted_pixel_is_caught() {
-    // Case 0: the Cornell box; pixel (20, 30) sees the lit floor.
-    for resource in ["indirect", "ao"] {
-        let opts = VerifyOptions {
-            cases: 1,
-            seed: 13,
-            corrupt: Some(Corruption {
-                resource: resource.into(),
-                index: 4 * (40 * 30 + 20),
-            }),
-        };
-        assert!(
-            !verify(gpu(), &ConeTrace, &opts, &mut |_| {})
-                .unwrap()
-                .passed(),
-            "{resource}"
-        );
-    }
-}
 
 /// Marching stability on a synthetic pyramid: all-opaque (origin inside solid voxels), empty, and a
 /// checkerboard of opaque voxels; cones along axes and grazing diagonals, narrow and wide. The result is
@@ -209,6 +176,7 @@ fn vct_dense_against_the_converged_reference() {
 /// default settings 0.238 (above). The scene file is docs/accuracy/vct-dense.md's recipe, so test and recipe cannot
 /// drift.
 #[test]
+#[ignore = "about 2 minutes on lavapipe: cargo test --release -- --ignored interleaved_narrow"]
 fn interleaved_narrow_cones_meet_the_flip_goal_on_the_cornell_box() {
     let scene = common::scene_file("cornell_box_interleaved.toml");
     let cones = ConeSettings::from(&scene.render);

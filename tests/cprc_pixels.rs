@@ -1,38 +1,8 @@
 //! GPU vs mirror for `kernels/cprc_pixels.wgsl` (cprc's per-pixel inputs and its composed images):
 //! generated G-buffers with bad normals, back faces, background and out-of-range triangles, and the
 //! quantisation's exact values.
-use crate::common;
 
-use common::{gpu, verified};
-use vxgi::harness::kernel::verify;
-use vxgi::harness::{Corruption, VerifyOptions};
-use vxgi::kernels::cprc_pixels::CprcPixels;
 use vxgi_cpu_mirror::cprc_pixels::quantised;
-
-#[test]
-fn generated_g_buffers_match_the_mirror() {
-    let rep = verified(&CprcPixels, 8, 11);
-    assert!(rep.elements > 0);
-}
-
-#[test]
-fn a_corrupted_normal_is_caught() {
-    let rep = verify(
-        gpu(),
-        &CprcPixels,
-        &VerifyOptions {
-            cases: 1,
-            seed: 2,
-            corrupt: Some(Corruption {
-                resource: "normals".into(),
-                index: 5,
-            }),
-        },
-        &mut |_| {},
-    )
-    .unwrap();
-    assert!(!rep.passed());
-}
 
 #[test]
 fn the_quantisation_is_exact_on_axes_and_drops_bad_normals() {

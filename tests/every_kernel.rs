@@ -1,10 +1,35 @@
 //! The checks every kernel of `vxgi::kernels::all()` gets alike, from its declaration and its own
-//! case generator: a generated case matches the mirror, a corrupted element of any checked output is caught, and a
-//! host buffer that does not fit its WGSL binding is refused before any dispatch, naming the kernel
-//! and the binding. Kernel-specific properties stay in the kernel's own test file.
+//! case generator: its generated cases match the mirror, a corrupted element of any checked output is
+//! caught, and a host buffer that does not fit its WGSL binding is refused before any dispatch, naming
+//! the kernel and the binding. Kernel-specific properties stay in the kernel's own test file.
 use crate::common::gpu;
-use vxgi::harness::kernel::verify_case;
-use vxgi::harness::{Corruption, HostResource, View};
+use vxgi::harness::kernel::{verify, verify_case};
+use vxgi::harness::{Corruption, HostResource, VerifyOptions, View};
+
+/// Generated cases per kernel. Each generator picks its stress patterns (sizes, edge and bad inputs,
+/// options) by `index % k` with k <= 8, so 8 cases reach every value of every pattern, though not
+/// every combination: `vxgi verify` (24 cases a kernel in CI's main job) runs more on another seed.
+const CASES: usize = 8;
+
+#[test]
+fn every_kernel_verifies_its_generated_cases_within_their_bounds() {
+    for k in vxgi::kernels::all() {
+        let name = k.decl().name;
+        let opts = VerifyOptions {
+            cases: CASES,
+            seed: 17,
+            corrupt: None,
+        };
+        let rep = verify(gpu(), k, &opts, &mut |_| {}).unwrap_or_else(|e| panic!("{name}: {e:#}"));
+        assert!(rep.passed(), "{name}: {}", rep.failures[0].report());
+        assert!(rep.elements > 0, "{name}: no element checked");
+        assert!(
+            rep.max_bound_use <= 1.0,
+            "{name}: bound use {}",
+            rep.max_bound_use
+        );
+    }
+}
 
 #[test]
 fn every_kernel_matches_its_mirror_catches_a_corruption_and_refuses_a_misfit() {

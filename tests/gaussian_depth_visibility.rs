@@ -3,7 +3,7 @@
 //! the exact fraction of RSM texels inside the cone sample.
 use crate::common;
 
-use common::{assert_case_passes, gpu, verified};
+use common::{assert_case_passes, gpu};
 use proptest::prelude::*;
 use vxgi::harness::run::run;
 use vxgi::harness::Kernel;
@@ -31,12 +31,6 @@ fn check_against_mirror(inputs: &Inputs, params: VisibilityParams, label: &str) 
     let shader = DECL.shader().unwrap();
     let case = case_for(&shader, gpu(), inputs, params, label.into(), 0);
     assert_case_passes(&shader, &GaussianDepthVisibility, &case);
-}
-
-#[test]
-fn generated_cases_match_the_mirror_for_both_cdfs() {
-    let rep = verified(&GaussianDepthVisibility, 20, 9);
-    assert!(rep.max_bound_use < 1.0);
 }
 
 /// The stress table of the issue: every row on the GPU, against the mirror, finite and in [0, 1].

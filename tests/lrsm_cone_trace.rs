@@ -4,16 +4,11 @@
 //! says what runs, a directional light is rendered through its orthographic view.
 use crate::common;
 
-use common::{assert_case_passes, gpu, verified};
+use common::{assert_case_passes, gpu};
 use vxgi::kernels::cone_trace::ConeSettings;
 use vxgi::kernels::lrsm_cone_trace::LrsmConeTrace;
 use vxgi::render::{render_lrsm, Pipeline};
 use vxgi::scene::{Light, Scene};
-
-#[test]
-fn generated_gathers_are_within_the_mirrors_bounds() {
-    verified(&LrsmConeTrace, 8, 7);
-}
 
 #[test]
 fn the_cornell_box_gathers_indirect_light_and_reports_its_memory() {

@@ -1,19 +1,13 @@
 //! GPU vs mirror for `kernels/sample_lrsm.wgsl` (LRSM Algorithm 1) on LRSMs built from synthetic RSMs.
 use crate::common;
 
-use common::{case_passes, gpu, verified};
+use common::{case_passes, gpu};
 use vxgi::harness::kernel::{verify, verify_case};
 use vxgi::harness::run::run;
 use vxgi::harness::{Corruption, VerifyOptions};
 use vxgi::kernels::sample_lrsm::{build_lrsm, case_for, cone_samples, BuiltLrsm, SampleLrsm, DECL};
 use vxgi::lrsm::PartitionConfig;
 use vxgi_cpu_mirror::sample_lrsm::SampleParams;
-
-#[test]
-fn generated_cone_samples_match_the_mirror() {
-    let rep = verified(&SampleLrsm, 12, 31);
-    assert!(rep.max_bound_use < 1.0);
-}
 
 /// A 64^2 RSM in one layer (seed 5), partitioned and pre-filtered.
 fn one_layer_64() -> (PartitionConfig, BuiltLrsm) {

@@ -2,14 +2,7 @@
 //! read at the voxels' own level gives the dense pyramid's level 0 back.
 use crate::common;
 
-use common::{gpu, verified};
-use vxgi::kernels::svo_cone_trace::SvoConeTrace;
-
-#[test]
-fn generated_scenes_match_the_mirror() {
-    let rep = verified(&SvoConeTrace, 8, 1);
-    assert!(rep.max_bound_use <= 1.0);
-}
+use common::gpu;
 
 #[test]
 fn level_zero_of_the_octree_is_the_voxel_grid() {

@@ -2,7 +2,7 @@
 //! trilinear interpolation of the dense lattice of that level (sparsity loses nothing).
 use crate::common;
 
-use common::{gpu, verified};
+use common::gpu;
 use proptest::prelude::*;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -10,11 +10,6 @@ use vxgi::harness::kernel::verify_case;
 use vxgi::kernels::sparse_voxel_octree::{default_capacity, generated};
 use vxgi::kernels::svo_sample::{case_for, queries, sample_on_gpu, SampleError, SvoSample, DECL};
 use vxgi_cpu_mirror::sparse_voxel_octree::{build, dense_reference, Fragment};
-
-#[test]
-fn generated_samples_match_the_mirror() {
-    verified(&SvoSample, 16, 4);
-}
 
 /// Trilinear interpolation of the dense lattice of level `l` at unit-volume point `x`, in f64.
 fn dense_trilinear(lattice: &[[u32; 4]], l: u32, x: [f32; 3], inv_scale: f64) -> [f64; 4] {
