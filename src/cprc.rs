@@ -13,7 +13,7 @@
 //! cache stages (three) each run as one chain on GPU-resident buffers (`vxgi_harness::prepare_chain`),
 //! with the per-pixel inputs, the cache records and the composed images computed between them on the
 //! host by the mirrors of `cprc_pixels` and `cache_records`; [`crate::resident::Resident`] runs the
-//! whole frame, those two kernels included, as one chain (`crate::chains::cprc_chain`).
+//! whole frame, those two kernels included, as one chain (`crate::pipeline::cprc_chain`).
 use crate::images::RgbImage;
 use crate::kernels::{
     cache_creation, cache_placement, cache_preconvolve, cluster_extract, cluster_keys,

@@ -2,7 +2,6 @@
 //! mirror on generated inputs. See ARCHITECTURE.md for the layout and README.md for how to add a kernel.
 pub mod bench;
 pub mod bisect;
-pub mod chains;
 pub mod coverage;
 pub mod cprc;
 pub mod frames;
@@ -13,6 +12,7 @@ pub mod kernels;
 pub mod limits;
 pub mod lrsm;
 pub mod lrsm_factors;
+pub mod pipeline;
 pub mod plan;
 pub mod quality;
 pub mod reference;

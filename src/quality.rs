@@ -145,7 +145,7 @@ pub fn placed_iterations(scene: &Scene, pipeline: Pipeline) -> u64 {
         .iter()
         .map(|(mesh, side, _)| crate::kernels::voxelize::frame_of(mesh, *side))
         .collect();
-    let at = crate::chains::placement(scene, &frames).expect("one grid frame per hierarchy");
+    let at = crate::pipeline::placement(scene, &frames).expect("one grid frame per hierarchy");
     let cells = vxgi_cpu_mirror::cache_creation::placed_cells(&at.placed);
     1 + vxgi_cpu_mirror::cache_creation::sample_iterations(&cells) as u64
 }

@@ -652,7 +652,7 @@ fn chained_pyramid(
     use crate::harness::prepare_chain;
     progress("voxelize");
     let mut t = std::time::Instant::now();
-    let built = crate::chains::dense_chain(ctx, scene, data, cone_pass, false)?;
+    let built = crate::pipeline::dense_chain(ctx, scene, data, cone_pass, false)?;
     let vframe = built.frame;
     let chain = built.harness_stages();
     let cone = &built.stages[4].passes;

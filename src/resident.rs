@@ -9,7 +9,7 @@
 //! per-pixel inputs, the cache records, the composed images), so its images agree within the
 //! mirrors' bounds (bit for bit on lavapipe), and its cache stages are dispatched from the cache
 //! count the GPU found, in buffers sized for the most caches a frame can place
-//! (`crate::chains::cache_room`). vct-svo's octree is
+//! (`crate::pipeline::cache_room`). vct-svo's octree is
 //! built by the staged passes when the chain is built (their host steps between passes run then,
 //! once); its chain is the camera's stages over it. A chain is prepared once by the harness
 //! (`prepare_chain`: every resource checked against reflection and the device limits, then created
@@ -23,11 +23,11 @@
 //! builds a new chain that takes the kept volume by GPU copies instead of computing it again
 //! (vct-svo uploads the octree its staged passes built, without building it again). Anything else
 //! rebuilds the whole chain, and the plan says why.
-use crate::chains::{Chain, ChainCopy};
 use crate::harness::HostResource;
 use crate::harness::{GpuContext, Prepared, ReadbackSet};
 use crate::kernels::cone_trace::ConeSettings;
 use crate::kernels::lrsm_cone_trace::LrsmSettings;
+use crate::pipeline::{Chain, ChainCopy};
 use crate::plan::FramePlan;
 use crate::render::{image_of, Pipeline, PyramidKey, Rendered, VolumeMemory};
 use crate::scene::{RenderSettings, Scene};
@@ -220,7 +220,7 @@ struct Built<'c> {
     /// frame that reuses the chain from a copy of their first contents: (copy, output).
     restored: Vec<(String, String)>,
     /// cprc: the cache buffers' capacity.
-    room: Option<crate::chains::CacheRoom>,
+    room: Option<crate::pipeline::CacheRoom>,
     /// The buffer holding the direct light the camera sees.
     direct: &'static str,
     /// Wall clock of the stages that ran outside the chain to build it (vct-svo's octree), counted
@@ -760,7 +760,7 @@ impl<'c> Resident<'c> {
                     0
                 } else {
                     let first =
-                        crate::chains::voxelized_by(&crate::render::hierarchy_parts(scene).1);
+                        crate::pipeline::voxelized_by(&crate::render::hierarchy_parts(scene).1);
                     first.iter().enumerate().filter(|&(k, &d)| k == d).count()
                 };
                 plan = plan.with_hierarchies(h.len(), voxelized);
@@ -814,7 +814,8 @@ impl<'c> Resident<'c> {
         let instanced = !scene.instances.list.is_empty();
         let (mut chain, memory, direct, relight_stage): (Chain, _, _, _) = match self.pipeline {
             Pipeline::Cprc => {
-                let (chain, r, frames) = crate::chains::cprc_chain(self.ctx, scene, &data, cones)?;
+                let (chain, r, frames) =
+                    crate::pipeline::cprc_chain(self.ctx, scene, &data, cones)?;
                 room = Some(r);
                 hierarchies = frames;
                 (
@@ -825,7 +826,7 @@ impl<'c> Resident<'c> {
                 )
             }
             Pipeline::Lrsm => {
-                let (chain, memory) = crate::chains::lrsm_chain(self.ctx, scene, &data, cones)?;
+                let (chain, memory) = crate::pipeline::lrsm_chain(self.ctx, scene, &data, cones)?;
                 // With shadow cones the gather's shadow pass writes the direct light.
                 let soft = scene.render.shadow_cone_angle > 0.0;
                 let direct = if soft { "soft_direct" } else { "radiance" };
@@ -838,7 +839,7 @@ impl<'c> Resident<'c> {
                 // an octree already built for this scene is uploaded again, not built.
                 let (volume, built) = self.svo.volume(self.ctx, scene, cones)?;
                 build_stages = built;
-                let chain = crate::chains::svo_chain(self.ctx, &data, cones, volume)?;
+                let chain = crate::pipeline::svo_chain(self.ctx, &data, cones, volume)?;
                 let memory = VolumeMemory::Octree(volume.memory());
                 (
                     chain,
@@ -849,7 +850,7 @@ impl<'c> Resident<'c> {
             }
             Pipeline::VctDense if instanced => {
                 let (chain, frames) =
-                    crate::chains::instanced_dense_chain(self.ctx, scene, &data, cones)?;
+                    crate::pipeline::instanced_dense_chain(self.ctx, scene, &data, cones)?;
                 hierarchies = Some(frames);
                 (
                     chain,
@@ -863,7 +864,7 @@ impl<'c> Resident<'c> {
                 let gb = crate::kernels::gbuffer::case_for(&data, "render".into(), 0).resources;
                 let levels = key.volume.levels;
                 let cone_pass = Some((&gb, cones, levels));
-                let chain = crate::chains::dense_chain(self.ctx, scene, &data, cone_pass, true)?;
+                let chain = crate::pipeline::dense_chain(self.ctx, scene, &data, cone_pass, true)?;
                 (
                     chain,
                     None,
@@ -1029,9 +1030,9 @@ fn placed_inputs(
     scene: &Scene,
     cones: &ConeSettings,
     frames: &[crate::kernels::voxelize::VoxelFrame],
-    room: Option<&crate::chains::CacheRoom>,
+    room: Option<&crate::pipeline::CacheRoom>,
 ) -> Result<Vec<(String, Vec<u8>)>> {
-    let at = crate::chains::placement(scene, frames)?;
+    let at = crate::pipeline::placement(scene, frames)?;
     let cone = crate::kernels::cone_trace::cone_params(&at.world, cones);
     let mut out = vec![
         (
@@ -1065,7 +1066,7 @@ fn placed_inputs(
     }
     for (k, g) in at.grids.iter().enumerate() {
         out.push((
-            crate::chains::hierarchy_name("grid", k),
+            crate::pipeline::hierarchy_name("grid", k),
             bytemuck::bytes_of(g).to_vec(),
         ));
     }
@@ -1135,9 +1136,9 @@ fn light_inputs(pipeline: Pipeline, b: &Built, scene: &Scene) -> Result<Vec<(Str
     let mut out = vec![("lights".to_string(), bytemuck::cast_slice(&lights).to_vec())];
     if pipeline == Pipeline::Lrsm {
         let config = LrsmSettings::from(&scene.render).partition();
-        let views = crate::chains::lrsm_views(&lights, b.bounds, b.eps, &config)?;
+        let views = crate::pipeline::lrsm_views(&lights, b.bounds, b.eps, &config)?;
         for (v, view) in views.iter().enumerate() {
-            let (frame, projection) = crate::chains::light_view_names(v);
+            let (frame, projection) = crate::pipeline::light_view_names(v);
             out.push((frame, bytemuck::bytes_of(&view.frame).to_vec()));
             out.push((projection, bytemuck::bytes_of(&view.view).to_vec()));
         }

@@ -1,0 +1,223 @@
+//! lrsm's chain: the binary occlusion voxels and their mips, each light view's G-buffer, RSM and
+//! layered RSM, the camera's G-buffer and direct light, the LRSM cone gather.
+use super::*;
+
+/// lrsm's light views of `lights` (the GPU's lights of the scene; `bounds` and `eps` from its
+/// [`SceneData`]), each with its first texel in the concatenated LRSM streams (`view.info[2]`): view
+/// `i` starts at `i` times one view's streams ([`crate::lrsm::lrsm_texels`]), as
+/// `LrsmFrame::build_with` concatenates them.
+pub(crate) fn lrsm_views(
+    lights: &[vxgi_cpu_mirror::direct_light::GpuLight],
+    bounds: (glam::Vec3, glam::Vec3),
+    eps: f32,
+    config: &PartitionConfig,
+) -> Result<Vec<LightView>> {
+    let per_view = crate::lrsm::lrsm_texels(config);
+    let mut views = crate::lrsm::light_views(lights, bounds, config.rsm_side, eps)?;
+    for (i, v) in views.iter_mut().enumerate() {
+        v.view.info[2] = u32::try_from(i as u64 * per_view)
+            .context("the LRSM streams of every light view past 2^32 texels")?;
+    }
+    Ok(views)
+}
+
+/// The names of light view `v`'s own inputs: its G-buffer frame and its projection.
+pub(crate) fn light_view_names(v: usize) -> (String, String) {
+    (format!("light_frame_{v}"), format!("light_view_{v}"))
+}
+
+/// The LRSM streams the gather reads, in the order of the prefilter's streams.
+const LRSM_STREAMS: [&str; 3] = ["lrsm_radiance", "lrsm_normal", "lrsm_moments"];
+
+/// lrsm's chain (Sugihara et al. 2014), the same kernels on the same inputs as
+/// [`crate::render::VctLrsm`]'s frame: voxelize's occupancy bits and occlusion_voxels' mips over them
+/// (every level copied into `occ`);
+/// per light view the G-buffer ray-cast from the light, reflective_shadow_map, lrsm_partition and
+/// lrsm_prefilter (its levels copied into the three LRSM streams at the view's offset; every view
+/// reuses one set of RSM buffers, as the staged frame holds one RSM at a time); then the camera's
+/// gbuffer, direct_light (exact shadow rays; not with shadow cones, whose soft direct light the
+/// gather's shadow pass writes), screen_tiles and lrsm_cone_trace. Needs lights.
+pub(crate) fn lrsm_chain(
+    ctx: &crate::harness::GpuContext,
+    scene: &Scene,
+    data: &SceneData,
+    cones: &ConeSettings,
+) -> Result<(Chain, LrsmMemory)> {
+    use crate::kernels::{
+        gbuffer, lrsm_partition, lrsm_prefilter, occlusion_voxels as occv,
+        reflective_shadow_map as rsmk,
+    };
+    use vxgi_cpu_mirror::occlusion_voxels::level_words;
+    anyhow::ensure!(!data.lights.is_empty(), "lrsm's chain needs lights");
+    let settings = LrsmSettings::from(&scene.render);
+    let config = settings.partition();
+    config.validate(ctx.limits().max_storage_buffer_binding_size)?;
+    let side = scene.render.voxels;
+    let (input, vframe) = voxelize::prepare(scene, side)?;
+    let mut chain = Chain {
+        resources: Resources::new(),
+        stages: Vec::new(),
+        copies: Vec::new(),
+        frame: vframe,
+    };
+    // Voxelize's occupancy bits are level 0 of the occlusion voxels (the same resource), their mips
+    // follow; every level is copied into `occ`.
+    let mut vox = voxelize::occupancy_case(ctx, &input, side, "render".into(), 0)?;
+    vox.rename_resource("params", "vox_params", false);
+    vox.rename_resource("occupancy", &occv::level_name(0), false);
+    chain.add(&voxelize::DECL, voxelize::DECL.name, vox)?;
+    let coverage = if settings.surface_coverage {
+        vxgi_cpu_mirror::occlusion_voxels::Coverage::Surface
+    } else {
+        vxgi_cpu_mirror::occlusion_voxels::Coverage::Volume
+    };
+    let zero_bits = vec![0u32; level_words(side, 0)];
+    let occ_shader = occv::DECL.shader()?;
+    let occ = occv::case_for(
+        &occ_shader,
+        ctx,
+        &zero_bits,
+        side,
+        coverage,
+        "render".into(),
+        0,
+    );
+    chain.add(&occv::DECL, occv::DECL.name, occ)?;
+    let mut occ_offsets = Vec::new();
+    let mut words = 0u32;
+    for k in 0..=side.trailing_zeros() {
+        occ_offsets.push(words);
+        chain.copies.push(ChainCopy {
+            after: chain.pass_count(),
+            src: occv::level_name(k),
+            dst: "occ".into(),
+            offset: words as u64 * 4,
+        });
+        words += level_words(side, k) as u32;
+    }
+    // Every light view: its G-buffer, RSM and LRSM, into the streams at its offset.
+    let views = lrsm_views(&data.lights, data.bounds, data.frame.eye[3], &config)?;
+    let per_view = crate::lrsm::lrsm_texels(&config);
+    let rsm_side = config.rsm_side;
+    let texels = (rsm_side as usize).pow(2);
+    let side0 = rsm_side / 2;
+    let levels = side0.trailing_zeros() + 1;
+    let rsm_gb = |n: &str| format!("rsm_{n}");
+    // One parsed shader per stage (a stage owns its shader); the cases read these for reflection.
+    let (rshader, pshader) = (rsmk::DECL.shader()?, lrsm_partition::DECL.shader()?);
+    let fshader = lrsm_prefilter::DECL.shader()?;
+    const RSM: &str = "reflective_shadow_map";
+    for (v, view) in views.iter().enumerate() {
+        let (frame_name, view_name) = light_view_names(v);
+        let mut d = data.clone();
+        d.frame = view.frame;
+        let mut g = gbuffer::case_for(&d, "light view".into(), 0);
+        g.rename_resource("frame", &frame_name, false);
+        for n in ["gb_position", "gb_normal", "gb_triangle", "gb_albedo"] {
+            g.rename_resource(n, &rsm_gb(n), false);
+        }
+        let zero_gb: Resources = ["gb_position", "gb_normal", "gb_albedo"]
+            .into_iter()
+            .map(|n| (n.to_string(), g.resources[&rsm_gb(n)].clone()))
+            .collect();
+        chain.add(&gbuffer::DECL, RSM, g)?;
+        let mut r = rsmk::case_for(
+            &rshader,
+            ctx,
+            &data.lights,
+            view,
+            &zero_gb,
+            "render".into(),
+            0,
+        );
+        r.rename_resource("view", &view_name, false);
+        for n in ["gb_position", "gb_normal", "gb_albedo"] {
+            r.rename_resource(n, &rsm_gb(n), false);
+        }
+        chain.add(&rsmk::DECL, RSM, r)?;
+        let zero_rsm = crate::lrsm::Rsm {
+            side: rsm_side,
+            radiance: vec![[0.0; 4]; texels],
+            normal: vec![[0.0; 4]; texels],
+            depth: vec![0.0; texels],
+        };
+        let mut p =
+            lrsm_partition::case_for(&pshader, ctx, &zero_rsm, &config, "render".into(), 0)?;
+        p.rename_resource("params", "partition_params", false);
+        for (s, out) in ["out_radiance", "out_normal", "out_moments"]
+            .iter()
+            .enumerate()
+        {
+            p.rename_resource(out, &lrsm_prefilter::stream_name(s, 0), false);
+        }
+        chain.add(&lrsm_partition::DECL, RSM, p)?;
+        if levels > 1 {
+            let n0 = (config.layers() as u64 * (side0 as u64).pow(2)) as usize;
+            let level0: [Vec<[f32; 4]>; 3] = std::array::from_fn(|_| vec![[0.0; 4]; n0]);
+            let f = lrsm_prefilter::chain_case(
+                &fshader,
+                ctx,
+                &level0,
+                config.layers(),
+                side0,
+                "render".into(),
+                0,
+            );
+            chain.add(&lrsm_prefilter::DECL, RSM, f)?;
+        }
+        let after = chain.pass_count();
+        let mut first = v as u64 * per_view;
+        for k in 0..levels {
+            for (s, dst) in LRSM_STREAMS.iter().enumerate() {
+                chain.copies.push(ChainCopy {
+                    after,
+                    src: lrsm_prefilter::stream_name(s, k),
+                    dst: dst.to_string(),
+                    offset: first * 16,
+                });
+            }
+            first += config.layers() as u64 * ((side0 >> k) as u64).pow(2);
+        }
+    }
+    // The camera's G-buffer and direct light, then the gather over the tiles screen_tiles lists.
+    let g = gbuffer::case_for(data, "render".into(), 0);
+    let camera_gb = g.resources.clone();
+    chain.add(&gbuffer::DECL, gbuffer::DECL.name, g)?;
+    let soft = settings.shadow_cone_angle > 0.0;
+    if !soft {
+        let d = direct_light::case_with_gbuffer(ctx, data, &Default::default(), "render".into(), 0);
+        chain.add(&direct_light::DECL, direct_light::DECL.name, d)?;
+    }
+    let stream = vec![[0.0f32; 4]; (per_view * views.len() as u64) as usize];
+    let frame = LrsmFrame {
+        voxels: vframe,
+        occ: vec![0; words as usize],
+        occ_offsets,
+        views: views.iter().map(|v| v.view).collect(),
+        params: crate::kernels::sample_lrsm::sample_params(&config, 0, settings.view_weight),
+        depth_ranges: config.depth_ranges(),
+        streams: [stream.clone(), stream.clone(), stream],
+        memory: LrsmMemory::default(),
+    };
+    let memory = LrsmMemory {
+        occlusion: words as u64 * 4,
+        rsm: texels as u64 * 36,
+        lrsm: per_view * views.len() as u64 * 48,
+        views: views.len() as u32,
+    };
+    let params = cone_trace::cone_params(&vframe, cones);
+    let tan = if soft {
+        settings.shadow_cone_angle.to_radians().tan()
+    } else {
+        0.0
+    };
+    let c = lrsm_cone_trace::case_for(data, &camera_gb, &frame, &params, tan, "render".into(), 0);
+    push_tiled_cone_pass(
+        &mut chain,
+        data,
+        &lrsm_cone_trace::DECL,
+        lrsm_cone_trace::DECL.name,
+        c,
+    )?;
+    Ok((chain, memory))
+}

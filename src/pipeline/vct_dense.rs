@@ -1,0 +1,195 @@
+//! vct-dense's chain: the volume (voxelize, voxel_light, the mip chain), the camera's G-buffer and
+//! direct light, the cone pass over the screen tiles; and its per-instance hierarchies.
+use super::*;
+
+/// vct-dense's chain: voxelize, voxel_light, the surface-coverage mips (each level copied into
+/// `pyramid` and `pyramid_normal` after them), then (with `gbuffer_in_chain`) gbuffer and
+/// direct_light, screen_tiles and cone_trace. `cone_pass`: the G-buffer the cone pass reads (zeroed
+/// where the chain computes it), the cone settings and the pyramid levels the cones read (the others
+/// are not built); without it the chain ends with the mips and builds every level.
+/// `gbuffer_in_chain`: the G-buffer and direct light are stages of the chain, after the mips
+/// (computed on the GPU, never read back), instead of inputs in `cone_pass`'s resources.
+pub(crate) fn dense_chain(
+    ctx: &crate::harness::GpuContext,
+    scene: &Scene,
+    data: &SceneData,
+    cone_pass: Option<(&crate::harness::Resources, &ConeSettings, u32)>,
+    gbuffer_in_chain: bool,
+) -> Result<Chain> {
+    use crate::harness::run::{grid_for, Pass, Workgroups};
+    use crate::harness::{HostBuffer, HostResource, ScalarKind};
+    use crate::kernels::surface_coverage_mip::{self as scm, colour_name};
+    use vxgi_cpu_mirror::cone_trace::{level_offset, pyramid_len};
+    let side = scene.render.voxels;
+    let v = (side as u64).pow(3);
+    let max = ctx.limits().max_compute_workgroups_per_dimension;
+    let (input, vframe) = voxelize::prepare(scene, side)?;
+    let mut vox = voxelize::case_for(ctx, &input, side, "render".into(), 0)?;
+    vox.rename_resource("params", "vox_params", false);
+    // voxel_light over every entry the list could hold: the kernel stops at the GPU's count.
+    let mut light_res = crate::kernels::gbuffer::scene_resources(data);
+    light_res.remove("frame");
+    light_res.remove("materials");
+    light_res.insert(
+        "grid".into(),
+        HostResource::Buffer(HostBuffer::pod(&voxel_light::voxel_grid(
+            &vframe,
+            data.lights.len(),
+        ))),
+    );
+    light_res.insert(
+        "vox_radiance".into(),
+        HostResource::Buffer(HostBuffer::zeroed(v as usize * 16, ScalarKind::F32)),
+    );
+    let light_passes = vec![Pass {
+        label: "voxel_light".into(),
+        entry: "main".into(),
+        bindings: voxel_light::DECL.bind_by_name(),
+        workgroups: Workgroups::Direct(grid_for(v, 64, max)),
+    }];
+    // The mip chain from voxel_light's radiance and voxelize's normals, up to the levels the cones
+    // read (all of them without a cone pass: the pyramid is kept for other cones).
+    let levels = cone_pass.map_or(side.trailing_zeros() + 1, |(_, _, l)| l);
+    let mip_shader = scm::DECL.shader()?;
+    let shell = crate::grids::Grid {
+        n: side,
+        colour: Vec::new(),
+        normal: Vec::new(),
+    };
+    let mut mips = scm::chain_case_to(
+        &mip_shader,
+        ctx,
+        &shell,
+        Coverage::Surface,
+        levels,
+        "render".into(),
+        0,
+    );
+    mips.rename_resource("params", "mip_params", false);
+    mips.rename_resource(&colour_name(0), "vox_radiance", true);
+    mips.rename_resource(&scm::normal_name(0), "vox_normal", true);
+    let mut resources = vox.resources;
+    resources.extend(light_res);
+    resources.extend(mips.resources);
+    // The cone pass, dispatched over the tiles screen_tiles lists on the GPU from the G-buffer (the
+    // case's host-built list replaced by an empty one the chain fills).
+    let (tiles, cone) = match cone_pass {
+        Some((gb, cones, _)) => {
+            let mut params = cone_trace::cone_params(&vframe, cones);
+            params.levels = levels;
+            let c = cone_trace::case_for(
+                data,
+                gb,
+                &cone_trace::Pyramids::default(),
+                &params,
+                "render".into(),
+                0,
+            );
+            resources.extend(c.resources);
+            let (w, h) = (data.width(), data.height());
+            resources.insert("tile_list".into(), screen_tiles::empty_list(w, h));
+            (vec![screen_tiles::pass(w, h)], c.passes)
+        }
+        None => (Vec::new(), Vec::new()),
+    };
+    // The pyramid and its normal pyramid (the depth-ordered blend reads it; kept with the pyramid),
+    // filled below from the chain's levels.
+    for name in ["pyramid", "pyramid_normal"] {
+        resources.insert(
+            name.into(),
+            HostResource::Buffer(HostBuffer::zeroed(pyramid_len(side) * 16, ScalarKind::F32)),
+        );
+    }
+    let mut chain = Chain {
+        resources,
+        stages: Vec::new(),
+        copies: Vec::new(),
+        frame: vframe,
+    };
+    chain.push(voxelize::DECL.shader()?, voxelize::DECL.name, vox.passes);
+    chain.push(
+        voxel_light::DECL.shader()?,
+        voxel_light::DECL.name,
+        light_passes,
+    );
+    chain.push(mip_shader, scm::DECL.name, mips.passes);
+    let after_mips = chain.pass_count();
+    // The G-buffer and direct light after the volume (they do not read it): a frame that reuses the
+    // volume runs one contiguous range of passes.
+    if gbuffer_in_chain {
+        let g = crate::kernels::gbuffer::case_for(data, "render".into(), 0);
+        let d = direct_light::case_with_gbuffer(ctx, data, &Default::default(), "render".into(), 0);
+        for (k, v) in g.resources.into_iter().chain(d.resources) {
+            chain.resources.entry(k).or_insert(v);
+        }
+        let gbuffer = &crate::kernels::gbuffer::DECL;
+        chain.push(gbuffer.shader()?, gbuffer.name, g.passes);
+        chain.push(
+            direct_light::DECL.shader()?,
+            direct_light::DECL.name,
+            d.passes,
+        );
+    }
+    chain.push(screen_tiles::DECL.shader()?, screen_tiles::DECL.name, tiles);
+    chain.push(cone_trace::DECL.shader()?, cone_trace::DECL.name, cone);
+    let names = |base: &str, f: &dyn Fn(u32) -> String| -> Vec<String> {
+        (0..levels)
+            .map(|l| if l == 0 { base.to_string() } else { f(l) })
+            .collect()
+    };
+    chain.copies = names("vox_radiance", &colour_name)
+        .into_iter()
+        .map(|n| (n, "pyramid"))
+        .enumerate()
+        .chain(
+            names("vox_normal", &scm::normal_name)
+                .into_iter()
+                .map(|n| (n, "pyramid_normal"))
+                .enumerate(),
+        )
+        .map(|(l, (src, to))| ChainCopy {
+            after: after_mips,
+            src,
+            dst: to.to_string(),
+            offset: level_offset(side, l as u32) as u64 * 16,
+        })
+        .collect();
+    Ok(chain)
+}
+
+/// vct-dense's chain for a scene with `[[instances]]`: [`instanced_volume`], gbuffer, direct_light,
+/// screen_tiles and the instanced cone pass through every hierarchy.
+pub(crate) fn instanced_dense_chain(
+    ctx: &crate::harness::GpuContext,
+    scene: &Scene,
+    data: &SceneData,
+    cones: &ConeSettings,
+) -> Result<(Chain, Vec<voxelize::VoxelFrame>)> {
+    let (mut chain, frames, at) = instanced_volume(ctx, scene, data)?;
+    push_camera_gbuffer(ctx, data, &mut chain)?;
+    let g = crate::kernels::gbuffer::case_for(data, "render".into(), 0).resources;
+    let params = cone_trace::cone_params(&at.world, cones);
+    let len = chain.resources["pyramid"]
+        .buffer()
+        .expect("a buffer")
+        .bytes
+        .len()
+        / 16;
+    let c = cone_trace::instanced_case_for(
+        data,
+        &g,
+        &vec![[0.0; 4]; len],
+        &at.placed,
+        &params,
+        "render".into(),
+        0,
+    );
+    push_tiled_cone_pass(
+        &mut chain,
+        data,
+        &cone_trace::INSTANCED_DECL,
+        cone_trace::DECL.name,
+        c,
+    )?;
+    Ok((chain, frames))
+}
