@@ -2,7 +2,7 @@
 //! bind groups on the GPU across frames and records each frame into one command encoder and one
 //! submission, reading back only the images it returns.
 //!
-//! [`Resident`] draws every pipeline's frames from its chain ([`crate::chains`]): the same kernels on
+//! [`Resident`] draws every pipeline's frames from its chain ([`crate::pipeline`]): the same kernels on
 //! the same inputs as the stage-by-stage renderers ([`crate::render::VctDense`],
 //! [`crate::render::VctSvo`], [`crate::render::VctLrsm`]), so the same images; cprc's chain runs on
 //! the GPU what [`crate::render::VctCprc`] computes between its chains by the kernels' mirrors (the
