@@ -949,7 +949,10 @@ pub enum VolumeMemory {
     Caches(crate::cprc::CprcStats),
 }
 
-/// Frames of either pipeline, with the planner's reuse rule on or off.
+/// Frames of any of the four pipelines (staged), with the planner's reuse rule on or off.
+///
+/// Example: `Renderer::new(Pipeline::Cprc, true).render(&ctx, &scene, &cones, |_| {})` draws a frame
+/// and keeps what the next frame may reuse; tests/render.rs and `vxgi render` use it this way.
 pub enum Renderer {
     Dense(VctDense),
     Svo(VctSvo),

@@ -314,6 +314,9 @@ pub struct FrameReport {
 }
 
 /// A pipeline's frames with everything on the GPU (see the module doc).
+///
+/// Example: `examples/embed_pipeline.rs` records a pipeline's frame into its own program's command
+/// encoder over a G-buffer it rasterized itself (`cargo run --release --example embed_pipeline`).
 pub struct Resident<'c> {
     ctx: &'c GpuContext,
     pipeline: Pipeline,

@@ -8,6 +8,10 @@
 //! * [`kernel`]: the kernel declaration and the verify driver.
 //!
 //! It knows no kernel; the declarations live in the `vxgi` crate.
+//!
+//! Example: `examples/tdd_own_kernel.rs` (its WGSL beside it) declares a kernel that is not part of
+//! vxgi, its mirror and tolerance, and verifies it with [`verify`] (`cargo run --example
+//! tdd_own_kernel`); `examples/mip_on_own_device.rs` records a vxgi kernel on a device of its own.
 pub mod compare;
 pub mod context;
 pub mod error;
