@@ -160,12 +160,7 @@ pub(crate) fn cprc_chain(
     );
     let after_records = chain.pass_count();
     // Creation, pre-convolution and the gather over every slot, dispatched from the arguments.
-    let len = chain.resources["pyramid"]
-        .buffer()
-        .expect("a buffer")
-        .bytes
-        .len()
-        / 16;
+    let len = pyramid_texels(&chain);
     let zeros = cone_trace::Pyramids {
         colour: vec![[0.0; 4]; len],
         normal: Vec::new(),

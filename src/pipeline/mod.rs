@@ -286,24 +286,14 @@ pub(crate) fn instanced_volume(
         for name in ["vox_colour", "vox_normal", "list", "list_count"] {
             l.rename_resource(name, &hierarchy_name(name, d), false);
         }
-        let shell = crate::grids::Grid {
-            n: *side,
-            colour: Vec::new(),
-            normal: Vec::new(),
-        };
-        let levels = side.trailing_zeros() + 1;
-        let mut m = scm::chain_case_to(
+        let mut m = volume_mips(
             &mip_shader,
             ctx,
-            &shell,
-            Coverage::Surface,
-            levels,
-            "render".into(),
-            0,
+            *side,
+            side.trailing_zeros() + 1,
+            &hierarchy_name("vox_radiance", k),
+            &hierarchy_name("vox_normal", d),
         );
-        m.rename_resource("params", "mip_params", false);
-        m.rename_resource(&colour_name(0), &hierarchy_name("vox_radiance", k), true);
-        m.rename_resource(&scm::normal_name(0), &hierarchy_name("vox_normal", d), true);
         let own: Vec<String> = m.resources.keys().cloned().collect();
         for name in own {
             m.rename_resource(&name, &hierarchy_name(&name, k), false);
@@ -402,4 +392,45 @@ fn push_tiled_cone_pass(
     );
     chain.push_as(decl.shader()?, decl.name, stage, case.passes);
     Ok(())
+}
+
+/// The surface-coverage mip chain's case over a `side`^3 volume up to `levels` levels, level 0
+/// bound to `radiance` (voxel_light's) and `normal` (voxelize's), its parameters as `mip_params`.
+fn volume_mips(
+    shader: &Shader,
+    ctx: &crate::harness::GpuContext,
+    side: u32,
+    levels: u32,
+    radiance: &str,
+    normal: &str,
+) -> Case {
+    use crate::kernels::surface_coverage_mip as scm;
+    let shell = crate::grids::Grid {
+        n: side,
+        colour: Vec::new(),
+        normal: Vec::new(),
+    };
+    let mut mips = scm::chain_case_to(
+        shader,
+        ctx,
+        &shell,
+        Coverage::Surface,
+        levels,
+        "render".into(),
+        0,
+    );
+    mips.rename_resource("params", "mip_params", false);
+    mips.rename_resource(&scm::colour_name(0), radiance, true);
+    mips.rename_resource(&scm::normal_name(0), normal, true);
+    mips
+}
+
+/// The texels (rgba32f) of the chain's concatenated radiance pyramid.
+fn pyramid_texels(chain: &Chain) -> usize {
+    chain.resources["pyramid"]
+        .buffer()
+        .expect("a buffer")
+        .bytes
+        .len()
+        / 16
 }

@@ -51,23 +51,7 @@ pub(crate) fn dense_chain(
     // read (all of them without a cone pass: the pyramid is kept for other cones).
     let levels = cone_pass.map_or(side.trailing_zeros() + 1, |(_, _, l)| l);
     let mip_shader = scm::DECL.shader()?;
-    let shell = crate::grids::Grid {
-        n: side,
-        colour: Vec::new(),
-        normal: Vec::new(),
-    };
-    let mut mips = scm::chain_case_to(
-        &mip_shader,
-        ctx,
-        &shell,
-        Coverage::Surface,
-        levels,
-        "render".into(),
-        0,
-    );
-    mips.rename_resource("params", "mip_params", false);
-    mips.rename_resource(&colour_name(0), "vox_radiance", true);
-    mips.rename_resource(&scm::normal_name(0), "vox_normal", true);
+    let mips = volume_mips(&mip_shader, ctx, side, levels, "vox_radiance", "vox_normal");
     let mut resources = vox.resources;
     resources.extend(light_res);
     resources.extend(mips.resources);
@@ -169,12 +153,7 @@ pub(crate) fn instanced_dense_chain(
     push_camera_gbuffer(ctx, data, &mut chain)?;
     let g = crate::kernels::gbuffer::case_for(data, "render".into(), 0).resources;
     let params = cone_trace::cone_params(&at.world, cones);
-    let len = chain.resources["pyramid"]
-        .buffer()
-        .expect("a buffer")
-        .bytes
-        .len()
-        / 16;
+    let len = pyramid_texels(&chain);
     let c = cone_trace::instanced_case_for(
         data,
         &g,
