@@ -8,77 +8,46 @@ use crate::images::RgbImage;
 use crate::kernels::cone_trace::{self, ConeSettings};
 use crate::kernels::{direct_light, voxel_light, voxelize};
 use crate::kernels::{sparse_voxel_octree as svo, svo_anisotropic, svo_cone_trace, svo_photons};
-use crate::plan::FramePlan;
+use crate::pipeline::Split;
 use crate::render::{Pipeline, Rendered};
 use crate::scene::Scene;
 use crate::trace::SceneData;
 use anyhow::{Context, Result};
 
-/// vct-dense's stages in frame order.
-pub const STAGES: [&str; 6] = [
-    "gbuffer",
-    "direct_light",
-    "voxelize",
-    "voxel_light",
-    "surface_coverage_mip",
-    "cone_trace",
-];
-
-/// The stages of `pipeline`'s frame for `scene`, in order: `render_split(.., k)` runs the first `k` on
-/// the mirrors. vct-svo's follow its plan: photons or voxel_light, directional values or not (one
-/// bounce only).
+/// The stages of `pipeline`'s frame for `scene` at which bisect splits, in order: `render_split(..,
+/// k)` runs the first `k` on the mirrors. Its declaration's stages that split ([`Split`]) and that
+/// the frame's plan lists (vct-svo: photons or voxel_light, directional values and lobes only where
+/// they run).
 pub fn stages(
     pipeline: Pipeline,
     scene: &Scene,
     cones: &ConeSettings,
 ) -> Result<Vec<&'static str>> {
     match pipeline {
-        Pipeline::VctDense => Ok(STAGES.to_vec()),
-        Pipeline::VctSvo => {
-            anyhow::ensure!(
-                scene.render.bounces == 1,
-                "bisect follows one bounce (bounces = {})",
-                scene.render.bounces
-            );
-            let plan = FramePlan::vct_svo(scene, cones);
-            let mut v = vec!["gbuffer", "direct_light", "voxelize"];
-            v.push(if plan.runs("svo_photons") {
-                "svo_photons"
-            } else {
-                "voxel_light"
-            });
-            v.push("sparse_voxel_octree");
-            if plan.runs("svo_anisotropic") {
-                v.push("svo_anisotropic");
-            }
-            if plan.runs("svo_lobes") {
-                v.push("svo_lobes");
-            }
-            v.push("svo_cone_trace");
-            Ok(v)
-        }
-        Pipeline::Lrsm => {
-            anyhow::ensure!(
-                scene.render.shadow_cone_angle == 0.0,
-                "bisect follows lrsm with exact shadow rays (shadow_cone_angle = {}; set it to 0)",
-                scene.render.shadow_cone_angle
-            );
-            Ok(vec![
-                "gbuffer",
-                "direct_light",
-                "voxelize",
-                "occlusion_voxels",
-                "reflective_shadow_map",
-                "lrsm_partition",
-                "lrsm_cone_trace",
-            ])
-        }
-        Pipeline::Cprc => {
-            let mut v = STAGES[..5].to_vec();
-            v.extend(["cache_distribution", "cache_creation"]);
-            Ok(v)
-        }
+        Pipeline::VctSvo => anyhow::ensure!(
+            scene.render.bounces == 1,
+            "bisect follows one bounce (bounces = {})",
+            scene.render.bounces
+        ),
+        Pipeline::Lrsm => anyhow::ensure!(
+            scene.render.shadow_cone_angle == 0.0,
+            "bisect follows lrsm with exact shadow rays (shadow_cone_angle = {}; set it to 0)",
+            scene.render.shadow_cone_angle
+        ),
+        _ => {}
     }
+    let plan = pipeline.plan(scene, cones, false);
+    Ok(pipeline
+        .decl()
+        .stages
+        .iter()
+        .filter(|s| match s.split {
+            Split::Always => plan.passes.iter().any(|p| p.stage == s.name),
+            Split::WhenRun => plan.runs(s.name),
+            Split::Never => false,
+        })
+        .map(|s| s.name)
+        .collect())
 }
 
 /// The split that runs the mirrors up to and including `stage`, or an error naming the stages.

@@ -179,10 +179,7 @@ pub fn check_kernels(pipeline: Pipeline, limits: &wgpu::Limits) -> Result<(), St
             // A kernel that cannot be found or reflected is an error, never a pass.
             let needs = pipeline_kernels(p)
                 .into_iter()
-                .map(|k| {
-                    let kernel = crate::kernels::find(k).map_err(|e| e.to_string())?;
-                    kernel_needs(kernel.decl())
-                })
+                .map(kernel_needs)
                 .collect::<Result<Vec<_>, String>>();
             (p, needs)
         })
@@ -321,32 +318,17 @@ pub fn exceeded(needs: &KernelNeeds, limits: &wgpu::Limits) -> Vec<String> {
     out
 }
 
-/// The kernels a pipeline's frame runs: every kernel its frame plan names (for a scene with glossy
-/// materials, photons and every optional stage of the Cornell box's settings on), plus the screen
-/// tiles list of the per-pixel cone passes.
-pub fn pipeline_kernels(pipeline: Pipeline) -> Vec<&'static str> {
-    let mut scene = Scene::cornell_box();
-    scene.render.voxel_lobes = true;
-    scene.render.bounces = 2;
-    if let Some(m) = scene.materials.first_mut() {
-        m.specular = [0.2; 3];
-        m.shininess = 32.0;
-    }
-    let cones = crate::kernels::cone_trace::ConeSettings::from(&scene.render);
-    let mut kernels: Vec<&'static str> = pipeline
-        .plan(&scene, &cones, false)
-        .passes
-        .iter()
-        .map(|p| p.kernel)
-        .collect();
-    match pipeline {
-        Pipeline::Cprc => {}
-        Pipeline::VctSvo => kernels.extend(["screen_tiles", "svo_photons"]),
-        _ => kernels.push("screen_tiles"),
-    }
+/// The kernels a pipeline's frame can run: every kernel its declaration's stages name, once, in
+/// frame order.
+pub fn pipeline_kernels(pipeline: Pipeline) -> Vec<&'static crate::harness::KernelDecl> {
     let mut seen = std::collections::BTreeSet::new();
-    kernels.retain(|k| crate::kernels::find(k).is_ok() && seen.insert(*k));
-    kernels
+    pipeline
+        .decl()
+        .stages
+        .iter()
+        .flat_map(|s| s.kernels.iter().copied())
+        .filter(|k| seen.insert(k.name))
+        .collect()
 }
 
 #[cfg(test)]

@@ -471,7 +471,7 @@ impl VctDense {
         refuse_ordered_instances(scene, cones)?;
         let key = PyramidKey::reading(scene, cones);
         let cached = self.pyramid.holds(&key);
-        let plan = FramePlan::vct_dense_after(scene, cones, cached);
+        let plan = Pipeline::VctDense.plan(scene, cones, cached);
         if !scene.instances.list.is_empty() && plan.runs("voxel_light") {
             // One voxel hierarchy per instance (CPRC 3.1), cones through all of them.
             let data = SceneData::new(scene);
@@ -655,7 +655,9 @@ fn chained_pyramid(
     let built = crate::pipeline::dense_chain(ctx, scene, data, cone_pass, false)?;
     let vframe = built.frame;
     let chain = built.harness_stages();
-    let cone = &built.stages[4].passes;
+    // Without a cone pass the chain ends with the mips (stages 0-2); with one, screen_tiles and
+    // the cone pass follow (3, 4).
+    let cone_passes = built.stages.get(4).map_or(0, |s| s.passes.len());
     let prepared = prepare_chain(ctx, &chain, &built.resources).context("voxel chain")?;
     let mut first = 0;
     let mut run_stage = |k: usize| -> Result<()> {
@@ -682,7 +684,7 @@ fn chained_pyramid(
         Keep::Colour => names.push("pyramid"),
         Keep::ColourAndNormals => names.extend(["pyramid", "pyramid_normal"]),
     }
-    if cone.is_empty() {
+    if cone_passes == 0 {
         let read = prepared.read(&names).context("mip chain")?;
         stages.push(("surface_coverage_mip", t.elapsed().as_secs_f64()));
         return Ok(ChainOut {
@@ -874,69 +876,32 @@ impl Pipeline {
         .find(|p| p.name() == name)
     }
 
-    pub fn name(self) -> &'static str {
+    /// Its declaration: the stages, their kernels, reuse and plan rules.
+    pub fn decl(self) -> &'static crate::pipeline::PipelineDecl {
         match self {
-            Pipeline::VctDense => "vct-dense",
-            Pipeline::VctSvo => "vct-svo",
-            Pipeline::Lrsm => "lrsm",
-            Pipeline::Cprc => "cprc",
+            Pipeline::VctDense => &crate::pipeline::VCT_DENSE,
+            Pipeline::VctSvo => &crate::pipeline::VCT_SVO,
+            Pipeline::Lrsm => &crate::pipeline::LRSM,
+            Pipeline::Cprc => &crate::pipeline::CPRC,
         }
     }
 
-    /// The stages of a frame, in order: G-buffer, direct light, voxelization, voxel light, the volume
-    /// (mips or octree), then the cone pass (cprc: its four cache stages); the last is the stage that
-    /// shades the pixels.
+    pub fn name(self) -> &'static str {
+        self.decl().name
+    }
+
+    /// The stages of a frame, in its declaration's order (those a frame skips included): the
+    /// names of the stage times, the plan's stages and bisect's split points.
     pub fn stages(self) -> Vec<&'static str> {
-        let (volume, cones): (&[&'static str], &[&'static str]) = match self {
-            Pipeline::VctDense => (&["voxel_light", "surface_coverage_mip"], &["cone_trace"]),
-            // Light injection by voxel_light or photons; directional values, the lobes' normal pool
-            // and the second bounce where the settings ask for them.
-            Pipeline::VctSvo => (
-                &[
-                    "voxel_light",
-                    "svo_photons",
-                    "sparse_voxel_octree",
-                    "svo_anisotropic",
-                    "svo_lobes",
-                    "svo_bounce",
-                ],
-                &["svo_cone_trace"],
-            ),
-            Pipeline::Lrsm => (
-                &["occlusion_voxels", "reflective_shadow_map"],
-                &["lrsm_cone_trace"],
-            ),
-            Pipeline::Cprc => (
-                &["voxel_light", "surface_coverage_mip"],
-                &[
-                    "cache_distribution",
-                    "cache_creation",
-                    "cache_preconvolve",
-                    "gather_caches",
-                ],
-            ),
-        };
-        let mut s = vec!["gbuffer", "direct_light", "voxelize"];
-        s.extend_from_slice(volume);
-        s.extend_from_slice(cones);
-        s
+        self.decl().stage_names()
     }
 
     /// The frame plan of a first frame (`cached` false) or of a frame after an unchanged one.
     pub fn plan(self, scene: &Scene, cones: &ConeSettings, cached: bool) -> FramePlan {
-        match self {
-            Pipeline::VctDense => FramePlan::vct_dense_after(scene, cones, cached),
-            Pipeline::VctSvo => FramePlan::vct_svo_after(scene, cones, cached),
-            Pipeline::Lrsm => {
-                FramePlan::lrsm_after(scene, cones, &LrsmSettings::from(&scene.render), cached)
-            }
-            Pipeline::Cprc => FramePlan::cprc_after(
-                scene,
-                cones,
-                &crate::cprc::CprcSettings::from(&scene.render),
-                cached,
-            ),
-        }
+        FramePlan::of(
+            self.decl(),
+            &crate::pipeline::PlanInputs::new(scene, cones, cached),
+        )
     }
 }
 
@@ -1222,7 +1187,7 @@ impl VctSvo {
         use crate::kernels::svo_cone_trace;
         let key = Self::key(scene);
         let cached = self.reuse && self.cache.as_ref().is_some_and(|c| c.key == key);
-        let mut plan = FramePlan::vct_svo_after(scene, cones, cached);
+        let mut plan = Pipeline::VctSvo.plan(scene, cones, cached);
         let data = SceneData::new(scene);
         let mut stages = Vec::new();
         let (gb, direct) = gbuffer_and_direct(ctx, &data, &plan, &mut stages, &progress)?;
@@ -1432,7 +1397,7 @@ impl VctSvo {
         let mut stages = Vec::new();
         let key = Self::key(scene);
         if !self.cache.as_ref().is_some_and(|c| c.key == key) {
-            let mut plan = FramePlan::vct_svo_after(scene, cones, false);
+            let mut plan = Pipeline::VctSvo.plan(scene, cones, false);
             let data = SceneData::new(scene);
             self.build_volume(
                 ctx,
@@ -1515,7 +1480,7 @@ impl VctLrsm {
                 .cache
                 .as_ref()
                 .is_some_and(|c| c.0 == key && c.1 == settings);
-        let plan = FramePlan::lrsm_after(scene, cones, &settings, cached);
+        let plan = Pipeline::Lrsm.plan(scene, cones, cached);
         let data = SceneData::new(scene);
         let mut stages = Vec::new();
         let (gb, direct) = gbuffer_and_direct(ctx, &data, &plan, &mut stages, &progress)?;
@@ -1734,7 +1699,7 @@ impl VctCprc {
         };
         let cached = self.pyramid.holds(&key);
         let settings = cprc::CprcSettings::from(&scene.render);
-        let plan = FramePlan::cprc_after(scene, cones, &settings, cached);
+        let plan = Pipeline::Cprc.plan(scene, cones, cached);
         let data = SceneData::new(scene);
         let mut stages = Vec::new();
         let (gb, direct) = gbuffer_and_direct(ctx, &data, &plan, &mut stages, &progress)?;
@@ -1884,7 +1849,7 @@ fn render_mirror_samples(scene: &Scene, cones: &ConeSettings) -> Result<Rendered
         voxels: &pyramids.colour,
         normals: &pyramids.normal,
     };
-    Ok(m.shade(&pyr, lmax, FramePlan::vct_dense(scene, cones)))
+    Ok(m.shade(&pyr, lmax, Pipeline::VctDense.plan(scene, cones, false)))
 }
 
 /// lrsm computed by the scalar mirrors alone (the snapshot tests' lrsm images): occlusion voxels of
@@ -1900,11 +1865,7 @@ fn render_lrsm_mirror_samples(scene: &Scene, cones: &ConeSettings) -> Result<Ren
     let params = cone_trace::cone_params(&built.voxels, cones);
     let vol = built.volume(&params);
     let lmax = vol.lmax;
-    Ok(m.shade(
-        &vol,
-        lmax,
-        FramePlan::lrsm_after(scene, cones, &settings, false),
-    ))
+    Ok(m.shade(&vol, lmax, Pipeline::Lrsm.plan(scene, cones, false)))
 }
 
 /// The lrsm mirror frame with each cone sample's alpha and L taken as `swap` says
@@ -1931,11 +1892,7 @@ pub fn render_lrsm_factors(
     let vol = built.volume(&params);
     let pyramids = m.pyramid();
     let factors = crate::lrsm_factors::FactorVolume::new(&vol, &pyramids, swap);
-    Ok(m.shade(
-        &factors,
-        vol.lmax,
-        FramePlan::lrsm_after(scene, cones, &settings, false),
-    ))
+    Ok(m.shade(&factors, vol.lmax, Pipeline::Lrsm.plan(scene, cones, false)))
 }
 
 /// cprc computed by the scalar mirrors alone (the snapshot tests' cprc images): the mirror's pyramid,
@@ -1966,7 +1923,7 @@ fn render_cprc_mirror_samples(
     let (indirect, ao, stats) = cprc::compose(&px, &gathered);
     let (w, h) = (m.data.width(), m.data.height());
     let direct = RgbImage::new(w, h, m.direct);
-    let plan = FramePlan::cprc_after(scene, cones, &settings, false);
+    let plan = Pipeline::Cprc.plan(scene, cones, false);
     Ok((
         Rendered::assemble(direct, indirect, ao, vec![], plan),
         stats,
@@ -1984,7 +1941,7 @@ fn render_svo_mirror_samples(scene: &Scene, cones: &ConeSettings) -> Result<Rend
     use vxgi_cpu_mirror::sparse_voxel_octree::build_fitted;
     let m = MirrorFrame::new(scene)?;
     let depth = m.frame.side.trailing_zeros() - 1;
-    let plan = FramePlan::vct_svo(scene, cones);
+    let plan = Pipeline::VctSvo.plan(scene, cones, false);
     let map = scene.render.photon_map;
     let lobes = plan.runs("svo_lobes");
     let mut spec_frags = Vec::new();

@@ -27,7 +27,7 @@ use crate::harness::HostResource;
 use crate::harness::{GpuContext, Prepared, ReadbackSet};
 use crate::kernels::cone_trace::ConeSettings;
 use crate::kernels::lrsm_cone_trace::LrsmSettings;
-use crate::pipeline::{Chain, ChainCopy};
+use crate::pipeline::{Chain, ChainCopy, Reuse};
 use crate::plan::FramePlan;
 use crate::render::{image_of, Pipeline, PyramidKey, Rendered, VolumeMemory};
 use crate::scene::{RenderSettings, Scene};
@@ -730,8 +730,7 @@ impl<'c> Resident<'c> {
                     dropped: a[1] as usize,
                     coverage: None,
                 });
-                let s = crate::cprc::CprcSettings::from(&scene.render);
-                let mut plan = FramePlan::cprc_after(scene, cones, &s, cached);
+                let mut plan = Pipeline::Cprc.plan(scene, cones, cached);
                 if let Some(room) = b.room {
                     plan = plan.with_note(
                         "cache_creation",
@@ -749,11 +748,7 @@ impl<'c> Resident<'c> {
                 }
                 plan
             }
-            Pipeline::Lrsm => {
-                FramePlan::lrsm_after(scene, cones, &LrsmSettings::from(&scene.render), cached)
-            }
-            Pipeline::VctSvo => FramePlan::vct_svo_after(scene, cones, cached),
-            Pipeline::VctDense => FramePlan::vct_dense_after(scene, cones, cached),
+            p => p.plan(scene, cones, cached),
         };
         match &b.hierarchies {
             // Each distinct mesh voxelized by the chain's first frame, every hierarchy re-lit where
@@ -815,26 +810,20 @@ impl<'c> Resident<'c> {
         let mut room = None;
         let mut hierarchies = None;
         let instanced = !scene.instances.list.is_empty();
-        let (mut chain, memory, direct, relight_stage): (Chain, _, _, _) = match self.pipeline {
+        let (mut chain, memory, direct): (Chain, _, _) = match self.pipeline {
             Pipeline::Cprc => {
                 let (chain, r, frames) =
                     crate::pipeline::cprc_chain(self.ctx, scene, &data, cones)?;
                 room = Some(r);
                 hierarchies = frames;
-                (
-                    chain,
-                    None,
-                    "radiance",
-                    crate::kernels::voxel_light::DECL.name,
-                )
+                (chain, None, "radiance")
             }
             Pipeline::Lrsm => {
                 let (chain, memory) = crate::pipeline::lrsm_chain(self.ctx, scene, &data, cones)?;
                 // With shadow cones the gather's shadow pass writes the direct light.
                 let soft = scene.render.shadow_cone_angle > 0.0;
                 let direct = if soft { "soft_direct" } else { "radiance" };
-                let rsm = crate::kernels::reflective_shadow_map::DECL.name;
-                (chain, Some(VolumeMemory::Lrsm(memory)), direct, rsm)
+                (chain, Some(VolumeMemory::Lrsm(memory)), direct)
             }
             Pipeline::VctSvo => {
                 // The octree by the staged passes (their host steps run once, here); a frame then
@@ -844,23 +833,13 @@ impl<'c> Resident<'c> {
                 build_stages = built;
                 let chain = crate::pipeline::svo_chain(self.ctx, &data, cones, volume)?;
                 let memory = VolumeMemory::Octree(volume.memory());
-                (
-                    chain,
-                    Some(memory),
-                    "radiance",
-                    crate::kernels::gbuffer::DECL.name,
-                )
+                (chain, Some(memory), "radiance")
             }
             Pipeline::VctDense if instanced => {
                 let (chain, frames) =
                     crate::pipeline::instanced_dense_chain(self.ctx, scene, &data, cones)?;
                 hierarchies = Some(frames);
-                (
-                    chain,
-                    None,
-                    "radiance",
-                    crate::kernels::voxel_light::DECL.name,
-                )
+                (chain, None, "radiance")
             }
             Pipeline::VctDense => {
                 // The G-buffer the cone pass binds, computed in the chain (zeroed here).
@@ -868,36 +847,37 @@ impl<'c> Resident<'c> {
                 let levels = key.volume.levels;
                 let cone_pass = Some((&gb, cones, levels));
                 let chain = crate::pipeline::dense_chain(self.ctx, scene, &data, cone_pass, true)?;
-                (
-                    chain,
-                    None,
-                    "radiance",
-                    crate::kernels::voxel_light::DECL.name,
-                )
+                (chain, None, "radiance")
             }
         };
         let name = self.pipeline.name();
+        let decl = self.pipeline.decl();
+        decl.check_chain(chain.stages.iter().map(|s| (s.stage, s.kernel)))?;
         let mut stages = Vec::new();
         let mut first = 0;
         for s in &chain.stages {
             stages.push((s.stage, first..first + s.passes.len()));
             first += s.passes.len();
         }
-        let start_of = |stage: &str| {
+        // The declaration's reuse classes say where the passes a reused frame re-runs start (the
+        // chain records them in that order: `check_chain`).
+        let start_of = |reuse: Reuse| {
             stages
                 .iter()
-                .find(|(n, _)| *n == stage)
+                .find(|(n, _)| decl.stage(n).is_some_and(|s| s.reuse == reuse))
                 .map(|(_, r)| r.start)
-                .with_context(|| format!("{name}'s chain holds no {stage} stage"))
         };
-        let gbuffer = start_of(crate::kernels::gbuffer::DECL.name)?;
+        let gbuffer = start_of(Reuse::Camera)
+            .with_context(|| format!("{name}'s chain holds none of the camera's stages"))?;
         let gbuffer_end = gbuffer
             + chain
                 .stages
                 .iter()
                 .find(|s| s.stage == crate::kernels::gbuffer::DECL.name)
                 .map_or(0, |s| s.passes.len());
-        let relight = start_of(relight_stage)?;
+        // Moved lights re-run the volume from its first stage the lights feed (vct-svo's chain has
+        // none: its octree, built outside the chain, is rebuilt).
+        let relight = start_of(Reuse::Lights).unwrap_or(gbuffer);
         // What the camera's passes also write starts each reused frame as a fresh chain has it
         // (cleared or restored), so a new chain keeps its own.
         let per_frame = written(&chain, gbuffer..usize::MAX);

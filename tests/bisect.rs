@@ -6,7 +6,7 @@
 use crate::common;
 
 use common::gpu;
-use vxgi::bisect::{bisect, render_split, split_after, stages, table, STAGES};
+use vxgi::bisect::{bisect, render_split, split_after, stages, table};
 use vxgi::kernels::cone_trace::ConeSettings;
 use vxgi::render::Pipeline;
 use vxgi::scene::Scene;
@@ -38,8 +38,9 @@ fn every_split_renders_and_only_the_gpu_gbuffer_departs() {
     let scene = small_box();
     let cones = ConeSettings::from(&scene.render);
     let rows = bisect(gpu(), &scene, &cones, Pipeline::VctDense, |_| {}).unwrap();
-    println!("{}", table(&STAGES, &rows));
-    assert_eq!(rows.len(), STAGES.len());
+    let order = stages(Pipeline::VctDense, &scene, &cones).unwrap();
+    println!("{}", table(&order, &rows));
+    assert_eq!(rows.len(), order.len());
     // Every split whose G-buffer came from the mirror.
     assert_agree(&rows[1..]);
     // All on the GPU: the snapshot tests' agreement bound.
@@ -60,7 +61,7 @@ fn the_all_mirror_split_is_the_mirror_frame() {
         &scene,
         &cones,
         Pipeline::VctDense,
-        STAGES.len(),
+        Pipeline::VctDense.stages().len(),
         |_| {},
     )
     .unwrap();
@@ -77,9 +78,10 @@ fn the_all_mirror_split_is_the_mirror_frame() {
 
 #[test]
 fn stages_are_named_and_a_typo_is_an_error() {
-    assert_eq!(split_after(&STAGES, "gbuffer").unwrap(), 1);
-    assert_eq!(split_after(&STAGES, "cone_trace").unwrap(), STAGES.len());
-    let e = split_after(&STAGES, "voxelise").unwrap_err().to_string();
+    let dense = Pipeline::VctDense.stages();
+    assert_eq!(split_after(&dense, "gbuffer").unwrap(), 1);
+    assert_eq!(split_after(&dense, "cone_trace").unwrap(), dense.len());
+    let e = split_after(&dense, "voxelise").unwrap_err().to_string();
     assert!(e.contains("voxelize") && e.contains("voxelise"), "{e}");
     let (scene, cones) = (small_box(), ConeSettings::default());
     assert!(render_split(gpu(), &scene, &cones, Pipeline::VctDense, 7, |_| {}).is_err());

@@ -339,7 +339,7 @@ fn mip_levels_no_cone_reaches_are_not_built_and_not_missed() {
     };
     let levels = pyramid_levels(&scene, &narrow, 64);
     assert!(levels < 7, "a 1-degree cone reads {levels} of 7 levels");
-    let plan = vxgi::plan::FramePlan::vct_dense(&scene, &narrow);
+    let plan = vxgi::render::Pipeline::VctDense.plan(&scene, &narrow, false);
     let mips = plan
         .passes
         .iter()

@@ -30,6 +30,7 @@ mod lrsm_partition;
 mod lrsm_pipeline;
 mod lrsm_prefilter;
 mod occlusion_voxels;
+mod pipeline;
 mod radix_sort;
 mod reflective_shadow_map;
 mod render;

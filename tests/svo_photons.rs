@@ -5,7 +5,7 @@ use crate::common;
 use common::gpu;
 use vxgi::kernels::svo_photons::photon_fragments;
 use vxgi::kernels::voxelize::voxelize_on_gpu;
-use vxgi::plan::FramePlan;
+use vxgi::render::Pipeline;
 use vxgi::scene::Scene;
 use vxgi::trace::SceneData;
 
@@ -60,7 +60,7 @@ fn cornell_box_photons_carry_the_voxels_direct_light() {
 fn the_plan_names_the_injection() {
     let cones = vxgi::kernels::cone_trace::ConeSettings::default();
     let mut scene = Scene::cornell_box();
-    let plan = FramePlan::vct_svo_after(&scene, &cones, false);
+    let plan = Pipeline::VctSvo.plan(&scene, &cones, false);
     assert!(
         plan.runs("svo_photons") && !plan.runs("voxel_light"),
         "{plan}"
@@ -70,14 +70,14 @@ fn the_plan_names_the_injection() {
         "{plan}"
     );
     scene.render.photon_map = 0;
-    let plan = FramePlan::vct_svo_after(&scene, &cones, false);
+    let plan = Pipeline::VctSvo.plan(&scene, &cones, false);
     assert!(
         !plan.runs("svo_photons") && plan.runs("voxel_light"),
         "{plan}"
     );
     scene.render.photon_map = 256;
     scene.lights.clear();
-    let plan = FramePlan::vct_svo_after(&scene, &cones, false);
+    let plan = Pipeline::VctSvo.plan(&scene, &cones, false);
     assert!(
         !plan.runs("svo_photons") && !plan.runs("voxel_light"),
         "{plan}"

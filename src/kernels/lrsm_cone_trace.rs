@@ -309,6 +309,8 @@ impl LrsmFrame {
         )?;
         let mut streams: [Vec<[f32; 4]>; 3] = Default::default();
         let count = views.len();
+        // Seconds in each view's RSM and in its layers (the two stages), summed over the views.
+        let mut partition_secs = 0.0;
         for (k, v) in views.iter_mut().enumerate() {
             progress(&format!("RSM and LRSM of light view {} of {count}", k + 1));
             v.view.info[2] = streams[0].len() as u32;
@@ -332,6 +334,7 @@ impl LrsmFrame {
                     }
                 }
             };
+            let p = std::time::Instant::now();
             let s = match on_gpu("lrsm_partition") {
                 Some(ctx) => lrsm_on_gpu(ctx, &rsm, &config).context("LRSM")?,
                 None => super::sample_lrsm::lrsm_mirror(&rsm, &config),
@@ -339,9 +342,12 @@ impl LrsmFrame {
             for (acc, part) in streams.iter_mut().zip(s) {
                 acc.extend(part);
             }
+            partition_secs += p.elapsed().as_secs_f64();
         }
         if !views.is_empty() {
-            stages.push(("reflective_shadow_map", t.elapsed().as_secs_f64()));
+            let all = t.elapsed().as_secs_f64();
+            stages.push(("reflective_shadow_map", all - partition_secs));
+            stages.push(("lrsm_partition", partition_secs));
         }
         let memory = LrsmMemory::of(&occ, settings.rsm_side, &streams, views.len());
         Ok(Self {

@@ -1,6 +1,227 @@
-//! cprc's chain: vct-dense's volume and camera passes, the cache distribution, the cache records,
-//! creation and pre-convolution dispatched indirectly, the gather; and how many caches it holds.
+//! cprc (Rehfeld et al. 2014: clustered pre-convolved radiance caching): its declaration, the plan's
+//! rules for its stages, and its chain: vct-dense's volume and camera passes, the cache
+//! distribution, the cache records, creation and pre-convolution dispatched indirectly, the gather;
+//! and how many caches it holds.
 use super::*;
+use crate::kernels::{
+    cache_creation, cache_placement, cache_preconvolve, cache_records, cluster_extract,
+    cluster_keys, cprc_pixels, gather_caches, histogram_axes, radix_sort, tile_normal_histogram,
+};
+
+/// cprc's frame: vct-dense's stages up to the radiance pyramid (with its reuse rule), then the
+/// cache distribution, creation, pre-convolution and the gather instead of per-pixel cones. The
+/// caches follow the view, so they are made again every frame.
+pub static CPRC: PipelineDecl = PipelineDecl {
+    name: "cprc",
+    stages: &[
+        GBUFFER_STAGE,
+        DIRECT_LIGHT_STAGE,
+        StageDecl {
+            name: "voxelize",
+            kernels: &[&voxelize::DECL],
+            reuse: Reuse::Geometry,
+            split: Split::Always,
+            plan: |i| unlit_volume(i, voxelize_plan(i)),
+        },
+        VOXEL_LIGHT_STAGE,
+        StageDecl {
+            name: "surface_coverage_mip",
+            kernels: &[&crate::kernels::surface_coverage_mip::DECL],
+            reuse: Reuse::Lights,
+            split: Split::Always,
+            plan: cprc_mips_plan,
+        },
+        StageDecl {
+            name: "cache_distribution",
+            kernels: &[
+                &cprc_pixels::DECL,
+                &tile_normal_histogram::DECL,
+                &histogram_axes::DECL,
+                &cluster_keys::DECL,
+                &radix_sort::DECL,
+                &cluster_extract::DECL,
+                &cache_placement::DECL,
+                &cache_records::DECL,
+            ],
+            reuse: Reuse::Camera,
+            split: Split::Always,
+            plan: distribution_plan,
+        },
+        StageDecl {
+            name: "cache_creation",
+            kernels: &[&cache_creation::DECL, &cache_creation::INSTANCED_DECL],
+            reuse: Reuse::Camera,
+            split: Split::Always,
+            plan: |i| {
+                lit(
+                    i,
+                    PlannedPass::new(
+                        "cache_creation",
+                        "cache_creation",
+                        format!("caches x {}^2 texels", i.cprc.res),
+                        true,
+                        "one cone per cache texel through the radiance pyramid",
+                    ),
+                )
+            },
+        },
+        StageDecl {
+            name: "cache_preconvolve",
+            kernels: &[&cache_preconvolve::DECL],
+            reuse: Reuse::Camera,
+            split: Split::Never,
+            plan: preconvolve_plan,
+        },
+        StageDecl {
+            name: "gather_caches",
+            kernels: &[&gather_caches::DECL, &cprc_pixels::DECL],
+            reuse: Reuse::Camera,
+            split: Split::Never,
+            plan: gather_plan,
+        },
+    ],
+};
+
+/// Without lights the pyramid holds no radiance and cprc has no AO pass: indirect is 0 whatever
+/// the caches would hold, so the volume is not built.
+fn unlit_volume(i: &PlanInputs, mut passes: Vec<PlannedPass>) -> Vec<PlannedPass> {
+    if i.scene.lights.is_empty() {
+        for p in &mut passes {
+            p.runs = false;
+            p.why = "skipped: no lights, the caches would hold no radiance (cprc has no AO)".into();
+        }
+    }
+    passes
+}
+
+/// `pass` as a frame of `i` runs it: not at all without lights (indirect is 0).
+fn lit(i: &PlanInputs, mut pass: PlannedPass) -> Vec<PlannedPass> {
+    if i.scene.lights.is_empty() {
+        pass.runs = false;
+        pass.why = "skipped: no lights, indirect is 0".into();
+    }
+    vec![pass]
+}
+
+/// The caches' cones read the pyramid: every level is built.
+fn cprc_mips_plan(i: &PlanInputs) -> Vec<PlannedPass> {
+    let mut passes = mips_plan(i);
+    let side = i.scene.render.voxels;
+    for p in &mut passes {
+        p.size = crate::plan::mip_levels(side, side.trailing_zeros() + 1);
+    }
+    unlit_volume(i, passes)
+}
+
+fn distribution_plan(i: &PlanInputs) -> Vec<PlannedPass> {
+    const STAGE: &str = "cache_distribution";
+    let s = &i.cprc;
+    let (w, h) = (i.scene.camera.width, i.scene.camera.height);
+    let tiles = w.div_ceil(s.tile) * h.div_ceil(s.tile);
+    let mut passes = lit(
+        i,
+        PlannedPass::new(
+            STAGE,
+            "cprc_pixels",
+            i.pixels(),
+            true,
+            "the distribution's and the gather's per-pixel inputs from the G-buffer (entry inputs)",
+        ),
+    );
+    for kernel in [
+        "tile_normal_histogram",
+        "histogram_axes",
+        "cluster_keys",
+        "radix_sort",
+        "cluster_extract",
+        "cache_placement",
+    ] {
+        passes.extend(lit(
+            i,
+            PlannedPass::new(
+                STAGE,
+                kernel,
+                format!(
+                    "{w}x{h} pixels, {tiles} tiles of {}^2, {} depth slices",
+                    s.tile, s.slices
+                ),
+                true,
+                "one cache per cluster of the view's pixels (tile x normal axis x depth slice)",
+            ),
+        ));
+    }
+    passes.extend(lit(
+        i,
+        PlannedPass::new(
+            STAGE,
+            "cache_records",
+            "one per cluster",
+            true,
+            "each cluster's cache record, and the cache stages' workgroups from the count",
+        ),
+    ));
+    passes
+}
+
+fn preconvolve_plan(i: &PlanInputs) -> Vec<PlannedPass> {
+    const STAGE: &str = "cache_preconvolve";
+    let glossy = i.glossy();
+    let levels = i.cprc.res.trailing_zeros() + 1;
+    let mut passes = lit(
+        i,
+        PlannedPass::new(
+            STAGE,
+            "cache_preconvolve",
+            format!("caches x {}^2 irradiance texels", i.cprc.irr),
+            true,
+            "cosine-folded irradiance for diffuse (entry irradiance)",
+        ),
+    );
+    passes.extend(lit(
+        i,
+        PlannedPass::new(
+            STAGE,
+            "cache_preconvolve",
+            format!("caches x {levels} mip levels"),
+            glossy > 0,
+            if glossy > 0 {
+                format!("mip chain for the {glossy} glossy material(s) (entry mips; skipped at run time if none is in view)")
+            } else {
+                "skipped: no material has Ks, no pixel reads a mip chain (entry mips)".into()
+            },
+        ),
+    ));
+    passes
+}
+
+fn gather_plan(i: &PlanInputs) -> Vec<PlannedPass> {
+    const STAGE: &str = "gather_caches";
+    let mut passes = lit(
+        i,
+        PlannedPass::new(
+            STAGE,
+            "gather_caches",
+            format!("{}, radius {} px", i.pixels(), i.cprc.radius_px),
+            true,
+            if i.glossy() > 0 {
+                "irradiance by normal; glossy lookups only for pixels with Ks"
+            } else {
+                "irradiance by normal; no glossy lookups: no material has Ks"
+            },
+        ),
+    );
+    passes.extend(lit(
+        i,
+        PlannedPass::new(
+            STAGE,
+            "cprc_pixels",
+            i.pixels(),
+            true,
+            "indirect = albedo / pi x irradiance + Ks x glossy; AO 1 on geometry (entry compose)",
+        ),
+    ));
+    passes
+}
 
 /// What a cprc chain holds besides its stages: how many caches its buffers have room for, and
 /// whether it builds the caches' mip chains (a glossy material in the scene).
@@ -66,7 +287,6 @@ pub(crate) fn cprc_chain(
 ) -> Result<(Chain, CacheRoom, Option<Vec<voxelize::VoxelFrame>>)> {
     use crate::cprc::{self, CacheSet, CacheVolume, CprcSettings, PixelInputs};
     use crate::harness::run::Workgroups;
-    use crate::kernels::{cache_records, cprc_pixels};
     use vxgi_cpu_mirror::cache_records::args_offset;
     let (mut chain, hierarchies) = if scene.instances.list.is_empty() {
         (dense_chain(ctx, scene, data, None, true)?, None)

@@ -1,6 +1,155 @@
-//! lrsm's chain: the binary occlusion voxels and their mips, each light view's G-buffer, RSM and
-//! layered RSM, the camera's G-buffer and direct light, the LRSM cone gather.
+//! lrsm (Sugihara et al. 2014: layered reflective shadow maps): its declaration, the plan's rules for
+//! its stages, and its chain: the binary occlusion voxels and their mips, each light view's
+//! G-buffer, RSM and layered RSM, the camera's G-buffer and direct light, the LRSM cone gather.
 use super::*;
+use crate::kernels::{
+    lrsm_partition, lrsm_prefilter, occlusion_voxels, reflective_shadow_map as rsm_kernel,
+};
+
+/// lrsm's frame: G-buffer and direct light as vct-dense; the voxel grid becomes binary occlusion
+/// voxels and their mips; every light view gets an RSM, then its layers, pre-filtered; the gather
+/// cone-traces occlusion from the voxels and radiance from the LRSMs.
+pub static LRSM: PipelineDecl = PipelineDecl {
+    name: "lrsm",
+    stages: &[
+        GBUFFER_STAGE,
+        StageDecl {
+            name: "direct_light",
+            kernels: &[&direct_light::DECL],
+            reuse: Reuse::Camera,
+            split: Split::Always,
+            plan: lrsm_direct_light_plan,
+        },
+        StageDecl {
+            name: "voxelize",
+            kernels: &[&voxelize::DECL],
+            reuse: Reuse::Geometry,
+            split: Split::Always,
+            plan: lrsm_voxelize_plan,
+        },
+        StageDecl {
+            name: "occlusion_voxels",
+            kernels: &[&occlusion_voxels::DECL],
+            reuse: Reuse::Geometry,
+            split: Split::Always,
+            plan: occlusion_plan,
+        },
+        StageDecl {
+            name: "reflective_shadow_map",
+            // Each light view's G-buffer, then its RSM.
+            kernels: &[&crate::kernels::gbuffer::DECL, &rsm_kernel::DECL],
+            reuse: Reuse::Lights,
+            split: Split::Always,
+            plan: |i| light_view_plan(i, "reflective_shadow_map", &["reflective_shadow_map"]),
+        },
+        StageDecl {
+            name: "lrsm_partition",
+            kernels: &[&lrsm_partition::DECL, &lrsm_prefilter::DECL],
+            reuse: Reuse::Lights,
+            split: Split::Always,
+            plan: |i| light_view_plan(i, "lrsm_partition", &["lrsm_partition", "lrsm_prefilter"]),
+        },
+        StageDecl {
+            name: "lrsm_cone_trace",
+            kernels: &[&screen_tiles::DECL, &lrsm_cone_trace::DECL],
+            reuse: Reuse::Camera,
+            split: Split::Always,
+            plan: lrsm_cone_trace_plan,
+        },
+    ],
+};
+
+const LRSM_CACHED: &str = "skipped: geometry, materials, lights and settings unchanged since the last frame (its occlusion voxels and LRSMs are reused)";
+
+/// With shadow cones (`shadow_cone_angle` > 0) the gather's shadow pass replaces the shadow rays.
+fn lrsm_direct_light_plan(i: &PlanInputs) -> Vec<PlannedPass> {
+    let mut passes = direct_light_plan(i);
+    for p in &mut passes {
+        if i.lrsm.shadow_cone_angle > 0.0 && p.runs {
+            p.runs = false;
+            p.why = format!(
+                "skipped: shadow cones of {} deg through the occlusion voxels replace the exact shadow rays (lrsm_cone_trace's shadow pass)",
+                i.lrsm.shadow_cone_angle
+            );
+        }
+    }
+    passes
+}
+
+fn lrsm_voxelize_plan(i: &PlanInputs) -> Vec<PlannedPass> {
+    let mut passes = voxelize_plan(i);
+    for p in &mut passes {
+        p.why = if p.runs {
+            "the occlusion voxels' level 0: a bit per voxel a surface sample lands in (entry occupancy_bits; no accumulators)".into()
+        } else {
+            LRSM_CACHED.into()
+        };
+    }
+    passes
+}
+
+fn occlusion_plan(i: &PlanInputs) -> Vec<PlannedPass> {
+    let side = i.scene.render.voxels;
+    vec![PlannedPass::new(
+        "occlusion_voxels",
+        "occlusion_voxels",
+        format!(
+            "{} mip levels over {side}^3 bits (a byte per voxel above level 0)",
+            side.trailing_zeros()
+        ),
+        !i.cached,
+        if i.cached {
+            LRSM_CACHED
+        } else if i.lrsm.surface_coverage {
+            "binary occlusion and its surface-coverage mips (lrsm_surface_coverage: thin walls stay opaque; no radiance in the voxels)"
+        } else {
+            "binary occlusion and its averaged mips (no radiance in the voxels)"
+        },
+    )]
+}
+
+/// A light-view stage's passes, one per kernel: over every view's RSM and layers.
+fn light_view_plan(
+    i: &PlanInputs,
+    stage: &'static str,
+    kernels: &[&'static str],
+) -> Vec<PlannedPass> {
+    let lights = i.scene.lights.len();
+    let size = format!(
+        "{} light views x {}^2 RSM, {} layers",
+        crate::plan::light_views(i.scene),
+        i.lrsm.rsm_side,
+        (i.lrsm.depth_splits + 1) * (i.lrsm.normal_splits + 1)
+    );
+    let why = if i.cached {
+        LRSM_CACHED
+    } else if lights == 0 {
+        "skipped: no lights, no RSM (indirect is 0)"
+    } else {
+        "each view's RSM from the light (point lights: six cube faces; directional: orthographic)"
+    };
+    kernels
+        .iter()
+        .map(|k| PlannedPass::new(stage, k, size.clone(), !i.cached && lights > 0, why))
+        .collect()
+}
+
+fn lrsm_cone_trace_plan(i: &PlanInputs) -> Vec<PlannedPass> {
+    let mut p = cone_trace_plan(i).remove(0);
+    p.stage = "lrsm_cone_trace";
+    p.kernel = "lrsm_cone_trace";
+    p.why = format!(
+        "{}; radiance from {} LRSM views, read only where a sample has occlusion{}",
+        p.why,
+        crate::plan::light_views(i.scene),
+        if i.lrsm.shadow_cone_angle > 0.0 && !i.scene.lights.is_empty() {
+            "; + direct light with one shadow cone per light"
+        } else {
+            ""
+        }
+    );
+    vec![p]
+}
 
 /// lrsm's light views of `lights` (the GPU's lights of the scene; `bounds` and `eps` from its
 /// [`SceneData`]), each with its first texel in the concatenated LRSM streams (`view.info[2]`): view
@@ -107,6 +256,7 @@ pub(crate) fn lrsm_chain(
     let (rshader, pshader) = (rsmk::DECL.shader()?, lrsm_partition::DECL.shader()?);
     let fshader = lrsm_prefilter::DECL.shader()?;
     const RSM: &str = "reflective_shadow_map";
+    const PARTITION: &str = "lrsm_partition";
     for (v, view) in views.iter().enumerate() {
         let (frame_name, view_name) = light_view_names(v);
         let mut d = data.clone();
@@ -150,7 +300,7 @@ pub(crate) fn lrsm_chain(
         {
             p.rename_resource(out, &lrsm_prefilter::stream_name(s, 0), false);
         }
-        chain.add(&lrsm_partition::DECL, RSM, p)?;
+        chain.add(&lrsm_partition::DECL, PARTITION, p)?;
         if levels > 1 {
             let n0 = (config.layers() as u64 * (side0 as u64).pow(2)) as usize;
             let level0: [Vec<[f32; 4]>; 3] = std::array::from_fn(|_| vec![[0.0; 4]; n0]);
@@ -163,7 +313,7 @@ pub(crate) fn lrsm_chain(
                 "render".into(),
                 0,
             );
-            chain.add(&lrsm_prefilter::DECL, RSM, f)?;
+            chain.add(&lrsm_prefilter::DECL, PARTITION, f)?;
         }
         let after = chain.pass_count();
         let mut first = v as u64 * per_view;

@@ -1,5 +1,7 @@
-//! Each pipeline's frame as a chain of GPU stages over one set of named resources: the kernels in
-//! order, each with its passes (direct or indirect dispatch), and the buffer copies between them.
+//! The four pipelines, each declared once ([`PipelineDecl`]: its stages, their kernels, reuse and
+//! plan rules), and each one's frame as a chain of GPU stages over one set of named resources: the
+//! kernels in order, each with its passes (direct or indirect dispatch), and the buffer copies
+//! between them.
 //! Built from the kernels' own cases (the resources and passes `vxgi verify` checks), so a chain runs
 //! exactly the verified kernels. [`crate::render`] runs vct-dense's stage by stage;
 //! [`crate::resident::Resident`] prepares a chain once and records it as one submission per frame.
@@ -10,6 +12,7 @@ use crate::kernels::cone_trace::{self, ConeSettings};
 use crate::kernels::lrsm_cone_trace::{self, LrsmFrame, LrsmMemory, LrsmSettings};
 use crate::kernels::{direct_light, screen_tiles, voxel_light, voxelize};
 use crate::lrsm::{LightView, PartitionConfig};
+use crate::plan::PlannedPass;
 use crate::scene::Scene;
 use crate::trace::SceneData;
 use anyhow::{Context, Result};
@@ -123,12 +126,18 @@ fn same_data(a: &HostResource, b: &HostResource) -> bool {
 }
 
 mod cprc;
+mod declaration;
 mod lrsm;
 mod vct_dense;
 mod vct_svo;
+pub use cprc::CPRC;
 pub(crate) use cprc::*;
+pub use declaration::*;
+pub use lrsm::LRSM;
 pub(crate) use lrsm::*;
+pub use vct_dense::VCT_DENSE;
 pub(crate) use vct_dense::*;
+pub use vct_svo::VCT_SVO;
 pub(crate) use vct_svo::*;
 
 /// Where a scene's voxel hierarchies stand this frame (CPRC 3.1): what the cones read (`placed`, one
@@ -371,7 +380,7 @@ fn push_camera_gbuffer(
     Ok(())
 }
 
-/// A cone pass (`decl`'s `case`, counted to `stage`) as the chain's last stages: screen_tiles lists
+/// A cone pass (`decl`'s `case`, counted to `stage` with the tile list) as the chain's last stages: screen_tiles lists
 /// the tiles holding a surface on the GPU (the case's host-built list replaced by an empty one it
 /// fills), then the pass is dispatched over them.
 fn push_tiled_cone_pass(
@@ -385,9 +394,10 @@ fn push_tiled_cone_pass(
     case.resources
         .insert("tile_list".into(), screen_tiles::empty_list(w, h));
     chain.merge(decl.name, case.resources)?;
-    chain.push(
+    chain.push_as(
         screen_tiles::DECL.shader()?,
         screen_tiles::DECL.name,
+        stage,
         vec![screen_tiles::pass(w, h)],
     );
     chain.push_as(decl.shader()?, decl.name, stage, case.passes);

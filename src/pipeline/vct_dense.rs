@@ -1,6 +1,191 @@
-//! vct-dense's chain: the volume (voxelize, voxel_light, the mip chain), the camera's G-buffer and
-//! direct light, the cone pass over the screen tiles; and its per-instance hierarchies.
+//! vct-dense (Crassin et al. 2011 on a dense grid): its declaration, the plan's rules for its stages
+//! (cprc, vct-svo and lrsm share the first ones), its chain (the volume: voxelize, voxel_light, the
+//! mip chain; the camera's G-buffer and direct light; the cone pass over the screen tiles) and its
+//! per-instance hierarchies.
 use super::*;
+
+/// vct-dense's frame.
+pub static VCT_DENSE: PipelineDecl = PipelineDecl {
+    name: "vct-dense",
+    stages: &[
+        GBUFFER_STAGE,
+        DIRECT_LIGHT_STAGE,
+        StageDecl {
+            name: "voxelize",
+            kernels: &[&voxelize::DECL],
+            reuse: Reuse::Geometry,
+            split: Split::Always,
+            plan: voxelize_plan,
+        },
+        VOXEL_LIGHT_STAGE,
+        StageDecl {
+            name: "surface_coverage_mip",
+            kernels: &[&crate::kernels::surface_coverage_mip::DECL],
+            reuse: Reuse::Lights,
+            split: Split::Always,
+            plan: mips_plan,
+        },
+        StageDecl {
+            name: "cone_trace",
+            kernels: &[
+                &screen_tiles::DECL,
+                &cone_trace::DECL,
+                &cone_trace::INSTANCED_DECL,
+            ],
+            reuse: Reuse::Camera,
+            split: Split::Always,
+            plan: cone_trace_plan,
+        },
+    ],
+};
+
+/// The camera's G-buffer: the same stage in every pipeline.
+pub(crate) const GBUFFER_STAGE: StageDecl = StageDecl {
+    name: "gbuffer",
+    kernels: &[&crate::kernels::gbuffer::DECL],
+    reuse: Reuse::Camera,
+    split: Split::Always,
+    plan: gbuffer_plan,
+};
+
+/// Direct light by exact shadow rays (vct-dense, vct-svo, cprc; lrsm's skips it with shadow cones).
+pub(crate) const DIRECT_LIGHT_STAGE: StageDecl = StageDecl {
+    name: "direct_light",
+    kernels: &[&direct_light::DECL],
+    reuse: Reuse::Camera,
+    split: Split::Always,
+    plan: direct_light_plan,
+};
+
+/// Direct light into the voxels (vct-dense, cprc, vct-svo without photons).
+pub(crate) const VOXEL_LIGHT_STAGE: StageDecl = StageDecl {
+    name: "voxel_light",
+    kernels: &[&voxel_light::DECL],
+    reuse: Reuse::Lights,
+    split: Split::Always,
+    plan: voxel_light_plan,
+};
+
+/// Why a stage of the volume is skipped when the last frame's serves this one.
+const CACHED: &str = "skipped: geometry, materials, lights and voxels unchanged since the last frame (its radiance pyramid is reused)";
+
+pub(crate) fn gbuffer_plan(i: &PlanInputs) -> Vec<PlannedPass> {
+    vec![PlannedPass::new(
+        "gbuffer",
+        "gbuffer",
+        i.pixels(),
+        true,
+        "every renderer shades G-buffer texels",
+    )]
+}
+
+pub(crate) fn direct_light_plan(i: &PlanInputs) -> Vec<PlannedPass> {
+    let lights = i.scene.lights.len();
+    vec![PlannedPass::new(
+        "direct_light",
+        "direct_light",
+        format!("{} x {lights} lights", i.pixels()),
+        lights > 0,
+        if lights > 0 {
+            "exact shadow ray per light and texel"
+        } else {
+            "skipped: the scene has no lights (direct is 0)"
+        },
+    )]
+}
+
+/// vct-dense's voxelize (cprc's; vct-svo's and lrsm's say what they voxelize for).
+pub(crate) fn voxelize_plan(i: &PlanInputs) -> Vec<PlannedPass> {
+    let side = i.scene.render.voxels;
+    vec![PlannedPass::new(
+        "voxelize",
+        "voxelize",
+        format!("{} triangles into {side}^3", i.scene.mesh.triangles.len()),
+        !i.cached,
+        if i.cached {
+            CACHED
+        } else {
+            "the radiance pyramid's geometry"
+        },
+    )]
+}
+
+pub(crate) fn voxel_light_plan(i: &PlanInputs) -> Vec<PlannedPass> {
+    let lights = i.scene.lights.len();
+    vec![PlannedPass::new(
+        "voxel_light",
+        "voxel_light",
+        format!("non-empty voxels x {lights} lights"),
+        lights > 0 && !i.cached,
+        if i.cached {
+            CACHED
+        } else if lights > 0 {
+            "direct light into the voxels (work list from voxelize)"
+        } else {
+            "skipped: no lights, the pyramid holds no radiance"
+        },
+    )]
+}
+
+/// The mip chain up to the levels the cones read.
+pub(crate) fn mips_plan(i: &PlanInputs) -> Vec<PlannedPass> {
+    let side = i.scene.render.voxels;
+    vec![PlannedPass::new(
+        "surface_coverage_mip",
+        "surface_coverage_mip",
+        crate::plan::mip_levels(side, cone_trace::pyramid_levels(i.scene, i.cones, side)),
+        !i.cached,
+        if i.cached {
+            CACHED
+        } else {
+            "cones read coarser levels as they widen"
+        },
+    )]
+}
+
+/// vct-dense's cone pass (vct-svo's and lrsm's take its size and add to its reasons).
+pub(crate) fn cone_trace_plan(i: &PlanInputs) -> Vec<PlannedPass> {
+    let cones = i.cones;
+    let glossy = i.glossy();
+    let size = format!(
+        "{} in the 8x8 tiles holding a surface (screen_tiles' list; empty tiles not dispatched) x ({} diffuse{}){}",
+        i.pixels(),
+        cones.diffuse_cones,
+        if glossy > 0 { " + 1 glossy" } else { "" },
+        if cones.interleave > 1 {
+            format!(
+                ", then the resolve over {0}x{0} neighbours (tent weights)",
+                2 * cones.interleave - 1
+            )
+        } else {
+            String::new()
+        }
+    );
+    let why = format!(
+        "{}{}",
+        if glossy > 0 {
+            format!("AO + diffuse; glossy cone for the {glossy} glossy material(s)")
+        } else {
+            "AO + diffuse; no glossy cone: no material has Ks".into()
+        },
+        if cones.interleave > 1 {
+            format!(
+                "; interleaved cone sets: {} cones over {1}x{1} classes of a surface",
+                cones.diffuse_cones * cones.interleave * cones.interleave,
+                cones.interleave
+            )
+        } else {
+            String::new()
+        }
+    );
+    vec![PlannedPass::new(
+        "cone_trace",
+        "cone_trace",
+        size,
+        true,
+        why,
+    )]
+}
 
 /// vct-dense's chain: voxelize, voxel_light, the surface-coverage mips (each level copied into
 /// `pyramid` and `pyramid_normal` after them), then (with `gbuffer_in_chain`) gbuffer and
@@ -57,7 +242,7 @@ pub(crate) fn dense_chain(
     resources.extend(mips.resources);
     // The cone pass, dispatched over the tiles screen_tiles lists on the GPU from the G-buffer (the
     // case's host-built list replaced by an empty one the chain fills).
-    let (tiles, cone) = match cone_pass {
+    let cone_stages = match cone_pass {
         Some((gb, cones, _)) => {
             let mut params = cone_trace::cone_params(&vframe, cones);
             params.levels = levels;
@@ -72,9 +257,9 @@ pub(crate) fn dense_chain(
             resources.extend(c.resources);
             let (w, h) = (data.width(), data.height());
             resources.insert("tile_list".into(), screen_tiles::empty_list(w, h));
-            (vec![screen_tiles::pass(w, h)], c.passes)
+            Some((vec![screen_tiles::pass(w, h)], c.passes))
         }
-        None => (Vec::new(), Vec::new()),
+        None => None,
     };
     // The pyramid and its normal pyramid (the depth-ordered blend reads it; kept with the pyramid),
     // filled below from the chain's levels.
@@ -114,8 +299,16 @@ pub(crate) fn dense_chain(
             d.passes,
         );
     }
-    chain.push(screen_tiles::DECL.shader()?, screen_tiles::DECL.name, tiles);
-    chain.push(cone_trace::DECL.shader()?, cone_trace::DECL.name, cone);
+    if let Some((tiles, cone)) = cone_stages {
+        // screen_tiles' list is the cone pass's dispatch: both count to the cone_trace stage.
+        chain.push_as(
+            screen_tiles::DECL.shader()?,
+            screen_tiles::DECL.name,
+            cone_trace::DECL.name,
+            tiles,
+        );
+        chain.push(cone_trace::DECL.shader()?, cone_trace::DECL.name, cone);
+    }
     let names = |base: &str, f: &dyn Fn(u32) -> String| -> Vec<String> {
         (0..levels)
             .map(|l| if l == 0 { base.to_string() } else { f(l) })
