@@ -17,19 +17,13 @@ pub static CPRC: PipelineDecl = PipelineDecl {
         GBUFFER_STAGE,
         DIRECT_LIGHT_STAGE,
         StageDecl {
-            name: "voxelize",
-            kernels: &[&voxelize::DECL],
-            reuse: Reuse::Geometry,
-            split: Split::Always,
             plan: |i| unlit_volume(i, voxelize_plan(i)),
+            ..VOXELIZE_STAGE
         },
         VOXEL_LIGHT_STAGE,
         StageDecl {
-            name: "surface_coverage_mip",
-            kernels: &[&crate::kernels::surface_coverage_mip::DECL],
-            reuse: Reuse::Lights,
-            split: Split::Always,
             plan: cprc_mips_plan,
+            ..MIPS_STAGE
         },
         StageDecl {
             name: "cache_distribution",

@@ -14,18 +14,12 @@ pub static LRSM: PipelineDecl = PipelineDecl {
     stages: &[
         GBUFFER_STAGE,
         StageDecl {
-            name: "direct_light",
-            kernels: &[&direct_light::DECL],
-            reuse: Reuse::Camera,
-            split: Split::Always,
             plan: lrsm_direct_light_plan,
+            ..DIRECT_LIGHT_STAGE
         },
         StageDecl {
-            name: "voxelize",
-            kernels: &[&voxelize::DECL],
-            reuse: Reuse::Geometry,
-            split: Split::Always,
             plan: lrsm_voxelize_plan,
+            ..VOXELIZE_STAGE
         },
         StageDecl {
             name: "occlusion_voxels",

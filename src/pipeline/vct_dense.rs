@@ -10,21 +10,9 @@ pub static VCT_DENSE: PipelineDecl = PipelineDecl {
     stages: &[
         GBUFFER_STAGE,
         DIRECT_LIGHT_STAGE,
-        StageDecl {
-            name: "voxelize",
-            kernels: &[&voxelize::DECL],
-            reuse: Reuse::Geometry,
-            split: Split::Always,
-            plan: voxelize_plan,
-        },
+        VOXELIZE_STAGE,
         VOXEL_LIGHT_STAGE,
-        StageDecl {
-            name: "surface_coverage_mip",
-            kernels: &[&crate::kernels::surface_coverage_mip::DECL],
-            reuse: Reuse::Lights,
-            split: Split::Always,
-            plan: mips_plan,
-        },
+        MIPS_STAGE,
         StageDecl {
             name: "cone_trace",
             kernels: &[
@@ -55,6 +43,24 @@ pub(crate) const DIRECT_LIGHT_STAGE: StageDecl = StageDecl {
     reuse: Reuse::Camera,
     split: Split::Always,
     plan: direct_light_plan,
+};
+
+/// Voxelization (the other pipelines' say what they voxelize for: `StageDecl { plan, ..VOXELIZE_STAGE }`).
+pub(crate) const VOXELIZE_STAGE: StageDecl = StageDecl {
+    name: "voxelize",
+    kernels: &[&voxelize::DECL],
+    reuse: Reuse::Geometry,
+    split: Split::Always,
+    plan: voxelize_plan,
+};
+
+/// The radiance pyramid's mip chain (vct-dense, cprc).
+pub(crate) const MIPS_STAGE: StageDecl = StageDecl {
+    name: "surface_coverage_mip",
+    kernels: &[&crate::kernels::surface_coverage_mip::DECL],
+    reuse: Reuse::Lights,
+    split: Split::Always,
+    plan: mips_plan,
 };
 
 /// Direct light into the voxels (vct-dense, cprc, vct-svo without photons).

@@ -12,17 +12,10 @@ pub static VCT_SVO: PipelineDecl = PipelineDecl {
         GBUFFER_STAGE,
         DIRECT_LIGHT_STAGE,
         StageDecl {
-            name: "voxelize",
-            kernels: &[&voxelize::DECL],
-            reuse: Reuse::Geometry,
-            split: Split::Always,
             plan: |i| octree_reasons(voxelize_plan(i)),
+            ..VOXELIZE_STAGE
         },
         StageDecl {
-            name: "voxel_light",
-            kernels: &[&voxel_light::DECL],
-            reuse: Reuse::Lights,
-            split: Split::Always,
             plan: |i| {
                 if i.scene.render.photon_map > 0 {
                     Vec::new()
@@ -30,6 +23,7 @@ pub static VCT_SVO: PipelineDecl = PipelineDecl {
                     octree_reasons(voxel_light_plan(i))
                 }
             },
+            ..VOXEL_LIGHT_STAGE
         },
         StageDecl {
             name: "svo_photons",
