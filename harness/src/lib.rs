@@ -6,12 +6,15 @@
 //!   dispatch (direct or indirect), readback (textures with padded rows), timing.
 //! * [`compare`]: exact / ULP+floor / abs-rel comparison with mismatch reports and ULP statistics.
 //! * [`kernel`]: the kernel declaration and the verify driver.
+//! * [`bindings`]: a kernel's buffer bindings as one typed struct ([`bindings!`]), from which its
+//!   declared inputs and outputs, a case's resources and checks and the mirror's unpacking follow.
 //!
 //! It knows no kernel; the declarations live in the `vxgi` crate.
 //!
 //! Example: `examples/tdd_own_kernel.rs` (its WGSL beside it) declares a kernel that is not part of
 //! vxgi, its mirror and tolerance, and verifies it with [`verify`] (`cargo run --example
 //! tdd_own_kernel`); `examples/mip_on_own_device.rs` records a vxgi kernel on a device of its own.
+pub mod bindings;
 pub mod compare;
 pub mod context;
 pub mod error;
@@ -19,6 +22,7 @@ pub mod kernel;
 pub mod run;
 pub mod shader;
 
+pub use bindings::{Bindings, Block};
 pub use compare::{Comparison, Indexing, Tolerance};
 pub use context::{thread_counters, Counters, GpuContext};
 pub use error::{HarnessError, Result};

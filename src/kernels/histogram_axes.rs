@@ -10,9 +10,26 @@ use vxgi_cpu_mirror::histogram_axes::all_axes;
 use vxgi_cpu_mirror::octahedral::{reweight_table, BIN_COUNT};
 use vxgi_cpu_mirror::tile_normal_histogram::histograms;
 use vxgi_harness::{
-    Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
-    KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
+    Bindings, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, Kernel, KernelDecl, Resources,
+    Shader, Tolerance,
 };
+
+vxgi_harness::bindings! {
+    /// histogram_axes' bindings: each tile's raw and blurred histograms in, its three axes out.
+    pub struct Io {
+        inputs: {
+            /// The tile count.
+            params: Vec<u32>,
+            blurred: Vec<u32>,
+            histogram: Vec<u32>,
+            reweight: Vec<u32>,
+        }
+        outputs: {
+            // Integer argmax (lowest index on ties) and integer re-weighting: exact.
+            axes: Vec<[u32; 4]> => Tolerance::Exact
+        }
+    }
+}
 
 pub static DECL: KernelDecl = KernelDecl {
     name: "histogram_axes",
@@ -20,12 +37,8 @@ pub static DECL: KernelDecl = KernelDecl {
     wgsl: include_str!("../../kernels/histogram_axes.wgsl"),
     includes: &[],
     entry: "main",
-    inputs: &["params", "blurred", "histogram", "reweight"],
-    // Integer argmax (lowest index on ties) and integer re-weighting: exact.
-    outputs: &[Output {
-        binding: "axes",
-        tolerance: Tolerance::Exact,
-    }],
+    inputs: Io::INPUTS,
+    outputs: Io::OUTPUTS,
     dispatch: DispatchRule::PerElement { binding: "axes" },
     mirror: "vxgi_cpu_mirror::histogram_axes::all_axes",
     summary: "three axes per tile by re-weighted histogram argmax (CPRC 3.2)",
@@ -41,43 +54,21 @@ pub fn axes_case(
     seed: u64,
 ) -> Case {
     let tiles = raw.len() / BIN_COUNT;
-    let mut resources = Resources::new();
-    resources.insert(
-        "params".into(),
-        HostResource::Buffer(HostBuffer::u32(&[tiles as u32])),
-    );
-    resources.insert(
-        "blurred".into(),
-        HostResource::Buffer(HostBuffer::u32(blurred)),
-    );
-    resources.insert(
-        "histogram".into(),
-        HostResource::Buffer(HostBuffer::u32(raw)),
-    );
-    resources.insert(
-        "reweight".into(),
-        HostResource::Buffer(HostBuffer::u32(&reweight_table())),
-    );
-    resources.insert(
+    let io = Io {
+        params: vec![tiles as u32],
+        blurred: blurred.to_vec(),
+        histogram: raw.to_vec(),
+        reweight: reweight_table(),
+        axes: vec![[0; 4]; tiles],
+    };
+    let pass = DECL.pass(
+        shader,
+        ctx,
         "axes".into(),
-        HostResource::Buffer(HostBuffer::zeroed(tiles * 16, ScalarKind::U32)),
+        DECL.bind_by_name(),
+        tiles as u64,
     );
-    let bindings = DECL.bind_by_name();
-    Case {
-        label,
-        seed,
-        passes: vec![DECL.pass(shader, ctx, "axes".into(), bindings, tiles as u64)],
-        resources,
-        checks: vec![Check {
-            resource: "axes".into(),
-            output: "axes",
-            indexing: Indexing::Grid {
-                dims: [tiles as u32, 1, 1],
-                components: 4,
-            },
-        }],
-        effective_bytes: tiles as u64 * (BIN_COUNT as u64 * 8 + 16),
-    }
+    io.case(label, seed, vec![pass])
 }
 
 pub struct HistogramAxes;
@@ -134,11 +125,8 @@ impl Kernel for HistogramAxes {
         data: &Resources,
         _mode: FloatMode,
     ) -> BTreeMap<String, HostBuffer> {
-        let u = |n: &str| data[n].buffer().expect("buffer").as_u32();
-        let axes = all_axes(u("blurred"), u("histogram"), u("reweight"));
-        BTreeMap::from([(
-            "axes".to_string(),
-            HostBuffer::u32(bytemuck::cast_slice(&axes)),
-        )])
+        let mut io = Io::read(data);
+        io.axes = all_axes(&io.blurred, &io.histogram, &io.reweight);
+        io.outputs()
     }
 }

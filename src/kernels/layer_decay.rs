@@ -6,13 +6,28 @@ use rand_chacha::ChaCha8Rng;
 use std::collections::BTreeMap;
 use vxgi_cpu_mirror::layer_decay::layer_decay;
 use vxgi_harness::{
-    Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
-    KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
+    Bindings, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, Kernel, KernelDecl, Resources,
+    Shader, Tolerance,
 };
 
 pub const WGSL: &str = include_str!("../../kernels/layer_decay.wgsl");
 
 use super::LRSM_MATH;
+
+vxgi_harness::bindings! {
+    /// layer_decay's bindings: (zc, zmin, zmax, delta) samples in, their decay out.
+    pub struct Io {
+        inputs: { sample: Vec<[f32; 4]> }
+        outputs: {
+            // t = (zc - zmin) / delta: one rounded subtraction + division (2.5 ULP) -> 3 ULP;
+            // smoothstep's relative condition |dk/dt| t / k <= 2 makes that 6 ULP; its own products
+            // and 3 - 2t (>= 1, no cancellation) add 1.5 ULP, fused or not; clamp/min exact -> 8 ULP.
+            // Near 0, ULPs stay relative (t^2 underflows only below 1e-19, where the flush-to-zero
+            // alternative applies).
+            decay: Vec<f32> => Tolerance::Ulp { ulps: 8, abs_floor: 0.0 }
+        }
+    }
+}
 
 pub static DECL: KernelDecl = KernelDecl {
     name: "layer_decay",
@@ -20,20 +35,8 @@ pub static DECL: KernelDecl = KernelDecl {
     wgsl: WGSL,
     includes: &[LRSM_MATH],
     entry: "main",
-    inputs: &["sample"],
-    outputs: &[
-        // t = (zc - zmin) / delta: one rounded subtraction + division (2.5 ULP) -> 3 ULP; smoothstep's
-        // relative condition |dk/dt| t / k <= 2 makes that 6 ULP; its own products and 3 - 2t (>= 1, no
-        // cancellation) add 1.5 ULP, fused or not; clamp/min exact -> 8 ULP. Near 0, ULPs stay relative
-        // (t^2 underflows only below 1e-19, where the flush-to-zero alternative applies).
-        Output {
-            binding: "decay",
-            tolerance: Tolerance::Ulp {
-                ulps: 8,
-                abs_floor: 0.0,
-            },
-        },
-    ],
+    inputs: Io::INPUTS,
+    outputs: Io::OUTPUTS,
     dispatch: DispatchRule::PerElement { binding: "decay" },
     mirror: "vxgi_cpu_mirror::layer_decay::layer_decay",
     summary: "layer decay f(zc) (LRSM eq. 15), smoothstep falloff over the layer overlaps",
@@ -78,28 +81,18 @@ pub fn case_for(
     label: String,
     seed: u64,
 ) -> Case {
-    let mut resources = Resources::new();
-    resources.insert(
-        "sample".into(),
-        HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(samples))),
-    );
-    resources.insert(
+    let io = Io {
+        sample: samples.to_vec(),
+        decay: vec![0.0; samples.len()],
+    };
+    let pass = DECL.pass(
+        shader,
+        ctx,
         "decay".into(),
-        HostResource::Buffer(HostBuffer::zeroed(samples.len() * 4, ScalarKind::F32)),
+        DECL.bind_by_name(),
+        samples.len() as u64,
     );
-    let bindings = DECL.bind_by_name();
-    Case {
-        label,
-        seed,
-        passes: vec![DECL.pass(shader, ctx, "decay".into(), bindings, samples.len() as u64)],
-        resources,
-        checks: vec![Check {
-            resource: "decay".into(),
-            output: "decay",
-            indexing: Indexing::Linear,
-        }],
-        effective_bytes: samples.len() as u64 * 20,
-    }
+    io.case(label, seed, vec![pass])
 }
 
 pub struct LayerDecay;
@@ -126,12 +119,13 @@ impl Kernel for LayerDecay {
         data: &Resources,
         mode: FloatMode,
     ) -> BTreeMap<String, HostBuffer> {
-        let s: &[[f32; 4]] = bytemuck::cast_slice(&data["sample"].buffer().expect("sample").bytes);
+        let mut io = Io::read(data);
         let flush = mode == FloatMode::FlushToZero;
-        let d: Vec<f32> = s
+        io.decay = io
+            .sample
             .iter()
             .map(|v| layer_decay(v[0], v[1], v[2], v[3], flush))
             .collect();
-        BTreeMap::from([("decay".to_string(), HostBuffer::f32(&d))])
+        io.outputs()
     }
 }
