@@ -323,6 +323,15 @@ pub struct Case {
 }
 
 impl Case {
+    /// This case with the check of `resource` indexed by `indexing` (a grid rather than the element
+    /// list [`crate::bindings::Bindings::case`] assumes), for the mismatch report.
+    pub fn with_indexing(mut self, resource: &str, indexing: Indexing) -> Self {
+        for c in self.checks.iter_mut().filter(|c| c.resource == resource) {
+            c.indexing = indexing.clone();
+        }
+        self
+    }
+
     /// Point every binding of the passes that views resource `from` at `to` instead, and move the
     /// resource (if the case has it) to that name — how a case joins a chain (`prepare_chain`) whose
     /// other stages use the name for something else. With `shared`, the case's own copy is dropped:

@@ -10,9 +10,27 @@ use vxgi_cpu_mirror::histogram_axes::all_axes;
 use vxgi_cpu_mirror::octahedral::reweight_table;
 use vxgi_cpu_mirror::tile_normal_histogram::histograms;
 use vxgi_harness::{
-    Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
-    KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
+    Bindings, Block, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, Indexing, Kernel,
+    KernelDecl, Resources, Shader, Tolerance,
 };
+
+vxgi_harness::bindings! {
+    /// cluster_keys' bindings: per-pixel normals and depths and each tile's axes in, keys out.
+    pub struct Io {
+        inputs: {
+            params: Block<KeyParams>,
+            normals: Vec<[u32; 2]>,
+            depth: Vec<f32>,
+            tile_axes: Vec<[u32; 4]>,
+            axis_dirs: Vec<[i32; 4]>,
+            slice_bounds: Vec<f32>,
+        }
+        outputs: {
+            // Integer dot products, integer argmax, exact comparisons: exact.
+            keys: Vec<u32> => Tolerance::Exact
+        }
+    }
+}
 
 pub static DECL: KernelDecl = KernelDecl {
     name: "cluster_keys",
@@ -20,19 +38,8 @@ pub static DECL: KernelDecl = KernelDecl {
     wgsl: include_str!("../../kernels/cluster_keys.wgsl"),
     includes: &[super::tile_normal_histogram::OCTAHEDRAL_BINS],
     entry: "main",
-    inputs: &[
-        "params",
-        "normals",
-        "depth",
-        "tile_axes",
-        "axis_dirs",
-        "slice_bounds",
-    ],
-    // Integer dot products, integer argmax, exact comparisons: exact.
-    outputs: &[Output {
-        binding: "keys",
-        tolerance: Tolerance::Exact,
-    }],
+    inputs: Io::INPUTS,
+    outputs: Io::OUTPUTS,
     dispatch: DispatchRule::PerElement { binding: "keys" },
     mirror: "vxgi_cpu_mirror::cluster_keys::keys",
     summary: "per-pixel cluster key: tile, best-aligned tile axis, depth slice (CPRC 3.2)",
@@ -102,48 +109,23 @@ pub fn case_with_axes(
     let mut bounds = slice_bounds(SLICE_NEAR, SLICE_FAR, slices);
     bounds.push(f32::INFINITY); // never read: keeps the binding non-empty when slices == 1
     let n = (width * height) as usize;
-    let mut resources = Resources::new();
-    resources.insert("params".into(), HostResource::Buffer(HostBuffer::pod(&p)));
-    resources.insert(
-        "normals".into(),
-        HostResource::Buffer(HostBuffer::u32(bytemuck::cast_slice(normals))),
-    );
-    resources.insert("depth".into(), HostResource::Buffer(HostBuffer::f32(depth)));
-    resources.insert(
-        "tile_axes".into(),
-        HostResource::Buffer(HostBuffer::u32(bytemuck::cast_slice(tile_axes))),
-    );
-    resources.insert(
-        "axis_dirs".into(),
-        HostResource::Buffer(HostBuffer {
-            bytes: bytemuck::cast_slice(&axis_directions()).to_vec(),
-            scalar: ScalarKind::I32,
-        }),
-    );
-    resources.insert(
-        "slice_bounds".into(),
-        HostResource::Buffer(HostBuffer::f32(&bounds)),
-    );
-    resources.insert(
-        "keys".into(),
-        HostResource::Buffer(HostBuffer::zeroed(n * 4, ScalarKind::U32)),
-    );
-    let bindings = DECL.bind_by_name();
-    Case {
-        label,
-        seed,
-        passes: vec![DECL.pass(shader, ctx, "keys".into(), bindings, n as u64)],
-        resources,
-        checks: vec![Check {
-            resource: "keys".into(),
-            output: "keys",
-            indexing: Indexing::Grid {
-                dims: [width, height, 1],
-                components: 1,
-            },
-        }],
-        effective_bytes: n as u64 * 16,
-    }
+    let io = Io {
+        params: Block(p),
+        normals: normals.to_vec(),
+        depth: depth.to_vec(),
+        tile_axes: tile_axes.to_vec(),
+        axis_dirs: axis_directions(),
+        slice_bounds: bounds,
+        keys: vec![0; n],
+    };
+    let pass = DECL.pass(shader, ctx, "keys".into(), DECL.bind_by_name(), n as u64);
+    io.case(label, seed, vec![pass]).with_indexing(
+        "keys",
+        Indexing::Grid {
+            dims: [width, height, 1],
+            components: 1,
+        },
+    )
 }
 
 /// Depths for a generated G-buffer: smooth ramps with steps, exactly on slice bounds, out of range.
@@ -196,16 +178,15 @@ impl Kernel for ClusterKeys {
         data: &Resources,
         _mode: FloatMode,
     ) -> BTreeMap<String, HostBuffer> {
-        let b = |n: &str| data[n].buffer().expect("buffer");
-        let p: KeyParams = *bytemuck::from_bytes(&b("params").bytes);
+        let mut io = Io::read(data);
         let inputs = KeyInputs {
-            normals: bytemuck::cast_slice(&b("normals").bytes),
-            depth: b("depth").as_f32(),
-            tile_axes: bytemuck::cast_slice(&b("tile_axes").bytes),
-            axis_dirs: bytemuck::cast_slice(&b("axis_dirs").bytes),
-            slice_bounds: b("slice_bounds").as_f32(),
+            normals: &io.normals,
+            depth: &io.depth,
+            tile_axes: &io.tile_axes,
+            axis_dirs: &io.axis_dirs,
+            slice_bounds: &io.slice_bounds,
         };
-        let k = keys(&p, &inputs);
-        BTreeMap::from([("keys".to_string(), HostBuffer::u32(&k))])
+        io.keys = keys(&io.params.0, &inputs);
+        io.outputs()
     }
 }

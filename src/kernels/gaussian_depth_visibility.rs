@@ -8,13 +8,32 @@ use std::collections::BTreeMap;
 use vxgi_cpu_mirror::gaussian_depth_visibility::{visibility, visibility_bound, VisibilityParams};
 use vxgi_harness::compare::bound_name;
 use vxgi_harness::{
-    Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
-    KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
+    Bindings, Block, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, Kernel, KernelDecl,
+    Resources, Shader, Tolerance,
 };
 
 pub const WGSL: &str = include_str!("../../kernels/gaussian_depth_visibility.wgsl");
 
 use super::LRSM_MATH;
+
+vxgi_harness::bindings! {
+    /// gaussian_depth_visibility's bindings: pre-filtered moments and cone samples in, V out.
+    pub struct Io {
+        inputs: {
+            params: Block<VisibilityParams>,
+            moments: Vec<[f32; 4]>,
+            /// (depth, radius) of each cone sample.
+            cone: Vec<[f32; 2]>,
+        }
+        outputs: {
+            // Per-element bound from the WGSL accuracy rules along the element's path (division
+            // 2.5 ULP, sqrt via inverseSqrt, exp 3 + 2|x| ULP, FMA contraction allowed) propagated
+            // through dV/dt = phi(t); see `visibility_bound`. A fixed epsilon would be either loose
+            // where sigma is large or wrong where sigma^2 is near its floor.
+            visibility: Vec<f32> => Tolerance::MirrorBound
+        }
+    }
+}
 
 pub static DECL: KernelDecl = KernelDecl {
     name: "gaussian_depth_visibility",
@@ -22,17 +41,8 @@ pub static DECL: KernelDecl = KernelDecl {
     wgsl: WGSL,
     includes: &[LRSM_MATH],
     entry: "main",
-    inputs: &["params", "moments", "cone"],
-    outputs: &[
-        // Per-element bound from the WGSL accuracy rules along the element's path (division 2.5 ULP,
-        // sqrt via inverseSqrt, exp 3 + 2|x| ULP, FMA contraction allowed) propagated through
-        // dV/dt = phi(t); see `visibility_bound`. A fixed epsilon would be either loose where sigma is
-        // large or wrong where sigma^2 is near its floor.
-        Output {
-            binding: "visibility",
-            tolerance: Tolerance::MirrorBound,
-        },
-    ],
+    inputs: Io::INPUTS,
+    outputs: Io::OUTPUTS,
     dispatch: DispatchRule::PerElement {
         binding: "visibility",
     },
@@ -180,37 +190,20 @@ pub fn case_for(
     seed: u64,
 ) -> Case {
     let n = inputs.moments.len();
-    let mut resources = Resources::new();
-    resources.insert(
-        "params".into(),
-        HostResource::Buffer(HostBuffer::pod(&params)),
-    );
-    resources.insert(
-        "moments".into(),
-        HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(&inputs.moments))),
-    );
-    resources.insert(
-        "cone".into(),
-        HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(&inputs.cone))),
-    );
-    resources.insert(
+    let io = Io {
+        params: Block(params),
+        moments: inputs.moments.clone(),
+        cone: inputs.cone.clone(),
+        visibility: vec![0.0; n],
+    };
+    let pass = DECL.pass(
+        shader,
+        ctx,
         "visibility".into(),
-        HostResource::Buffer(HostBuffer::zeroed(n * 4, ScalarKind::F32)),
+        DECL.bind_by_name(),
+        n as u64,
     );
-    let bindings = DECL.bind_by_name();
-    let pass = DECL.pass(shader, ctx, "visibility".into(), bindings, n as u64);
-    Case {
-        label,
-        seed,
-        resources,
-        passes: vec![pass],
-        checks: vec![Check {
-            resource: "visibility".into(),
-            output: "visibility",
-            indexing: Indexing::Linear,
-        }],
-        effective_bytes: n as u64 * (16 + 8 + 4),
-    }
+    io.case(label, seed, vec![pass])
 }
 
 pub struct GaussianDepthVisibility;
@@ -243,25 +236,17 @@ impl Kernel for GaussianDepthVisibility {
         data: &Resources,
         mode: FloatMode,
     ) -> BTreeMap<String, HostBuffer> {
-        let params: VisibilityParams =
-            *bytemuck::from_bytes(&data["params"].buffer().expect("params").bytes);
-        let moments: &[[f32; 4]] =
-            bytemuck::cast_slice(&data["moments"].buffer().expect("moments").bytes);
-        let cone: &[[f32; 2]] = bytemuck::cast_slice(&data["cone"].buffer().expect("cone").bytes);
-        let flush = mode == FloatMode::FlushToZero;
-        let v: Vec<f32> = moments
-            .iter()
-            .zip(cone)
-            .map(|(m, c)| visibility(*m, c[0], c[1], &params, flush))
-            .collect();
-        let b: Vec<f32> = moments
-            .iter()
-            .zip(cone)
+        let mut io = Io::read(data);
+        let (params, flush) = (io.params.0, mode == FloatMode::FlushToZero);
+        let samples = || io.moments.iter().zip(&io.cone);
+        let b: Vec<f32> = samples()
             .map(|(m, c)| visibility_bound(*m, c[0], c[1], &params))
             .collect();
-        BTreeMap::from([
-            ("visibility".to_string(), HostBuffer::f32(&v)),
-            (bound_name("visibility"), HostBuffer::f32(&b)),
-        ])
+        io.visibility = samples()
+            .map(|(m, c)| visibility(*m, c[0], c[1], &params, flush))
+            .collect();
+        let mut out = io.outputs();
+        out.insert(bound_name("visibility"), HostBuffer::f32(&b));
+        out
     }
 }

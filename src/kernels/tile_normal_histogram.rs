@@ -8,8 +8,8 @@ use vxgi_cpu_mirror::octahedral::BIN_COUNT;
 use vxgi_cpu_mirror::tile_normal_histogram::{histograms, HistogramParams};
 use vxgi_harness::run::{Pass, Workgroups};
 use vxgi_harness::{
-    Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
-    KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
+    Bindings, Block, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, Indexing, Kernel,
+    KernelDecl, Resources, Shader, Tolerance,
 };
 
 /// Shared octahedral binning, included by both kernels.
@@ -18,24 +18,30 @@ pub const OCTAHEDRAL_BINS: (&str, &str) = (
     include_str!("../../kernels/common/octahedral_bins.wgsl"),
 );
 
+vxgi_harness::bindings! {
+    /// tile_normal_histogram's bindings: packed normals in, each tile's histogram (raw and
+    /// blurred, `BIN_COUNT` bins per tile) out.
+    pub struct Io {
+        inputs: {
+            params: Block<HistogramParams>,
+            normals: Vec<[u32; 2]>,
+        }
+        outputs: {
+            // Integer counts and integer weighted sums: exact.
+            histogram: Vec<u32> => Tolerance::Exact,
+            blurred: Vec<u32> => Tolerance::Exact,
+        }
+    }
+}
+
 pub static DECL: KernelDecl = KernelDecl {
     name: "tile_normal_histogram",
     wgsl_path: "kernels/tile_normal_histogram.wgsl",
     wgsl: include_str!("../../kernels/tile_normal_histogram.wgsl"),
     includes: &[OCTAHEDRAL_BINS],
     entry: "main",
-    inputs: &["params", "normals"],
-    // Integer counts and integer weighted sums: exact.
-    outputs: &[
-        Output {
-            binding: "histogram",
-            tolerance: Tolerance::Exact,
-        },
-        Output {
-            binding: "blurred",
-            tolerance: Tolerance::Exact,
-        },
-    ],
+    inputs: Io::INPUTS,
+    outputs: Io::OUTPUTS,
     dispatch: DispatchRule::PerItem {
         what: "screen tile: one workgroup of 64 (one per bin) per tile",
     },
@@ -93,44 +99,26 @@ pub fn case_for(
     }
     let tiles_y = p.height.div_ceil(p.tile);
     let tiles = (p.tiles_x * tiles_y) as usize;
-    let mut resources = Resources::new();
-    resources.insert("params".into(), HostResource::Buffer(HostBuffer::pod(&p)));
-    resources.insert(
-        "normals".into(),
-        HostResource::Buffer(HostBuffer::u32(bytemuck::cast_slice(normals))),
-    );
-    for out in ["histogram", "blurred"] {
-        resources.insert(
-            out.into(),
-            HostResource::Buffer(HostBuffer::zeroed(tiles * BIN_COUNT * 4, ScalarKind::U32)),
-        );
-    }
-    let bindings = DECL.bind_by_name();
+    let io = Io {
+        params: Block(p),
+        normals: normals.to_vec(),
+        histogram: vec![0; tiles * BIN_COUNT],
+        blurred: vec![0; tiles * BIN_COUNT],
+    };
     let pass = Pass {
         label: "histograms".into(),
         entry: "main".into(),
-        bindings,
+        bindings: DECL.bind_by_name(),
         workgroups: Workgroups::Direct([p.tiles_x, tiles_y, 1]),
     };
     let indexing = Indexing::Grid {
         dims: [BIN_COUNT as u32, p.tiles_x, tiles_y],
         components: 1,
     };
-    Ok(Case {
-        label,
-        seed,
-        resources,
-        passes: vec![pass],
-        checks: ["histogram", "blurred"]
-            .iter()
-            .map(|r| Check {
-                resource: r.to_string(),
-                output: r,
-                indexing: indexing.clone(),
-            })
-            .collect(),
-        effective_bytes: want as u64 * 8 + tiles as u64 * BIN_COUNT as u64 * 8,
-    })
+    Ok(io
+        .case(label, seed, vec![pass])
+        .with_indexing("histogram", indexing.clone())
+        .with_indexing("blurred", indexing))
 }
 
 /// The image sizes and tiles `vxgi verify` cycles through (including sizes not a multiple of the tile).
@@ -170,14 +158,8 @@ impl Kernel for TileNormalHistogram {
         data: &Resources,
         _mode: FloatMode,
     ) -> BTreeMap<String, HostBuffer> {
-        let p: HistogramParams =
-            *bytemuck::from_bytes(&data["params"].buffer().expect("params").bytes);
-        let n: &[[u32; 2]] =
-            bytemuck::cast_slice(&data["normals"].buffer().expect("normals").bytes);
-        let (raw, blurred) = histograms(n, &p);
-        BTreeMap::from([
-            ("histogram".to_string(), HostBuffer::u32(&raw)),
-            ("blurred".to_string(), HostBuffer::u32(&blurred)),
-        ])
+        let mut io = Io::read(data);
+        (io.histogram, io.blurred) = histograms(&io.normals, &io.params.0);
+        io.outputs()
     }
 }
