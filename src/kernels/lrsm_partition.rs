@@ -5,11 +5,34 @@ use crate::lrsm::{synthetic_rsm, LrsmError, PartitionConfig, Rsm};
 use std::collections::BTreeMap;
 use vxgi_cpu_mirror::lrsm_partition::{partition, PartitionParams};
 use vxgi_harness::{
-    Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
-    KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
+    Bindings, Block, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, Indexing, Kernel,
+    KernelDecl, Resources, Shader, Tolerance,
 };
 
 pub const WGSL: &str = include_str!("../../kernels/lrsm_partition.wgsl");
+
+vxgi_harness::bindings! {
+    /// lrsm_partition's bindings: one RSM in, its layers (each RSM texel's quarter-resolution
+    /// texel in every layer) out.
+    pub struct Io {
+        inputs: {
+            params: Block<PartitionParams>,
+            depth_ranges: Vec<[f32; 4]>,
+            rsm_radiance: Vec<[f32; 4]>,
+            rsm_normal: Vec<[f32; 4]>,
+            rsm_depth: Vec<f32>,
+        }
+        outputs: {
+            // Selected adds of inputs and an exact * 0.25: bit for bit.
+            out_radiance: Vec<[f32; 4]> => Tolerance::Exact,
+            out_normal: Vec<[f32; 4]> => Tolerance::Exact,
+            // z' = (z - zmin) * inv_range is exact to reproduce (no add after the product), but the
+            // z'^2 accumulation may fuse into an FMA (WGSL allows contraction): each of 3 nonnegative
+            // partial sums moves by at most 1 ULP -> 4 ULP.
+            out_moments: Vec<[f32; 4]> => Tolerance::Ulp { ulps: 4, abs_floor: 0.0 },
+        }
+    }
+}
 
 pub static DECL: KernelDecl = KernelDecl {
     name: "lrsm_partition",
@@ -17,16 +40,8 @@ pub static DECL: KernelDecl = KernelDecl {
     wgsl: WGSL,
     includes: &[],
     entry: "main",
-    inputs: &["params", "depth_ranges", "rsm_radiance", "rsm_normal", "rsm_depth"],
-    outputs: &[
-        // Selected adds of inputs and an exact * 0.25: bit for bit.
-        Output { binding: "out_radiance", tolerance: Tolerance::Exact },
-        Output { binding: "out_normal", tolerance: Tolerance::Exact },
-        // z' = (z - zmin) * inv_range is exact to reproduce (no add after the product), but the z'^2
-        // accumulation may fuse into an FMA (WGSL allows contraction): each of 3 nonnegative partial
-        // sums moves by at most 1 ULP -> 4 ULP.
-        Output { binding: "out_moments", tolerance: Tolerance::Ulp { ulps: 4, abs_floor: 0.0 } },
-    ],
+    inputs: Io::INPUTS,
+    outputs: Io::OUTPUTS,
     dispatch: DispatchRule::PerItem { what: "RSM 2x2 quad (params.layer_texels); each writes its texel in every layer" },
     mirror: "vxgi_cpu_mirror::lrsm_partition::partition",
     summary: "RSM split into depth x <n.l> layers at quarter resolution, texels merged per layer (LRSM 4.3, 5)",
@@ -53,57 +68,27 @@ pub fn case_for(
         layer_texels: texels as u32,
         _pad: 0,
     };
-    let out_len = (config.layers() as u64 * texels * 16) as usize;
-    let mut resources = Resources::new();
-    resources.insert(
-        "params".into(),
-        HostResource::Buffer(HostBuffer::pod(&params)),
-    );
-    resources.insert(
-        "depth_ranges".into(),
-        HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(
-            &config.depth_ranges(),
-        ))),
-    );
-    resources.insert(
-        "rsm_radiance".into(),
-        HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(&rsm.radiance))),
-    );
-    resources.insert(
-        "rsm_normal".into(),
-        HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(&rsm.normal))),
-    );
-    resources.insert(
-        "rsm_depth".into(),
-        HostResource::Buffer(HostBuffer::f32(&rsm.depth)),
-    );
-    for out in ["out_radiance", "out_normal", "out_moments"] {
-        resources.insert(
-            out.into(),
-            HostResource::Buffer(HostBuffer::zeroed(out_len, ScalarKind::F32)),
-        );
-    }
-    let bindings = DECL.bind_by_name();
+    let out = vec![[0.0; 4]; (config.layers() as u64 * texels) as usize];
+    let io = Io {
+        params: Block(params),
+        depth_ranges: config.depth_ranges(),
+        rsm_radiance: rsm.radiance.clone(),
+        rsm_normal: rsm.normal.clone(),
+        rsm_depth: rsm.depth.clone(),
+        out_radiance: out.clone(),
+        out_normal: out.clone(),
+        out_moments: out,
+    };
+    let pass = DECL.pass(shader, ctx, "partition".into(), DECL.bind_by_name(), texels);
     let indexing = Indexing::Grid {
         dims: [texels as u32, config.layers(), 1],
         components: 4,
     };
-    Ok(Case {
-        label,
-        seed,
-        passes: vec![DECL.pass(shader, ctx, "partition".into(), bindings, texels)],
-        checks: DECL
-            .outputs
-            .iter()
-            .map(|o| Check {
-                resource: o.binding.into(),
-                output: o.binding,
-                indexing: indexing.clone(),
-            })
-            .collect(),
-        effective_bytes: (rsm.radiance.len() * 36) as u64 + 3 * out_len as u64,
-        resources,
-    })
+    let mut case = io.case(label, seed, vec![pass]);
+    for o in Io::OUTPUTS {
+        case = case.with_indexing(o.binding, indexing.clone());
+    }
+    Ok(case)
 }
 
 pub struct LrsmPartition;
@@ -149,25 +134,13 @@ impl Kernel for LrsmPartition {
         data: &Resources,
         mode: FloatMode,
     ) -> BTreeMap<String, HostBuffer> {
-        let f = |n: &str| -> &[f32] { data[n].buffer().expect("buffer").as_f32() };
-        let params: PartitionParams =
-            *bytemuck::from_bytes(&data["params"].buffer().expect("params").bytes);
-        let v4 = |n: &str| -> &[[f32; 4]] { bytemuck::cast_slice(f(n)) };
-        let out = partition(
-            (v4("rsm_radiance"), v4("rsm_normal"), f("rsm_depth")),
-            v4("depth_ranges"),
-            &params,
+        let mut io = Io::read(data);
+        [io.out_radiance, io.out_normal, io.out_moments] = partition(
+            (&io.rsm_radiance, &io.rsm_normal, &io.rsm_depth),
+            &io.depth_ranges,
+            &io.params.0,
             mode == FloatMode::FlushToZero,
         );
-        DECL.outputs
-            .iter()
-            .zip(out)
-            .map(|(o, v)| {
-                (
-                    o.binding.to_string(),
-                    HostBuffer::f32(bytemuck::cast_slice(&v)),
-                )
-            })
-            .collect()
+        io.outputs()
     }
 }
