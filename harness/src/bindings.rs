@@ -91,6 +91,29 @@ impl<T: bytemuck::Pod> Field for Block<T> {
     }
 }
 
+/// A runtime-sized array of structs (a WGSL struct with members of several scalar kinds; its
+/// stride is checked against the WGSL struct's).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Structs<T>(pub Vec<T>);
+
+impl<T: bytemuck::Pod> Field for Structs<T> {
+    fn to_buffer(&self) -> HostBuffer {
+        HostBuffer {
+            bytes: bytemuck::cast_slice(&self.0).to_vec(),
+            scalar: ScalarKind::Mixed,
+        }
+    }
+    fn from_buffer(buffer: &HostBuffer) -> Self {
+        Structs(bytemuck::pod_collect_to_vec(&buffer.bytes))
+    }
+    fn indexing(&self) -> Indexing {
+        Indexing::Linear
+    }
+    fn byte_len(&self) -> u64 {
+        std::mem::size_of_val(self.0.as_slice()) as u64
+    }
+}
+
 /// A kernel's buffer bindings as one struct ([`bindings!`](crate::bindings!) implements it).
 pub trait Bindings: Sized {
     /// Every field as the resource of its binding's name.
@@ -210,4 +233,99 @@ macro_rules! bindings {
             }
         }
     };
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Tolerance;
+
+    #[repr(C)]
+    #[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+    struct Params {
+        count: u32,
+        scale: f32,
+    }
+
+    crate::bindings! {
+        struct Io {
+            inputs: { params: Block<Params>, records: Structs<Params>, x: Vec<[f32; 3]> }
+            outputs: {
+                y: Vec<u32> => Tolerance::Exact,
+                z: Vec<[i32; 2]> => Tolerance::Ulp { ulps: 2, abs_floor: 0.0 },
+            }
+        }
+    }
+
+    fn io() -> Io {
+        Io {
+            params: Block(Params {
+                count: 2,
+                scale: 0.5,
+            }),
+            records: Structs(vec![Params {
+                count: 7,
+                scale: -1.0,
+            }]),
+            x: vec![[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]],
+            y: vec![0; 2],
+            z: vec![[0; 2]; 3],
+        }
+    }
+
+    /// Every field becomes the resource of its name with its scalar kind, reads back equal, and
+    /// the outputs get checks indexed by their element type.
+    #[test]
+    fn fields_round_trip_through_resources_with_their_scalar_kinds() {
+        let io = io();
+        let r = io.resources();
+        let kind = |n: &str| r[n].buffer().unwrap().scalar;
+        assert_eq!(
+            [
+                kind("params"),
+                kind("records"),
+                kind("x"),
+                kind("y"),
+                kind("z")
+            ],
+            [
+                ScalarKind::Mixed,
+                ScalarKind::Mixed,
+                ScalarKind::F32,
+                ScalarKind::U32,
+                ScalarKind::I32
+            ]
+        );
+        let back = Io::read(&r);
+        assert_eq!(back.params, io.params);
+        assert_eq!(back.records, io.records);
+        assert_eq!(
+            (back.x, back.y, back.z),
+            (io.x.clone(), io.y.clone(), io.z.clone())
+        );
+        assert_eq!(io.bytes(), 8 + 8 + 24 + 8 + 24);
+        let checks = io.checks();
+        assert_eq!(checks.len(), 2);
+        assert!(matches!(checks[0].indexing, Indexing::Linear));
+        assert!(matches!(
+            checks[1].indexing,
+            Indexing::Grid {
+                dims: [3, 1, 1],
+                components: 2
+            }
+        ));
+        assert_eq!(Io::INPUTS, ["params", "records", "x"]);
+        assert_eq!(
+            io.outputs().keys().collect::<Vec<_>>(),
+            ["y", "z"].map(String::from).iter().collect::<Vec<_>>()
+        );
+    }
+
+    #[test]
+    #[should_panic(expected = "no resource `x` for its typed binding")]
+    fn a_missing_binding_is_named() {
+        let mut r = io().resources();
+        r.remove("x");
+        Io::read(&r);
+    }
 }

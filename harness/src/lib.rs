@@ -22,7 +22,7 @@ pub mod kernel;
 pub mod run;
 pub mod shader;
 
-pub use bindings::{Bindings, Block};
+pub use bindings::{Bindings, Block, Structs};
 pub use compare::{Comparison, Indexing, Tolerance};
 pub use context::{thread_counters, Counters, GpuContext};
 pub use error::{HarnessError, Result};

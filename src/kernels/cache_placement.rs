@@ -8,9 +8,34 @@ use vxgi_cpu_mirror::cluster_extract::{extract, Cluster};
 use vxgi_harness::compare::bound_name;
 use vxgi_harness::run::{grid_for, Pass, Workgroups};
 use vxgi_harness::{
-    Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
-    KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
+    Bindings, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, Kernel, KernelDecl, Resources,
+    Shader, Structs, Tolerance,
 };
+
+vxgi_harness::bindings! {
+    /// cache_placement's bindings: the clusters and each pixel's cluster, normal and position in;
+    /// each pixel's score and each cluster's pick out.
+    pub struct Io {
+        inputs: {
+            /// The clusters, and one more (never empty).
+            clusters: Structs<Cluster>,
+            cluster_count: Vec<u32>,
+            pixel_cluster: Vec<u32>,
+            pixels: Vec<u32>,
+            normals: Vec<[u32; 2]>,
+            positions: Vec<[f32; 4]>,
+        }
+        outputs: {
+            // Per element from the WGSL rules: sqrt and division 2.5 ULP, dots in any order, fused or
+            // not, relative to the magnitudes of positions and box (see `score_bound`).
+            scores: Vec<f32> => Tolerance::MirrorBound,
+            // Exact after acceptance: the mirror takes the GPU's pick when its own score for that
+            // pixel is within the score bounds of its best, else its own best (see
+            // `accepted_picks`).
+            picks: Vec<u32> => Tolerance::Exact,
+        }
+    }
+}
 
 pub static DECL: KernelDecl = KernelDecl {
     name: "cache_placement",
@@ -18,15 +43,8 @@ pub static DECL: KernelDecl = KernelDecl {
     wgsl: include_str!("../../kernels/cache_placement.wgsl"),
     includes: &[super::tile_normal_histogram::OCTAHEDRAL_BINS],
     entry: "score_pixels",
-    inputs: &["clusters", "cluster_count", "pixel_cluster", "pixels", "normals", "positions"],
-    outputs: &[
-        // Per element from the WGSL rules: sqrt and division 2.5 ULP, dots in any order, fused or not,
-        // relative to the magnitudes of positions and box (see `score_bound`).
-        Output { binding: "scores", tolerance: Tolerance::MirrorBound },
-        // Exact after acceptance: the mirror takes the GPU's pick when its own score for that pixel is
-        // within the score bounds of its best, else its own best (see `accepted_picks`).
-        Output { binding: "picks", tolerance: Tolerance::Exact },
-    ],
+    inputs: Io::INPUTS,
+    outputs: Io::OUTPUTS,
     dispatch: DispatchRule::PerElement { binding: "scores" },
     mirror: "vxgi_cpu_mirror::cache_placement::score",
     summary: "placement score per pixel and the argmax pixel per cluster as its radiance cache (CPRC 3.2)",
@@ -47,42 +65,16 @@ pub fn case_for(ctx: &GpuContext, inp: &DistributionInputs, label: String, seed:
         bbox_min: [0.0; 4],
         bbox_max: [0.0; 4],
     }); // never empty
-    let mut resources = Resources::new();
-    resources.insert(
-        "clusters".into(),
-        HostResource::Buffer(HostBuffer {
-            bytes: bytemuck::cast_slice(&all).to_vec(),
-            scalar: ScalarKind::Mixed,
-        }),
-    );
-    resources.insert(
-        "cluster_count".into(),
-        HostResource::Buffer(HostBuffer::u32(&[clusters.len() as u32])),
-    );
-    resources.insert(
-        "pixel_cluster".into(),
-        HostResource::Buffer(HostBuffer::u32(&pixel_cluster)),
-    );
-    resources.insert(
-        "pixels".into(),
-        HostResource::Buffer(HostBuffer::u32(&inp.sorted_pixels)),
-    );
-    resources.insert(
-        "normals".into(),
-        HostResource::Buffer(HostBuffer::u32(bytemuck::cast_slice(&inp.normals))),
-    );
-    resources.insert(
-        "positions".into(),
-        HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(&inp.positions))),
-    );
-    resources.insert(
-        "scores".into(),
-        HostResource::Buffer(HostBuffer::zeroed(n * 4, ScalarKind::F32)),
-    );
-    resources.insert(
-        "picks".into(),
-        HostResource::Buffer(HostBuffer::zeroed(all.len() * 4, ScalarKind::U32)),
-    );
+    let io = Io {
+        cluster_count: vec![clusters.len() as u32],
+        picks: vec![0; all.len()],
+        clusters: Structs(all),
+        pixel_cluster,
+        pixels: inp.sorted_pixels.clone(),
+        normals: inp.normals.clone(),
+        positions: inp.positions.clone(),
+        scores: vec![0.0; n],
+    };
     let bindings = DECL.bind_by_name();
     let max = ctx.limits().max_compute_workgroups_per_dimension;
     let passes = vec![
@@ -96,28 +88,10 @@ pub fn case_for(ctx: &GpuContext, inp: &DistributionInputs, label: String, seed:
             label: "picks".into(),
             entry: "pick_caches".into(),
             bindings,
-            workgroups: Workgroups::Direct(grid_for(all.len() as u64, 64, max)),
+            workgroups: Workgroups::Direct(grid_for(io.picks.len() as u64, 64, max)),
         },
     ];
-    Case {
-        label,
-        seed,
-        resources,
-        passes,
-        checks: vec![
-            Check {
-                resource: "scores".into(),
-                output: "scores",
-                indexing: Indexing::Linear,
-            },
-            Check {
-                resource: "picks".into(),
-                output: "picks",
-                indexing: Indexing::Linear,
-            },
-        ],
-        effective_bytes: n as u64 * 36,
-    }
+    io.case(label, seed, passes)
 }
 
 /// Mirror scores and bounds of every pixel.
