@@ -255,6 +255,21 @@ impl KernelDecl {
         })
     }
 
+    /// A case of `io`'s buffers ([`crate::bindings!`]) and one pass of the declared entry over
+    /// `elements` elements, every binding bound to the resource of its name.
+    pub fn case_of(
+        &self,
+        shader: &Shader,
+        ctx: &GpuContext,
+        io: &impl crate::bindings::Bindings,
+        elements: u64,
+        label: String,
+        seed: u64,
+    ) -> Case {
+        let pass = self.pass(shader, ctx, self.name.into(), self.bind_by_name(), elements);
+        io.case(label, seed, vec![pass])
+    }
+
     /// A pass of the declared entry with `bindings` (WGSL name -> view), its grid from the dispatch rule
     /// applied to `elements` elements of the rule's binding.
     pub fn pass(

@@ -118,14 +118,14 @@ pub fn case_with_axes(
         slice_bounds: bounds,
         keys: vec![0; n],
     };
-    let pass = DECL.pass(shader, ctx, "keys".into(), DECL.bind_by_name(), n as u64);
-    io.case(label, seed, vec![pass]).with_indexing(
-        "keys",
-        Indexing::Grid {
-            dims: [width, height, 1],
-            components: 1,
-        },
-    )
+    DECL.case_of(shader, ctx, &io, n as u64, label, seed)
+        .with_indexing(
+            "keys",
+            Indexing::Grid {
+                dims: [width, height, 1],
+                components: 1,
+            },
+        )
 }
 
 /// Depths for a generated G-buffer: smooth ramps with steps, exactly on slice bounds, out of range.

@@ -196,14 +196,7 @@ pub fn case_for(
         cone: inputs.cone.clone(),
         visibility: vec![0.0; n],
     };
-    let pass = DECL.pass(
-        shader,
-        ctx,
-        "visibility".into(),
-        DECL.bind_by_name(),
-        n as u64,
-    );
-    io.case(label, seed, vec![pass])
+    DECL.case_of(shader, ctx, &io, n as u64, label, seed)
 }
 
 pub struct GaussianDepthVisibility;

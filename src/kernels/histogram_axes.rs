@@ -61,14 +61,7 @@ pub fn axes_case(
         reweight: reweight_table(),
         axes: vec![[0; 4]; tiles],
     };
-    let pass = DECL.pass(
-        shader,
-        ctx,
-        "axes".into(),
-        DECL.bind_by_name(),
-        tiles as u64,
-    );
-    io.case(label, seed, vec![pass])
+    DECL.case_of(shader, ctx, &io, tiles as u64, label, seed)
 }
 
 pub struct HistogramAxes;

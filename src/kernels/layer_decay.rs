@@ -85,14 +85,7 @@ pub fn case_for(
         sample: samples.to_vec(),
         decay: vec![0.0; samples.len()],
     };
-    let pass = DECL.pass(
-        shader,
-        ctx,
-        "decay".into(),
-        DECL.bind_by_name(),
-        samples.len() as u64,
-    );
-    io.case(label, seed, vec![pass])
+    DECL.case_of(shader, ctx, &io, samples.len() as u64, label, seed)
 }
 
 pub struct LayerDecay;

@@ -79,12 +79,11 @@ pub fn case_for(
         out_normal: out.clone(),
         out_moments: out,
     };
-    let pass = DECL.pass(shader, ctx, "partition".into(), DECL.bind_by_name(), texels);
     let indexing = Indexing::Grid {
         dims: [texels as u32, config.layers(), 1],
         components: 4,
     };
-    let mut case = io.case(label, seed, vec![pass]);
+    let mut case = DECL.case_of(shader, ctx, &io, texels, label, seed);
     for o in Io::OUTPUTS {
         case = case.with_indexing(o.binding, indexing.clone());
     }
