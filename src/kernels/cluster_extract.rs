@@ -12,9 +12,33 @@ use vxgi_cpu_mirror::radix_sort::sort;
 use vxgi_cpu_mirror::tile_normal_histogram::histograms;
 use vxgi_harness::run::{grid_for, Pass, Workgroups};
 use vxgi_harness::{
-    Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
-    KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
+    Bindings, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, Kernel, KernelDecl, Resources,
+    Shader, Structs, Tolerance,
 };
+
+vxgi_harness::bindings! {
+    /// cluster_extract's bindings: key-sorted pixels with their normals and positions in; the
+    /// heads' prefix sum, the cluster count, the clusters and each pixel's cluster out.
+    pub struct Io {
+        inputs: {
+            /// The pixel count.
+            params: Vec<u32>,
+            keys: Vec<u32>,
+            pixels: Vec<u32>,
+            normals: Vec<[u32; 2]>,
+            positions: Vec<[f32; 4]>,
+        }
+        // Comparisons, integer sums and min/max: exact.
+        outputs: {
+            heads: Vec<u32> => Tolerance::Exact,
+            cluster_count: Vec<u32> => Tolerance::Exact,
+            /// One slot per pixel; the first `cluster_count` hold clusters.
+            clusters: Structs<Cluster> => Tolerance::Exact,
+            /// `u32::MAX` before the kernel: "no cluster".
+            pixel_cluster: Vec<u32> => Tolerance::Exact,
+        }
+    }
+}
 
 pub static DECL: KernelDecl = KernelDecl {
     name: "cluster_extract",
@@ -22,14 +46,8 @@ pub static DECL: KernelDecl = KernelDecl {
     wgsl: include_str!("../../kernels/cluster_extract.wgsl"),
     includes: &[super::tile_normal_histogram::OCTAHEDRAL_BINS, super::BLOCK_SCAN],
     entry: "mark_heads",
-    inputs: &["params", "keys", "pixels", "normals", "positions"],
-    // Comparisons, integer sums and min/max: exact.
-    outputs: &[
-        Output { binding: "heads", tolerance: Tolerance::Exact },
-        Output { binding: "cluster_count", tolerance: Tolerance::Exact },
-        Output { binding: "clusters", tolerance: Tolerance::Exact },
-        Output { binding: "pixel_cluster", tolerance: Tolerance::Exact },
-    ],
+    inputs: Io::INPUTS,
+    outputs: Io::OUTPUTS,
     dispatch: DispatchRule::PerElement { binding: "heads" },
     mirror: "vxgi_cpu_mirror::cluster_extract::extract",
     summary: "clusters of key-sorted pixels: heads, prefix sum, per-cluster normal sum and bounding box (CPRC 3.2)",
@@ -151,47 +169,17 @@ pub fn generated_distribution(seed: u64, index: usize) -> (DistributionInputs, S
 
 pub fn case_for(ctx: &GpuContext, inp: &DistributionInputs, label: String, seed: u64) -> Case {
     let n = inp.sorted_keys.len();
-    let mut resources = Resources::new();
-    resources.insert(
-        "params".into(),
-        HostResource::Buffer(HostBuffer::u32(&[n as u32])),
-    );
-    resources.insert(
-        "keys".into(),
-        HostResource::Buffer(HostBuffer::u32(&inp.sorted_keys)),
-    );
-    resources.insert(
-        "pixels".into(),
-        HostResource::Buffer(HostBuffer::u32(&inp.sorted_pixels)),
-    );
-    resources.insert(
-        "normals".into(),
-        HostResource::Buffer(HostBuffer::u32(bytemuck::cast_slice(&inp.normals))),
-    );
-    resources.insert(
-        "positions".into(),
-        HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(&inp.positions))),
-    );
-    resources.insert(
-        "heads".into(),
-        HostResource::Buffer(HostBuffer::zeroed(n * 4, ScalarKind::U32)),
-    );
-    resources.insert(
-        "cluster_count".into(),
-        HostResource::Buffer(HostBuffer::zeroed(4, ScalarKind::U32)),
-    );
-    resources.insert(
-        "clusters".into(),
-        HostResource::Buffer(HostBuffer::zeroed(
-            n * std::mem::size_of::<Cluster>(),
-            ScalarKind::Mixed,
-        )),
-    );
-    resources.insert(
-        "pixel_cluster".into(),
-        HostResource::Buffer(HostBuffer::u32(&vec![u32::MAX; n])),
-    );
-    resources.insert("scan_partials".into(), super::scan_partials(n));
+    let io = Io {
+        params: vec![n as u32],
+        keys: inp.sorted_keys.clone(),
+        pixels: inp.sorted_pixels.clone(),
+        normals: inp.normals.clone(),
+        positions: inp.positions.clone(),
+        heads: vec![0; n],
+        cluster_count: vec![0],
+        clusters: Structs(vec![Cluster::zeroed(); n]),
+        pixel_cluster: vec![u32::MAX; n],
+    };
     let mut bindings = DECL.bind_by_name();
     bindings.push((
         "scan_partials".into(),
@@ -208,21 +196,10 @@ pub fn case_for(ctx: &GpuContext, inp: &DistributionInputs, label: String, seed:
     let mut passes = vec![pass("mark_heads")];
     passes.extend(super::scan_passes(&bindings, n, max, "heads"));
     passes.push(pass("build_clusters"));
-    Case {
-        label,
-        seed,
-        resources,
-        passes,
-        checks: ["heads", "cluster_count", "clusters", "pixel_cluster"]
-            .iter()
-            .map(|r| Check {
-                resource: r.to_string(),
-                output: r,
-                indexing: Indexing::Linear,
-            })
-            .collect(),
-        effective_bytes: n as u64 * 40,
-    }
+    let mut case = io.case(label, seed, passes);
+    case.resources
+        .insert("scan_partials".into(), super::scan_partials(n));
+    case
 }
 
 pub struct ClusterExtract;
@@ -241,34 +218,20 @@ impl Kernel for ClusterExtract {
         data: &Resources,
         _mode: FloatMode,
     ) -> BTreeMap<String, HostBuffer> {
-        let b = |n: &str| data[n].buffer().expect("buffer");
-        let k = b("keys").as_u32();
-        let (clusters, pixel_cluster) = extract(
-            k,
-            b("pixels").as_u32(),
-            bytemuck::cast_slice(&b("normals").bytes),
-            bytemuck::cast_slice(&b("positions").bytes),
-        );
-        let h = heads(k);
-        let mut scanned = Vec::with_capacity(h.len());
+        let mut io = Io::read(data);
+        let clusters;
+        (clusters, io.pixel_cluster) = extract(&io.keys, &io.pixels, &io.normals, &io.positions);
         let mut acc = 0u32;
-        for x in &h {
-            scanned.push(acc);
-            acc += x;
-        }
-        let mut all = vec![Cluster::zeroed(); k.len()];
-        all[..clusters.len()].copy_from_slice(&clusters);
-        BTreeMap::from([
-            ("heads".to_string(), HostBuffer::u32(&scanned)),
-            ("cluster_count".to_string(), HostBuffer::u32(&[acc])),
-            (
-                "clusters".to_string(),
-                HostBuffer {
-                    bytes: bytemuck::cast_slice(&all).to_vec(),
-                    scalar: ScalarKind::Mixed,
-                },
-            ),
-            ("pixel_cluster".to_string(), HostBuffer::u32(&pixel_cluster)),
-        ])
+        io.heads = heads(&io.keys)
+            .iter()
+            .map(|x| {
+                acc += x;
+                acc - x
+            })
+            .collect();
+        io.cluster_count = vec![acc];
+        io.clusters.0.fill(Cluster::zeroed());
+        io.clusters.0[..clusters.len()].copy_from_slice(&clusters);
+        io.outputs()
     }
 }
