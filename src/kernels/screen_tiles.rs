@@ -9,9 +9,25 @@ use vxgi_cpu_mirror::gbuffer::Frame;
 use vxgi_cpu_mirror::screen_tiles::{list_len, tile_list, tiles_xy, HEADER};
 use vxgi_harness::run::{Pass, Workgroups};
 use vxgi_harness::{
-    Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
-    KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
+    Bindings, Block, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Kernel,
+    KernelDecl, Resources, ScalarKind, Shader, Tolerance,
 };
+
+vxgi_harness::bindings! {
+    /// screen_tiles' bindings: the G-buffer's normals in, the tile list (header, then tiles) out.
+    pub struct Io {
+        inputs: {
+            /// Only the size is read.
+            frame: Block<Frame>,
+            gb_normal: Vec<[f32; 4]>,
+        }
+        outputs: {
+            // Integers and one comparison with 0 per pixel: exact, after sorting the appended tiles
+            // (`canonicalise`).
+            tile_list: Vec<u32> => Tolerance::Exact
+        }
+    }
+}
 
 pub static DECL: KernelDecl = KernelDecl {
     name: "screen_tiles",
@@ -19,13 +35,8 @@ pub static DECL: KernelDecl = KernelDecl {
     wgsl: include_str!("../../kernels/screen_tiles.wgsl"),
     includes: &[],
     entry: "main",
-    inputs: &["frame", "gb_normal"],
-    // Integers and one comparison with 0 per pixel: exact, after sorting the appended tiles
-    // (`canonicalise`).
-    outputs: &[Output {
-        binding: "tile_list",
-        tolerance: Tolerance::Exact,
-    }],
+    inputs: Io::INPUTS,
+    outputs: Io::OUTPUTS,
     dispatch: DispatchRule::PerItem {
         what: "8x8 screen tile (one workgroup each)",
     },
@@ -76,29 +87,12 @@ pub fn every_tile(case: &Case) -> Case {
 }
 
 pub fn case_for(normal: &[[f32; 4]], width: u32, height: u32, label: String, seed: u64) -> Case {
-    let resources = Resources::from([
-        (
-            "frame".to_string(),
-            HostResource::Buffer(HostBuffer::pod(&frame_of_size(width, height))),
-        ),
-        (
-            "gb_normal".to_string(),
-            HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(normal))),
-        ),
-        ("tile_list".to_string(), empty_list(width, height)),
-    ]);
-    Case {
-        label,
-        seed,
-        resources,
-        passes: vec![pass(width, height)],
-        checks: vec![Check {
-            resource: "tile_list".into(),
-            output: "tile_list",
-            indexing: Indexing::Linear,
-        }],
-        effective_bytes: normal.len() as u64 * 16 + list_len(width, height) as u64 * 4,
-    }
+    let io = Io {
+        frame: Block(frame_of_size(width, height)),
+        gb_normal: normal.to_vec(),
+        tile_list: vec![0; list_len(width, height)],
+    };
+    io.case(label, seed, vec![pass(width, height)])
 }
 
 /// Generated G-buffer normals: `fill` of the pixels are surface, in blobs (so some tiles are empty and
@@ -159,15 +153,11 @@ impl Kernel for ScreenTiles {
         data: &Resources,
         _mode: FloatMode,
     ) -> BTreeMap<String, HostBuffer> {
-        let frame: Frame = *bytemuck::from_bytes(&data["frame"].buffer().expect("frame").bytes);
-        let [w, h, ..] = frame.size;
-        let n: &[[f32; 4]] =
-            bytemuck::cast_slice(&data["gb_normal"].buffer().expect("gb_normal").bytes);
+        let mut io = Io::read(data);
+        let [w, h, ..] = io.frame.0.size;
         debug_assert_eq!(case.passes.len(), 1);
-        BTreeMap::from([(
-            "tile_list".to_string(),
-            HostBuffer::u32(&tile_list(n, w, h)),
-        )])
+        io.tile_list = tile_list(&io.gb_normal, w, h);
+        io.outputs()
     }
 
     fn canonicalise(
