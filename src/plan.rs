@@ -135,7 +135,7 @@ impl FramePlan {
             .filter(|p| !self.runs(p.stage))
             .map(|p| p.stage)
             .collect();
-        s.dedup(); // a stage of several kernels (lrsm's reflective_shadow_map) once
+        s.dedup(); // a stage of several passes (cprc's cache_distribution) once
         s
     }
 

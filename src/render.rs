@@ -1892,7 +1892,14 @@ pub fn render_lrsm_factors(
     let vol = built.volume(&params);
     let pyramids = m.pyramid();
     let factors = crate::lrsm_factors::FactorVolume::new(&vol, &pyramids, swap);
-    Ok(m.shade(&factors, vol.lmax, Pipeline::Lrsm.plan(scene, cones, false)))
+    // The plan of the row's settings (its occlusion mips), not the scene's.
+    let mut inputs = crate::pipeline::PlanInputs::new(scene, cones, false);
+    inputs.lrsm = settings;
+    Ok(m.shade(
+        &factors,
+        vol.lmax,
+        FramePlan::of(&crate::pipeline::LRSM, &inputs),
+    ))
 }
 
 /// cprc computed by the scalar mirrors alone (the snapshot tests' cprc images): the mirror's pyramid,

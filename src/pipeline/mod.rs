@@ -22,8 +22,8 @@ use vxgi_cpu_mirror::surface_coverage_mip::Coverage;
 pub(crate) struct ChainStage {
     pub shader: Shader,
     pub kernel: &'static str,
-    /// The frame stage it counts to (the plan's and the stage times' name; lrsm's light-view
-    /// G-buffers, RSMs and LRSMs are all `reflective_shadow_map`).
+    /// The declared frame stage it counts to (the plan's and the stage times' name; lrsm's
+    /// light-view G-buffers and RSMs are `reflective_shadow_map`, their layers `lrsm_partition`).
     pub stage: &'static str,
     pub passes: Vec<Pass>,
 }
