@@ -292,18 +292,7 @@ pub(crate) fn dense_chain(
     // The G-buffer and direct light after the volume (they do not read it): a frame that reuses the
     // volume runs one contiguous range of passes.
     if gbuffer_in_chain {
-        let g = crate::kernels::gbuffer::case_for(data, "render".into(), 0);
-        let d = direct_light::case_with_gbuffer(ctx, data, &Default::default(), "render".into(), 0);
-        for (k, v) in g.resources.into_iter().chain(d.resources) {
-            chain.resources.entry(k).or_insert(v);
-        }
-        let gbuffer = &crate::kernels::gbuffer::DECL;
-        chain.push(gbuffer.shader()?, gbuffer.name, g.passes);
-        chain.push(
-            direct_light::DECL.shader()?,
-            direct_light::DECL.name,
-            d.passes,
-        );
+        push_camera_gbuffer(ctx, data, &mut chain)?;
     }
     if let Some((tiles, cone)) = cone_stages {
         // screen_tiles' list is the cone pass's dispatch: both count to the cone_trace stage.
