@@ -1832,40 +1832,29 @@ pub(crate) fn image_of(w: u32, h: u32, bytes: &[u8]) -> RgbImage {
     RgbImage::new(w, h, px.iter().map(|p| [p[0], p[1], p[2]]).collect())
 }
 
-/// The same frame computed by the scalar mirrors alone (no GPU): deterministic, so it is what the
-/// snapshot tests store; the GPU image is then compared to it numerically (DESIGN.md section 8).
+/// `pipeline`'s frame computed by the scalar mirrors alone (no GPU), stage by stage as its
+/// declaration's steps run ([`crate::pipeline::host`]): deterministic, so it is what the snapshot
+/// tests store; the GPU image is then compared to it numerically (DESIGN.md section 8). With cprc,
+/// what its caches did.
+pub fn mirror_frame(
+    pipeline: Pipeline,
+    scene: &Scene,
+    cones: &ConeSettings,
+) -> Result<(Rendered, Option<crate::cprc::CprcStats>)> {
+    supersampled(scene, |s| {
+        crate::pipeline::host::frame(pipeline.decl(), None, s, cones, &|_| true, &|_| {})
+    })
+}
+
+/// vct-dense's [`mirror_frame`].
 pub fn render_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendered> {
-    supersampled(scene, |s| Ok((render_mirror_samples(s, cones)?, ()))).map(|(r, ())| r)
+    Ok(mirror_frame(Pipeline::VctDense, scene, cones)?.0)
 }
 
-fn render_mirror_samples(scene: &Scene, cones: &ConeSettings) -> Result<Rendered> {
-    let m = MirrorFrame::new(scene)?;
-    let pyramids = m.pyramid();
-    let params = cone_trace::cone_params(&m.frame, cones);
-    let lmax = cone_trace::max_radiance(&pyramids.colour, m.frame.side);
-    // The paper's trilinear where params.depth_order is 0, the depth-ordered blend where it is 1.
-    let pyr = vxgi_cpu_mirror::cone_trace::OrderedPyramid {
-        p: &params,
-        voxels: &pyramids.colour,
-        normals: &pyramids.normal,
-    };
-    Ok(m.shade(&pyr, lmax, Pipeline::VctDense.plan(scene, cones, false)))
-}
-
-/// lrsm computed by the scalar mirrors alone (the snapshot tests' lrsm images): occlusion voxels of
-/// the mirror's voxelization, the mirrors' RSMs and LRSMs of every light view, the gather's mirror.
+/// lrsm's [`mirror_frame`] (the snapshot tests' lrsm images): occlusion voxels of the mirror's
+/// voxelization, the mirrors' RSMs and LRSMs of every light view, the gather's mirror.
 pub fn render_lrsm_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendered> {
-    supersampled(scene, |s| Ok((render_lrsm_mirror_samples(s, cones)?, ()))).map(|(r, ())| r)
-}
-
-fn render_lrsm_mirror_samples(scene: &Scene, cones: &ConeSettings) -> Result<Rendered> {
-    let m = MirrorFrame::new(scene)?;
-    let settings = LrsmSettings::from(&scene.render);
-    let built = lrsm_cone_trace::mirror_frame(&m.data, &m.lit, m.frame, &settings)?;
-    let params = cone_trace::cone_params(&built.voxels, cones);
-    let vol = built.volume(&params);
-    let lmax = vol.lmax;
-    Ok(m.shade(&vol, lmax, Pipeline::Lrsm.plan(scene, cones, false)))
+    Ok(mirror_frame(Pipeline::Lrsm, scene, cones)?.0)
 }
 
 /// The lrsm mirror frame with each cone sample's alpha and L taken as `swap` says
@@ -1876,176 +1865,55 @@ pub fn render_lrsm_factors(
     swap: crate::lrsm_factors::Swap,
 ) -> Result<Rendered> {
     use crate::lrsm_factors::{Alpha, Radiance};
-    let m = MirrorFrame::new(scene)?;
-    let mut settings = LrsmSettings::from(&scene.render);
-    // The row's occlusion mips and Algorithm 1's N.
+    use crate::pipeline::host;
+    // The row's occlusion mips and Algorithm 1's N (and so the row's plan).
+    let mut scene = scene.clone();
     match swap.alpha {
-        Alpha::Volume => settings.surface_coverage = false,
-        Alpha::Surface => settings.surface_coverage = true,
+        Alpha::Volume => scene.render.lrsm_surface_coverage = false,
+        Alpha::Surface => scene.render.lrsm_surface_coverage = true,
         Alpha::Voxels => {}
     }
     if let Radiance::Lrsm(a) = swap.radiance {
-        settings.view_weight = a.view_weight;
+        scene.render.lrsm_view_weight = a.view_weight;
     }
-    let built = lrsm_cone_trace::mirror_frame(&m.data, &m.lit, m.frame, &settings)?;
+    let mirror = |_: &str| true;
+    let mut f = host::run(
+        &crate::pipeline::LRSM,
+        None,
+        &scene,
+        cones,
+        &mirror,
+        &|_| {},
+        Some("lrsm_cone_trace"),
+    )?;
+    // vct-dense's lit-voxel pyramid, the stand-in for the exact factors.
+    host::voxelize_step(&mut f)?;
+    host::voxel_light_step(&mut f)?;
+    host::mips_step(&mut f)?;
+    let built = f.lrsm.as_ref().expect("the LRSMs");
     let params = cone_trace::cone_params(&built.voxels, cones);
     let vol = built.volume(&params);
-    let pyramids = m.pyramid();
-    let factors = crate::lrsm_factors::FactorVolume::new(&vol, &pyramids, swap);
-    // The plan of the row's settings (its occlusion mips), not the scene's.
-    let mut inputs = crate::pipeline::PlanInputs::new(scene, cones, false);
-    inputs.lrsm = settings;
-    Ok(m.shade(
-        &factors,
-        vol.lmax,
-        FramePlan::of(&crate::pipeline::LRSM, &inputs),
-    ))
+    let pyramids = f.pyramid.as_ref().expect("the pyramid");
+    let factors = crate::lrsm_factors::FactorVolume::new(&vol, pyramids, swap);
+    let out = f.shade(&factors, vol.lmax);
+    f.cones_out = Some(out);
+    Ok(f.rendered())
 }
 
-/// cprc computed by the scalar mirrors alone (the snapshot tests' cprc images): the mirror's pyramid,
-/// distribution, cache creation, pre-convolution and gather.
+/// cprc's [`mirror_frame`] (the snapshot tests' cprc images): the mirror's pyramid, distribution,
+/// cache creation, pre-convolution and gather, and what its caches did.
 pub fn render_cprc_mirror(
     scene: &Scene,
     cones: &ConeSettings,
 ) -> Result<(Rendered, crate::cprc::CprcStats)> {
-    supersampled(scene, |s| render_cprc_mirror_samples(s, cones))
+    let (r, stats) = mirror_frame(Pipeline::Cprc, scene, cones)?;
+    Ok((r, stats.unwrap_or_default()))
 }
 
-fn render_cprc_mirror_samples(
-    scene: &Scene,
-    cones: &ConeSettings,
-) -> Result<(Rendered, crate::cprc::CprcStats)> {
-    use crate::cprc;
-    let m = MirrorFrame::new(scene)?;
-    let pyramid = m.pyramid();
-    let settings = cprc::CprcSettings::from(&scene.render);
-    let params = cone_trace::cone_params(&m.frame, cones);
-    let pos: Vec<[f32; 4]> = m.texels.iter().map(|t| t.position).collect();
-    let nrm: Vec<[f32; 4]> = m.texels.iter().map(|t| t.normal).collect();
-    let tri: Vec<u32> = m.texels.iter().map(|t| t.triangle).collect();
-    let px = cprc::pixel_inputs(&m.data, &pos, &nrm, &tri, &m.albedo, settings.res);
-    let offset = params.offset_voxels * params.origin[3];
-    let set = cprc::distribute_mirror(&px, &settings, offset)?;
-    let gathered = cprc::evaluate_mirror(&px, &set, &settings, &pyramid, &params);
-    let (indirect, ao, stats) = cprc::compose(&px, &gathered);
-    let (w, h) = (m.data.width(), m.data.height());
-    let direct = RgbImage::new(w, h, m.direct);
-    let plan = Pipeline::Cprc.plan(scene, cones, false);
-    Ok((
-        Rendered::assemble(direct, indirect, ao, vec![], plan),
-        stats,
-    ))
-}
-
-/// vct-svo computed by the scalar mirrors alone (the snapshot tests' vct-svo images): the mirror's
-/// octree of the lit voxels, then cone_trace's mirror through it.
+/// vct-svo's [`mirror_frame`] (the snapshot tests' vct-svo images): the mirror's octree of the lit
+/// voxels, then cone_trace's mirror through it.
 pub fn render_svo_mirror(scene: &Scene, cones: &ConeSettings) -> Result<Rendered> {
-    supersampled(scene, |s| Ok((render_svo_mirror_samples(s, cones)?, ()))).map(|(r, ())| r)
-}
-
-fn render_svo_mirror_samples(scene: &Scene, cones: &ConeSettings) -> Result<Rendered> {
-    use crate::kernels::svo_cone_trace::{grid_fragments, max_radiance, svo_cone_params};
-    use vxgi_cpu_mirror::sparse_voxel_octree::build_fitted;
-    let m = MirrorFrame::new(scene)?;
-    let depth = m.frame.side.trailing_zeros() - 1;
-    let plan = Pipeline::VctSvo.plan(scene, cones, false);
-    let map = scene.render.photon_map;
-    let lobes = plan.runs("svo_lobes");
-    let mut spec_frags = Vec::new();
-    // Photon injection: the voxels' coverage, the light from the photons.
-    let (grid, photons) = if plan.runs("svo_photons") {
-        (
-            crate::kernels::svo_cone_trace::coverage_only(&m.lit),
-            Some(crate::kernels::svo_photons::mirror_photons(
-                &m.data, &m.frame, map,
-            )?),
-        )
-    } else {
-        (m.lit.clone(), None)
-    };
-    let scale = crate::kernels::svo_cone_trace::fixed_scale(
-        crate::kernels::svo_cone_trace::grid_values(&grid)
-            .chain(photons.iter().flat_map(|p| p.values())),
-        scene.render.bounces,
-    );
-    let mut frags = grid_fragments(&grid, scale)?;
-    if let Some(photons) = &photons {
-        spec_frags = photons.fragments(scale)?.join_into(&mut frags, lobes);
-    }
-    let params = svo_cone_params(&m.frame, cones);
-    let anisotropic = plan.runs("svo_anisotropic");
-    let svo = vxgi_cpu_mirror::svo_cone_trace::SvoParams {
-        depth,
-        inv_scale: 1.0 / scale,
-        anisotropic: anisotropic as u32,
-        lobes: lobes as u32 | ((lobes && !spec_frags.is_empty()) as u32) << 1,
-    };
-    let built = |frags: &[vxgi_cpu_mirror::sparse_voxel_octree::Fragment]| -> Result<_> {
-        let octree = build_fitted(depth, frags);
-        let aniso = if anisotropic {
-            crate::kernels::svo_anisotropic::build_mirror(&octree, 1.0 / scale)
-        } else {
-            vec![]
-        };
-        let (normals, spec) = if lobes {
-            let (n, g) = crate::kernels::svo_cone_trace::lobe_pools(
-                None,
-                &octree,
-                frags,
-                [&m.lit, &m.normal],
-                &spec_frags,
-                scale,
-            )?;
-            (n, g.unwrap_or_default())
-        } else {
-            (vec![], vec![])
-        };
-        Ok((octree, aniso, [normals, spec]))
-    };
-    let (mut octree, mut aniso, mut pools) = built(&frags)?;
-    if plan.runs("svo_bounce") {
-        use crate::kernels::svo_cone_trace as sct;
-        let voxels = sct::bounce_voxels(&m.lit, &m.normal, &m.colour, &m.frame);
-        let ind: Vec<[f32; 4]> = sct::bounce_mirror(
-            &octree.nodes,
-            &octree.bricks,
-            &aniso,
-            [&pools[0], &pools[1]],
-            &svo,
-            &params,
-            [&voxels.position, &voxels.normal, &voxels.albedo],
-        )
-        .into_iter()
-        .map(|v| v.0)
-        .collect();
-        let mut frags = frags;
-        frags.extend(sct::bounce_fragments(&voxels, &ind, &m.lit, scale)?);
-        (octree, aniso, pools) = built(&frags)?;
-    }
-    let volume = vxgi_cpu_mirror::svo_cone_trace::SvoVolume {
-        p: &params,
-        svo: &svo,
-        nodes: &octree.nodes,
-        bricks: &octree.bricks,
-        aniso: &aniso,
-        normals: &pools[0],
-        spec: &pools[1],
-    };
-    let lmax = max_radiance(&octree.bricks, svo.inv_scale);
-    Ok(m.shade(&volume, lmax, plan))
-}
-
-/// The stages every mirror pipeline shares: G-buffer texels, albedo, direct light, the lit voxel grid.
-struct MirrorFrame {
-    data: SceneData,
-    texels: Vec<vxgi_cpu_mirror::gbuffer::Texel>,
-    albedo: Vec<[f32; 4]>,
-    direct: Vec<[f32; 3]>,
-    /// Level 0: `(L * alpha, alpha)` per voxel, Morton order; normals and albedo.
-    lit: Vec<[f32; 4]>,
-    normal: Vec<[f32; 4]>,
-    colour: Vec<[f32; 4]>,
-    frame: voxelize::VoxelFrame,
+    Ok(mirror_frame(Pipeline::VctSvo, scene, cones)?.0)
 }
 
 /// The G-buffer by the mirror (each pixel's own primary hit, no GPU pick to accept) and its albedo.
@@ -2063,129 +1931,4 @@ pub fn mirror_texels(data: &SceneData) -> (Vec<vxgi_cpu_mirror::gbuffer::Texel>,
         .map(|t| gbm::albedo(&data.materials, &data.triangles, &tex, t))
         .collect();
     (texels, albedo)
-}
-
-impl MirrorFrame {
-    fn new(scene: &Scene) -> Result<Self> {
-        use rayon::prelude::*;
-        use vxgi_cpu_mirror::{direct_light as dl, voxel_light as vl};
-        let data = SceneData::new(scene);
-        let (texels, albedo) = mirror_texels(&data);
-        let direct: Vec<[f32; 3]> = texels
-            .par_iter()
-            .zip(&albedo)
-            .map(|(t, &alb)| {
-                let (l, _) = dl::shade_with_bound(
-                    &data.frame,
-                    &data.nodes,
-                    &data.triangles,
-                    &data.lights,
-                    &data.materials,
-                    t.position,
-                    t.normal,
-                    t.triangle,
-                    alb,
-                );
-                l.to_array()
-            })
-            .collect();
-        let side = scene.render.voxels;
-        let (input, frame) = voxelize::prepare(scene, side)?;
-        let (colour, normal, list) = vxgi_cpu_mirror::voxelize::voxelize(&input, side);
-        let grid = voxel_light::voxel_grid(&frame, data.lights.len());
-        let lit_list: Vec<(u32, [f32; 4])> = list
-            .par_iter()
-            .map(|&v| {
-                let (l, _) = vl::light_voxel(
-                    &grid,
-                    &data.nodes,
-                    &data.triangles,
-                    &data.lights,
-                    colour[v as usize],
-                    normal[v as usize],
-                    v,
-                );
-                (v, l)
-            })
-            .collect();
-        let mut lit = vec![[0.0f32; 4]; colour.len()];
-        for (v, l) in lit_list {
-            lit[v as usize] = l;
-        }
-        Ok(Self {
-            data,
-            texels,
-            albedo,
-            direct,
-            lit,
-            normal,
-            colour,
-            frame,
-        })
-    }
-
-    /// The surface-coverage pyramid of the lit voxels and its normals (surface_coverage_mip's mirror,
-    /// level by level).
-    fn pyramid(&self) -> cone_trace::Pyramids {
-        cone_trace::mirror_pyramid(&self.lit, &self.normal)
-    }
-
-    /// Cone-trace every texel through `volume` and assemble the frame.
-    fn shade(
-        self,
-        volume: &(impl vxgi_cpu_mirror::cone_trace::Volume + Sync),
-        lmax: f32,
-        plan: FramePlan,
-    ) -> Rendered {
-        use rayon::prelude::*;
-        use vxgi_cpu_mirror::cone_trace as ct;
-        let p = volume.params();
-        let dirs = ct::cone_dirs(p);
-        let d = &self.data;
-        let (w, h) = (d.width(), d.height());
-        let shaded: Vec<ct::PixelOut> = self
-            .texels
-            .par_iter()
-            .zip(&self.albedo)
-            .enumerate()
-            .map(|(i, (t, &alb))| {
-                let cones = ct::class_cones(&dirs, p, i as u32 % w, i as u32 / w);
-                ct::shade_pixel(
-                    volume,
-                    &d.frame,
-                    &d.triangles,
-                    &d.materials,
-                    &cones,
-                    t.position,
-                    t.normal,
-                    t.triangle,
-                    alb,
-                    lmax,
-                )
-            })
-            .collect();
-        let shaded = if p.interleave > 1 {
-            let pos: Vec<[f32; 4]> = self.texels.iter().map(|t| t.position).collect();
-            let nrm: Vec<[f32; 4]> = self.texels.iter().map(|t| t.normal).collect();
-            ct::resolve(p, w, &pos, &nrm, &self.albedo, &shaded)
-        } else {
-            shaded
-        };
-        let cones_out = cone_trace::indirect_and_ao(&shaded);
-        let rgb = |k: usize| -> Vec<[f32; 3]> {
-            cones_out[k].iter().map(|p| [p[0], p[1], p[2]]).collect()
-        };
-        let indirect = RgbImage::new(w, h, rgb(0));
-        let combined = RgbImage::new(w, h, crate::images::add(&self.direct, &indirect.pixels));
-        Rendered {
-            direct: RgbImage::new(w, h, self.direct),
-            indirect,
-            combined,
-            ao: RgbImage::new(w, h, rgb(1)),
-            stages: vec![],
-            plan,
-            // The mirror visits every texel (background ones give 0): no tiles.
-            cone_tiles: None,
-        }
-    }
 }

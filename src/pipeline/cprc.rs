@@ -2,6 +2,7 @@
 //! rules for its stages, and its chain: vct-dense's volume and camera passes, the cache
 //! distribution, the cache records, creation and pre-convolution dispatched indirectly, the gather;
 //! and how many caches it holds.
+use super::host::{HostFrame, Side};
 use super::*;
 use crate::kernels::{
     cache_creation, cache_placement, cache_preconvolve, cache_records, cluster_extract,
@@ -40,6 +41,7 @@ pub static CPRC: PipelineDecl = PipelineDecl {
             reuse: Reuse::Camera,
             split: Split::Always,
             plan: distribution_plan,
+            host: Some(distribution_step),
         },
         StageDecl {
             name: "cache_creation",
@@ -58,6 +60,7 @@ pub static CPRC: PipelineDecl = PipelineDecl {
                     ),
                 )
             },
+            host: Some(creation_step),
         },
         StageDecl {
             name: "cache_preconvolve",
@@ -65,6 +68,8 @@ pub static CPRC: PipelineDecl = PipelineDecl {
             reuse: Reuse::Camera,
             split: Split::Never,
             plan: preconvolve_plan,
+            // One GPU chain with the creation: cache_creation's step.
+            host: None,
         },
         StageDecl {
             name: "gather_caches",
@@ -72,6 +77,7 @@ pub static CPRC: PipelineDecl = PipelineDecl {
             reuse: Reuse::Camera,
             split: Split::Never,
             plan: gather_plan,
+            host: None,
         },
     ],
 };
@@ -438,4 +444,57 @@ pub(crate) fn cprc_chain(
         });
     }
     Ok((chain, room, hierarchies.map(|(frames, _)| frames)))
+}
+
+/// What cprc's distribution hands its creation in a frame stage by stage ([`super::host`]).
+pub(crate) struct CprcParts {
+    px: crate::cprc::PixelInputs,
+    set: crate::cprc::CacheSet,
+}
+
+/// The caches' placement over the G-buffer's clusters.
+pub(crate) fn distribution_step(f: &mut HostFrame) -> Result<()> {
+    use crate::cprc;
+    let settings = cprc::CprcSettings::from(&f.scene.render);
+    let params = cone_trace::cone_params(&f.frame, f.cones);
+    let (pos, nrm, tri, alb) = cprc::gbuffer_arrays(&f.gb);
+    let px = cprc::pixel_inputs(&f.data, &pos, &nrm, &tri, &alb, settings.res);
+    let offset = params.offset_voxels * params.origin[3];
+    let set = match f.side("cache_distribution") {
+        Side::Mirror => cprc::distribute_mirror(&px, &settings, offset)?,
+        Side::Gpu(ctx) => cprc::distribute_gpu(ctx, &px, &settings, offset)?,
+    };
+    f.cprc = Some(CprcParts { px, set });
+    Ok(())
+}
+
+/// The caches' creation through the radiance pyramid, their pre-convolution and the gather (the
+/// steps of `cache_creation`, `cache_preconvolve` and `gather_caches`: one GPU chain); (indirect,
+/// ao) composed as the frame does.
+pub(crate) fn creation_step(f: &mut HostFrame) -> Result<()> {
+    use crate::cprc;
+    let settings = cprc::CprcSettings::from(&f.scene.render);
+    let params = cone_trace::cone_params(&f.frame, f.cones);
+    let CprcParts { px, set } = f.cprc.as_ref().expect("the caches before their creation");
+    let pyramid = f.pyramid.as_ref().expect("the pyramid before the caches");
+    let gathered = match f.side("cache_creation") {
+        Side::Mirror => cprc::evaluate_mirror(px, set, &settings, pyramid, &params),
+        Side::Gpu(ctx) => cprc::evaluate_gpu(
+            ctx,
+            px,
+            set,
+            &settings,
+            cprc::CacheVolume::One(pyramid),
+            &params,
+            &mut Vec::new(),
+            &|_: &str| {},
+        )?,
+    };
+    let (indirect, ao, stats) = cprc::compose(px, &gathered);
+    let vec4 = |img: &crate::images::RgbImage| {
+        img.pixels.iter().map(|p| [p[0], p[1], p[2], 0.0]).collect()
+    };
+    f.cones_out = Some([vec4(&indirect), vec4(&ao)]);
+    f.cprc_stats = Some(stats);
+    Ok(())
 }

@@ -28,6 +28,9 @@ pub struct StageDecl {
     pub split: Split,
     /// The plan's passes of this stage for a frame: what each runs over, whether it runs and why.
     pub plan: fn(&PlanInputs) -> Vec<PlannedPass>,
+    /// Its step in a frame run stage by stage on the mirrors or the GPU (the mirror frames,
+    /// `vxgi bisect`; [`super::host`]); `None` where an earlier stage's step runs it.
+    pub host: Option<super::host::HostStep>,
 }
 
 /// What makes a later frame of the same renderer run a stage again (in recording order: a chain

@@ -1,6 +1,7 @@
 //! lrsm (Sugihara et al. 2014: layered reflective shadow maps): its declaration, the plan's rules for
 //! its stages, and its chain: the binary occlusion voxels and their mips, each light view's
 //! G-buffer, RSM and layered RSM, the camera's G-buffer and direct light, the LRSM cone gather.
+use super::host::{HostFrame, Side};
 use super::*;
 use crate::kernels::{
     lrsm_partition, lrsm_prefilter, occlusion_voxels, reflective_shadow_map as rsm_kernel,
@@ -19,6 +20,7 @@ pub static LRSM: PipelineDecl = PipelineDecl {
         },
         StageDecl {
             plan: lrsm_voxelize_plan,
+            host: Some(lrsm_voxelize_step),
             ..VOXELIZE_STAGE
         },
         StageDecl {
@@ -27,6 +29,7 @@ pub static LRSM: PipelineDecl = PipelineDecl {
             reuse: Reuse::Geometry,
             split: Split::Always,
             plan: occlusion_plan,
+            host: Some(lrsm_volume_step),
         },
         StageDecl {
             name: "reflective_shadow_map",
@@ -35,6 +38,8 @@ pub static LRSM: PipelineDecl = PipelineDecl {
             reuse: Reuse::Lights,
             split: Split::Always,
             plan: |i| light_view_plan(i, "reflective_shadow_map", &["reflective_shadow_map"]),
+            // Each view's RSM, then its layers: occlusion_voxels' step.
+            host: None,
         },
         StageDecl {
             name: "lrsm_partition",
@@ -42,6 +47,7 @@ pub static LRSM: PipelineDecl = PipelineDecl {
             reuse: Reuse::Lights,
             split: Split::Always,
             plan: |i| light_view_plan(i, "lrsm_partition", &["lrsm_partition", "lrsm_prefilter"]),
+            host: None,
         },
         StageDecl {
             name: "lrsm_cone_trace",
@@ -49,6 +55,7 @@ pub static LRSM: PipelineDecl = PipelineDecl {
             reuse: Reuse::Camera,
             split: Split::Always,
             plan: lrsm_cone_trace_plan,
+            host: Some(lrsm_cone_trace_step),
         },
     ],
 };
@@ -364,4 +371,51 @@ pub(crate) fn lrsm_chain(
         c,
     )?;
     Ok((chain, memory))
+}
+
+/// lrsm's voxelization: occupancy bits alone (binary voxels, no accumulators).
+pub(crate) fn lrsm_voxelize_step(f: &mut HostFrame) -> Result<()> {
+    let side = f.scene.render.voxels;
+    let (input, frame) = voxelize::prepare(f.scene, side)?;
+    f.bits = match f.side("voxelize") {
+        Side::Mirror => vxgi_cpu_mirror::voxelize::occupancy(&input.tris, side),
+        Side::Gpu(ctx) => voxelize::occupancy_of_input(ctx, &input, side)?,
+    };
+    f.frame = frame;
+    Ok(())
+}
+
+/// The occlusion voxels' mips, then each light view's RSM and its layers in turn (the steps of
+/// `occlusion_voxels`, `reflective_shadow_map` and `lrsm_partition`, each on its own side).
+pub(crate) fn lrsm_volume_step(f: &mut HostFrame) -> Result<()> {
+    let settings = LrsmSettings::from(&f.scene.render);
+    f.lrsm = Some(LrsmFrame::build_with(
+        f.ctx,
+        f.on_mirror,
+        &f.data,
+        &f.bits,
+        f.frame,
+        &settings,
+        &|_| {},
+        &mut f.stages,
+    )?);
+    Ok(())
+}
+
+/// The gather: occlusion from the voxels, radiance from the LRSMs.
+pub(crate) fn lrsm_cone_trace_step(f: &mut HostFrame) -> Result<()> {
+    let built = f.lrsm.as_ref().expect("the LRSMs before the gather");
+    let params = cone_trace::cone_params(&built.voxels, f.cones);
+    f.cones_out = Some(match f.side("lrsm_cone_trace") {
+        Side::Mirror => {
+            let vol = built.volume(&params);
+            f.shade(&vol, vol.lmax)
+        }
+        Side::Gpu(ctx) => {
+            let case =
+                lrsm_cone_trace::case_for(&f.data, &f.gb, built, &params, 0.0, "host".into(), 0);
+            super::host::gpu_cones(ctx, &lrsm_cone_trace::DECL, &case)?
+        }
+    });
+    Ok(())
 }

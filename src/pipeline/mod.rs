@@ -127,6 +127,7 @@ fn same_data(a: &HostResource, b: &HostResource) -> bool {
 
 mod cprc;
 mod declaration;
+pub mod host;
 mod lrsm;
 mod vct_dense;
 mod vct_svo;

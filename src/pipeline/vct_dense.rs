@@ -2,6 +2,7 @@
 //! (cprc, vct-svo and lrsm share the first ones), its chain (the volume: voxelize, voxel_light, the
 //! mip chain; the camera's G-buffer and direct light; the cone pass over the screen tiles) and its
 //! per-instance hierarchies.
+use super::host;
 use super::*;
 
 /// vct-dense's frame.
@@ -23,6 +24,7 @@ pub static VCT_DENSE: PipelineDecl = PipelineDecl {
             reuse: Reuse::Camera,
             split: Split::Always,
             plan: cone_trace_plan,
+            host: Some(host::cone_trace_step),
         },
     ],
 };
@@ -34,6 +36,7 @@ pub(crate) const GBUFFER_STAGE: StageDecl = StageDecl {
     reuse: Reuse::Camera,
     split: Split::Always,
     plan: gbuffer_plan,
+    host: Some(host::gbuffer_step),
 };
 
 /// Direct light by exact shadow rays (vct-dense, vct-svo, cprc; lrsm's skips it with shadow cones).
@@ -43,6 +46,7 @@ pub(crate) const DIRECT_LIGHT_STAGE: StageDecl = StageDecl {
     reuse: Reuse::Camera,
     split: Split::Always,
     plan: direct_light_plan,
+    host: Some(host::direct_light_step),
 };
 
 /// Voxelization (the other pipelines' say what they voxelize for: `StageDecl { plan, ..VOXELIZE_STAGE }`).
@@ -52,6 +56,7 @@ pub(crate) const VOXELIZE_STAGE: StageDecl = StageDecl {
     reuse: Reuse::Geometry,
     split: Split::Always,
     plan: voxelize_plan,
+    host: Some(host::voxelize_step),
 };
 
 /// The radiance pyramid's mip chain (vct-dense, cprc).
@@ -61,6 +66,7 @@ pub(crate) const MIPS_STAGE: StageDecl = StageDecl {
     reuse: Reuse::Lights,
     split: Split::Always,
     plan: mips_plan,
+    host: Some(host::mips_step),
 };
 
 /// Direct light into the voxels (vct-dense, cprc, vct-svo without photons).
@@ -70,6 +76,7 @@ pub(crate) const VOXEL_LIGHT_STAGE: StageDecl = StageDecl {
     reuse: Reuse::Lights,
     split: Split::Always,
     plan: voxel_light_plan,
+    host: Some(host::voxel_light_step),
 };
 
 /// Why a stage of the volume is skipped when the last frame's serves this one.

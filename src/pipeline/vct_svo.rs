@@ -1,7 +1,9 @@
 //! vct-svo (Crassin et al. 2011: the sparse voxel octree): its declaration, the plan's rules for its
 //! stages, and its per-frame chain over an octree built already.
+use super::host::{HostFrame, Side};
 use super::*;
 use crate::kernels::{sparse_voxel_octree, svo_anisotropic, svo_cone_trace, svo_photons};
+use vxgi_cpu_mirror::sparse_voxel_octree::{Fragment, Octree};
 
 /// vct-svo's frame: vct-dense's G-buffer, direct light and voxelization, light injection by
 /// voxel_light or photons, the octree instead of the mip chain (directional values, the lobes'
@@ -31,6 +33,7 @@ pub static VCT_SVO: PipelineDecl = PipelineDecl {
             reuse: Reuse::Lights,
             split: Split::Always,
             plan: photons_plan,
+            host: Some(photons_step),
         },
         StageDecl {
             name: "sparse_voxel_octree",
@@ -38,6 +41,7 @@ pub static VCT_SVO: PipelineDecl = PipelineDecl {
             reuse: Reuse::Lights,
             split: Split::Always,
             plan: octree_plan,
+            host: Some(octree_step),
         },
         StageDecl {
             name: "svo_anisotropic",
@@ -45,6 +49,7 @@ pub static VCT_SVO: PipelineDecl = PipelineDecl {
             reuse: Reuse::Lights,
             split: Split::WhenRun,
             plan: anisotropic_plan,
+            host: Some(anisotropic_step),
         },
         StageDecl {
             name: "svo_lobes",
@@ -52,6 +57,7 @@ pub static VCT_SVO: PipelineDecl = PipelineDecl {
             reuse: Reuse::Lights,
             split: Split::WhenRun,
             plan: lobes_plan,
+            host: Some(lobes_step),
         },
         StageDecl {
             name: "svo_bounce",
@@ -59,6 +65,7 @@ pub static VCT_SVO: PipelineDecl = PipelineDecl {
             reuse: Reuse::Lights,
             split: Split::Never,
             plan: bounce_plan,
+            host: Some(bounce_step),
         },
         StageDecl {
             name: "svo_cone_trace",
@@ -66,6 +73,7 @@ pub static VCT_SVO: PipelineDecl = PipelineDecl {
             reuse: Reuse::Camera,
             split: Split::Always,
             plan: svo_cone_trace_plan,
+            host: Some(svo_cone_trace_step),
         },
     ],
 };
@@ -246,4 +254,204 @@ pub(crate) fn svo_chain(
         c.passes,
     );
     Ok(chain)
+}
+
+/// What vct-svo's stages hand each other in a frame stage by stage ([`super::host`]).
+#[derive(Default)]
+pub(crate) struct SvoParts {
+    photons: Option<svo_photons::Photons>,
+    /// The fixed point of the octree's values (the one every split's values fit, as the frame's).
+    scale: f32,
+    frags: Vec<Fragment>,
+    spec_frags: Vec<Fragment>,
+    octree: Option<Octree>,
+    aniso: Option<Vec<[f32; 4]>>,
+    normals: Option<Vec<u32>>,
+    spec: Option<Vec<u32>>,
+}
+
+impl SvoParts {
+    fn octree(&self) -> &Octree {
+        self.octree
+            .as_ref()
+            .expect("the octree before its directional values")
+    }
+}
+
+/// The octree's depth for the frame's grid: 2^(depth+1) voxels a side.
+fn depth_of(f: &HostFrame) -> u32 {
+    f.frame.side.trailing_zeros() - 1
+}
+
+/// The light by photons: their values, and the voxels' coverage alone.
+pub(crate) fn photons_step(f: &mut HostFrame) -> Result<()> {
+    let map = f.scene.render.photon_map;
+    let photons = match f.side("svo_photons") {
+        Side::Mirror => svo_photons::mirror_photons(&f.data, &f.frame, map)?,
+        Side::Gpu(ctx) => svo_photons::photons_on_gpu(ctx, &f.data, &f.frame, map)?,
+    };
+    f.svo.get_or_insert_with(Default::default).photons = Some(photons);
+    Ok(())
+}
+
+/// The octree of the lit voxels (or the voxels' coverage and the photons).
+pub(crate) fn octree_step(f: &mut HostFrame) -> Result<()> {
+    let lobes = f.plan.runs("svo_lobes");
+    let depth = depth_of(f);
+    let side = f.side("sparse_voxel_octree");
+    let bounces = f.scene.render.bounces;
+    let svo = f.svo.get_or_insert_with(Default::default);
+    let values = match &svo.photons {
+        Some(_) => svo_cone_trace::coverage_only(&f.grid.colour),
+        None => f.radiance.clone(),
+    };
+    svo.scale = svo_cone_trace::fixed_scale(
+        svo_cone_trace::grid_values(&values).chain(svo.photons.iter().flat_map(|p| p.values())),
+        bounces,
+    );
+    svo.frags = svo_cone_trace::grid_fragments(&values, svo.scale)?;
+    if let Some(photons) = &svo.photons {
+        svo.spec_frags = photons
+            .fragments(svo.scale)?
+            .join_into(&mut svo.frags, lobes);
+    }
+    svo.octree = Some(match side {
+        Side::Mirror => vxgi_cpu_mirror::sparse_voxel_octree::build_fitted(depth, &svo.frags),
+        Side::Gpu(ctx) => sparse_voxel_octree::build_on_gpu(ctx, depth, &svo.frags, None)?.octree,
+    });
+    Ok(())
+}
+
+/// The octree's anisotropic (directional) values.
+pub(crate) fn anisotropic_step(f: &mut HostFrame) -> Result<()> {
+    let side = f.side("svo_anisotropic");
+    let svo = f.svo.as_mut().expect("the octree before its values");
+    let inv = 1.0 / svo.scale;
+    svo.aniso = Some(match side {
+        Side::Mirror => svo_anisotropic::build_mirror(svo.octree(), inv),
+        Side::Gpu(ctx) => svo_anisotropic::build_on_gpu(ctx, svo.octree(), inv)?,
+    });
+    Ok(())
+}
+
+/// The lobes' pools: the voxels' coverage and mean normals, the specular photons.
+pub(crate) fn lobes_step(f: &mut HostFrame) -> Result<()> {
+    let side = f.side("svo_lobes");
+    let svo = f.svo.as_mut().expect("the octree before its lobes");
+    let (n, g) = svo_cone_trace::lobe_pools(
+        side.gpu(),
+        svo.octree(),
+        &svo.frags,
+        [&f.grid.colour, &f.grid.normal],
+        &svo.spec_frags,
+        svo.scale,
+    )?;
+    (svo.normals, svo.spec) = (Some(n), g);
+    Ok(())
+}
+
+/// The octree's parameters for the cone tracers.
+fn svo_params(f: &HostFrame, svo: &SvoParts) -> vxgi_cpu_mirror::svo_cone_trace::SvoParams {
+    let lobes = f.plan.runs("svo_lobes");
+    vxgi_cpu_mirror::svo_cone_trace::SvoParams {
+        depth: depth_of(f),
+        inv_scale: 1.0 / svo.scale,
+        anisotropic: f.plan.runs("svo_anisotropic") as u32,
+        lobes: lobes as u32 | ((lobes && !svo.spec_frags.is_empty()) as u32) << 1,
+    }
+}
+
+/// A second bounce, by the mirrors alone: each lit voxel's indirect light through the octree becomes
+/// fragments of its own, and the octree and its values are built again from all of them.
+pub(crate) fn bounce_step(f: &mut HostFrame) -> Result<()> {
+    use svo_cone_trace as sct;
+    anyhow::ensure!(
+        matches!(f.side("svo_bounce"), Side::Mirror),
+        "the second bounce runs on the mirrors only in a frame stage by stage (bounces = 1 on the GPU)"
+    );
+    if f.radiance.is_empty() {
+        f.radiance = super::host::lit_voxels(&f.data, &f.grid, &f.list, &f.frame);
+    }
+    let params = svo_cone_trace::svo_cone_params(&f.frame, f.cones);
+    let svo = f.svo.take().expect("the octree before the bounce");
+    let sp = svo_params(f, &svo);
+    let voxels = sct::bounce_voxels(&f.radiance, &f.grid.normal, &f.grid.colour, &f.frame);
+    let empty: Vec<u32> = Vec::new();
+    let ind: Vec<[f32; 4]> = sct::bounce_mirror(
+        &svo.octree().nodes,
+        &svo.octree().bricks,
+        svo.aniso.as_deref().unwrap_or(&[]),
+        [
+            svo.normals.as_deref().unwrap_or(&empty),
+            svo.spec.as_deref().unwrap_or(&empty),
+        ],
+        &sp,
+        &params,
+        [&voxels.position, &voxels.normal, &voxels.albedo],
+    )
+    .into_iter()
+    .map(|v| v.0)
+    .collect();
+    let mut svo = svo;
+    svo.frags.extend(sct::bounce_fragments(
+        &voxels,
+        &ind,
+        &f.radiance,
+        svo.scale,
+    )?);
+    svo.octree = Some(vxgi_cpu_mirror::sparse_voxel_octree::build_fitted(
+        depth_of(f),
+        &svo.frags,
+    ));
+    let (anisotropic, lobes) = (f.plan.runs("svo_anisotropic"), f.plan.runs("svo_lobes"));
+    f.svo = Some(svo);
+    if anisotropic {
+        anisotropic_step(f)?;
+    }
+    if lobes {
+        lobes_step(f)?;
+    }
+    Ok(())
+}
+
+/// The octree's cone pass.
+pub(crate) fn svo_cone_trace_step(f: &mut HostFrame) -> Result<()> {
+    let svo = f.svo.as_ref().expect("the octree before the cones");
+    let params = svo_cone_trace::svo_cone_params(&f.frame, f.cones);
+    let octree = svo.octree();
+    f.cones_out = Some(match f.side("svo_cone_trace") {
+        Side::Mirror => {
+            let sp = svo_params(f, svo);
+            let volume = vxgi_cpu_mirror::svo_cone_trace::SvoVolume {
+                p: &params,
+                svo: &sp,
+                nodes: &octree.nodes,
+                bricks: &octree.bricks,
+                aniso: svo.aniso.as_deref().unwrap_or(&[]),
+                normals: svo.normals.as_deref().unwrap_or(&[]),
+                spec: svo.spec.as_deref().unwrap_or(&[]),
+            };
+            let lmax = svo_cone_trace::max_radiance(&octree.bricks, sp.inv_scale);
+            f.shade(&volume, lmax)
+        }
+        Side::Gpu(ctx) => {
+            let extras = svo_cone_trace::SvoExtras {
+                aniso: svo.aniso.as_deref(),
+                normals: svo.normals.as_deref(),
+                spec: svo.spec.as_deref(),
+            };
+            let case = svo_cone_trace::case_for(
+                &f.data,
+                &f.gb,
+                octree,
+                extras,
+                svo.scale,
+                &params,
+                "host".into(),
+                0,
+            );
+            super::host::gpu_cones(ctx, &svo_cone_trace::DECL, &case)?
+        }
+    });
+    Ok(())
 }
