@@ -573,6 +573,7 @@ fn run_render(
         None
     };
     let mut rows = Vec::new();
+    let mut last_memory: Option<Vec<(&str, u64)>> = None;
     for k in 0..frames {
         let dir = if frames == 1 {
             out.clone()
@@ -628,6 +629,13 @@ fn run_render(
                 }
             }
             None => {}
+        }
+        // Printed where the chain was built or rebuilt (its table changed).
+        if let Some(by_stage) = resident.as_ref().and_then(|g| g.memory_by_stage()) {
+            if last_memory.as_deref() != Some(by_stage) {
+                println!("{}", vxgi::resident::memory_line(by_stage));
+                last_memory = Some(by_stage.to_vec());
+            }
         }
         bar.finish_and_clear();
         write_frame(&dir, [&r.direct, &r.indirect, &r.combined, &r.ao])?;

@@ -227,6 +227,8 @@ struct Built<'c> {
     /// to the frame that built it.
     build_stages: Vec<(&'static str, f64)>,
     memory: Option<VolumeMemory>,
+    /// The chain's GPU bytes by the stage that writes each resource ([`stage_memory`]).
+    stage_memory: Vec<(&'static str, u64)>,
 }
 
 /// A frame's images on the GPU, as [`Resident::encode`] leaves them: `vec4<f32>` per pixel, row by
@@ -393,6 +395,15 @@ impl<'c> Resident<'c> {
     /// first frame).
     pub fn gpu_bytes(&self) -> Option<u64> {
         self.built.as_ref().map(|b| b.prepared.gpu_bytes())
+    }
+
+    /// The last frame's chain's GPU bytes by declared stage, in chain order: each resource counted
+    /// to the stage whose passes write it first (or whose passes a GPU copy into it follows), what
+    /// no pass writes (the scene, parameters, and structures built outside the chain such as
+    /// vct-svo's octree) as `uploaded`, first. The bytes add up to [`Resident::gpu_bytes`]; `None`
+    /// before the first frame.
+    pub fn memory_by_stage(&self) -> Option<&[(&'static str, u64)]> {
+        self.built.as_ref().map(|b| b.stage_memory.as_slice())
     }
 
     /// One frame (supersampling and bright lights as every pipeline's, see `render::supersampled`).
@@ -900,6 +911,7 @@ impl<'c> Resident<'c> {
                 outputs.push(extra);
             }
         }
+        let stage_memory = stage_memory(&chain, &stages, &prepared);
         let reads = prepared.readback_set(&outputs)?;
         let counts = prepared.readback_set(&outputs[3..])?;
         // Appended to (tile_list), written where listed (indirect, ao, irradiance, soft_direct), or
@@ -935,6 +947,7 @@ impl<'c> Resident<'c> {
             direct,
             build_stages,
             memory,
+            stage_memory,
             prepared,
             reads,
             counts,
@@ -967,6 +980,55 @@ fn written_in(chain: &mut Chain, range: std::ops::Range<usize>) -> Resets {
         chain.resources.insert(copy.clone(), contents);
     }
     (zero, first)
+}
+
+/// One line of [`Resident::memory_by_stage`]: the total, then each stage that holds any bytes.
+pub fn memory_line(by_stage: &[(&str, u64)]) -> String {
+    let mb = |b: u64| b as f64 / 1e6;
+    let total: u64 = by_stage.iter().map(|(_, b)| b).sum();
+    let parts: Vec<String> = by_stage
+        .iter()
+        .filter(|(_, b)| *b > 0)
+        .map(|(s, b)| format!("{s} {:.1}", mb(*b)))
+        .collect();
+    format!(
+        "GPU memory {:.1} MB by stage (MB): {}",
+        mb(total),
+        parts.join(", ")
+    )
+}
+
+/// [`Resident::memory_by_stage`] of `chain` (its `stages`: (declared stage, passes) in chain
+/// order) as `prepared` holds it. A restore copy `X@first` counts with `X`.
+fn stage_memory(
+    chain: &Chain,
+    stages: &[(&'static str, std::ops::Range<usize>)],
+    prepared: &crate::harness::Prepared,
+) -> Vec<(&'static str, u64)> {
+    let mut owner: std::collections::BTreeMap<String, &'static str> = Default::default();
+    let mut out: Vec<(&'static str, u64)> = vec![("uploaded", 0)];
+    for (stage, range) in stages {
+        if !out.iter().any(|(s, _)| s == stage) {
+            out.push((stage, 0));
+        }
+        for name in written(chain, range.clone()) {
+            owner.entry(name).or_insert(stage);
+        }
+        for c in &chain.copies {
+            if c.after > 0 && range.contains(&(c.after - 1)) {
+                owner.entry(c.dst.clone()).or_insert(stage);
+            }
+        }
+    }
+    for name in chain.resources.keys() {
+        let base = name.strip_suffix("@first").unwrap_or(name);
+        let stage = owner.get(base).copied().unwrap_or("uploaded");
+        let bytes = prepared.resource_bytes(name).unwrap_or(0);
+        if let Some(e) = out.iter_mut().find(|(s, _)| *s == stage) {
+            e.1 += bytes;
+        }
+    }
+    out
 }
 
 /// The buffers the passes `range` of `chain` bind as writable storage, each once, in chain order.

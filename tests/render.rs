@@ -1788,3 +1788,55 @@ fn accurate_preset_meets_its_flip_goals_on_the_cornell_box() {
         assert!(flip < goal, "{}: combined FLIP {flip}", pipeline.name());
     }
 }
+
+/// The resident chain's memory by stage adds up to what it holds, names declared stages only, and
+/// puts each structure where its stage writes it: vct-dense's voxelize holds at least its 32-byte
+/// accumulators per voxel (and grows with the grid), vct-svo's octree (built outside the chain)
+/// is uploaded.
+#[test]
+fn resident_memory_by_stage_adds_up_and_follows_the_declaration() {
+    use vxgi::kernels::cone_trace::ConeSettings;
+    use vxgi::render::{Pipeline, VolumeMemory};
+    use vxgi::resident::Resident;
+    let of = |by: &[(&str, u64)], stage: &str| {
+        by.iter().find(|(s, _)| *s == stage).map_or(0, |(_, b)| *b)
+    };
+    for pipeline in [
+        Pipeline::VctDense,
+        Pipeline::VctSvo,
+        Pipeline::Lrsm,
+        Pipeline::Cprc,
+    ] {
+        let mut voxelize = Vec::new();
+        for side in [16u32, 32] {
+            let mut scene = small(Scene::cornell_box(), 32, 32);
+            scene.render.voxels = side;
+            let cones = ConeSettings::from(&scene.render);
+            let mut resident = Resident::new(gpu(), pipeline).unwrap();
+            assert!(resident.memory_by_stage().is_none());
+            resident.render(&scene, &cones).unwrap();
+            let by = resident.memory_by_stage().unwrap().to_vec();
+            let at = format!("{} at {side}^3: {by:?}", pipeline.name());
+            let total: u64 = by.iter().map(|(_, b)| b).sum();
+            assert_eq!(Some(total), resident.gpu_bytes(), "{at}");
+            assert_eq!(by[0].0, "uploaded", "{at}");
+            for (stage, _) in &by[1..] {
+                assert!(pipeline.decl().stage(stage).is_some(), "{at}: {stage}");
+            }
+            if pipeline == Pipeline::VctDense {
+                assert!(of(&by, "voxelize") >= 32 * (side as u64).pow(3), "{at}");
+            }
+            if let Some(VolumeMemory::Octree(m)) = resident.memory() {
+                assert!(of(&by, "uploaded") >= m.bytes, "{at}");
+            }
+            voxelize.push(of(&by, "voxelize"));
+        }
+        if pipeline != Pipeline::VctSvo {
+            assert!(
+                voxelize[1] > voxelize[0],
+                "{}: {voxelize:?}",
+                pipeline.name()
+            );
+        }
+    }
+}

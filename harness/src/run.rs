@@ -559,6 +559,25 @@ struct Step {
     workgroups: Workgroups,
 }
 
+/// A buffer's size, or a texture's texels over its mip levels.
+fn res_bytes(r: &GpuRes) -> u64 {
+    match r {
+        GpuRes::Buffer(b) => b.size(),
+        GpuRes::Texture(t) => {
+            let e = t.size();
+            let shape = HostTexture {
+                format: t.format(),
+                dimension: t.dimension(),
+                size: [e.width, e.height, e.depth_or_array_layers],
+                levels: Vec::new(),
+            };
+            (0..t.mip_level_count())
+                .map(|m| shape.level_bytes(m) as u64)
+                .sum()
+        }
+    }
+}
+
 /// Resources uploaded and passes recorded once; dispatch as often as wanted (benchmarks), read back any
 /// resource. [`run`] is `prepare` + `dispatch` + `read`.
 pub struct Prepared<'a> {
@@ -1233,24 +1252,12 @@ impl Prepared<'_> {
     /// The bytes of the GPU resources this holds: each buffer's size and each texture's texels over
     /// its mip levels (what the chain keeps on the device; staging and query buffers not included).
     pub fn gpu_bytes(&self) -> u64 {
-        self.gpu
-            .values()
-            .map(|r| match r {
-                GpuRes::Buffer(b) => b.size(),
-                GpuRes::Texture(t) => {
-                    let e = t.size();
-                    let shape = HostTexture {
-                        format: t.format(),
-                        dimension: t.dimension(),
-                        size: [e.width, e.height, e.depth_or_array_layers],
-                        levels: Vec::new(),
-                    };
-                    (0..t.mip_level_count())
-                        .map(|m| shape.level_bytes(m) as u64)
-                        .sum()
-                }
-            })
-            .sum()
+        self.gpu.values().map(res_bytes).sum()
+    }
+
+    /// The bytes of resource `name` on the GPU, as [`Prepared::gpu_bytes`] counts them.
+    pub fn resource_bytes(&self, name: &str) -> Option<u64> {
+        self.gpu.get(name).map(res_bytes)
     }
 
     /// Staging buffers, created now and reused every frame, for the buffer resources `names` (and for
