@@ -67,9 +67,6 @@ fn main() {
             }
         };
         for p in Resident::PIPELINES {
-            if !Resident::serves(p, &scene) {
-                continue;
-            }
             let mut resident = Resident::new(&ctx, p).expect("a resident pipeline");
             let rows: Vec<FrameRow> = (0..frames)
                 .map(|k| {

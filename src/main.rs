@@ -565,13 +565,8 @@ fn run_render(
     let ctx = GpuContext::new().context("creating the GPU context")?;
     eprintln!("adapter: {}", ctx.describe());
     eprintln!("{quality}");
-    let mut renderer = vxgi::render::Renderer::new(pipeline, true);
-    // Frames stay on the GPU where a resident renderer draws the scene (`Resident::serves`).
-    let mut resident = if vxgi::resident::Resident::serves(pipeline, &scene) {
-        Some(vxgi::resident::Resident::new(&ctx, pipeline)?)
-    } else {
-        None
-    };
+    // The frames stay on the GPU: one resident renderer draws them all.
+    let mut resident = vxgi::resident::Resident::new(&ctx, pipeline)?;
     let mut rows = Vec::new();
     let mut last_memory: Option<Vec<(&str, u64)>> = None;
     for k in 0..frames {
@@ -586,13 +581,9 @@ fn run_render(
         // The whole per-frame call is counted: the scene's update (instances, camera) and the frame.
         let ((r, memory), row) = vxgi::frames::counted(&ctx, k, || {
             let view = scene.at_frame(k).orbited(orbit * k as f32);
-            match &mut resident {
-                Some(gpu_frames) => {
-                    let frame = gpu_frames.render(&view, &cones)?;
-                    Ok((frame, gpu_frames.memory()))
-                }
-                None => renderer.render(&ctx, &view, &cones, message),
-            }
+            message("recording");
+            let frame = resident.render(&view, &cones)?;
+            Ok((frame, resident.memory()))
         })?;
         rows.push(row);
         match memory {
@@ -631,7 +622,7 @@ fn run_render(
             None => {}
         }
         // Printed where the chain was built or rebuilt (its table changed).
-        if let Some(by_stage) = resident.as_ref().and_then(|g| g.memory_by_stage()) {
+        if let Some(by_stage) = resident.memory_by_stage() {
             if last_memory.as_deref() != Some(by_stage) {
                 println!("{}", vxgi::resident::memory_line(by_stage));
                 last_memory = Some(by_stage.to_vec());

@@ -134,7 +134,7 @@ impl Key {
             Some(d) if instanced && pipeline == Pipeline::Lrsm => {
                 (Vec::new(), (d.triangles.len(), d.nodes.len()))
             }
-            Some(d) if instanced => {
+            Some(d) if instanced && pipeline != Pipeline::VctSvo => {
                 let (_, parts) = crate::render::hierarchy_parts(scene);
                 (
                     parts.into_iter().map(|(m, side, _)| (m, side)).collect(),
@@ -143,9 +143,10 @@ impl Key {
             }
             _ => (Vec::new(), (0, 0)),
         };
-        // With instances the voxels depend on the meshes in their own frames, not where they stand.
+        // With instances the voxels depend on the meshes in their own frames, not where they stand
+        // (vct-svo's octree on the flattened scene: moved instances build it again).
         let base;
-        let scene = if instanced {
+        let scene = if instanced && pipeline != Pipeline::VctSvo {
             base = Scene {
                 mesh: scene.instances.base.clone(),
                 ..scene.clone()
@@ -368,20 +369,6 @@ impl<'c> Resident<'c> {
         self.pipeline
     }
 
-    /// Whether `pipeline`'s resident renderer draws `scene`: a pipeline of [`Resident::PIPELINES`]
-    /// and at least one light; with `[[instances]]` vct-dense and cprc (their per-instance
-    /// hierarchies) and lrsm (which re-voxelizes the scene where the instances moved); vct-svo's
-    /// instanced frames are the staged renderer's.
-    pub fn serves(pipeline: Pipeline, scene: &Scene) -> bool {
-        Self::PIPELINES.contains(&pipeline)
-            && (scene.instances.list.is_empty()
-                || matches!(
-                    pipeline,
-                    Pipeline::VctDense | Pipeline::Cprc | Pipeline::Lrsm
-                ))
-            && !scene.lights.is_empty()
-    }
-
     /// What the last frame's volume holds (vct-svo: the octree's bytes; lrsm: its structures'
     /// bytes; cprc: its caches); `None` for vct-dense.
     pub fn memory(&self) -> Option<VolumeMemory> {
@@ -413,14 +400,8 @@ impl<'c> Resident<'c> {
             .map(|(r, ())| r)
     }
 
-    /// What every frame must pass before anything is recorded: a scene this renderer draws, within
-    /// the device's limits.
+    /// What every frame must pass before anything is recorded: the scene within the device's limits.
     fn check(&self, scene: &Scene) -> Result<()> {
-        anyhow::ensure!(
-            Self::serves(self.pipeline, scene),
-            "the resident {} renderer draws scenes with lights (with instances: vct-dense, cprc and lrsm)",
-            self.pipeline.name()
-        );
         crate::limits::check(scene, self.pipeline, &self.ctx.limits()).map_err(anyhow::Error::msg)
     }
 

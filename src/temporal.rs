@@ -19,7 +19,7 @@
 //! ray counts ([`reference_floor`]).
 use crate::images::RgbImage;
 use crate::kernels::cone_trace::ConeSettings;
-use crate::render::{Pipeline, Renderer};
+use crate::render::Pipeline;
 use crate::resident::Resident;
 use crate::scene::{Light, Scene};
 use anyhow::Result;
@@ -233,8 +233,8 @@ pub fn measure(
     Ok((instability(&indirect, reference), got))
 }
 
-/// `pipeline`'s frames of the sequence, one renderer drawing them all in order (GPU-resident where
-/// it serves the scene, else staged with its reuse rules on): the frames a viewer would show.
+/// `pipeline`'s frames of the sequence, one GPU-resident renderer drawing them all in order: the
+/// frames a viewer would show.
 pub fn pipeline_frames(
     ctx: &crate::harness::GpuContext,
     pipeline: Pipeline,
@@ -244,16 +244,9 @@ pub fn pipeline_frames(
 ) -> Result<Vec<crate::render::Rendered>> {
     let cones = ConeSettings::from(&scene.render);
     let mut out = Vec::new();
-    if Resident::serves(pipeline, scene) {
-        let mut r = Resident::new(ctx, pipeline)?;
-        for t in 0..frames {
-            out.push(r.render(&motion.at(scene, t), &cones)?);
-        }
-    } else {
-        let mut r = Renderer::new(pipeline, true);
-        for t in 0..frames {
-            out.push(r.render(ctx, &motion.at(scene, t), &cones, |_| {})?.0);
-        }
+    let mut r = Resident::new(ctx, pipeline)?;
+    for t in 0..frames {
+        out.push(r.render(&motion.at(scene, t), &cones)?);
     }
     Ok(out)
 }

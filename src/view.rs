@@ -4,9 +4,7 @@
 //!
 //! Each frame is [`Resident::present`]: the pipeline's passes, then this module's display pass
 //! (`view.wgsl`: `vxgi render`'s PNG transform) and the overlay into the window's surface texture,
-//! in one command encoder and one submission. A pipeline and scene the resident renderer does not
-//! draw (vct-svo with `[[instances]]`) run stage by stage ([`crate::render::Renderer`]) and their
-//! images are uploaded for the display pass; the overlay says so.
+//! in one command encoder and one submission.
 //!
 //! The overlay is egui's (egui-wgpu renders it into the same encoder): a maintained text and
 //! layout renderer that already targets wgpu 30, where a hand-made glyph renderer would be code to
@@ -418,7 +416,6 @@ struct App {
 struct Shot {
     row: FrameRow,
     pipeline: Pipeline,
-    resident: bool,
     stages: Vec<(&'static str, f64)>,
     skipped: Vec<&'static str>,
     chain_bytes: Option<u64>,
@@ -435,10 +432,7 @@ struct Gfx {
     copyable: bool,
     ctx: &'static GpuContext,
     residents: Vec<Resident<'static>>,
-    staged: Vec<(Pipeline, crate::render::Renderer)>,
     display: Display,
-    /// The staged frames' images, uploaded (sized to the last frame).
-    uploads: Option<FrameBuffers>,
     egui: egui::Context,
     overlay: egui_wgpu::Renderer,
 }
@@ -569,9 +563,7 @@ impl App {
             copyable,
             ctx,
             residents: Vec::new(),
-            staged: Vec::new(),
             display,
-            uploads: None,
             egui: egui::Context::default(),
             overlay,
         });
@@ -705,13 +697,8 @@ impl App {
                     c.readback_bytes
                 ));
                 lines.push(format!(
-                    "{} ({}), {}",
+                    "{} (GPU-resident), {}",
                     s.pipeline.name(),
-                    if s.resident {
-                        "GPU-resident"
-                    } else {
-                        "staged: this scene's frames are not GPU-resident for it"
-                    },
                     s.scene_line
                 ));
                 for (name, secs) in &s.stages {
@@ -825,8 +812,7 @@ impl App {
                     }
                     Ok(())
                 };
-            let resident = Resident::serves(controls.pipeline, &scene);
-            let (stages, skipped, chain_bytes, memory) = if resident {
+            let (stages, skipped, chain_bytes, memory) = {
                 let r = match g
                     .residents
                     .iter()
@@ -845,27 +831,6 @@ impl App {
                     r.gpu_bytes(),
                     r.memory(),
                 )
-            } else {
-                let r = match g.staged.iter().position(|(p, _)| *p == controls.pipeline) {
-                    Some(i) => &mut g.staged[i].1,
-                    None => {
-                        g.staged.push((
-                            controls.pipeline,
-                            crate::render::Renderer::new(controls.pipeline, true),
-                        ));
-                        &mut g.staged.last_mut().expect("pushed").1
-                    }
-                };
-                let (frame, memory) = r.render(ctx, &scene, &cones, |_| {})?;
-                let fb = upload(&mut g.uploads, ctx, &frame);
-                let mut encoder =
-                    ctx.device
-                        .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                            label: Some("view"),
-                        });
-                passes(&mut encoder, &fb)?;
-                ctx.queue.submit([encoder.finish()]);
-                (frame.stages, frame.plan.skipped(), None, memory)
             };
             if let Some(p) = paint {
                 p.finish(&mut g.overlay);
@@ -880,19 +845,17 @@ impl App {
                 skipped,
                 chain_bytes,
                 memory,
-                resident,
                 scene_line(&scene),
                 image,
             ));
             Ok(())
         })?;
         Ok(presented.map(
-            |(stages, skipped, chain_bytes, memory, resident, scene_line, image)| {
+            |(stages, skipped, chain_bytes, memory, scene_line, image)| {
                 (
                     Shot {
                         row,
                         pipeline: controls.pipeline,
-                        resident,
                         stages,
                         skipped,
                         chain_bytes,
@@ -1099,53 +1062,6 @@ impl Display {
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, group, &[]);
         pass.draw(0..3, 0..1);
-    }
-}
-
-/// A staged frame's images in buffers the display pass reads (`uploads`: kept while the size
-/// holds).
-fn upload(
-    uploads: &mut Option<FrameBuffers>,
-    ctx: &GpuContext,
-    frame: &crate::render::Rendered,
-) -> FrameBuffers {
-    {
-        let bytes = |img: &crate::images::RgbImage| -> Vec<u8> {
-            let px: Vec<[f32; 4]> = img.pixels.iter().map(|p| [p[0], p[1], p[2], 0.0]).collect();
-            bytemuck::cast_slice(&px).to_vec()
-        };
-        let data = [
-            bytes(&frame.direct),
-            bytes(&frame.indirect),
-            bytes(&frame.ao),
-        ];
-        let fits = uploads
-            .as_ref()
-            .is_some_and(|u| u.direct.size() == data[0].len() as u64);
-        if !fits {
-            let make = || {
-                ctx.device.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some("view staged image"),
-                    size: data[0].len() as u64,
-                    usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-                    mapped_at_creation: false,
-                })
-            };
-            *uploads = Some(FrameBuffers {
-                direct: make(),
-                indirect: make(),
-                ao: make(),
-            });
-        }
-        let u = uploads.as_ref().expect("made above");
-        for (buffer, bytes) in [&u.direct, &u.indirect, &u.ao].into_iter().zip(&data) {
-            ctx.queue.write_buffer(buffer, 0, bytes);
-        }
-        FrameBuffers {
-            direct: u.direct.clone(),
-            indirect: u.indirect.clone(),
-            ao: u.ao.clone(),
-        }
     }
 }
 

@@ -198,7 +198,6 @@ pub(crate) fn lrsm_chain(
         reflective_shadow_map as rsmk,
     };
     use vxgi_cpu_mirror::occlusion_voxels::level_words;
-    anyhow::ensure!(!data.lights.is_empty(), "lrsm's chain needs lights");
     let settings = LrsmSettings::from(&scene.render);
     let config = settings.partition();
     config.validate(ctx.limits().max_storage_buffer_binding_size)?;
