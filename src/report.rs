@@ -7,7 +7,6 @@ use crate::scene::Scene;
 use anyhow::{Context, Result};
 use std::fmt::Write as _;
 use std::path::Path;
-use vxgi_cpu_mirror::cone_trace::pyramid_len;
 
 #[derive(Clone, Debug)]
 pub struct ReportRow {
@@ -47,21 +46,6 @@ impl ReportRow {
             .map(|l| format!("{l:.4}"))
             .unwrap_or_else(|| "-".into())
     }
-}
-
-/// GPU buffer bytes of a vct-dense frame: G-buffer (position, normal, triangle) and the four images,
-/// scene buffers (BVH nodes, triangles), voxelization accumulators, the level-0 colour/normal/radiance
-/// grids, the radiance pyramid and its normals.
-pub fn vct_dense_memory(scene: &Scene) -> u64 {
-    let px = scene.camera.width as u64 * scene.camera.height as u64;
-    let tris = scene.mesh.triangles.len() as u64;
-    let side = scene.render.voxels as u64;
-    let voxels = side.pow(3);
-    let pyramid = pyramid_len(scene.render.voxels) as u64;
-    px * (16 + 16 + 4 + 16 * 3)
-        + tris * (96 + 2 * 48 + 112)
-        + voxels * (32 + 16 * 3 + 4)
-        + pyramid * 32
 }
 
 /// Rays per cone of the report's ideal-cones row (stratified 8 x 8).
@@ -151,30 +135,13 @@ pub fn report(
             let (scene, _) = crate::quality::resolved(scene, kind).map_err(anyhow::Error::msg)?;
             let scene = &scene;
             let cones = ConeSettings::from(&scene.render);
-            let (r, memory) = if pipeline == "vct-dense" {
-                let r = crate::render::render(ctx, scene, &cones, |_| {})?;
-                (r, vct_dense_memory(scene))
-            } else if pipeline == "lrsm" {
-                let (r, m) = crate::render::render_lrsm(ctx, scene, &cones, |_| {})?;
-                // vct-dense's buffers without the radiance pyramid, with the occlusion voxels and
-                // every view's LRSM (and the one RSM alive at a time).
-                let pyramid = pyramid_len(scene.render.voxels) as u64 * 32;
-                (
-                    r,
-                    vct_dense_memory(scene) - pyramid + m.occlusion + m.rsm + m.lrsm,
-                )
-            } else if pipeline == "cprc" {
-                let (r, stats) = crate::render::render_cprc(ctx, scene, &cones, |_| {})?;
-                // vct-dense's buffers (the pyramid included) and the caches' texels, mips and
-                // irradiance maps.
-                let s = crate::cprc::CprcSettings::from(&scene.render);
-                (r, vct_dense_memory(scene) + s.cache_bytes(stats.caches))
-            } else {
-                let (r, m) = crate::render::render_svo(ctx, scene, &cones, |_| {})?;
-                // vct-dense's buffers with the octree (its actual allocation) for the pyramid.
-                let pyramid = pyramid_len(scene.render.voxels) as u64 * 32;
-                (r, vct_dense_memory(scene) - pyramid + m.bytes)
-            };
+            // The GPU-resident renderer's first frame (its pipelines and buffers created), and what
+            // its chain holds on the GPU (vct-svo's octree uploaded into it).
+            let mut resident = crate::resident::Resident::new(ctx, kind)?;
+            let t = std::time::Instant::now();
+            let r = resident.render(scene, &cones)?;
+            let seconds = t.elapsed().as_secs_f64();
+            let memory = resident.gpu_bytes().unwrap_or(0);
             write_into(
                 &dir.join(pipeline),
                 [&r.direct, &r.indirect, &r.combined, &r.ao],
@@ -202,7 +169,7 @@ pub fn report(
             let row = ReportRow {
                 pipeline,
                 scene: name.clone(),
-                seconds: r.stages.iter().map(|s| s.1).sum(),
+                seconds,
                 indirect_flip: ind.flip_mean,
                 combined_flip: comb.flip_mean,
                 memory: Some(memory),
@@ -216,7 +183,7 @@ pub fn report(
             "\n### {name}\n\nreference ({spp} spp) | ideal cones | vct-dense | vct-svo | lrsm | cprc\n---|---|---|---|---|---\n![]({name}/reference/combined.png) | ![]({name}/ideal-cones/combined.png) | ![]({name}/vct-dense/combined.png) | ![]({name}/vct-svo/combined.png) | ![]({name}/lrsm/combined.png) | ![]({name}/cprc/combined.png)\n![]({name}/reference/indirect.png) | ![]({name}/ideal-cones/indirect.png) | ![]({name}/vct-dense/indirect.png) | ![]({name}/vct-svo/indirect.png) | ![]({name}/lrsm/indirect.png) | ![]({name}/cprc/indirect.png)\n![]({name}/reference/ao.png) | ![]({name}/ideal-cones/ao.png) | ![]({name}/vct-dense/ao.png) | ![]({name}/vct-svo/ao.png) | ![]({name}/lrsm/ao.png) | ![]({name}/cprc/ao.png)"
         );
     }
-    md.push_str("\ntime: wall clock of the pipeline's stages, transfers between stages included; FLIP: mean LDR-FLIP against the reference (`vxgi compare`); leak: thin_wall only. ideal cones: the scene's diffuse cone set with exact visibility and radiance (CPU, 64 rays per cone; direct and AO the reference's), what the cone tracers would score with perfect voxels. orbit instability (with `--temporal-frames`): the mean frame-to-frame change of the pipeline's indirect image beyond the ideal cones' over a camera orbit, relative to the mean indirect light (docs/temporal.md).\n");
+    md.push_str("\ntime: wall clock of the GPU-resident renderer's first frame (its pipelines and buffers created); memory: the bytes its frame holds on the GPU; FLIP: mean LDR-FLIP against the reference (`vxgi compare`); leak: thin_wall only. ideal cones: the scene's diffuse cone set with exact visibility and radiance (CPU, 64 rays per cone; direct and AO the reference's), what the cone tracers would score with perfect voxels. orbit instability (with `--temporal-frames`): the mean frame-to-frame change of the pipeline's indirect image beyond the ideal cones' over a camera orbit, relative to the mean indirect light (docs/temporal.md).\n");
     md.push_str(&images);
     std::fs::write(out.join("report.md"), md)
         .with_context(|| format!("writing {}", out.join("report.md").display()))?;
