@@ -1867,6 +1867,13 @@ fn resident_frames_draw_unlit_scenes_and_vct_svo_instances() {
             let got = resident.render(&unlit, &cones).unwrap();
             let c = vxgi::harness::thread_counters().since(&before);
             let at = format!("{} without lights, frame {k}", pipeline.name());
+            // Its plan lists what its chain ran.
+            for (stage, _) in &got.stages {
+                assert!(
+                    got.plan.runs(stage),
+                    "{at}: {stage} timed, the plan skips it"
+                );
+            }
             assert!(
                 want.direct == got.direct && want.indirect == got.indirect && want.ao == got.ao,
                 "{at}"
