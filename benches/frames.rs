@@ -3,15 +3,14 @@
 //! and scenes/instances.toml's 7-frame animation (`vxgi render scenes/instances.toml --frames 7`).
 //! Per pipeline and scene: the medians over the frames after the first of wall clock, GPU time
 //! (timestamp queries), wall / GPU, submissions, buffers and bind groups created, bytes uploaded and
-//! read back, from the context's counters (`vxgi::frames`); every pipeline both GPU-resident
-//! (`vxgi::resident::Resident`) and staged through the host (`vxgi::render::Renderer`), in the same
-//! run. The table goes to stdout as markdown; docs/frames.md holds a run.
+//! read back, from the context's counters (`vxgi::frames`), of the GPU-resident renderer
+//! (`vxgi::resident::Resident`). The table goes to stdout as markdown; docs/frames.md holds a run
+//! (with the staged frames it replaced, measured in the same run before they were removed).
 //!
 //! `cargo bench --bench frames [-- FRAMES]` (default 6)
 use vxgi::frames::{counted, median, FrameRow};
 use vxgi::harness::GpuContext;
 use vxgi::kernels::cone_trace::ConeSettings;
-use vxgi::render::{Pipeline, Renderer};
 use vxgi::resident::Resident;
 use vxgi::scene::Scene;
 
@@ -76,22 +75,6 @@ fn main() {
                 })
                 .collect();
             print(&format!("{}, GPU-resident", p.name()), &rows);
-        }
-        for p in [
-            Pipeline::VctDense,
-            Pipeline::VctSvo,
-            Pipeline::Lrsm,
-            Pipeline::Cprc,
-        ] {
-            let mut renderer = Renderer::new(p, true);
-            let rows: Vec<FrameRow> = (0..frames)
-                .map(|k| {
-                    counted(&ctx, k, || renderer.render(&ctx, &view(k), &cones, |_| {}))
-                        .expect("frame")
-                        .1
-                })
-                .collect();
-            print(&format!("{}, staged", p.name()), &rows);
         }
     }
 }

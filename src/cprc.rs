@@ -463,7 +463,7 @@ pub fn gather_data(
 pub struct CprcStats {
     pub caches: usize,
     /// Clusters past the frame's cache capacity, left without a cache (the resident renderer's
-    /// buffers hold [`crate::pipeline`]' capacity; the staged one sizes them to each frame's count).
+    /// buffers hold [`crate::pipeline`]' capacity).
     pub dropped: usize,
     /// Front-facing geometry pixels, and those left without a valid cache ([`coverage`]: the paper's
     /// Fig. 6 measure); `None` where not measured (resident frames: the caches stay on the GPU).

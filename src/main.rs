@@ -639,7 +639,10 @@ fn run_render(
             "wrote direct, indirect, combined, ao (.exr + .png) to {}",
             dir.display()
         );
-        println!("stages (GPU time; vct-svo's octree build by wall clock): {}", stages.join(", "));
+        println!(
+            "stages (GPU time; vct-svo's octree build by wall clock): {}",
+            stages.join(", ")
+        );
         if let Some((listed, all)) = r.cone_tiles {
             println!(
                 "cone pass: {listed} of {all} 8x8 screen tiles hold a surface (the other {} not dispatched)",

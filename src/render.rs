@@ -1,9 +1,12 @@
-//! Rendering a scene on the GPU: [`DirectRenderer`] records the `gbuffer` and `direct_light` kernels
-//! into a caller's encoder, writing into caller-owned buffers (the API for lifting these kernels into
-//! another renderer); [`render`] runs the whole vct-dense pipeline for the CLI (own context, images).
+//! Rendering a scene: [`DirectRenderer`] records the `gbuffer` and `direct_light` kernels into a
+//! caller's encoder, writing into caller-owned buffers (the API for lifting these kernels into
+//! another renderer); [`render`], [`render_svo`], [`render_lrsm`], [`render_cprc`] and [`Renderer`]
+//! draw frames with the GPU-resident renderer ([`crate::resident::Resident`]); [`Pipeline`] names
+//! the pipelines and their declarations; [`VctSvo`] builds vct-svo's octree; [`mirror_frame`] is a
+//! frame by the scalar mirrors alone; supersampling and the exposure of bright lights.
 use crate::images::RgbImage;
 use crate::kernels::cone_trace::{self, ConeSettings};
-use crate::kernels::lrsm_cone_trace::{self, LrsmFrame, LrsmMemory, LrsmSettings};
+use crate::kernels::lrsm_cone_trace::LrsmMemory;
 use crate::kernels::{direct_light, gbuffer, voxel_light, voxelize};
 use crate::plan::FramePlan;
 use crate::scene::Scene;
@@ -313,20 +316,6 @@ pub fn exposure(scene: &Scene) -> i32 {
     }
 }
 
-/// The vct-dense pipeline: G-buffer and direct light with exact shadows, voxelization, voxel lighting,
-/// surface-coverage mips, cone tracing (AO, diffuse, glossy). Every stage is a verified kernel; stages
-/// hand over through host memory for now (simple, and each hand-over is what `vxgi verify` checks).
-/// `progress(stage)` is called before each stage. One frame, nothing kept: [`VctDense`] renders
-/// sequences of frames.
-pub fn render(
-    ctx: &crate::harness::GpuContext,
-    scene: &Scene,
-    cones: &ConeSettings,
-    progress: impl Fn(&str),
-) -> Result<Rendered> {
-    VctDense::new(false).render(ctx, scene, cones, progress)
-}
-
 /// What the radiance pyramid depends on; the camera and the cone settings are not part of it, except
 /// through `levels`, the levels built (vct-dense builds only the levels its cones can read).
 #[derive(Clone, Debug, PartialEq)]
@@ -372,370 +361,9 @@ impl PyramidKey {
             ..Self::of(scene)
         }
     }
-
-    /// Whether a pyramid kept under `self` serves a frame that wants `want`: the same volume, and the
-    /// normal pyramid kept if it is wanted.
-    fn serves(&self, want: &PyramidKey) -> bool {
-        (self.normals || !want.normals)
-            && Self {
-                normals: want.normals,
-                ..self.clone()
-            } == *want
-    }
-
-    /// What a frame building the pyramid under this key reads back for later frames.
-    fn keep(&self, reuse: bool) -> Keep {
-        match (reuse, self.normals) {
-            (false, _) => Keep::Nothing,
-            (true, false) => Keep::Colour,
-            (true, true) => Keep::ColourAndNormals,
-        }
-    }
-}
-
-/// What a chain reads back of the pyramid it built.
-#[derive(Clone, Copy, PartialEq, Eq)]
-enum Keep {
-    Nothing,
-    Colour,
-    ColourAndNormals,
-}
-
-/// The vct-dense pipeline over a sequence of frames. With the planner's reuse rule on, a frame whose
-/// geometry, materials, lights and voxel grid equal the last frame's and whose cones read the same
-/// pyramid levels (only the camera or the cone settings changed; a frame turning the depth-ordered
-/// blend on also needs the normal pyramid kept) skips voxelize, voxel_light and the mips and
-/// cone-traces the last frame's radiance pyramid: the same pyramid a rebuild would make, so the same
-/// image, sooner.
-pub struct VctDense {
-    pyramid: PyramidCache,
-    instances: InstanceVoxels,
-}
-
-/// The last frame's radiance pyramid and what it was built from, kept while the reuse rule is on
-/// (vct-dense and cprc).
-struct PyramidCache {
-    reuse: bool,
-    last: Option<(PyramidKey, cone_trace::Pyramids, voxelize::VoxelFrame)>,
-}
-
-impl PyramidCache {
-    fn new(reuse: bool) -> Self {
-        Self { reuse, last: None }
-    }
-
-    /// Whether the kept pyramid serves `key` (the rule on; [`PyramidKey::serves`]); if not, it is
-    /// dropped.
-    fn holds(&mut self, key: &PyramidKey) -> bool {
-        let cached = self.reuse && self.last.as_ref().is_some_and(|c| c.0.serves(key));
-        if !cached {
-            self.last = None;
-        }
-        cached
-    }
-}
-
-impl VctDense {
-    /// `reuse`: the planner's rule on (true) or every pass every frame (false).
-    pub fn new(reuse: bool) -> Self {
-        Self {
-            pyramid: PyramidCache::new(reuse),
-            instances: InstanceVoxels::default(),
-        }
-    }
-
-    /// Render one frame (see [`render`]); its plan says what was skipped and why.
-    pub fn render(
-        &mut self,
-        ctx: &crate::harness::GpuContext,
-        scene: &Scene,
-        cones: &ConeSettings,
-        progress: impl Fn(&str),
-    ) -> Result<Rendered> {
-        crate::limits::check(scene, Pipeline::VctDense, &ctx.limits())
-            .map_err(anyhow::Error::msg)?;
-        supersampled(scene, |s| {
-            Ok((self.render_samples(ctx, s, cones, &progress)?, ()))
-        })
-        .map(|(r, ())| r)
-    }
-
-    /// One frame at the scene's own resolution (`render` handles `supersample`).
-    fn render_samples(
-        &mut self,
-        ctx: &crate::harness::GpuContext,
-        scene: &Scene,
-        cones: &ConeSettings,
-        progress: impl Fn(&str),
-    ) -> Result<Rendered> {
-        refuse_ordered_instances(scene, cones)?;
-        let key = PyramidKey::reading(scene, cones);
-        let cached = self.pyramid.holds(&key);
-        let plan = Pipeline::VctDense.plan(scene, cones, cached);
-        if !scene.instances.list.is_empty() && plan.runs("voxel_light") {
-            // One voxel hierarchy per instance (CPRC 3.1), cones through all of them.
-            let data = SceneData::new(scene);
-            let mut stages = Vec::new();
-            let (gb, direct) = gbuffer_and_direct(ctx, &data, &plan, &mut stages, &progress)?;
-            let (pyramids, placed, world) =
-                self.instances
-                    .hierarchies(ctx, scene, &data, &mut stages, &progress)?;
-            let plan = plan.with_hierarchies(placed.len(), self.instances.voxelized_now);
-            progress("cone tracing");
-            let t = std::time::Instant::now();
-            let params = cone_trace::cone_params(&world, cones);
-            let case = cone_trace::instanced_case_for(
-                &data,
-                &gb,
-                &pyramids,
-                &placed,
-                &params,
-                "render".into(),
-                0,
-            );
-            return cone_pass_frame(
-                ctx,
-                &cone_trace::INSTANCED_DECL,
-                &case,
-                direct,
-                stages,
-                plan,
-                t,
-            );
-        }
-        render_frame(
-            ctx,
-            scene,
-            cones,
-            plan,
-            &mut self.pyramid.last,
-            key,
-            self.pyramid.reuse,
-            progress,
-        )
-    }
-}
-
-#[allow(clippy::too_many_arguments)]
-fn render_frame(
-    ctx: &crate::harness::GpuContext,
-    scene: &Scene,
-    cones: &ConeSettings,
-    plan: FramePlan,
-    cache: &mut Option<(PyramidKey, cone_trace::Pyramids, voxelize::VoxelFrame)>,
-    key: PyramidKey,
-    keep: bool,
-    progress: impl Fn(&str),
-) -> Result<Rendered> {
-    let data = SceneData::new(scene);
-    let mut stages = Vec::new();
-    let (gb, direct) = gbuffer_and_direct(ctx, &data, &plan, &mut stages, &progress)?;
-    if plan.runs("voxelize") && plan.runs("voxel_light") {
-        // The whole pyramid and the cone pass on the GPU in one chain.
-        let (frame, built) = chained_frame(
-            ctx,
-            scene,
-            cones,
-            key.levels,
-            &data,
-            &gb,
-            direct,
-            stages,
-            plan,
-            key.keep(keep),
-            &progress,
-        )?;
-        *cache = built.map(|(pyramid, vf)| (key, pyramid, vf));
-        return Ok(frame);
-    }
-    let levels = key.levels;
-    let (_, pyramid, frame) =
-        radiance_pyramid(ctx, scene, &data, &plan, cache, key, &mut stages, &progress)?;
-    progress("cone tracing");
-    let t = std::time::Instant::now();
-    // The cached pyramid holds at least these levels (its key says so); a pyramid built here holds
-    // all of them. Either way the cones read the same values.
-    let mut params = cone_trace::cone_params(frame, cones);
-    params.levels = levels;
-    let case = cone_trace::case_for(&data, &gb, pyramid, &params, "render".into(), 0);
-    cone_pass_frame(ctx, &cone_trace::DECL, &case, direct, stages, plan, t)
 }
 
 type Stages = Vec<(&'static str, f64)>;
-
-/// [`crate::limits::check_ordered_instances`] for the cones a frame traces.
-fn refuse_ordered_instances(scene: &Scene, cones: &ConeSettings) -> Result<()> {
-    crate::limits::check_ordered_instances(scene, cones.depth_ordered_blend)
-        .map_err(anyhow::Error::msg)
-}
-
-/// vct-dense's frame with voxelize, voxel_light, the surface-coverage mips and the cone pass as one
-/// chain on GPU-resident buffers ([`chained_pyramid`]). With `keep` other than `Nothing` (the reuse
-/// rule on) the pyramid (and with `ColourAndNormals` its normal pyramid) is read back for the next
-/// frames. Only the pyramid's first `levels` levels are built (the ones the cones can read).
-#[allow(clippy::too_many_arguments, clippy::type_complexity)]
-fn chained_frame(
-    ctx: &crate::harness::GpuContext,
-    scene: &Scene,
-    cones: &ConeSettings,
-    levels: u32,
-    data: &SceneData,
-    gb: &crate::harness::Resources,
-    direct: RgbImage,
-    mut stages: Stages,
-    plan: FramePlan,
-    keep: Keep,
-    progress: &impl Fn(&str),
-) -> Result<(
-    Rendered,
-    Option<(cone_trace::Pyramids, voxelize::VoxelFrame)>,
-)> {
-    let out = chained_pyramid(
-        ctx,
-        scene,
-        data,
-        Some((gb, cones, levels)),
-        keep,
-        &mut stages,
-        progress,
-    )?;
-    let bytes = |n: &str| &out.read[n].buffer().expect("buffer").bytes;
-    let (w, h) = (direct.width, direct.height);
-    let indirect = image_of(w, h, bytes("indirect"));
-    let ao = image_of(w, h, bytes("ao"));
-    let kept = (keep != Keep::Nothing).then(|| (out.pyramid(), out.frame));
-    let frame = Rendered::assemble(direct, indirect, ao, stages, plan)
-        .with_cone_tiles(bytemuck::cast_slice(bytes("tile_list")));
-    Ok((frame, kept))
-}
-
-/// What [`chained_pyramid`] read back, and the voxel grid's frame.
-struct ChainOut {
-    read: crate::harness::Resources,
-    frame: voxelize::VoxelFrame,
-}
-
-impl ChainOut {
-    fn pyramid(&self) -> cone_trace::Pyramids {
-        let read = |n: &str| -> Vec<[f32; 4]> {
-            bytemuck::cast_slice(&self.read[n].buffer().expect("buffer").bytes).to_vec()
-        };
-        // The normal pyramid is empty where it was not read back (no depth-ordered blend).
-        cone_trace::Pyramids {
-            colour: read("pyramid"),
-            normal: if self.read.contains_key("pyramid_normal") {
-                read("pyramid_normal")
-            } else {
-                Vec::new()
-            },
-        }
-    }
-}
-
-/// Voxelize, voxel_light and the surface-coverage mips as one chain on GPU-resident buffers
-/// (`vxgi_harness::prepare_chain`): the voxel grid, its radiance and its mips never travel through the
-/// host; the mip levels are copied into the pyramid buffer on the GPU. With `cone_pass` (a G-buffer,
-/// the cone settings and the levels its cones read: the others are not built) cone_trace follows in the same chain and its `indirect` and `ao` are read back;
-/// the pyramid is read back as `keep` says. The same kernels on the same inputs as the stage-by-
-/// stage path, so the same results. Stage times are wall clock: the upload counts to voxelize, the
-/// readback to the last stage. Needs lights (voxel_light runs).
-#[allow(clippy::too_many_arguments)]
-fn chained_pyramid(
-    ctx: &crate::harness::GpuContext,
-    scene: &Scene,
-    data: &SceneData,
-    cone_pass: Option<(&crate::harness::Resources, &ConeSettings, u32)>,
-    keep: Keep,
-    stages: &mut Stages,
-    progress: &impl Fn(&str),
-) -> Result<ChainOut> {
-    use crate::harness::prepare_chain;
-    progress("voxelize");
-    let mut t = std::time::Instant::now();
-    let built = crate::pipeline::dense_chain(ctx, scene, data, cone_pass, false)?;
-    let vframe = built.frame;
-    let chain = built.harness_stages();
-    // Without a cone pass the chain ends with the mips (stages 0-2); with one, screen_tiles and
-    // the cone pass follow (3, 4).
-    let cone_passes = built.stages.get(4).map_or(0, |s| s.passes.len());
-    let prepared = prepare_chain(ctx, &chain, &built.resources).context("voxel chain")?;
-    let mut first = 0;
-    let mut run_stage = |k: usize| -> Result<()> {
-        let n = chain[k].passes.len();
-        prepared.dispatch_steps(first..first + n)?;
-        first += n;
-        Ok(())
-    };
-    run_stage(0).context("voxelize")?;
-    stages.push(("voxelize", t.elapsed().as_secs_f64()));
-    progress("voxel light");
-    t = std::time::Instant::now();
-    run_stage(1).context("voxel light")?;
-    stages.push(("voxel_light", t.elapsed().as_secs_f64()));
-    progress("mip chain");
-    t = std::time::Instant::now();
-    run_stage(2).context("mip chain")?;
-    prepared
-        .copy_into(&built.copy_list())
-        .context("mip chain")?;
-    let mut names = Vec::new();
-    match keep {
-        Keep::Nothing => {}
-        Keep::Colour => names.push("pyramid"),
-        Keep::ColourAndNormals => names.extend(["pyramid", "pyramid_normal"]),
-    }
-    if cone_passes == 0 {
-        let read = prepared.read(&names).context("mip chain")?;
-        stages.push(("surface_coverage_mip", t.elapsed().as_secs_f64()));
-        return Ok(ChainOut {
-            read,
-            frame: vframe,
-        });
-    }
-    stages.push(("surface_coverage_mip", t.elapsed().as_secs_f64()));
-    progress("cone tracing");
-    t = std::time::Instant::now();
-    // The tile list counts to the cone pass it serves (the plan's and the bench's stage).
-    run_stage(3).context("screen tiles")?;
-    run_stage(4).context("cone tracing")?;
-    names.extend(["indirect", "ao", "tile_list"]);
-    let read = prepared.read(&names).context("cone tracing")?;
-    stages.push(("cone_trace", t.elapsed().as_secs_f64()));
-    Ok(ChainOut {
-        read,
-        frame: vframe,
-    })
-}
-
-/// The radiance pyramid of vct-dense and cprc: built (voxelize, voxel light, surface-coverage mips)
-/// where the plan runs voxelize, else the cached one.
-#[allow(clippy::too_many_arguments)]
-fn radiance_pyramid<'c>(
-    ctx: &crate::harness::GpuContext,
-    scene: &Scene,
-    data: &SceneData,
-    plan: &FramePlan,
-    cache: &'c mut Option<(PyramidKey, cone_trace::Pyramids, voxelize::VoxelFrame)>,
-    key: PyramidKey,
-    stages: &mut Stages,
-    progress: &impl Fn(&str),
-) -> Result<&'c (PyramidKey, cone_trace::Pyramids, voxelize::VoxelFrame)> {
-    if !plan.runs("voxelize") {
-        progress("radiance pyramid: reused");
-    } else if plan.runs("voxel_light") {
-        // Built on the GPU in one chain, read back once.
-        let out = chained_pyramid(ctx, scene, data, None, key.keep(true), stages, progress)?;
-        *cache = Some((key, out.pyramid(), out.frame));
-    } else {
-        let (rad, normal, _, frame) = lit_voxels(ctx, scene, data, plan, stages, progress)?;
-        progress("mip chain");
-        let t = std::time::Instant::now();
-        let pyramid = cone_trace::gpu_pyramid(ctx, &rad, &normal, frame.side)?;
-        stages.push(("surface_coverage_mip", t.elapsed().as_secs_f64()));
-        *cache = Some((key, pyramid, frame));
-    }
-    Ok(cache.as_ref().expect("built or reused above"))
-}
 
 /// The lit voxel grid `(L * alpha, alpha)` (Morton order), its normals, its frame.
 /// Lit voxels `(L * alpha, alpha)`, normals, albedo (voxelize's colour), Morton order, and the frame.
@@ -745,50 +373,6 @@ type LitVoxels = (
     Vec<[f32; 4]>,
     voxelize::VoxelFrame,
 );
-
-/// The G-buffer and, where the plan runs it, direct light (exact shadow rays): the first stages of
-/// every pipeline.
-fn gbuffer_and_direct(
-    ctx: &crate::harness::GpuContext,
-    data: &SceneData,
-    plan: &FramePlan,
-    stages: &mut Stages,
-    progress: &impl Fn(&str),
-) -> Result<(crate::harness::Resources, RgbImage)> {
-    let (w, h) = (data.width(), data.height());
-    let limit = ctx.limits().max_storage_buffer_binding_size;
-    let need = w as u64 * h as u64 * 16;
-    if need > limit {
-        anyhow::bail!(
-            "{w}x{h} needs {need} bytes per G-buffer binding, past the device's \
-             max_storage_buffer_binding_size ({limit})"
-        );
-    }
-    progress("G-buffer");
-    let t = std::time::Instant::now();
-    let gb = direct_light::gpu_gbuffer(ctx, data);
-    stages.push(("gbuffer", t.elapsed().as_secs_f64()));
-    let direct = if plan.runs("direct_light") {
-        progress("direct light");
-        let t = std::time::Instant::now();
-        let case = direct_light::case_with_gbuffer(ctx, data, &gb, "render".into(), 0);
-        let shader = direct_light::DECL.shader()?;
-        let out = crate::harness::run::run(
-            ctx,
-            &shader,
-            "direct_light",
-            &case.resources,
-            &case.passes,
-            &["radiance"],
-        )
-        .context("direct light")?;
-        stages.push(("direct_light", t.elapsed().as_secs_f64()));
-        image_of(w, h, &out.buffer("radiance").bytes)
-    } else {
-        RgbImage::new(w, h, vec![[0.0; 3]; w as usize * h as usize])
-    };
-    Ok((gb, direct))
-}
 
 /// Voxelize and light the scene: the lit voxel grid `(L * alpha, alpha)` (Morton order), its normals,
 /// albedo and its frame. Without lights (the plan skips voxel_light) the voxels keep their alpha and hold no
@@ -831,20 +415,6 @@ fn light_grid(
         crate::kernels::svo_cone_trace::coverage_only(&grid.colour)
     };
     Ok((rad, grid.normal, grid.colour, frame))
-}
-
-/// The vct-svo pipeline (Crassin et al. 2011): G-buffer and direct light as vct-dense; the lit voxels
-/// become fragments of a sparse voxel octree of depth log2(voxels) - 1 (leaf lattice = the voxel grid),
-/// built, splatted, border-transferred and filtered over its levels on the GPU (`sparse_voxel_octree`),
-/// then cone-traced through the octree (`svo_cone_trace`: cone_trace's tracer on quadrilinear brick
-/// samples). Returns the frame and the octree's memory report (its actual allocation).
-pub fn render_svo(
-    ctx: &crate::harness::GpuContext,
-    scene: &Scene,
-    cones: &ConeSettings,
-    progress: impl Fn(&str),
-) -> Result<(Rendered, crate::kernels::sparse_voxel_octree::MemoryReport)> {
-    VctSvo::new(false).render(ctx, scene, cones, progress)
 }
 
 /// The pipelines `vxgi render --pipeline` (and `vxgi bench --pipeline`) choose from.
@@ -905,6 +475,107 @@ impl Pipeline {
     }
 }
 
+/// One vct-dense frame by a fresh GPU-resident renderer ([`crate::resident::Resident`]: every
+/// stage runs, nothing is kept).
+pub fn render(
+    ctx: &crate::harness::GpuContext,
+    scene: &Scene,
+    cones: &ConeSettings,
+    _progress: impl Fn(&str),
+) -> Result<Rendered> {
+    crate::resident::Resident::new(ctx, Pipeline::VctDense)?.render(scene, cones)
+}
+
+/// One frame of `pipeline` by a fresh GPU-resident renderer, and what its volume holds.
+fn one_frame(
+    ctx: &crate::harness::GpuContext,
+    pipeline: Pipeline,
+    scene: &Scene,
+    cones: &ConeSettings,
+) -> Result<(Rendered, Option<VolumeMemory>)> {
+    let mut r = crate::resident::Resident::new(ctx, pipeline)?;
+    let frame = r.render(scene, cones)?;
+    Ok((frame, r.memory()))
+}
+
+/// One vct-svo frame (sparse voxel octree, VCT 2011) by a fresh GPU-resident renderer, and the
+/// octree's memory report (its actual allocation).
+pub fn render_svo(
+    ctx: &crate::harness::GpuContext,
+    scene: &Scene,
+    cones: &ConeSettings,
+    _progress: impl Fn(&str),
+) -> Result<(Rendered, crate::kernels::sparse_voxel_octree::MemoryReport)> {
+    match one_frame(ctx, Pipeline::VctSvo, scene, cones)? {
+        (f, Some(VolumeMemory::Octree(m))) => Ok((f, m)),
+        _ => anyhow::bail!("vct-svo's frame reports its octree"),
+    }
+}
+
+/// One lrsm frame (Sugihara et al. 2014) by a fresh GPU-resident renderer, and the bytes of each
+/// structure.
+pub fn render_lrsm(
+    ctx: &crate::harness::GpuContext,
+    scene: &Scene,
+    cones: &ConeSettings,
+    _progress: impl Fn(&str),
+) -> Result<(Rendered, LrsmMemory)> {
+    match one_frame(ctx, Pipeline::Lrsm, scene, cones)? {
+        (f, Some(VolumeMemory::Lrsm(m))) => Ok((f, m)),
+        _ => anyhow::bail!("lrsm's frame reports its structures"),
+    }
+}
+
+/// One cprc frame (Rehfeld et al. 2014) by a fresh GPU-resident renderer, and what its caches did.
+pub fn render_cprc(
+    ctx: &crate::harness::GpuContext,
+    scene: &Scene,
+    cones: &ConeSettings,
+    _progress: impl Fn(&str),
+) -> Result<(Rendered, crate::cprc::CprcStats)> {
+    match one_frame(ctx, Pipeline::Cprc, scene, cones)? {
+        (f, Some(VolumeMemory::Caches(c))) => Ok((f, c)),
+        _ => anyhow::bail!("cprc's frame reports its caches"),
+    }
+}
+
+/// Frames of any of the four pipelines by the GPU-resident renderer, with the reuse rules on (one
+/// renderer for every frame: what the last frame built serves the next where the plan says so) or
+/// off (a fresh renderer each frame: every stage runs).
+///
+/// Example: `Renderer::new(Pipeline::Cprc, true).render(&ctx, &scene, &cones, |_| {})`.
+pub struct Renderer<'c> {
+    pipeline: Pipeline,
+    reuse: bool,
+    resident: Option<crate::resident::Resident<'c>>,
+}
+
+impl<'c> Renderer<'c> {
+    pub fn new(pipeline: Pipeline, reuse: bool) -> Self {
+        Self {
+            pipeline,
+            reuse,
+            resident: None,
+        }
+    }
+
+    /// One frame, and what its volume holds (vct-svo, lrsm, cprc).
+    pub fn render(
+        &mut self,
+        ctx: &'c crate::harness::GpuContext,
+        scene: &Scene,
+        cones: &ConeSettings,
+        _progress: impl Fn(&str),
+    ) -> Result<(Rendered, Option<VolumeMemory>)> {
+        if !self.reuse || self.resident.is_none() {
+            self.resident = Some(crate::resident::Resident::new(ctx, self.pipeline)?);
+        }
+        let r = self.resident.as_mut().expect("made above");
+        let frame = r.render(scene, cones)?;
+        Ok((frame, r.memory()))
+    }
+}
+
 /// What a frame's volume holds, for the pipelines that report it.
 #[derive(Clone, Debug)]
 pub enum VolumeMemory {
@@ -914,67 +585,27 @@ pub enum VolumeMemory {
     Caches(crate::cprc::CprcStats),
 }
 
-/// Frames of any of the four pipelines (staged), with the planner's reuse rule on or off.
-///
-/// Example: `Renderer::new(Pipeline::Cprc, true).render(&ctx, &scene, &cones, |_| {})` draws a frame
-/// and keeps what the next frame may reuse; tests/render.rs and `vxgi render` use it this way.
-pub enum Renderer {
-    Dense(VctDense),
-    Svo(VctSvo),
-    Lrsm(VctLrsm),
-    Cprc(VctCprc),
-}
-
-impl Renderer {
-    pub fn new(pipeline: Pipeline, reuse: bool) -> Self {
-        match pipeline {
-            Pipeline::VctDense => Renderer::Dense(VctDense::new(reuse)),
-            Pipeline::VctSvo => Renderer::Svo(VctSvo::new(reuse)),
-            Pipeline::Lrsm => Renderer::Lrsm(VctLrsm::new(reuse)),
-            Pipeline::Cprc => Renderer::Cprc(VctCprc::new(reuse)),
-        }
-    }
-
-    /// One frame, and for vct-svo and lrsm what their volume holds.
-    pub fn render(
-        &mut self,
-        ctx: &crate::harness::GpuContext,
-        scene: &Scene,
-        cones: &ConeSettings,
-        progress: impl Fn(&str),
-    ) -> Result<(Rendered, Option<VolumeMemory>)> {
-        match self {
-            Renderer::Dense(r) => Ok((r.render(ctx, scene, cones, progress)?, None)),
-            Renderer::Svo(r) => r
-                .render(ctx, scene, cones, progress)
-                .map(|(f, m)| (f, Some(VolumeMemory::Octree(m)))),
-            Renderer::Lrsm(r) => r
-                .render(ctx, scene, cones, progress)
-                .map(|(f, m)| (f, Some(VolumeMemory::Lrsm(m)))),
-            Renderer::Cprc(r) => r
-                .render(ctx, scene, cones, progress)
-                .map(|(f, m)| (f, Some(VolumeMemory::Caches(m)))),
-        }
-    }
-}
-
-/// The vct-svo pipeline over a sequence of frames, with vct-dense's reuse rule: a frame whose geometry,
-/// materials, lights and voxel grid equal the last frame's skips voxelize, voxel_light and the octree
-/// and cone-traces the last frame's octree (the same octree a rebuild would make: the same image).
+/// vct-svo's octree builder, stage by stage on the GPU with host steps between its passes (the
+/// resident renderer's, when it builds its chain): the octree, its directional values and pools
+/// for a scene, kept while the scene's geometry, materials, lights and settings are unchanged
+/// (the same octree a rebuild would make); with dynamic instances the static part's voxels and
+/// subdivisions kept across frames ([`StaticVoxels`]).
 pub struct VctSvo {
-    reuse: bool,
     /// Replay the static part's recorded octree structure (scenes with dynamic instances; default on).
     replay: bool,
     /// The last octree and what it was built for.
     cache: Option<SvoCache>,
     statics: StaticVoxels,
+    /// The plan of the frame that built the last octree, with what the build found (the static
+    /// part kept, its subdivisions replayed).
+    built_plan: Option<FramePlan>,
 }
 
 /// What vct-svo's octree depends on ([`VctSvo::key`]).
 type SvoKey = (PyramidKey, u32, bool, bool, u32);
 
 /// vct-svo's octree as the cone pass reads it, and the key it was built for.
-pub(crate) struct SvoCache {
+pub struct SvoCache {
     key: SvoKey,
     pub built: crate::kernels::sparse_voxel_octree::GpuOctree,
     pub frame: voxelize::VoxelFrame,
@@ -1146,14 +777,20 @@ impl StaticVoxels {
     }
 }
 
+impl Default for VctSvo {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
 impl VctSvo {
-    /// `reuse`: the planner's rule on (true) or every pass every frame (false).
-    pub fn new(reuse: bool) -> Self {
+    /// The octree builder, nothing built yet.
+    pub fn new() -> Self {
         Self {
-            reuse,
             replay: true,
             cache: None,
             statics: StaticVoxels::default(),
+            built_plan: None,
         }
     }
 
@@ -1162,66 +799,6 @@ impl VctSvo {
     pub fn without_static_replay(mut self) -> Self {
         self.replay = false;
         self
-    }
-
-    /// Render one frame (see [`render_svo`]); its plan says what was skipped and why.
-    pub fn render(
-        &mut self,
-        ctx: &crate::harness::GpuContext,
-        scene: &Scene,
-        cones: &ConeSettings,
-        progress: impl Fn(&str),
-    ) -> Result<(Rendered, crate::kernels::sparse_voxel_octree::MemoryReport)> {
-        crate::limits::check(scene, Pipeline::VctSvo, &ctx.limits()).map_err(anyhow::Error::msg)?;
-        supersampled(scene, |s| self.render_samples(ctx, s, cones, &progress))
-    }
-
-    /// One frame at the scene's own resolution (`render` handles `supersample`).
-    fn render_samples(
-        &mut self,
-        ctx: &crate::harness::GpuContext,
-        scene: &Scene,
-        cones: &ConeSettings,
-        progress: impl Fn(&str),
-    ) -> Result<(Rendered, crate::kernels::sparse_voxel_octree::MemoryReport)> {
-        use crate::kernels::svo_cone_trace;
-        let key = Self::key(scene);
-        let cached = self.reuse && self.cache.as_ref().is_some_and(|c| c.key == key);
-        let mut plan = Pipeline::VctSvo.plan(scene, cones, cached);
-        let data = SceneData::new(scene);
-        let mut stages = Vec::new();
-        let (gb, direct) = gbuffer_and_direct(ctx, &data, &plan, &mut stages, &progress)?;
-        if cached {
-            progress("octree: reused");
-        } else {
-            self.build_volume(
-                ctx,
-                scene,
-                cones,
-                &data,
-                key,
-                &mut plan,
-                &mut stages,
-                &progress,
-            )?;
-        }
-        let c = self.cache.as_ref().expect("built or reused above");
-        let memory = c.memory();
-        progress("cone tracing");
-        let t = std::time::Instant::now();
-        let params = svo_cone_trace::svo_cone_params(&c.frame, cones);
-        let case = svo_cone_trace::case_for(
-            &data,
-            &gb,
-            &c.built.octree,
-            c.extras(),
-            c.scale,
-            &params,
-            "render".into(),
-            0,
-        );
-        let frame = cone_pass_frame(ctx, &svo_cone_trace::DECL, &case, direct, stages, plan, t)?;
-        Ok((frame, memory))
     }
 
     /// The octree (and its directional values and pools) `scene` and `cones` need, built on the GPU
@@ -1388,7 +965,7 @@ impl VctSvo {
     /// The octree for `scene`'s frames (built now unless the last one serves): what a GPU-resident
     /// frame's cone pass binds, and the wall clock of each stage that built it (none if kept). The
     /// caller has checked `scene` against the device's limits (`limits::check`, as `render` does).
-    pub(crate) fn volume(
+    pub fn volume(
         &mut self,
         ctx: &crate::harness::GpuContext,
         scene: &Scene,
@@ -1409,8 +986,15 @@ impl VctSvo {
                 &mut stages,
                 &|_| {},
             )?;
+            self.built_plan = Some(plan);
         }
         Ok((self.cache.as_ref().expect("built above"), stages))
+    }
+
+    /// The plan of the frame that built the last octree ([`VctSvo::volume`]), its volume stages
+    /// annotated with what the build did.
+    pub fn built_plan(&self) -> Option<&FramePlan> {
+        self.built_plan.as_ref()
     }
 
     /// What the octree depends on: the pyramid key, photon_map, anisotropic_voxels, voxel_lobes and
@@ -1424,197 +1008,6 @@ impl VctSvo {
             r.voxel_lobes,
             r.bounces,
         )
-    }
-}
-
-/// The lrsm pipeline (Sugihara et al. 2014): G-buffer and direct light as vct-dense; voxelize into
-/// binary occlusion voxels and their mips (`occlusion_voxels`); per light view (a spot's cone, a point
-/// light's six cube faces) an RSM ray-cast from the light (`gbuffer` + `reflective_shadow_map`), split
-/// into depth x <n.l> layers (`lrsm_partition`) and pre-filtered (`lrsm_prefilter`); then the gather
-/// (`lrsm_cone_trace`). Returns the frame and the bytes of each structure.
-pub fn render_lrsm(
-    ctx: &crate::harness::GpuContext,
-    scene: &Scene,
-    cones: &ConeSettings,
-    progress: impl Fn(&str),
-) -> Result<(Rendered, LrsmMemory)> {
-    VctLrsm::new(false).render(ctx, scene, cones, progress)
-}
-
-/// The lrsm pipeline over a sequence of frames, with the reuse rule of the others: a frame whose
-/// geometry, materials, lights and voxel grid equal the last frame's reuses its occlusion voxels and
-/// LRSMs (the same ones a rebuild would make).
-pub struct VctLrsm {
-    reuse: bool,
-    cache: Option<(PyramidKey, LrsmSettings, LrsmFrame)>,
-}
-
-impl VctLrsm {
-    pub fn new(reuse: bool) -> Self {
-        Self { reuse, cache: None }
-    }
-
-    pub fn render(
-        &mut self,
-        ctx: &crate::harness::GpuContext,
-        scene: &Scene,
-        cones: &ConeSettings,
-        progress: impl Fn(&str),
-    ) -> Result<(Rendered, LrsmMemory)> {
-        crate::limits::check(scene, Pipeline::Lrsm, &ctx.limits()).map_err(anyhow::Error::msg)?;
-        supersampled(scene, |s| self.render_samples(ctx, s, cones, &progress))
-    }
-
-    /// One frame at the scene's own resolution (`render` handles `supersample`).
-    fn render_samples(
-        &mut self,
-        ctx: &crate::harness::GpuContext,
-        scene: &Scene,
-        cones: &ConeSettings,
-        progress: impl Fn(&str),
-    ) -> Result<(Rendered, LrsmMemory)> {
-        let key = PyramidKey::of(scene);
-        let settings = LrsmSettings::from(&scene.render);
-        let cached = self.reuse
-            && self
-                .cache
-                .as_ref()
-                .is_some_and(|c| c.0 == key && c.1 == settings);
-        let plan = Pipeline::Lrsm.plan(scene, cones, cached);
-        let data = SceneData::new(scene);
-        let mut stages = Vec::new();
-        let (gb, direct) = gbuffer_and_direct(ctx, &data, &plan, &mut stages, &progress)?;
-        if cached {
-            progress("occlusion voxels and LRSMs: reused");
-        } else {
-            self.cache = None;
-            let built = LrsmFrame::build(
-                ctx,
-                scene,
-                &data,
-                scene.render.voxels,
-                &settings,
-                &progress,
-                &mut stages,
-            )?;
-            self.cache = Some((key, settings, built));
-        }
-        let (_, _, built) = self.cache.as_ref().expect("built or reused above");
-        progress("cone tracing");
-        let t = std::time::Instant::now();
-        let params = cone_trace::cone_params(&built.voxels, cones);
-        let tan = settings.shadow_cone_angle.to_radians().tan();
-        let case = lrsm_cone_trace::case_for(&data, &gb, built, &params, tan, "render".into(), 0);
-        let frame = cone_pass_frame(ctx, &lrsm_cone_trace::DECL, &case, direct, stages, plan, t)?;
-        Ok((frame, built.memory))
-    }
-}
-
-/// The cprc pipeline (Rehfeld et al. 2014, see [`crate::cprc`]): one frame, nothing kept.
-pub fn render_cprc(
-    ctx: &crate::harness::GpuContext,
-    scene: &Scene,
-    cones: &ConeSettings,
-    progress: impl Fn(&str),
-) -> Result<(Rendered, crate::cprc::CprcStats)> {
-    VctCprc::new(false).render(ctx, scene, cones, progress)
-}
-
-/// The cprc pipeline over a sequence of frames, with vct-dense's reuse rule for the radiance pyramid
-/// (the caches follow the view and are rebuilt every frame).
-pub struct VctCprc {
-    pyramid: PyramidCache,
-    instances: InstanceVoxels,
-}
-
-/// The per-instance voxel hierarchies of a scene with `[[instances]]` (CPRC 3.1), kept across frames.
-#[derive(Default)]
-struct InstanceVoxels {
-    /// Voxelizations in their own frames (an instance's mesh and grid side are its key): (local
-    /// mesh, side, grid, list, frame).
-    voxelized: Vec<(
-        crate::scene::Mesh,
-        u32,
-        crate::grids::Grid,
-        Vec<u32>,
-        voxelize::VoxelFrame,
-    )>,
-    /// How many hierarchies the last frame voxelized (the rest were kept).
-    voxelized_now: usize,
-}
-
-impl InstanceVoxels {
-    /// The scene's voxel hierarchies for this frame: `[mesh]` (in place) and every instance (placed
-    /// by its transform at the scene's frame), each voxelized once in its own frame at the world
-    /// voxel size (grid side the power of two that covers it, 8 to `voxels`), re-lit where it stands
-    /// (voxel_light with the placement: shadows from the whole scene as it is now), its mips built;
-    /// the pyramids concatenated.
-    fn hierarchies(
-        &mut self,
-        ctx: &crate::harness::GpuContext,
-        scene: &Scene,
-        data: &SceneData,
-        stages: &mut Stages,
-        progress: &impl Fn(&str),
-    ) -> Result<Hierarchies> {
-        use vxgi_cpu_mirror::cache_creation::Placed;
-        let (world, parts) = hierarchy_parts(scene);
-        let (mut vox_t, mut light_t, mut mip_t) = (0.0, 0.0, 0.0);
-        self.voxelized_now = 0;
-        let mut pyramids = Vec::new();
-        let mut placed = Vec::new();
-        for (mesh, side, m) in parts {
-            progress("voxelize (per instance, once)");
-            let t = std::time::Instant::now();
-            let k = match self
-                .voxelized
-                .iter()
-                .position(|v| v.0 == mesh && v.1 == side)
-            {
-                Some(k) => k,
-                None => {
-                    let local = scene.with_mesh_alone(mesh.clone());
-                    let (grid, list, frame) = voxelize::voxelize_on_gpu(ctx, &local, side)?;
-                    self.voxelized.push((mesh, side, grid, list, frame));
-                    self.voxelized_now += 1;
-                    self.voxelized.len() - 1
-                }
-            };
-            vox_t += t.elapsed().as_secs_f64();
-            let (_, _, grid, list, frame) = &self.voxelized[k];
-            progress("voxel light (placed)");
-            let t = std::time::Instant::now();
-            let rad = voxel_light::light_placed_on_gpu(ctx, data, grid, list, frame, m)
-                .context("voxel light")?;
-            light_t += t.elapsed().as_secs_f64();
-            let t = std::time::Instant::now();
-            let pyr = cone_trace::gpu_pyramid(ctx, &rad, &grid.normal, frame.side)?;
-            mip_t += t.elapsed().as_secs_f64();
-            placed.push(Placed::new(
-                frame.origin.to_array(),
-                frame.voxel,
-                frame.side,
-                pyramids.len() as u32,
-                m,
-                world.voxel,
-            ));
-            pyramids.extend(pyr.colour);
-        }
-        let limit = ctx.limits().max_storage_buffer_binding_size;
-        if pyramids.len() as u64 * 16 > limit {
-            anyhow::bail!(
-                "the {} voxel hierarchies need {} bytes in one binding, past the device's \
-                 max_storage_buffer_binding_size ({limit}): lower voxels",
-                placed.len(),
-                pyramids.len() * 16
-            );
-        }
-        if self.voxelized_now > 0 {
-            stages.push(("voxelize", vox_t));
-        }
-        stages.push(("voxel_light", light_t));
-        stages.push(("surface_coverage_mip", mip_t));
-        Ok((pyramids, placed, world))
     }
 }
 
@@ -1656,175 +1049,6 @@ pub(crate) fn hierarchy_parts(
         })
         .collect();
     (world, parts)
-}
-
-/// A hierarchy's pyramids concatenated, where each is placed, and the march's world grid.
-type Hierarchies = (
-    Vec<[f32; 4]>,
-    Vec<vxgi_cpu_mirror::cache_creation::Placed>,
-    voxelize::VoxelFrame,
-);
-
-impl VctCprc {
-    pub fn new(reuse: bool) -> Self {
-        Self {
-            pyramid: PyramidCache::new(reuse),
-            instances: InstanceVoxels::default(),
-        }
-    }
-
-    pub fn render(
-        &mut self,
-        ctx: &crate::harness::GpuContext,
-        scene: &Scene,
-        cones: &ConeSettings,
-        progress: impl Fn(&str),
-    ) -> Result<(Rendered, crate::cprc::CprcStats)> {
-        crate::limits::check(scene, Pipeline::Cprc, &ctx.limits()).map_err(anyhow::Error::msg)?;
-        supersampled(scene, |s| self.render_samples(ctx, s, cones, &progress))
-    }
-
-    /// One frame at the scene's own resolution (`render` handles `supersample`).
-    fn render_samples(
-        &mut self,
-        ctx: &crate::harness::GpuContext,
-        scene: &Scene,
-        cones: &ConeSettings,
-        progress: impl Fn(&str),
-    ) -> Result<(Rendered, crate::cprc::CprcStats)> {
-        use crate::cprc;
-        let key = PyramidKey {
-            normals: cones.depth_ordered_blend,
-            ..PyramidKey::of(scene)
-        };
-        let cached = self.pyramid.holds(&key);
-        let settings = cprc::CprcSettings::from(&scene.render);
-        let plan = Pipeline::Cprc.plan(scene, cones, cached);
-        let data = SceneData::new(scene);
-        let mut stages = Vec::new();
-        let (gb, direct) = gbuffer_and_direct(ctx, &data, &plan, &mut stages, &progress)?;
-        let (pos, nrm, tri, alb) = cprc::gbuffer_arrays(&gb);
-        let px = cprc::pixel_inputs(&data, &pos, &nrm, &tri, &alb, settings.res);
-        if !plan.runs("gather_caches") {
-            // No lights: indirect is 0 (the plan says why); the AO image as cprc's always is.
-            let empty = cprc::gather_data(&px, &cprc::CacheSet::empty(), &settings, vec![], vec![]);
-            let n = px.positions.len();
-            let zeros = vec![[0.0f32; 4]; n];
-            let (indirect, ao, stats) = cprc::compose(&px, &(zeros.clone(), zeros, empty));
-            return Ok((
-                Rendered::assemble(direct, indirect, ao, stages, plan),
-                stats,
-            ));
-        }
-        // With [[instances]]: one voxel hierarchy per instance (and one for [mesh]), voxelized once
-        // in its own frame and re-lit where it stands every frame (CPRC 3.1); else the one pyramid.
-        refuse_ordered_instances(scene, cones)?;
-        let instanced = if scene.instances.list.is_empty() {
-            None
-        } else {
-            Some(
-                self.instances
-                    .hierarchies(ctx, scene, &data, &mut stages, &progress)?,
-            )
-        };
-        let (volume, params) = match &instanced {
-            Some((pyramids, placed, world)) => (
-                cprc::CacheVolume::Placed(pyramids, placed),
-                cone_trace::cone_params(world, cones),
-            ),
-            None => {
-                let (_, pyramid, frame) = radiance_pyramid(
-                    ctx,
-                    scene,
-                    &data,
-                    &plan,
-                    &mut self.pyramid.last,
-                    key,
-                    &mut stages,
-                    &progress,
-                )?;
-                (
-                    cprc::CacheVolume::One(pyramid),
-                    cone_trace::cone_params(frame, cones),
-                )
-            }
-        };
-        let plan = match &instanced {
-            Some((_, placed, _)) => {
-                plan.with_hierarchies(placed.len(), self.instances.voxelized_now)
-            }
-            None => plan,
-        };
-        progress("cache distribution");
-        let t = std::time::Instant::now();
-        let offset = params.offset_voxels * params.origin[3];
-        let set = cprc::distribute_gpu(ctx, &px, &settings, offset)?;
-        stages.push(("cache_distribution", t.elapsed().as_secs_f64()));
-        let count = set.caches.pos.len() as u64;
-        let need = count * (settings.res * settings.res) as u64 * 16;
-        let limit = ctx.limits().max_storage_buffer_binding_size;
-        if need > limit {
-            anyhow::bail!(
-                "{count} caches of {r}^2 texels need {need} bytes in one binding, past the device's \
-                 max_storage_buffer_binding_size ({limit}): lower cache_resolution or raise cache_tile",
-                r = settings.res
-            );
-        }
-        let gathered = cprc::evaluate_gpu(
-            ctx,
-            &px,
-            &set,
-            &settings,
-            volume,
-            &params,
-            &mut stages,
-            &progress,
-        )?;
-        let (indirect, ao, stats) = cprc::compose(&px, &gathered);
-        Ok((
-            Rendered::assemble(direct, indirect, ao, stages, plan),
-            stats,
-        ))
-    }
-}
-
-/// Run a cone pass (`decl`: a kernel on common/cone_march.wgsl, `case` from its case_for, started at
-/// `started`) and assemble the frame: indirect and AO from it, combined = direct + indirect. A case
-/// with lrsm's shadow-cone pass replaces `direct` (the plan skipped direct_light) by its soft direct
-/// light.
-fn cone_pass_frame(
-    ctx: &crate::harness::GpuContext,
-    decl: &'static crate::harness::KernelDecl,
-    case: &crate::harness::Case,
-    direct: RgbImage,
-    mut stages: Stages,
-    plan: FramePlan,
-    started: std::time::Instant,
-) -> Result<Rendered> {
-    let (w, h) = (direct.width, direct.height);
-    // A case with lrsm's shadow-cone pass also returns its soft direct light.
-    let soft = case.checks.iter().any(|c| c.resource == "soft_direct");
-    let mut names = vec!["indirect", "ao"];
-    if soft {
-        names.push("soft_direct");
-    }
-    let out = decl.run(ctx, case, &names).context("cone tracing")?;
-    let indirect = image_of(w, h, &out.buffer("indirect").bytes);
-    let ao = image_of(w, h, &out.buffer("ao").bytes);
-    let direct = if soft {
-        image_of(w, h, &out.buffer("soft_direct").bytes)
-    } else {
-        direct
-    };
-    // The instanced cone pass is the frame's cone_trace stage (the plan's and the bench's name).
-    let stage = if decl.name == cone_trace::INSTANCED_DECL.name {
-        cone_trace::DECL.name
-    } else {
-        decl.name
-    };
-    stages.push((stage, started.elapsed().as_secs_f64()));
-    let tiles = case.resources["tile_list"].buffer().expect("tile_list");
-    Ok(Rendered::assemble(direct, indirect, ao, stages, plan).with_cone_tiles(tiles.as_u32()))
 }
 
 pub(crate) fn image_of(w: u32, h: u32, bytes: &[u8]) -> RgbImage {

@@ -2,15 +2,11 @@
 //! bind groups on the GPU across frames and records each frame into one command encoder and one
 //! submission, reading back only the images it returns.
 //!
-//! [`Resident`] draws every pipeline's frames from its chain ([`crate::pipeline`]): the same kernels on
-//! the same inputs as the stage-by-stage renderers ([`crate::render::VctDense`],
-//! [`crate::render::VctSvo`], [`crate::render::VctLrsm`]), so the same images; cprc's chain runs on
-//! the GPU what [`crate::render::VctCprc`] computes between its chains by the kernels' mirrors (the
-//! per-pixel inputs, the cache records, the composed images), so its images agree within the
-//! mirrors' bounds (bit for bit on lavapipe), and its cache stages are dispatched from the cache
+//! [`Resident`] draws every pipeline's frames from its chain ([`crate::pipeline`]), the verified
+//! kernels on the inputs their cases define; cprc's cache stages are dispatched from the cache
 //! count the GPU found, in buffers sized for the most caches a frame can place
 //! (`crate::pipeline::cache_room`). vct-svo's octree is
-//! built by the staged passes when the chain is built (their host steps between passes run then,
+//! built by its staged passes ([`crate::render::VctSvo`]) when the chain is built (their host steps between passes run then,
 //! once); its chain is the camera's stages over it. A chain is prepared once by the harness
 //! (`prepare_chain`: every resource checked against reflection and the device limits, then created
 //! and uploaded). A frame whose geometry, materials, lights and settings equal the last one's (the
@@ -345,11 +341,11 @@ impl<'c> Resident<'c> {
     ];
 
     /// A renderer of `pipeline`'s frames on `ctx`; refused for a pipeline without resident frames
-    /// ([`Resident::PIPELINES`]; the others run stage by stage, [`crate::render::Renderer`]).
+    /// ([`Resident::PIPELINES`]).
     pub fn new(ctx: &'c GpuContext, pipeline: Pipeline) -> Result<Self> {
         anyhow::ensure!(
             Self::PIPELINES.contains(&pipeline),
-            "{} has no GPU-resident frames yet (those are {}); vxgi::render::Renderer draws it stage by stage",
+            "{} has no GPU-resident frames (those are {})",
             pipeline.name(),
             Self::PIPELINES.map(|p| p.name()).join(", ")
         );
@@ -360,7 +356,7 @@ impl<'c> Resident<'c> {
             caches: None,
             rebuilt: None,
             kept_volume: false,
-            svo: crate::render::VctSvo::new(false),
+            svo: crate::render::VctSvo::new(),
         })
     }
 
@@ -740,6 +736,13 @@ impl<'c> Resident<'c> {
                 }
                 plan
             }
+            // The frame that built the octree: the build's own notes (static part kept, its
+            // subdivisions replayed).
+            Pipeline::VctSvo if !reuse && !b.build_stages.is_empty() => self
+                .svo
+                .built_plan()
+                .cloned()
+                .unwrap_or_else(|| Pipeline::VctSvo.plan(scene, cones, cached)),
             p => p.plan(scene, cones, cached),
         };
         match &b.hierarchies {

@@ -25,11 +25,11 @@ fn assert_reused_frame(at: &str, c: &vxgi::harness::Counters) {
     assert!(c.upload_bytes <= 64 << 10, "{at}: {c:?}");
 }
 
-/// Combined FLIP of a resident frame against the staged renderer's frame of the same view.
-fn staged_vs_resident(want: &vxgi::render::Rendered, got: &vxgi::render::Rendered) -> f32 {
+/// Combined FLIP of a resident frame against a fresh renderer's frame of the same view.
+fn fresh_vs_resident(want: &vxgi::render::Rendered, got: &vxgi::render::Rendered) -> f32 {
     compare(
         &want.combined,
-        Path::new("staged"),
+        Path::new("fresh"),
         &got.combined,
         Path::new("resident"),
     )
@@ -687,12 +687,12 @@ fn bench_quick_writes_csv_table_and_plot() {
 
 /// The planner's reuse rule: a second frame with only the camera moved skips voxelize, voxel_light and
 /// the mips and equals, bit for bit, a frame that rebuilds everything (the stated bound for the skipped
-/// passes is 0); a moved light, a changed material or another grid size rebuilds, and with the rule
-/// off nothing is reused.
+/// passes is 0); a moved light re-lights the kept voxels (the image a fresh renderer draws), a
+/// changed material or another grid size rebuilds, and with the rule off nothing is reused.
 #[test]
 fn reuse_rule_skips_the_pyramid_only_when_the_scene_is_unchanged() {
     use vxgi::kernels::cone_trace::ConeSettings;
-    use vxgi::render::VctDense;
+    use vxgi::render::{Pipeline, Renderer};
     use vxgi::scene::Light;
     let mut scene = small(Scene::cornell_box(), 32, 32);
     scene.render.voxels = 32;
@@ -701,10 +701,10 @@ fn reuse_rule_skips_the_pyramid_only_when_the_scene_is_unchanged() {
     assert_ne!(second.camera.eye, scene.camera.eye);
     let pyramid = ["voxelize", "voxel_light", "surface_coverage_mip"];
 
-    let mut r = VctDense::new(true);
-    let first = r.render(gpu(), &scene, &cones, |_| {}).unwrap();
+    let mut r = Renderer::new(Pipeline::VctDense, true);
+    let first = r.render(gpu(), &scene, &cones, |_| {}).unwrap().0;
     assert!(pyramid.iter().all(|s| first.plan.runs(s)));
-    let reused = r.render(gpu(), &second, &cones, |_| {}).unwrap();
+    let reused = r.render(gpu(), &second, &cones, |_| {}).unwrap().0;
     for stage in pyramid {
         assert!(!reused.plan.runs(stage), "{stage} ran");
         assert!(reused.stages.iter().all(|s| s.0 != stage), "{stage} timed");
@@ -721,16 +721,16 @@ fn reuse_rule_skips_the_pyramid_only_when_the_scene_is_unchanged() {
     if let Light::Point { position, .. } = &mut moved.lights[0] {
         position[0] += 0.1;
     }
-    assert!(r
-        .render(gpu(), &moved, &cones, |_| {})
-        .unwrap()
-        .plan
-        .runs("voxelize"));
+    let relit = r.render(gpu(), &moved, &cones, |_| {}).unwrap().0;
+    assert!(relit.plan.runs("voxel_light") && !relit.plan.runs("voxelize"));
+    let fresh = vxgi::render::render(gpu(), &moved, &cones, |_| {}).unwrap();
+    assert_eq!(relit.combined.pixels, fresh.combined.pixels);
     let mut recoloured = moved.clone();
     recoloured.materials[0].diffuse[0] *= 0.5;
     assert!(r
         .render(gpu(), &recoloured, &cones, |_| {})
         .unwrap()
+        .0
         .plan
         .runs("voxelize"));
     let mut finer = recoloured.clone();
@@ -738,25 +738,26 @@ fn reuse_rule_skips_the_pyramid_only_when_the_scene_is_unchanged() {
     assert!(r
         .render(gpu(), &finer, &cones, |_| {})
         .unwrap()
+        .0
         .plan
         .runs("voxelize"));
 
-    let mut off = VctDense::new(false);
+    let mut off = Renderer::new(Pipeline::VctDense, false);
     off.render(gpu(), &scene, &cones, |_| {}).unwrap();
     assert!(off
         .render(gpu(), &second, &cones, |_| {})
         .unwrap()
+        .0
         .plan
         .runs("voxelize"));
 }
 
-/// The kept pyramid holds the normal pyramid only where the depth-ordered blend reads it (else it is
-/// not read back: 38 MB at 128^3): a frame that turns the blend on rebuilds, one that turns it off
-/// reuses; either way the image is a fresh frame's, bit for bit.
+/// A frame whose cone settings changed (the depth-ordered blend on, then off again) gives a fresh
+/// renderer's image bit for bit, and its plan says the frame's resources were made again.
 #[test]
-fn the_kept_pyramid_holds_normals_only_for_the_depth_ordered_blend() {
+fn cone_setting_changes_give_a_fresh_frames_image() {
     use vxgi::kernels::cone_trace::ConeSettings;
-    use vxgi::render::VctDense;
+    use vxgi::render::{Pipeline, Renderer};
     let mut scene = small(Scene::cornell_box(), 32, 32);
     scene.render.voxels = 32;
     let plain = ConeSettings::from(&scene.render);
@@ -770,17 +771,13 @@ fn the_kept_pyramid_holds_normals_only_for_the_depth_ordered_blend() {
             .combined
             .pixels
     };
-    let mut r = VctDense::new(true);
+    let mut r = Renderer::new(Pipeline::VctDense, true);
     r.render(gpu(), &scene, &plain, |_| {}).unwrap();
-    let on = r.render(gpu(), &scene, &ordered, |_| {}).unwrap();
-    assert!(on.plan.runs("voxelize"), "no normals kept: rebuilt");
-    assert_eq!(on.combined.pixels, fresh(&ordered));
-    let off = r.render(gpu(), &scene, &plain, |_| {}).unwrap();
-    assert!(
-        !off.plan.runs("voxelize"),
-        "normals kept serve a frame without them"
-    );
-    assert_eq!(off.combined.pixels, fresh(&plain));
+    for cones in [&ordered, &plain] {
+        let f = r.render(gpu(), &scene, cones, |_| {}).unwrap().0;
+        assert!(f.plan.to_string().contains("made again"), "{}", f.plan);
+        assert_eq!(f.combined.pixels, fresh(cones));
+    }
 }
 
 /// `vxgi render --frames N --orbit DEG`: a camera path, one folder per frame; frames after the first
@@ -838,7 +835,10 @@ fn frame_plan_follows_the_scene() {
     assert!(r.direct.pixels.iter().all(|p| *p == [0.0; 3]));
     assert!(r.indirect.pixels.iter().all(|p| *p == [0.0; 3]));
     assert!(r.ao.pixels.iter().any(|p| p[0] > 0.0));
-    assert!(!r.stages.iter().any(|s| s.0 == "direct_light"));
+    // The resident chain runs its passes (their output is 0); the frame's plan says so.
+    for (stage, _) in &r.stages {
+        assert!(r.plan.runs(stage), "{stage} ran, the plan skips it");
+    }
 }
 
 /// The API for another renderer: the scene uploaded once, the G-buffer and direct passes recorded into
@@ -877,7 +877,7 @@ fn direct_renderer_writes_into_caller_owned_buffers() {
 }
 
 /// `vxgi render --pipeline cprc` on a tobj scene file: four images, the cache count printed (the
-/// resident frame keeps its caches on the GPU: coverage is the staged renderer's measure), every
+/// resident frame keeps its caches on the GPU: coverage is the stage-by-stage frame's measure), every
 /// stage timed; a cache resolution that is not a power of two is
 /// refused with the key's name.
 #[test]
@@ -1224,8 +1224,8 @@ fn sponza_renders_with_every_pipeline() {
     }
 }
 
-/// GPU-resident frames (`vxgi::resident::Resident`) over a camera orbit: the same images as the
-/// staged renderers' bit for bit (the same kernels on the same inputs): vct-dense with interleaved
+/// GPU-resident frames (`vxgi::resident::Resident`) over a camera orbit: a renderer that keeps its
+/// chain draws the images a fresh renderer draws for each frame, bit for bit: vct-dense with interleaved
 /// cone sets and the depth-ordered blend too, lrsm with exact shadow rays and with shadow cones and
 /// surface-coverage occlusion, vct-svo over the octree its first frame built (with anisotropic
 /// voxels on thin_wall), on the Cornell box (a point light: six light views) and thin_wall;
@@ -1298,13 +1298,13 @@ fn resident_frames_equal_the_staged_ones_in_one_submission() {
         scene.render.voxels = 32;
         set(&mut scene);
         let cones = ConeSettings::from(&scene.render);
-        let mut staged = Renderer::new(pipeline, true);
+        let mut fresh = Renderer::new(pipeline, false);
         let mut resident = Resident::new(gpu(), pipeline).unwrap();
         for k in 0..3u32 {
             // Far enough round that some tiles leave the box: the tile list and the partly written
             // outputs must start each frame fresh.
             let view = scene.orbited(25.0 * k as f32);
-            let (want, _) = staged.render(gpu(), &view, &cones, |_| {}).unwrap();
+            let (want, _) = fresh.render(gpu(), &view, &cones, |_| {}).unwrap();
             let before = vxgi::harness::thread_counters();
             let got = resident.render(&view, &cones).unwrap();
             let c = vxgi::harness::thread_counters().since(&before);
@@ -1335,10 +1335,8 @@ fn resident_frames_equal_the_staged_ones_in_one_submission() {
 /// cprc's resident frames: the distribution, the cache records, creation and pre-convolution
 /// (dispatched from the GPU's cache count) and the gather in the one submission, over three orbit
 /// frames of the Cornell box and the glossy thin wall (mip chains built): after the first frame
-/// nothing is created or read back, and the images are the staged renderer's within float rounding
-/// (the staged one computes the pixel inputs and cache records by the kernels' mirrors on the host:
-/// normalisations and dot products differ by ULPs, which moves cache origins and gather directions
-/// by as much; on lavapipe they are bit for bit), with the same number of caches.
+/// nothing is created or read back, and the images are a fresh renderer's (within FLIP 1e-3), with
+/// the same number of caches.
 #[test]
 fn resident_cprc_frames_stay_on_the_gpu_and_match_the_staged_frames() {
     use vxgi::kernels::cone_trace::ConeSettings;
@@ -1351,18 +1349,18 @@ fn resident_cprc_frames_stay_on_the_gpu_and_match_the_staged_frames() {
         let mut scene = small(base, 48, 40);
         scene.render.voxels = 32;
         let cones = ConeSettings::from(&scene.render);
-        let mut staged = Renderer::new(Pipeline::Cprc, true);
+        let mut fresh = Renderer::new(Pipeline::Cprc, false);
         let mut resident = Resident::new(gpu(), Pipeline::Cprc).unwrap();
         for k in 0..3u32 {
             let view = scene.orbited(25.0 * k as f32);
-            let (want, memory) = staged.render(gpu(), &view, &cones, |_| {}).unwrap();
+            let (want, memory) = fresh.render(gpu(), &view, &cones, |_| {}).unwrap();
             let before = vxgi::harness::thread_counters();
             let got = resident.render(&view, &cones).unwrap();
             let c = vxgi::harness::thread_counters().since(&before);
             let at = format!("cprc {:?}, frame {k}", scene.mesh.positions.len());
             assert!(want.direct == got.direct, "{at}: direct differs");
             assert!(want.ao == got.ao, "{at}: ao differs");
-            let flip = staged_vs_resident(&want, &got);
+            let flip = fresh_vs_resident(&want, &got);
             let (Some(VolumeMemory::Caches(a)), Some(VolumeMemory::Caches(b))) =
                 (memory, resident.memory())
             else {
@@ -1376,7 +1374,7 @@ fn resident_cprc_frames_stay_on_the_gpu_and_match_the_staged_frames() {
                 .flat_map(|(x, y)| (0..3).map(move |c| (x[c] - y[c]).abs()))
                 .fold(0.0f32, f32::max);
             println!(
-                "{at}: combined FLIP staged vs resident {flip:.2e}, largest indirect difference {worst:.2e}, bit for bit {}; caches {} / {}",
+                "{at}: combined FLIP fresh vs kept {flip:.2e}, largest indirect difference {worst:.2e}, bit for bit {}; caches {} / {}",
                 want.indirect == got.indirect,
                 a.caches,
                 b.caches
@@ -1398,9 +1396,8 @@ fn resident_cprc_frames_stay_on_the_gpu_and_match_the_staged_frames() {
 /// re-lights the hierarchies where they stand (the moved instance's triangles, BVH, grid records and
 /// placements uploaded); lrsm re-voxelizes the moved scene in its kept chain (voxelize's triangles
 /// and the BVH uploaded, the volume's buffers reset on the GPU). Each frame after the first is one
-/// submission that creates and reads back nothing; the images equal the staged renderer's (vct-dense
-/// and lrsm bit for bit: the same kernels on the same inputs; cprc within FLIP 1e-3, its staged frame
-/// computing the pixel inputs and records by the kernels' mirrors).
+/// submission that creates and reads back nothing; the images equal a fresh renderer's for each
+/// frame (vct-dense and lrsm bit for bit; cprc within FLIP 1e-3).
 #[test]
 fn resident_frames_relight_moved_instances_in_one_submission() {
     use vxgi::kernels::cone_trace::ConeSettings;
@@ -1411,11 +1408,11 @@ fn resident_frames_relight_moved_instances_in_one_submission() {
     scene.render.voxels = 32;
     let cones = ConeSettings::from(&scene.render);
     for pipeline in [Pipeline::VctDense, Pipeline::Cprc, Pipeline::Lrsm] {
-        let mut staged = Renderer::new(pipeline, true);
+        let mut fresh = Renderer::new(pipeline, false);
         let mut resident = Resident::new(gpu(), pipeline).unwrap();
         for k in 0..7u32 {
             let view = scene.at_frame(k);
-            let (want, _) = staged.render(gpu(), &view, &cones, |_| {}).unwrap();
+            let (want, _) = fresh.render(gpu(), &view, &cones, |_| {}).unwrap();
             let before = vxgi::harness::thread_counters();
             let got = resident.render(&view, &cones).unwrap();
             let c = vxgi::harness::thread_counters().since(&before);
@@ -1424,7 +1421,7 @@ fn resident_frames_relight_moved_instances_in_one_submission() {
             if pipeline != Pipeline::Cprc {
                 assert!(want.indirect == got.indirect, "{at}: indirect differs");
             } else {
-                let flip = staged_vs_resident(&want, &got);
+                let flip = fresh_vs_resident(&want, &got);
                 assert!(flip < 1e-3, "{at}: FLIP {flip}");
             }
             assert_eq!(c.submissions, 1, "{at}: {c:?}");
@@ -1483,10 +1480,8 @@ fn resident_frames_relight_the_kept_voxels_when_a_light_moves() {
             .render(gpu(), &moved, &cones, |_| {})
             .unwrap();
         if pipeline == Pipeline::Cprc {
-            // The staged cprc frame computes its pixel inputs and cache records by the kernels'
-            // mirrors (bit for bit on lavapipe, within rounding elsewhere).
             assert!(want.direct == got.direct && want.ao == got.ao);
-            let flip = staged_vs_resident(&want, &got);
+            let flip = fresh_vs_resident(&want, &got);
             assert!(flip < 1e-3, "cprc: FLIP {flip}");
         } else {
             assert!(
@@ -1692,7 +1687,7 @@ fn embedded_pipeline_frames_match_vxgi_render() {
 }
 
 /// A static scene and camera give identical consecutive frames (bit for bit) in every pipeline,
-/// staged (with the reuse rules on: the second frame reuses what the first built) and GPU-resident:
+/// with the reuse rules on (the second frame reuses what the first built) and off:
 /// nothing in a frame depends on anything but the scene, the camera and the settings.
 #[test]
 fn a_static_scene_gives_identical_consecutive_frames_in_every_pipeline() {
@@ -1710,9 +1705,9 @@ fn a_static_scene_gives_identical_consecutive_frames_in_every_pipeline() {
         Pipeline::Cprc,
     ] {
         let mut frames = Vec::new();
-        let mut staged = Renderer::new(p, true);
+        let mut fresh = Renderer::new(p, false);
         for _ in 0..2 {
-            frames.push(staged.render(gpu(), &scene, &cones, |_| {}).unwrap().0);
+            frames.push(fresh.render(gpu(), &scene, &cones, |_| {}).unwrap().0);
         }
         let mut resident = Resident::new(gpu(), p).unwrap();
         for _ in 0..2 {
@@ -1730,7 +1725,7 @@ fn a_static_scene_gives_identical_consecutive_frames_in_every_pipeline() {
 }
 
 /// vct-svo's resident frames keep the octree while only the camera moves; a moved light rebuilds
-/// it (its values hold the light), equal to a fresh staged frame bit for bit, and the plan says why.
+/// it (its values hold the light), equal to a fresh renderer's frame bit for bit, and the plan says why.
 #[test]
 fn resident_vct_svo_rebuilds_its_octree_when_a_light_moves() {
     use vxgi::kernels::cone_trace::ConeSettings;
@@ -1838,10 +1833,10 @@ fn resident_memory_by_stage_adds_up_and_follows_the_declaration() {
     }
 }
 
-/// The resident renderer draws what only the staged one did: a scene without lights (every
+/// The resident renderer draws a scene without lights (every
 /// pipeline: direct and indirect 0, AO from the voxels where the plan builds them) and vct-svo with
 /// moving instances (the octree and chain built again where the instances moved, the static part's
-/// voxels kept); the same images as the staged renderer's bit for bit, and a frame that changes
+/// voxels kept); the same images as a fresh renderer's for each frame, and a frame that changes
 /// nothing is one submission.
 #[test]
 fn resident_frames_draw_unlit_scenes_and_vct_svo_instances() {
@@ -1859,10 +1854,10 @@ fn resident_frames_draw_unlit_scenes_and_vct_svo_instances() {
         Pipeline::Lrsm,
         Pipeline::Cprc,
     ] {
-        let mut staged = Renderer::new(pipeline, true);
+        let mut fresh = Renderer::new(pipeline, false);
         let mut resident = Resident::new(gpu(), pipeline).unwrap();
         for k in 0..2 {
-            let (want, _) = staged.render(gpu(), &unlit, &cones, |_| {}).unwrap();
+            let (want, _) = fresh.render(gpu(), &unlit, &cones, |_| {}).unwrap();
             let before = vxgi::harness::thread_counters();
             let got = resident.render(&unlit, &cones).unwrap();
             let c = vxgi::harness::thread_counters().since(&before);
@@ -1888,11 +1883,11 @@ fn resident_frames_draw_unlit_scenes_and_vct_svo_instances() {
     let mut scene = small(Scene::load(root.join("instances.toml")).unwrap(), 40, 32);
     scene.render.voxels = 32;
     let cones = ConeSettings::from(&scene.render);
-    let mut staged = Renderer::new(Pipeline::VctSvo, true);
+    let mut fresh = Renderer::new(Pipeline::VctSvo, false);
     let mut resident = Resident::new(gpu(), Pipeline::VctSvo).unwrap();
     for k in 0..3u32 {
         let view = scene.at_frame(k);
-        let (want, _) = staged.render(gpu(), &view, &cones, |_| {}).unwrap();
+        let (want, _) = fresh.render(gpu(), &view, &cones, |_| {}).unwrap();
         let got = resident.render(&view, &cones).unwrap();
         let at = format!("vct-svo instances, frame {k}");
         assert!(

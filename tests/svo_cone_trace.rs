@@ -207,11 +207,14 @@ fn octree_is_reused_when_only_the_camera_moves() {
     scene.render.bounces = 2;
     scene.render.voxel_lobes = true;
     let cones = ConeSettings::default();
-    let mut renderer = vxgi::render::VctSvo::new(true);
+    let mut renderer = vxgi::render::Renderer::new(vxgi::render::Pipeline::VctSvo, true);
     let (first, _) = renderer.render(gpu(), &scene, &cones, |_| {}).unwrap();
     assert!(first.plan.skipped().is_empty(), "{}", first.plan);
     let moved = scene.orbited(10.0);
     let (second, mem) = renderer.render(gpu(), &moved, &cones, |_| {}).unwrap();
+    let Some(vxgi::render::VolumeMemory::Octree(mem)) = mem else {
+        panic!("vct-svo reports its octree")
+    };
     assert_eq!(
         second.plan.skipped(),
         vec![
@@ -361,6 +364,7 @@ fn svo_params_struct_matches_the_reflected_wgsl_layout() {
 #[test]
 fn dynamic_instances_reuse_the_static_voxels() {
     use vxgi::kernels::cone_trace::ConeSettings;
+    use vxgi::render::{Pipeline, Renderer, VctSvo};
     use vxgi::scene::Scene;
     let mut scene =
         Scene::load(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/instances.toml"))
@@ -369,7 +373,7 @@ fn dynamic_instances_reuse_the_static_voxels() {
     scene.camera.height = 48;
     scene.render.voxels = 32;
     let cones = ConeSettings::default();
-    let mut seq = vxgi::render::VctSvo::new(true);
+    let mut seq = Renderer::new(Pipeline::VctSvo, true);
     let (first, _) = seq.render(gpu(), &scene, &cones, |_| {}).unwrap();
     assert!(
         first
@@ -389,14 +393,30 @@ fn dynamic_instances_reuse_the_static_voxels() {
             && plan.contains("static part's subdivisions replayed"),
         "{plan}"
     );
-    // The replayed structure is the octree a build from every fragment makes: the same image.
-    let mut full = vxgi::render::VctSvo::new(true).without_static_replay();
-    full.render(gpu(), &scene, &cones, |_| {}).unwrap();
-    let (whole, _) = full.render(gpu(), &next, &cones, |_| {}).unwrap();
-    assert!(!whole.plan.to_string().contains("replayed"));
-    assert_eq!(whole.indirect.pixels, second.indirect.pixels);
-    assert_eq!(whole.ao.pixels, second.ao.pixels);
-    let (fresh, _) = vxgi::render::VctSvo::new(true)
+    // The replayed structure is the octree a build from every fragment makes: the same nodes and
+    // the same bricks (their order in the pools follows the order nodes were made in).
+    let mut replayed = VctSvo::new();
+    replayed.volume(gpu(), &scene, &cones).unwrap();
+    let mut full = VctSvo::new().without_static_replay();
+    full.volume(gpu(), &scene, &cones).unwrap();
+    let bricks = |o: &vxgi::render::SvoCache| {
+        let words = vxgi::kernels::sparse_voxel_octree::BRICK_BYTES as usize / 4;
+        let mut b: Vec<Vec<u32>> = o
+            .built
+            .octree
+            .bricks
+            .chunks(words)
+            .map(|c| c.to_vec())
+            .collect();
+        b.sort_unstable();
+        (o.memory(), b)
+    };
+    let a = bricks(replayed.volume(gpu(), &next, &cones).unwrap().0);
+    let b = bricks(full.volume(gpu(), &next, &cones).unwrap().0);
+    assert_eq!(a.0, b.0);
+    assert!(a.1 == b.1, "the bricks differ");
+    assert!(!full.built_plan().unwrap().to_string().contains("replayed"));
+    let (fresh, _) = Renderer::new(Pipeline::VctSvo, false)
         .render(gpu(), &next, &cones, |_| {})
         .unwrap();
     let p = std::path::Path::new("");
@@ -408,7 +428,7 @@ fn dynamic_instances_reuse_the_static_voxels() {
         instances: Default::default(),
         ..next.clone()
     };
-    let (joint, _) = vxgi::render::VctSvo::new(false)
+    let (joint, _) = Renderer::new(Pipeline::VctSvo, false)
         .render(gpu(), &flat, &cones, |_| {})
         .unwrap();
     assert!(!joint.plan.to_string().contains("static part"));

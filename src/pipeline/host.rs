@@ -1,12 +1,12 @@
 //! A pipeline's frame stage by stage through host memory, each stage on the scalar mirrors or on the
 //! GPU (DESIGN.md section 3, after Vello's CPU/GPU stage switch): the loop over a declaration's
-//! stages ([`StageDecl::host`]) that gives both the mirror frames (every stage on the mirrors: what
+//! stages ([`StageDecl::host`](super::StageDecl::host)) that gives both the mirror frames (every stage on the mirrors: what
 //! the snapshot tests store) and `vxgi bisect`'s split frames (the mirrors up to a stage, the GPU
 //! after it, each GPU stage fed what the mirrors produced). Not the renderer: frames that stay on
 //! the GPU are [`crate::resident::Resident`]'s.
 //!
 //! A stage's step reads what earlier steps left in the [`HostFrame`] and adds its own products. A
-//! stage without a step ([`StageDecl::host`] `None`) is run by an earlier stage's step, which
+//! stage without a step ([`StageDecl::host`](super::StageDecl::host) `None`) is run by an earlier stage's step, which
 //! interleaves them (lrsm's RSM and layers per light view; cprc's creation, pre-convolution and
 //! gather, one GPU chain). Stages the frame's plan does not run are not stepped.
 use super::declaration::{PipelineDecl, PlanInputs};

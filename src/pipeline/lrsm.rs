@@ -179,12 +179,11 @@ pub(crate) fn light_view_names(v: usize) -> (String, String) {
 /// The LRSM streams the gather reads, in the order of the prefilter's streams.
 const LRSM_STREAMS: [&str; 3] = ["lrsm_radiance", "lrsm_normal", "lrsm_moments"];
 
-/// lrsm's chain (Sugihara et al. 2014), the same kernels on the same inputs as
-/// [`crate::render::VctLrsm`]'s frame: voxelize's occupancy bits and occlusion_voxels' mips over them
+/// lrsm's chain (Sugihara et al. 2014): voxelize's occupancy bits and occlusion_voxels' mips over them
 /// (every level copied into `occ`);
 /// per light view the G-buffer ray-cast from the light, reflective_shadow_map, lrsm_partition and
 /// lrsm_prefilter (its levels copied into the three LRSM streams at the view's offset; every view
-/// reuses one set of RSM buffers, as the staged frame holds one RSM at a time); then the camera's
+/// reuses one set of RSM buffers: one RSM at a time); then the camera's
 /// gbuffer, direct_light (exact shadow rays; not with shadow cones, whose soft direct light the
 /// gather's shadow pass writes), screen_tiles and lrsm_cone_trace. Needs lights.
 pub(crate) fn lrsm_chain(

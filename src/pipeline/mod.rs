@@ -106,14 +106,6 @@ impl Chain {
             })
             .collect()
     }
-
-    /// The copies as [`crate::harness::Prepared::copy_into`] takes them.
-    pub fn copy_list(&self) -> Vec<(&str, &str, u64)> {
-        self.copies
-            .iter()
-            .map(|c| (c.src.as_str(), c.dst.as_str(), c.offset))
-            .collect()
-    }
 }
 
 /// Equal bytes (buffers: the scalar kind only tells the comparison how to read them) or equal
