@@ -53,17 +53,6 @@ impl From<&RenderSettings> for CprcSettings {
     }
 }
 
-impl CprcSettings {
-    /// Bytes of `caches` caches: texels, mip chain (level 0 included) and irradiance map, `vec4<f32>`
-    /// each.
-    pub fn cache_bytes(&self, caches: usize) -> u64 {
-        let per = (self.res * self.res) as usize
-            + vxgi_cpu_mirror::cache_preconvolve::mip_len(self.res)
-            + (self.irr * self.irr) as usize;
-        (caches * per * 16) as u64
-    }
-}
-
 /// What the distribution and the gather read per pixel, from a G-buffer.
 pub struct PixelInputs {
     pub width: u32,

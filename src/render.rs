@@ -253,12 +253,6 @@ impl Rendered {
             ..self
         }
     }
-
-    /// The frame with the cone pass's tile counts, from its screen_tiles list buffer.
-    pub fn with_cone_tiles(mut self, list: &[u32]) -> Self {
-        self.cone_tiles = Some(cone_tiles_of(list));
-        self
-    }
 }
 
 /// The cone pass's 8x8 screen tiles in screen_tiles' list buffer: (listed, all).
