@@ -319,8 +319,7 @@ pub(crate) struct PyramidKey {
     lights: Vec<crate::scene::Light>,
     voxels: u32,
     pub(crate) levels: u32,
-    /// Whether the normal pyramid is kept too (only the depth-ordered blend reads it: 38 MB at 128^3
-    /// not read back otherwise).
+    /// Whether the cones read the normal pyramid (the depth-ordered blend).
     normals: bool,
 }
 
@@ -475,8 +474,9 @@ pub fn render(
     ctx: &crate::harness::GpuContext,
     scene: &Scene,
     cones: &ConeSettings,
-    _progress: impl Fn(&str),
+    progress: impl Fn(&str),
 ) -> Result<Rendered> {
+    progress("recording the frame");
     crate::resident::Resident::new(ctx, Pipeline::VctDense)?.render(scene, cones)
 }
 
@@ -498,8 +498,9 @@ pub fn render_svo(
     ctx: &crate::harness::GpuContext,
     scene: &Scene,
     cones: &ConeSettings,
-    _progress: impl Fn(&str),
+    progress: impl Fn(&str),
 ) -> Result<(Rendered, crate::kernels::sparse_voxel_octree::MemoryReport)> {
+    progress("recording the frame");
     match one_frame(ctx, Pipeline::VctSvo, scene, cones)? {
         (f, Some(VolumeMemory::Octree(m))) => Ok((f, m)),
         _ => anyhow::bail!("vct-svo's frame reports its octree"),
@@ -512,8 +513,9 @@ pub fn render_lrsm(
     ctx: &crate::harness::GpuContext,
     scene: &Scene,
     cones: &ConeSettings,
-    _progress: impl Fn(&str),
+    progress: impl Fn(&str),
 ) -> Result<(Rendered, LrsmMemory)> {
+    progress("recording the frame");
     match one_frame(ctx, Pipeline::Lrsm, scene, cones)? {
         (f, Some(VolumeMemory::Lrsm(m))) => Ok((f, m)),
         _ => anyhow::bail!("lrsm's frame reports its structures"),
@@ -525,8 +527,9 @@ pub fn render_cprc(
     ctx: &crate::harness::GpuContext,
     scene: &Scene,
     cones: &ConeSettings,
-    _progress: impl Fn(&str),
+    progress: impl Fn(&str),
 ) -> Result<(Rendered, crate::cprc::CprcStats)> {
+    progress("recording the frame");
     match one_frame(ctx, Pipeline::Cprc, scene, cones)? {
         (f, Some(VolumeMemory::Caches(c))) => Ok((f, c)),
         _ => anyhow::bail!("cprc's frame reports its caches"),
@@ -559,8 +562,9 @@ impl<'c> Renderer<'c> {
         ctx: &'c crate::harness::GpuContext,
         scene: &Scene,
         cones: &ConeSettings,
-        _progress: impl Fn(&str),
+        progress: impl Fn(&str),
     ) -> Result<(Rendered, Option<VolumeMemory>)> {
+        progress("recording the frame");
         if !self.reuse || self.resident.is_none() {
             self.resident = Some(crate::resident::Resident::new(ctx, self.pipeline)?);
         }
@@ -1084,8 +1088,10 @@ pub fn render_lrsm_factors(
 ) -> Result<Rendered> {
     use crate::lrsm_factors::{Alpha, Radiance};
     use crate::pipeline::host;
-    // The row's occlusion mips and Algorithm 1's N (and so the row's plan).
+    // The row's occlusion mips and Algorithm 1's N (and so the row's plan); direct light by exact
+    // shadow rays (the diagnostic is about the indirect light).
     let mut scene = scene.clone();
+    scene.render.shadow_cone_angle = 0.0;
     match swap.alpha {
         Alpha::Volume => scene.render.lrsm_surface_coverage = false,
         Alpha::Surface => scene.render.lrsm_surface_coverage = true,

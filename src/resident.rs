@@ -786,14 +786,6 @@ impl<'c> Resident<'c> {
             }
             None => {}
         }
-        // The plan says what ran: a stage whose rule skips it (a scene without lights, where its
-        // output is 0) but whose passes the chain ran this frame is listed as run.
-        for p in &mut plan.passes {
-            if !p.runs && stages.iter().any(|(n, _)| *n == p.stage) {
-                p.runs = true;
-                p.why = format!("run by the resident chain (its rule: {})", p.why);
-            }
-        }
         let cone_tiles = out.get("tile_list").map(|t| {
             crate::render::cone_tiles_of(bytemuck::cast_slice(&t.buffer().expect("a buffer").bytes))
         });

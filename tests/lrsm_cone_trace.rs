@@ -33,7 +33,7 @@ fn the_cornell_box_gathers_indirect_light_and_reports_its_memory() {
     assert_eq!(memory.rsm, 32 * 32 * 36);
     let texels: u64 = (0..5).map(|k| 4 * (16u64 >> k).pow(2)).sum();
     assert_eq!(memory.lrsm, 6 * texels * 48);
-    // Every declared stage ran (in the chain's order: the volume's, then the camera's).
+    // Every declared stage ran (the chain records the volume's, then the camera's).
     let mut names: Vec<&str> = frame.stages.iter().map(|s| s.0).collect();
     let mut declared = Pipeline::Lrsm.stages();
     names.sort_unstable();

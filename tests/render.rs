@@ -829,8 +829,10 @@ fn frame_plan_follows_the_scene() {
         .to_string()
         .contains("1 glossy"));
     scene.lights.clear();
+    // Every stage runs (the voxels' coverage gives the AO); the plan says their light is 0.
     let plan = vxgi::render::Pipeline::VctDense.plan(&scene, &Default::default(), false);
-    assert!(!plan.runs("direct_light") && !plan.runs("voxel_light"));
+    assert!(plan.runs("direct_light") && plan.runs("voxel_light"));
+    assert!(plan.to_string().contains("no lights"), "{plan}");
     let r = vxgi::render::render(gpu(), &scene, &Default::default(), |_| {}).unwrap();
     assert!(r.direct.pixels.iter().all(|p| *p == [0.0; 3]));
     assert!(r.indirect.pixels.iter().all(|p| *p == [0.0; 3]));
@@ -1232,7 +1234,7 @@ fn sponza_renders_with_every_pipeline() {
 /// and every frame after the first is one submission that creates nothing, reads nothing back
 /// besides its images, uploads only the camera and did GPU work.
 #[test]
-fn resident_frames_equal_the_staged_ones_in_one_submission() {
+fn resident_frames_equal_fresh_ones_in_one_submission() {
     use vxgi::kernels::cone_trace::ConeSettings;
     use vxgi::render::{Pipeline, Renderer};
     use vxgi::resident::Resident;
@@ -1338,7 +1340,7 @@ fn resident_frames_equal_the_staged_ones_in_one_submission() {
 /// nothing is created or read back, and the images are a fresh renderer's (within FLIP 1e-3), with
 /// the same number of caches.
 #[test]
-fn resident_cprc_frames_stay_on_the_gpu_and_match_the_staged_frames() {
+fn resident_cprc_frames_stay_on_the_gpu_and_match_fresh_frames() {
     use vxgi::kernels::cone_trace::ConeSettings;
     use vxgi::render::{Pipeline, Renderer, VolumeMemory};
     use vxgi::resident::Resident;
@@ -1878,6 +1880,25 @@ fn resident_frames_draw_unlit_scenes_and_vct_svo_instances() {
                 assert_eq!(c.buffers_created, 0, "{at}: {c:?}");
             }
         }
+        // Against the mirrors (an independent path): no light, and the voxels' AO.
+        let (mirror, _) = vxgi::render::mirror_frame(pipeline, &unlit, &cones).unwrap();
+        let got = resident.render(&unlit, &cones).unwrap();
+        assert!(mirror.combined.pixels.iter().all(|p| *p == [0.0; 3]));
+        assert!(got.combined.pixels.iter().all(|p| *p == [0.0; 3]));
+        let p = Path::new(pipeline.name());
+        let ao = compare(&mirror.ao, p, &got.ao, p).unwrap().flip_mean;
+        assert!(
+            ao < 0.02,
+            "{}: AO FLIP {ao} against the mirror",
+            pipeline.name()
+        );
+        // cprc's AO is its caches' (no occlusion of its own); the cone tracers' come from the
+        // voxels.
+        assert!(
+            pipeline == Pipeline::Cprc || got.ao.pixels.iter().any(|p| p[0] > 0.0 && p[0] < 1.0),
+            "{}: AO from the voxels",
+            pipeline.name()
+        );
     }
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
     let mut scene = small(Scene::load(root.join("instances.toml")).unwrap(), 40, 32);

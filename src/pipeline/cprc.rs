@@ -82,23 +82,21 @@ pub static CPRC: PipelineDecl = PipelineDecl {
     ],
 };
 
-/// Without lights the pyramid holds no radiance and cprc has no AO pass: indirect is 0 whatever
-/// the caches would hold, so the volume is not built.
+/// The volume's passes, said to compute no light where the scene has none (they run, as in a lit
+/// scene).
 fn unlit_volume(i: &PlanInputs, mut passes: Vec<PlannedPass>) -> Vec<PlannedPass> {
     if i.scene.lights.is_empty() {
         for p in &mut passes {
-            p.runs = false;
-            p.why = "skipped: no lights, the caches would hold no radiance (cprc has no AO)".into();
+            p.why = format!("{}; no lights: the caches will hold no radiance", p.why);
         }
     }
     passes
 }
 
-/// `pass` as a frame of `i` runs it: not at all without lights (indirect is 0).
+/// `pass`, said to give indirect light 0 where the scene has no lights (it runs).
 fn lit(i: &PlanInputs, mut pass: PlannedPass) -> Vec<PlannedPass> {
     if i.scene.lights.is_empty() {
-        pass.runs = false;
-        pass.why = "skipped: no lights, indirect is 0".into();
+        pass.why = format!("{}; no lights: indirect is 0", pass.why);
     }
     vec![pass]
 }
@@ -487,7 +485,7 @@ pub(crate) fn creation_step(f: &mut HostFrame) -> Result<()> {
             cprc::CacheVolume::One(pyramid),
             &params,
             &mut Vec::new(),
-            &|_: &str| {},
+            &f.progress,
         )?,
     };
     let (indirect, ao, stats) = cprc::compose(px, &gathered);

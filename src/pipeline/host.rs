@@ -50,6 +50,8 @@ pub struct HostFrame<'a> {
     pub(crate) data: SceneData,
     pub(crate) ctx: Option<&'a GpuContext>,
     pub(crate) on_mirror: &'a dyn Fn(&str) -> bool,
+    /// Told what a step is doing (a stage's parts: lrsm's light views, cprc's chains).
+    pub(crate) progress: &'a dyn Fn(&str),
     /// The camera's G-buffer: `gb_position`, `gb_normal`, `gb_triangle`, `gb_albedo`.
     pub(crate) gb: Resources,
     /// Direct light per pixel (0 where the plan does not run direct_light).
@@ -168,7 +170,7 @@ pub(crate) fn run<'a>(
     scene: &'a Scene,
     cones: &'a ConeSettings,
     on_mirror: &'a dyn Fn(&str) -> bool,
-    progress: &dyn Fn(&str),
+    progress: &'a dyn Fn(&str),
     until: Option<&str>,
 ) -> Result<HostFrame<'a>> {
     anyhow::ensure!(
@@ -186,6 +188,7 @@ pub(crate) fn run<'a>(
         data,
         ctx,
         on_mirror,
+        progress,
         gb: Resources::new(),
         direct: vec![[0.0; 4]; n],
         grid: crate::grids::Grid {

@@ -394,7 +394,7 @@ pub(crate) fn lrsm_volume_step(f: &mut HostFrame) -> Result<()> {
         &f.bits,
         f.frame,
         &settings,
-        &|_| {},
+        f.progress,
         &mut f.stages,
     )?);
     Ok(())

@@ -3,8 +3,9 @@
 //! kernels in order, each with its passes (direct or indirect dispatch), and the buffer copies
 //! between them.
 //! Built from the kernels' own cases (the resources and passes `vxgi verify` checks), so a chain runs
-//! exactly the verified kernels. [`crate::render`] runs vct-dense's stage by stage;
-//! [`crate::resident::Resident`] prepares a chain once and records it as one submission per frame.
+//! exactly the verified kernels. [`crate::resident::Resident`] prepares a chain once and records it
+//! as one submission per frame; [`host`] runs a declaration stage by stage through host memory
+//! (the mirror frames, `vxgi bisect`).
 //! One file per pipeline (`vct_dense.rs`, `vct_svo.rs`, `lrsm.rs`, `cprc.rs`); this file holds the
 //! chain itself and what several pipelines share (per-instance hierarchies, the camera's passes).
 use crate::harness::{Case, HostResource, KernelDecl, Pass, Resources, Shader};

@@ -98,11 +98,11 @@ pub(crate) fn direct_light_plan(i: &PlanInputs) -> Vec<PlannedPass> {
         "direct_light",
         "direct_light",
         format!("{} x {lights} lights", i.pixels()),
-        lights > 0,
+        true,
         if lights > 0 {
             "exact shadow ray per light and texel"
         } else {
-            "skipped: the scene has no lights (direct is 0)"
+            "the scene has no lights: direct is 0"
         },
     )]
 }
@@ -129,13 +129,13 @@ pub(crate) fn voxel_light_plan(i: &PlanInputs) -> Vec<PlannedPass> {
         "voxel_light",
         "voxel_light",
         format!("non-empty voxels x {lights} lights"),
-        lights > 0 && !i.cached,
+        !i.cached,
         if i.cached {
             CACHED
         } else if lights > 0 {
             "direct light into the voxels (work list from voxelize)"
         } else {
-            "skipped: no lights, the pyramid holds no radiance"
+            "no lights: the voxels' light is 0, their coverage kept (AO)"
         },
     )]
 }
