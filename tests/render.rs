@@ -25,9 +25,7 @@ fn assert_reused_frame(at: &str, c: &vxgi::harness::Counters) {
     assert!(c.upload_bytes <= 64 << 10, "{at}: {c:?}");
 }
 
-/// Combined FLIP of a resident frame against a fresh renderer's frame of the same view. cprc's frames
-/// are compared by it, not bit for bit: its clusters get their caches by atomic appends, so two
-/// chains may list the same caches in another order and the gather sum them in another order.
+/// Combined FLIP of a resident frame against a fresh renderer's frame of the same view.
 fn fresh_vs_resident(want: &vxgi::render::Rendered, got: &vxgi::render::Rendered) -> f32 {
     compare(
         &want.combined,
