@@ -1381,7 +1381,10 @@ fn resident_cprc_frames_stay_on_the_gpu_and_match_fresh_frames() {
                 a.caches,
                 b.caches
             );
-            assert!(flip < 1e-3, "{at}: FLIP {flip}");
+            assert!(
+                flip == 0.0 && want.indirect == got.indirect,
+                "{at}: FLIP {flip}"
+            );
             assert_eq!((a.caches, b.dropped), (b.caches, 0), "{at}");
             assert_eq!(c.submissions, 1, "{at}: {c:?}");
             assert!(c.gpu_ns > 0, "{at}: {c:?}");
@@ -1424,7 +1427,10 @@ fn resident_frames_relight_moved_instances_in_one_submission() {
                 assert!(want.indirect == got.indirect, "{at}: indirect differs");
             } else {
                 let flip = fresh_vs_resident(&want, &got);
-                assert!(flip < 1e-3, "{at}: FLIP {flip}");
+                assert!(
+                    flip == 0.0 && want.indirect == got.indirect,
+                    "{at}: FLIP {flip}"
+                );
             }
             assert_eq!(c.submissions, 1, "{at}: {c:?}");
             if k == 0 && pipeline != Pipeline::Lrsm {
@@ -1484,7 +1490,10 @@ fn resident_frames_relight_the_kept_voxels_when_a_light_moves() {
         if pipeline == Pipeline::Cprc {
             assert!(want.direct == got.direct && want.ao == got.ao);
             let flip = fresh_vs_resident(&want, &got);
-            assert!(flip < 1e-3, "cprc: FLIP {flip}");
+            assert!(
+                flip == 0.0 && want.indirect == got.indirect,
+                "cprc: FLIP {flip}"
+            );
         } else {
             assert!(
                 want.direct == got.direct && want.indirect == got.indirect && want.ao == got.ao,
