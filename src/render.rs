@@ -600,7 +600,7 @@ pub struct VctSvo {
 }
 
 /// What vct-svo's octree depends on ([`VctSvo::key`]).
-type SvoKey = (PyramidKey, u32, bool, bool, u32);
+type SvoKey = (PyramidKey, u32, bool, bool, u32, Option<String>);
 
 /// vct-svo's octree as the cone pass reads it, and the key it was built for.
 pub struct SvoCache {
@@ -970,7 +970,7 @@ impl VctSvo {
         cones: &ConeSettings,
     ) -> Result<(&SvoCache, Stages)> {
         let mut stages = Vec::new();
-        let key = Self::key(scene);
+        let key = Self::key(scene, cones);
         if !self.cache.as_ref().is_some_and(|c| c.key == key) {
             let mut plan = Pipeline::VctSvo.plan(scene, cones, false);
             let data = SceneData::new(scene);
@@ -995,9 +995,9 @@ impl VctSvo {
         self.built_plan.as_ref()
     }
 
-    /// What the octree depends on: the pyramid key, photon_map, anisotropic_voxels, voxel_lobes and
-    /// bounces.
-    fn key(scene: &Scene) -> SvoKey {
+    /// What the octree depends on: the pyramid key, photon_map, anisotropic_voxels, voxel_lobes,
+    /// bounces and, with two bounces, the cones that gather the second one.
+    fn key(scene: &Scene, cones: &ConeSettings) -> SvoKey {
         let r = &scene.render;
         (
             PyramidKey::of(scene),
@@ -1005,6 +1005,8 @@ impl VctSvo {
             r.anisotropic_voxels,
             r.voxel_lobes,
             r.bounces,
+            // ConeSettings is plain data without PartialEq: its Debug text is its value.
+            (r.bounces == 2).then(|| format!("{cones:?}")),
         )
     }
 }

@@ -15,9 +15,11 @@
 //! frame whose lights moved (their number and, for lrsm, their number of light views unchanged) also
 //! uploads them (and lrsm's light views) and re-runs what the lights feed over the kept voxels:
 //! voxel_light and the mips (vct-dense), every view's RSM and LRSM (lrsm); vct-svo's octree values
-//! hold the light, so there moved lights rebuild. A frame that differs in the image size alone
-//! builds a new chain that takes the kept volume by GPU copies instead of computing it again
-//! (vct-svo uploads the octree its staged passes built, without building it again). Anything else
+//! hold the light, so there moved lights rebuild. A frame that differs in the image size or in
+//! settings builds a new chain; where that chain's volume passes are the kept chain's over the
+//! same inputs (the settings changed are read by the camera's stages alone: the cone count, AO,
+//! the image size), it binds the kept volume's buffers instead of computing the volume again (vct-svo
+//! uploads the octree its staged passes built, without building it again). Anything else
 //! rebuilds the whole chain, and the plan says why.
 use crate::harness::HostResource;
 use crate::harness::{GpuContext, Prepared, ReadbackSet};
@@ -53,11 +55,15 @@ struct Key {
 }
 
 impl Key {
-    /// Whether `next` differs from `self` in the image size alone: what shapes the volume is the
-    /// same, so a new chain can take the kept volume's buffers.
-    fn resized_to(&self, next: &Key) -> bool {
+    /// Whether `next` differs from `self` at most in the image size and the render and cone
+    /// settings: what shapes the volume may be the same, so a chain built for `next` may take the
+    /// kept volume's buffers where its volume passes are the kept ones over the same inputs
+    /// ([`volume_of`]).
+    fn may_keep_volume(&self, next: &Key) -> bool {
         Key {
             size: next.size,
+            render: next.render.clone(),
+            cones: next.cones.clone(),
             ..self.clone()
         } == *next
     }
@@ -107,7 +113,18 @@ impl Key {
             }
         }
         if what.is_empty() {
-            what.push("the render or cone settings changed".into());
+            let pretty = |r: &RenderSettings| format!("{r:#?}");
+            let mut changed = debug_diff(&pretty(&self.render), &pretty(&next.render));
+            for c in debug_diff(&self.cones, &next.cones) {
+                if !changed.contains(&c) {
+                    changed.push(c);
+                }
+            }
+            what.push(if changed.is_empty() {
+                "the render or cone settings changed".into()
+            } else {
+                format!("settings changed ({})", changed.join(", "))
+            });
         }
         what.join("; ")
     }
@@ -172,7 +189,7 @@ impl Key {
             views,
             render: scene.render.clone(),
             // ConeSettings is plain data without PartialEq: its Debug text is its value.
-            cones: format!("{cones:?}"),
+            cones: format!("{cones:#?}"),
             size: (scene.camera.width, scene.camera.height),
         }
     }
@@ -207,9 +224,11 @@ struct Built<'c> {
     /// Where the passes the lights feed start: a frame with moved lights runs from there.
     relight: usize,
     /// The buffers the volume's passes (those before the camera's G-buffer) write, and the copies
-    /// between them fill: what a chain built for another image size takes from this one
-    /// ([`Resident::take_volume`]).
+    /// between them fill: what a chain built for another image size or other settings takes from
+    /// this one ([`volume_of`]).
     volume: Vec<String>,
+    /// [`passes_fingerprint`] of the volume's passes, as the chain was built.
+    volume_inputs: u64,
     copies: Vec<ChainCopy>,
     /// The per-frame outputs zeroed before a frame that reuses the chain (each is zero in a fresh one).
     cleared: Vec<&'static str>,
@@ -324,7 +343,8 @@ pub struct Resident<'c> {
     caches: Option<crate::cprc::CprcStats>,
     /// Why the last frame rebuilt the chain that an earlier frame had built, for its plan.
     rebuilt: Option<String>,
-    /// Whether the last frame's new chain took the volume of the chain before it (a resize).
+    /// Whether the last frame's new chain took the volume of the chain before it (a new image size
+    /// or settings the volume does not read).
     kept_volume: bool,
     /// vct-svo: the staged passes that build the octree, holding the last one and what it was
     /// built for (a chain at another image size uploads it again instead of building it).
@@ -509,16 +529,14 @@ impl<'c> Resident<'c> {
             .map(|b| b.key.change_to(&key));
         self.kept_volume = false;
         if !reuse {
-            // A resize keeps the old chain until the new one has taken its volume; any other
-            // change frees it first.
-            let old = self.built.take().filter(|b| b.key.resized_to(&key));
-            let built = self.build(scene, cones, key)?;
-            if let Some(old) = &old {
-                // vct-svo's chain has no volume passes: its octree is kept where the staged
-                // passes found it built for this scene already.
-                self.kept_volume =
-                    Self::take_volume(old, &built, scene, encoder) && built.build_stages.is_empty();
-            }
+            // A new image size or new settings keep the old chain until the new one has taken its
+            // volume where it can; any other change frees it first.
+            let old = self.built.take().filter(|b| b.key.may_keep_volume(&key));
+            let (built, took) = self.build(scene, cones, key, old.as_ref())?;
+            // vct-svo's chain has no volume passes: its octree is kept where the staged passes
+            // found it built for this scene already.
+            self.kept_volume = took && built.build_stages.is_empty();
+            drop(old);
             self.built = Some(built);
         }
         let b = self.built.as_mut().expect("built above");
@@ -596,37 +614,6 @@ impl<'c> Resident<'c> {
             relit,
             first.unwrap_or(b.per_frame.start)..b.per_frame.end,
         ))
-    }
-
-    /// Record the copies of `old`'s volume into `new`'s, a chain built for the same scene at
-    /// another image size, and say whether it was taken: only where the lights and the mesh are
-    /// the ones `old`'s volume holds and every buffer the volume's passes write has its size in
-    /// both (a buffer sized by the image there would be the volume's passes' to write).
-    /// vct-svo's octree is built outside its chain (its chain has no volume passes to skip).
-    fn take_volume(
-        old: &Built,
-        new: &Built,
-        scene: &Scene,
-        encoder: &mut wgpu::CommandEncoder,
-    ) -> bool {
-        if old.lights != scene.lights || old.mesh != scene.mesh || old.volume != new.volume {
-            return false;
-        }
-        let mut pairs = Vec::new();
-        for name in &new.volume {
-            let (Some(src), Some(dst)) = (old.prepared.buffer(name), new.prepared.buffer(name))
-            else {
-                return false;
-            };
-            if src.size() != dst.size() {
-                return false;
-            }
-            pairs.push((src.clone(), dst.clone()));
-        }
-        for (src, dst) in &pairs {
-            encoder.copy_buffer_to_buffer(src, 0, dst, 0, src.size());
-        }
-        true
     }
 
     fn render_samples(&mut self, scene: &Scene, cones: &ConeSettings) -> Result<Rendered> {
@@ -774,7 +761,7 @@ impl<'c> Resident<'c> {
                 plan = plan.with_note(
                     "voxelize",
                     &format!(
-                        "the frame's GPU resources made again ({why}); the volume copied from the last frame's on the GPU, not computed again"
+                        "the frame's GPU resources made again ({why}); the volume kept from the last frame's chain (its buffers bound by the new one), not computed again"
                     ),
                 );
             }
@@ -799,7 +786,16 @@ impl<'c> Resident<'c> {
         ))
     }
 
-    fn build(&mut self, scene: &Scene, cones: &ConeSettings, key: Key) -> Result<Built<'c>> {
+    /// Build the chain for `scene`, binding `old`'s volume buffers instead of new ones where
+    /// [`volume_of`] says they hold what this chain's volume passes would compute: (the chain,
+    /// whether it took them).
+    fn build(
+        &mut self,
+        scene: &Scene,
+        cones: &ConeSettings,
+        key: Key,
+        old: Option<&Built>,
+    ) -> Result<(Built<'c>, bool)> {
         let data = SceneData::new(scene);
         let mut build_stages = Vec::new();
         let mut room = None;
@@ -883,12 +879,20 @@ impl<'c> Resident<'c> {
             }
         }
         volume.retain(|n| !per_frame.contains(n));
+        let volume_inputs = passes_fingerprint(&chain, gbuffer);
+        let adopted = old.and_then(|o| volume_of(o, scene, &chain, &volume, volume_inputs));
+        let took = adopted.is_some();
+        let adopted = adopted.unwrap_or_default();
         let (_, restored) = written_in(&mut chain, gbuffer..usize::MAX);
         let revoxelize = (instanced && self.pipeline == Pipeline::Lrsm)
             .then(|| written_in(&mut chain, 0..gbuffer));
-        let prepared =
-            crate::harness::prepare_chain(self.ctx, &chain.harness_stages(), &chain.resources)
-                .with_context(|| format!("{name} chain"))?;
+        let prepared = crate::harness::prepare_chain_adopting(
+            self.ctx,
+            &chain.harness_stages(),
+            &chain.resources,
+            &adopted,
+        )
+        .with_context(|| format!("{name} chain"))?;
         let mut outputs = vec![direct, "indirect", "ao"];
         for extra in ["tile_list", "cache_args"] {
             if chain.resources.contains_key(extra) {
@@ -911,7 +915,7 @@ impl<'c> Resident<'c> {
         .into_iter()
         .filter(|n| chain.resources.contains_key(*n))
         .collect();
-        Ok(Built {
+        let built = Built {
             key,
             lights: scene.lights.clone(),
             mesh: scene.mesh.clone(),
@@ -919,6 +923,7 @@ impl<'c> Resident<'c> {
             revoxelize,
             relight,
             volume,
+            volume_inputs,
             eps: data.frame.eye[3],
             bounds: data.bounds,
             stages,
@@ -935,8 +940,41 @@ impl<'c> Resident<'c> {
             prepared,
             reads,
             counts,
-        })
+        };
+        Ok((built, took))
     }
+}
+
+/// `old`'s volume buffers, by name, for a new chain (`chain`, its volume's buffers `volume` and
+/// their [`passes_fingerprint`] `inputs`) built for `scene` at another image size or with other
+/// settings: only where the lights and the mesh are the ones `old`'s volume holds, the volume's
+/// passes are the same passes over the same inputs in both (a setting the volume reads changes
+/// them) and every buffer they write has its size in both (a buffer sized by the image there would
+/// be the volume's passes' to write). The new chain binds them: nothing is computed or copied again.
+fn volume_of(
+    old: &Built,
+    scene: &Scene,
+    chain: &Chain,
+    volume: &[String],
+    inputs: u64,
+) -> Option<std::collections::BTreeMap<String, wgpu::Buffer>> {
+    if old.lights != scene.lights
+        || old.mesh != scene.mesh
+        || old.volume != volume
+        || old.volume_inputs != inputs
+    {
+        return None;
+    }
+    volume
+        .iter()
+        .map(|name| {
+            let buffer = old.prepared.buffer(name)?;
+            let Some(HostResource::Buffer(b)) = chain.resources.get(name) else {
+                return None;
+            };
+            (buffer.size() == b.bytes.len() as u64).then(|| (name.clone(), buffer.clone()))
+        })
+        .collect()
 }
 
 /// The buffers a re-run of passes clears, and those it restores from a copy: (copy, buffer).
@@ -1048,6 +1086,83 @@ fn written(chain: &Chain, range: std::ops::Range<usize>) -> Vec<String> {
         }
     }
     out
+}
+
+/// The fields whose values differ between `a` and `b`, the pretty `Debug` texts (`{:#?}`) of two
+/// values of one plain struct, as `name old -> new`, line by line.
+fn debug_diff(a: &str, b: &str) -> Vec<String> {
+    let (a, b): (Vec<&str>, Vec<&str>) = (a.lines().collect(), b.lines().collect());
+    if a.len() != b.len() {
+        return Vec::new();
+    }
+    a.iter()
+        .zip(&b)
+        .filter(|(x, y)| x != y)
+        .filter_map(|(x, y)| {
+            let (name, old) = x.trim().trim_end_matches(',').split_once(": ")?;
+            let (_, new) = y.trim().trim_end_matches(',').split_once(": ")?;
+            Some(format!("{name} {old} -> {new}"))
+        })
+        .collect()
+}
+
+/// A fingerprint of what the chain's passes `..end` compute from: each pass (its kernel, entry,
+/// bindings and dispatch), the copies recorded among them, and the first contents of every
+/// resource they bind or copy (all-zero contents by their length alone, so that large zeroed
+/// accumulators cost nothing to hash). Two chains with equal fingerprints run the same dispatches
+/// over the same inputs there: one may take the other's results instead of computing them again.
+fn passes_fingerprint(chain: &Chain, end: usize) -> u64 {
+    use std::hash::{Hash, Hasher};
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    let mut bound: Vec<&str> = Vec::new();
+    let mut at = 0;
+    for st in &chain.stages {
+        for pass in &st.passes {
+            if at >= end {
+                break;
+            }
+            at += 1;
+            (st.kernel, &pass.entry, format!("{:?}", pass.workgroups)).hash(&mut h);
+            for (binding, view) in &pass.bindings {
+                (binding, format!("{view:?}")).hash(&mut h);
+                bound.extend(view.resource());
+            }
+        }
+    }
+    for c in chain.copies.iter().filter(|c| c.after <= end) {
+        (c.after, &c.src, &c.dst, c.offset).hash(&mut h);
+        bound.extend([c.src.as_str(), c.dst.as_str()]);
+    }
+    bound.sort_unstable();
+    bound.dedup();
+    let contents = |bytes: &[u8], h: &mut std::collections::hash_map::DefaultHasher| {
+        // OR-folded in blocks: vectorised, unlike a short-circuiting scan.
+        if bytes
+            .chunks(1 << 16)
+            .all(|c| c.iter().fold(0u8, |a, &b| a | b) == 0)
+        {
+            (0u8, bytes.len()).hash(h);
+        } else {
+            (1u8, bytes).hash(h);
+        }
+    };
+    for name in bound {
+        name.hash(&mut h);
+        match chain.resources.get(name) {
+            Some(HostResource::Buffer(b)) => {
+                format!("{:?}", b.scalar).hash(&mut h);
+                contents(&b.bytes, &mut h);
+            }
+            Some(HostResource::Texture(t)) => {
+                format!("{:?} {:?} {:?}", t.format, t.dimension, t.size).hash(&mut h);
+                for level in &t.levels {
+                    contents(level, &mut h);
+                }
+            }
+            None => 2u8.hash(&mut h),
+        }
+    }
+    h.finish()
 }
 
 /// The buffers a frame whose instances moved rewrites: the scene's triangles and BVH (the ray caster's,

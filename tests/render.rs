@@ -1659,6 +1659,66 @@ fn a_resized_resident_frame_keeps_the_volume_and_draws_a_fresh_frames_images() {
     }
 }
 
+/// New settings between two frames of one renderer: where only the camera's stages read them (the
+/// cone count, AO), the new chain takes the kept volume (voxelize does not run, the plan names the
+/// settings) and draws what a fresh renderer draws, bit for bit; a setting the volume reads (lrsm's
+/// surface-coverage mips: the same buffers, other contents) computes the volume again.
+#[test]
+fn new_cone_settings_keep_the_volume_where_the_volume_does_not_read_them() {
+    use vxgi::kernels::cone_trace::ConeSettings;
+    use vxgi::resident::Resident;
+    let mut scene = small(Scene::cornell_box(), 24, 24);
+    scene.render.voxels = 16;
+    scene.render.rsm_side = 32;
+    let mut changed = scene.clone();
+    changed.render.cones = scene.render.cones + 3;
+    changed.render.ao_range = scene.render.ao_range * 0.5;
+    let mut coverage = scene.clone();
+    coverage.render.lrsm_surface_coverage = !scene.render.lrsm_surface_coverage;
+    let voxelize_runs = |r: &vxgi::render::Rendered| {
+        r.plan
+            .passes
+            .iter()
+            .find(|q| q.stage == "voxelize")
+            .unwrap()
+            .runs
+    };
+    let cases = Resident::PIPELINES
+        .into_iter()
+        .map(|p| (p, &changed, false))
+        .chain([(vxgi::render::Pipeline::Lrsm, &coverage, true)]);
+    for (p, next, rebuilds) in cases {
+        let mut resident = Resident::new(gpu(), p).unwrap();
+        resident
+            .render(&scene, &ConeSettings::from(&scene.render))
+            .unwrap();
+        let cones = ConeSettings::from(&next.render);
+        let r = resident.render(next, &cones).unwrap();
+        let plan = r.plan.to_string();
+        assert_eq!(voxelize_runs(&r), rebuilds, "{}: {plan}", p.name());
+        if !rebuilds {
+            let cones_changed = format!("cones {} -> {}", scene.render.cones, next.render.cones);
+            assert!(plan.contains(&cones_changed), "{plan}");
+            assert!(plan.contains("the volume kept"), "{plan}");
+        }
+        let fresh = Resident::new(gpu(), p)
+            .unwrap()
+            .render(next, &cones)
+            .unwrap();
+        for (name, got, want) in [
+            ("direct", &r.direct, &fresh.direct),
+            ("indirect", &r.indirect, &fresh.indirect),
+            ("ao", &r.ao, &fresh.ao),
+        ] {
+            assert!(
+                got == want,
+                "{}: {name} differs from a fresh frame's",
+                p.name()
+            );
+        }
+    }
+}
+
 /// Scaling a frame back from its exposure saturates at f32::MAX but keeps a NaN a NaN (so the
 /// non-finite checks downstream still see it).
 #[test]

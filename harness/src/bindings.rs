@@ -315,6 +315,11 @@ mod tests {
             }
         ));
         assert_eq!(Io::INPUTS, ["params", "records", "x"]);
+        let outputs: Vec<_> = Io::OUTPUTS
+            .iter()
+            .map(|o| (o.binding, matches!(o.tolerance, Tolerance::Exact)))
+            .collect();
+        assert_eq!(outputs, [("y", true), ("z", false)]);
         assert_eq!(
             io.outputs().keys().collect::<Vec<_>>(),
             ["y", "z"].map(String::from).iter().collect::<Vec<_>>()

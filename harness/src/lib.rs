@@ -31,7 +31,8 @@ pub use kernel::{
     KernelReport, MirrorOutputs, Output, VerifyOptions,
 };
 pub use run::{
-    buffer_as, prepare, prepare_chain, run_chain, HostBuffer, HostResource, HostTexture, Pass,
-    Prepared, ReadbackSet, Resources, RunOutput, Stage, TimingSource, View, Workgroups,
+    buffer_as, prepare, prepare_chain, prepare_chain_adopting, run_chain, HostBuffer, HostResource,
+    HostTexture, Pass, Prepared, ReadbackSet, Resources, RunOutput, Stage, TimingSource, View,
+    Workgroups,
 };
 pub use shader::{Binding, BindingKind, ScalarKind, Shader};

@@ -165,7 +165,8 @@ pub enum View {
 }
 
 impl View {
-    fn resource(&self) -> Option<&str> {
+    /// The resource this view reads or writes (none for a sampler).
+    pub fn resource(&self) -> Option<&str> {
         match self {
             View::Buffer(n) | View::Texture(n) => Some(n),
             View::BufferRange { name, .. } | View::TextureMip { name, .. } => Some(name),
@@ -642,6 +643,44 @@ pub fn prepare_chain<'a>(
     stages: &[Stage],
     resources: &Resources,
 ) -> Result<Prepared<'a>> {
+    prepare_chain_adopting(ctx, stages, resources, &BTreeMap::new())
+}
+
+/// [`prepare_chain`] binding GPU buffers that exist already in place of some resources: each
+/// `adopted` buffer (e.g. one an earlier chain's passes computed, with the same usage: see
+/// [`Prepared::buffer`]) stands for the buffer resource of its name, whose host contents are not
+/// uploaded. Its size must be that resource's.
+pub fn prepare_chain_adopting<'a>(
+    ctx: &'a GpuContext,
+    stages: &[Stage],
+    resources: &Resources,
+    adopted: &BTreeMap<String, wgpu::Buffer>,
+) -> Result<Prepared<'a>> {
+    for (name, buffer) in adopted {
+        let size = match resources.get(name) {
+            Some(HostResource::Buffer(b)) => b.bytes.len() as u64,
+            _ => u64::MAX,
+        };
+        if buffer.size() != size {
+            let kernel = stages
+                .iter()
+                .map(|s| s.kernel)
+                .collect::<Vec<_>>()
+                .join(" + ");
+            let needs = if size == u64::MAX {
+                "a buffer resource of that name, and the chain has none".to_string()
+            } else {
+                format!("{size} bytes for the chain's buffer of that name")
+            };
+            return Err(HarnessError::Invalid {
+                kernel,
+                message: format!(
+                    "the adopted buffer `{name}` holds {} bytes; it needs {needs}",
+                    buffer.size()
+                ),
+            });
+        }
+    }
     for (k, st) in stages.iter().enumerate() {
         let checker = Checker {
             ctx,
@@ -677,6 +716,10 @@ pub fn prepare_chain<'a>(
                             scalar: b.scalar,
                         }),
                     );
+                    if let Some(buffer) = adopted.get(name) {
+                        gpu.insert(name.clone(), GpuRes::Buffer(buffer.clone()));
+                        continue;
+                    }
                     let usage = wgpu::BufferUsages::STORAGE
                         | wgpu::BufferUsages::UNIFORM
                         | wgpu::BufferUsages::COPY_SRC
