@@ -149,7 +149,7 @@ pub fn field<F: Field>(resources: &Resources, name: &str) -> F {
     }
 }
 
-/// A kernel's typed buffer bindings (see the [module doc](crate::bindings)):
+/// A kernel's typed buffer bindings (see the [module doc](mod@crate::bindings)):
 ///
 /// ```
 /// use vxgi_harness::{bindings, Tolerance};

@@ -6,7 +6,7 @@
 //!   dispatch (direct or indirect), readback (textures with padded rows), timing.
 //! * [`compare`]: exact / ULP+floor / abs-rel comparison with mismatch reports and ULP statistics.
 //! * [`kernel`]: the kernel declaration and the verify driver.
-//! * [`bindings`]: a kernel's buffer bindings as one typed struct ([`bindings!`]), from which its
+//! * [`bindings`](mod@bindings): a kernel's buffer bindings as one typed struct ([`bindings!`]), from which its
 //!   declared inputs and outputs, a case's resources and checks and the mirror's unpacking follow.
 //!
 //! It knows no kernel; the declarations live in the `vxgi` crate.
