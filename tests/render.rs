@@ -1641,21 +1641,32 @@ fn a_resized_resident_frame_keeps_the_volume_and_draws_a_fresh_frames_images() {
             .find(|q| q.stage == "voxelize")
             .unwrap();
         assert!(!voxelize.runs, "{}: {plan}", p.name());
-        let fresh = Resident::new(gpu(), p)
-            .unwrap()
-            .render(&resized, &cones)
-            .unwrap();
-        for (name, got, want) in [
-            ("direct", &r.direct, &fresh.direct),
-            ("indirect", &r.indirect, &fresh.indirect),
-            ("ao", &r.ao, &fresh.ao),
-        ] {
-            assert!(
-                got == want,
-                "{}: {name} differs from a fresh frame's",
-                p.name()
-            );
-        }
+        assert_fresh_frame(p, &r, &resized, &cones);
+    }
+}
+
+/// `r`, a frame of `scene` by a renderer that drew another frame first, is bit for bit what a fresh
+/// renderer of pipeline `p` draws.
+fn assert_fresh_frame(
+    p: vxgi::render::Pipeline,
+    r: &vxgi::render::Rendered,
+    scene: &Scene,
+    cones: &vxgi::kernels::cone_trace::ConeSettings,
+) {
+    let fresh = vxgi::resident::Resident::new(gpu(), p)
+        .unwrap()
+        .render(scene, cones)
+        .unwrap();
+    for (name, got, want) in [
+        ("direct", &r.direct, &fresh.direct),
+        ("indirect", &r.indirect, &fresh.indirect),
+        ("ao", &r.ao, &fresh.ao),
+    ] {
+        assert!(
+            got == want,
+            "{}: {name} differs from a fresh frame's",
+            p.name()
+        );
     }
 }
 
@@ -1701,21 +1712,7 @@ fn new_cone_settings_keep_the_volume_where_the_volume_does_not_read_them() {
             assert!(plan.contains(&cones_changed), "{plan}");
             assert!(plan.contains("the volume kept"), "{plan}");
         }
-        let fresh = Resident::new(gpu(), p)
-            .unwrap()
-            .render(next, &cones)
-            .unwrap();
-        for (name, got, want) in [
-            ("direct", &r.direct, &fresh.direct),
-            ("indirect", &r.indirect, &fresh.indirect),
-            ("ao", &r.ao, &fresh.ao),
-        ] {
-            assert!(
-                got == want,
-                "{}: {name} differs from a fresh frame's",
-                p.name()
-            );
-        }
+        assert_fresh_frame(p, &r, next, &cones);
     }
 }
 
