@@ -10,9 +10,28 @@ use vxgi_cpu_mirror::cache_preconvolve::{
 use vxgi_harness::compare::bound_name;
 use vxgi_harness::run::{grid_for, Pass, Workgroups};
 use vxgi_harness::{
-    Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
-    KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
+    Bindings, Block, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, Indexing, Kernel,
+    KernelDecl, Resources, Shader, Tolerance,
 };
+
+vxgi_harness::bindings! {
+    /// cache_preconvolve's bindings: the caches' radiance in, their mips and irradiance maps out.
+    pub struct Io {
+        inputs: {
+            params: Block<PreconvolveParams>,
+            cache_radiance: Vec<[f32; 4]>,
+            irr_weights: Vec<f32>,
+        }
+        outputs: {
+            // Adds in the mirror's order and a power-of-two ldexp: exact (WGSL forbids reassociation;
+            // flush-to-zero GPUs are the harness's FTZ alternative).
+            cache_mips: Vec<[f32; 4]> => Tolerance::Exact,
+            // n multiply-adds per texel, one rounding each, fused or not: (n + 1) u sum |L W|,
+            // doubled (see `irradiance_texel`).
+            cache_irradiance: Vec<[f32; 4]> => Tolerance::MirrorBound,
+        }
+    }
+}
 
 pub static DECL: KernelDecl = KernelDecl {
     name: "cache_preconvolve",
@@ -20,21 +39,8 @@ pub static DECL: KernelDecl = KernelDecl {
     wgsl: include_str!("../../kernels/cache_preconvolve.wgsl"),
     includes: &[],
     entry: "mips",
-    inputs: &["params", "cache_radiance", "irr_weights"],
-    outputs: &[
-        // Adds in the mirror's order and a power-of-two ldexp: exact (WGSL forbids reassociation;
-        // flush-to-zero GPUs are the harness's FTZ alternative).
-        Output {
-            binding: "cache_mips",
-            tolerance: Tolerance::Exact,
-        },
-        // n multiply-adds per texel, one rounding each, fused or not: (n + 1) u sum |L W|, doubled
-        // (see `irradiance_texel`).
-        Output {
-            binding: "cache_irradiance",
-            tolerance: Tolerance::MirrorBound,
-        },
-    ],
+    inputs: Io::INPUTS,
+    outputs: Io::OUTPUTS,
     dispatch: DispatchRule::PerElement {
         binding: "cache_mips",
     },
@@ -73,24 +79,17 @@ pub fn case_for_count(
         irr_texels: irr * irr,
     };
     let (n_mips, n_irr) = (count * mip_len(res), count * (irr * irr) as usize);
-    let mut resources = Resources::new();
-    resources.insert("params".into(), HostResource::Buffer(HostBuffer::pod(&p)));
     let texels = (count * (res * res) as usize).max(1);
-    let rad = match radiance {
-        Some(r) if !r.is_empty() => HostBuffer::f32(bytemuck::cast_slice(r)),
-        _ => HostBuffer::zeroed(texels * 16, ScalarKind::F32),
+    let io = Io {
+        params: Block(p),
+        cache_radiance: match radiance {
+            Some(r) if !r.is_empty() => r.to_vec(),
+            _ => vec![[0.0; 4]; texels],
+        },
+        irr_weights: irradiance_weights(res, irr),
+        cache_mips: vec![[0.0; 4]; n_mips.max(1)],
+        cache_irradiance: vec![[0.0; 4]; n_irr.max(1)],
     };
-    resources.insert("cache_radiance".into(), HostResource::Buffer(rad));
-    resources.insert(
-        "irr_weights".into(),
-        HostResource::Buffer(HostBuffer::f32(&irradiance_weights(res, irr))),
-    );
-    for (name, len) in [("cache_mips", n_mips), ("cache_irradiance", n_irr)] {
-        resources.insert(
-            name.into(),
-            HostResource::Buffer(HostBuffer::zeroed(len.max(1) * 16, ScalarKind::F32)),
-        );
-    }
     let max = ctx.limits().max_compute_workgroups_per_dimension;
     let pass = |entry: &str, n: usize| Pass {
         label: entry.into(),
@@ -98,29 +97,20 @@ pub fn case_for_count(
         bindings: DECL.bind_by_name(),
         workgroups: Workgroups::Direct(grid_for(n as u64, 64, max)),
     };
-    let check = |name: &str, per: usize| Check {
-        resource: name.into(),
-        output: if name == "cache_mips" {
-            "cache_mips"
-        } else {
-            "cache_irradiance"
-        },
-        indexing: Indexing::Grid {
-            dims: [per as u32, count.max(1) as u32, 1],
-            components: 4,
-        },
+    let grid = |per: usize| Indexing::Grid {
+        dims: [per as u32, count.max(1) as u32, 1],
+        components: 4,
     };
-    Case {
-        label,
-        seed,
-        passes: vec![pass("mips", n_mips), pass("irradiance", n_irr)],
-        resources,
-        checks: vec![
-            check("cache_mips", mip_len(res)),
-            check("cache_irradiance", (irr * irr) as usize),
-        ],
-        effective_bytes: texels as u64 * 16 * 2 + (n_mips + n_irr) as u64 * 16,
-    }
+    let mut case = io
+        .case(
+            label,
+            seed,
+            vec![pass("mips", n_mips), pass("irradiance", n_irr)],
+        )
+        .with_indexing("cache_mips", grid(mip_len(res)))
+        .with_indexing("cache_irradiance", grid((irr * irr) as usize));
+    case.effective_bytes = texels as u64 * 16 * 2 + (n_mips + n_irr) as u64 * 16;
+    case
 }
 
 /// Generated caches: `count` caches of res^2 texels, per cache one of: a smooth sky, one bright texel
@@ -185,10 +175,8 @@ impl Kernel for CachePreconvolve {
         data: &Resources,
         mode: FloatMode,
     ) -> BTreeMap<String, HostBuffer> {
-        let b = |n: &str| data[n].buffer().expect("buffer");
-        let p: PreconvolveParams = *bytemuck::from_bytes(&b("params").bytes);
-        let rad: &[[f32; 4]] = bytemuck::cast_slice(&b("cache_radiance").bytes);
-        let w: &[f32] = bytemuck::cast_slice(&b("irr_weights").bytes);
+        let mut io = Io::read(data);
+        let (p, rad, w) = (io.params.0, &io.cache_radiance, &io.irr_weights);
         let t = (p.res * p.res) as usize;
         let flush = mode == FloatMode::FlushToZero;
         let (mut mips, mut irr, mut irr_b) = (Vec::new(), Vec::new(), Vec::new());
@@ -208,11 +196,12 @@ impl Kernel for CachePreconvolve {
                 v.push([0.0; 4]);
             }
         }
-        let f = |v: &[[f32; 4]]| HostBuffer::f32(bytemuck::cast_slice(v));
-        BTreeMap::from([
-            ("cache_mips".to_string(), f(&mips)),
-            ("cache_irradiance".to_string(), f(&irr)),
-            (bound_name("cache_irradiance"), f(&irr_b)),
-        ])
+        (io.cache_mips, io.cache_irradiance) = (mips, irr);
+        let mut out = io.outputs();
+        out.insert(
+            bound_name("cache_irradiance"),
+            HostBuffer::f32(bytemuck::cast_slice(&irr_b)),
+        );
+        out
     }
 }

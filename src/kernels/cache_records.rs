@@ -9,9 +9,37 @@ use vxgi_cpu_mirror::cluster_extract::Cluster;
 use vxgi_harness::compare::bound_name;
 use vxgi_harness::run::{grid_for, Pass, Workgroups};
 use vxgi_harness::{
-    Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
-    KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
+    Bindings, Block, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, Indexing, Kernel,
+    KernelDecl, Resources, Shader, Structs, Tolerance,
 };
+
+vxgi_harness::bindings! {
+    /// cache_records' bindings: the distribution's clusters and picks and the G-buffer's normals and
+    /// positions in; the caches' records and the cache stages' indirect arguments out.
+    pub struct Io {
+        inputs: {
+            records_params: Block<RecordsParams>,
+            clusters: Structs<Cluster>,
+            cluster_count: Vec<u32>,
+            picks: Vec<u32>,
+            normals: Vec<[u32; 2]>,
+            positions: Vec<[f32; 4]>,
+        }
+        outputs: {
+            // The position copied; r_w a square root of a sum (see `cache_records::bounds`).
+            cache_pos: Vec<[f32; 4]> => Tolerance::MirrorBound,
+            // Integer division and remainder: exact.
+            cache_pixel: Vec<[u32; 2]> => Tolerance::Exact,
+            // A normalisation (see `cache_records::bounds`).
+            cache_normal: Vec<[f32; 4]> => Tolerance::MirrorBound,
+            caches: Vec<[f32; 4]> => Tolerance::MirrorBound,
+            // Integer comparisons of neighbours' tiles, counts and workgroup arithmetic: exact.
+            tile_ranges: Vec<[u32; 2]> => Tolerance::Exact,
+            cache_count: Vec<u32> => Tolerance::Exact,
+            cache_args: Vec<u32> => Tolerance::Exact,
+        }
+    }
+}
 
 pub static DECL: KernelDecl = KernelDecl {
     name: "cache_records",
@@ -19,27 +47,8 @@ pub static DECL: KernelDecl = KernelDecl {
     wgsl: include_str!("../../kernels/cache_records.wgsl"),
     includes: &[super::tile_normal_histogram::OCTAHEDRAL_BINS],
     entry: "main",
-    inputs: &[
-        "records_params",
-        "clusters",
-        "cluster_count",
-        "picks",
-        "normals",
-        "positions",
-    ],
-    outputs: &[
-        // The position copied; r_w a square root of a sum (see `cache_records::bounds`).
-        Output { binding: "cache_pos", tolerance: Tolerance::MirrorBound },
-        // Integer division and remainder: exact.
-        Output { binding: "cache_pixel", tolerance: Tolerance::Exact },
-        // A normalisation (see `cache_records::bounds`).
-        Output { binding: "cache_normal", tolerance: Tolerance::MirrorBound },
-        Output { binding: "caches", tolerance: Tolerance::MirrorBound },
-        // Integer comparisons of neighbours' tiles, counts and workgroup arithmetic: exact.
-        Output { binding: "tile_ranges", tolerance: Tolerance::Exact },
-        Output { binding: "cache_count", tolerance: Tolerance::Exact },
-        Output { binding: "cache_args", tolerance: Tolerance::Exact },
-    ],
+    inputs: Io::INPUTS,
+    outputs: Io::OUTPUTS,
     dispatch: DispatchRule::PerItem {
         what: "cache slot up to the capacity (slot 0 also writes the count and the arguments)",
     },
@@ -47,19 +56,47 @@ pub static DECL: KernelDecl = KernelDecl {
     summary: "radiance caches' records (position, radius, pixel, normal, creation origin, tile ranges) and the cache stages' indirect arguments from the clusters and picks (CPRC 3.2)",
 };
 
+/// The bindings for `capacity` caches over `tiles` screen tiles (outputs zeroed, one slot and one
+/// tile at least), with these inputs; empty lists get one zero element (bindings cannot be empty).
+fn io(
+    p: RecordsParams,
+    clusters: &[Cluster],
+    picks: Vec<u32>,
+    normals: Vec<[u32; 2]>,
+    positions: Vec<[f32; 4]>,
+    tiles: usize,
+) -> Io {
+    let c = p.capacity.max(1) as usize;
+    Io {
+        records_params: Block(p),
+        clusters: Structs(if clusters.is_empty() {
+            vec![bytemuck::Zeroable::zeroed()]
+        } else {
+            clusters.to_vec()
+        }),
+        cluster_count: vec![clusters.len() as u32],
+        picks: if picks.is_empty() { vec![0] } else { picks },
+        normals,
+        positions,
+        cache_pos: vec![[0.0; 4]; c],
+        cache_pixel: vec![[0; 2]; c],
+        cache_normal: vec![[0.0; 4]; c],
+        caches: vec![[0.0; 4]; 2 * c],
+        tile_ranges: vec![[0; 2]; tiles.max(1)],
+        cache_count: vec![0],
+        cache_args: vec![0; ARGS_LEN],
+    }
+}
+
 /// The resources the kernel writes for `capacity` caches over `tiles` screen tiles, zeroed.
 pub fn outputs(capacity: usize, tiles: usize) -> Resources {
-    let z = |bytes: usize, s: ScalarKind| HostResource::Buffer(HostBuffer::zeroed(bytes, s));
-    let c = capacity.max(1);
-    Resources::from([
-        ("cache_pos".into(), z(c * 16, ScalarKind::F32)),
-        ("cache_pixel".into(), z(c * 8, ScalarKind::U32)),
-        ("cache_normal".into(), z(c * 16, ScalarKind::F32)),
-        ("caches".into(), z(c * 32, ScalarKind::F32)),
-        ("tile_ranges".into(), z(tiles.max(1) * 8, ScalarKind::U32)),
-        ("cache_count".into(), z(4, ScalarKind::U32)),
-        ("cache_args".into(), z(ARGS_LEN * 4, ScalarKind::U32)),
-    ])
+    let p = RecordsParams {
+        capacity: capacity as u32,
+        ..bytemuck::Zeroable::zeroed()
+    };
+    let mut r = io(p, &[], vec![], vec![], vec![], tiles).resources();
+    r.retain(|name, _| Io::OUTPUTS.iter().any(|o| o.binding == name));
+    r
 }
 
 /// The pass over `p.capacity` slots (one at least: slot 0 writes the arguments).
@@ -86,63 +123,20 @@ pub fn case_for(
 ) -> Case {
     let (clusters, picks) = super::gather_caches::clusters_and_picks(inp);
     let tiles = (p.tiles_x * inp.height.div_ceil(p.tile)) as usize;
-    let mut resources = outputs(p.capacity as usize, tiles);
-    let nonempty = |v: Vec<u32>| if v.is_empty() { vec![0] } else { v };
-    resources.insert(
-        "records_params".into(),
-        HostResource::Buffer(HostBuffer::pod(&p)),
+    let io = io(
+        p,
+        &clusters,
+        picks,
+        inp.normals.clone(),
+        inp.positions.clone(),
+        tiles,
     );
-    let cl: Vec<Cluster> = if clusters.is_empty() {
-        vec![bytemuck::Zeroable::zeroed()]
-    } else {
-        clusters.clone()
-    };
-    resources.insert(
-        "clusters".into(),
-        HostResource::Buffer(HostBuffer {
-            bytes: bytemuck::cast_slice(&cl).to_vec(),
-            scalar: ScalarKind::Mixed,
-        }),
-    );
-    resources.insert(
-        "cluster_count".into(),
-        HostResource::Buffer(HostBuffer::u32(&[clusters.len() as u32])),
-    );
-    resources.insert(
-        "picks".into(),
-        HostResource::Buffer(HostBuffer::u32(&nonempty(picks))),
-    );
-    resources.insert(
-        "normals".into(),
-        HostResource::Buffer(HostBuffer::u32(bytemuck::cast_slice(&inp.normals))),
-    );
-    resources.insert(
-        "positions".into(),
-        HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(&inp.positions))),
-    );
-    let check = |name: &'static str| Check {
-        resource: name.into(),
-        output: name,
-        indexing: Indexing::Linear,
-    };
-    Case {
-        label,
-        seed,
-        passes: vec![pass(ctx, &p)],
-        resources,
-        checks: [
-            "cache_pos",
-            "cache_pixel",
-            "cache_normal",
-            "caches",
-            "tile_ranges",
-            "cache_count",
-            "cache_args",
-        ]
-        .map(check)
-        .to_vec(),
-        effective_bytes: clusters.len() as u64 * (64 + 4 + 16 + 16 + 8 + 16 + 32),
+    let mut case = io.case(label, seed, vec![pass(ctx, &p)]);
+    for c in &mut case.checks {
+        c.indexing = Indexing::Linear;
     }
+    case.effective_bytes = clusters.len() as u64 * (64 + 4 + 16 + 16 + 8 + 16 + 32);
+    case
 }
 
 /// The parameters for `inp` with `capacity` slots, caches of `texels` (mips: `mips` per cache, 0
@@ -190,22 +184,17 @@ impl Kernel for CacheRecords {
         data: &Resources,
         _mode: FloatMode,
     ) -> BTreeMap<String, HostBuffer> {
-        let b = |k: &str| &data[k].buffer().expect("a buffer").bytes;
-        let p: RecordsParams = *bytemuck::from_bytes(b("records_params"));
-        let clusters: &[Cluster] = bytemuck::cast_slice(b("clusters"));
-        let count = bytemuck::cast_slice::<u8, u32>(b("cluster_count"))[0];
-        let picks: &[u32] = bytemuck::cast_slice(b("picks"));
-        let normals: &[[u32; 2]] = bytemuck::cast_slice(b("normals"));
-        let positions: &[[f32; 4]] = bytemuck::cast_slice(b("positions"));
-        let tiles = b("tile_ranges").len() / 8;
+        let io = Io::read(data);
+        let p = io.records_params.0;
+        let (clusters, positions) = (&io.clusters.0, &io.positions);
         let r = records(
             &p,
             clusters,
-            count,
-            picks,
-            normals,
+            io.cluster_count[0],
+            &io.picks,
+            &io.normals,
             positions,
-            &vec![[0; 2]; tiles],
+            &vec![[0; 2]; io.tile_ranges.len()],
         );
         // Every slot up to the capacity: those without a cache keep their zeros.
         let slots = (p.capacity.max(1)) as usize;
@@ -215,31 +204,23 @@ impl Kernel for CacheRecords {
         };
         let (mut pos_b, mut nrm_b, mut cr_b) = (Vec::new(), Vec::new(), Vec::new());
         for c in 0..r.count as usize {
-            let (bn, brw, bo) = bounds(&p, &clusters[c], positions[picks[c] as usize]);
+            let (bn, brw, bo) = bounds(&p, &clusters[c], positions[io.picks[c] as usize]);
             pos_b.push([0.0, 0.0, 0.0, brw]);
             nrm_b.push([bn, bn, bn, 0.0]);
             cr_b.extend([[bo[0], bo[1], bo[2], 0.0], [bn, bn, bn, 0.0]]);
         }
-        let mut pixel = r.cache_pixel.clone();
-        pixel.resize(slots, [0; 2]);
+        let mut io = io;
+        io.cache_pixel = r.cache_pixel;
+        io.cache_pixel.resize(slots, [0; 2]);
+        (io.cache_pos, io.cache_normal) = (pad(r.cache_pos, slots), pad(r.cache_normal, slots));
+        io.caches = pad(r.caches, 2 * slots);
+        (io.tile_ranges, io.cache_count, io.cache_args) =
+            (r.tile_ranges, vec![r.count], r.args.to_vec());
         let f = |v: Vec<[f32; 4]>| HostBuffer::f32(bytemuck::cast_slice(&v));
-        BTreeMap::from([
-            ("cache_pos".to_string(), f(pad(r.cache_pos, slots))),
-            (bound_name("cache_pos"), f(pad(pos_b, slots))),
-            (
-                "cache_pixel".to_string(),
-                HostBuffer::u32(bytemuck::cast_slice(&pixel)),
-            ),
-            ("cache_normal".to_string(), f(pad(r.cache_normal, slots))),
-            (bound_name("cache_normal"), f(pad(nrm_b, slots))),
-            ("caches".to_string(), f(pad(r.caches, 2 * slots))),
-            (bound_name("caches"), f(pad(cr_b, 2 * slots))),
-            (
-                "tile_ranges".to_string(),
-                HostBuffer::u32(bytemuck::cast_slice(&r.tile_ranges)),
-            ),
-            ("cache_count".to_string(), HostBuffer::u32(&[r.count])),
-            ("cache_args".to_string(), HostBuffer::u32(&r.args)),
-        ])
+        let mut out = io.outputs();
+        out.insert(bound_name("cache_pos"), f(pad(pos_b, slots)));
+        out.insert(bound_name("cache_normal"), f(pad(nrm_b, slots)));
+        out.insert(bound_name("caches"), f(pad(cr_b, 2 * slots)));
+        out
     }
 }

@@ -13,11 +13,34 @@ use vxgi_cpu_mirror::lrsm_prefilter::reduce_level;
 use vxgi_cpu_mirror::sample_lrsm::{sample, sample_bound, Lrsm, SampleParams};
 use vxgi_harness::compare::bound_name;
 use vxgi_harness::{
-    Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
-    KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
+    Bindings, Block, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, Kernel, KernelDecl,
+    Resources, Shader, Tolerance,
 };
 
 pub const WGSL: &str = include_str!("../../kernels/sample_lrsm.wgsl");
+
+vxgi_harness::bindings! {
+    /// sample_lrsm's bindings: an LRSM (every level of every layer) and cone samples in, their
+    /// radiance out.
+    pub struct Io {
+        inputs: {
+            params: Block<SampleParams>,
+            depth_ranges: Vec<[f32; 4]>,
+            lrsm_radiance: Vec<[f32; 4]>,
+            lrsm_normal: Vec<[f32; 4]>,
+            lrsm_moments: Vec<[f32; 4]>,
+            cone_pos: Vec<[f32; 4]>,
+            cone_dir: Vec<[f32; 4]>,
+        }
+        outputs: {
+            // Per element from the WGSL rules along the path: normal division and dot product (any
+            // order, fused or not), V's own bound, decay 8 ULP, three products and the sum over
+            // layers; branch flips at N = 0 or V = 0 change L continuously and are covered (see
+            // `sample_bound`).
+            radiance: Vec<[f32; 4]> => Tolerance::MirrorBound
+        }
+    }
+}
 
 pub static DECL: KernelDecl = KernelDecl {
     name: "sample_lrsm",
@@ -25,13 +48,8 @@ pub static DECL: KernelDecl = KernelDecl {
     wgsl: WGSL,
     includes: &[LRSM_SAMPLE, LRSM_MATH],
     entry: "main",
-    inputs: &["params", "depth_ranges", "lrsm_radiance", "lrsm_normal", "lrsm_moments", "cone_pos", "cone_dir"],
-    outputs: &[
-        // Per element from the WGSL rules along the path: normal division and dot product (any order,
-        // fused or not), V's own bound, decay 8 ULP, three products and the sum over layers; branch
-        // flips at N = 0 or V = 0 change L continuously and are covered (see `sample_bound`).
-        Output { binding: "radiance", tolerance: Tolerance::MirrorBound },
-    ],
+    inputs: Io::INPUTS,
+    outputs: Io::OUTPUTS,
     dispatch: DispatchRule::PerElement { binding: "radiance" },
     mirror: "vxgi_cpu_mirror::sample_lrsm::sample",
     summary: "Sample LRSM (LRSM Algorithm 1): radiance of cone samples from the layered, pre-filtered RSM",
@@ -168,41 +186,24 @@ pub fn case_for(
     label: String,
     seed: u64,
 ) -> Case {
-    let mut resources = Resources::new();
-    let f4 = |v: &[[f32; 4]]| HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(v)));
-    resources.insert(
-        "params".into(),
-        HostResource::Buffer(HostBuffer::pod(&lrsm.params)),
-    );
-    resources.insert("depth_ranges".into(), f4(&lrsm.depth_ranges));
-    resources.insert("lrsm_radiance".into(), f4(&lrsm.streams[0]));
-    resources.insert("lrsm_normal".into(), f4(&lrsm.streams[1]));
-    resources.insert("lrsm_moments".into(), f4(&lrsm.streams[2]));
-    resources.insert("cone_pos".into(), f4(pos));
-    resources.insert("cone_dir".into(), f4(dir));
-    resources.insert(
-        "radiance".into(),
-        HostResource::Buffer(HostBuffer::zeroed(pos.len() * 16, ScalarKind::F32)),
-    );
+    let io = Io {
+        params: Block(lrsm.params),
+        depth_ranges: lrsm.depth_ranges.clone(),
+        lrsm_radiance: lrsm.streams[0].clone(),
+        lrsm_normal: lrsm.streams[1].clone(),
+        lrsm_moments: lrsm.streams[2].clone(),
+        cone_pos: pos.to_vec(),
+        cone_dir: dir.to_vec(),
+        radiance: vec![[0.0; 4]; pos.len()],
+    };
     let bindings = DECL.bind_by_name();
+    let pass = DECL.pass(shader, ctx, "sample".into(), bindings, pos.len() as u64);
+    let mut case = io.case(label, seed, vec![pass]);
+    // Per sample: its two vec4s, up to 8 taps (trilinear) of 3 texels of 16 bytes per layer, and
+    // the output.
     let layers = (lrsm.params.depth_slices * lrsm.params.normal_slices) as u64;
-    Case {
-        label,
-        seed,
-        passes: vec![DECL.pass(shader, ctx, "sample".into(), bindings, pos.len() as u64)],
-        resources,
-        checks: vec![Check {
-            resource: "radiance".into(),
-            output: "radiance",
-            indexing: Indexing::Grid {
-                dims: [pos.len() as u32, 1, 1],
-                components: 4,
-            },
-        }],
-        // Per sample: its two vec4s, up to 8 taps (trilinear) of 3 texels of 16 bytes per layer, and
-        // the output.
-        effective_bytes: pos.len() as u64 * (32 + 16 + layers * 8 * 48),
-    }
+    case.effective_bytes = pos.len() as u64 * (32 + 16 + layers * 8 * 48);
+    case
 }
 
 pub struct SampleLrsm;
@@ -240,38 +241,27 @@ impl Kernel for SampleLrsm {
         data: &Resources,
         mode: FloatMode,
     ) -> BTreeMap<String, HostBuffer> {
-        let v4 = |n: &str| -> &[[f32; 4]] {
-            bytemuck::cast_slice(&data[n].buffer().expect("buffer").bytes)
-        };
-        let params: SampleParams =
-            *bytemuck::from_bytes(&data["params"].buffer().expect("params").bytes);
+        let mut io = Io::read(data);
         let lrsm = Lrsm {
-            depth_ranges: v4("depth_ranges"),
-            radiance: v4("lrsm_radiance"),
-            normal: v4("lrsm_normal"),
-            moments: v4("lrsm_moments"),
+            depth_ranges: &io.depth_ranges,
+            radiance: &io.lrsm_radiance,
+            normal: &io.lrsm_normal,
+            moments: &io.lrsm_moments,
         };
-        let (pos, dir) = (v4("cone_pos"), v4("cone_dir"));
-        let flush = mode == FloatMode::FlushToZero;
-        let l: Vec<[f32; 4]> = pos
-            .iter()
-            .zip(dir)
+        let (params, flush) = (io.params.0, mode == FloatMode::FlushToZero);
+        let pairs = || io.cone_pos.iter().zip(&io.cone_dir);
+        let l: Vec<[f32; 4]> = pairs()
             .map(|(p, d)| sample(&lrsm, &params, *p, *d, flush))
             .collect();
-        let b: Vec<[f32; 4]> = pos
-            .iter()
-            .zip(dir)
+        let b: Vec<[f32; 4]> = pairs()
             .map(|(p, d)| sample_bound(&lrsm, &params, *p, *d))
             .collect();
-        BTreeMap::from([
-            (
-                "radiance".to_string(),
-                HostBuffer::f32(bytemuck::cast_slice(&l)),
-            ),
-            (
-                bound_name("radiance"),
-                HostBuffer::f32(bytemuck::cast_slice(&b)),
-            ),
-        ])
+        io.radiance = l;
+        let mut out = io.outputs();
+        out.insert(
+            bound_name("radiance"),
+            HostBuffer::f32(bytemuck::cast_slice(&b)),
+        );
+        out
     }
 }

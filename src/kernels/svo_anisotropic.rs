@@ -4,14 +4,28 @@
 //! the mirror and runs one level's pass on the GPU: the kernel's contract given exact inputs.
 use super::sparse_voxel_octree::generated;
 use std::collections::BTreeMap;
-use vxgi_cpu_mirror::sparse_voxel_octree::{build_fitted, Octree};
+use vxgi_cpu_mirror::sparse_voxel_octree::{build_fitted, Node, Octree};
 use vxgi_cpu_mirror::svo_anisotropic::{self as mirror, AnisoParams, NODE_VALUES};
 use vxgi_harness::compare::bound_name;
 use vxgi_harness::run::run;
 use vxgi_harness::{
-    Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
-    KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
+    Bindings, Block, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Kernel,
+    KernelDecl, Resources, Shader, Tolerance,
 };
+
+vxgi_harness::bindings! {
+    /// svo_anisotropic's bindings: the level's parameters and the octree in, directional values
+    /// (every level's; the pass writes its own) in and out.
+    pub struct Io {
+        inputs: { params: Block<AnisoParams>, nodes: Vec<[u32; 9]>, bricks: Vec<u32> }
+        outputs: {
+            // Non-negative values composited front to back (sqrt, a division, products and sums):
+            // within 48 ULP of the rows' magnitudes (the mirror's per-element bound); other levels
+            // untouched (bound 0).
+            aniso: Vec<[f32; 4]> => Tolerance::MirrorBound
+        }
+    }
+}
 
 pub static DECL: KernelDecl = KernelDecl {
     name: "svo_anisotropic",
@@ -19,13 +33,8 @@ pub static DECL: KernelDecl = KernelDecl {
     wgsl: include_str!("../../kernels/svo_anisotropic.wgsl"),
     includes: &[super::SVO_NODE],
     entry: "main",
-    inputs: &["params", "nodes", "bricks"],
-    // Non-negative values composited front to back (sqrt, a division, products and sums): within 48
-    // ULP of the rows' magnitudes (the mirror's per-element bound); other levels untouched (bound 0).
-    outputs: &[Output {
-        binding: "aniso",
-        tolerance: Tolerance::MirrorBound,
-    }],
+    inputs: Io::INPUTS,
+    outputs: Io::OUTPUTS,
     dispatch: DispatchRule::PerElement { binding: "aniso" },
     mirror: "vxgi_cpu_mirror::svo_anisotropic::level_pass",
     summary: "anisotropic voxels of the sparse voxel octree: six directional values per brick voxel by front-to-back compositing of child rows, one level per pass (VCT 7.1)",
@@ -39,21 +48,14 @@ pub fn values(o: &Octree) -> usize {
     o.levels[o.depth as usize] as usize * 8 * NODE_VALUES
 }
 
-fn params_buffer(p: &AnisoParams) -> HostResource {
-    // Mixed: u32 fields must not be flushed as if they were subnormal f32s.
-    HostResource::Buffer(HostBuffer {
-        bytes: bytemuck::bytes_of(p).to_vec(),
-        scalar: ScalarKind::Mixed,
-    })
-}
-
-fn octree_resources(o: &Octree, aniso: &[[f32; 4]]) -> Resources {
-    let mut r = super::sparse_voxel_octree::reader_resources(o);
-    r.insert(
-        "aniso".to_string(),
-        HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(aniso))),
-    );
-    r
+/// The bindings of a pass of `p` over `o` with these directional values.
+fn io(o: &Octree, p: AnisoParams, aniso: Vec<[f32; 4]>) -> Io {
+    Io {
+        params: Block(p),
+        nodes: bytemuck::cast_slice(&o.nodes).to_vec(),
+        bricks: o.bricks.clone(),
+        aniso,
+    }
 }
 
 /// The octree's directional values by the mirror (every level), as `build_on_gpu` returns them.
@@ -64,12 +66,12 @@ pub fn build_mirror(o: &Octree, inv_scale: f32) -> Vec<[f32; 4]> {
 /// Every level's directional values of `o` on the GPU: one pass per level, depth - 1 first.
 pub fn build_on_gpu(ctx: &GpuContext, o: &Octree, inv_scale: f32) -> anyhow::Result<Vec<[f32; 4]>> {
     let n = values(o).max(1);
-    let mut resources = octree_resources(o, &vec![[0.0; 4]; n]);
+    let mut resources = io(o, AnisoParams::default(), vec![[0.0; 4]; n]).resources();
     let shader = DECL.shader()?;
     let mut passes = Vec::new();
     for p in mirror::passes(o.depth, &o.levels, inv_scale) {
         let name = format!("params_{}", p.level);
-        resources.insert(name.clone(), params_buffer(&p));
+        resources.insert(name.clone(), HostResource::Buffer(HostBuffer::pod(&p)));
         let mut bindings = DECL.bind_by_name();
         bindings.retain(|(b, _)| b != "params");
         bindings.push(("params".into(), vxgi_harness::run::View::Buffer(name)));
@@ -113,9 +115,12 @@ impl Kernel for SvoAnisotropic {
             let at = n as usize * NODE_VALUES;
             aniso[at..at + NODE_VALUES].fill([0.0; 4]);
         }
-        let mut resources = octree_resources(&o, &aniso);
-        resources.insert("params".into(), params_buffer(&p));
         let shader = DECL.shader().expect("svo_anisotropic validates");
+        let label = format!(
+            "{family}, depth {depth}, {} fragments, level {level} ({} node slots)",
+            frags.len(),
+            p.nodes
+        );
         let pass = DECL.pass(
             &shader,
             ctx,
@@ -123,25 +128,9 @@ impl Kernel for SvoAnisotropic {
             DECL.bind_by_name(),
             p.nodes as u64 * 27,
         );
-        Case {
-            label: format!(
-                "{family}, depth {depth}, {} fragments, level {level} ({} node slots)",
-                frags.len(),
-                p.nodes
-            ),
-            seed,
-            passes: vec![pass],
-            resources,
-            checks: vec![Check {
-                resource: "aniso".into(),
-                output: "aniso",
-                indexing: Indexing::Grid {
-                    dims: [aniso.len() as u32, 1, 1],
-                    components: 4,
-                },
-            }],
-            effective_bytes: p.nodes as u64 * 27 * (6 * 16 + 27 * 16),
-        }
+        let mut case = io(&o, p, aniso).case(label, seed, vec![pass]);
+        case.effective_bytes = p.nodes as u64 * 27 * (6 * 16 + 27 * 16);
+        case
     }
 
     fn mirror(
@@ -152,20 +141,14 @@ impl Kernel for SvoAnisotropic {
     ) -> BTreeMap<String, HostBuffer> {
         // Values of scene scale, alphas in [0, 1]: no subnormals arise from non-zero inputs
         // (accepted flushed by the harness anyway).
-        let b = |n: &str| data[n].buffer().expect("buffer");
-        let p: AnisoParams = *bytemuck::from_bytes(&b("params").bytes);
-        let nodes = bytemuck::cast_slice(&b("nodes").bytes);
-        let mut aniso: Vec<[f32; 4]> = bytemuck::cast_slice(&b("aniso").bytes).to_vec();
-        let bound = mirror::level_pass(nodes, b("bricks").as_u32(), &mut aniso, &p);
-        BTreeMap::from([
-            (
-                "aniso".to_string(),
-                HostBuffer::f32(bytemuck::cast_slice(&aniso)),
-            ),
-            (
-                bound_name("aniso"),
-                HostBuffer::f32(bytemuck::cast_slice(&bound)),
-            ),
-        ])
+        let mut io = Io::read(data);
+        let nodes: &[Node] = bytemuck::cast_slice(&io.nodes);
+        let bound = mirror::level_pass(nodes, &io.bricks, &mut io.aniso, &io.params.0);
+        let mut out = io.outputs();
+        out.insert(
+            bound_name("aniso"),
+            HostBuffer::f32(bytemuck::cast_slice(&bound)),
+        );
+        out
     }
 }

@@ -8,11 +8,32 @@ use rand_chacha::ChaCha8Rng;
 use std::collections::BTreeMap;
 use vxgi_cpu_mirror::sparse_voxel_octree::{build, Octree};
 use vxgi_cpu_mirror::svo_sample::{sample_all, SampleParams};
-use vxgi_harness::run::{grid_for, run, Workgroups};
+use vxgi_harness::run::run;
 use vxgi_harness::{
-    Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
-    KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
+    Bindings, Block, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, Kernel, KernelDecl,
+    Resources, Shader, Tolerance,
 };
+
+vxgi_harness::bindings! {
+    /// svo_sample's bindings: the octree and the queries (x, y, z, level) in, the samples out.
+    pub struct Io {
+        inputs: {
+            params: Block<SampleParams>,
+            nodes: Vec<[u32; 9]>,
+            bricks: Vec<u32>,
+            queries: Vec<[f32; 4]>,
+        }
+        outputs: {
+            // Node, cell and weights are exact on both sides. Per channel: 8 conversions f32(u32)
+            // and 8 scalings (correctly rounded: 0.5 ULP each), 7 + 1 lerps a(1-t) + bt, each 1 - t
+            // (exact for t >= 1/2, else 0.5 ULP), two products and a sum (0.5 ULP each; FMA
+            // contraction, which WGSL allows, removes one rounding). All terms are non-negative, so
+            // relative errors add without cancellation: each side is within ~8 ULP of the exact
+            // value, GPU vs mirror within 16. The floor covers flush-to-zero.
+            samples: Vec<[f32; 4]> => Tolerance::Ulp { ulps: 16, abs_floor: 1e-30 }
+        }
+    }
+}
 
 pub static DECL: KernelDecl = KernelDecl {
     name: "svo_sample",
@@ -20,13 +41,8 @@ pub static DECL: KernelDecl = KernelDecl {
     wgsl: include_str!("../../kernels/svo_sample.wgsl"),
     includes: &[super::SVO_NODE],
     entry: "svo_sample",
-    inputs: &["params", "nodes", "bricks", "queries"],
-    // Node, cell and weights are exact on both sides. Per channel: 8 conversions f32(u32) and 8
-    // scalings (correctly rounded: 0.5 ULP each), 7 + 1 lerps a(1-t) + bt, each 1 - t (exact for t >= 1/2,
-    // else 0.5 ULP), two products and a sum (0.5 ULP each; FMA contraction, which WGSL allows, removes
-    // one rounding). All terms are non-negative, so relative errors add without cancellation: each side
-    // is within ~8 ULP of the exact value, GPU vs mirror within 16. The floor covers flush-to-zero.
-    outputs: &[Output { binding: "samples", tolerance: Tolerance::Ulp { ulps: 16, abs_floor: 1e-30 } }],
+    inputs: Io::INPUTS,
+    outputs: Io::OUTPUTS,
     dispatch: DispatchRule::PerElement { binding: "queries" },
     mirror: "vxgi_cpu_mirror::svo_sample::sample_all",
     summary: "quadrilinear sampling of the sparse voxel octree: descend to the node, trilinear in its 3x3x3 brick, blend two levels (VCT 5)",
@@ -67,47 +83,19 @@ pub fn case_for(
         inv_scale: 1.0 / scale,
         _pad: 0,
     };
-    let mut resources = Resources::new();
-    let buf = |b: HostBuffer| HostResource::Buffer(b);
-    resources.insert("params".into(), buf(HostBuffer::pod(&params)));
-    resources.insert(
-        "nodes".into(),
-        buf(HostBuffer {
-            bytes: bytemuck::cast_slice(&octree.nodes).to_vec(),
-            scalar: ScalarKind::U32,
-        }),
-    );
-    resources.insert("bricks".into(), buf(HostBuffer::u32(&octree.bricks)));
-    resources.insert(
-        "queries".into(),
-        buf(HostBuffer::f32(bytemuck::cast_slice(queries))),
-    );
-    resources.insert(
-        "samples".into(),
-        buf(HostBuffer::zeroed(queries.len() * 16, ScalarKind::F32)),
-    );
-    let grid = grid_for(
-        queries.len() as u64,
-        64,
-        ctx.limits().max_compute_workgroups_per_dimension,
-    );
-    Case {
-        label,
-        seed,
-        resources,
-        passes: vec![vxgi_harness::run::Pass {
-            label: "svo_sample".into(),
-            entry: "svo_sample".into(),
-            bindings: DECL.bind_by_name(),
-            workgroups: Workgroups::Direct(grid),
-        }],
-        checks: vec![Check {
-            resource: "samples".into(),
-            output: "samples",
-            indexing: Indexing::Linear,
-        }],
-        effective_bytes: queries.len() as u64 * (16 + 16 + 8 * 16),
-    }
+    let io = Io {
+        params: Block(params),
+        nodes: bytemuck::cast_slice(&octree.nodes).to_vec(),
+        bricks: octree.bricks.clone(),
+        queries: queries.to_vec(),
+        samples: vec![[0.0; 4]; queries.len()],
+    };
+    let shader = DECL.shader().expect("svo_sample validates");
+    let mut case = DECL
+        .case_of(&shader, ctx, &io, queries.len() as u64, label, seed)
+        .with_indexing("samples", vxgi_harness::Indexing::Linear);
+    case.effective_bytes = queries.len() as u64 * (16 + 16 + 8 * 16);
+    case
 }
 
 /// Queries of the generator: random points and levels, lattice points of random levels, node and
@@ -159,18 +147,14 @@ impl Kernel for SvoSample {
         _data: &Resources,
         _mode: FloatMode,
     ) -> BTreeMap<String, HostBuffer> {
-        let b = |n: &str| case.resources[n].buffer().expect("buffer");
-        let p: SampleParams = *bytemuck::from_bytes(&b("params").bytes);
-        let out = sample_all(
-            bytemuck::cast_slice(&b("nodes").bytes),
-            b("bricks").as_u32(),
-            &p,
-            bytemuck::cast_slice(&b("queries").bytes),
+        let mut io = Io::read(&case.resources);
+        io.samples = sample_all(
+            bytemuck::cast_slice(&io.nodes),
+            &io.bricks,
+            &io.params.0,
+            &io.queries,
         );
-        BTreeMap::from([(
-            "samples".to_string(),
-            HostBuffer::f32(bytemuck::cast_slice(&out)),
-        )])
+        io.outputs()
     }
 }
 
