@@ -12,9 +12,44 @@ use vxgi_cpu_mirror::gbuffer::Frame;
 use vxgi_harness::compare::bound_name;
 use vxgi_harness::run::{grid_for, Pass, Workgroups};
 use vxgi_harness::{
-    Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
-    KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
+    Bindings, Block, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, Indexing, Kernel,
+    KernelDecl, Resources, Shader, Tolerance,
 };
+
+vxgi_harness::bindings! {
+    /// cprc_pixels' bindings: the G-buffer, the lobe table and the gather's results in; the
+    /// per-pixel inputs of the distribution (`inputs`) and the indirect and AO images (`compose`) out.
+    pub struct Io {
+        inputs: {
+            frame: Block<Frame>,
+            // Six vec4<f32> per triangle (`GpuTriangle`).
+            triangles: Vec<[f32; 4]>,
+            lobes: Vec<[f32; 4]>,
+            gb_position: Vec<[f32; 4]>,
+            gb_normal: Vec<[f32; 4]>,
+            gb_triangle: Vec<u32>,
+            gb_albedo: Vec<[f32; 4]>,
+            diffuse: Vec<[f32; 4]>,
+            glossy: Vec<[f32; 4]>,
+        }
+        outputs: {
+            // One correctly rounded product and round per component, integer packing: exact.
+            normals: Vec<[u32; 2]> => Tolerance::Exact,
+            // A difference and a dot product (see `cprc_pixels::pixel_bounds`).
+            depth: Vec<f32> => Tolerance::MirrorBound,
+            // Copies.
+            positions: Vec<[f32; 4]> => Tolerance::Exact,
+            // Two normalisations and a reflection (see `cprc_pixels::pixel_bounds`).
+            pixel_dirs: Vec<[f32; 4]> => Tolerance::MirrorBound,
+            // A table lookup.
+            px_specular: Vec<[f32; 4]> => Tolerance::Exact,
+            // Three products and a sum per component (see `cprc_pixels::compose_bound`).
+            indirect: Vec<[f32; 4]> => Tolerance::MirrorBound,
+            // Constants chosen by exact comparisons.
+            ao: Vec<[f32; 4]> => Tolerance::Exact,
+        }
+    }
+}
 
 pub static DECL: KernelDecl = KernelDecl {
     name: "cprc_pixels",
@@ -22,26 +57,8 @@ pub static DECL: KernelDecl = KernelDecl {
     wgsl: include_str!("../../kernels/cprc_pixels.wgsl"),
     includes: &[super::SCENE_TYPES],
     entry: "inputs",
-    inputs: &[
-        "frame", "triangles", "lobes", "gb_position", "gb_normal", "gb_triangle", "gb_albedo", "diffuse",
-        "glossy",
-    ],
-    outputs: &[
-        // One correctly rounded product and round per component, integer packing: exact.
-        Output { binding: "normals", tolerance: Tolerance::Exact },
-        // A difference and a dot product (see `cprc_pixels::pixel_bounds`).
-        Output { binding: "depth", tolerance: Tolerance::MirrorBound },
-        // Copies.
-        Output { binding: "positions", tolerance: Tolerance::Exact },
-        // Two normalisations and a reflection (see `cprc_pixels::pixel_bounds`).
-        Output { binding: "pixel_dirs", tolerance: Tolerance::MirrorBound },
-        // A table lookup.
-        Output { binding: "px_specular", tolerance: Tolerance::Exact },
-        // Three products and a sum per component (see `cprc_pixels::compose_bound`).
-        Output { binding: "indirect", tolerance: Tolerance::MirrorBound },
-        // Constants chosen by exact comparisons.
-        Output { binding: "ao", tolerance: Tolerance::Exact },
-    ],
+    inputs: Io::INPUTS,
+    outputs: Io::OUTPUTS,
     dispatch: DispatchRule::PerElement { binding: "depth" },
     mirror: "vxgi_cpu_mirror::cprc_pixels::pixel",
     summary: "cprc's per-pixel inputs from the G-buffer (packed normals, depth, directions, Ks) and its indirect and AO images from the gather (CPRC 3.2-3.3)",
@@ -61,17 +78,50 @@ pub struct PixelData<'a> {
     pub glossy: &'a [[f32; 4]],
 }
 
+/// The bindings over `d`, outputs zeroed.
+fn io(d: &PixelData) -> Io {
+    let n = d.position.len();
+    Io {
+        frame: Block(*d.frame),
+        triangles: bytemuck::cast_slice(d.triangles).to_vec(),
+        lobes: d.lobes.to_vec(),
+        gb_position: d.position.to_vec(),
+        gb_normal: d.normal.to_vec(),
+        gb_triangle: d.triangle.to_vec(),
+        gb_albedo: d.albedo.to_vec(),
+        diffuse: d.diffuse.to_vec(),
+        glossy: d.glossy.to_vec(),
+        normals: vec![[0; 2]; n],
+        depth: vec![0.0; n],
+        positions: vec![[0.0; 4]; n],
+        pixel_dirs: vec![[0.0; 4]; 2 * n],
+        px_specular: vec![[0.0; 4]; n],
+        indirect: vec![[0.0; 4]; n],
+        ao: vec![[0.0; 4]; n],
+    }
+}
+
 /// The resources `inputs` writes for `pixels` pixels, zeroed (an earlier stage of a chain, or the
 /// kernel, fills them), by binding.
 pub fn outputs(pixels: usize) -> Resources {
-    let z = |bytes: usize, s: ScalarKind| HostResource::Buffer(HostBuffer::zeroed(bytes, s));
-    Resources::from([
-        ("normals".into(), z(pixels * 8, ScalarKind::U32)),
-        ("depth".into(), z(pixels * 4, ScalarKind::F32)),
-        ("positions".into(), z(pixels * 16, ScalarKind::F32)),
-        ("pixel_dirs".into(), z(pixels * 32, ScalarKind::F32)),
-        ("px_specular".into(), z(pixels * 16, ScalarKind::F32)),
-    ])
+    let none: [[f32; 4]; 0] = [];
+    let zero = vec![[0.0; 4]; pixels];
+    let d = PixelData {
+        frame: &Frame::default(),
+        triangles: &[],
+        lobes: &none,
+        position: &zero,
+        normal: &none,
+        triangle: &[],
+        albedo: &none,
+        diffuse: &none,
+        glossy: &none,
+    };
+    let mut r = io(&d).resources();
+    r.retain(|name, _| {
+        ["normals", "depth", "positions", "pixel_dirs", "px_specular"].contains(&name.as_str())
+    });
+    r
 }
 
 /// The pass of `entry` (`inputs` or `compose`) over `pixels` pixels.
@@ -91,55 +141,13 @@ pub fn pass(ctx: &GpuContext, entry: &str, pixels: usize) -> Pass {
 /// Both entries over `d` (`inputs`, then `compose` on what `inputs` wrote), checking every output.
 pub fn case_for(ctx: &GpuContext, d: &PixelData, label: String, seed: u64) -> Case {
     let n = d.position.len();
-    let f4 = |v: &[[f32; 4]]| HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(v)));
-    let mut resources = outputs(n);
-    resources.insert(
-        "frame".into(),
-        HostResource::Buffer(HostBuffer::pod(d.frame)),
-    );
-    resources.insert(
-        "triangles".into(),
-        HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(d.triangles))),
-    );
-    resources.insert("lobes".into(), f4(d.lobes));
-    resources.insert("gb_position".into(), f4(d.position));
-    resources.insert("gb_normal".into(), f4(d.normal));
-    resources.insert(
-        "gb_triangle".into(),
-        HostResource::Buffer(HostBuffer::u32(d.triangle)),
-    );
-    resources.insert("gb_albedo".into(), f4(d.albedo));
-    resources.insert("diffuse".into(), f4(d.diffuse));
-    resources.insert("glossy".into(), f4(d.glossy));
-    for name in ["indirect", "ao"] {
-        resources.insert(
-            name.into(),
-            HostResource::Buffer(HostBuffer::zeroed(n * 16, ScalarKind::F32)),
-        );
+    let passes = vec![pass(ctx, "inputs", n), pass(ctx, "compose", n)];
+    let mut case = io(d).case(label, seed, passes);
+    for c in &mut case.checks {
+        c.indexing = Indexing::Linear;
     }
-    let check = |name: &'static str| Check {
-        resource: name.into(),
-        output: name,
-        indexing: Indexing::Linear,
-    };
-    Case {
-        label,
-        seed,
-        passes: vec![pass(ctx, "inputs", n), pass(ctx, "compose", n)],
-        resources,
-        checks: [
-            "normals",
-            "depth",
-            "positions",
-            "pixel_dirs",
-            "px_specular",
-            "indirect",
-            "ao",
-        ]
-        .map(check)
-        .to_vec(),
-        effective_bytes: n as u64 * (16 * 4 + 4 + 8 + 4 + 16 + 32 + 16 + 32),
-    }
+    case.effective_bytes = n as u64 * (16 * 4 + 4 + 8 + 4 + 16 + 32 + 16 + 32);
+    case
 }
 
 /// The lobe table of a scene's materials: (Ks, glossy mip level in a cache of `res`^2 texels, -1
@@ -305,26 +313,21 @@ impl Kernel for CprcPixels {
         data: &Resources,
         _mode: FloatMode,
     ) -> BTreeMap<String, HostBuffer> {
-        let b = |k: &str| &data[k].buffer().expect("a buffer").bytes;
-        let f4 = |k: &str| -> &[[f32; 4]] { bytemuck::cast_slice(b(k)) };
-        let frame: Frame = *bytemuck::from_bytes(b("frame"));
-        let triangles: &[GpuTriangle] = bytemuck::cast_slice(b("triangles"));
+        let mut io = Io::read(data);
+        let frame = io.frame.0;
+        let triangles: &[GpuTriangle] = bytemuck::cast_slice(&io.triangles);
         let material = |t: u32| triangles[t as usize].material();
         let s = m::Scene {
             eye: frame.eye,
             forward: frame.forward,
             materials: &material,
             triangles: triangles.len() as u32,
-            lobes: f4("lobes"),
+            lobes: &io.lobes,
         };
-        let (pos, nrm, tri) = (
-            f4("gb_position"),
-            f4("gb_normal"),
-            bytemuck::cast_slice::<u8, u32>(b("gb_triangle")),
-        );
+        let (pos, nrm, tri) = (&io.gb_position, &io.gb_normal, &io.gb_triangle);
         // What the GPU's `inputs` wrote: where the mirror's depth is within its bound of 0, whether
         // the normal is dropped is rounding's choice, and either packing is accepted.
-        let gpu_normals: &[[u32; 2]] = bytemuck::cast_slice(b("normals"));
+        let gpu_normals = &io.normals;
         let n = pos.len();
         let mut out_n = Vec::with_capacity(n);
         let (mut depth, mut depth_b) = (Vec::with_capacity(n), Vec::with_capacity(n));
@@ -367,8 +370,8 @@ impl Kernel for CprcPixels {
             spec.push(o.specular);
         }
         // compose on what the GPU's `inputs` wrote (positions and Ks).
-        let (gpos, gspec) = (f4("positions"), f4("px_specular"));
-        let (alb, dif, glo) = (f4("gb_albedo"), f4("diffuse"), f4("glossy"));
+        let (gpos, gspec) = (&io.positions, &io.px_specular);
+        let (alb, dif, glo) = (&io.gb_albedo, &io.diffuse, &io.glossy);
         let mut ind = Vec::with_capacity(n);
         let mut ind_b = Vec::with_capacity(n);
         let mut ao = Vec::with_capacity(n);
@@ -378,21 +381,13 @@ impl Kernel for CprcPixels {
             ao.push(a);
             ind_b.push(m::compose_bound(gpos[i], alb[i], gspec[i], dif[i], glo[i]));
         }
+        (io.normals, io.depth, io.positions) = (out_n, depth, positions);
+        (io.pixel_dirs, io.px_specular, io.indirect, io.ao) = (dirs, spec, ind, ao);
         let f = |v: &[[f32; 4]]| HostBuffer::f32(bytemuck::cast_slice(v));
-        BTreeMap::from([
-            (
-                "normals".to_string(),
-                HostBuffer::u32(bytemuck::cast_slice(&out_n)),
-            ),
-            ("depth".to_string(), HostBuffer::f32(&depth)),
-            (bound_name("depth"), HostBuffer::f32(&depth_b)),
-            ("positions".to_string(), f(&positions)),
-            ("pixel_dirs".to_string(), f(&dirs)),
-            (bound_name("pixel_dirs"), f(&dirs_b)),
-            ("px_specular".to_string(), f(&spec)),
-            ("indirect".to_string(), f(&ind)),
-            (bound_name("indirect"), f(&ind_b)),
-            ("ao".to_string(), f(&ao)),
-        ])
+        let mut out = io.outputs();
+        out.insert(bound_name("depth"), HostBuffer::f32(&depth_b));
+        out.insert(bound_name("pixel_dirs"), f(&dirs_b));
+        out.insert(bound_name("indirect"), f(&ind_b));
+        out
     }
 }

@@ -8,11 +8,12 @@ use crate::trace::SceneData;
 use std::collections::BTreeMap;
 use vxgi_cpu_mirror::direct_light::GpuLight;
 use vxgi_cpu_mirror::reflective_shadow_map::{rsm, GpuView};
+use vxgi_harness::bindings::field;
 use vxgi_harness::compare::bound_name;
 use vxgi_harness::run::run;
 use vxgi_harness::{
-    Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
-    KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
+    Bindings, Block, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Kernel,
+    KernelDecl, Resources, Shader, Tolerance,
 };
 
 /// The light view's struct and projection, included by reflective_shadow_map and lrsm_cone_trace.
@@ -21,30 +22,36 @@ pub const LRSM_VIEW: (&str, &str) = (
     include_str!("../../kernels/common/lrsm_view.wgsl"),
 );
 
+vxgi_harness::bindings! {
+    /// reflective_shadow_map's bindings: the light view, the lights and the view's G-buffer in, the
+    /// RSM out.
+    pub struct Io {
+        inputs: {
+            view: Block<GpuView>,
+            lights: Vec<[f32; 4]>,
+            gb_position: Vec<[f32; 4]>,
+            gb_normal: Vec<[f32; 4]>,
+            gb_albedo: Vec<[f32; 4]>,
+        }
+        // Radiance and <n.l>: the light contract's arithmetic (sqrt, divisions, a spot's
+        // smoothstep) within the mirror's per-texel bound; depth a dot product within 8 ULP of its
+        // magnitudes; coverage and the normal's xyz are copies (bound 0).
+        outputs: {
+            rsm_radiance: Vec<[f32; 4]> => Tolerance::MirrorBound,
+            rsm_normal: Vec<[f32; 4]> => Tolerance::MirrorBound,
+            rsm_depth: Vec<f32> => Tolerance::MirrorBound,
+        }
+    }
+}
+
 pub static DECL: KernelDecl = KernelDecl {
     name: "reflective_shadow_map",
     wgsl_path: "kernels/reflective_shadow_map.wgsl",
     wgsl: include_str!("../../kernels/reflective_shadow_map.wgsl"),
     includes: &[super::LIGHTS, LRSM_VIEW],
     entry: "main",
-    inputs: &["view", "lights", "gb_position", "gb_normal", "gb_albedo"],
-    // Radiance and <n.l>: the light contract's arithmetic (sqrt, divisions, a spot's smoothstep) within
-    // the mirror's per-texel bound; depth a dot product within 8 ULP of its magnitudes; coverage and the
-    // normal's xyz are copies (bound 0).
-    outputs: &[
-        Output {
-            binding: "rsm_radiance",
-            tolerance: Tolerance::MirrorBound,
-        },
-        Output {
-            binding: "rsm_normal",
-            tolerance: Tolerance::MirrorBound,
-        },
-        Output {
-            binding: "rsm_depth",
-            tolerance: Tolerance::MirrorBound,
-        },
-    ],
+    inputs: Io::INPUTS,
+    outputs: Io::OUTPUTS,
     dispatch: DispatchRule::PerElement {
         binding: "rsm_depth",
     },
@@ -83,42 +90,21 @@ pub fn case_for(
 ) -> Case {
     let side = view.view.info[0];
     let n = (side * side) as usize;
-    let mut resources = Resources::new();
-    // Mixed: its u32 fields must not be flushed as if they were subnormal f32s.
-    resources.insert(
-        "view".into(),
-        HostResource::Buffer(HostBuffer {
-            bytes: bytemuck::bytes_of(&view.view).to_vec(),
-            scalar: ScalarKind::Mixed,
-        }),
-    );
-    resources.extend(light_view_inputs(lights, gb));
-    for (name, bytes) in [("rsm_radiance", 16), ("rsm_normal", 16), ("rsm_depth", 4)] {
-        resources.insert(
-            name.into(),
-            HostResource::Buffer(HostBuffer::zeroed(n * bytes, ScalarKind::F32)),
-        );
-    }
-    let bindings = DECL.bind_by_name();
-    let checks = [("rsm_radiance", 4), ("rsm_normal", 4), ("rsm_depth", 1)]
-        .into_iter()
-        .map(|(name, components)| Check {
-            resource: name.into(),
-            output: name,
-            indexing: Indexing::Grid {
-                dims: [n as u32, 1, 1],
-                components,
-            },
-        })
-        .collect();
-    Case {
-        label,
-        seed,
-        passes: vec![DECL.pass(shader, ctx, "rsm".into(), bindings, n as u64)],
-        resources,
-        checks,
-        effective_bytes: n as u64 * (48 + 36),
-    }
+    let inputs = light_view_inputs(lights, gb);
+    let io = Io {
+        view: Block(view.view),
+        lights: field(&inputs, "lights"),
+        gb_position: field(&inputs, "gb_position"),
+        gb_normal: field(&inputs, "gb_normal"),
+        gb_albedo: field(&inputs, "gb_albedo"),
+        rsm_radiance: vec![[0.0; 4]; n],
+        rsm_normal: vec![[0.0; 4]; n],
+        rsm_depth: vec![0.0; n],
+    };
+    let pass = DECL.pass(shader, ctx, "rsm".into(), DECL.bind_by_name(), n as u64);
+    let mut case = io.case(label, seed, vec![pass]);
+    case.effective_bytes = n as u64 * (48 + 36);
+    case
 }
 
 /// The G-buffer of `view` on the GPU (the scene's data with the view's frame).
@@ -245,25 +231,21 @@ impl Kernel for ReflectiveShadowMap {
     ) -> BTreeMap<String, HostBuffer> {
         // Scene-scale arithmetic: no subnormals arise; one mode serves both (subnormal results are
         // accepted flushed by the harness anyway).
-        let b = |n: &str| data[n].buffer().expect("buffer");
-        let view: GpuView = bytemuck::cast_slice::<u8, GpuView>(&b("view").bytes)[0];
-        let lights: &[GpuLight] = bytemuck::cast_slice(&b("lights").bytes);
-        let f4 = |n: &str| -> &[[f32; 4]] { bytemuck::cast_slice(&b(n).bytes) };
+        let mut io = Io::read(data);
+        let lights: &[GpuLight] = bytemuck::cast_slice(&io.lights);
         let r = rsm(
-            &view,
+            &io.view.0,
             lights,
-            f4("gb_position"),
-            f4("gb_normal"),
-            f4("gb_albedo"),
+            &io.gb_position,
+            &io.gb_normal,
+            &io.gb_albedo,
         );
+        (io.rsm_radiance, io.rsm_normal, io.rsm_depth) = (r.radiance, r.normal, r.depth);
+        let mut out = io.outputs();
         let v4 = |v: &[[f32; 4]]| HostBuffer::f32(bytemuck::cast_slice(v));
-        BTreeMap::from([
-            ("rsm_radiance".to_string(), v4(&r.radiance)),
-            (bound_name("rsm_radiance"), v4(&r.radiance_bound)),
-            ("rsm_normal".to_string(), v4(&r.normal)),
-            (bound_name("rsm_normal"), v4(&r.normal_bound)),
-            ("rsm_depth".to_string(), HostBuffer::f32(&r.depth)),
-            (bound_name("rsm_depth"), HostBuffer::f32(&r.depth_bound)),
-        ])
+        out.insert(bound_name("rsm_radiance"), v4(&r.radiance_bound));
+        out.insert(bound_name("rsm_normal"), v4(&r.normal_bound));
+        out.insert(bound_name("rsm_depth"), HostBuffer::f32(&r.depth_bound));
+        out
     }
 }

@@ -8,15 +8,48 @@ use super::voxelize::VoxelFrame;
 use crate::lrsm::{light_views, LightView};
 use crate::trace::SceneData;
 use std::collections::BTreeMap;
-use vxgi_cpu_mirror::direct_light::GpuLight;
+use vxgi_cpu_mirror::bvh_trace::GpuTriangle;
+use vxgi_cpu_mirror::direct_light::{GpuLight, GpuMaterial};
 use vxgi_cpu_mirror::sparse_voxel_octree::Fragment;
 use vxgi_cpu_mirror::svo_photons::{photons, PhotonParams};
+use vxgi_harness::bindings::field;
 use vxgi_harness::compare::bound_name;
 use vxgi_harness::run::run;
 use vxgi_harness::{
-    Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
-    KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
+    Bindings, Block, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, Kernel, KernelDecl,
+    Resources, Shader, Structs, Tolerance,
 };
+
+vxgi_harness::bindings! {
+    /// svo_photons' bindings: the light view's G-buffer, the lights and the scene's triangles and
+    /// materials in; per texel the photon's voxel, its value and its specular part out.
+    pub struct Io {
+        inputs: {
+            params: Block<PhotonParams>,
+            lights: Vec<[f32; 4]>,
+            gb_position: Vec<[f32; 4]>,
+            gb_normal: Vec<[f32; 4]>,
+            gb_albedo: Vec<[f32; 4]>,
+            gb_triangle: Vec<u32>,
+            // Six vec4<f32> per triangle (`GpuTriangle`).
+            triangles: Vec<[f32; 4]>,
+            materials: Structs<GpuMaterial>,
+        }
+        outputs: {
+            // The voxel: (p - origin) * inv_h, one correctly rounded subtraction and multiplication
+            // per axis (nothing to contract), floor and clamp: exact.
+            photon_pos: Vec<[u32; 4]> => Tolerance::Exact,
+            // The value: the light contract's arithmetic, a dot product and a cube over a sqrt,
+            // within the mirror's per-texel bound (64 ULP + the depth's cancellation + a spot's soft
+            // edge).
+            photon_value: Vec<[f32; 4]> => Tolerance::MirrorBound,
+            // The specular photon: the same arithmetic without 1/pi, the mirror direction (a dot
+            // product and two products of unit vectors) and the lobe length; the mirror's bound adds
+            // the light direction's error.
+            photon_spec: Vec<[f32; 4]> => Tolerance::MirrorBound,
+        }
+    }
+}
 
 pub static DECL: KernelDecl = KernelDecl {
     name: "svo_photons",
@@ -24,30 +57,8 @@ pub static DECL: KernelDecl = KernelDecl {
     wgsl: include_str!("../../kernels/svo_photons.wgsl"),
     includes: &[super::LIGHTS, super::SCENE_TYPES],
     entry: "main",
-    inputs: &[
-        "params", "lights", "gb_position", "gb_normal", "gb_albedo", "gb_triangle", "triangles", "materials",
-    ],
-    outputs: &[
-        // The voxel: (p - origin) * inv_h, one correctly rounded subtraction and multiplication per
-        // axis (nothing to contract), floor and clamp: exact.
-        Output {
-            binding: "photon_pos",
-            tolerance: Tolerance::Exact,
-        },
-        // The value: the light contract's arithmetic, a dot product and a cube over a sqrt, within
-        // the mirror's per-texel bound (64 ULP + the depth's cancellation + a spot's soft edge).
-        Output {
-            binding: "photon_value",
-            tolerance: Tolerance::MirrorBound,
-        },
-        // The specular photon: the same arithmetic without 1/pi, the mirror direction (a dot product
-        // and two products of unit vectors) and the lobe length; the mirror's bound adds the light
-        // direction's error.
-        Output {
-            binding: "photon_spec",
-            tolerance: Tolerance::MirrorBound,
-        },
-    ],
+    inputs: Io::INPUTS,
+    outputs: Io::OUTPUTS,
     dispatch: DispatchRule::PerElement {
         binding: "photon_pos",
     },
@@ -90,64 +101,29 @@ pub fn case_for(
     seed: u64,
 ) -> Case {
     let n = (params.info[0] * params.info[0]) as usize;
-    let mut resources = Resources::new();
-    // Mixed: its u32 fields must not be flushed as if they were subnormal f32s.
-    resources.insert(
-        "params".into(),
-        HostResource::Buffer(HostBuffer {
-            bytes: bytemuck::bytes_of(params).to_vec(),
-            scalar: ScalarKind::Mixed,
-        }),
-    );
-    resources.extend(super::reflective_shadow_map::light_view_inputs(lights, gb));
-    resources.insert("gb_triangle".into(), gb["gb_triangle"].clone());
-    resources.insert(
-        "triangles".into(),
-        HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(&data.triangles))),
-    );
+    let inputs = super::reflective_shadow_map::light_view_inputs(lights, gb);
     let materials = if data.materials.is_empty() {
         vec![Default::default()]
     } else {
         data.materials.clone()
     };
-    resources.insert(
-        "materials".into(),
-        HostResource::Buffer(HostBuffer {
-            bytes: bytemuck::cast_slice(&materials).to_vec(),
-            scalar: ScalarKind::Mixed,
-        }),
-    );
-    resources.insert(
-        "photon_spec".into(),
-        HostResource::Buffer(HostBuffer::zeroed(n * 16, ScalarKind::F32)),
-    );
-    resources.insert(
-        "photon_pos".into(),
-        HostResource::Buffer(HostBuffer::zeroed(n * 16, ScalarKind::U32)),
-    );
-    resources.insert(
-        "photon_value".into(),
-        HostResource::Buffer(HostBuffer::zeroed(n * 16, ScalarKind::F32)),
-    );
-    let checks = ["photon_pos", "photon_value", "photon_spec"]
-        .into_iter()
-        .map(|name| Check {
-            resource: name.into(),
-            output: name,
-            indexing: Indexing::Grid {
-                dims: [n as u32, 1, 1],
-                components: 4,
-            },
-        })
-        .collect();
-    Case {
-        label,
-        seed,
-        passes: vec![DECL.pass(shader, ctx, "photons".into(), DECL.bind_by_name(), n as u64)],
-        resources,
-        checks,
-        effective_bytes: n as u64 * (52 + 48),
-    }
+    let io = Io {
+        params: Block(*params),
+        lights: field(&inputs, "lights"),
+        gb_position: field(&inputs, "gb_position"),
+        gb_normal: field(&inputs, "gb_normal"),
+        gb_albedo: field(&inputs, "gb_albedo"),
+        gb_triangle: field(gb, "gb_triangle"),
+        triangles: bytemuck::cast_slice(&data.triangles).to_vec(),
+        materials: Structs(materials),
+        photon_pos: vec![[0; 4]; n],
+        photon_value: vec![[0.0; 4]; n],
+        photon_spec: vec![[0.0; 4]; n],
+    };
+    let pass = DECL.pass(shader, ctx, "photons".into(), DECL.bind_by_name(), n as u64);
+    let mut case = io.case(label, seed, vec![pass]);
+    case.effective_bytes = n as u64 * (52 + 48);
+    case
 }
 
 /// The photons of a scene as octree fragments: the diffuse ones (`light`) and the specular ones
@@ -403,29 +379,30 @@ impl Kernel for SvoPhotons {
         _mode: FloatMode,
     ) -> BTreeMap<String, HostBuffer> {
         // Scene-scale arithmetic: no subnormals arise (accepted flushed by the harness anyway).
-        let b = |n: &str| data[n].buffer().expect("buffer");
-        let params: PhotonParams = *bytemuck::from_bytes(&b("params").bytes);
-        let lights: &[GpuLight] = bytemuck::cast_slice(&b("lights").bytes);
-        let f4 = |n: &str| -> &[[f32; 4]] { bytemuck::cast_slice(&b(n).bytes) };
+        let mut io = Io::read(data);
         let ph = photons(
-            &params,
-            lights,
-            [f4("gb_position"), f4("gb_normal"), f4("gb_albedo")],
-            b("gb_triangle").as_u32(),
-            bytemuck::cast_slice(&b("triangles").bytes),
-            bytemuck::cast_slice(&b("materials").bytes),
+            &io.params.0,
+            bytemuck::cast_slice(&io.lights),
+            [&io.gb_position, &io.gb_normal, &io.gb_albedo],
+            &io.gb_triangle,
+            bytemuck::cast_slice::<_, GpuTriangle>(&io.triangles),
+            &io.materials.0,
         );
-        let pos: Vec<u32> = ph.iter().flat_map(|p| p.pos).collect();
-        let val: Vec<f32> = ph.iter().flat_map(|p| p.value).collect();
-        let bound: Vec<f32> = ph.iter().flat_map(|p| p.bound).collect();
-        let spec: Vec<f32> = ph.iter().flat_map(|p| p.spec).collect();
-        let spec_bound: Vec<f32> = ph.iter().flat_map(|p| p.spec_bound).collect();
-        BTreeMap::from([
-            ("photon_pos".to_string(), HostBuffer::u32(&pos)),
-            ("photon_value".to_string(), HostBuffer::f32(&val)),
-            (bound_name("photon_value"), HostBuffer::f32(&bound)),
-            ("photon_spec".to_string(), HostBuffer::f32(&spec)),
-            (bound_name("photon_spec"), HostBuffer::f32(&spec_bound)),
-        ])
+        io.photon_pos = ph.iter().map(|p| p.pos).collect();
+        io.photon_value = ph.iter().map(|p| p.value).collect();
+        io.photon_spec = ph.iter().map(|p| p.spec).collect();
+        let bounds = |f: fn(&vxgi_cpu_mirror::svo_photons::Photon) -> [f32; 4]| -> Vec<f32> {
+            ph.iter().flat_map(f).collect()
+        };
+        let mut out = io.outputs();
+        out.insert(
+            bound_name("photon_value"),
+            HostBuffer::f32(&bounds(|p| p.bound)),
+        );
+        out.insert(
+            bound_name("photon_spec"),
+            HostBuffer::f32(&bounds(|p| p.spec_bound)),
+        );
+        out
     }
 }
