@@ -347,6 +347,22 @@ impl Case {
         self
     }
 
+    /// This case with every check indexed as a flat element list (the report names element i, not
+    /// grid coordinates).
+    pub fn with_linear_indexing(mut self) -> Self {
+        for c in &mut self.checks {
+            c.indexing = Indexing::Linear;
+        }
+        self
+    }
+
+    /// This case with `bytes` as its effective bytes: the kernel's own traffic model where it reads
+    /// less than every bound byte once (a tree, a table) or some bytes more than once.
+    pub fn with_effective_bytes(mut self, bytes: u64) -> Self {
+        self.effective_bytes = bytes;
+        self
+    }
+
     /// Point every binding of the passes that views resource `from` at `to` instead, and move the
     /// resource (if the case has it) to that name — how a case joins a chain (`prepare_chain`) whose
     /// other stages use the name for something else. With `shared`, the case's own copy is dropped:

@@ -101,16 +101,14 @@ pub fn case_for_count(
         dims: [per as u32, count.max(1) as u32, 1],
         components: 4,
     };
-    let mut case = io
-        .case(
-            label,
-            seed,
-            vec![pass("mips", n_mips), pass("irradiance", n_irr)],
-        )
-        .with_indexing("cache_mips", grid(mip_len(res)))
-        .with_indexing("cache_irradiance", grid((irr * irr) as usize));
-    case.effective_bytes = texels as u64 * 16 * 2 + (n_mips + n_irr) as u64 * 16;
-    case
+    io.case(
+        label,
+        seed,
+        vec![pass("mips", n_mips), pass("irradiance", n_irr)],
+    )
+    .with_indexing("cache_mips", grid(mip_len(res)))
+    .with_indexing("cache_irradiance", grid((irr * irr) as usize))
+    .with_effective_bytes(texels as u64 * 16 * 2 + (n_mips + n_irr) as u64 * 16)
 }
 
 /// Generated caches: `count` caches of res^2 texels, per cache one of: a smooth sky, one bright texel

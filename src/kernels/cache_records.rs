@@ -9,8 +9,8 @@ use vxgi_cpu_mirror::cluster_extract::Cluster;
 use vxgi_harness::compare::bound_name;
 use vxgi_harness::run::{grid_for, Pass, Workgroups};
 use vxgi_harness::{
-    Bindings, Block, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, Indexing, Kernel,
-    KernelDecl, Resources, Shader, Structs, Tolerance,
+    Bindings, Block, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, Kernel, KernelDecl,
+    Resources, Shader, Structs, Tolerance,
 };
 
 vxgi_harness::bindings! {
@@ -131,12 +131,9 @@ pub fn case_for(
         inp.positions.clone(),
         tiles,
     );
-    let mut case = io.case(label, seed, vec![pass(ctx, &p)]);
-    for c in &mut case.checks {
-        c.indexing = Indexing::Linear;
-    }
-    case.effective_bytes = clusters.len() as u64 * (64 + 4 + 16 + 16 + 8 + 16 + 32);
-    case
+    io.case(label, seed, vec![pass(ctx, &p)])
+        .with_linear_indexing()
+        .with_effective_bytes(clusters.len() as u64 * (64 + 4 + 16 + 16 + 8 + 16 + 32))
 }
 
 /// The parameters for `inp` with `capacity` slots, caches of `texels` (mips: `mips` per cache, 0

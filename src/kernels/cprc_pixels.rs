@@ -12,8 +12,8 @@ use vxgi_cpu_mirror::gbuffer::Frame;
 use vxgi_harness::compare::bound_name;
 use vxgi_harness::run::{grid_for, Pass, Workgroups};
 use vxgi_harness::{
-    Bindings, Block, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, Indexing, Kernel,
-    KernelDecl, Resources, Shader, Tolerance,
+    Bindings, Block, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, Kernel, KernelDecl,
+    Resources, Shader, Tolerance,
 };
 
 vxgi_harness::bindings! {
@@ -142,12 +142,10 @@ pub fn pass(ctx: &GpuContext, entry: &str, pixels: usize) -> Pass {
 pub fn case_for(ctx: &GpuContext, d: &PixelData, label: String, seed: u64) -> Case {
     let n = d.position.len();
     let passes = vec![pass(ctx, "inputs", n), pass(ctx, "compose", n)];
-    let mut case = io(d).case(label, seed, passes);
-    for c in &mut case.checks {
-        c.indexing = Indexing::Linear;
-    }
-    case.effective_bytes = n as u64 * (16 * 4 + 4 + 8 + 4 + 16 + 32 + 16 + 32);
-    case
+    io(d)
+        .case(label, seed, passes)
+        .with_linear_indexing()
+        .with_effective_bytes(n as u64 * (16 * 4 + 4 + 8 + 4 + 16 + 32 + 16 + 32))
 }
 
 /// The lobe table of a scene's materials: (Ks, glossy mip level in a cache of `res`^2 texels, -1

@@ -8,11 +8,36 @@ use vxgi_cpu_mirror::bvh_trace::{GpuNode, GpuTriangle};
 use vxgi_cpu_mirror::direct_light::{shade_with_bound, GpuLight, GpuMaterial};
 use vxgi_cpu_mirror::gbuffer::Frame;
 use vxgi_harness::compare::bound_name;
-use vxgi_harness::run::{grid_for, run, Pass, Workgroups};
+use vxgi_harness::run::run;
 use vxgi_harness::{
-    Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
-    KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
+    Bindings, Block, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing,
+    Kernel, KernelDecl, Resources, ScalarKind, Shader, Structs, Tolerance,
 };
+
+vxgi_harness::bindings! {
+    /// direct_light's bindings: the scene (camera frame, BVH, triangles, lights, materials) and its
+    /// G-buffer in, the direct radiance per pixel out.
+    pub struct Io {
+        inputs: {
+            frame: Block<Frame>,
+            nodes: Structs<GpuNode>,
+            // Six vec4<f32> per triangle (`GpuTriangle`), three per light (`GpuLight`).
+            triangles: Vec<[f32; 4]>,
+            lights: Vec<[f32; 4]>,
+            materials: Structs<GpuMaterial>,
+            gb_position: Vec<[f32; 4]>,
+            gb_normal: Vec<[f32; 4]>,
+            gb_triangle: Vec<u32>,
+            gb_albedo: Vec<[f32; 4]>,
+        }
+        outputs: {
+            // Per element (see `shade_with_bound`): 64 ULP per light term, 8 ULP absolute on
+            // cosines, pow's rule; a term whose shadow or spot edge rounding decides adds its own
+            // value.
+            radiance: Vec<[f32; 4]> => Tolerance::MirrorBound
+        }
+    }
+}
 
 pub static DECL: KernelDecl = KernelDecl {
     name: "direct_light",
@@ -25,25 +50,8 @@ pub static DECL: KernelDecl = KernelDecl {
         super::BRDF,
     ],
     entry: "main",
-    inputs: &[
-        "frame",
-        "nodes",
-        "triangles",
-        "lights",
-        "materials",
-        "gb_position",
-        "gb_normal",
-        "gb_triangle",
-        "gb_albedo",
-    ],
-    outputs: &[
-        // Per element (see `shade_with_bound`): 64 ULP per light term, 8 ULP absolute on cosines, pow's
-        // rule; a term whose shadow or spot edge rounding decides adds its own value.
-        Output {
-            binding: "radiance",
-            tolerance: Tolerance::MirrorBound,
-        },
-    ],
+    inputs: Io::INPUTS,
+    outputs: Io::OUTPUTS,
     dispatch: DispatchRule::PerElement {
         binding: "radiance",
     },
@@ -76,7 +84,7 @@ pub fn case_for(ctx: &GpuContext, data: &SceneData, label: String, seed: u64) ->
 }
 
 /// Direct-light pass over a scene with the given G-buffer (gb_position, gb_normal, gb_triangle,
-/// gb_albedo).
+/// gb_albedo; each one left out is zeroed, for a chain whose gbuffer stage computes it).
 pub fn case_with_gbuffer(
     ctx: &GpuContext,
     data: &SceneData,
@@ -87,51 +95,50 @@ pub fn case_with_gbuffer(
     let (w, h) = (data.width(), data.height());
     let n = w as usize * h as usize;
     let mut resources = scene_resources(data);
-    resources.extend(gbuffer.clone());
-    resources.insert(
-        "radiance".into(),
-        HostResource::Buffer(HostBuffer::zeroed(n * 16, ScalarKind::F32)),
-    );
-    let max = ctx.limits().max_compute_workgroups_per_dimension;
-    Case {
-        label,
-        seed,
-        resources,
-        passes: vec![Pass {
-            label: "direct_light".into(),
-            entry: "main".into(),
-            bindings: DECL.bind_by_name(),
-            workgroups: Workgroups::Direct(grid_for(n as u64, 64, max)),
-        }],
-        checks: vec![Check {
-            resource: "radiance".into(),
-            output: "radiance",
-            indexing: Indexing::Grid {
+    // A G-buffer the chain's gbuffer stage computes may be left out: zeroed placeholders.
+    let zeroed = |bytes, kind| HostResource::Buffer(HostBuffer::zeroed(bytes, kind));
+    for (name, bytes, kind) in [
+        ("gb_position", 16, ScalarKind::F32),
+        ("gb_normal", 16, ScalarKind::F32),
+        ("gb_triangle", 4, ScalarKind::U32),
+        ("gb_albedo", 16, ScalarKind::F32),
+        ("radiance", 16, ScalarKind::F32),
+    ] {
+        let r = gbuffer.get(name).cloned();
+        resources.insert(name.into(), r.unwrap_or_else(|| zeroed(n * bytes, kind)));
+    }
+    let shader = DECL.shader().expect("direct_light.wgsl is valid");
+    DECL.case_of(&shader, ctx, &Io::read(&resources), n as u64, label, seed)
+        .with_indexing(
+            "radiance",
+            Indexing::Grid {
                 dims: [w, h, 1],
                 components: 4,
             },
-        }],
-        effective_bytes: n as u64 * 52,
-    }
+        )
+        .with_effective_bytes(n as u64 * 52)
 }
 
 /// Mirror radiance and bound per pixel.
 pub fn mirror_direct(data: &Resources) -> (Vec<[f32; 4]>, Vec<[f32; 4]>) {
-    let b = |n: &str| data[n].buffer().expect("buffer");
-    let frame: Frame = *bytemuck::from_bytes(&b("frame").bytes);
-    let nodes: &[GpuNode] = bytemuck::cast_slice(&b("nodes").bytes);
-    let tris: &[GpuTriangle] = bytemuck::cast_slice(&b("triangles").bytes);
-    let lights: &[GpuLight] = bytemuck::cast_slice(&b("lights").bytes);
+    let io = Io::read(data);
+    let frame = io.frame.0;
+    let tris: &[GpuTriangle] = bytemuck::cast_slice(&io.triangles);
+    let lights: &[GpuLight] = bytemuck::cast_slice(&io.lights);
     let lights = &lights[..frame.size[2] as usize];
-    let materials: &[GpuMaterial] = bytemuck::cast_slice(&b("materials").bytes);
-    let pos: &[[f32; 4]] = bytemuck::cast_slice(&b("gb_position").bytes);
-    let nrm: &[[f32; 4]] = bytemuck::cast_slice(&b("gb_normal").bytes);
-    let tri = b("gb_triangle").as_u32();
-    let alb: &[[f32; 4]] = bytemuck::cast_slice(&b("gb_albedo").bytes);
-    (0..tri.len())
+    let (nodes, materials) = (&io.nodes.0, &io.materials.0);
+    (0..io.gb_triangle.len())
         .map(|i| {
             let (l, e) = shade_with_bound(
-                &frame, nodes, tris, lights, materials, pos[i], nrm[i], tri[i], alb[i],
+                &frame,
+                nodes,
+                tris,
+                lights,
+                materials,
+                io.gb_position[i],
+                io.gb_normal[i],
+                io.gb_triangle[i],
+                io.gb_albedo[i],
             );
             ([l.x, l.y, l.z, 0.0], [e.x, e.y, e.z, 0.0])
         })

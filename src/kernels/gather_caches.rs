@@ -12,9 +12,37 @@ use vxgi_cpu_mirror::gather_caches::{
 use vxgi_cpu_mirror::octahedral::unpack;
 use vxgi_harness::compare::bound_name;
 use vxgi_harness::{
-    Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
-    KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
+    Bindings, Block, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, Kernel, KernelDecl,
+    Resources, Shader, Tolerance,
 };
+
+vxgi_harness::bindings! {
+    /// gather_caches' bindings: the pixels' positions and directions and the caches' records and
+    /// maps in; per pixel the gathered diffuse and glossy light, the weights' sum and the in-radius
+    /// test out.
+    pub struct Io {
+        inputs: {
+            params: Block<GatherParams>,
+            positions: Vec<[f32; 4]>,
+            pixel_dirs: Vec<[f32; 4]>,
+            cache_pos: Vec<[f32; 4]>,
+            cache_pixel: Vec<[u32; 2]>,
+            cache_normal: Vec<[f32; 4]>,
+            cache_irradiance: Vec<[f32; 4]>,
+            cache_mips: Vec<[f32; 4]>,
+            tile_ranges: Vec<[u32; 2]>,
+        }
+        outputs: {
+            // Per element from the WGSL rules along the weight sums and the lookups (see
+            // `gather_bound`).
+            diffuse: Vec<[f32; 4]> => Tolerance::MirrorBound,
+            glossy: Vec<[f32; 4]> => Tolerance::MirrorBound,
+            weight_sum: Vec<f32> => Tolerance::MirrorBound,
+            // Integer pixel-distance test: exact.
+            in_radius: Vec<u32> => Tolerance::Exact,
+        }
+    }
+}
 
 pub static DECL: KernelDecl = KernelDecl {
     name: "gather_caches",
@@ -22,18 +50,8 @@ pub static DECL: KernelDecl = KernelDecl {
     wgsl: include_str!("../../kernels/gather_caches.wgsl"),
     includes: &[super::TANGENT_BASIS],
     entry: "main",
-    inputs: &[
-        "params", "positions", "pixel_dirs", "cache_pos", "cache_pixel", "cache_normal", "cache_irradiance",
-        "cache_mips", "tile_ranges",
-    ],
-    outputs: &[
-        // Per element from the WGSL rules along the weight sums and the lookups (see `gather_bound`).
-        Output { binding: "diffuse", tolerance: Tolerance::MirrorBound },
-        Output { binding: "glossy", tolerance: Tolerance::MirrorBound },
-        Output { binding: "weight_sum", tolerance: Tolerance::MirrorBound },
-        // Integer pixel-distance test: exact.
-        Output { binding: "in_radius", tolerance: Tolerance::Exact },
-    ],
+    inputs: Io::INPUTS,
+    outputs: Io::OUTPUTS,
     dispatch: DispatchRule::PerElement { binding: "weight_sum" },
     mirror: "vxgi_cpu_mirror::gather_caches::gather",
     summary: "per pixel, caches within the screen radius evaluated (irradiance by normal, mips by reflection) and weighted min(w_w, w_s) (CPRC 3.3)",
@@ -215,62 +233,33 @@ pub fn case_for(
     seed: u64,
 ) -> Case {
     let n = (d.params.width * d.params.height) as usize;
-    let f4 = |v: &[[f32; 4]]| {
-        let v = if v.is_empty() {
-            vec![[0.0; 4]]
+    // Bindings cannot be empty: an empty list gets one zero element.
+    fn nonempty<T: Clone + Default>(v: &[T]) -> Vec<T> {
+        if v.is_empty() {
+            vec![T::default()]
         } else {
             v.to_vec()
-        };
-        HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(&v)))
-    };
-    let u2 = |v: &[[u32; 2]]| {
-        let v = if v.is_empty() {
-            vec![[0u32; 2]]
-        } else {
-            v.to_vec()
-        };
-        HostResource::Buffer(HostBuffer::u32(bytemuck::cast_slice(&v)))
-    };
-    let mut resources = Resources::new();
-    resources.insert(
-        "params".into(),
-        HostResource::Buffer(HostBuffer::pod(&d.params)),
-    );
-    resources.insert("positions".into(), f4(&d.positions));
-    resources.insert("pixel_dirs".into(), f4(&d.pixel_dirs));
-    resources.insert("cache_pos".into(), f4(&d.cache_pos));
-    resources.insert("cache_pixel".into(), u2(&d.cache_pixel));
-    resources.insert("cache_normal".into(), f4(&d.cache_normal));
-    resources.insert("cache_irradiance".into(), f4(&d.cache_irradiance));
-    resources.insert("cache_mips".into(), f4(&d.cache_mips));
-    resources.insert("tile_ranges".into(), u2(&d.tile_ranges));
-    for (name, bytes, kind) in [
-        ("diffuse", 16, ScalarKind::F32),
-        ("glossy", 16, ScalarKind::F32),
-        ("weight_sum", 4, ScalarKind::F32),
-        ("in_radius", 4, ScalarKind::U32),
-    ] {
-        resources.insert(
-            name.into(),
-            HostResource::Buffer(HostBuffer::zeroed(n * bytes, kind)),
-        );
+        }
     }
-    let bindings = DECL.bind_by_name();
-    Case {
-        label,
-        seed,
-        passes: vec![DECL.pass(shader, ctx, "gather".into(), bindings, n as u64)],
-        resources,
-        checks: ["diffuse", "glossy", "weight_sum", "in_radius"]
-            .iter()
-            .map(|r| Check {
-                resource: r.to_string(),
-                output: r,
-                indexing: Indexing::Linear,
-            })
-            .collect(),
-        effective_bytes: n as u64 * 72,
-    }
+    let io = Io {
+        params: Block(d.params),
+        positions: nonempty(&d.positions),
+        pixel_dirs: nonempty(&d.pixel_dirs),
+        cache_pos: nonempty(&d.cache_pos),
+        cache_pixel: nonempty(&d.cache_pixel),
+        cache_normal: nonempty(&d.cache_normal),
+        cache_irradiance: nonempty(&d.cache_irradiance),
+        cache_mips: nonempty(&d.cache_mips),
+        tile_ranges: nonempty(&d.tile_ranges),
+        diffuse: vec![[0.0; 4]; n],
+        glossy: vec![[0.0; 4]; n],
+        weight_sum: vec![0.0; n],
+        in_radius: vec![0; n],
+    };
+    let pass = DECL.pass(shader, ctx, "gather".into(), DECL.bind_by_name(), n as u64);
+    io.case(label, seed, vec![pass])
+        .with_linear_indexing()
+        .with_effective_bytes(n as u64 * 72)
 }
 
 pub struct GatherCaches;
@@ -307,17 +296,17 @@ impl Kernel for GatherCaches {
 /// The mirror's outputs and bounds for a gather's resources.
 pub fn mirror_outputs(data: &Resources) -> BTreeMap<String, HostBuffer> {
     use rayon::prelude::*;
-    let b = |n: &str| data[n].buffer().expect("buffer");
-    let p: GatherParams = *bytemuck::from_bytes(&b("params").bytes);
+    let mut io = Io::read(data);
+    let p = io.params.0;
     let inp = GatherInputs {
-        positions: bytemuck::cast_slice(&b("positions").bytes),
-        pixel_dirs: bytemuck::cast_slice(&b("pixel_dirs").bytes),
-        cache_pos: bytemuck::cast_slice(&b("cache_pos").bytes),
-        cache_pixel: bytemuck::cast_slice(&b("cache_pixel").bytes),
-        cache_normal: bytemuck::cast_slice(&b("cache_normal").bytes),
-        cache_irradiance: bytemuck::cast_slice(&b("cache_irradiance").bytes),
-        cache_mips: bytemuck::cast_slice(&b("cache_mips").bytes),
-        tile_ranges: bytemuck::cast_slice(&b("tile_ranges").bytes),
+        positions: &io.positions,
+        pixel_dirs: &io.pixel_dirs,
+        cache_pos: &io.cache_pos,
+        cache_pixel: &io.cache_pixel,
+        cache_normal: &io.cache_normal,
+        cache_irradiance: &io.cache_irradiance,
+        cache_mips: &io.cache_mips,
+        tile_ranges: &io.tile_ranges,
     };
     let n = (p.width * p.height) as usize;
     let vmax = [
@@ -331,35 +320,21 @@ pub fn mirror_outputs(data: &Resources) -> BTreeMap<String, HostBuffer> {
             (r, gather_bound(&r, vmax))
         })
         .collect();
+    io.diffuse = px.iter().map(|p| p.0.diffuse).collect();
+    io.glossy = px.iter().map(|p| p.0.glossy).collect();
+    io.weight_sum = px.iter().map(|p| p.0.weight_sum).collect();
+    io.in_radius = px.iter().map(|p| p.0.in_radius).collect();
     let f4 = |v: Vec<[f32; 4]>| HostBuffer::f32(bytemuck::cast_slice(&v));
-    BTreeMap::from([
-        (
-            "diffuse".to_string(),
-            f4(px.iter().map(|p| p.0.diffuse).collect()),
-        ),
-        (
-            bound_name("diffuse"),
-            f4(px.iter().map(|p| p.1 .0).collect()),
-        ),
-        (
-            "glossy".to_string(),
-            f4(px.iter().map(|p| p.0.glossy).collect()),
-        ),
-        (
-            bound_name("glossy"),
-            f4(px.iter().map(|p| p.1 .1).collect()),
-        ),
-        (
-            "weight_sum".to_string(),
-            HostBuffer::f32(&px.iter().map(|p| p.0.weight_sum).collect::<Vec<_>>()),
-        ),
-        (
-            bound_name("weight_sum"),
-            HostBuffer::f32(&px.iter().map(|p| p.1 .2).collect::<Vec<_>>()),
-        ),
-        (
-            "in_radius".to_string(),
-            HostBuffer::u32(&px.iter().map(|p| p.0.in_radius).collect::<Vec<_>>()),
-        ),
-    ])
+    let mut out = io.outputs();
+    out.insert(
+        bound_name("diffuse"),
+        f4(px.iter().map(|p| p.1 .0).collect()),
+    );
+    out.insert(
+        bound_name("glossy"),
+        f4(px.iter().map(|p| p.1 .1).collect()),
+    );
+    let weights: Vec<f32> = px.iter().map(|p| p.1 .2).collect();
+    out.insert(bound_name("weight_sum"), HostBuffer::f32(&weights));
+    out
 }

@@ -8,14 +8,16 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::collections::BTreeMap;
 use std::sync::Arc;
+use vxgi_cpu_mirror::bvh_trace::GpuNode;
+use vxgi_cpu_mirror::direct_light::GpuMaterial;
 use vxgi_cpu_mirror::gbuffer::{
     accepted_texel, albedo, albedo_bound, texel_bounds, Frame, Textures,
 };
 use vxgi_harness::compare::bound_name;
 use vxgi_harness::run::{Pass, Workgroups};
 use vxgi_harness::{
-    Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
-    KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
+    Bindings, Block, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing,
+    Kernel, KernelDecl, Resources, ScalarKind, Shader, Structs, Tolerance,
 };
 
 pub const BVH_TRACE: (&str, &str) = (
@@ -23,24 +25,44 @@ pub const BVH_TRACE: (&str, &str) = (
     include_str!("../../kernels/common/bvh_trace.wgsl"),
 );
 
+vxgi_harness::bindings! {
+    /// gbuffer's bindings: the scene (camera frame, BVH, triangles, materials and their textures)
+    /// in, the G-buffer out.
+    pub struct Io {
+        inputs: {
+            frame: Block<Frame>,
+            nodes: Structs<GpuNode>,
+            // Six vec4<f32> per triangle (`GpuTriangle`).
+            triangles: Vec<[f32; 4]>,
+            materials: Structs<GpuMaterial>,
+            uvs: Vec<[f32; 2]>,
+            texels: Vec<u32>,
+            srgb_lut: Vec<f32>,
+        }
+        outputs: {
+            // Per element (see `texel_bounds`): t and p are quotients of dots/crosses conditioned by
+            // the ray's angle to the triangle; 32 ULP per unit of that condition number.
+            gb_position: Vec<[f32; 4]> => Tolerance::MirrorBound,
+            gb_normal: Vec<[f32; 4]> => Tolerance::MirrorBound,
+            // Exact after acceptance: where rounding decides between triangles (edges, equal
+            // depths) the mirror adopts the GPU's pick after checking rounding could have made it
+            // (`accepted_texel`).
+            gb_triangle: Vec<u32> => Tolerance::Exact,
+            // Exact for Kd; from a texture, any texel the uv's rounding could select
+            // (`albedo_bound`).
+            gb_albedo: Vec<[f32; 4]> => Tolerance::MirrorBound,
+        }
+    }
+}
+
 pub static DECL: KernelDecl = KernelDecl {
     name: "gbuffer",
     wgsl_path: "kernels/gbuffer.wgsl",
     wgsl: include_str!("../../kernels/gbuffer.wgsl"),
     includes: &[super::SCENE_TYPES, BVH_TRACE],
     entry: "main",
-    inputs: &["frame", "nodes", "triangles", "materials", "uvs", "texels", "srgb_lut"],
-    outputs: &[
-        // Per element (see `texel_bounds`): t and p are quotients of dots/crosses conditioned by the
-        // ray's angle to the triangle; 32 ULP per unit of that condition number.
-        Output { binding: "gb_position", tolerance: Tolerance::MirrorBound },
-        Output { binding: "gb_normal", tolerance: Tolerance::MirrorBound },
-        // Exact after acceptance: where rounding decides between triangles (edges, equal depths) the
-        // mirror adopts the GPU's pick after checking rounding could have made it (`accepted_texel`).
-        Output { binding: "gb_triangle", tolerance: Tolerance::Exact },
-        // Exact for Kd; from a texture, any texel the uv's rounding could select (`albedo_bound`).
-        Output { binding: "gb_albedo", tolerance: Tolerance::MirrorBound },
-    ],
+    inputs: Io::INPUTS,
+    outputs: Io::OUTPUTS,
     dispatch: DispatchRule::PerElement { binding: "gb_triangle" },
     mirror: "vxgi_cpu_mirror::gbuffer::shade_pixel",
     summary: "primary ray per pixel through the flattened BVH: position + t, shading normal + side, triangle, albedo (Kd or map_Kd)",
@@ -330,50 +352,28 @@ pub fn case_for(data: &SceneData, label: String, seed: u64) -> Case {
     let (w, h) = (data.width(), data.height());
     let n = w as usize * h as usize;
     let mut resources = scene_resources(data);
-    resources.insert(
-        "gb_position".into(),
-        HostResource::Buffer(HostBuffer::zeroed(n * 16, ScalarKind::F32)),
-    );
-    resources.insert(
-        "gb_normal".into(),
-        HostResource::Buffer(HostBuffer::zeroed(n * 16, ScalarKind::F32)),
-    );
-    resources.insert(
-        "gb_triangle".into(),
-        HostResource::Buffer(HostBuffer::zeroed(n * 4, ScalarKind::U32)),
-    );
-    resources.insert(
-        "gb_albedo".into(),
-        HostResource::Buffer(HostBuffer::zeroed(n * 16, ScalarKind::F32)),
-    );
-    Case {
-        label,
-        seed,
-        resources,
-        passes: vec![Pass {
-            label: "gbuffer".into(),
-            entry: "main".into(),
-            bindings: DECL.bind_by_name(),
-            workgroups: Workgroups::Direct([w.div_ceil(8), h.div_ceil(8), 1]),
-        }],
-        checks: [
-            ("gb_position", 4),
-            ("gb_normal", 4),
-            ("gb_triangle", 1),
-            ("gb_albedo", 4),
-        ]
-        .into_iter()
-        .map(|(name, components)| Check {
-            resource: name.into(),
-            output: name,
-            indexing: Indexing::Grid {
-                dims: [w, h, 1],
-                components,
-            },
-        })
-        .collect(),
-        effective_bytes: n as u64 * 52,
+    let zeroed = |bytes, kind| HostResource::Buffer(HostBuffer::zeroed(bytes, kind));
+    resources.insert("gb_position".into(), zeroed(n * 16, ScalarKind::F32));
+    resources.insert("gb_normal".into(), zeroed(n * 16, ScalarKind::F32));
+    resources.insert("gb_triangle".into(), zeroed(n * 4, ScalarKind::U32));
+    resources.insert("gb_albedo".into(), zeroed(n * 16, ScalarKind::F32));
+    let pass = Pass {
+        label: "gbuffer".into(),
+        entry: "main".into(),
+        bindings: DECL.bind_by_name(),
+        workgroups: Workgroups::Direct([w.div_ceil(8), h.div_ceil(8), 1]),
+    };
+    let mut case = Io::read(&resources)
+        .case(label, seed, vec![pass])
+        .with_effective_bytes(n as u64 * 52);
+    for c in &mut case.checks {
+        let components = if c.resource == "gb_triangle" { 1 } else { 4 };
+        c.indexing = Indexing::Grid {
+            dims: [w, h, 1],
+            components,
+        };
     }
+    case
 }
 
 /// Mirror G-buffer given the GPU's triangle picks: texels, their bounds, and how many GPU picks
@@ -476,15 +476,14 @@ impl Kernel for Gbuffer {
             data,
             data["gb_triangle"].buffer().expect("gb_triangle").as_u32(),
         );
+        let mut io = Io::read(data);
+        (io.gb_position, io.gb_normal) = (m.position, m.normal);
+        (io.gb_triangle, io.gb_albedo) = (m.triangle, m.albedo);
         let f = |v: &[[f32; 4]]| HostBuffer::f32(bytemuck::cast_slice(v));
-        BTreeMap::from([
-            ("gb_position".to_string(), f(&m.position)),
-            (bound_name("gb_position"), f(&m.position_bound)),
-            ("gb_normal".to_string(), f(&m.normal)),
-            (bound_name("gb_normal"), f(&m.normal_bound)),
-            ("gb_triangle".to_string(), HostBuffer::u32(&m.triangle)),
-            ("gb_albedo".to_string(), f(&m.albedo)),
-            (bound_name("gb_albedo"), f(&m.albedo_bound)),
-        ])
+        let mut out = io.outputs();
+        out.insert(bound_name("gb_position"), f(&m.position_bound));
+        out.insert(bound_name("gb_normal"), f(&m.normal_bound));
+        out.insert(bound_name("gb_albedo"), f(&m.albedo_bound));
+        out
     }
 }

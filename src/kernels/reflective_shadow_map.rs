@@ -102,9 +102,8 @@ pub fn case_for(
         rsm_depth: vec![0.0; n],
     };
     let pass = DECL.pass(shader, ctx, "rsm".into(), DECL.bind_by_name(), n as u64);
-    let mut case = io.case(label, seed, vec![pass]);
-    case.effective_bytes = n as u64 * (48 + 36);
-    case
+    io.case(label, seed, vec![pass])
+        .with_effective_bytes(n as u64 * (48 + 36))
 }
 
 /// The G-buffer of `view` on the GPU (the scene's data with the view's frame).

@@ -198,12 +198,12 @@ pub fn case_for(
     };
     let bindings = DECL.bind_by_name();
     let pass = DECL.pass(shader, ctx, "sample".into(), bindings, pos.len() as u64);
-    let mut case = io.case(label, seed, vec![pass]);
+    let layers = (lrsm.params.depth_slices * lrsm.params.normal_slices) as u64;
     // Per sample: its two vec4s, up to 8 taps (trilinear) of 3 texels of 16 bytes per layer, and
     // the output.
-    let layers = (lrsm.params.depth_slices * lrsm.params.normal_slices) as u64;
-    case.effective_bytes = pos.len() as u64 * (32 + 16 + layers * 8 * 48);
-    case
+
+    io.case(label, seed, vec![pass])
+        .with_effective_bytes(pos.len() as u64 * (32 + 16 + layers * 8 * 48))
 }
 
 pub struct SampleLrsm;

@@ -128,9 +128,9 @@ impl Kernel for SvoAnisotropic {
             DECL.bind_by_name(),
             p.nodes as u64 * 27,
         );
-        let mut case = io(&o, p, aniso).case(label, seed, vec![pass]);
-        case.effective_bytes = p.nodes as u64 * 27 * (6 * 16 + 27 * 16);
-        case
+        io(&o, p, aniso)
+            .case(label, seed, vec![pass])
+            .with_effective_bytes(p.nodes as u64 * 27 * (6 * 16 + 27 * 16))
     }
 
     fn mirror(

@@ -121,9 +121,8 @@ pub fn case_for(
         photon_spec: vec![[0.0; 4]; n],
     };
     let pass = DECL.pass(shader, ctx, "photons".into(), DECL.bind_by_name(), n as u64);
-    let mut case = io.case(label, seed, vec![pass]);
-    case.effective_bytes = n as u64 * (52 + 48);
-    case
+    io.case(label, seed, vec![pass])
+        .with_effective_bytes(n as u64 * (52 + 48))
 }
 
 /// The photons of a scene as octree fragments: the diffuse ones (`light`) and the specular ones

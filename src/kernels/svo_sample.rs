@@ -91,11 +91,9 @@ pub fn case_for(
         samples: vec![[0.0; 4]; queries.len()],
     };
     let shader = DECL.shader().expect("svo_sample validates");
-    let mut case = DECL
-        .case_of(&shader, ctx, &io, queries.len() as u64, label, seed)
-        .with_indexing("samples", vxgi_harness::Indexing::Linear);
-    case.effective_bytes = queries.len() as u64 * (16 + 16 + 8 * 16);
-    case
+    DECL.case_of(&shader, ctx, &io, queries.len() as u64, label, seed)
+        .with_indexing("samples", vxgi_harness::Indexing::Linear)
+        .with_effective_bytes(queries.len() as u64 * (16 + 16 + 8 * 16))
 }
 
 /// Queries of the generator: random points and levels, lattice points of random levels, node and

@@ -9,12 +9,37 @@ use std::collections::BTreeMap;
 use vxgi_cpu_mirror::bvh_trace::{GpuNode, GpuTriangle};
 use vxgi_cpu_mirror::direct_light::GpuLight;
 use vxgi_cpu_mirror::voxel_light::{light_voxel, VoxelGrid};
+use vxgi_harness::bindings::field;
 use vxgi_harness::compare::bound_name;
-use vxgi_harness::run::{grid_for, run, Pass, Workgroups};
+use vxgi_harness::run::run;
 use vxgi_harness::{
-    Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
-    KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
+    Bindings, Block, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing,
+    Kernel, KernelDecl, Resources, Shader, Structs, Tolerance,
 };
+
+vxgi_harness::bindings! {
+    /// voxel_light's bindings: the grid, the scene's BVH, triangles and lights, the voxels' albedo
+    /// and normal and the list of non-empty voxels in; their radiance out.
+    pub struct Io {
+        inputs: {
+            grid: Block<VoxelGrid>,
+            nodes: Structs<GpuNode>,
+            // Six vec4<f32> per triangle (`GpuTriangle`), three per light (`GpuLight`).
+            triangles: Vec<[f32; 4]>,
+            lights: Vec<[f32; 4]>,
+            vox_colour: Vec<[f32; 4]>,
+            vox_normal: Vec<[f32; 4]>,
+            list: Vec<u32>,
+            list_count: Vec<u32>,
+        }
+        outputs: {
+            // Per element (see `light_voxel`): 64 ULP per light term, 8 ULP absolute on the
+            // cosine; terms whose shadow ray rounding decides add their value. Alpha is copied:
+            // exact (bound 0).
+            vox_radiance: Vec<[f32; 4]> => Tolerance::MirrorBound
+        }
+    }
+}
 
 pub static DECL: KernelDecl = KernelDecl {
     name: "voxel_light",
@@ -22,14 +47,8 @@ pub static DECL: KernelDecl = KernelDecl {
     wgsl: include_str!("../../kernels/voxel_light.wgsl"),
     includes: &[super::SCENE_TYPES, super::gbuffer::BVH_TRACE, super::LIGHTS],
     entry: "main",
-    inputs: &[
-        "grid", "nodes", "triangles", "lights", "vox_colour", "vox_normal", "list", "list_count",
-    ],
-    outputs: &[
-        // Per element (see `light_voxel`): 64 ULP per light term, 8 ULP absolute on the cosine; terms
-        // whose shadow ray rounding decides add their value. Alpha is copied: exact (bound 0).
-        Output { binding: "vox_radiance", tolerance: Tolerance::MirrorBound },
-    ],
+    inputs: Io::INPUTS,
+    outputs: Io::OUTPUTS,
     dispatch: DispatchRule::PerElement { binding: "list" },
     mirror: "vxgi_cpu_mirror::voxel_light::light_voxel",
     summary: "direct light into the non-empty voxels, one exact shadow ray per light (CPRC 3.1 voxel illumination)",
@@ -53,54 +72,34 @@ pub fn case_for(
     label: String,
     seed: u64,
 ) -> Case {
-    let mut resources = scene_resources(data);
-    resources.remove("frame");
-    resources.remove("materials");
-    resources.insert(
-        "grid".into(),
-        HostResource::Buffer(HostBuffer::pod(&voxel_grid(frame, data.lights.len()))),
-    );
-    let f4 = |v: &[[f32; 4]]| HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(v)));
-    resources.insert("vox_colour".into(), f4(&grid.colour));
-    resources.insert("vox_normal".into(), f4(&grid.normal));
-    let padded: Vec<u32> = if list.is_empty() {
-        vec![0]
-    } else {
-        list.to_vec()
+    let scene = scene_resources(data);
+    let io = Io {
+        grid: Block(voxel_grid(frame, data.lights.len())),
+        nodes: field(&scene, "nodes"),
+        triangles: field(&scene, "triangles"),
+        lights: field(&scene, "lights"),
+        vox_colour: grid.colour.clone(),
+        vox_normal: grid.normal.clone(),
+        // Bindings cannot be empty.
+        list: if list.is_empty() {
+            vec![0]
+        } else {
+            list.to_vec()
+        },
+        list_count: vec![list.len() as u32],
+        vox_radiance: vec![[0.0; 4]; grid.colour.len()],
     };
-    resources.insert(
-        "list".into(),
-        HostResource::Buffer(HostBuffer::u32(&padded)),
-    );
-    resources.insert(
-        "list_count".into(),
-        HostResource::Buffer(HostBuffer::u32(&[list.len() as u32])),
-    );
-    resources.insert(
-        "vox_radiance".into(),
-        HostResource::Buffer(HostBuffer::zeroed(grid.colour.len() * 16, ScalarKind::F32)),
-    );
-    let max = ctx.limits().max_compute_workgroups_per_dimension;
-    Case {
-        label,
-        seed,
-        resources,
-        passes: vec![Pass {
-            label: "voxel_light".into(),
-            entry: "main".into(),
-            bindings: DECL.bind_by_name(),
-            workgroups: Workgroups::Direct(grid_for(padded.len() as u64, 64, max)),
-        }],
-        checks: vec![Check {
-            resource: "vox_radiance".into(),
-            output: "vox_radiance",
-            indexing: Indexing::Morton {
+    let shader = DECL.shader().expect("voxel_light.wgsl is valid");
+    let elements = io.list.len() as u64;
+    DECL.case_of(&shader, ctx, &io, elements, label, seed)
+        .with_indexing(
+            "vox_radiance",
+            Indexing::Morton {
                 n: grid.n,
                 components: 4,
             },
-        }],
-        effective_bytes: list.len() as u64 * 52,
-    }
+        )
+        .with_effective_bytes(list.len() as u64 * 52)
 }
 
 /// Light a voxelized scene on the GPU: the radiance grid (Morton order), the mip chain's input.
@@ -145,21 +144,18 @@ pub fn light_placed_on_gpu(
 
 /// Mirror radiance grid and bounds.
 pub fn mirror_radiance(data: &Resources) -> (Vec<[f32; 4]>, Vec<[f32; 4]>) {
-    let b = |n: &str| data[n].buffer().expect("buffer");
-    let grid: VoxelGrid = *bytemuck::from_bytes(&b("grid").bytes);
-    let nodes: &[GpuNode] = bytemuck::cast_slice(&b("nodes").bytes);
-    let tris: &[GpuTriangle] = bytemuck::cast_slice(&b("triangles").bytes);
-    let lights: &[GpuLight] = bytemuck::cast_slice(&b("lights").bytes);
+    let io = Io::read(data);
+    let grid = io.grid.0;
+    let tris: &[GpuTriangle] = bytemuck::cast_slice(&io.triangles);
+    let lights: &[GpuLight] = bytemuck::cast_slice(&io.lights);
     let lights = &lights[..grid.size[1] as usize];
-    let colour: &[[f32; 4]] = bytemuck::cast_slice(&b("vox_colour").bytes);
-    let normal: &[[f32; 4]] = bytemuck::cast_slice(&b("vox_normal").bytes);
-    let count = b("list_count").as_u32()[0] as usize;
+    let (colour, normal) = (&io.vox_colour, &io.vox_normal);
     let mut out = vec![[0.0f32; 4]; colour.len()];
     let mut bound = vec![[0.0f32; 4]; colour.len()];
-    for &v in &b("list").as_u32()[..count] {
+    for &v in &io.list[..io.list_count[0] as usize] {
         let (l, e) = light_voxel(
             &grid,
-            nodes,
+            &io.nodes.0,
             tris,
             lights,
             colour[v as usize],
