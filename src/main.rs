@@ -518,7 +518,7 @@ fn run_render(
     if loops > vxgi::quality::LOOP_LIMIT {
         eprintln!(
             "warning: these settings give up to {loops} loop iterations per invocation; lavapipe stops \
-             loops past {} without an error (fewer cones, a wider cone angle or fewer voxels keep under it)",
+             loops past {} without an error (fewer cones, a wider cone angle, a longer cone_step or fewer voxels keep under it)",
             vxgi::quality::LOOP_LIMIT
         );
     }

@@ -124,11 +124,21 @@ pub const LOOP_LIMIT: u64 = 65535;
 /// The most steps one cone of half-angle tangent `tan` takes through a grid of `side` voxels
 /// (kernels/common/cone_march.wgsl: the diameter starts at 0.75 s0 and grows by `1 + 2 step tan`
 /// each step, the distance by `step` diameters, until sqrt(3) side s0), one more for rounding.
+/// Both logarithms by `ln_1p`, so that a cone too narrow for `1 + x` to differ from 1 in f64 still
+/// counts (their ratio tends to the linear march's `L / (0.75 step)`); saturating, never overflowing.
 pub fn march_steps(side: u32, tan: f32, step: f32) -> u64 {
     let (tan, step) = (tan as f64, step as f64);
-    let reach = 1.0 + 2.0 * tan * (side as f64 * 3f64.sqrt()) / 0.75;
-    (reach.ln() / (2.0 * step * tan).ln_1p()).ceil() as u64 + 1
+    let grow = 2.0 * tan * (side as f64 * 3f64.sqrt()) / 0.75;
+    let steps = (grow.ln_1p() / (2.0 * step * tan).ln_1p()).ceil();
+    // `as` saturates (NaN to 0: a zero angle or step, which validation refuses).
+    (steps as u64).saturating_add(1)
 }
+
+/// The smallest `cone_step` (in cone diameters) a scene may set: below it a step of the smallest
+/// diameter (0.75 voxel) is within an f32 rounding of the march distance across a 512^3 grid
+/// (sqrt(3) 512 voxels, whose ULP is 2^-14 voxel), so the march would stop advancing and spin until a
+/// driver's watchdog or lavapipe's loop limit ends it. 2^-12 keeps every step above 3 ULP.
+pub const MIN_CONE_STEP: f32 = 1.0 / 4096.0;
 
 /// The loop iterations of one march step of the instanced kernels (cone_trace_instanced,
 /// cache_creation_instanced) for `scene` as it stands: the hierarchies its sample's cell lists
@@ -314,5 +324,31 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// The step count never overflows or shrinks as a cone narrows: narrower cones grow more slowly and take more steps, down to the
+    /// linear march's L / (0.75 step) as the angle goes to 0.
+    #[test]
+    fn march_steps_grow_as_cones_narrow_and_never_overflow() {
+        let mut last = 0;
+        for tan in [
+            1.0f32,
+            0.1,
+            1e-3,
+            1e-6,
+            1e-12,
+            1e-30,
+            1e-40,
+            f32::MIN_POSITIVE / 4.0,
+        ] {
+            let n = march_steps(128, tan, 0.5);
+            assert!(n >= last, "tan {tan}: {n} steps < {last} for a wider cone");
+            last = n;
+        }
+        // The linear march's limit: sqrt(3) 128 / (0.75 * 0.5) = 591.2 -> 592, + 1.
+        assert_eq!(march_steps(128, 1e-40, 0.5), 593);
+        // The smallest valid step and an f32 subnormal angle: large, finite, no overflow.
+        let n = march_steps(512, 1e-45, MIN_CONE_STEP);
+        assert!(n > LOOP_LIMIT && n < u64::MAX, "{n}");
     }
 }

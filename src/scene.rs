@@ -309,8 +309,12 @@ impl RenderSettings {
                 self.cone_offset
             ));
         }
-        if !(self.cone_step > 0.0 && self.cone_step <= 1.0) {
-            return Err(format!("cone_step = {} must be in (0, 1]", self.cone_step));
+        let min_step = crate::quality::MIN_CONE_STEP;
+        if !(self.cone_step >= min_step && self.cone_step <= 1.0) {
+            return Err(format!(
+                "cone_step = {} must be in [{min_step}, 1] (cone diameters per step; a shorter step is lost to f32 rounding of the march distance)",
+                self.cone_step
+            ));
         }
         // A bias above 0 would read levels `levels_read` does not build.
         if !(-3.0..=0.0).contains(&self.cone_level_bias) {
