@@ -956,10 +956,23 @@ fn run_lrsm_factors(
 fn run_compare(reference: PathBuf, test: PathBuf, heatmap: Option<PathBuf>) -> Result<()> {
     let r = read_exr(&reference)?;
     let t = read_exr(&test)?;
+    // An .exr holds linear radiance, a .png the sRGB-encoded preview: the two do not compare.
+    let ext = |p: &Path| p.extension().map(|e| e.to_ascii_lowercase());
+    if ext(&reference) != ext(&test) {
+        eprintln!(
+            "warning: {} and {} are different formats (an .exr is linear radiance, a .png its sRGB preview): compare like with like",
+            reference.display(),
+            test.display()
+        );
+    }
     let c = vxgi::images::compare(&r, &reference, &t, &test)?;
     println!("relative MSE {:.6}", c.rel_mse);
     println!("mean FLIP    {:.6}", c.flip_mean);
-    println!("energy ratio {:.4} (test / reference)", c.energy_ratio);
+    if c.energy_ratio.is_finite() {
+        println!("energy ratio {:.4} (test / reference)", c.energy_ratio);
+    } else {
+        println!("energy ratio undefined (the reference image is black)");
+    }
     if let Some(path) = heatmap {
         write_heatmap(&path, r.width, r.height, &c.heatmap)?;
         println!("wrote {}", path.display());

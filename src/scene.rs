@@ -1289,8 +1289,19 @@ fn obj_mesh(
                 })
                 .collect(),
             Err(e) => {
+                // Name the file tobj could not use: the OBJ's `mtllib` lines, resolved beside it.
+                let named: Vec<String> = obj_text
+                    .lines()
+                    .filter_map(|l| l.trim().strip_prefix("mtllib"))
+                    .map(|m| obj_dir.join(m.trim()).display().to_string())
+                    .collect();
+                let which = if named.is_empty() {
+                    "the OBJ has no mtllib line".to_string()
+                } else {
+                    format!("{}: {e}", named.join(", "))
+                };
                 warnings.push(format!(
-                    "{obj_label}: no usable .mtl ({e}): every surface is grey diffuse 0.8"
+                    "{obj_label}: no usable .mtl ({which}): every surface is grey diffuse 0.8"
                 ));
                 Vec::new()
             }

@@ -302,3 +302,36 @@ fn limits_lists_every_kernel_and_pipeline() {
     }
     assert!(out.contains("| gbuffer | 11 |"), "{out}");
 }
+
+/// `compare` against a black reference says the energy ratio is undefined instead of printing NaN
+/// or inf, and warns when an .exr (linear) is compared with a .png (its sRGB preview).
+#[test]
+fn compare_names_an_undefined_energy_ratio_and_mixed_encodings() {
+    use vxgi::images::{write_exr, RgbImage};
+    let dir = std::env::temp_dir().join(format!("vxgi-cli-compare-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let black = dir.join("black.exr");
+    let lit = dir.join("lit.exr");
+    write_exr(&black, &RgbImage::new(4, 4, vec![[0.0; 3]; 16])).unwrap();
+    write_exr(&lit, &RgbImage::new(4, 4, vec![[0.5; 3]; 16])).unwrap();
+    let s = |p: &std::path::Path| p.display().to_string();
+    for test in [&black, &lit] {
+        let (code, out, err) = vxgi(&["compare", &s(&black), &s(test)]);
+        assert_eq!(code, 0, "{out}\n{err}");
+        assert!(
+            out.contains("energy ratio undefined (the reference image is black)"),
+            "{out}"
+        );
+        assert!(!out.contains("NaN") && !out.contains("inf"), "{out}");
+        assert!(!err.contains("different formats"), "{err}");
+    }
+    let png = dir.join("lit.png");
+    image::RgbImage::from_raw(4, 4, vec![128; 48])
+        .unwrap()
+        .save(&png)
+        .unwrap();
+    let (code, out, err) = vxgi(&["compare", &s(&lit), &s(&png)]);
+    assert_eq!(code, 0, "{out}\n{err}");
+    assert!(err.contains("different formats"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -66,6 +66,16 @@ fn a_mesh_without_mtl_is_grey_with_a_warning() {
         "{:?}",
         s.warnings
     );
+    // An mtllib that names a missing file: the warning names it.
+    let obj = format!("mtllib nothere.mtl\n{TRI_OBJ}");
+    let s = Scene::load(write("mtlmissing", &obj, &scene_toml("mesh.obj", ""))).unwrap();
+    assert!(
+        s.warnings
+            .iter()
+            .any(|w| w.contains("no usable .mtl") && w.contains("nothere.mtl")),
+        "{:?}",
+        s.warnings
+    );
     let s2 = Scene::load(write("nolights", TRI_OBJ, &scene_toml("mesh.obj", ""))).unwrap();
     assert!(
         s2.warnings.iter().any(|w| w.contains("no lights")),
