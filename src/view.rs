@@ -333,6 +333,28 @@ impl Controls {
         if let Some(l) = s.lights.first_mut() {
             move_light(l, self.light);
         }
+        // Moved as far as the scene loader lets a file place things (its coordinate bound).
+        let bound = crate::scene::MAX_COORDINATE;
+        let far = |what: &str, p: [f32; 3]| {
+            (!p.iter().all(|c| c.abs() <= bound)).then(|| {
+                format!("{what} moved to {p:?}, past the scenes' coordinate bound +-{bound:e}")
+            })
+        };
+        let light = match s.lights.first() {
+            Some(Light::Point { position, .. } | Light::Spot { position, .. }) => Some(*position),
+            _ => None,
+        };
+        let placed = [
+            ("the camera", Some(s.camera.eye)),
+            ("its target", Some(s.camera.target)),
+        ];
+        if let Some(e) = placed
+            .into_iter()
+            .chain([("the first light", light)])
+            .find_map(|(what, p)| p.and_then(|p| far(what, p)))
+        {
+            bail!("{e}");
+        }
         crate::limits::check_bounces(&s, self.pipeline).map_err(anyhow::Error::msg)?;
         let k = crate::render::exposure(&s);
         Ok(if k == 0 {

@@ -145,3 +145,23 @@ fn tempfile_dir(name: &str) -> std::path::PathBuf {
     std::fs::create_dir_all(&dir).unwrap();
     dir
 }
+
+/// A script that moves the light or the camera past the scene files' coordinate bound is an error
+/// naming it, not a silently black frame.
+#[test]
+fn a_script_moving_past_the_coordinate_bound_is_an_error() {
+    for step in ["0 light 0 0 1e30", "0 fly 1e30 0 0"] {
+        let out = Command::new("xvfb-run")
+            .args(["-a", "-s", "-screen 0 640x480x24"])
+            .arg(env!("CARGO_BIN_EXE_vxgi"))
+            .args(["view", "--frames", "1", "--script", step])
+            .output()
+            .expect("running xvfb-run");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "`{step}` succeeded");
+        assert!(
+            err.contains("past the scenes' coordinate bound"),
+            "{step}: {err}"
+        );
+    }
+}
