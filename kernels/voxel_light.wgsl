@@ -5,7 +5,10 @@
 // common/lights.wgsl.
 //
 // One invocation per entry of `list` (the voxelize kernel's non-empty voxels; entries past
-// list_count[0] return). Voxel v (Morton index) has centre origin + (xyz + 0.5) * size in the grid's
+// list_count[0] return). Windows: with grid.size.w > 0 only the voxels v in [size.z, size.z + size.w)
+// are lit, vox_colour, vox_normal and vox_radiance bound from voxel size.z (a grid whose buffers pass
+// one storage binding is lit a window at a time, each dispatch over the whole list); size.w = 0 is the
+// whole grid. Voxel v (Morton index) has centre origin + (xyz + 0.5) * size in the grid's
 // frame, placed in the world by grid.model (identity for a world-space grid: then every product is by 1
 // or 0, exactly the untransformed arithmetic; a rigid placement lights an instance's own grid where it
 // stands, CPRC 3.1), albedo and alpha in vox_colour, mean normal m = normal_model * vox_normal (the
@@ -19,7 +22,7 @@
 
 struct VoxelGrid {
     origin: vec4<f32>,   // xyz, w = voxel size (in the grid's own frame)
-    size: vec4<u32>,     // side, light count, 0, 0
+    size: vec4<u32>,     // side, light count, window's first voxel, its voxels (0: the whole grid)
     model: array<vec4<f32>, 3>,          // rows of world-from-grid (3x4); identity: a world-space grid
     normal_model: array<vec4<f32>, 3>,   // rows of its inverse transpose (xyz)
     world: vec4<f32>,    // x = voxel size in world units (the shadow ray's offsets)
@@ -53,9 +56,14 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
         return;
     }
     let v = list[k];
-    let col = vox_colour[v];
+    // The voxel within the window (below it, the difference wraps past its size).
+    let w = v - grid.size.z;
+    if (grid.size.w != 0u && w >= grid.size.w) {
+        return;
+    }
+    let col = vox_colour[w];
     let alpha = col.w;
-    let ml = vox_normal[v].xyz;
+    let ml = vox_normal[w].xyz;
     let m = vec3<f32>(dot(grid.normal_model[0].xyz, ml), dot(grid.normal_model[1].xyz, ml), dot(grid.normal_model[2].xyz, ml));
     let len = sqrt(dot(m, m));
     let cell = vec3<f32>(f32(compact3(v)), f32(compact3(v >> 1u)), f32(compact3(v >> 2u)));
@@ -89,5 +97,5 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
             sum += term;
         }
     }
-    vox_radiance[v] = vec4<f32>(sum * alpha, alpha);
+    vox_radiance[w] = vec4<f32>(sum * alpha, alpha);
 }

@@ -11,13 +11,19 @@
 //   Textured triangles (texture.y = W > 0): fixed-point texture coordinates (1/16 texel) interpolate
 //   the same way; the sample's albedo is vox_lut of the channels of texel ((Us >> 4) mod W,
 //   (Vs >> 4) mod H) at texture.x in vox_texels (packed sRGB8 r | g << 8 | b << 16).
+// Windows: splat and resolve see the voxels [params.window_first, window_first + window_voxels)
+//   (Morton indices), their `acc`, `vox_colour` and `vox_normal` bound from that window's first
+//   voxel, so a grid whose buffers pass one storage binding is voxelized a window at a time (the
+//   same samples and sums: each window keeps its own voxels' samples); one window of side^3 voxels
+//   is the whole grid.
 // Pass `splat` (one invocation per triangle row: gid.x = triangle, gid.y = i): adds albedo, normal
-//   (two's complement in u32) and 1 into acc[8 v .. 8 v + 7] = (r, g, b, nx, ny, nz, count, -) of the
-//   sample's voxel v (Morton index). acc must start zeroed.
-// Pass `resolve` (one invocation per voxel): colour = (sum_albedo / count / 4096, 1),
+//   (two's complement in u32) and 1 into acc[8 w .. 8 w + 7] = (r, g, b, nx, ny, nz, count, -) of the
+//   sample's voxel v (Morton index) at w = v - window_first, for the samples in the window. acc must
+//   start zeroed.
+// Pass `resolve` (one invocation per voxel of the window): colour = (sum_albedo / count / 4096, 1),
 //   normal = (sum_normal / count / 4096, 0) — the mean, not renormalised — or zeros when empty; a
-//   non-empty voxel appends its index to `list` (atomic counter list_count[0]; order is the GPU's, the
-//   comparison sorts it).
+//   non-empty voxel appends its index v to `list` (atomic counter list_count[0]; order is the GPU's,
+//   the comparison sorts it).
 // Pass `occupancy_bits` (dispatched as splat): the same samples, no albedo or normal: sets bit (v mod 32) of
 //   occupancy[v / 32] for the sample's voxel v (Morton index) by atomicOr: binary occlusion voxels, one
 //   bit per voxel (level 0 of occlusion_voxels.wgsl's pyramid), where splat's accumulators take 32
@@ -42,8 +48,8 @@ struct VoxTriangle {
 struct VoxParams {
     side: u32,
     triangles: u32,
-    _pad0: u32,
-    _pad1: u32,
+    window_first: u32,
+    window_voxels: u32,
 }
 
 @group(0) @binding(0) var<uniform> params: VoxParams;
@@ -110,8 +116,13 @@ fn splat(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let side = i32(params.side);
     for (var j = 0; j <= n - i; j++) {
+        // Outside the window (below it, the difference wraps past window_voxels).
+        let w = sample_voxel(t, i, j, side) - params.window_first;
+        if (w >= params.window_voxels) {
+            continue;
+        }
         let nrm = (t.na.xyz * (n - i - j) + t.nb.xyz * i + t.nc.xyz * j) / vec3<i32>(n);
-        let base = sample_voxel(t, i, j, side) * 8u;
+        let base = w * 8u;
         let albedo = sample_albedo(t, i, j);
         atomicAdd(&acc[base], albedo.x);
         atomicAdd(&acc[base + 1u], albedo.y);
@@ -144,7 +155,7 @@ fn occupancy_bits(@builtin(global_invocation_id) gid: vec3<u32>) {
 @compute @workgroup_size(64)
 fn resolve(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let v = gid.x + gid.y * groups.x * 64u;
-    if (v >= arrayLength(&vox_colour)) {
+    if (v >= params.window_voxels) {
         return;
     }
     let base = v * 8u;
@@ -165,5 +176,5 @@ fn resolve(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
     vox_colour[v] = vec4<f32>(alb / c * s, 1.0);
     vox_normal[v] = vec4<f32>(nrm / c * s, 0.0);
     let slot = atomicAdd(&list_count[0], 1u);
-    list[slot] = v;
+    list[slot] = params.window_first + v;
 }

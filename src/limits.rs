@@ -86,7 +86,15 @@ pub fn check(scene: &Scene, pipeline: Pipeline, limits: &wgpu::Limits) -> Result
         }
     }
     let voxel_bytes = (r.voxels as u64).pow(3) * VOXEL_ACCUMULATOR_BYTES;
-    if pipeline != Pipeline::Lrsm && voxel_bytes > binding {
+    if pipeline == Pipeline::VctSvo && voxel_bytes > limits.max_buffer_size {
+        return Err(format!(
+            "voxels = {}: the voxelizer's accumulators ({VOXEL_ACCUMULATOR_BYTES} bytes per voxel) need {} in one buffer, past the device's max_buffer_size ({}): lower voxels",
+            r.voxels,
+            mib(voxel_bytes),
+            mib(limits.max_buffer_size)
+        ));
+    }
+    if !matches!(pipeline, Pipeline::Lrsm | Pipeline::VctSvo) && voxel_bytes > binding {
         let most = (1u32..=512)
             .filter(|v| {
                 v.is_power_of_two() && (*v as u64).pow(3) * VOXEL_ACCUMULATOR_BYTES <= binding

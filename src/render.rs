@@ -895,7 +895,12 @@ impl VctSvo {
             progress("anisotropic voxels");
             let t = std::time::Instant::now();
             let a = crate::kernels::svo_anisotropic::build_on_gpu(ctx, &built.octree, 1.0 / scale)
-                .context("anisotropic voxels")?;
+                .with_context(|| {
+                    format!(
+                        "anisotropic voxels ({} bytes per octree node above the leaves, in one binding): anisotropic_voxels = false or fewer voxels makes them fit",
+                        vxgi_cpu_mirror::svo_anisotropic::NODE_VALUES * 16
+                    )
+                })?;
             stages.push(("svo_anisotropic", t.elapsed().as_secs_f64()));
             Ok(Some(a))
         };

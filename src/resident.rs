@@ -1228,11 +1228,7 @@ fn voxelize_inputs(
     use crate::kernels::voxelize;
     let side = scene.render.voxels;
     // As voxelize::case_for writes them (an empty mesh's one default triangle record included).
-    let params = voxelize::VoxParams {
-        side,
-        triangles: input.tris.len() as u32,
-        _pad: [0; 2],
-    };
+    let params = voxelize::VoxParams::whole(side, input.tris.len());
     let tris = if input.tris.is_empty() {
         bytemuck::bytes_of(&vxgi_cpu_mirror::voxelize::VoxTriangle::default()).to_vec()
     } else {

@@ -666,11 +666,20 @@ fn resource_limits_are_checked_from_the_settings() {
     let e = vxgi::limits::check(&s, Pipeline::Lrsm, &limits).unwrap_err();
     assert!(e.contains("vct-svo only"), "{e}");
     vxgi::limits::check(&s, Pipeline::VctSvo, &limits).unwrap();
+    // The dense pipelines bind their grids whole; vct-svo voxelizes in windows, its accumulators in
+    // one buffer (512 MiB at 256^3, 4 GiB at 512^3).
     let mut s = Scene::cornell_box();
     s.render.voxels = 256;
-    let e = vxgi::limits::check(&s, Pipeline::VctSvo, &limits).unwrap_err();
+    let e = vxgi::limits::check(&s, Pipeline::VctDense, &limits).unwrap_err();
     assert!(
         e.contains("voxels = 256") && e.contains("at most voxels = 128"),
+        "{e}"
+    );
+    vxgi::limits::check(&s, Pipeline::VctSvo, &limits).unwrap();
+    s.render.voxels = 512;
+    let e = vxgi::limits::check(&s, Pipeline::VctSvo, &limits).unwrap_err();
+    assert!(
+        e.contains("voxels = 512") && e.contains("max_buffer_size"),
         "{e}"
     );
 }

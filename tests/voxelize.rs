@@ -103,10 +103,11 @@ fn bad_grid_sizes_are_errors() {
     let scene = Scene::cornell_box();
     assert_eq!(prepare(&scene, 100).unwrap_err(), VoxelizeError::Side(100));
     assert_eq!(prepare(&scene, 4).unwrap_err(), VoxelizeError::Side(4));
-    let limit = gpu().limits().max_storage_buffer_binding_size;
+    // Past one binding the grid is voxelized in windows; past one buffer it is refused.
+    let limit = gpu().limits().max_buffer_size;
     if 512u64.pow(3) * 32 > limit {
         let e = voxelize_on_gpu(gpu(), &scene, 512).unwrap_err().to_string();
-        assert!(e.contains("max_storage_buffer_binding_size"), "{e}");
+        assert!(e.contains("max_buffer_size"), "{e}");
     }
 }
 

@@ -11,7 +11,7 @@ use vxgi_cpu_mirror::direct_light::GpuLight;
 use vxgi_cpu_mirror::voxel_light::{light_voxel, VoxelGrid};
 use vxgi_harness::bindings::field;
 use vxgi_harness::compare::bound_name;
-use vxgi_harness::run::run;
+use vxgi_harness::run::{run, View};
 use vxgi_harness::{
     Bindings, Block, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing,
     Kernel, KernelDecl, Resources, Shader, Structs, Tolerance,
@@ -102,6 +102,55 @@ pub fn case_for(
         .with_effective_bytes(list.len() as u64 * 52)
 }
 
+/// The voxels of one window ([`in_windows`]) on a device with this storage-binding limit: the whole
+/// grid where its vec4 buffers fit one binding, else the largest power of two whose do.
+pub fn window_voxels(side: u32, binding_limit: u64) -> u64 {
+    let voxels = (side as u64).pow(3);
+    voxels.min(1 << (binding_limit / 16).max(1).ilog2())
+}
+
+/// `case` (a whole-grid case of [`case_for`]) dispatched a window of `window` voxels at a time (a
+/// power of two dividing the grid): each pass over the whole list, binding its window's part of
+/// `vox_colour`, `vox_normal` and `vox_radiance` and the grid with that window (`grid_w<k>`). The
+/// same outputs.
+pub fn in_windows(mut case: Case, window: u64) -> Case {
+    let grid: VoxelGrid =
+        *bytemuck::from_bytes(&case.resources["grid"].buffer().expect("grid").bytes);
+    let voxels = (grid.size[0] as u64).pow(3);
+    assert!(
+        window.is_power_of_two() && window <= voxels,
+        "a window of {window} voxels does not tile the grid"
+    );
+    if window == voxels {
+        return case;
+    }
+    let whole = case.passes.remove(0);
+    for k in 0..voxels / window {
+        let first = k * window;
+        let mut g = grid;
+        g.size[2] = first as u32;
+        g.size[3] = window as u32;
+        let name = format!("grid_w{k}");
+        case.resources
+            .insert(name.clone(), HostResource::Buffer(HostBuffer::pod(&g)));
+        let mut pass = whole.clone();
+        pass.label = format!("voxel_light window {k}");
+        for (binding, view) in &mut pass.bindings {
+            *view = match binding.as_str() {
+                "grid" => View::Buffer(name.clone()),
+                "vox_colour" | "vox_normal" | "vox_radiance" => View::BufferRange {
+                    name: binding.clone(),
+                    offset: first * 16,
+                    size: window * 16,
+                },
+                _ => continue,
+            };
+        }
+        case.passes.push(pass);
+    }
+    case
+}
+
 /// Light a voxelized scene on the GPU: the radiance grid (Morton order), the mip chain's input.
 pub fn light_on_gpu(
     ctx: &GpuContext,
@@ -131,6 +180,8 @@ pub fn light_placed_on_gpu(
             HostResource::Buffer(HostBuffer::pod(&placed)),
         );
     }
+    let window = window_voxels(grid.n, ctx.limits().max_storage_buffer_binding_size);
+    let case = in_windows(case, window);
     let out = run(
         ctx,
         &DECL.shader()?,
@@ -221,6 +272,12 @@ impl Kernel for VoxelLight {
                 HostResource::Buffer(HostBuffer::pod(&placed)),
             );
             case.label.push_str(", placed by a rigid transform");
+        }
+        // One case in eight a window at a time (eight octants), as a grid past one storage
+        // binding is: the same outputs.
+        if index % 8 == 5 {
+            case.label.push_str(", in 8 windows");
+            return in_windows(case, (side as u64).pow(3) / 8);
         }
         case
     }

@@ -10,7 +10,7 @@ use std::collections::BTreeMap;
 use vxgi_cpu_mirror::voxelize::{
     accumulate, occupancy, occupancy_words, resolve, VoxInput, VoxTriangle, FIXED, SUB,
 };
-use vxgi_harness::run::{grid_for, run, Pass, Workgroups};
+use vxgi_harness::run::{grid_for, run, Pass, View, Workgroups};
 use vxgi_harness::{
     Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
     KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
@@ -46,7 +46,21 @@ pub static DECL: KernelDecl = KernelDecl {
 pub struct VoxParams {
     pub side: u32,
     pub triangles: u32,
-    pub _pad: [u32; 2],
+    /// The voxels splat and resolve see: Morton indices from `window_first`, `window_voxels` of them.
+    pub window_first: u32,
+    pub window_voxels: u32,
+}
+
+impl VoxParams {
+    /// The parameters for `triangles` triangles into the whole grid of side `side` (one window).
+    pub fn whole(side: u32, triangles: usize) -> Self {
+        Self {
+            side,
+            triangles: triangles as u32,
+            window_first: 0,
+            window_voxels: side.pow(3),
+        }
+    }
 }
 
 /// Where the grid sits: a cube of `side` voxels of size `voxel` from `origin` (the scene's bounding
@@ -63,8 +77,8 @@ pub enum VoxelizeError {
     #[error("voxels = {0}: must be a power of two in 8..=512")]
     Side(u32),
     #[error(
-        "voxels = {side}: the accumulators need {bytes} bytes in one binding, past the device's \
-         max_storage_buffer_binding_size ({limit}); use a smaller grid"
+        "voxels = {side}: the accumulators need {bytes} bytes in one buffer, past the device's \
+         max_buffer_size ({limit}); use a smaller grid"
     )]
     TooLarge { side: u32, bytes: u64, limit: u64 },
     #[error(
@@ -211,7 +225,20 @@ pub fn prepare_in(
     ))
 }
 
-/// Resources and passes voxelizing `input` into a grid of side `side`.
+/// Bytes of accumulators per voxel (`acc`: eight u32).
+pub const ACC_BYTES: u64 = 32;
+
+/// The voxels of one window ([`case_windowed`]) on a device with this storage-binding limit: the
+/// whole grid where its accumulators fit one binding, else the largest power of two whose do (a
+/// power of two divides the grid's side^3).
+pub fn window_voxels(side: u32, binding_limit: u64) -> u64 {
+    let voxels = (side as u64).pow(3);
+    let fit = (binding_limit / ACC_BYTES).max(1);
+    voxels.min(1 << fit.ilog2())
+}
+
+/// Resources and passes voxelizing `input` into a grid of side `side`, in windows that fit the
+/// device's storage bindings ([`window_voxels`]).
 pub fn case_for(
     ctx: &GpuContext,
     input: &VoxInput,
@@ -219,13 +246,32 @@ pub fn case_for(
     label: String,
     seed: u64,
 ) -> Result<Case, VoxelizeError> {
+    let window = window_voxels(side, ctx.limits().max_storage_buffer_binding_size);
+    case_windowed(ctx, input, side, window, label, seed)
+}
+
+/// [`case_for`] with windows of `window` voxels (a power of two, at most side^3): splat and resolve
+/// once per window over the window's part of `acc`, `vox_colour` and `vox_normal` (their parameters
+/// `params_w<k>`); one window binds the buffers whole under `params`, as a chain does.
+pub fn case_windowed(
+    ctx: &GpuContext,
+    input: &VoxInput,
+    side: u32,
+    window: u64,
+    label: String,
+    seed: u64,
+) -> Result<Case, VoxelizeError> {
     let tris = &input.tris;
     let voxels = (side as u64).pow(3);
-    let limit = ctx.limits().max_storage_buffer_binding_size;
-    if voxels * 32 > limit {
+    assert!(
+        window.is_power_of_two() && window <= voxels,
+        "a window of {window} voxels does not tile {side}^3"
+    );
+    let limit = ctx.limits().max_buffer_size;
+    if voxels * ACC_BYTES > limit {
         return Err(VoxelizeError::TooLarge {
             side,
-            bytes: voxels * 32,
+            bytes: voxels * ACC_BYTES,
             limit,
         });
     }
@@ -256,65 +302,75 @@ pub fn case_for(
     );
     let max_rows = tris.iter().map(|t| t.a[3] + 1).max().unwrap_or(1) as u32;
     let max = ctx.limits().max_compute_workgroups_per_dimension;
-    let bindings = DECL.bind_by_name();
+    let mut passes = Vec::new();
+    for k in 0..voxels / window {
+        let mut bindings = DECL.bind_by_name();
+        if window < voxels {
+            let first = k * window;
+            let params = VoxParams {
+                window_first: first as u32,
+                window_voxels: window as u32,
+                ..VoxParams::whole(side, tris.len())
+            };
+            let name = format!("params_w{k}");
+            resources.insert(name.clone(), HostResource::Buffer(HostBuffer::pod(&params)));
+            for (binding, view) in &mut bindings {
+                let per = match binding.as_str() {
+                    "acc" => ACC_BYTES,
+                    "vox_colour" | "vox_normal" => 16,
+                    "params" => {
+                        *view = View::Buffer(name.clone());
+                        continue;
+                    }
+                    _ => continue,
+                };
+                *view = View::BufferRange {
+                    name: binding.clone(),
+                    offset: first * per,
+                    size: window * per,
+                };
+            }
+        }
+        let at = if window < voxels {
+            format!(" window {k}")
+        } else {
+            String::new()
+        };
+        passes.push(Pass {
+            label: format!("splat{at}"),
+            entry: "splat".into(),
+            bindings: bindings.clone(),
+            workgroups: Workgroups::Direct([(tris.len() as u32).div_ceil(64).max(1), max_rows, 1]),
+        });
+        passes.push(Pass {
+            label: format!("resolve{at}"),
+            entry: "resolve".into(),
+            bindings,
+            workgroups: Workgroups::Direct(grid_for(window, 64, max)),
+        });
+    }
+    passes.push(occupancy_pass(tris, max_rows));
     let morton = |components| Indexing::Morton {
         n: side,
         components,
+    };
+    let check = |name: &'static str, indexing| Check {
+        resource: name.into(),
+        output: name,
+        indexing,
     };
     Ok(Case {
         label,
         seed,
         resources,
-        passes: vec![
-            Pass {
-                label: "splat".into(),
-                entry: "splat".into(),
-                bindings: bindings.clone(),
-                workgroups: Workgroups::Direct([
-                    (tris.len() as u32).div_ceil(64).max(1),
-                    max_rows,
-                    1,
-                ]),
-            },
-            Pass {
-                label: "resolve".into(),
-                entry: "resolve".into(),
-                bindings,
-                workgroups: Workgroups::Direct(grid_for(voxels, 64, max)),
-            },
-            occupancy_pass(tris, max_rows),
-        ],
+        passes,
         checks: vec![
-            Check {
-                resource: "acc".into(),
-                output: "acc",
-                indexing: morton(8),
-            },
-            Check {
-                resource: "vox_colour".into(),
-                output: "vox_colour",
-                indexing: morton(4),
-            },
-            Check {
-                resource: "vox_normal".into(),
-                output: "vox_normal",
-                indexing: morton(4),
-            },
-            Check {
-                resource: "list".into(),
-                output: "list",
-                indexing: Indexing::Linear,
-            },
-            Check {
-                resource: "list_count".into(),
-                output: "list_count",
-                indexing: Indexing::Linear,
-            },
-            Check {
-                resource: "occupancy".into(),
-                output: "occupancy",
-                indexing: Indexing::Linear,
-            },
+            check("acc", morton(8)),
+            check("vox_colour", morton(4)),
+            check("vox_normal", morton(4)),
+            check("list", Indexing::Linear),
+            check("list_count", Indexing::Linear),
+            check("occupancy", Indexing::Linear),
         ],
         effective_bytes: voxels * 68 + occupancy_words(voxels) as u64 * 4,
     })
@@ -341,11 +397,7 @@ fn sampling_inputs(tris: &[VoxTriangle], side: u32) -> Resources {
     Resources::from([
         (
             "params".to_string(),
-            HostResource::Buffer(HostBuffer::pod(&VoxParams {
-                side,
-                triangles: tris.len() as u32,
-                _pad: [0; 2],
-            })),
+            HostResource::Buffer(HostBuffer::pod(&VoxParams::whole(side, tris.len()))),
         ),
         (
             "vox_triangles".to_string(),
@@ -473,6 +525,13 @@ impl Kernel for Voxelize {
         let (scene, label) = generated_scene(seed, index);
         let side = SIDES[(index / 4) % SIDES.len()];
         let (input, _) = prepare(&scene, side).expect("generated sides are valid");
+        // One case in eight a window at a time (eight octants), as a grid past one storage
+        // binding is: the same outputs.
+        if index % 8 == 5 {
+            let label = format!("{label}, {side}^3 in 8 windows");
+            return case_windowed(ctx, &input, side, (side as u64).pow(3) / 8, label, seed)
+                .expect("generated grids fit");
+        }
         case_for(ctx, &input, side, format!("{label}, {side}^3"), seed)
             .expect("generated grids fit")
     }
