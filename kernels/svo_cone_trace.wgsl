@@ -33,6 +33,17 @@ struct SvoParams {
 @group(0) @binding(13) var<storage, read> svo: SvoParams;
 // Six directional values per brick voxel of the nodes above the leaves, (n * 27 + voxel) * 6 + dir.
 @group(0) @binding(14) var<storage, read> aniso: array<vec4<f32>>;
+// The pool past `aniso`'s length (see svo_anisotropic.wgsl): value i is aniso[i], or
+// aniso_hi[i - arrayLength(&aniso)].
+@group(0) @binding(21) var<storage, read> aniso_hi: array<vec4<f32>>;
+
+fn aniso_load(i: u32) -> vec4<f32> {
+    let lo = arrayLength(&aniso);
+    if (i < lo) {
+        return aniso[i];
+    }
+    return aniso_hi[i - lo];
+}
 // Entry voxel_main (declaration svo_bounce): the second bounce's gather from the voxels themselves.
 @group(0) @binding(15) var<storage, read> vx_position: array<vec4<f32>>;
 @group(0) @binding(16) var<storage, read> vx_normal: array<vec4<f32>>;
@@ -63,9 +74,9 @@ fn spec_voxel(n: u32, v: vec3<u32>) -> vec4<f32> {
 fn directional(n: u32, v: vec3<u32>, d: vec3<f32>) -> vec4<f32> {
     let base = (n * 27u + voxel_index(v)) * 6u;
     let w = d * d;
-    let ax = aniso[base + select(0u, 1u, d.x < 0.0)];
-    let ay = aniso[base + 2u + select(0u, 1u, d.y < 0.0)];
-    let az = aniso[base + 4u + select(0u, 1u, d.z < 0.0)];
+    let ax = aniso_load(base + select(0u, 1u, d.x < 0.0));
+    let ay = aniso_load(base + 2u + select(0u, 1u, d.y < 0.0));
+    let az = aniso_load(base + 4u + select(0u, 1u, d.z < 0.0));
     return (ax * w.x + ay * w.y) + az * w.z;
 }
 

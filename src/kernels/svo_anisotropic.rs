@@ -22,7 +22,9 @@ vxgi_harness::bindings! {
             // Non-negative values composited front to back (sqrt, a division, products and sums):
             // within 48 ULP of the rows' magnitudes (the mirror's per-element bound); other levels
             // untouched (bound 0).
-            aniso: Vec<[f32; 4]> => Tolerance::MirrorBound
+            aniso: Vec<[f32; 4]> => Tolerance::MirrorBound,
+            // The pool past `aniso` (the same values and bounds), or one unused element.
+            aniso_hi: Vec<[f32; 4]> => Tolerance::MirrorBound,
         }
     }
 }
@@ -40,6 +42,21 @@ pub static DECL: KernelDecl = KernelDecl {
     summary: "anisotropic voxels of the sparse voxel octree: six directional values per brick voxel by front-to-back compositing of child rows, one level per pass (VCT 7.1)",
 };
 
+/// Directional values per binding of the pool: WebGPU's default max_storage_buffer_binding_size
+/// (128 MiB) of vec4s, which every device binds; a larger pool is bound as `aniso` and `aniso_hi`
+/// (kernels/svo_anisotropic.wgsl, svo_cone_trace.wgsl), up to twice this.
+pub const POOL_WINDOW: usize = 1 << 23;
+
+/// The pool as its two bindings: its first `window` values and the rest, or (no rest) one unused
+/// zero element, a binding being never empty.
+pub fn split_pool(values: &[[f32; 4]], window: usize) -> (Vec<[f32; 4]>, Vec<[f32; 4]>) {
+    if values.len() <= window {
+        (values.to_vec(), vec![[0.0; 4]])
+    } else {
+        (values[..window].to_vec(), values[window..].to_vec())
+    }
+}
+
 /// Fixed-point scale of the octree's values (svo_cone_trace's).
 const SCALE: f32 = super::svo_cone_trace::SCALE;
 
@@ -48,13 +65,15 @@ pub fn values(o: &Octree) -> usize {
     o.levels[o.depth as usize] as usize * 8 * NODE_VALUES
 }
 
-/// The bindings of a pass of `p` over `o` with these directional values.
-fn io(o: &Octree, p: AnisoParams, aniso: Vec<[f32; 4]>) -> Io {
+/// The bindings of a pass of `p` over `o` with these directional values, the pool split at `window`.
+fn io(o: &Octree, p: AnisoParams, aniso: &[[f32; 4]], window: usize) -> Io {
+    let (aniso, aniso_hi) = split_pool(aniso, window);
     Io {
         params: Block(p),
         nodes: bytemuck::cast_slice(&o.nodes).to_vec(),
         bricks: o.bricks.clone(),
         aniso,
+        aniso_hi,
     }
 }
 
@@ -66,7 +85,8 @@ pub fn build_mirror(o: &Octree, inv_scale: f32) -> Vec<[f32; 4]> {
 /// Every level's directional values of `o` on the GPU: one pass per level, depth - 1 first.
 pub fn build_on_gpu(ctx: &GpuContext, o: &Octree, inv_scale: f32) -> anyhow::Result<Vec<[f32; 4]>> {
     let n = values(o).max(1);
-    let mut resources = io(o, AnisoParams::default(), vec![[0.0; 4]; n]).resources();
+    let pool = vec![[0.0; 4]; n];
+    let mut resources = io(o, AnisoParams::default(), &pool, POOL_WINDOW).resources();
     let shader = DECL.shader()?;
     let mut passes = Vec::new();
     for p in mirror::passes(o.depth, &o.levels, inv_scale) {
@@ -86,8 +106,18 @@ pub fn build_on_gpu(ctx: &GpuContext, o: &Octree, inv_scale: f32) -> anyhow::Res
     if passes.is_empty() {
         return Ok(vec![]);
     }
-    let out = run(ctx, &shader, DECL.name, &resources, &passes, &["aniso"])?;
-    Ok(bytemuck::cast_slice(&out.buffer("aniso").bytes).to_vec())
+    let out = run(
+        ctx,
+        &shader,
+        DECL.name,
+        &resources,
+        &passes,
+        &["aniso", "aniso_hi"],
+    )?;
+    let mut values: Vec<[f32; 4]> = bytemuck::cast_slice(&out.buffer("aniso").bytes).to_vec();
+    values.extend_from_slice(bytemuck::cast_slice(&out.buffer("aniso_hi").bytes));
+    values.truncate(n);
+    Ok(values)
 }
 
 pub struct SvoAnisotropic;
@@ -128,9 +158,23 @@ impl Kernel for SvoAnisotropic {
             DECL.bind_by_name(),
             p.nodes as u64 * 27,
         );
-        io(&o, p, aniso)
+        // One case in eight with the pool in two bindings, as a pool past one binding is.
+        let (window, label) = if index % 8 == 5 {
+            (
+                aniso.len().div_ceil(2),
+                format!("{label}, pool in two bindings"),
+            )
+        } else {
+            (POOL_WINDOW, label)
+        };
+        let mut case = io(&o, p, &aniso, window)
             .case(label, seed, vec![pass])
-            .with_effective_bytes(p.nodes as u64 * 27 * (6 * 16 + 27 * 16))
+            .with_effective_bytes(p.nodes as u64 * 27 * (6 * 16 + 27 * 16));
+        // An unsplit pool's `aniso_hi` is one element no pass writes: nothing to check.
+        if window >= aniso.len() {
+            case.checks.retain(|c| c.resource != "aniso_hi");
+        }
+        case
     }
 
     fn mirror(
@@ -143,12 +187,16 @@ impl Kernel for SvoAnisotropic {
         // (accepted flushed by the harness anyway).
         let mut io = Io::read(data);
         let nodes: &[Node] = bytemuck::cast_slice(&io.nodes);
-        let bound = mirror::level_pass(nodes, &io.bricks, &mut io.aniso, &io.params.0);
+        // The pool whole (its unused element, if any, past every node's values), split back after.
+        let lo = io.aniso.len();
+        let mut pool = [io.aniso.as_slice(), &io.aniso_hi].concat();
+        let bound = mirror::level_pass(nodes, &io.bricks, &mut pool, &io.params.0);
+        io.aniso_hi = pool.split_off(lo);
+        io.aniso = pool;
         let mut out = io.outputs();
-        out.insert(
-            bound_name("aniso"),
-            HostBuffer::f32(bytemuck::cast_slice(&bound)),
-        );
+        let f = |v: &[[f32; 4]]| HostBuffer::f32(bytemuck::cast_slice(v));
+        out.insert(bound_name("aniso"), f(&bound[..lo]));
+        out.insert(bound_name("aniso_hi"), f(&bound[lo..]));
         out
     }
 }

@@ -26,7 +26,7 @@ pub static DECL: KernelDecl = KernelDecl {
     entry: "main",
     inputs: &[
         "frame", "triangles", "materials", "gb_position", "gb_normal", "gb_triangle", "gb_albedo", "cone", "cone_dirs", "tile_list",
-        "nodes", "bricks", "svo", "aniso", "normal_bricks", "spec_bricks",
+        "nodes", "bricks", "svo", "aniso", "aniso_hi", "normal_bricks", "spec_bricks",
     ],
     outputs: &[
         // cone_trace's bound (see `cone_trace::MAG`): the march is the same code; the octree's sample
@@ -272,10 +272,13 @@ pub fn octree_resources<'a>(octree: &Octree, extras: SvoExtras<'a>, scale: f32) 
         "svo".to_string(),
         HostResource::Buffer(HostBuffer::pod(&svo)),
     );
-    r.insert(
-        "aniso".to_string(),
-        HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(aniso))),
-    );
+    let (lo, hi) = super::svo_anisotropic::split_pool(aniso, super::svo_anisotropic::POOL_WINDOW);
+    for (name, part) in [("aniso", lo), ("aniso_hi", hi)] {
+        r.insert(
+            name.to_string(),
+            HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(&part))),
+        );
+    }
     r.insert(
         "normal_bricks".to_string(),
         HostResource::Buffer(HostBuffer::u32(normals)),
@@ -297,17 +300,26 @@ pub fn max_radiance(bricks: &[u32], inv_scale: f32) -> f32 {
         * inv_scale
 }
 
+/// The directional values a cone case binds, its two bindings joined.
+fn pool_of(data: &Resources) -> Vec<[f32; 4]> {
+    let part = |n: &str| -> &[[f32; 4]] {
+        bytemuck::cast_slice(&data[n].buffer().expect("the pool's bindings").bytes)
+    };
+    [part("aniso"), part("aniso_hi")].concat()
+}
+
 pub fn mirror_cones(data: &Resources) -> Vec<vxgi_cpu_mirror::cone_trace::PixelOut> {
     let b = |n: &str| data[n].buffer().expect("buffer");
     let params: ConeParams = *bytemuck::from_bytes(&b("cone").bytes);
     let svo: SvoParams = *bytemuck::from_bytes(&b("svo").bytes);
     let bricks = b("bricks").as_u32();
+    let aniso = pool_of(data);
     let volume = SvoVolume {
         p: &params,
         svo: &svo,
         nodes: bytemuck::cast_slice(&b("nodes").bytes),
         bricks,
-        aniso: bytemuck::cast_slice(&b("aniso").bytes),
+        aniso: &aniso,
         normals: b("normal_bricks").as_u32(),
         spec: b("spec_bricks").as_u32(),
     };
@@ -410,7 +422,7 @@ impl Kernel for SvoConeTrace {
             g.octree.depth,
             g.options()
         );
-        case_for(
+        let mut case = case_for(
             &g.lit.data,
             &g.lit.gbuffer,
             &g.octree,
@@ -419,7 +431,20 @@ impl Kernel for SvoConeTrace {
             &g.params,
             label,
             seed,
-        )
+        );
+        // One case in eight (with anisotropic voxels) reads the pool from two bindings, as a pool
+        // past one binding is read.
+        if let (5, Some(pool)) = (index % 8, g.extras().aniso) {
+            let (lo, hi) = super::svo_anisotropic::split_pool(pool, pool.len().div_ceil(2));
+            for (name, part) in [("aniso", lo), ("aniso_hi", hi)] {
+                case.resources.insert(
+                    name.to_string(),
+                    HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(&part))),
+                );
+            }
+            case.label.push_str(", pool in two bindings");
+        }
+        case
     }
     fn mirror(
         &self,
@@ -438,7 +463,7 @@ pub static BOUNCE_DECL: KernelDecl = KernelDecl {
     includes: &[super::SVO_NODE, super::TANGENT_BASIS, super::SCENE_TYPES, super::CONE_MARCH],
     entry: "voxel_main",
     inputs: &[
-        "cone", "cone_dirs", "nodes", "bricks", "svo", "aniso", "normal_bricks", "spec_bricks", "vx_position", "vx_normal", "vx_albedo",
+        "cone", "cone_dirs", "nodes", "bricks", "svo", "aniso", "aniso_hi", "normal_bricks", "spec_bricks", "vx_position", "vx_normal", "vx_albedo",
     ],
     // The pixel entry's diffuse cones and their bound (see DECL).
     outputs: &[Output {
@@ -708,7 +733,7 @@ impl Kernel for SvoBounce {
         let out = bounce_mirror(
             bytemuck::cast_slice(&b("nodes").bytes),
             b("bricks").as_u32(),
-            f4("aniso"),
+            &pool_of(data),
             [b("normal_bricks").as_u32(), b("spec_bricks").as_u32()],
             &svo,
             &params,
