@@ -86,7 +86,7 @@ pub fn check(scene: &Scene, pipeline: Pipeline, limits: &wgpu::Limits) -> Result
         }
     }
     let voxel_bytes = (r.voxels as u64).pow(3) * VOXEL_ACCUMULATOR_BYTES;
-    if pipeline == Pipeline::VctSvo && voxel_bytes > limits.max_buffer_size {
+    if pipeline != Pipeline::Lrsm && voxel_bytes > limits.max_buffer_size {
         return Err(format!(
             "voxels = {}: the voxelizer's accumulators ({VOXEL_ACCUMULATOR_BYTES} bytes per voxel) need {} in one buffer, past the device's max_buffer_size ({}): lower voxels",
             r.voxels,
@@ -94,17 +94,32 @@ pub fn check(scene: &Scene, pipeline: Pipeline, limits: &wgpu::Limits) -> Result
             mib(limits.max_buffer_size)
         ));
     }
-    if !matches!(pipeline, Pipeline::Lrsm | Pipeline::VctSvo) && voxel_bytes > binding {
-        let most = (1u32..=512)
-            .filter(|v| {
-                v.is_power_of_two() && (*v as u64).pow(3) * VOXEL_ACCUMULATOR_BYTES <= binding
-            })
-            .max()
-            .unwrap_or(8);
+    // vct-dense and cprc bind their radiance pyramid in up to three windows; the depth-ordered
+    // blend's normal pyramid in one.
+    let pyramid = vxgi_cpu_mirror::cone_trace::pyramid_len(r.voxels) as u64 * 16;
+    if matches!(pipeline, Pipeline::VctDense | Pipeline::Cprc)
+        && r.depth_ordered_blend
+        && pyramid > binding.min(crate::kernels::cone_trace::PYRAMID_WINDOW * 16)
+    {
         return past(
-            format!("voxels = {}: the voxelizer's accumulators ({VOXEL_ACCUMULATOR_BYTES} bytes per voxel)", r.voxels),
-            voxel_bytes,
-            &format!("at most voxels = {most} on this device"),
+            format!(
+                "voxels = {} with depth_ordered_blend: the normal pyramid (16 bytes per voxel and its mips)",
+                r.voxels
+            ),
+            pyramid,
+            "lower voxels or set depth_ordered_blend = false",
+        );
+    }
+    if matches!(pipeline, Pipeline::VctDense | Pipeline::Cprc)
+        && pyramid > 3 * binding.min(crate::kernels::cone_trace::PYRAMID_WINDOW * 16)
+    {
+        return past(
+            format!(
+                "voxels = {}: the radiance pyramid in three bindings",
+                r.voxels
+            ),
+            pyramid / 3,
+            "lower voxels",
         );
     }
     let views = crate::plan::light_views(scene) as u64;

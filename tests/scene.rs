@@ -666,22 +666,29 @@ fn resource_limits_are_checked_from_the_settings() {
     let e = vxgi::limits::check(&s, Pipeline::Lrsm, &limits).unwrap_err();
     assert!(e.contains("vct-svo only"), "{e}");
     vxgi::limits::check(&s, Pipeline::VctSvo, &limits).unwrap();
-    // The dense pipelines bind their grids whole; vct-svo voxelizes in windows, its accumulators in
-    // one buffer (512 MiB at 256^3, 4 GiB at 512^3).
+    // Grids past one binding are voxelized, lit and sampled in windows; the accumulators must fit
+    // one buffer (512 MiB at 256^3, 4 GiB at 512^3), and the depth-ordered blend's normal pyramid
+    // one binding.
     let mut s = Scene::cornell_box();
     s.render.voxels = 256;
+    for p in [Pipeline::VctDense, Pipeline::VctSvo, Pipeline::Cprc] {
+        vxgi::limits::check(&s, p, &limits).unwrap();
+    }
+    s.render.depth_ordered_blend = true;
     let e = vxgi::limits::check(&s, Pipeline::VctDense, &limits).unwrap_err();
     assert!(
-        e.contains("voxels = 256") && e.contains("at most voxels = 128"),
+        e.contains("voxels = 256") && e.contains("depth_ordered_blend = false"),
         "{e}"
     );
-    vxgi::limits::check(&s, Pipeline::VctSvo, &limits).unwrap();
+    s.render.depth_ordered_blend = false;
     s.render.voxels = 512;
-    let e = vxgi::limits::check(&s, Pipeline::VctSvo, &limits).unwrap_err();
-    assert!(
-        e.contains("voxels = 512") && e.contains("max_buffer_size"),
-        "{e}"
-    );
+    for p in [Pipeline::VctDense, Pipeline::VctSvo, Pipeline::Cprc] {
+        let e = vxgi::limits::check(&s, p, &limits).unwrap_err();
+        assert!(
+            e.contains("voxels = 512") && e.contains("max_buffer_size"),
+            "{p:?}: {e}"
+        );
+    }
 }
 
 /// Fuzzing the loader: arbitrary scene text, and the shipped Cornell box's TOML, OBJ and MTL with

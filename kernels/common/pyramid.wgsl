@@ -26,7 +26,7 @@ fn ordered_cell(off: u32, n: i32, i: vec3<i32>) -> OrderedCell {
     }
     let u = vec3<u32>(i);
     let m = off + (spread3(u.x) | (spread3(u.y) << 1u) | (spread3(u.z) << 2u));
-    return OrderedCell(pyramid[m], pyramid_normal[m]);
+    return OrderedCell(pyramid_at(m), pyramid_normal[m]);
 }
 
 fn ordered_level(x: vec3<f32>, l: u32, d: vec3<f32>) -> vec4<f32> {

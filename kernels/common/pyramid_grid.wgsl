@@ -5,6 +5,23 @@
 // pyramids placed by rigid transforms). Mirror: cpu_mirror/src/cone_trace.rs (`trilinear_level`).
 
 @group(0) @binding(8) var<storage, read> pyramid: array<vec4<f32>>;
+// A pyramid larger than one storage binding is bound in up to three consecutive windows of one
+// buffer: element i is pyramid[i], else pyramid_1[i - len0], else pyramid_2[i - len0 - len1] (len the
+// windows' lengths); windows it does not need are bound to one unused element.
+@group(0) @binding(18) var<storage, read> pyramid_1: array<vec4<f32>>;
+@group(0) @binding(19) var<storage, read> pyramid_2: array<vec4<f32>>;
+
+fn pyramid_at(i: u32) -> vec4<f32> {
+    let len0 = arrayLength(&pyramid);
+    if (i < len0) {
+        return pyramid[i];
+    }
+    let len1 = arrayLength(&pyramid_1);
+    if (i - len0 < len1) {
+        return pyramid_1[i - len0];
+    }
+    return pyramid_2[i - len0 - len1];
+}
 
 fn spread3(v: u32) -> u32 {
     var x = v & 0x3ffu;
@@ -52,7 +69,7 @@ fn sample_grid(x: vec3<f32>, l: u32, origin: vec3<f32>, inv_s0: f32, side: u32, 
             continue;
         }
         let u = vec3<u32>(i);
-        let v = pyramid[off + (spread3(u.x) | (spread3(u.y) << 1u) | (spread3(u.z) << 2u))];
+        let v = pyramid_at(off + (spread3(u.x) | (spread3(u.y) << 1u) | (spread3(u.z) << 2u)));
         acc += v * (w.x * w.y * w.z);
     }
     return acc;

@@ -20,7 +20,7 @@ pub static DECL: KernelDecl = KernelDecl {
     wgsl: include_str!("../../kernels/cache_creation.wgsl"),
     includes: &[super::TANGENT_BASIS, super::SCENE_TYPES, super::CONE_MARCH, super::PYRAMID_GRID, super::PYRAMID],
     entry: "create",
-    inputs: &["cone", "pyramid", "pyramid_normal", "cache_params", "caches", "texel_dirs"],
+    inputs: &["cone", "pyramid", "pyramid_1", "pyramid_2", "pyramid_normal", "cache_params", "caches", "texel_dirs"],
     outputs: &[
         // cone_trace's march bound per texel (see `cone_trace::MAG`): 4e-4 of the accumulated
         // magnitudes plus the remainder where a stop is within rounding of its threshold.
@@ -45,7 +45,7 @@ pub static INSTANCED_DECL: KernelDecl = KernelDecl {
         super::PLACED_PYRAMIDS,
     ],
     entry: "create",
-    inputs: &["cone", "pyramid", "placed", "placed_cells", "cache_params", "caches", "texel_dirs"],
+    inputs: &["cone", "pyramid", "pyramid_1", "pyramid_2", "placed", "placed_cells", "cache_params", "caches", "texel_dirs"],
     outputs: &[
         // cone_trace's march bound, each sample's error the sum of its hierarchies' (their local
         // points' rounding included) plus a rounding per combined factor.
@@ -172,7 +172,7 @@ fn case_with(
         "cache_radiance".into(),
         HostResource::Buffer(HostBuffer::zeroed(n.max(1) * 16, ScalarKind::F32)),
     );
-    Case {
+    let mut case = Case {
         label,
         seed,
         passes: vec![decl.pass(&shader, ctx, "create".into(), decl.bind_by_name(), n as u64)],
@@ -186,7 +186,10 @@ fn case_with(
             },
         }],
         effective_bytes: n as u64 * 16,
-    }
+    };
+    super::cone_trace::bind_pyramid_windows(&mut case, super::cone_trace::PYRAMID_WINDOW)
+        .expect("the voxel limits keep the pyramid within its bindings");
+    case
 }
 
 /// Caches on every `stride`-th front-facing geometry pixel of a G-buffer: origin = position moved
@@ -247,7 +250,8 @@ impl Kernel for CacheCreation {
             ""
         };
         let label = format!("{}, {} caches of {res}^2{order}", c.label, caches.len() / 2);
-        case_for(ctx, &pyr, &params, &caches, res, label, seed)
+        let case = case_for(ctx, &pyr, &params, &caches, res, label, seed);
+        super::cone_trace::with_pyramid_split(case, index)
     }
     fn mirror(
         &self,
@@ -300,7 +304,7 @@ impl Kernel for CacheCreationInstanced {
             placed.len(),
             caches.len() / 2
         );
-        instanced_case_for(
+        let case = instanced_case_for(
             ctx,
             &pyr.colour,
             &placed,
@@ -309,7 +313,8 @@ impl Kernel for CacheCreationInstanced {
             res,
             label,
             seed,
-        )
+        );
+        super::cone_trace::with_pyramid_split(case, index)
     }
     fn mirror(
         &self,

@@ -15,7 +15,7 @@ use vxgi_cpu_mirror::direct_light::GpuMaterial;
 use vxgi_cpu_mirror::gbuffer::Frame;
 use vxgi_cpu_mirror::surface_coverage_mip::Coverage;
 use vxgi_harness::compare::bound_name;
-use vxgi_harness::run::{run, Pass, Workgroups};
+use vxgi_harness::run::{run, Pass, View, Workgroups};
 use vxgi_harness::{
     Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
     KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
@@ -29,7 +29,7 @@ pub static DECL: KernelDecl = KernelDecl {
     entry: "main",
     inputs: &[
         "frame", "triangles", "materials", "gb_position", "gb_normal", "gb_triangle", "gb_albedo", "cone", "cone_dirs", "tile_list",
-        "pyramid", "pyramid_normal",
+        "pyramid", "pyramid_1", "pyramid_2", "pyramid_normal",
     ],
     outputs: &[
         // Per element (see `cone_trace::MAG`): 4e-4 of the accumulated magnitudes (~30 operations per
@@ -62,7 +62,7 @@ pub static INSTANCED_DECL: KernelDecl = KernelDecl {
     entry: "main",
     inputs: &[
         "frame", "triangles", "materials", "gb_position", "gb_normal", "gb_triangle", "gb_albedo", "cone", "cone_dirs", "tile_list",
-        "pyramid", "placed", "placed_cells",
+        "pyramid", "pyramid_1", "pyramid_2", "placed", "placed_cells",
     ],
     outputs: &[
         // As cone_trace's, each sample's error the sum of its hierarchies' (their local points'
@@ -323,6 +323,103 @@ pub fn instanced_case_for(
 
 /// The cone pass of a kernel built on `kernels/common/cone_march.wgsl` (`decl`): the scene, G-buffer
 /// and cone bindings, plus the resources of its volume (`volume`, by binding name).
+/// Radiance-pyramid elements per binding: WebGPU's default max_storage_buffer_binding_size (128
+/// MiB) of vec4s, which every device binds; a larger pyramid is bound in up to three windows of its
+/// buffer (`pyramid`, `pyramid_1`, `pyramid_2`: common/pyramid_grid.wgsl).
+pub const PYRAMID_WINDOW: u64 = 1 << 23;
+
+/// Bind the pyramid of `case` (every pass binding `pyramid`) in windows of `window` elements (a
+/// multiple of 16: binding offsets are 256-byte aligned) where it has more; the windows it does not
+/// need, and every window of a pyramid that fits one, get one unused element (`pyramid_1`,
+/// `pyramid_2`). A pyramid past three windows is an error naming its size.
+pub fn bind_pyramid_windows(case: &mut Case, window: u64) -> Result<(), String> {
+    bind_pyramid_views(&mut case.passes, &mut case.resources, window)
+}
+
+/// [`bind_pyramid_windows`] over the passes and resources of a chain (its `pyramid` sized already).
+pub fn bind_pyramid_views(
+    passes: &mut [Pass],
+    resources: &mut Resources,
+    window: u64,
+) -> Result<(), String> {
+    assert!(
+        window > 0 && window % 16 == 0,
+        "windows of {window} elements"
+    );
+    let len = resources["pyramid"]
+        .buffer()
+        .expect("the pyramid is a buffer")
+        .bytes
+        .len() as u64
+        / 16;
+    if len > 3 * window {
+        return Err(format!(
+            "the radiance pyramid holds {len} voxels, past three bindings of {window}: fewer voxels"
+        ));
+    }
+    for name in ["pyramid_1", "pyramid_2"] {
+        resources.insert(
+            name.into(),
+            HostResource::Buffer(HostBuffer::f32(&[0.0; 4])),
+        );
+    }
+    for pass in passes {
+        for (binding, view) in &mut pass.bindings {
+            let k = match binding.as_str() {
+                "pyramid" => 0,
+                "pyramid_1" => 1,
+                "pyramid_2" => 2,
+                // Read by the depth-ordered blend alone, which the voxel limits keep within one
+                // binding (`limits::check`): past one, its first binding's worth is bound, unread.
+                "pyramid_normal" => {
+                    let normal = resources.get("pyramid_normal").and_then(|r| r.buffer());
+                    let bytes = normal.map_or(0, |b| b.bytes.len());
+                    if bytes as u64 > PYRAMID_WINDOW * 16 {
+                        *view = View::BufferRange {
+                            name: "pyramid_normal".into(),
+                            offset: 0,
+                            size: PYRAMID_WINDOW * 16,
+                        };
+                    }
+                    continue;
+                }
+                _ => continue,
+            };
+            let first = k * window;
+            *view = if len <= window || first >= len {
+                View::Buffer(binding.clone())
+            } else {
+                View::BufferRange {
+                    name: "pyramid".into(),
+                    offset: first * 16,
+                    size: window.min(len - first) * 16,
+                }
+            };
+        }
+    }
+    Ok(())
+}
+
+/// One generated case in eight (`index % 8 == 5`) with its pyramid bound in three windows, as a
+/// pyramid past one binding is: the same outputs.
+pub fn with_pyramid_split(mut case: Case, index: usize) -> Case {
+    if index % 8 != 5 {
+        return case;
+    }
+    let len = case.resources["pyramid"]
+        .buffer()
+        .expect("pyramid")
+        .bytes
+        .len() as u64
+        / 16;
+    let window = (len.div_ceil(3).div_ceil(16) * 16).max(16);
+    bind_pyramid_windows(&mut case, window).expect("three windows hold it");
+    if len > window {
+        case.label.push_str(", pyramid in three bindings");
+    }
+    case
+}
+
 #[allow(clippy::too_many_arguments)]
 pub fn tracer_case(
     decl: &KernelDecl,
@@ -372,7 +469,7 @@ pub fn tracer_case(
     } else {
         &["main"]
     };
-    Case {
+    let mut case = Case {
         label,
         seed,
         resources,
@@ -401,7 +498,12 @@ pub fn tracer_case(
             })
             .collect(),
         effective_bytes: n as u64 * 84,
+    };
+    if decl.inputs.contains(&"pyramid") {
+        bind_pyramid_windows(&mut case, PYRAMID_WINDOW)
+            .expect("the voxel limits keep the pyramid within its bindings");
     }
+    case
 }
 
 /// Largest radiance in level 0 (allowances for rounding-decided stops scale with it).
@@ -640,7 +742,7 @@ impl Kernel for ConeTraceInstanced {
             Placed::new(origin.to_array(), s0, side, 0, glam::Mat4::IDENTITY, s0),
             Placed::new(origin.to_array(), s0, side, 0, m, s0),
         ];
-        instanced_case_for(
+        let case = instanced_case_for(
             &c.data,
             &c.gbuffer,
             &pyr.colour,
@@ -648,7 +750,8 @@ impl Kernel for ConeTraceInstanced {
             &params,
             format!("{}, 2 hierarchies", c.label),
             seed,
-        )
+        );
+        with_pyramid_split(case, index)
     }
     fn mirror(
         &self,
@@ -673,7 +776,10 @@ impl Kernel for ConeTrace {
         } else {
             c.label
         };
-        case_for(&c.data, &c.gbuffer, &pyr, &params, label, seed)
+        with_pyramid_split(
+            case_for(&c.data, &c.gbuffer, &pyr, &params, label, seed),
+            index,
+        )
     }
     fn mirror(
         &self,

@@ -11,7 +11,7 @@ use vxgi_cpu_mirror::direct_light::GpuLight;
 use vxgi_cpu_mirror::voxel_light::{light_voxel, VoxelGrid};
 use vxgi_harness::bindings::field;
 use vxgi_harness::compare::bound_name;
-use vxgi_harness::run::{run, View};
+use vxgi_harness::run::{run, Pass, View};
 use vxgi_harness::{
     Bindings, Block, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing,
     Kernel, KernelDecl, Resources, Shader, Structs, Tolerance,
@@ -116,39 +116,56 @@ pub fn window_voxels(side: u32, binding_limit: u64) -> u64 {
 pub fn in_windows(mut case: Case, window: u64) -> Case {
     let grid: VoxelGrid =
         *bytemuck::from_bytes(&case.resources["grid"].buffer().expect("grid").bytes);
+    let whole = case.passes.remove(0);
+    case.passes = window_passes(&whole, grid, &mut case.resources, window);
+    if case.passes.len() > 1 {
+        case.label
+            .push_str(&format!(", {} windows", case.passes.len()));
+    }
+    case
+}
+
+/// The passes of [`in_windows`]: `whole` (a pass over the grid `grid`) once per window of `window`
+/// voxels, their grids (`grid_w<k>`) added to `resources`; `whole` itself where one window is the
+/// grid.
+pub fn window_passes(
+    whole: &Pass,
+    grid: VoxelGrid,
+    resources: &mut Resources,
+    window: u64,
+) -> Vec<Pass> {
     let voxels = (grid.size[0] as u64).pow(3);
     assert!(
         window.is_power_of_two() && window <= voxels,
         "a window of {window} voxels does not tile the grid"
     );
     if window == voxels {
-        return case;
+        return vec![whole.clone()];
     }
-    let whole = case.passes.remove(0);
-    for k in 0..voxels / window {
-        let first = k * window;
-        let mut g = grid;
-        g.size[2] = first as u32;
-        g.size[3] = window as u32;
-        let name = format!("grid_w{k}");
-        case.resources
-            .insert(name.clone(), HostResource::Buffer(HostBuffer::pod(&g)));
-        let mut pass = whole.clone();
-        pass.label = format!("voxel_light window {k}");
-        for (binding, view) in &mut pass.bindings {
-            *view = match binding.as_str() {
-                "grid" => View::Buffer(name.clone()),
-                "vox_colour" | "vox_normal" | "vox_radiance" => View::BufferRange {
-                    name: binding.clone(),
-                    offset: first * 16,
-                    size: window * 16,
-                },
-                _ => continue,
-            };
-        }
-        case.passes.push(pass);
-    }
-    case
+    (0..voxels / window)
+        .map(|k| {
+            let first = k * window;
+            let mut g = grid;
+            g.size[2] = first as u32;
+            g.size[3] = window as u32;
+            let name = format!("grid_w{k}");
+            resources.insert(name.clone(), HostResource::Buffer(HostBuffer::pod(&g)));
+            let mut pass = whole.clone();
+            pass.label = format!("{} window {k}", whole.label);
+            for (binding, view) in &mut pass.bindings {
+                *view = match binding.as_str() {
+                    "grid" => View::Buffer(name.clone()),
+                    "vox_colour" | "vox_normal" | "vox_radiance" => View::BufferRange {
+                        name: binding.clone(),
+                        offset: first * 16,
+                        size: window * 16,
+                    },
+                    _ => continue,
+                };
+            }
+            pass
+        })
+        .collect()
 }
 
 /// Light a voxelized scene on the GPU: the radiance grid (Morton order), the mip chain's input.
@@ -276,7 +293,6 @@ impl Kernel for VoxelLight {
         // One case in eight a window at a time (eight octants), as a grid past one storage
         // binding is: the same outputs.
         if index % 8 == 5 {
-            case.label.push_str(", in 8 windows");
             return in_windows(case, (side as u64).pow(3) / 8);
         }
         case

@@ -404,6 +404,15 @@ pub(crate) fn cprc_chain(
     }
     chain.merge("the cache stages", caches)?;
     for (decl, mut passes) in parts {
+        if decl.inputs.contains(&"pyramid") {
+            // The windows of the chain's pyramids (the case's normal pyramid was a placeholder).
+            cone_trace::bind_pyramid_views(
+                &mut passes,
+                &mut chain.resources,
+                cone_trace::PYRAMID_WINDOW,
+            )
+            .map_err(anyhow::Error::msg)?;
+        }
         let stage = match decl.name {
             "gather_caches" => "gather_caches",
             "cache_preconvolve" => "cache_preconvolve",

@@ -239,12 +239,19 @@ pub(crate) fn dense_chain(
         "vox_radiance".into(),
         HostResource::Buffer(HostBuffer::zeroed(v as usize * 16, ScalarKind::F32)),
     );
-    let light_passes = vec![Pass {
+    // A window of the grid at a time where its buffers pass one binding.
+    let light_pass = Pass {
         label: "voxel_light".into(),
         entry: "main".into(),
         bindings: voxel_light::DECL.bind_by_name(),
         workgroups: Workgroups::Direct(grid_for(v, 64, max)),
-    }];
+    };
+    let light_passes = voxel_light::window_passes(
+        &light_pass,
+        voxel_light::voxel_grid(&vframe, data.lights.len()),
+        &mut light_res,
+        voxel_light::window_voxels(side, ctx.limits().max_storage_buffer_binding_size),
+    );
     // The mip chain from voxel_light's radiance and voxelize's normals, up to the levels the cones
     // read (all of them without a cone pass: the pyramid is kept for other cones).
     let levels = cone_pass.map_or(side.trailing_zeros() + 1, |(_, _, l)| l);
@@ -255,7 +262,7 @@ pub(crate) fn dense_chain(
     resources.extend(mips.resources);
     // The cone pass, dispatched over the tiles screen_tiles lists on the GPU from the G-buffer (the
     // case's host-built list replaced by an empty one the chain fills).
-    let cone_stages = match cone_pass {
+    let mut cone_stages = match cone_pass {
         Some((gb, cones, _)) => {
             let mut params = cone_trace::cone_params(&vframe, cones);
             params.levels = levels;
@@ -281,6 +288,10 @@ pub(crate) fn dense_chain(
             name.into(),
             HostResource::Buffer(HostBuffer::zeroed(pyramid_len(side) * 16, ScalarKind::F32)),
         );
+    }
+    if let Some((_, passes)) = &mut cone_stages {
+        cone_trace::bind_pyramid_views(passes, &mut resources, cone_trace::PYRAMID_WINDOW)
+            .map_err(anyhow::Error::msg)?;
     }
     let mut chain = Chain {
         resources,
