@@ -343,7 +343,7 @@ pub fn bind_pyramid_views(
     window: u64,
 ) -> Result<(), String> {
     assert!(
-        window > 0 && window % 16 == 0,
+        window > 0 && window.is_multiple_of(16),
         "windows of {window} elements"
     );
     let len = resources["pyramid"]
