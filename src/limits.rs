@@ -94,6 +94,21 @@ pub fn check(scene: &Scene, pipeline: Pipeline, limits: &wgpu::Limits) -> Result
             mib(limits.max_buffer_size)
         ));
     }
+    // With [[instances]], vct-dense's and cprc's hierarchies bind their grids whole (the windows
+    // above serve the one-grid chains).
+    if matches!(pipeline, Pipeline::VctDense | Pipeline::Cprc)
+        && !scene.instances.list.is_empty()
+        && voxel_bytes > binding
+    {
+        return past(
+            format!(
+                "voxels = {} with [[instances]]: a hierarchy's accumulators ({VOXEL_ACCUMULATOR_BYTES} bytes per voxel)",
+                r.voxels
+            ),
+            voxel_bytes,
+            "lower voxels (vct-svo and lrsm voxelize instanced scenes whole)",
+        );
+    }
     // vct-dense and cprc bind their radiance pyramid in up to three windows; the depth-ordered
     // blend's normal pyramid in one.
     let pyramid = vxgi_cpu_mirror::cone_trace::pyramid_len(r.voxels) as u64 * 16;

@@ -681,6 +681,16 @@ fn resource_limits_are_checked_from_the_settings() {
         "{e}"
     );
     s.render.depth_ordered_blend = false;
+    // Instanced hierarchies bind their grids whole.
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let mut inst = Scene::load(root.join("instances.toml")).unwrap();
+    inst.render.voxels = 256;
+    let e = vxgi::limits::check(&inst, Pipeline::Cprc, &limits).unwrap_err();
+    assert!(
+        e.contains("[[instances]]") && e.contains("lower voxels"),
+        "{e}"
+    );
+    vxgi::limits::check(&inst, Pipeline::VctSvo, &limits).unwrap();
     s.render.voxels = 512;
     for p in [Pipeline::VctDense, Pipeline::VctSvo, Pipeline::Cprc] {
         let e = vxgi::limits::check(&s, p, &limits).unwrap_err();
