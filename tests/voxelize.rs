@@ -161,3 +161,37 @@ fn map_kd_textures_colour_the_voxels_per_sample() {
         Err(VoxelizeError::UvRange { triangle: 0, .. })
     ));
 }
+
+/// The Cornell box at 256^3, past lavapipe's 128 MiB binding: voxelize in the windows `case_for`
+/// derives from the device (its accumulators 512 MiB), then voxel_light in windows, each GPU vs
+/// mirror. Slow in a debug build: `cargo test --release -- --ignored past_one_binding`.
+#[test]
+#[ignore = "about 30 s and 3 GB: cargo test --release -- --ignored past_one_binding"]
+fn voxelize_and_voxel_light_past_one_binding_match_their_mirrors() {
+    use vxgi::kernels::{voxel_light, voxelize};
+    let scene = Scene::cornell_box();
+    let side = 256;
+    let (input, frame) = prepare(&scene, side).unwrap();
+    let case = voxelize::case_for(gpu(), &input, side, "256^3".into(), 0).unwrap();
+    let limit = gpu().limits().max_storage_buffer_binding_size;
+    assert!(
+        (side as u64).pow(3) * voxelize::ACC_BYTES > limit && case.passes.len() > 3,
+        "expected windows on a {limit}-byte binding: {} passes",
+        case.passes.len()
+    );
+    common::assert_case_passes(
+        &voxelize::DECL.shader().unwrap(),
+        &voxelize::Voxelize,
+        &case,
+    );
+    let (grid, list, _) = voxelize_on_gpu(gpu(), &scene, side).unwrap();
+    let data = vxgi::trace::SceneData::new(&scene);
+    let light = voxel_light::case_for(gpu(), &data, &grid, &list, &frame, "256^3".into(), 0);
+    let light = voxel_light::in_windows(light, voxel_light::window_voxels(side, limit));
+    assert!(light.passes.len() > 1, "voxel_light in one pass");
+    common::assert_case_passes(
+        &voxel_light::DECL.shader().unwrap(),
+        &voxel_light::VoxelLight,
+        &light,
+    );
+}
