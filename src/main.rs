@@ -640,7 +640,12 @@ fn run_render(
             dir.display()
         );
         println!(
-            "stages (GPU time; vct-svo's octree build by wall clock): {}",
+            "stages (GPU time{}): {}",
+            if pipeline == Pipeline::VctSvo {
+                "; the octree build by wall clock"
+            } else {
+                ""
+            },
             stages.join(", ")
         );
         if let Some((listed, all)) = r.cone_tiles {
