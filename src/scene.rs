@@ -349,7 +349,14 @@ impl RenderSettings {
             ));
         }
         let slice = 1.0 / (self.lrsm_depth_splits as f32 + 1.0);
-        if !(self.lrsm_overlap >= 0.0 && self.lrsm_overlap <= slice) {
+        if !(self.lrsm_overlap >= 0.0) {
+            // Negative or NaN: nothing to do with the layers' width.
+            return Err(format!(
+                "lrsm_overlap = {} must be a number in [0, {slice}] (the overlap of neighbouring depth layers, a fraction of the light's depth range)",
+                self.lrsm_overlap
+            ));
+        }
+        if self.lrsm_overlap > slice {
             // The two keys bound each other: name both, and say which one holds its default.
             let default = Self::default();
             let mark = |set: bool| if set { "" } else { " (the default)" };
@@ -365,8 +372,8 @@ impl RenderSettings {
                 self.lrsm_depth_splits,
                 mark(self.lrsm_depth_splits != default.lrsm_depth_splits),
                 self.lrsm_depth_splits + 1,
-                if self.lrsm_overlap < 0.0 { "raise" } else { "lower" },
-                if self.lrsm_overlap > 0.0 && most_splits >= 0 {
+                "lower",
+                if most_splits >= 0 {
                     format!(" or lrsm_depth_splits to at most {most_splits}")
                 } else {
                     String::new()

@@ -622,6 +622,18 @@ fn out_of_range_values_name_their_line_and_key() {
             && e.contains("at most 19"),
         "{e}"
     );
+    // A negative overlap is out of range whatever the layers: no advice about their width.
+    let e = Scene::load(write(
+        "overlap",
+        TRI_OBJ,
+        &scene_toml("mesh.obj", "[render]\nlrsm_overlap = -1.0\n"),
+    ))
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("lrsm_overlap = -1 must be a number in [0, 0.5]") && !e.contains("raise"),
+        "{e}"
+    );
 }
 
 /// Resource limits are checked from the settings, before anything is allocated: light views x layers
