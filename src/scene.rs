@@ -349,7 +349,7 @@ impl RenderSettings {
             ));
         }
         let slice = 1.0 / (self.lrsm_depth_splits as f32 + 1.0);
-        if !(self.lrsm_overlap >= 0.0) {
+        if self.lrsm_overlap.is_nan() || self.lrsm_overlap < 0.0 {
             // Negative or NaN: nothing to do with the layers' width.
             return Err(format!(
                 "lrsm_overlap = {} must be a number in [0, {slice}] (the overlap of neighbouring depth layers, a fraction of the light's depth range)",
