@@ -175,8 +175,22 @@ impl Script {
                         Shown::from_name(word()?)
                             .ok_or_else(|| fail("views are combined, direct, indirect and ao"))?,
                     ),
-                    "cones" => Action::Cones(whole(1)?[0]),
-                    "voxels" => Action::Voxels(whole(1)?[0]),
+                    // Checked now by the scene files' own rule, so a bad value names its step.
+                    "cones" | "voxels" => {
+                        let n = whole(1)?[0];
+                        let mut r = crate::scene::RenderSettings::default();
+                        if action == "cones" {
+                            r.cones = n;
+                        } else {
+                            r.voxels = n;
+                        }
+                        r.validate().map_err(|e| fail(&e))?;
+                        if action == "cones" {
+                            Action::Cones(n)
+                        } else {
+                            Action::Voxels(n)
+                        }
+                    }
                     "resize" => {
                         let v = whole(2)?;
                         if v[0] == 0 || v[1] == 0 {
@@ -1287,6 +1301,8 @@ mod tests {
             "1 pipeline vct",
             "1 view everything",
             "1 cones -1",
+            "1 cones 0",
+            "1 voxels 3",
             "1 resize 0 10",
             "1 play now",
             "1 overlay maybe",
