@@ -92,6 +92,19 @@ fn spread3(v: u32) -> u32 {
     return x;
 }
 
+fn compact3(v: u32) -> u32 {
+    var x = v & 0x09249249u;
+    x = (x | (x >> 2u)) & 0x030c30c3u;
+    x = (x | (x >> 4u)) & 0x0300f00fu;
+    x = (x | (x >> 8u)) & 0x030000ffu;
+    x = (x | (x >> 16u)) & 0x000003ffu;
+    return x;
+}
+
+fn morton_decode(m: u32) -> vec3<u32> {
+    return vec3<u32>(compact3(m), compact3(m >> 1u), compact3(m >> 2u));
+}
+
 fn morton3(p: vec3<u32>) -> u32 {
     return spread3(p.x) | (spread3(p.y) << 1u) | (spread3(p.z) << 2u);
 }
@@ -115,6 +128,16 @@ fn splat(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let side = i32(params.side);
+    // A window is an aligned power-of-two Morton range, so the box from its first voxel to its last:
+    // a triangle whose voxel box (its vertices' voxels, clamped as the samples' are) misses it has
+    // no sample in it.
+    let lo = vec3<i32>(morton_decode(params.window_first));
+    let hi = vec3<i32>(morton_decode(params.window_first + params.window_voxels - 1u));
+    let vmin = clamp(min(min(t.a.xyz, t.b.xyz), t.c.xyz) / vec3<i32>(256), vec3<i32>(0), vec3<i32>(side - 1));
+    let vmax = clamp(max(max(t.a.xyz, t.b.xyz), t.c.xyz) / vec3<i32>(256), vec3<i32>(0), vec3<i32>(side - 1));
+    if (any(vmax < lo) || any(vmin > hi)) {
+        return;
+    }
     for (var j = 0; j <= n - i; j++) {
         // Outside the window (below it, the difference wraps past window_voxels).
         let w = sample_voxel(t, i, j, side) - params.window_first;
