@@ -71,7 +71,7 @@ pub struct BenchRow {
 /// (32 cones of 18 deg, 64 of 12 deg; clamp 2, step 0.5, trilinear) with level bias / coverage
 /// correlation 0 / 0, -1 / 0 and -1 / 1 = 6 (docs/accuracy/vct-dense.md: where those options pay); plus 5
 /// interleaved narrow sets (2.5 deg, bias -1.25: 16 and 8 cones of 8 x 8 classes at 1 and 2 x 2
-/// samples, 64 of 4 x 4 at 1). Quick (for
+/// samples, 64 of 4 x 4 at 1); plus `base` at 256^3 = 300. Quick (for
 /// CI): voxels {32, 64} x cones {1, 5} at 30 degrees, clamp 2, step 0.5 = 4.
 /// lrsm sweeps its own knobs instead ([`lrsm_sweep`]).
 pub fn sweep(base: &RenderSettings, quick: bool, pipeline: Pipeline) -> Vec<RenderSettings> {
@@ -160,14 +160,25 @@ pub fn sweep(base: &RenderSettings, quick: bool, pipeline: Pipeline) -> Vec<Rend
                 });
             }
         }
+        out.push(at_256(base));
     }
     out
+}
+
+/// `base` at 256^3 voxels (past one storage binding on lavapipe: docs/scale.md), its depth-ordered
+/// blend off (read from one binding).
+fn at_256(base: &RenderSettings) -> RenderSettings {
+    RenderSettings {
+        voxels: 256,
+        depth_ordered_blend: false,
+        ..base.clone()
+    }
 }
 
 /// vct-svo's sweep: voxels {32, 64, 128} x cones {1, 5} x anisotropic voxels {off, on} x light
 /// injection {voxel_light, photons 128^2, photons 256^2} = 36, plus Gaussian lobes on the defaults'
 /// octree (anisotropic, photons 256^2) at each voxels x cones = 42 (half-angle, clamp, step at
-/// `base`'s). Quick: 32^3, 5 cones, {isotropic, anisotropic} x {voxel_light, photons 256^2} = 4.
+/// `base`'s), plus `base` at 256^3 = 43. Quick: 32^3, 5 cones, {isotropic, anisotropic} x {voxel_light, photons 256^2} = 4.
 pub fn svo_sweep(base: &RenderSettings, quick: bool) -> Vec<RenderSettings> {
     let (voxels, cones, maps): (&[u32], &[u32], &[u32]) = if quick {
         (&[32], &[5], &[0, 256])
@@ -200,6 +211,9 @@ pub fn svo_sweep(base: &RenderSettings, quick: bool) -> Vec<RenderSettings> {
                 });
             }
         }
+    }
+    if !quick {
+        out.push(at_256(base));
     }
     out
 }
@@ -252,7 +266,7 @@ pub fn lrsm_sweep(base: &RenderSettings, quick: bool) -> Vec<RenderSettings> {
 /// about 1.7 caches per tile at 256x256 in the Cornell box) x cache resolution {16, 32} = 6, the
 /// voxels and cones at `base`'s; plus the fine caches of scenes/cornell_box_fine_caches.toml (32^2
 /// texels, 4^2 irradiance, radius 1.5 tiles, level bias -1.25, mip clamp 1.5) at tile {8, 4} x
-/// samples per pixel {1, 2} = 4 (docs/accuracy/cprc.md). Quick: tile {8, 16} x resolution
+/// samples per pixel {1, 2} = 4 (docs/accuracy/cprc.md), and `base` at 256^3 = 11. Quick: tile {8, 16} x resolution
 /// {8, 16} = 4.
 pub fn cprc_sweep(base: &RenderSettings, quick: bool) -> Vec<RenderSettings> {
     let (tiles, res): (&[u32], &[u32]) = if quick {
@@ -285,6 +299,7 @@ pub fn cprc_sweep(base: &RenderSettings, quick: bool) -> Vec<RenderSettings> {
                 });
             }
         }
+        out.push(at_256(base));
     }
     out
 }
@@ -814,7 +829,8 @@ mod tests {
             ..Default::default()
         };
         let full = sweep(&base, false, Pipeline::VctDense);
-        assert_eq!(full.len(), 299);
+        assert_eq!(full.len(), 300);
+        assert_eq!(full.iter().filter(|s| s.voxels == 256).count(), 1);
         assert_eq!(
             full.iter()
                 .filter(|s| s.cone_level_bias != 0.0 || s.coverage_correlation != 0.0)
@@ -827,12 +843,12 @@ mod tests {
             .all(|s| s.ao_range == 0.25 && s.validate().is_ok()));
         assert_eq!(sweep(&base, true, Pipeline::VctSvo).len(), 4);
         let svo = sweep(&base, false, Pipeline::VctSvo);
-        assert_eq!(svo.len(), 42);
+        assert_eq!(svo.len(), 43);
         assert_eq!(svo.iter().filter(|s| s.voxel_lobes).count(), 6);
         assert!(svo
             .iter()
             .all(|s| s.ao_range == 0.25 && s.validate().is_ok()));
-        assert_eq!(svo.iter().filter(|s| s.anisotropic_voxels).count(), 24);
+        assert_eq!(svo.iter().filter(|s| s.anisotropic_voxels).count(), 25);
         let lrsm = sweep(&base, false, Pipeline::Lrsm);
         assert_eq!(lrsm.len(), 56);
         assert_eq!(lrsm.iter().filter(|s| s.voxels > 128).count(), 2);
@@ -841,7 +857,7 @@ mod tests {
             .all(|s| s.ao_range == 0.25 && s.validate().is_ok()));
         assert_eq!(sweep(&base, true, Pipeline::Lrsm).len(), 4);
         let cprc = sweep(&base, false, Pipeline::Cprc);
-        assert_eq!(cprc.len(), 10);
+        assert_eq!(cprc.len(), 11);
         assert!(cprc.iter().all(|s| s.validate().is_ok()));
         assert_eq!(sweep(&base, true, Pipeline::Cprc).len(), 4);
     }
