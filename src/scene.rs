@@ -714,7 +714,9 @@ impl Transform {
         }
         let det = glam::Mat3::from_mat4(m).determinant();
         if det.is_nan() || det.abs() <= 1e-12 {
-            return Err(format!("transform: singular (determinant {det})"));
+            return Err(format!(
+                "transform: singular or nearly (the determinant of its 3x3 part is {det:e}, at most 1e-12 in magnitude, as a uniform scale of 1e-4 gives)"
+            ));
         }
         Ok(())
     }
