@@ -179,17 +179,15 @@ impl Script {
                     "cones" | "voxels" => {
                         let n = whole(1)?[0];
                         let mut r = crate::scene::RenderSettings::default();
-                        if action == "cones" {
+                        let a = if action == "cones" {
                             r.cones = n;
-                        } else {
-                            r.voxels = n;
-                        }
-                        r.validate().map_err(|e| fail(&e))?;
-                        if action == "cones" {
                             Action::Cones(n)
                         } else {
+                            r.voxels = n;
                             Action::Voxels(n)
-                        }
+                        };
+                        r.validate().map_err(|e| fail(&e))?;
+                        a
                     }
                     "resize" => {
                         let v = whole(2)?;

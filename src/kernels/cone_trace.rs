@@ -321,8 +321,6 @@ pub fn instanced_case_for(
     tracer_case(&INSTANCED_DECL, data, gbuffer, params, volume, label, seed)
 }
 
-/// The cone pass of a kernel built on `kernels/common/cone_march.wgsl` (`decl`): the scene, G-buffer
-/// and cone bindings, plus the resources of its volume (`volume`, by binding name).
 /// Radiance-pyramid elements per binding: WebGPU's default max_storage_buffer_binding_size (128
 /// MiB) of vec4s, which every device binds; a larger pyramid is bound in up to three windows of its
 /// buffer (`pyramid`, `pyramid_1`, `pyramid_2`: common/pyramid_grid.wgsl).
@@ -346,12 +344,7 @@ pub fn bind_pyramid_views(
         window > 0 && window.is_multiple_of(16),
         "windows of {window} elements"
     );
-    let len = resources["pyramid"]
-        .buffer()
-        .expect("the pyramid is a buffer")
-        .bytes
-        .len() as u64
-        / 16;
+    let len = pyramid_elements(resources);
     if len > 3 * window {
         return Err(format!(
             "the radiance pyramid holds {len} voxels, past three bindings of {window}: fewer voxels"
@@ -400,18 +393,21 @@ pub fn bind_pyramid_views(
     Ok(())
 }
 
+/// The vec4 elements of the `pyramid` resource.
+fn pyramid_elements(resources: &Resources) -> u64 {
+    let pyramid = resources["pyramid"]
+        .buffer()
+        .expect("the pyramid is a buffer");
+    pyramid.bytes.len() as u64 / 16
+}
+
 /// One generated case in eight (`index % 8 == 5`) with its pyramid bound in three windows, as a
 /// pyramid past one binding is: the same outputs.
 pub fn with_pyramid_split(mut case: Case, index: usize) -> Case {
     if index % 8 != 5 {
         return case;
     }
-    let len = case.resources["pyramid"]
-        .buffer()
-        .expect("pyramid")
-        .bytes
-        .len() as u64
-        / 16;
+    let len = pyramid_elements(&case.resources);
     let window = (len.div_ceil(3).div_ceil(16) * 16).max(16);
     bind_pyramid_windows(&mut case, window).expect("three windows hold it");
     if len > window {
@@ -420,6 +416,8 @@ pub fn with_pyramid_split(mut case: Case, index: usize) -> Case {
     case
 }
 
+/// The cone pass of a kernel built on `kernels/common/cone_march.wgsl` (`decl`): the scene, G-buffer
+/// and cone bindings, plus the resources of its volume (`volume`, by binding name).
 #[allow(clippy::too_many_arguments)]
 pub fn tracer_case(
     decl: &KernelDecl,

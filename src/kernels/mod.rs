@@ -219,6 +219,41 @@ pub struct ChainStream<'a> {
     pub resource: &'a dyn Fn(u32) -> String,
 }
 
+/// The voxels of one window of a dense Morton grid of side `side` whose buffers take `bytes_per_voxel`
+/// (the largest per binding) on a device binding `binding_limit` bytes: the whole grid where it fits
+/// one binding, else the largest power of two that does (a power of two tiles the grid, and an
+/// aligned power-of-two Morton range is a box of voxels).
+pub fn grid_window_voxels(side: u32, binding_limit: u64, bytes_per_voxel: u64) -> u64 {
+    let voxels = (side as u64).pow(3);
+    voxels.min(1 << (binding_limit / bytes_per_voxel).max(1).ilog2())
+}
+
+/// Point the bindings of `per_voxel` (binding, bytes per voxel) at the voxels `first ..
+/// first + count` of the resources they view now: the window of a grid a pass dispatched a window
+/// at a time sees (voxelize, voxel_light).
+pub fn bind_grid_window(
+    bindings: &mut [(String, vxgi_harness::run::View)],
+    first: u64,
+    count: u64,
+    per_voxel: &[(&str, u64)],
+) {
+    use vxgi_harness::run::View;
+    for (binding, view) in bindings {
+        let Some(&(_, per)) = per_voxel.iter().find(|(b, _)| b == binding) else {
+            continue;
+        };
+        let name = match view {
+            View::Buffer(n) | View::BufferRange { name: n, .. } => n.clone(),
+            _ => panic!("`{binding}` is not a buffer binding"),
+        };
+        *view = View::BufferRange {
+            name,
+            offset: first * per,
+            size: count * per,
+        };
+    }
+}
+
 /// Passes for levels `1..=parents.len()` of a Morton-ordered mip chain: element `p` of level `k`
 /// reduces elements `factor * p .. factor * (p + 1)` of level `k - 1` (8 children in 3D, 4 in 2D), so
 /// any run of parents reads one contiguous window. A level whose source is larger than one storage

@@ -105,8 +105,7 @@ pub fn case_for(
 /// The voxels of one window ([`in_windows`]) on a device with this storage-binding limit: the whole
 /// grid where its vec4 buffers fit one binding, else the largest power of two whose do.
 pub fn window_voxels(side: u32, binding_limit: u64) -> u64 {
-    let voxels = (side as u64).pow(3);
-    voxels.min(1 << (binding_limit / 16).max(1).ilog2())
+    super::grid_window_voxels(side, binding_limit, 16)
 }
 
 /// `case` (a whole-grid case of [`case_for`]) dispatched a window of `window` voxels at a time (a
@@ -153,16 +152,12 @@ pub fn window_passes(
             let mut pass = whole.clone();
             pass.label = format!("{} window {k}", whole.label);
             for (binding, view) in &mut pass.bindings {
-                *view = match binding.as_str() {
-                    "grid" => View::Buffer(name.clone()),
-                    "vox_colour" | "vox_normal" | "vox_radiance" => View::BufferRange {
-                        name: binding.clone(),
-                        offset: first * 16,
-                        size: window * 16,
-                    },
-                    _ => continue,
-                };
+                if binding == "grid" {
+                    *view = View::Buffer(name.clone());
+                }
             }
+            let per_voxel = [("vox_colour", 16), ("vox_normal", 16), ("vox_radiance", 16)];
+            super::bind_grid_window(&mut pass.bindings, first, window, &per_voxel);
             pass
         })
         .collect()

@@ -232,9 +232,7 @@ pub const ACC_BYTES: u64 = 32;
 /// whole grid where its accumulators fit one binding, else the largest power of two whose do (a
 /// power of two divides the grid's side^3).
 pub fn window_voxels(side: u32, binding_limit: u64) -> u64 {
-    let voxels = (side as u64).pow(3);
-    let fit = (binding_limit / ACC_BYTES).max(1);
-    voxels.min(1 << fit.ilog2())
+    super::grid_window_voxels(side, binding_limit, ACC_BYTES)
 }
 
 /// Resources and passes voxelizing `input` into a grid of side `side`, in windows that fit the
@@ -315,21 +313,12 @@ pub fn case_windowed(
             let name = format!("params_w{k}");
             resources.insert(name.clone(), HostResource::Buffer(HostBuffer::pod(&params)));
             for (binding, view) in &mut bindings {
-                let per = match binding.as_str() {
-                    "acc" => ACC_BYTES,
-                    "vox_colour" | "vox_normal" => 16,
-                    "params" => {
-                        *view = View::Buffer(name.clone());
-                        continue;
-                    }
-                    _ => continue,
-                };
-                *view = View::BufferRange {
-                    name: binding.clone(),
-                    offset: first * per,
-                    size: window * per,
-                };
+                if binding == "params" {
+                    *view = View::Buffer(name.clone());
+                }
             }
+            let per_voxel = [("acc", ACC_BYTES), ("vox_colour", 16), ("vox_normal", 16)];
+            super::bind_grid_window(&mut bindings, first, window, &per_voxel);
         }
         let at = if window < voxels {
             format!(" window {k}")
