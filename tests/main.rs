@@ -42,6 +42,7 @@ mod sparse_voxel_octree;
 mod surface_coverage_mip;
 mod svo_anisotropic;
 mod svo_cone_trace;
+mod svo_fragments;
 mod svo_photons;
 mod svo_sample;
 mod tile_normal_histogram;

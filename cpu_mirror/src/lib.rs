@@ -36,6 +36,7 @@ pub mod sparse_voxel_octree;
 pub mod surface_coverage_mip;
 pub mod svo_anisotropic;
 pub mod svo_cone_trace;
+pub mod svo_fragments;
 pub mod svo_photons;
 pub mod svo_sample;
 pub mod tile_normal_histogram;

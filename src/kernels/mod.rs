@@ -28,6 +28,7 @@ pub mod sparse_voxel_octree;
 pub mod surface_coverage_mip;
 pub mod svo_anisotropic;
 pub mod svo_cone_trace;
+pub mod svo_fragments;
 pub mod svo_photons;
 pub mod svo_sample;
 pub mod tile_normal_histogram;
@@ -184,6 +185,7 @@ pub fn all() -> Vec<&'static dyn Kernel> {
         &screen_tiles::ScreenTiles,
         &cone_trace::ConeTrace,
         &cone_trace::ConeTraceInstanced,
+        &svo_fragments::SvoFragments,
         &sparse_voxel_octree::SparseVoxelOctree,
         &svo_sample::SvoSample,
         &svo_photons::SvoPhotons,
