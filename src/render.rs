@@ -358,13 +358,14 @@ impl PyramidKey {
 
 type Stages = Vec<(&'static str, f64)>;
 
-/// The lit voxel grid `(L * alpha, alpha)` (Morton order), its normals, its frame.
-/// Lit voxels `(L * alpha, alpha)`, normals, albedo (voxelize's colour), Morton order, and the frame.
+/// Lit voxels `(L * alpha, alpha)`, normals, albedo (voxelize's colour), Morton order, the frame,
+/// and how many voxels voxelize listed (the non-empty ones).
 type LitVoxels = (
     Vec<[f32; 4]>,
     Vec<[f32; 4]>,
     Vec<[f32; 4]>,
     voxelize::VoxelFrame,
+    u32,
 );
 
 /// Voxelize and light the scene: the lit voxel grid `(L * alpha, alpha)` (Morton order), its normals,
@@ -407,7 +408,7 @@ fn light_grid(
     } else {
         crate::kernels::svo_cone_trace::coverage_only(&grid.colour)
     };
-    Ok((rad, grid.normal, grid.colour, frame))
+    Ok((rad, grid.normal, grid.colour, frame, list.len() as u32))
 }
 
 /// The pipelines `vxgi render --pipeline` (and `vxgi bench --pipeline`) choose from.
@@ -607,6 +608,8 @@ pub struct SvoCache {
     key: SvoKey,
     pub built: crate::kernels::sparse_voxel_octree::GpuOctree,
     pub frame: voxelize::VoxelFrame,
+    /// How many voxels voxelize listed: the fragments a chain that lights the octree makes.
+    pub listed: u32,
     /// Directional values (anisotropic voxels).
     pub aniso: Option<Vec<[f32; 4]>>,
     /// The Gaussian lobes' normal pool, in `built`'s node layout.
@@ -818,7 +821,7 @@ impl VctSvo {
         let split = self.statics.voxels(ctx, scene, &progress)?;
         // With dynamic instances: the static part's octree structure, replayed (VCT 4.2.2).
         let replay = self.replay && split.is_some();
-        let (rad, normal, colour, frame) = match split {
+        let (rad, normal, colour, frame, listed) = match split {
             Some((grid, list, frame, secs)) => {
                 stages.push(("voxelize", secs));
                 let p = plan.passes.iter_mut().find(|p| p.stage == "voxelize");
@@ -957,6 +960,7 @@ impl VctSvo {
             key,
             built,
             frame,
+            listed,
             aniso,
             normals,
             spec,

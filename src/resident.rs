@@ -171,7 +171,11 @@ impl Key {
         let (volume, views) = match pipeline {
             // The levels the cones read: the others are not built.
             Pipeline::VctDense => (PyramidKey::reading(scene, cones).unlit(), 0),
-            // The octree's values hold the light: moved lights rebuild it.
+            // The octree's values hold the light: moved lights re-light it in the chain where the
+            // chain lights it, else rebuild it.
+            Pipeline::VctSvo if crate::pipeline::lights_in_chain(scene) => {
+                (PyramidKey::of(scene).unlit(), 0)
+            }
             Pipeline::VctSvo => (PyramidKey::of(scene), 0),
             // The caches' cones read every level.
             Pipeline::Cprc => (PyramidKey::of(scene).unlit(), 0),
@@ -206,6 +210,9 @@ struct Built<'c> {
     /// lrsm with instances: what a frame whose instances moved resets before re-running the volume
     /// passes from voxelize on ([`written_in`]: cleared, restored).
     revoxelize: Option<Resets>,
+    /// vct-svo lit in the chain: what a frame with moved lights resets before re-running the passes
+    /// the lights feed ([`written_in`]: cleared, restored).
+    relight_resets: Option<Resets>,
     prepared: Prepared<'c>,
     /// The frame's images and the small outputs its plan reads ([`Resident::render`]).
     reads: ReadbackSet,
@@ -568,6 +575,9 @@ impl<'c> Resident<'c> {
                 for (name, bytes) in light_inputs(self.pipeline, b, scene)? {
                     p.write_buffer(&name, &bytes)?;
                 }
+                if let Some((zero, first)) = &b.relight_resets {
+                    encode_resets(p, encoder, zero, first)?;
+                }
             }
             if let (true, Some(d), Some(frames)) = (moved, &data, &b.hierarchies) {
                 for (name, bytes) in placed_inputs(d, scene, cones, frames, b.room.as_ref())? {
@@ -576,13 +586,7 @@ impl<'c> Resident<'c> {
             }
             if let (true, Some(d), Some((zero, first))) = (moved, &data, &b.revoxelize) {
                 // The volume as a fresh chain holds it, then the moved scene voxelized into it.
-                let zero: Vec<&str> = zero.iter().map(String::as_str).collect();
-                p.encode_clear(encoder, &zero)?;
-                let first: Vec<_> = first
-                    .iter()
-                    .map(|(src, dst)| (src.as_str(), dst.as_str(), 0))
-                    .collect();
-                p.encode_copies(encoder, &first)?;
+                encode_resets(p, encoder, zero, first)?;
                 let input = &vox.as_ref().expect("lrsm with instances prepares it").0;
                 for (name, bytes) in voxelize_inputs(d, scene, input) {
                     p.write_buffer(&name, &bytes)?;
@@ -822,7 +826,7 @@ impl<'c> Resident<'c> {
                 // an octree already built for this scene is uploaded again, not built.
                 let (volume, built) = self.svo.volume(self.ctx, scene, cones)?;
                 build_stages = built;
-                let chain = crate::pipeline::svo_chain(self.ctx, &data, cones, volume)?;
+                let chain = crate::pipeline::svo_chain(self.ctx, scene, &data, cones, volume)?;
                 let memory = VolumeMemory::Octree(volume.memory());
                 (chain, Some(memory), "radiance")
             }
@@ -886,6 +890,10 @@ impl<'c> Resident<'c> {
         let (_, restored) = written_in(&mut chain, gbuffer..usize::MAX);
         let revoxelize = (instanced && self.pipeline == Pipeline::Lrsm)
             .then(|| written_in(&mut chain, 0..gbuffer));
+        // vct-svo's octree lit in the chain: its value passes add into the kept structure's
+        // buffers, which a moved light's frame first resets to what the structure left.
+        let relight_resets = (self.pipeline == Pipeline::VctSvo && relight < gbuffer)
+            .then(|| written_in(&mut chain, relight..gbuffer));
         let prepared = crate::harness::prepare_chain_adopting(
             self.ctx,
             &chain.harness_stages(),
@@ -921,6 +929,7 @@ impl<'c> Resident<'c> {
             mesh: scene.mesh.clone(),
             hierarchies,
             revoxelize,
+            relight_resets,
             relight,
             volume,
             volume_inputs,
@@ -1130,7 +1139,7 @@ fn passes_fingerprint(chain: &Chain, end: usize) -> u64 {
         }
     }
     for c in chain.copies.iter().filter(|c| c.after <= end) {
-        (c.after, &c.src, &c.dst, c.offset).hash(&mut h);
+        (c.after, &c.src, &c.src_range, &c.dst, c.offset).hash(&mut h);
         bound.extend([c.src.as_str(), c.dst.as_str()]);
     }
     bound.sort_unstable();
@@ -1288,6 +1297,23 @@ fn light_inputs(pipeline: Pipeline, b: &Built, scene: &Scene) -> Result<Vec<(Str
     Ok(out)
 }
 
+/// Record [`written_in`]'s resets: `zero` cleared, each `(copy, buffer)` of `first` restored.
+fn encode_resets(
+    p: &Prepared,
+    encoder: &mut wgpu::CommandEncoder,
+    zero: &[String],
+    first: &[(String, String)],
+) -> Result<()> {
+    let zero: Vec<&str> = zero.iter().map(String::as_str).collect();
+    p.encode_clear(encoder, &zero)?;
+    let first: Vec<_> = first
+        .iter()
+        .map(|(src, dst)| (src.as_str(), dst.as_str(), 0))
+        .collect();
+    p.encode_copies(encoder, &first)?;
+    Ok(())
+}
+
 /// Record the passes `range` of `p` into `encoder` with the chain's copies that follow a pass in it
 /// (a copy after pass `k` with `range.start < k <= range.end`), each where it falls.
 fn encode_range(
@@ -1303,7 +1329,7 @@ fn encode_range(
     {
         p.encode_steps(encoder, at..c.after.max(at));
         at = at.max(c.after);
-        p.encode_copies(encoder, &[(c.src.as_str(), c.dst.as_str(), c.offset)])?;
+        p.encode_copy_range(encoder, &c.src, c.src_range.clone(), &c.dst, c.offset)?;
     }
     p.encode_steps(encoder, at..range.end);
     Ok(())

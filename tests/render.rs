@@ -1457,8 +1457,10 @@ fn resident_frames_relight_moved_instances_in_one_submission() {
 
 /// A light moved between resident frames: the kept voxels are re-lit (vct-dense and cprc:
 /// voxel_light and the mips over the kept grid; lrsm: every light view's RSM and LRSM over the kept occlusion
-/// voxels; voxelize skipped), the image equals a full rebuild's bit for bit, and the frame is still
-/// one submission that creates nothing and uploads only the camera, the lights and lrsm's views.
+/// voxels; vct-svo with voxel_light injection: voxel_light, the fragments and the octree's values
+/// and directional values over its kept structure; voxelize skipped), the image equals a full
+/// rebuild's bit for bit, and the frame is still one submission that creates nothing and uploads
+/// only the camera, the lights and lrsm's views.
 #[test]
 fn resident_frames_relight_the_kept_voxels_when_a_light_moves() {
     use vxgi::kernels::cone_trace::ConeSettings;
@@ -1469,10 +1471,15 @@ fn resident_frames_relight_the_kept_voxels_when_a_light_moves() {
         (Pipeline::VctDense, vec!["voxelize"]),
         (Pipeline::Lrsm, vec!["voxelize", "occlusion_voxels"]),
         (Pipeline::Cprc, vec!["voxelize"]),
+        (
+            Pipeline::VctSvo,
+            vec!["voxelize", "svo_lobes", "svo_bounce"],
+        ),
     ] {
         let mut scene = small(Scene::cornell_box(), 40, 40);
         scene.render.voxels = 32;
         scene.render.rsm_side = 32;
+        scene.render.photon_map = 0;
         let cones = ConeSettings::from(&scene.render);
         let mut resident = Resident::new(gpu(), pipeline).unwrap();
         resident.render(&scene, &cones).unwrap();
@@ -2036,5 +2043,46 @@ fn the_cone_tracers_render_the_cornell_box_at_256_voxels() {
             fine < coarse + 0.02,
             "{pipeline:?}: {fine} at 256^3, {coarse} at 128^3"
         );
+    }
+}
+
+/// vct-svo lit in the chain (voxel_light injection: the fixed-point scale, the fragments, the
+/// octree's values and directional values on the GPU over the staged build's structure) draws the
+/// frame the staged passes draw with their host steps between them (`bisect`'s all-GPU split), bit
+/// for bit, on the Cornell box and the glossy thin wall; with photons the chain binds the staged
+/// octree as before.
+#[test]
+fn vct_svo_lit_in_the_chain_is_the_staged_frame() {
+    use vxgi::kernels::cone_trace::ConeSettings;
+    use vxgi::render::Pipeline::VctSvo;
+    use vxgi::resident::Resident;
+    let glossy =
+        Scene::load(Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/thin_wall_glossy.toml"))
+            .unwrap();
+    for (base, photons) in [
+        (Scene::cornell_box(), 0),
+        (glossy, 0),
+        (Scene::cornell_box(), 64),
+    ] {
+        let mut scene = small(base, 40, 32);
+        scene.render.voxels = 32;
+        scene.render.photon_map = photons;
+        let cones = ConeSettings::from(&scene.render);
+        let staged = vxgi::bisect::render_split(gpu(), &scene, &cones, VctSvo, 0, |_| {}).unwrap();
+        let got = Resident::new(gpu(), VctSvo)
+            .unwrap()
+            .render(&scene, &cones)
+            .unwrap();
+        let at = format!(
+            "photon_map {photons}, {} triangles",
+            scene.mesh.positions.len()
+        );
+        assert!(
+            got.indirect.pixels.iter().any(|p| p[0] > 0.0),
+            "{at}: no indirect light"
+        );
+        assert!(staged.direct == got.direct, "{at}: direct differs");
+        assert!(staged.ao == got.ao, "{at}: ao differs");
+        assert!(staged.indirect == got.indirect, "{at}: indirect differs");
     }
 }

@@ -363,9 +363,9 @@ impl Case {
         self
     }
 
-    /// Point every binding of the passes that views resource `from` at `to` instead, and move the
-    /// resource (if the case has it) to that name — how a case joins a chain (`prepare_chain`) whose
-    /// other stages use the name for something else. With `shared`, the case's own copy is dropped:
+    /// Point every binding (and indirect dispatch) of the passes that uses resource `from` at `to`
+    /// instead, and move the resource (if the case has it) to that name — how a case joins a chain
+    /// (`prepare_chain`) whose other stages use the name for something else. With `shared`, the case's own copy is dropped:
     /// an earlier stage of the chain provides `to`.
     pub fn rename_resource(&mut self, from: &str, to: &str, shared: bool) {
         use crate::run::View;
@@ -380,6 +380,11 @@ impl Case {
                     if n == from {
                         *n = to.into();
                     }
+                }
+            }
+            if let crate::run::Workgroups::Indirect { buffer, .. } = &mut p.workgroups {
+                if buffer == from {
+                    *buffer = to.into();
                 }
             }
         }

@@ -1266,29 +1266,50 @@ impl Prepared<'_> {
         copies: &[(&str, &str, u64)],
     ) -> Result<()> {
         for &(src, dst, offset) in copies {
-            let buffer = |name: &str| -> Result<&wgpu::Buffer> {
-                match self.gpu.get(name) {
-                    Some(GpuRes::Buffer(b)) => Ok(b),
-                    _ => Err(HarnessError::UnknownResource {
-                        kernel: self.kernel.clone(),
-                        pass: "copy".into(),
-                        resource: name.to_string(),
-                    }),
-                }
-            };
-            let (s, d) = (buffer(src)?, buffer(dst)?);
-            if offset % 4 != 0 || s.size() % 4 != 0 || offset + s.size() > d.size() {
-                return Err(HarnessError::Gpu {
+            self.encode_copy_range(encoder, src, None, dst, offset)?;
+        }
+        Ok(())
+    }
+
+    /// Record a copy of `src` (of the byte range `range` of it, else all of it) into `dst` at
+    /// `offset`; a misaligned or out-of-range copy is an error naming both.
+    pub fn encode_copy_range(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        src: &str,
+        range: Option<std::ops::Range<u64>>,
+        dst: &str,
+        offset: u64,
+    ) -> Result<()> {
+        let buffer = |name: &str| -> Result<&wgpu::Buffer> {
+            match self.gpu.get(name) {
+                Some(GpuRes::Buffer(b)) => Ok(b),
+                _ => Err(HarnessError::UnknownResource {
+                    kernel: self.kernel.clone(),
+                    pass: "copy".into(),
+                    resource: name.to_string(),
+                }),
+            }
+        };
+        let (s, d) = (buffer(src)?, buffer(dst)?);
+        let range = range.unwrap_or(0..s.size());
+        let size = range.end.saturating_sub(range.start);
+        if !offset.is_multiple_of(4)
+            || !range.start.is_multiple_of(4)
+            || !size.is_multiple_of(4)
+            || range.end > s.size()
+            || offset + size > d.size()
+        {
+            return Err(HarnessError::Gpu {
                     kernel: self.kernel.clone(),
                     message: format!(
-                        "copy of `{src}` ({} bytes) into `{dst}` ({} bytes) at {offset}: misaligned or out of range",
+                        "copy of `{src}` bytes {range:?} ({} bytes) into `{dst}` ({} bytes) at {offset}: misaligned or out of range",
                         s.size(),
                         d.size()
                     ),
                 });
-            }
-            encoder.copy_buffer_to_buffer(s, 0, d, offset, s.size());
         }
+        encoder.copy_buffer_to_buffer(s, range.start, d, offset, size);
         Ok(())
     }
 

@@ -565,6 +565,10 @@ pub fn reader_resources(o: &Octree) -> Resources {
 #[derive(Debug)]
 pub struct GpuOctree {
     pub octree: Octree,
+    /// The buffers the structure's passes left (`nodes`, `flags`, `tile_parent`, `levels`,
+    /// `status`, `args`), cut to the tiles it used: where the value passes of [`phase_of`] start,
+    /// so a frame can splat new values of the same points into the same structure.
+    pub structure: BTreeMap<String, HostBuffer>,
     pub gpu_ns: f64,
     /// (phase, ns) summed over passes, when the adapter has timestamps.
     pub phase_ns: Vec<(&'static str, f64)>,
@@ -709,6 +713,22 @@ pub fn build_on_gpu_replayed(
             HostResource::Buffer(built.buffer(name).clone()),
         );
     }
+    let kept = STRUCTURE
+        .iter()
+        .map(|&name| {
+            let mut b = built.buffer(name).clone();
+            let per_tile = match name {
+                "nodes" => 8 * NODE_BYTES as usize,
+                "flags" => 8 * 4,
+                "tile_parent" => 4,
+                _ => 0,
+            };
+            if per_tile > 0 {
+                b.bytes.truncate(used * per_tile);
+            }
+            (name.to_string(), b)
+        })
+        .collect();
     resources.insert(
         "bricks".into(),
         HostResource::Buffer(HostBuffer::zeroed(
@@ -752,6 +772,7 @@ pub fn build_on_gpu_replayed(
     }
     Ok(GpuOctree {
         octree,
+        structure: kept,
         gpu_ns: built.gpu_ns + out.gpu_ns,
         phase_ns,
     })

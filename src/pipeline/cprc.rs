@@ -444,6 +444,7 @@ pub(crate) fn cprc_chain(
     // first field of both).
     for dst in ["cache_params", "pre_params"] {
         chain.copies.push(ChainCopy {
+            src_range: None,
             after: after_records,
             src: "cache_count".into(),
             dst: dst.into(),

@@ -236,6 +236,7 @@ pub(crate) fn lrsm_chain(
     for k in 0..=side.trailing_zeros() {
         occ_offsets.push(words);
         chain.copies.push(ChainCopy {
+            src_range: None,
             after: chain.pass_count(),
             src: occv::level_name(k),
             dst: "occ".into(),
@@ -319,6 +320,7 @@ pub(crate) fn lrsm_chain(
         for k in 0..levels {
             for (s, dst) in LRSM_STREAMS.iter().enumerate() {
                 chain.copies.push(ChainCopy {
+                    src_range: None,
                     after,
                     src: lrsm_prefilter::stream_name(s, k),
                     dst: dst.to_string(),

@@ -32,6 +32,8 @@ pub(crate) struct ChainStage {
 /// A buffer copy on the GPU, recorded after the chain's first `after` passes.
 #[derive(Clone, Debug)]
 pub(crate) struct ChainCopy {
+    /// The bytes of `src` copied; `None`: all of it.
+    pub src_range: Option<std::ops::Range<u64>>,
     pub after: usize,
     pub src: String,
     pub dst: String,
@@ -337,6 +339,7 @@ pub(crate) fn instanced_volume(
                 hierarchy_name(&colour_name(l), k)
             };
             chain.copies.push(ChainCopy {
+                src_range: None,
                 after: after_mips,
                 src,
                 dst: "pyramid".into(),

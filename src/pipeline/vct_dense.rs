@@ -200,24 +200,15 @@ pub(crate) fn cone_trace_plan(i: &PlanInputs) -> Vec<PlannedPass> {
     )]
 }
 
-/// vct-dense's chain: voxelize, voxel_light, the surface-coverage mips (each level copied into
-/// `pyramid` and `pyramid_normal` after them), then (with `gbuffer_in_chain`) gbuffer and
-/// direct_light, screen_tiles and cone_trace. `cone_pass`: the G-buffer the cone pass reads (zeroed
-/// where the chain computes it), the cone settings and the pyramid levels the cones read (the others
-/// are not built); without it the chain ends with the mips and builds every level.
-/// `gbuffer_in_chain`: the G-buffer and direct light are stages of the chain, after the mips
-/// (computed on the GPU, never read back), instead of inputs in `cone_pass`'s resources.
-pub(crate) fn dense_chain(
+/// The voxels lit in a chain: voxelize (stage `voxelize`) and voxel_light over every entry the
+/// GPU's list could hold (stage `voxel_light`), its radiance in `vox_radiance`; the grid's frame.
+pub(crate) fn lit_voxel_chain(
     ctx: &crate::harness::GpuContext,
     scene: &Scene,
     data: &SceneData,
-    cone_pass: Option<(&crate::harness::Resources, &ConeSettings, u32)>,
-    gbuffer_in_chain: bool,
-) -> Result<Chain> {
+) -> Result<(Chain, voxelize::VoxelFrame)> {
     use crate::harness::run::{grid_for, Pass, Workgroups};
     use crate::harness::{HostBuffer, HostResource, ScalarKind};
-    use crate::kernels::surface_coverage_mip::{self as scm, colour_name};
-    use vxgi_cpu_mirror::cone_trace::{level_offset, pyramid_len};
     let side = scene.render.voxels;
     let v = (side as u64).pow(3);
     let max = ctx.limits().max_compute_workgroups_per_dimension;
@@ -252,16 +243,49 @@ pub(crate) fn dense_chain(
         &mut light_res,
         voxel_light::window_voxels(side, ctx.limits().max_storage_buffer_binding_size),
     );
+    let mut resources = vox.resources;
+    resources.extend(light_res);
+    let mut chain = Chain {
+        resources,
+        stages: Vec::new(),
+        copies: Vec::new(),
+        frame: vframe,
+    };
+    chain.push(voxelize::DECL.shader()?, voxelize::DECL.name, vox.passes);
+    chain.push(
+        voxel_light::DECL.shader()?,
+        voxel_light::DECL.name,
+        light_passes,
+    );
+    Ok((chain, vframe))
+}
+
+/// vct-dense's chain: voxelize, voxel_light, the surface-coverage mips (each level copied into
+/// `pyramid` and `pyramid_normal` after them), then (with `gbuffer_in_chain`) gbuffer and
+/// direct_light, screen_tiles and cone_trace. `cone_pass`: the G-buffer the cone pass reads (zeroed
+/// where the chain computes it), the cone settings and the pyramid levels the cones read (the others
+/// are not built); without it the chain ends with the mips and builds every level.
+/// `gbuffer_in_chain`: the G-buffer and direct light are stages of the chain, after the mips
+/// (computed on the GPU, never read back), instead of inputs in `cone_pass`'s resources.
+pub(crate) fn dense_chain(
+    ctx: &crate::harness::GpuContext,
+    scene: &Scene,
+    data: &SceneData,
+    cone_pass: Option<(&crate::harness::Resources, &ConeSettings, u32)>,
+    gbuffer_in_chain: bool,
+) -> Result<Chain> {
+    use crate::harness::{HostBuffer, HostResource, ScalarKind};
+    use crate::kernels::surface_coverage_mip::{self as scm, colour_name};
+    use vxgi_cpu_mirror::cone_trace::{level_offset, pyramid_len};
+    let side = scene.render.voxels;
+    let (mut chain, vframe) = lit_voxel_chain(ctx, scene, data)?;
     // The mip chain from voxel_light's radiance and voxelize's normals, up to the levels the cones
     // read (all of them without a cone pass: the pyramid is kept for other cones).
     let levels = cone_pass.map_or(side.trailing_zeros() + 1, |(_, _, l)| l);
     let mip_shader = scm::DECL.shader()?;
     let mips = volume_mips(&mip_shader, ctx, side, levels, "vox_radiance", "vox_normal");
-    let mut resources = vox.resources;
-    resources.extend(light_res);
+    let mut resources = std::mem::take(&mut chain.resources);
     resources.extend(mips.resources);
-    // The cone pass, dispatched over the tiles screen_tiles lists on the GPU from the G-buffer (the
-    // case's host-built list replaced by an empty one the chain fills).
     let mut cone_stages = match cone_pass {
         Some((gb, cones, _)) => {
             let mut params = cone_trace::cone_params(&vframe, cones);
@@ -293,18 +317,7 @@ pub(crate) fn dense_chain(
         cone_trace::bind_pyramid_views(passes, &mut resources, cone_trace::PYRAMID_WINDOW)
             .map_err(anyhow::Error::msg)?;
     }
-    let mut chain = Chain {
-        resources,
-        stages: Vec::new(),
-        copies: Vec::new(),
-        frame: vframe,
-    };
-    chain.push(voxelize::DECL.shader()?, voxelize::DECL.name, vox.passes);
-    chain.push(
-        voxel_light::DECL.shader()?,
-        voxel_light::DECL.name,
-        light_passes,
-    );
+    chain.resources = resources;
     chain.push(mip_shader, scm::DECL.name, mips.passes);
     let after_mips = chain.pass_count();
     // The G-buffer and direct light after the volume (they do not read it): a frame that reuses the
@@ -338,6 +351,7 @@ pub(crate) fn dense_chain(
                 .enumerate(),
         )
         .map(|(l, (src, to))| ChainCopy {
+            src_range: None,
             after: after_mips,
             src,
             dst: to.to_string(),

@@ -37,7 +37,10 @@ pub static VCT_SVO: PipelineDecl = PipelineDecl {
         },
         StageDecl {
             name: "sparse_voxel_octree",
-            kernels: &[&sparse_voxel_octree::DECL],
+            kernels: &[
+                &crate::kernels::svo_fragments::DECL,
+                &sparse_voxel_octree::DECL,
+            ],
             reuse: Reuse::Lights,
             split: Split::Always,
             plan: octree_plan,
@@ -196,41 +199,72 @@ fn svo_cone_trace_plan(i: &PlanInputs) -> Vec<PlannedPass> {
     vec![p]
 }
 
-/// vct-svo's per-frame chain over an octree built already (`volume`, by [`crate::render::VctSvo`]'s
-/// GPU passes with the host steps between them): gbuffer, direct_light, screen_tiles and
-/// svo_cone_trace, the octree's nodes, bricks and pools bound as they are.
+/// Whether `scene`'s frames light vct-svo's octree in the chain: voxel_light, the fragments
+/// (`svo_fragments`: the fixed-point scale and the fragments, on the GPU), the octree's value
+/// passes and its directional values, over the structure the staged build made. Moved lights then
+/// re-light it in the frame's one submission. Photon injection, a second bounce and instances still
+/// build the octree's values with the staged passes (host steps between them).
+pub(crate) fn lights_in_chain(scene: &Scene) -> bool {
+    let r = &scene.render;
+    r.photon_map == 0 && r.bounces == 1 && scene.instances.list.is_empty()
+}
+
+/// vct-svo's chain over an octree built already (`volume`, by [`crate::render::VctSvo`]'s GPU
+/// passes with the host steps between them). Where [`lights_in_chain`]: voxelize, voxel_light, the
+/// fragments, the octree's values and directional values over the kept structure, then the
+/// camera's stages; else the camera's stages alone (gbuffer, direct_light, screen_tiles,
+/// svo_cone_trace) over the octree's nodes, bricks and pools as they are.
 pub(crate) fn svo_chain(
     ctx: &crate::harness::GpuContext,
+    scene: &Scene,
     data: &SceneData,
     cones: &ConeSettings,
     volume: &crate::render::SvoCache,
 ) -> Result<Chain> {
     use crate::kernels::gbuffer;
+    let in_chain = lights_in_chain(scene);
     let g = gbuffer::case_for(data, "render".into(), 0);
     let d = direct_light::case_with_gbuffer(ctx, data, &Default::default(), "render".into(), 0);
     let params = svo_cone_trace::svo_cone_params(&volume.frame, cones);
-    let mut c = svo_cone_trace::case_for(
-        data,
-        &g.resources,
-        &volume.built.octree,
-        volume.extras(),
-        volume.scale,
-        &params,
-        "render".into(),
-        0,
-    );
     let mut chain = Chain {
         resources: Resources::new(),
         stages: Vec::new(),
         copies: Vec::new(),
         frame: volume.frame,
     };
+    // Lit in the chain: the cone pass binds the value passes' bricks and directional values, zero
+    // until they run (a chain's shared resource holds one first content).
+    let mut octree = std::borrow::Cow::Borrowed(&volume.built.octree);
+    let mut aniso = volume.aniso.as_deref().map(std::borrow::Cow::Borrowed);
+    if in_chain {
+        chain = lit_voxel_chain(ctx, scene, data)?.0;
+        light_octree(ctx, &mut chain, volume)?;
+        octree.to_mut().bricks.fill(0);
+        if let Some(a) = &mut aniso {
+            a.to_mut().fill([0.0; 4]);
+        }
+    }
+    let extras = svo_cone_trace::SvoExtras {
+        aniso: aniso.as_deref(),
+        ..volume.extras()
+    };
+    let mut c = svo_cone_trace::case_for(
+        data,
+        &g.resources,
+        &octree,
+        extras,
+        volume.scale,
+        &params,
+        "render".into(),
+        0,
+    );
     // The G-buffer the later stages bind is gbuffer's output (zeroed here, computed in the chain);
     // the cone pass runs over the tiles screen_tiles lists from it on the GPU (the case's host-built
     // list replaced by an empty one the chain fills). `nodes` is the ray caster's BVH in gbuffer and
     // direct_light, the octree's in the cone pass.
     let (w, h) = (data.width(), data.height());
     c.rename_resource("nodes", "octree_nodes", false);
+    c.rename_resource("bricks", "octree_bricks", false);
     c.resources
         .insert("tile_list".into(), screen_tiles::empty_list(w, h));
     chain.merge(gbuffer::DECL.name, g.resources)?;
@@ -254,6 +288,159 @@ pub(crate) fn svo_chain(
         c.passes,
     );
     Ok(chain)
+}
+
+/// The octree lit in `chain` after its voxel_light: `svo_fragments` (the frame's fixed-point scale
+/// and one fragment per listed voxel, from `vox_radiance`), the octree's value passes (splat,
+/// border transfer, distribution) over the structure `volume` kept (its buffers `octree_*`, the
+/// bricks zero), and the directional values level by level. `1 / scale` is copied into the cone
+/// pass's and the directional passes' parameters after the scale is found.
+fn light_octree(
+    ctx: &crate::harness::GpuContext,
+    chain: &mut Chain,
+    volume: &crate::render::SvoCache,
+) -> Result<()> {
+    use crate::harness::run::{grid_for, Workgroups};
+    use crate::harness::{HostBuffer, ScalarKind};
+    use crate::kernels::{sparse_voxel_octree as svo, svo_fragments as sf};
+    use vxgi_cpu_mirror::svo_anisotropic::{passes as aniso_passes, AnisoParams};
+    let o = &volume.built.octree;
+    let capacity = volume.listed.max(1);
+    let max = ctx.limits().max_compute_workgroups_per_dimension;
+    let buf = |b: HostBuffer| HostResource::Buffer(b);
+    // The fragments: one per listed voxel, in the octree's fixed point (one fragment per lattice
+    // point: `most` = 1).
+    let fparams = sf::FragmentParams {
+        capacity,
+        coverage_only: 0,
+        threshold: vxgi_cpu_mirror::svo_fragments::threshold(1, 1),
+        _pad: 0,
+    };
+    let mut res = Resources::new();
+    res.insert("fragment_params".into(), buf(HostBuffer::pod(&fparams)));
+    res.insert(
+        "scale_state".into(),
+        buf(HostBuffer::zeroed(sf::STATE_WORDS * 4, ScalarKind::U32)),
+    );
+    res.insert(
+        "svo_scale".into(),
+        buf(HostBuffer::zeroed(8, ScalarKind::F32)),
+    );
+    res.insert(
+        "octree_fragments".into(),
+        buf(HostBuffer::zeroed(capacity as usize * 32, ScalarKind::U32)),
+    );
+    chain.merge(sf::DECL.name, res)?;
+    let shader = sf::DECL.shader()?;
+    let bindings = |entry: &str| -> Vec<(String, crate::harness::run::View)> {
+        let _ = entry;
+        sf::DECL
+            .bind_by_name()
+            .into_iter()
+            .map(|(b, v)| {
+                let to = match b.as_str() {
+                    "params" => "fragment_params",
+                    "fragments" => "octree_fragments",
+                    _ => return (b, v),
+                };
+                (b, crate::harness::run::View::Buffer(to.into()))
+            })
+            .collect()
+    };
+    let each = Workgroups::Direct(grid_for(capacity as u64, 64, max));
+    let one = Workgroups::Direct([1, 1, 1]);
+    let passes = [
+        ("peak", each.clone()),
+        ("scale", one),
+        ("write_fragments", each),
+    ]
+    .into_iter()
+    .map(|(entry, workgroups)| Pass {
+        label: format!("svo_fragments {entry}"),
+        entry: entry.into(),
+        bindings: bindings(entry),
+        workgroups,
+    })
+    .collect();
+    chain.push_as(shader, sf::DECL.name, "sparse_voxel_octree", passes);
+    let scaled = chain.pass_count();
+    // The octree's value passes over the kept structure: `capacity` fragments, the bricks zero.
+    let frags = vec![bytemuck::Zeroable::zeroed(); capacity as usize];
+    let mut case = svo::case_replayed(
+        ctx,
+        o.depth,
+        o.capacity_tiles,
+        &frags,
+        None,
+        false,
+        "render".into(),
+        0,
+    );
+    case.passes.retain(|p| svo::phase_of(&p.entry) != "build");
+    for (name, b) in &volume.built.structure {
+        case.resources.insert(name.clone(), buf(b.clone()));
+    }
+    let names: Vec<String> = case.resources.keys().cloned().collect();
+    for n in names {
+        case.rename_resource(&n, &format!("octree_{n}"), false);
+    }
+    chain.add(&svo::DECL, "sparse_voxel_octree", case)?;
+    // svo_cone_trace's `SvoParams::inv_scale`.
+    chain.copies.push(ChainCopy {
+        after: scaled,
+        src_range: Some(4..8),
+        src: "svo_scale".into(),
+        dst: "svo".into(),
+        offset: std::mem::offset_of!(vxgi_cpu_mirror::svo_cone_trace::SvoParams, inv_scale) as u64,
+    });
+    // The directional values, a pass per level (depth - 1 first), into the cone pass's pool.
+    if let Some(a) = &volume.aniso {
+        use crate::kernels::svo_anisotropic as sa;
+        let (lo, hi) = sa::split_pool(&vec![[0.0f32; 4]; a.len()], sa::POOL_WINDOW);
+        let mut res = Resources::new();
+        for (name, part) in [("aniso", lo), ("aniso_hi", hi)] {
+            res.insert(
+                name.to_string(),
+                buf(HostBuffer::f32(bytemuck::cast_slice(&part))),
+            );
+        }
+        let shader = sa::DECL.shader()?;
+        let mut passes = Vec::new();
+        for p in aniso_passes(o.depth, &o.levels, 1.0 / volume.scale) {
+            let name = format!("aniso_params_{}", p.level);
+            res.insert(name.clone(), buf(HostBuffer::pod(&p)));
+            let bindings = sa::DECL
+                .bind_by_name()
+                .into_iter()
+                .map(|(b, v)| {
+                    let to = match b.as_str() {
+                        "params" => name.clone(),
+                        "nodes" => "octree_nodes".into(),
+                        "bricks" => "octree_bricks".into(),
+                        _ => return (b, v),
+                    };
+                    (b, crate::harness::run::View::Buffer(to))
+                })
+                .collect();
+            passes.push(sa::DECL.pass(
+                &shader,
+                ctx,
+                format!("level {}", p.level),
+                bindings,
+                p.nodes as u64 * 27,
+            ));
+            chain.copies.push(ChainCopy {
+                after: scaled,
+                src_range: Some(4..8),
+                src: "svo_scale".into(),
+                dst: name,
+                offset: std::mem::offset_of!(AnisoParams, inv_scale) as u64,
+            });
+        }
+        chain.merge(sa::DECL.name, res)?;
+        chain.push_as(shader, sa::DECL.name, "svo_anisotropic", passes);
+    }
+    Ok(())
 }
 
 /// What vct-svo's stages hand each other in a frame stage by stage ([`super::host`]).
