@@ -5,17 +5,21 @@
 //! [`Resident`] draws every pipeline's frames from its chain ([`crate::pipeline`]), the verified
 //! kernels on the inputs their cases define; cprc's cache stages are dispatched from the cache
 //! count the GPU found, in buffers sized for the most caches a frame can place
-//! (`crate::pipeline::cache_room`). vct-svo's octree is
-//! built by its staged passes ([`crate::render::VctSvo`]) when the chain is built (their host steps between passes run then,
-//! once); its chain is the camera's stages over it. A chain is prepared once by the harness
+//! (`crate::pipeline::cache_room`). vct-svo's octree structure is built by its staged passes
+//! ([`crate::render::VctSvo`]) when the chain is built (their host steps between passes run then,
+//! once); its chain lights it (voxel_light or the photons, `svo_fragments`, the octree's value passes
+//! and directional values) and draws the camera's stages over it (with two bounces, instances or
+//! the photons' specular pool the staged passes light it too, and the chain is the camera's stages
+//! alone: `crate::pipeline::lights_in_chain`). A chain is prepared once by the harness
 //! (`prepare_chain`: every resource checked against reflection and the device limits, then created
 //! and uploaded). A frame whose geometry, materials, lights and settings equal the last one's (the
 //! camera may move) uploads the camera (one `Frame`, 80 bytes), records the G-buffer, direct light
 //! (lrsm with shadow cones: the gather's shadow pass), tile list and cone passes and submits once; the volume stays where the first frame built it. A
 //! frame whose lights moved (their number and, for lrsm, their number of light views unchanged) also
 //! uploads them (and lrsm's light views) and re-runs what the lights feed over the kept voxels:
-//! voxel_light and the mips (vct-dense), every view's RSM and LRSM (lrsm); vct-svo's octree values
-//! hold the light, so there moved lights rebuild. A frame that differs in the image size or in
+//! voxel_light and the mips (vct-dense), every view's RSM and LRSM (lrsm), the light injection
+//! and the octree's values over its kept structure (vct-svo, where the chain lights it; else moved
+//! lights rebuild its octree). A frame that differs in the image size or in
 //! settings builds a new chain; where that chain's volume passes are the kept chain's over the
 //! same inputs (the settings changed are read by the camera's stages alone: the cone count, AO,
 //! the image size), it binds the kept volume's buffers instead of computing the volume again (vct-svo
@@ -173,9 +177,14 @@ impl Key {
             Pipeline::VctDense => (PyramidKey::reading(scene, cones).unlit(), 0),
             // The octree's values hold the light: moved lights re-light it in the chain where the
             // chain lights it, else rebuild it.
-            Pipeline::VctSvo if crate::pipeline::lights_in_chain(scene) => {
-                (PyramidKey::of(scene).unlit(), 0)
-            }
+            Pipeline::VctSvo if crate::pipeline::lights_in_chain(scene) => (
+                PyramidKey::of(scene).unlit(),
+                if scene.render.photon_map > 0 {
+                    crate::plan::light_views(scene)
+                } else {
+                    0
+                },
+            ),
             Pipeline::VctSvo => (PyramidKey::of(scene), 0),
             // The caches' cones read every level.
             Pipeline::Cprc => (PyramidKey::of(scene).unlit(), 0),
@@ -222,6 +231,8 @@ struct Built<'c> {
     /// the mesh's bounds: what lrsm's light views are made from besides the lights.
     eps: f32,
     bounds: (glam::Vec3, glam::Vec3),
+    /// The chain's voxel grid (vct-svo's photons are placed in it).
+    voxels: crate::kernels::voxelize::VoxelFrame,
     /// (stage, its passes' range) in chain order; a stage of several kernels appears once per kernel.
     stages: Vec<(&'static str, std::ops::Range<usize>)>,
     /// Where the per-frame passes start (the camera's G-buffer) and where the chain ends.
@@ -935,6 +946,7 @@ impl<'c> Resident<'c> {
             volume_inputs,
             eps: data.frame.eye[3],
             bounds: data.bounds,
+            voxels: chain.frame,
             stages,
             per_frame: gbuffer..first,
             gbuffer_end,
@@ -1293,6 +1305,17 @@ fn light_inputs(pipeline: Pipeline, b: &Built, scene: &Scene) -> Result<Vec<(Str
         }
         let all: Vec<_> = views.iter().map(|v| v.view).collect();
         out.push(("views".into(), bytemuck::cast_slice(&all).to_vec()));
+    }
+    let map = scene.render.photon_map;
+    if pipeline == Pipeline::VctSvo && map > 0 {
+        use crate::kernels::svo_photons::params_for;
+        let views = crate::lrsm::light_views(&lights, b.bounds, map, b.eps)?;
+        for (v, view) in views.iter().enumerate() {
+            let (frame, params) = crate::pipeline::photon_view_names(v);
+            out.push((frame, bytemuck::bytes_of(&view.frame).to_vec()));
+            let p = params_for(view, &b.voxels);
+            out.push((params, bytemuck::bytes_of(&p).to_vec()));
+        }
     }
     Ok(out)
 }

@@ -1457,8 +1457,8 @@ fn resident_frames_relight_moved_instances_in_one_submission() {
 
 /// A light moved between resident frames: the kept voxels are re-lit (vct-dense and cprc:
 /// voxel_light and the mips over the kept grid; lrsm: every light view's RSM and LRSM over the kept occlusion
-/// voxels; vct-svo with voxel_light injection: voxel_light, the fragments and the octree's values
-/// and directional values over its kept structure; voxelize skipped), the image equals a full
+/// voxels; vct-svo: voxel_light or the photons, the fragments and the octree's values and
+/// directional values over its kept structure; voxelize skipped), the image equals a full
 /// rebuild's bit for bit, and the frame is still one submission that creates nothing and uploads
 /// only the camera, the lights and lrsm's views.
 #[test]
@@ -1467,19 +1467,25 @@ fn resident_frames_relight_the_kept_voxels_when_a_light_moves() {
     use vxgi::render::{Pipeline, Renderer};
     use vxgi::resident::Resident;
     use vxgi::scene::Light;
-    for (pipeline, kept) in [
-        (Pipeline::VctDense, vec!["voxelize"]),
-        (Pipeline::Lrsm, vec!["voxelize", "occlusion_voxels"]),
-        (Pipeline::Cprc, vec!["voxelize"]),
+    for (pipeline, photons, kept) in [
+        (Pipeline::VctDense, 0, vec!["voxelize"]),
+        (Pipeline::Lrsm, 0, vec!["voxelize", "occlusion_voxels"]),
+        (Pipeline::Cprc, 0, vec!["voxelize"]),
         (
             Pipeline::VctSvo,
+            0,
+            vec!["voxelize", "svo_lobes", "svo_bounce"],
+        ),
+        (
+            Pipeline::VctSvo,
+            64,
             vec!["voxelize", "svo_lobes", "svo_bounce"],
         ),
     ] {
         let mut scene = small(Scene::cornell_box(), 40, 40);
         scene.render.voxels = 32;
         scene.render.rsm_side = 32;
-        scene.render.photon_map = 0;
+        scene.render.photon_map = photons;
         let cones = ConeSettings::from(&scene.render);
         let mut resident = Resident::new(gpu(), pipeline).unwrap();
         resident.render(&scene, &cones).unwrap();
@@ -1799,31 +1805,49 @@ fn a_static_scene_gives_identical_consecutive_frames_in_every_pipeline() {
     }
 }
 
-/// vct-svo's resident frames keep the octree while only the camera moves; a moved light rebuilds
-/// it (its values hold the light), equal to a fresh renderer's frame bit for bit, and the plan says why.
+/// vct-svo's resident frames keep the octree while only the camera moves; a moved light re-lights
+/// it in the chain (photons, fragments, the octree's values over the kept structure; voxelize
+/// skipped) where the chain lights it, and rebuilds it with two bounces (the staged passes light
+/// it); either way equal to a fresh renderer's frame bit for bit, and the plan says which.
 #[test]
-fn resident_vct_svo_rebuilds_its_octree_when_a_light_moves() {
+fn resident_vct_svo_relights_or_rebuilds_its_octree_when_a_light_moves() {
     use vxgi::kernels::cone_trace::ConeSettings;
     use vxgi::render::{Pipeline, Renderer};
     use vxgi::resident::Resident;
     use vxgi::scene::Light;
-    let mut scene = small(Scene::cornell_box(), 32, 32);
-    scene.render.voxels = 32;
-    let cones = ConeSettings::from(&scene.render);
-    let mut resident = Resident::new(gpu(), Pipeline::VctSvo).unwrap();
-    resident.render(&scene, &cones).unwrap();
-    let mut moved = scene.clone();
-    let Light::Point { position, .. } = &mut moved.lights[0] else {
-        panic!("the Cornell box has a point light")
-    };
-    position[0] += 0.3;
-    let got = resident.render(&moved, &cones).unwrap();
-    let (want, _) = Renderer::new(Pipeline::VctSvo, false)
-        .render(gpu(), &moved, &cones, |_| {})
-        .unwrap();
-    assert!(want.direct == got.direct && want.indirect == got.indirect && want.ao == got.ao);
-    let plan = got.plan.to_string();
-    assert!(plan.contains("the lights moved"), "{plan}");
+    for bounces in [1, 2] {
+        let mut scene = small(Scene::cornell_box(), 32, 32);
+        scene.render.voxels = 32;
+        scene.render.bounces = bounces;
+        let cones = ConeSettings::from(&scene.render);
+        let mut resident = Resident::new(gpu(), Pipeline::VctSvo).unwrap();
+        resident.render(&scene, &cones).unwrap();
+        let mut moved = scene.clone();
+        let Light::Point { position, .. } = &mut moved.lights[0] else {
+            panic!("the Cornell box has a point light")
+        };
+        position[0] += 0.3;
+        let before = vxgi::harness::thread_counters();
+        let got = resident.render(&moved, &cones).unwrap();
+        let c = vxgi::harness::thread_counters().since(&before);
+        let (want, _) = Renderer::new(Pipeline::VctSvo, false)
+            .render(gpu(), &moved, &cones, |_| {})
+            .unwrap();
+        let at = format!("bounces {bounces}");
+        assert!(
+            want.direct == got.direct && want.indirect == got.indirect && want.ao == got.ao,
+            "{at}"
+        );
+        let plan = got.plan.to_string();
+        if bounces == 1 {
+            assert!(got.plan.skipped().contains(&"voxelize"), "{at}: {plan}");
+            assert!(got.plan.runs("svo_photons"), "{at}: {plan}");
+            assert_reused_frame(&at, &c);
+            assert_eq!(c.submissions, 1, "{at}: {c:?}");
+        } else {
+            assert!(plan.contains("the lights moved"), "{at}: {plan}");
+        }
+    }
 }
 
 /// The `accurate` preset's claims on the Cornell box against the converged reference
@@ -1894,7 +1918,12 @@ fn resident_memory_by_stage_adds_up_and_follows_the_declaration() {
                 assert!(of(&by, "voxelize") >= 32 * (side as u64).pow(3), "{at}");
             }
             if let Some(VolumeMemory::Octree(m)) = resident.memory() {
-                assert!(of(&by, "uploaded") >= m.bytes, "{at}");
+                // The structure uploaded; its values and directional values written in the chain.
+                let octree = ["uploaded", "sparse_voxel_octree", "svo_anisotropic"]
+                    .map(|s| of(&by, s))
+                    .iter()
+                    .sum::<u64>();
+                assert!(octree >= m.bytes, "{at}");
             }
             voxelize.push(of(&by, "voxelize"));
         }
@@ -2046,11 +2075,10 @@ fn the_cone_tracers_render_the_cornell_box_at_256_voxels() {
     }
 }
 
-/// vct-svo lit in the chain (voxel_light injection: the fixed-point scale, the fragments, the
-/// octree's values and directional values on the GPU over the staged build's structure) draws the
-/// frame the staged passes draw with their host steps between them (`bisect`'s all-GPU split), bit
-/// for bit, on the Cornell box and the glossy thin wall; with photons the chain binds the staged
-/// octree as before.
+/// vct-svo lit in the chain (voxel_light or photon injection, the fixed-point scale, the fragments,
+/// the octree's values and directional values on the GPU over the staged build's structure) draws
+/// the frame the staged passes draw with their host steps between them (`bisect`'s all-GPU split),
+/// bit for bit, on the Cornell box and the glossy thin wall.
 #[test]
 fn vct_svo_lit_in_the_chain_is_the_staged_frame() {
     use vxgi::kernels::cone_trace::ConeSettings;

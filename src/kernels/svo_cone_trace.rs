@@ -56,27 +56,47 @@ pub const SCALE: f32 = 65536.0;
 ///
 /// The bound, in the build's terms (the mirror's module doc): a point's value after splat and border
 /// transfer is the sum of the fragments at that point, each rounded to the fixed point, so at most
-/// `peak` (the largest such sum over points and channels) times the scale plus n / 2 for its n
-/// fragments; a parent point's share before its rounding is the [1 2 1]^3 weighted sum of child
-/// points (weights 64 in all), so at most 64 times a child's value plus 1 for the level's rounding
-/// up; after `(S + 32) >> 6` it is again at most a child's. So
-/// 64 (bounces (peak scale + n / 2) + 1) <= u32::MAX suffices for one bounce. For two, and where the
-/// scale would leave f32's normal range, the build's own overflow check still reports an overflow.
+/// `peak scale + n / 2` for its n fragments above 0, `peak` bounding every per-point channel sum; a
+/// parent point's share before its rounding is the [1 2 1]^3 weighted sum of child points (weights
+/// 64 in all), so at most 64 times a child's value plus 1 for the level's rounding up; after
+/// `(S + 32) >> 6` it is again at most a child's. So
+/// 64 (bounces (peak scale + most / 2) + 1) <= u32::MAX suffices for one bounce, `most` the largest
+/// n. For two, and where the scale would leave f32's normal range, the build's own overflow check
+/// still reports an overflow.
+///
+/// `peak`: per lattice point and channel, n values above 0 (negatives, -0 and NaN count as 0, and a
+/// 0 rounds to 0 exactly) whose largest is m, so that channel's sum there is at most n m and its
+/// rounding adds at most n / 2; `peak` is the largest over points and channels of n m rounded up to
+/// an f32 (`svo_fragments::point_bound`, +inf past f32::MAX), `most` the largest n. A bound, not the
+/// sums themselves, because the GPU finds the same scale (kernels/svo_fragments.wgsl) and must
+/// reproduce it bit for bit: it has no f64 and no float atomics and adds in any order, while counts,
+/// maxima on the bits of non-negative floats and this one product are exact in integer arithmetic.
+/// Rounded up, not to nearest: the nearest f32 can lie half an ULP below n m, up to 2 units of the
+/// fixed point near the limit (peak scale about 2^26), more than the fit test's slack (its `+ 1` and
+/// the sums being integers leave about 1). Per channel, not per point: a point's coverage is one
+/// voxel's alpha (up to 1) where thousands of photons may each bring a little light, and the point's
+/// largest value times its count would cut the scale by as many halvings where the light's own
+/// bound leaves it. Where every point holds one value (voxel_light's fragments) the product is the
+/// value itself and the scale the one of the exact sums.
 pub fn fixed_scale(values: impl Iterator<Item = ([u32; 3], [f32; 4])>, bounces: u32) -> f32 {
-    // Per lattice point: the channel sums and the number of fragments.
-    let mut sums: std::collections::HashMap<[u32; 3], ([f64; 4], f64)> = Default::default();
+    use vxgi_cpu_mirror::svo_fragments::{clamped_bits, point_bound};
+    // Per lattice point and channel: the number of values above 0 and the largest one's bits.
+    let mut points: std::collections::HashMap<[u32; 3], [(u32, u32); 4]> = Default::default();
     for (p, v) in values {
-        let (s, n) = sums.entry(p).or_default();
-        for c in 0..4 {
-            s[c] += v[c].max(0.0) as f64;
+        let e = points.entry(p).or_default();
+        for (c, x) in v.into_iter().enumerate() {
+            let k = clamped_bits(x);
+            if k != 0 {
+                e[c] = (e[c].0 + 1, e[c].1.max(k));
+            }
         }
-        *n += 1.0;
     }
-    let peak = sums
-        .values()
-        .flat_map(|(s, _)| s.iter().copied())
+    let channels = points.values().flatten();
+    let peak = channels
+        .clone()
+        .map(|&(n, m)| f32::from_bits(point_bound(n, m)) as f64)
         .fold(0.0f64, f64::max);
-    let most = sums.values().map(|(_, n)| *n).fold(0.0f64, f64::max);
+    let most = channels.map(|&(n, _)| n).max().unwrap_or(0) as f64;
     let b = bounces.max(1) as f64;
     let fits = |scale: f64| 64.0 * (b * (peak * scale + most / 2.0) + 1.0) <= u32::MAX as f64;
     let mut scale = SCALE as f64;

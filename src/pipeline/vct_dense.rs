@@ -200,6 +200,23 @@ pub(crate) fn cone_trace_plan(i: &PlanInputs) -> Vec<PlannedPass> {
     )]
 }
 
+/// A chain of voxelize alone (stage `voxelize`): the scene's voxel grid (`vox_colour`,
+/// `vox_normal`, ...) and the GPU's list of its non-empty voxels (`list`, `list_count`).
+pub(crate) fn voxel_chain(ctx: &crate::harness::GpuContext, scene: &Scene) -> Result<Chain> {
+    let side = scene.render.voxels;
+    let (input, vframe) = voxelize::prepare(scene, side)?;
+    let mut vox = voxelize::case_for(ctx, &input, side, "render".into(), 0)?;
+    vox.rename_resource("params", "vox_params", false);
+    let mut chain = Chain {
+        resources: vox.resources,
+        stages: Vec::new(),
+        copies: Vec::new(),
+        frame: vframe,
+    };
+    chain.push(voxelize::DECL.shader()?, voxelize::DECL.name, vox.passes);
+    Ok(chain)
+}
+
 /// The voxels lit in a chain: voxelize (stage `voxelize`) and voxel_light over every entry the
 /// GPU's list could hold (stage `voxel_light`), its radiance in `vox_radiance`; the grid's frame.
 pub(crate) fn lit_voxel_chain(
@@ -212,9 +229,8 @@ pub(crate) fn lit_voxel_chain(
     let side = scene.render.voxels;
     let v = (side as u64).pow(3);
     let max = ctx.limits().max_compute_workgroups_per_dimension;
-    let (input, vframe) = voxelize::prepare(scene, side)?;
-    let mut vox = voxelize::case_for(ctx, &input, side, "render".into(), 0)?;
-    vox.rename_resource("params", "vox_params", false);
+    let mut chain = voxel_chain(ctx, scene)?;
+    let vframe = chain.frame;
     // voxel_light over every entry the list could hold: the kernel stops at the GPU's count.
     let mut light_res = crate::kernels::gbuffer::scene_resources(data);
     light_res.remove("frame");
@@ -243,15 +259,7 @@ pub(crate) fn lit_voxel_chain(
         &mut light_res,
         voxel_light::window_voxels(side, ctx.limits().max_storage_buffer_binding_size),
     );
-    let mut resources = vox.resources;
-    resources.extend(light_res);
-    let mut chain = Chain {
-        resources,
-        stages: Vec::new(),
-        copies: Vec::new(),
-        frame: vframe,
-    };
-    chain.push(voxelize::DECL.shader()?, voxelize::DECL.name, vox.passes);
+    chain.resources.extend(light_res);
     chain.push(
         voxel_light::DECL.shader()?,
         voxel_light::DECL.name,

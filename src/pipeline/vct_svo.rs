@@ -201,12 +201,15 @@ fn svo_cone_trace_plan(i: &PlanInputs) -> Vec<PlannedPass> {
 
 /// Whether `scene`'s frames light vct-svo's octree in the chain: voxel_light, the fragments
 /// (`svo_fragments`: the fixed-point scale and the fragments, on the GPU), the octree's value
-/// passes and its directional values, over the structure the staged build made. Moved lights then
-/// re-light it in the frame's one submission. Photon injection, a second bounce and instances still
-/// build the octree's values with the staged passes (host steps between them).
+/// passes and its directional values, over the structure the staged build made; with photon
+/// injection the photons too (svo_photons per light view). Moved lights then re-light it in the
+/// frame's one submission. A second bounce, instances and the glossy photons' specular pool (photons
+/// with Gaussian lobes) still build the octree's values with the staged passes (host steps between
+/// them).
 pub(crate) fn lights_in_chain(scene: &Scene) -> bool {
     let r = &scene.render;
-    r.photon_map == 0 && r.bounces == 1 && scene.instances.list.is_empty()
+    let specular_pool = r.photon_map > 0 && r.voxel_lobes;
+    !specular_pool && r.bounces == 1 && scene.instances.list.is_empty()
 }
 
 /// vct-svo's chain over an octree built already (`volume`, by [`crate::render::VctSvo`]'s GPU
@@ -237,8 +240,17 @@ pub(crate) fn svo_chain(
     let mut octree = std::borrow::Cow::Borrowed(&volume.built.octree);
     let mut aniso = volume.aniso.as_deref().map(std::borrow::Cow::Borrowed);
     if in_chain {
-        chain = lit_voxel_chain(ctx, scene, data)?.0;
-        light_octree(ctx, &mut chain, volume)?;
+        let photons = match scene.render.photon_map {
+            0 => {
+                chain = lit_voxel_chain(ctx, scene, data)?.0;
+                None
+            }
+            map => {
+                chain = voxel_chain(ctx, scene)?;
+                Some(photon_passes(ctx, &mut chain, data, map)?)
+            }
+        };
+        light_octree(ctx, &mut chain, volume, scene.render.bounces, photons)?;
         octree.to_mut().bricks.fill(0);
         if let Some(a) = &mut aniso {
             a.to_mut().fill([0.0; 4]);
@@ -290,6 +302,86 @@ pub(crate) fn svo_chain(
     Ok(chain)
 }
 
+/// The names of light view `v`'s G-buffer frame and photon parameters in vct-svo's chain: what a
+/// frame whose lights moved writes again.
+pub(crate) fn photon_view_names(v: usize) -> (String, String) {
+    (format!("photon_frame_{v}"), format!("photon_params_{v}"))
+}
+
+/// Photon injection in `chain` (stage `svo_photons`): per light view of `data`'s lights, the
+/// G-buffer ray-cast from the light (`map`^2 texels, one set of view buffers every view reuses) and
+/// svo_photons over it, its photons copied into `photon_pos`, `photon_value` and `photon_spec` at
+/// the view's offset. The photon texels in all.
+fn photon_passes(
+    ctx: &crate::harness::GpuContext,
+    chain: &mut Chain,
+    data: &SceneData,
+    map: u32,
+) -> Result<u32> {
+    use crate::harness::{HostBuffer, ScalarKind};
+    use crate::kernels::gbuffer;
+    const STAGE: &str = "svo_photons";
+    let views = crate::lrsm::light_views(&data.lights, data.bounds, map, data.frame.eye[3])?;
+    let per_view = map as usize * map as usize;
+    let texels = per_view * views.len();
+    let shader = svo_photons::DECL.shader()?;
+    let view_gb = |n: &str| format!("photon_{n}");
+    for (v, view) in views.iter().enumerate() {
+        let (frame_name, params_name) = photon_view_names(v);
+        let mut d = data.clone();
+        d.frame = view.frame;
+        let mut g = gbuffer::case_for(&d, "light view".into(), 0);
+        g.rename_resource("frame", &frame_name, false);
+        for n in ["gb_position", "gb_normal", "gb_triangle", "gb_albedo"] {
+            g.rename_resource(n, &view_gb(n), false);
+        }
+        let zero_gb: Resources = ["gb_position", "gb_normal", "gb_triangle", "gb_albedo"]
+            .into_iter()
+            .map(|n| (n.to_string(), g.resources[&view_gb(n)].clone()))
+            .collect();
+        chain.add(&gbuffer::DECL, STAGE, g)?;
+        let params = svo_photons::params_for(view, &chain.frame);
+        let mut p = svo_photons::case_for(
+            &shader,
+            ctx,
+            data,
+            &data.lights,
+            &params,
+            &zero_gb,
+            "render".into(),
+            0,
+        );
+        p.rename_resource("params", &params_name, false);
+        for n in ["gb_position", "gb_normal", "gb_triangle", "gb_albedo"] {
+            p.rename_resource(n, &view_gb(n), false);
+        }
+        for n in ["photon_pos", "photon_value", "photon_spec"] {
+            p.rename_resource(n, &format!("view_{n}"), false);
+        }
+        chain.add(&svo_photons::DECL, STAGE, p)?;
+        for n in ["photon_pos", "photon_value", "photon_spec"] {
+            chain.copies.push(ChainCopy {
+                src_range: None,
+                after: chain.pass_count(),
+                src: format!("view_{n}"),
+                dst: n.into(),
+                offset: (v * per_view * 16) as u64,
+            });
+        }
+    }
+    for (n, kind) in [
+        ("photon_pos", ScalarKind::U32),
+        ("photon_value", ScalarKind::F32),
+        ("photon_spec", ScalarKind::F32),
+    ] {
+        chain.resources.insert(
+            n.into(),
+            HostResource::Buffer(HostBuffer::zeroed(texels.max(1) * 16, kind)),
+        );
+    }
+    Ok(texels as u32)
+}
+
 /// The octree lit in `chain` after its voxel_light: `svo_fragments` (the frame's fixed-point scale
 /// and one fragment per listed voxel, from `vox_radiance`), the octree's value passes (splat,
 /// border transfer, distribution) over the structure `volume` kept (its buffers `octree_*`, the
@@ -299,6 +391,8 @@ fn light_octree(
     ctx: &crate::harness::GpuContext,
     chain: &mut Chain,
     volume: &crate::render::SvoCache,
+    bounces: u32,
+    photons: Option<u32>,
 ) -> Result<()> {
     use crate::harness::run::{grid_for, Workgroups};
     use crate::harness::{HostBuffer, ScalarKind};
@@ -306,66 +400,106 @@ fn light_octree(
     use vxgi_cpu_mirror::svo_anisotropic::{passes as aniso_passes, AnisoParams};
     let o = &volume.built.octree;
     let capacity = volume.listed.max(1);
+    let texels = photons.unwrap_or(0);
+    let side = chain.frame.side;
     let max = ctx.limits().max_compute_workgroups_per_dimension;
     let buf = |b: HostBuffer| HostResource::Buffer(b);
-    // The fragments: one per listed voxel, in the octree's fixed point (one fragment per lattice
-    // point: `most` = 1).
+    let zeroed = |bytes: usize, kind| buf(HostBuffer::zeroed(bytes.max(16), kind));
+    // The fragments: one per listed voxel (with photons its coverage alone, then one per photon
+    // texel), in the octree's fixed point. Voxel light holds one value per lattice point (`most` =
+    // 1, the threshold known here); with photons the lattice's counts give the threshold.
     let fparams = sf::FragmentParams {
         capacity,
-        coverage_only: 0,
-        threshold: vxgi_cpu_mirror::svo_fragments::threshold(1, 1),
+        coverage_only: photons.is_some() as u32,
+        threshold: vxgi_cpu_mirror::svo_fragments::threshold(bounces, 1),
         _pad: 0,
+    };
+    let lattice = sf::LatticeParams {
+        side,
+        photons: texels,
+        bounces,
+        _pad: 0,
+    };
+    let points = if photons.is_some() {
+        4 * (side as usize + 1).pow(3)
+    } else {
+        0
     };
     let mut res = Resources::new();
     res.insert("fragment_params".into(), buf(HostBuffer::pod(&fparams)));
+    res.insert("lattice_params".into(), buf(HostBuffer::pod(&lattice)));
     res.insert(
         "scale_state".into(),
-        buf(HostBuffer::zeroed(sf::STATE_WORDS * 4, ScalarKind::U32)),
+        zeroed(sf::STATE_WORDS * 4, ScalarKind::U32),
     );
-    res.insert(
-        "svo_scale".into(),
-        buf(HostBuffer::zeroed(8, ScalarKind::F32)),
-    );
+    res.insert("svo_scale".into(), zeroed(8, ScalarKind::F32));
     res.insert(
         "octree_fragments".into(),
-        buf(HostBuffer::zeroed(capacity as usize * 32, ScalarKind::U32)),
+        zeroed((capacity + texels) as usize * 32, ScalarKind::U32),
     );
+    for n in ["point_count", "point_max"] {
+        res.insert(n.into(), zeroed(points * 4, ScalarKind::U32));
+    }
+    if photons.is_none() {
+        for (n, kind) in [
+            ("photon_pos", ScalarKind::U32),
+            ("photon_value", ScalarKind::F32),
+            ("photon_spec", ScalarKind::F32),
+        ] {
+            res.insert(n.into(), zeroed(16, kind));
+        }
+    }
     chain.merge(sf::DECL.name, res)?;
     let shader = sf::DECL.shader()?;
-    let bindings = |entry: &str| -> Vec<(String, crate::harness::run::View)> {
-        let _ = entry;
-        sf::DECL
-            .bind_by_name()
-            .into_iter()
-            .map(|(b, v)| {
-                let to = match b.as_str() {
-                    "params" => "fragment_params",
-                    "fragments" => "octree_fragments",
-                    _ => return (b, v),
-                };
-                (b, crate::harness::run::View::Buffer(to.into()))
-            })
-            .collect()
+    // With photons the voxels' coverage alone: the colour grid read as `vox_radiance`.
+    let grid = if photons.is_some() {
+        "vox_colour"
+    } else {
+        "vox_radiance"
     };
-    let each = Workgroups::Direct(grid_for(capacity as u64, 64, max));
+    let bindings: Vec<(String, crate::harness::run::View)> = sf::DECL
+        .bind_by_name()
+        .into_iter()
+        .map(|(b, v)| {
+            let to = match b.as_str() {
+                "params" => "fragment_params",
+                "fragments" => "octree_fragments",
+                "vox_radiance" => grid,
+                _ => return (b, v),
+            };
+            (b, crate::harness::run::View::Buffer(to.into()))
+        })
+        .collect();
+    let over = |n: u64| Workgroups::Direct(grid_for(n.max(1), 64, max));
     let one = Workgroups::Direct([1, 1, 1]);
-    let passes = [
-        ("peak", each.clone()),
-        ("scale", one),
-        ("write_fragments", each),
-    ]
-    .into_iter()
-    .map(|(entry, workgroups)| Pass {
-        label: format!("svo_fragments {entry}"),
-        entry: entry.into(),
-        bindings: bindings(entry),
-        workgroups,
-    })
-    .collect();
+    let entries = match photons {
+        None => vec![
+            ("peak", over(capacity as u64)),
+            ("scale", one),
+            ("write_fragments", over(capacity as u64)),
+        ],
+        Some(t) => vec![
+            ("voxel_points", over(capacity as u64)),
+            ("photon_points", over(t as u64)),
+            ("lattice_peak", over(points as u64)),
+            ("lattice_scale", one),
+            ("write_fragments", over(capacity as u64)),
+            ("write_photon_fragments", over(t as u64)),
+        ],
+    };
+    let passes = entries
+        .into_iter()
+        .map(|(entry, workgroups)| Pass {
+            label: format!("svo_fragments {entry}"),
+            entry: entry.into(),
+            bindings: bindings.clone(),
+            workgroups,
+        })
+        .collect();
     chain.push_as(shader, sf::DECL.name, "sparse_voxel_octree", passes);
     let scaled = chain.pass_count();
-    // The octree's value passes over the kept structure: `capacity` fragments, the bricks zero.
-    let frags = vec![bytemuck::Zeroable::zeroed(); capacity as usize];
+    // The octree's value passes over the kept structure: every fragment slot, the bricks zero.
+    let frags = vec![bytemuck::Zeroable::zeroed(); (capacity + texels) as usize];
     let mut case = svo::case_replayed(
         ctx,
         o.depth,
