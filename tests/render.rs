@@ -1455,6 +1455,37 @@ fn resident_frames_relight_moved_instances_in_one_submission() {
     }
 }
 
+/// `scene`'s frame, then its first (point) light moved by 0.3 in x, by one resident renderer: (a
+/// fresh renderer's frame of the moved light, the resident one's, what the resident frame counted).
+fn relit_frame(
+    pipeline: vxgi::render::Pipeline,
+    scene: &Scene,
+) -> (
+    vxgi::render::Rendered,
+    vxgi::render::Rendered,
+    vxgi::harness::Counters,
+) {
+    use vxgi::kernels::cone_trace::ConeSettings;
+    use vxgi::render::Renderer;
+    use vxgi::resident::Resident;
+    use vxgi::scene::Light;
+    let cones = ConeSettings::from(&scene.render);
+    let mut resident = Resident::new(gpu(), pipeline).unwrap();
+    resident.render(scene, &cones).unwrap();
+    let mut moved = scene.clone();
+    let Light::Point { position, .. } = &mut moved.lights[0] else {
+        panic!("the Cornell box has a point light")
+    };
+    position[0] += 0.3;
+    let before = vxgi::harness::thread_counters();
+    let got = resident.render(&moved, &cones).unwrap();
+    let c = vxgi::harness::thread_counters().since(&before);
+    let (want, _) = Renderer::new(pipeline, false)
+        .render(gpu(), &moved, &cones, |_| {})
+        .unwrap();
+    (want, got, c)
+}
+
 /// A light moved between resident frames: the kept voxels are re-lit (vct-dense and cprc:
 /// voxel_light and the mips over the kept grid; lrsm: every light view's RSM and LRSM over the kept occlusion
 /// voxels; vct-svo: voxel_light or the photons, the fragments and the octree's values and
@@ -1463,10 +1494,7 @@ fn resident_frames_relight_moved_instances_in_one_submission() {
 /// only the camera, the lights and lrsm's views.
 #[test]
 fn resident_frames_relight_the_kept_voxels_when_a_light_moves() {
-    use vxgi::kernels::cone_trace::ConeSettings;
-    use vxgi::render::{Pipeline, Renderer};
-    use vxgi::resident::Resident;
-    use vxgi::scene::Light;
+    use vxgi::render::Pipeline;
     for (pipeline, photons, kept) in [
         (Pipeline::VctDense, 0, vec!["voxelize"]),
         (Pipeline::Lrsm, 0, vec!["voxelize", "occlusion_voxels"]),
@@ -1486,20 +1514,7 @@ fn resident_frames_relight_the_kept_voxels_when_a_light_moves() {
         scene.render.voxels = 32;
         scene.render.rsm_side = 32;
         scene.render.photon_map = photons;
-        let cones = ConeSettings::from(&scene.render);
-        let mut resident = Resident::new(gpu(), pipeline).unwrap();
-        resident.render(&scene, &cones).unwrap();
-        let mut moved = scene.clone();
-        let Light::Point { position, .. } = &mut moved.lights[0] else {
-            panic!("the Cornell box has a point light")
-        };
-        position[0] += 0.3;
-        let before = vxgi::harness::thread_counters();
-        let got = resident.render(&moved, &cones).unwrap();
-        let c = vxgi::harness::thread_counters().since(&before);
-        let (want, _) = Renderer::new(pipeline, false)
-            .render(gpu(), &moved, &cones, |_| {})
-            .unwrap();
+        let (want, got, c) = relit_frame(pipeline, &scene);
         if pipeline == Pipeline::Cprc {
             assert!(want.direct == got.direct && want.ao == got.ao);
             let flip = fresh_vs_resident(&want, &got);
@@ -1811,28 +1826,12 @@ fn a_static_scene_gives_identical_consecutive_frames_in_every_pipeline() {
 /// it); either way equal to a fresh renderer's frame bit for bit, and the plan says which.
 #[test]
 fn resident_vct_svo_relights_or_rebuilds_its_octree_when_a_light_moves() {
-    use vxgi::kernels::cone_trace::ConeSettings;
-    use vxgi::render::{Pipeline, Renderer};
-    use vxgi::resident::Resident;
-    use vxgi::scene::Light;
+    use vxgi::render::Pipeline;
     for bounces in [1, 2] {
         let mut scene = small(Scene::cornell_box(), 32, 32);
         scene.render.voxels = 32;
         scene.render.bounces = bounces;
-        let cones = ConeSettings::from(&scene.render);
-        let mut resident = Resident::new(gpu(), Pipeline::VctSvo).unwrap();
-        resident.render(&scene, &cones).unwrap();
-        let mut moved = scene.clone();
-        let Light::Point { position, .. } = &mut moved.lights[0] else {
-            panic!("the Cornell box has a point light")
-        };
-        position[0] += 0.3;
-        let before = vxgi::harness::thread_counters();
-        let got = resident.render(&moved, &cones).unwrap();
-        let c = vxgi::harness::thread_counters().since(&before);
-        let (want, _) = Renderer::new(Pipeline::VctSvo, false)
-            .render(gpu(), &moved, &cones, |_| {})
-            .unwrap();
+        let (want, got, c) = relit_frame(Pipeline::VctSvo, &scene);
         let at = format!("bounces {bounces}");
         assert!(
             want.direct == got.direct && want.indirect == got.indirect && want.ao == got.ao,
