@@ -203,14 +203,23 @@ fn svo_cone_trace_plan(i: &PlanInputs) -> Vec<PlannedPass> {
 /// (`svo_fragments`: the fixed-point scale and the fragments, on the GPU), the octree's value
 /// passes and its directional values, over the structure the staged build made; with photon
 /// injection the photons too (svo_photons per light view). Moved lights then re-light it in the
-/// frame's one submission. A second bounce, instances and the glossy photons' specular pool (photons
-/// with Gaussian lobes) still build the octree's values with the staged passes (host steps between
-/// them).
+/// frame's one submission. A second bounce, instances, the glossy photons' specular pool (photons
+/// with Gaussian lobes) and grids past [`LIT_IN_CHAIN_VOXELS`] still build the octree's values with
+/// the staged passes (host steps between them).
 pub(crate) fn lights_in_chain(scene: &Scene) -> bool {
     let r = &scene.render;
     let specular_pool = r.photon_map > 0 && r.voxel_lobes;
-    !specular_pool && r.bounces == 1 && scene.instances.list.is_empty()
+    // svo_fragments binds the voxel grid (16 bytes a voxel) and the lattice's counts and largest
+    // values (16 bytes a lattice point each) whole: up to 128^3 they fit WebGPU's default 128 MiB
+    // storage binding, at 256^3 they do not.
+    !specular_pool
+        && r.bounces == 1
+        && scene.instances.list.is_empty()
+        && r.voxels <= LIT_IN_CHAIN_VOXELS
 }
+
+/// The largest grid side whose octree [`lights_in_chain`] lights.
+pub const LIT_IN_CHAIN_VOXELS: u32 = 128;
 
 /// vct-svo's chain over an octree built already (`volume`, by [`crate::render::VctSvo`]'s GPU
 /// passes with the host steps between them). Where [`lights_in_chain`]: voxelize, voxel_light, the
