@@ -865,6 +865,11 @@ impl VctSvo {
             scene.render.bounces,
         );
         let mut frags = svo_cone_trace::grid_fragments(&rad, scale)?;
+        // Lit in the resident chain, the structure is the voxels' alone: the chain keeps it while
+        // the lights move, so it must not depend on where the photons of this light landed (a
+        // photon at a point the voxels lack adds nothing there, whichever light cast it).
+        let voxels_only =
+            (photons.is_some() && crate::pipeline::lights_in_chain(scene)).then(|| frags.clone());
         // With the lobes, the glossy surfaces' specular photons (their points join the structure).
         let mut spec_frags = Vec::new();
         if let Some(photons) = &photons {
@@ -889,7 +894,7 @@ impl VctSvo {
             svo::build_on_gpu_replayed(ctx, depth, frags, None, statics)
                 .context("sparse voxel octree")
         };
-        let built = build(&frags)?;
+        let built = build(voxels_only.as_deref().unwrap_or(&frags))?;
         stages.push(("sparse_voxel_octree", t.elapsed().as_secs_f64()));
         let directional = |built: &svo::GpuOctree, stages: &mut Stages| -> Result<_> {
             if !plan.runs("svo_anisotropic") {

@@ -37,8 +37,9 @@ use crate::trace::SceneData;
 use anyhow::{Context, Result};
 
 /// What shapes the resident resources: a frame with other values rebuilds them. The lights are not
-/// part of it (only their number, and lrsm's number of light views): a frame whose lights moved
-/// re-lights the kept voxels.
+/// part of it (only their number, and lrsm's and vct-svo's photons' number of light views): a frame
+/// whose lights moved re-lights the kept voxels (vct-svo's octree where its chain lights it; else
+/// its lights are part of the volume's key).
 #[derive(Clone, Debug, PartialEq)]
 struct Key {
     volume: PyramidKey,
@@ -551,8 +552,8 @@ impl<'c> Resident<'c> {
             // volume where it can; any other change frees it first.
             let old = self.built.take().filter(|b| b.key.may_keep_volume(&key));
             let (built, took) = self.build(scene, cones, key, old.as_ref())?;
-            // vct-svo's chain has no volume passes: its octree is kept where the staged passes
-            // found it built for this scene already.
+            // A vct-svo chain the staged passes lit has no volume passes: its octree is kept where
+            // they found it built for this scene already.
             self.kept_volume = took && built.build_stages.is_empty();
             drop(old);
             self.built = Some(built);
@@ -832,9 +833,11 @@ impl<'c> Resident<'c> {
                 (chain, Some(VolumeMemory::Lrsm(memory)), direct)
             }
             Pipeline::VctSvo => {
-                // The octree by the staged passes (their host steps run once, here); a frame then
-                // records only the camera's stages over it. Moved lights rebuild (the key holds them);
-                // an octree already built for this scene is uploaded again, not built.
+                // The octree's structure by the staged passes (their host steps run once, here);
+                // the chain lights it where `lights_in_chain` (moved lights re-run that), else
+                // binds the staged octree and records only the camera's stages over it (moved
+                // lights rebuild: the key holds them). An octree already built for this scene is
+                // uploaded again, not built.
                 let (volume, built) = self.svo.volume(self.ctx, scene, cones)?;
                 build_stages = built;
                 let chain = crate::pipeline::svo_chain(self.ctx, scene, &data, cones, volume)?;
@@ -881,8 +884,8 @@ impl<'c> Resident<'c> {
                 .iter()
                 .find(|s| s.stage == crate::kernels::gbuffer::DECL.name)
                 .map_or(0, |s| s.passes.len());
-        // Moved lights re-run the volume from its first stage the lights feed (vct-svo's chain has
-        // none: its octree, built outside the chain, is rebuilt).
+        // Moved lights re-run the volume from its first stage the lights feed (a vct-svo chain the
+        // staged passes lit has none: its octree, built outside the chain, is rebuilt).
         let relight = start_of(Reuse::Lights).unwrap_or(gbuffer);
         // What the camera's passes also write starts each reused frame as a fresh chain has it
         // (cleared or restored), so a new chain keeps its own.

@@ -1821,18 +1821,23 @@ fn a_static_scene_gives_identical_consecutive_frames_in_every_pipeline() {
 }
 
 /// vct-svo's resident frames keep the octree while only the camera moves; a moved light re-lights
-/// it in the chain (photons, fragments, the octree's values over the kept structure; voxelize
-/// skipped) where the chain lights it, and rebuilds it with two bounces (the staged passes light
-/// it); either way equal to a fresh renderer's frame bit for bit, and the plan says which.
+/// it in the chain (photons or voxel_light, fragments, the octree's values over the kept structure;
+/// voxelize skipped) where the chain lights it, and rebuilds it with two bounces (the staged passes
+/// light it); either way equal to a fresh renderer's frame bit for bit, and the plan says which.
 #[test]
 fn resident_vct_svo_relights_or_rebuilds_its_octree_when_a_light_moves() {
     use vxgi::render::Pipeline;
-    for bounces in [1, 2] {
+    // (bounces, Gaussian lobes with voxel_light injection: the normal pool kept from the build).
+    for (bounces, lobes) in [(1, false), (2, false), (1, true)] {
         let mut scene = small(Scene::cornell_box(), 32, 32);
         scene.render.voxels = 32;
         scene.render.bounces = bounces;
+        if lobes {
+            scene.render.voxel_lobes = true;
+            scene.render.photon_map = 0;
+        }
         let (want, got, c) = relit_frame(Pipeline::VctSvo, &scene);
-        let at = format!("bounces {bounces}");
+        let at = format!("bounces {bounces}, lobes {lobes}");
         assert!(
             want.direct == got.direct && want.indirect == got.indirect && want.ao == got.ao,
             "{at}"
@@ -1840,7 +1845,7 @@ fn resident_vct_svo_relights_or_rebuilds_its_octree_when_a_light_moves() {
         let plan = got.plan.to_string();
         if bounces == 1 {
             assert!(got.plan.skipped().contains(&"voxelize"), "{at}: {plan}");
-            assert!(got.plan.runs("svo_photons"), "{at}: {plan}");
+            assert_eq!(got.plan.runs("svo_photons"), !lobes, "{at}: {plan}");
             assert_reused_frame(&at, &c);
             assert_eq!(c.submissions, 1, "{at}: {c:?}");
         } else {

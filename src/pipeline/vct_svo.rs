@@ -1,5 +1,6 @@
 //! vct-svo (Crassin et al. 2011: the sparse voxel octree): its declaration, the plan's rules for its
-//! stages, and its per-frame chain over an octree built already.
+//! stages, and its chain over an octree structure built already (lighting it where
+//! [`lights_in_chain`]).
 use super::host::{HostFrame, Side};
 use super::*;
 use crate::kernels::{sparse_voxel_octree, svo_anisotropic, svo_cone_trace, svo_photons};
@@ -391,11 +392,17 @@ fn photon_passes(
     Ok(texels as u32)
 }
 
-/// The octree lit in `chain` after its voxel_light: `svo_fragments` (the frame's fixed-point scale
-/// and one fragment per listed voxel, from `vox_radiance`), the octree's value passes (splat,
-/// border transfer, distribution) over the structure `volume` kept (its buffers `octree_*`, the
-/// bricks zero), and the directional values level by level. `1 / scale` is copied into the cone
-/// pass's and the directional passes' parameters after the scale is found.
+/// The octree lit in `chain` after its light injection (`photons`: the photon texels
+/// [`photon_passes`] cast; `None`: voxel_light's `vox_radiance`): `svo_fragments` (the frame's
+/// fixed-point scale and one fragment per listed voxel: its light, or with photons its coverage
+/// from `vox_colour`, then one per photon texel), the octree's value passes (splat, border
+/// transfer, distribution) over the structure `volume` kept (its buffers `octree_*`, the bricks
+/// zero), and the directional values level by level. `1 / scale` is copied into the cone pass's and
+/// the directional passes' parameters after the scale is found. The normal pool (Gaussian lobes
+/// without photons) keeps the staged build's scale: its lobes read ratios of its channels, which a
+/// power-of-two scale leaves exact. The kernels' error bits (`scale_state[1]`, the octree's
+/// `status[0]`) are not read back: the scale makes every finite value fit, and a photon at a
+/// lattice point the kept structure lacks adds nothing.
 fn light_octree(
     ctx: &crate::harness::GpuContext,
     chain: &mut Chain,
