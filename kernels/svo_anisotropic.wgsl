@@ -4,8 +4,10 @@
 // from level depth - 1 up to the root. Mirror: cpu_mirror/src/svo_anisotropic.rs (the derivation).
 // Declaration: src/kernels/svo_anisotropic.rs. Node layout and descent: common/svo_node.wgsl.
 //
-// One invocation per (node slot of the level, brick voxel): i = gid, node first_node + i / 27, voxel
-// i % 27 (x + 3y + 9z). Unused slots (key NONE) and empty voxels (isotropic brick value zero: their
+// One invocation per (node slot of the level, brick voxel): i = gid, node levels[level] * 8 + i / 27,
+// voxel i % 27 (x + 3y + 9z), for the level's (levels[level + 1] - levels[level]) * 8 slots; the
+// invocations past them (a pass recorded before the structure was built dispatches over a bound)
+// return. Unused slots (key NONE) and empty voxels (isotropic brick value zero: their
 // child points are zero, or under 32 fixed-point units where the filter rounded to zero; the mirror's
 // module doc) write zeros. For direction +a (or -a) and each of the
 // 9 rows of child lattice points along a (weights [1 2 1]^2 / 16 over the other two axes):
@@ -22,12 +24,12 @@
 struct AnisoParams {
     depth: u32,
     level: u32,
-    first_node: u32,
-    nodes: u32,
     inv_scale: f32,
     _pad0: u32,
     _pad1: u32,
     _pad2: u32,
+    _pad3: u32,
+    _pad4: u32,
 }
 
 @group(0) @binding(0) var<storage, read> params: AnisoParams;
@@ -37,6 +39,9 @@ struct AnisoParams {
 // The pool past `aniso`'s length (a pool larger than one storage binding comes in two; unused, one
 // element, otherwise): value i is aniso[i], or aniso_hi[i - arrayLength(&aniso)].
 @group(0) @binding(4) var<storage, read_write> aniso_hi: array<vec4<f32>>;
+// The octree's tile ranges per level (sparse_voxel_octree's `levels`): level l's tiles are
+// levels[l]..levels[l + 1].
+@group(0) @binding(5) var<storage, read> levels: array<u32>;
 
 fn aniso_load(i: u32) -> vec4<f32> {
     let lo = arrayLength(&aniso);
@@ -104,10 +109,11 @@ fn child(at: vec2<u32>, dir: u32) -> vec4<f32> {
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = gid.x + gid.y * groups.x * 64u;
-    if (i >= params.nodes * 27u) {
+    let first = levels[params.level] * 8u;
+    if (i >= (levels[params.level + 1u] * 8u - first) * 27u) {
         return;
     }
-    let n = params.first_node + i / 27u;
+    let n = first + i / 27u;
     let vi = i % 27u;
     let base = (n * 27u + vi) * 6u;
     let key = nodes[n].key;

@@ -14,8 +14,6 @@ fn params_struct_matches_the_reflected_wgsl_layout() {
     let want: Vec<(String, u32)> = [
         ("depth", std::mem::offset_of!(AnisoParams, depth)),
         ("level", std::mem::offset_of!(AnisoParams, level)),
-        ("first_node", std::mem::offset_of!(AnisoParams, first_node)),
-        ("nodes", std::mem::offset_of!(AnisoParams, nodes)),
         ("inv_scale", std::mem::offset_of!(AnisoParams, inv_scale)),
     ]
     .into_iter()

@@ -48,18 +48,23 @@ pub const DIRECTIONS: usize = 6;
 /// Directional values per node.
 pub const NODE_VALUES: usize = 27 * DIRECTIONS;
 
-/// The kernel's `struct AnisoParams`: the level this pass builds and its nodes.
+/// The kernel's `struct AnisoParams`: the level this pass builds (its nodes are the octree's
+/// `levels` range of it, [`level_nodes`], read by the pass itself: a pass recorded before the
+/// structure exists runs over whatever nodes the GPU built).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct AnisoParams {
     pub depth: u32,
     pub level: u32,
-    /// First node of the level (`levels[level] * 8`) and how many slots it has (8 per tile).
-    pub first_node: u32,
-    pub nodes: u32,
     /// The isotropic bricks' fixed point: value = u32 * inv_scale.
     pub inv_scale: f32,
-    pub _pad: [u32; 3],
+    pub _pad: [u32; 5],
+}
+
+/// The node slots of `level` (8 per tile): `levels[level] * 8 ..levels[level + 1] * 8`.
+pub fn level_nodes(levels: &[u32], level: u32) -> std::ops::Range<u32> {
+    let l = level as usize;
+    levels[l] * 8..levels[l + 1] * 8
 }
 
 /// Where (node `n`, brick voxel `v`, direction `dir`) sits in the buffer.
@@ -164,16 +169,18 @@ pub fn voxel(
     (out, bound)
 }
 
-/// One level's pass: every voxel of `p`'s nodes written into `aniso` (which holds the deeper levels);
-/// returns the bounds of what it wrote, in the buffer's layout (zero elsewhere).
+/// One level's pass: every voxel of `p`'s level's nodes ([`level_nodes`] of the octree's `levels`)
+/// written into `aniso` (which holds the deeper levels); returns the bounds of what it wrote, in the
+/// buffer's layout (zero elsewhere).
 pub fn level_pass(
     nodes: &[Node],
     bricks: &[u32],
+    levels: &[u32],
     aniso: &mut [[f32; 4]],
     p: &AnisoParams,
 ) -> Vec<[f32; 4]> {
     let mut bounds = vec![[0.0f32; 4]; aniso.len()];
-    for n in p.first_node..p.first_node + p.nodes {
+    for n in level_nodes(levels, p.level) {
         for vi in 0..27u32 {
             let v = [vi % 3, (vi / 3) % 3, vi / 9];
             let (vals, b) = voxel(nodes, bricks, aniso, p, n, v);
@@ -187,18 +194,16 @@ pub fn level_pass(
     bounds
 }
 
-/// The per-level parameters of an octree (`levels` its tile ranges), level `depth - 1` first: the
-/// order the passes run in.
-pub fn passes(depth: u32, levels: &[u32], inv_scale: f32) -> Vec<AnisoParams> {
+/// The per-level parameters of an octree of `depth`, level `depth - 1` first: the order the passes
+/// run in.
+pub fn passes(depth: u32, inv_scale: f32) -> Vec<AnisoParams> {
     (0..depth)
         .rev()
         .map(|l| AnisoParams {
             depth,
             level: l,
-            first_node: levels[l as usize] * 8,
-            nodes: (levels[l as usize + 1] - levels[l as usize]) * 8,
             inv_scale,
-            _pad: [0; 3],
+            _pad: [0; 5],
         })
         .collect()
 }
@@ -212,8 +217,8 @@ pub fn build(
     inv_scale: f32,
 ) -> Vec<[f32; 4]> {
     let mut aniso = vec![[0.0f32; 4]; levels[depth as usize] as usize * 8 * NODE_VALUES];
-    for p in passes(depth, levels, inv_scale) {
-        level_pass(nodes, bricks, &mut aniso, &p);
+    for p in passes(depth, inv_scale) {
+        level_pass(nodes, bricks, levels, &mut aniso, &p);
     }
     aniso
 }

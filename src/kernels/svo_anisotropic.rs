@@ -14,10 +14,16 @@ use vxgi_harness::{
 };
 
 vxgi_harness::bindings! {
-    /// svo_anisotropic's bindings: the level's parameters and the octree in, directional values
-    /// (every level's; the pass writes its own) in and out.
+    /// svo_anisotropic's bindings: the level's parameters and the octree in (its `levels`: each
+    /// level's tile range, where the pass finds its nodes), directional values (every level's; the
+    /// pass writes its own) in and out.
     pub struct Io {
-        inputs: { params: Block<AnisoParams>, nodes: Vec<[u32; 9]>, bricks: Vec<u32> }
+        inputs: {
+            params: Block<AnisoParams>,
+            nodes: Vec<[u32; 9]>,
+            bricks: Vec<u32>,
+            levels: Vec<u32>,
+        }
         outputs: {
             // Non-negative values composited front to back (sqrt, a division, products and sums):
             // within 48 ULP of the rows' magnitudes (the mirror's per-element bound); other levels
@@ -72,6 +78,7 @@ fn io(o: &Octree, p: AnisoParams, aniso: &[[f32; 4]], window: usize) -> Io {
         params: Block(p),
         nodes: bytemuck::cast_slice(&o.nodes).to_vec(),
         bricks: o.bricks.clone(),
+        levels: o.levels.clone(),
         aniso,
         aniso_hi,
     }
@@ -89,7 +96,7 @@ pub fn build_on_gpu(ctx: &GpuContext, o: &Octree, inv_scale: f32) -> anyhow::Res
     let mut resources = io(o, AnisoParams::default(), &pool, POOL_WINDOW).resources();
     let shader = DECL.shader()?;
     let mut passes = Vec::new();
-    for p in mirror::passes(o.depth, &o.levels, inv_scale) {
+    for p in mirror::passes(o.depth, inv_scale) {
         let name = format!("params_{}", p.level);
         resources.insert(name.clone(), HostResource::Buffer(HostBuffer::pod(&p)));
         let mut bindings = DECL.bind_by_name();
@@ -100,7 +107,7 @@ pub fn build_on_gpu(ctx: &GpuContext, o: &Octree, inv_scale: f32) -> anyhow::Res
             ctx,
             format!("level {}", p.level),
             bindings,
-            p.nodes as u64 * 27,
+            mirror::level_nodes(&o.levels, p.level).len() as u64 * 27,
         ));
     }
     if passes.is_empty() {
@@ -136,27 +143,38 @@ impl Kernel for SvoAnisotropic {
             .expect("the generator has depths up to 5");
         let o = build_fitted(depth, &frags);
         let mut aniso = mirror::build(&o.nodes, &o.bricks, depth, &o.levels, 1.0 / SCALE);
-        let level = depth - 1 - (index / 8) as u32 % depth;
-        let p = mirror::passes(depth, &o.levels, 1.0 / SCALE)
+        // The case dispatched past its level's nodes (below) builds a level above depth - 1 where
+        // there is one: the slots past it are the next level's, whose values it must not touch.
+        let past = index % 8 == 3;
+        let level = depth - 1 - ((index / 8) as u32 + past as u32) % depth;
+        let p = mirror::passes(depth, 1.0 / SCALE)
             .into_iter()
             .find(|p| p.level == level)
             .expect("a pass per level");
-        for n in p.first_node..p.first_node + p.nodes {
+        let slots = mirror::level_nodes(&o.levels, level);
+        for n in slots.clone() {
             let at = n as usize * NODE_VALUES;
             aniso[at..at + NODE_VALUES].fill([0.0; 4]);
         }
         let shader = DECL.shader().expect("svo_anisotropic validates");
-        let label = format!(
+        let mut label = format!(
             "{family}, depth {depth}, {} fragments, level {level} ({} node slots)",
             frags.len(),
-            p.nodes
+            slots.len()
         );
+        // One case in eight dispatched past the level's nodes, as a pass recorded before the
+        // structure exists is (over a bound): the extra invocations write nothing.
+        let mut threads = slots.len() as u64 * 27;
+        if past {
+            threads += 27 * 8 * 3 + 5;
+            label.push_str(", dispatched past its nodes");
+        }
         let pass = DECL.pass(
             &shader,
             ctx,
             format!("level {level}"),
             DECL.bind_by_name(),
-            p.nodes as u64 * 27,
+            threads,
         );
         // One case in eight with the pool in two bindings, as a pool past one binding is.
         let (window, label) = if index % 8 == 5 {
@@ -169,7 +187,7 @@ impl Kernel for SvoAnisotropic {
         };
         let mut case = io(&o, p, &aniso, window)
             .case(label, seed, vec![pass])
-            .with_effective_bytes(p.nodes as u64 * 27 * (6 * 16 + 27 * 16));
+            .with_effective_bytes(slots.len() as u64 * 27 * (6 * 16 + 27 * 16));
         // An unsplit pool's `aniso_hi` is one element no pass writes: nothing to check.
         if window >= aniso.len() {
             case.checks.retain(|c| c.resource != "aniso_hi");
@@ -190,7 +208,7 @@ impl Kernel for SvoAnisotropic {
         // The pool whole (its unused element, if any, past every node's values), split back after.
         let lo = io.aniso.len();
         let mut pool = [io.aniso.as_slice(), &io.aniso_hi].concat();
-        let bound = mirror::level_pass(nodes, &io.bricks, &mut pool, &io.params.0);
+        let bound = mirror::level_pass(nodes, &io.bricks, &io.levels, &mut pool, &io.params.0);
         io.aniso_hi = pool.split_off(lo);
         io.aniso = pool;
         let mut out = io.outputs();

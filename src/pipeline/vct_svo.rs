@@ -413,7 +413,7 @@ fn light_octree(
     use crate::harness::run::{grid_for, Workgroups};
     use crate::harness::{HostBuffer, ScalarKind};
     use crate::kernels::{sparse_voxel_octree as svo, svo_fragments as sf};
-    use vxgi_cpu_mirror::svo_anisotropic::{passes as aniso_passes, AnisoParams};
+    use vxgi_cpu_mirror::svo_anisotropic::{level_nodes, passes as aniso_passes, AnisoParams};
     let o = &volume.built.octree;
     let capacity = volume.listed.max(1);
     let texels = photons.unwrap_or(0);
@@ -556,7 +556,7 @@ fn light_octree(
         }
         let shader = sa::DECL.shader()?;
         let mut passes = Vec::new();
-        for p in aniso_passes(o.depth, &o.levels, 1.0 / volume.scale) {
+        for p in aniso_passes(o.depth, 1.0 / volume.scale) {
             let name = format!("aniso_params_{}", p.level);
             res.insert(name.clone(), buf(HostBuffer::pod(&p)));
             let bindings = sa::DECL
@@ -567,6 +567,7 @@ fn light_octree(
                         "params" => name.clone(),
                         "nodes" => "octree_nodes".into(),
                         "bricks" => "octree_bricks".into(),
+                        "levels" => "octree_levels".into(),
                         _ => return (b, v),
                     };
                     (b, crate::harness::run::View::Buffer(to))
@@ -577,7 +578,7 @@ fn light_octree(
                 ctx,
                 format!("level {}", p.level),
                 bindings,
-                p.nodes as u64 * 27,
+                level_nodes(&o.levels, p.level).len() as u64 * 27,
             ));
             chain.copies.push(ChainCopy {
                 after: scaled,
