@@ -148,10 +148,9 @@ impl Key {
             let rows = input.tris.iter().map(|t| t.a[3] + 1).max().unwrap_or(1) as u32;
             ([f.origin.x, f.origin.y, f.origin.z, f.voxel], rows)
         });
+        let revoxelizes = revoxelizes(pipeline, scene);
         let (hierarchies, scene_sizes) = match data {
-            Some(d) if instanced && pipeline == Pipeline::Lrsm => {
-                (Vec::new(), (d.triangles.len(), d.nodes.len()))
-            }
+            Some(d) if revoxelizes => (Vec::new(), (d.triangles.len(), d.nodes.len())),
             Some(d) if instanced && pipeline != Pipeline::VctSvo => {
                 let (_, parts) = crate::render::hierarchy_parts(scene);
                 (
@@ -162,9 +161,10 @@ impl Key {
             _ => (Vec::new(), (0, 0)),
         };
         // With instances the voxels depend on the meshes in their own frames, not where they stand
-        // (vct-svo's octree on the flattened scene: moved instances build it again).
+        // (vct-svo's octree lit by the staged passes on the flattened scene: moved instances build
+        // it again).
         let base;
-        let scene = if instanced && pipeline != Pipeline::VctSvo {
+        let scene = if instanced && (pipeline != Pipeline::VctSvo || revoxelizes) {
             base = Scene {
                 mesh: scene.instances.base.clone(),
                 ..scene.clone()
@@ -223,6 +223,9 @@ struct Built<'c> {
     /// vct-svo lit in the chain: what a frame with moved lights resets before re-running the passes
     /// the lights feed ([`written_in`]: cleared, restored).
     relight_resets: Option<Resets>,
+    /// vct-svo whose chain builds the octree's structure (instances): the room it holds, checked
+    /// after every frame against the GPU's counts.
+    octree_room: Option<crate::pipeline::OctreeRoom>,
     prepared: Prepared<'c>,
     /// The frame's images and the small outputs its plan reads ([`Resident::render`]).
     reads: ReadbackSet,
@@ -368,6 +371,9 @@ pub struct Resident<'c> {
     /// vct-svo: the staged passes that build the octree, holding the last one and what it was
     /// built for (a chain at another image size uploads it again instead of building it).
     svo: crate::render::VctSvo,
+    /// Why the last frame's octree did not fit its chain's room ([`crate::pipeline::OctreeRoom`]):
+    /// the chain was dropped, the next frame builds it again.
+    outgrown: Option<String>,
 }
 
 impl<'c> Resident<'c> {
@@ -396,6 +402,7 @@ impl<'c> Resident<'c> {
             rebuilt: None,
             kept_volume: false,
             svo: crate::render::VctSvo::new(),
+            outgrown: None,
         })
     }
 
@@ -642,7 +649,16 @@ impl<'c> Resident<'c> {
     }
 
     fn frame(&mut self, scene: &Scene, cones: &ConeSettings) -> Result<Rendered> {
-        let (out, report) = self.submitted(scene, cones, true, None)?;
+        let (mut out, mut report) = self.submitted(scene, cones, true, None)?;
+        if let Some(why) = self.outgrown.take() {
+            // The frame's octree did not fit the chain's room: the frame again, on a chain sized
+            // for it.
+            (out, report) = self.submitted(scene, cones, true, None)?;
+            report.plan = report.plan.with_note(
+                "sparse_voxel_octree",
+                &format!("the last chain's room was too small ({why}): built again, sized from this frame"),
+            );
+        }
         let bytes = |n: &str| &out[n].buffer().expect("a buffer").bytes;
         let (w, h) = (scene.camera.width, scene.camera.height);
         let b = self.built.as_ref().expect("recorded");
@@ -691,6 +707,16 @@ impl<'c> Resident<'c> {
         p.submit(encoder).with_context(|| format!("{name} frame"))?;
         let (out, pass_ns) = p.finish_read(reads, timed.len())?;
         let bytes = |n: &str| &out[n].buffer().expect("a buffer").bytes;
+        // vct-svo whose chain builds the octree's structure: whether this frame's fit its room.
+        let outgrown = b.octree_room.as_ref().and_then(|room| {
+            let words = |n: &str| bytemuck::cast_slice::<u8, u32>(bytes(n)).to_vec();
+            room.check(
+                words("list_count")[0],
+                &words("octree_status"),
+                &words("octree_levels"),
+            )
+            .err()
+        });
         // Per stage: the GPU time of its passes (timestamps), where it ran this frame; a frame that
         // built the chain first the stages that built it outside the chain.
         let mut stages: Vec<(&'static str, f64)> = if reuse {
@@ -789,6 +815,14 @@ impl<'c> Resident<'c> {
             }
             None => {}
         }
+        if let Some(e) = &outgrown {
+            plan = plan.with_note(
+                "sparse_voxel_octree",
+                &format!("{e}: the chain is built again, sized from this frame"),
+            );
+            self.built = None;
+        }
+        self.outgrown = outgrown.map(|e| e.to_string());
         let cone_tiles = out.get("tile_list").map(|t| {
             crate::render::cone_tiles_of(bytemuck::cast_slice(&t.buffer().expect("a buffer").bytes))
         });
@@ -816,6 +850,7 @@ impl<'c> Resident<'c> {
         let mut build_stages = Vec::new();
         let mut room = None;
         let mut hierarchies = None;
+        let mut octree_room = None;
         let instanced = !scene.instances.list.is_empty();
         let (mut chain, memory, direct): (Chain, _, _) = match self.pipeline {
             Pipeline::Cprc => {
@@ -840,7 +875,9 @@ impl<'c> Resident<'c> {
                 // uploaded again, not built.
                 let (volume, built) = self.svo.volume(self.ctx, scene, cones)?;
                 build_stages = built;
-                let chain = crate::pipeline::svo_chain(self.ctx, scene, &data, cones, volume)?;
+                let (chain, room) =
+                    crate::pipeline::svo_chain(self.ctx, scene, &data, cones, volume)?;
+                octree_room = room;
                 let memory = VolumeMemory::Octree(volume.memory());
                 (chain, Some(memory), "radiance")
             }
@@ -902,8 +939,8 @@ impl<'c> Resident<'c> {
         let took = adopted.is_some();
         let adopted = adopted.unwrap_or_default();
         let (_, restored) = written_in(&mut chain, gbuffer..usize::MAX);
-        let revoxelize = (instanced && self.pipeline == Pipeline::Lrsm)
-            .then(|| written_in(&mut chain, 0..gbuffer));
+        let revoxelize =
+            revoxelizes(self.pipeline, scene).then(|| written_in(&mut chain, 0..gbuffer));
         // vct-svo's octree lit in the chain: its value passes add into the kept structure's
         // buffers, which a moved light's frame first resets to what the structure left.
         let relight_resets = (self.pipeline == Pipeline::VctSvo && relight < gbuffer)
@@ -916,7 +953,10 @@ impl<'c> Resident<'c> {
         )
         .with_context(|| format!("{name} chain"))?;
         let mut outputs = vec![direct, "indirect", "ao"];
-        for extra in ["tile_list", "cache_args"] {
+        let room_reads = octree_room
+            .as_ref()
+            .map_or(&[][..], |_| &crate::pipeline::OctreeRoom::READ[..]);
+        for &extra in ["tile_list", "cache_args"].iter().chain(room_reads) {
             if chain.resources.contains_key(extra) {
                 outputs.push(extra);
             }
@@ -943,6 +983,7 @@ impl<'c> Resident<'c> {
             mesh: scene.mesh.clone(),
             hierarchies,
             revoxelize,
+            octree_room,
             relight_resets,
             relight,
             volume,
@@ -1275,15 +1316,27 @@ fn voxelize_inputs(
     ]
 }
 
-/// voxelize's input and grid for `scene` as it stands, prepared once per frame, where lrsm draws
-/// `[[instances]]` (its key holds the grid and the largest splat; a moved frame uploads the input).
+/// Whether `pipeline`'s chain voxelizes `scene` again where its instances moved (lrsm; vct-svo
+/// where its chain lights the octree): the chain is kept, its volume re-run from voxelize.
+fn revoxelizes(pipeline: Pipeline, scene: &Scene) -> bool {
+    !scene.instances.list.is_empty()
+        && match pipeline {
+            Pipeline::Lrsm => true,
+            Pipeline::VctSvo => crate::pipeline::lights_in_chain(scene),
+            Pipeline::VctDense | Pipeline::Cprc => false,
+        }
+}
+
+/// voxelize's input and grid for `scene` as it stands, prepared once per frame, where the chain
+/// re-voxelizes moved instances ([`revoxelizes`]: its key holds the grid and the largest splat; a
+/// moved frame uploads the input).
 type Voxelized = (
     vxgi_cpu_mirror::voxelize::VoxInput,
     crate::kernels::voxelize::VoxelFrame,
 );
 
 fn revoxelized(pipeline: Pipeline, scene: &Scene) -> Result<Option<Voxelized>> {
-    if pipeline != Pipeline::Lrsm || scene.instances.list.is_empty() {
+    if !revoxelizes(pipeline, scene) {
         return Ok(None);
     }
     Ok(Some(crate::kernels::voxelize::prepare(

@@ -1399,10 +1399,11 @@ fn resident_cprc_frames_stay_on_the_gpu_and_match_fresh_frames() {
 /// scenes/instances.toml (a dynamic box sliding and turning over frames 0-6) through resident
 /// vct-dense and cprc frames: each hierarchy voxelized once by the first frame, every later frame
 /// re-lights the hierarchies where they stand (the moved instance's triangles, BVH, grid records and
-/// placements uploaded); lrsm re-voxelizes the moved scene in its kept chain (voxelize's triangles
-/// and the BVH uploaded, the volume's buffers reset on the GPU). Each frame after the first is one
-/// submission that creates and reads back nothing; the images equal a fresh renderer's for each
-/// frame (vct-dense and lrsm bit for bit; cprc within FLIP 1e-3).
+/// placements uploaded); lrsm and vct-svo re-voxelize the moved scene in their kept chains
+/// (voxelize's triangles and the BVH uploaded, the volume's buffers reset on the GPU; vct-svo builds
+/// its octree's structure again in the chain, in the room its first frame sized). Each frame after
+/// the first is one submission that creates and reads back nothing; the images equal a fresh
+/// renderer's for each frame (vct-dense, vct-svo and lrsm bit for bit; cprc within FLIP 1e-3).
 #[test]
 fn resident_frames_relight_moved_instances_in_one_submission() {
     use vxgi::kernels::cone_trace::ConeSettings;
@@ -1412,7 +1413,7 @@ fn resident_frames_relight_moved_instances_in_one_submission() {
     let mut scene = small(Scene::load(root.join("instances.toml")).unwrap(), 48, 40);
     scene.render.voxels = 32;
     let cones = ConeSettings::from(&scene.render);
-    for pipeline in [Pipeline::VctDense, Pipeline::Cprc, Pipeline::Lrsm] {
+    for pipeline in Resident::PIPELINES {
         let mut fresh = Renderer::new(pipeline, false);
         let mut resident = Resident::new(gpu(), pipeline).unwrap();
         for k in 0..7u32 {
@@ -1432,8 +1433,12 @@ fn resident_frames_relight_moved_instances_in_one_submission() {
                     "{at}: FLIP {flip}"
                 );
             }
-            assert_eq!(c.submissions, 1, "{at}: {c:?}");
-            if k == 0 && pipeline != Pipeline::Lrsm {
+            // vct-svo's first frame sizes its octree by the staged passes (host steps between).
+            if k > 0 || pipeline != Pipeline::VctSvo {
+                assert_eq!(c.submissions, 1, "{at}: {c:?}");
+            }
+            let revoxelizes = matches!(pipeline, Pipeline::Lrsm | Pipeline::VctSvo);
+            if k == 0 && !revoxelizes {
                 // Three hierarchies (the room, two instances of one box OBJ), two voxelizations:
                 // the boxes share one, in the staged frame and in the chain alike.
                 for plan in [&want.plan, &got.plan] {
@@ -1447,12 +1452,64 @@ fn resident_frames_relight_moved_instances_in_one_submission() {
             }
             if k > 0 {
                 assert_reused_frame(&at, &c);
-                // lrsm's occlusion voxels are the whole scene's: voxelized again where it moved.
+                // lrsm's occlusion voxels and vct-svo's octree are the whole scene's: voxelized
+                // again where it moved.
                 let voxelized = got.plan.runs("voxelize");
-                assert_eq!(voxelized, pipeline == Pipeline::Lrsm, "{at}: {}", got.plan);
+                assert_eq!(voxelized, revoxelizes, "{at}: {}", got.plan);
             }
         }
     }
+}
+
+/// vct-svo's chain builds its octree's structure where instances move, in room sized from its first
+/// frame (twice its counts): three nested boxes that grow from almost nothing to nearly the static
+/// box's size need three times the voxels. The frame that outgrows the room is drawn again on a
+/// chain sized for it (the plan says so) and equals a fresh renderer's; the frame after it is one
+/// submission again.
+#[test]
+fn vct_svo_builds_its_chain_again_where_moved_instances_outgrow_its_room() {
+    use vxgi::kernels::cone_trace::ConeSettings;
+    use vxgi::render::{Pipeline, Renderer};
+    use vxgi::resident::Resident;
+    let dir = std::env::temp_dir().join(format!("vxgi-outgrow-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let obj = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/box.obj");
+    let obj = format!("{:?}", obj.display().to_string());
+    let mut toml = format!("[mesh]\nobj = {obj}\n");
+    for s in [0.9, 0.8, 0.7] {
+        toml.push_str(&format!(
+            "[[instances]]\nobj = {obj}\ndynamic = true\nkeyframes = [\n  {{ frame = 0, scale = [0.05, 0.05, 0.05] }},\n  {{ frame = 1, scale = [{s}, {s}, {s}] }},\n]\n"
+        ));
+    }
+    toml.push_str(
+        "[camera]\neye = [1.2, 1.5, 2.5]\ntarget = [0.0, 0.0, 0.0]\nup = [0.0, 1.0, 0.0]\nfov_y_deg = 40.0\nwidth = 32\nheight = 32\n[[lights]]\ntype = \"point\"\nposition = [1.5, 2.0, 1.0]\nintensity = [10.0, 10.0, 10.0]\n",
+    );
+    let path = dir.join("grow.toml");
+    std::fs::write(&path, toml).unwrap();
+    let mut scene = Scene::load(&path).unwrap();
+    scene.render.voxels = 32;
+    let cones = ConeSettings::from(&scene.render);
+    let mut fresh = Renderer::new(Pipeline::VctSvo, false);
+    let mut resident = Resident::new(gpu(), Pipeline::VctSvo).unwrap();
+    for k in 0..3u32 {
+        let view = scene.at_frame(k);
+        let (want, _) = fresh.render(gpu(), &view, &cones, |_| {}).unwrap();
+        let before = vxgi::harness::thread_counters();
+        let got = resident.render(&view, &cones).unwrap();
+        let c = vxgi::harness::thread_counters().since(&before);
+        let at = format!("frame {k}");
+        assert!(
+            want.direct == got.direct && want.indirect == got.indirect && want.ao == got.ao,
+            "{at}"
+        );
+        let plan = got.plan.to_string();
+        assert_eq!(plan.contains("room was too small"), k == 1, "{at}: {plan}");
+        if k == 2 {
+            assert_reused_frame(&at, &c);
+            assert_eq!(c.submissions, 1, "{at}: {c:?}");
+        }
+    }
+    std::fs::remove_dir_all(&dir).ok();
 }
 
 /// `scene`'s frame, then its first (point) light moved by 0.3 in x, by one resident renderer: (a
@@ -1943,9 +2000,9 @@ fn resident_memory_by_stage_adds_up_and_follows_the_declaration() {
 
 /// The resident renderer draws a scene without lights (every
 /// pipeline: direct and indirect 0, AO from the voxels where the plan builds them) and vct-svo with
-/// moving instances (the octree and chain built again where the instances moved, the static part's
-/// voxels kept); the same images as a fresh renderer's for each frame, and a frame that changes
-/// nothing is one submission.
+/// moving instances where the staged passes light its octree (Gaussian lobes: the octree and chain
+/// built again where the instances moved, the static part's voxels kept); the same images as a
+/// fresh renderer's for each frame, and a frame that changes nothing is one submission.
 #[test]
 fn resident_frames_draw_unlit_scenes_and_vct_svo_instances() {
     use vxgi::kernels::cone_trace::ConeSettings;
@@ -2009,6 +2066,8 @@ fn resident_frames_draw_unlit_scenes_and_vct_svo_instances() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
     let mut scene = small(Scene::load(root.join("instances.toml")).unwrap(), 40, 32);
     scene.render.voxels = 32;
+    scene.render.voxel_lobes = true;
+    scene.render.photon_map = 0;
     let cones = ConeSettings::from(&scene.render);
     let mut fresh = Renderer::new(Pipeline::VctSvo, false);
     let mut resident = Resident::new(gpu(), Pipeline::VctSvo).unwrap();

@@ -356,8 +356,8 @@ fn svo_params_struct_matches_the_reflected_wgsl_layout() {
     assert_eq!(&members[..want.len()], &want[..]);
 }
 
-/// Dynamic instances (scenes/instances.toml: a static room and box, a sliding box): vct-svo voxelizes
-/// the static part once and keeps it, with its octree structure (VCT 4.2.2, replayed each frame);
+/// Dynamic instances (scenes/instances.toml: a static room and box, a sliding box): where its staged
+/// passes light the octree (here: Gaussian lobes), vct-svo voxelizes the static part once and keeps it, with its octree structure (VCT 4.2.2, replayed each frame);
 /// later frames voxelize only the moving box and merge it in. The
 /// second frame's image equals a fresh render of that frame (same grid: the box stays inside the room's
 /// bounds), and its plan says the static part was kept.
@@ -372,6 +372,10 @@ fn dynamic_instances_reuse_the_static_voxels() {
     scene.camera.width = 48;
     scene.camera.height = 48;
     scene.render.voxels = 32;
+    // Where the staged passes light the octree (with instances: the lobes' normal pool; else the
+    // chain voxelizes the whole scene and builds the structure itself).
+    scene.render.voxel_lobes = true;
+    scene.render.photon_map = 0;
     let cones = ConeSettings::default();
     let mut seq = Renderer::new(Pipeline::VctSvo, true);
     let (first, _) = seq.render(gpu(), &scene, &cones, |_| {}).unwrap();
@@ -423,7 +427,7 @@ fn dynamic_instances_reuse_the_static_voxels() {
     let c = vxgi::images::compare(&fresh.combined, p, &second.combined, p).unwrap();
     assert_eq!(c.rel_mse, 0.0, "FLIP {}", c.flip_mean);
     // And the merged voxels give the image of the whole scene voxelized at once (instances
-    // flattened): the octree takes coverage from the voxels and light from the photons.
+    // flattened).
     let flat = Scene {
         instances: Default::default(),
         ..next.clone()

@@ -164,7 +164,51 @@ pub fn case_replayed(
         first.extend(rest);
         (first.into(), k)
     };
-    let fragments = &fragments[..];
+    case_flagging(
+        ctx, depth, capacity, &fragments, flagging, false, statics, label, seed,
+    )
+}
+
+/// A whole build's case in a frame's chain, before its fragments exist: `slots` fragment slots
+/// (zero here; a kernel before the octree writes them), the first `flagging` of which flag nodes.
+/// `flag_parents` binds parameters of its own, `params_l{level}_v0_flagging` for each level
+/// ([`flagging_params`]), whose `fragments` the chain overwrites with the count its GPU found
+/// before the build runs (the slots past that count are not read); it dispatches over all
+/// `flagging` slots.
+pub fn case_in_chain(
+    ctx: &GpuContext,
+    depth: u32,
+    capacity: u32,
+    slots: u32,
+    flagging: u32,
+    label: String,
+    seed: u64,
+) -> Case {
+    let zero = vec![bytemuck::Zeroable::zeroed(); slots as usize];
+    case_flagging(
+        ctx, depth, capacity, &zero, flagging, true, None, label, seed,
+    )
+}
+
+/// The parameters `flag_parents` of level `level` binds in [`case_in_chain`]'s case.
+pub fn flagging_params(level: u32) -> String {
+    format!("params_l{level}_v0_flagging")
+}
+
+/// [`case_replayed`] over `fragments` as given, the first `flagging` of them flagging nodes;
+/// `own_flag_params`: flag_parents binds [`flagging_params`] even where every fragment flags.
+#[allow(clippy::too_many_arguments)]
+fn case_flagging(
+    ctx: &GpuContext,
+    depth: u32,
+    capacity: u32,
+    fragments: &[Fragment],
+    flagging: u32,
+    own_flag_params: bool,
+    statics: Option<&StaticStructure>,
+    label: String,
+    seed: u64,
+) -> Case {
     let n = capacity as usize * 8;
     let mut nodes = vec![Node::UNUSED; n];
     nodes[0] = Node {
@@ -246,7 +290,7 @@ pub fn case_replayed(
                     f: u32,
                     w: Workgroups| {
         // flag_parents with a static part reads fewer fragments than the other passes.
-        let pname = if f == total {
+        let pname = if f == total && !(own_flag_params && entry == "flag_parents") {
             format!("params_l{level}_v{variant}")
         } else {
             format!("params_l{level}_v{variant}_flagging")

@@ -202,25 +202,89 @@ fn svo_cone_trace_plan(i: &PlanInputs) -> Vec<PlannedPass> {
 
 /// Whether `scene`'s frames light vct-svo's octree in the chain: voxel_light, the fragments
 /// (`svo_fragments`: the fixed-point scale and the fragments, on the GPU), the octree's value
-/// passes and its directional values, over the structure the staged build made; with photon
-/// injection the photons too (svo_photons per light view). Moved lights then re-light it in the
-/// frame's one submission. A second bounce, instances, the glossy photons' specular pool (photons
-/// with Gaussian lobes) and grids past [`LIT_IN_CHAIN_VOXELS`] still build the octree's values with
-/// the staged passes (host steps between them).
+/// passes and its directional values, over the structure the staged build made (with
+/// `[[instances]]`, the structure too: [`OctreeRoom`]); with photon injection the photons too
+/// (svo_photons per light view). Moved lights, and moved instances, then re-light it in the
+/// frame's one submission. A second bounce, the glossy photons' specular pool (photons with
+/// Gaussian lobes), the lobes' normal pool with instances (kept in the staged build's node layout,
+/// which a structure built again does not keep) and grids past [`LIT_IN_CHAIN_VOXELS`] still build
+/// the octree's values with the staged passes (host steps between them).
 pub(crate) fn lights_in_chain(scene: &Scene) -> bool {
     let r = &scene.render;
     let specular_pool = r.photon_map > 0 && r.voxel_lobes;
+    let lobes_with_instances = r.voxel_lobes && !scene.instances.list.is_empty();
     // svo_fragments binds the voxel grid (16 bytes a voxel) and the lattice's counts and largest
     // values (16 bytes a lattice point each) whole: up to 128^3 they fit WebGPU's default 128 MiB
     // storage binding, at 256^3 they do not.
-    !specular_pool
-        && r.bounces == 1
-        && scene.instances.list.is_empty()
-        && r.voxels <= LIT_IN_CHAIN_VOXELS
+    !(specular_pool || lobes_with_instances) && r.bounces == 1 && r.voxels <= LIT_IN_CHAIN_VOXELS
 }
 
 /// The largest grid side whose octree [`lights_in_chain`] lights.
 pub const LIT_IN_CHAIN_VOXELS: u32 = 128;
+
+/// What a chain that builds vct-svo's octree structure itself (a scene with `[[instances]]`, lit in
+/// the chain: moved instances change the structure) holds for it, sized at load from the first
+/// frame's staged build with [`OctreeRoom::HEADROOM`] times its counts: voxel fragment slots,
+/// node pool tiles and directional values. A later frame that needs more is found after it ran
+/// ([`OctreeRoom::check`] on the GPU's counts, read back with the frame's small outputs) and the
+/// renderer builds its chain again for it, sized from that frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct OctreeRoom {
+    pub depth: u32,
+    /// Voxel fragment slots (`svo_fragments`' capacity: the voxels voxelize may list).
+    pub slots: u32,
+    /// The node pool, in tiles of 8 nodes.
+    pub tiles: u32,
+    /// Directional values (0 without anisotropic voxels): nodes above the leaves x 162.
+    pub aniso_values: usize,
+}
+
+impl OctreeRoom {
+    /// Room for the instances' voxels to grow as they move: twice the first frame's counts.
+    pub const HEADROOM: u32 = 2;
+    /// The chain's buffers [`OctreeRoom::check`] reads after a frame.
+    pub const READ: [&'static str; 3] = ["list_count", "octree_status", "octree_levels"];
+
+    fn of(ctx: &crate::harness::GpuContext, volume: &crate::render::SvoCache) -> Self {
+        use crate::kernels::sparse_voxel_octree as svo;
+        let o = &volume.built.octree;
+        let h = Self::HEADROOM as usize;
+        Self {
+            depth: o.depth,
+            slots: volume.listed.max(1).saturating_mul(Self::HEADROOM),
+            tiles: o
+                .capacity_tiles
+                .saturating_mul(Self::HEADROOM)
+                .min(svo::max_capacity(ctx)),
+            aniso_values: volume.aniso.as_ref().map_or(0, |a| a.len() * h),
+        }
+    }
+
+    /// Whether the frame whose GPU counts these are fit: voxelize's `list_count`, the octree's
+    /// `status` and `levels` (the node pool's overflow bit, the tiles above the leaves).
+    pub fn check(&self, list_count: u32, status: &[u32], levels: &[u32]) -> Result<()> {
+        use vxgi_cpu_mirror::sparse_voxel_octree::{ERR_POOL, STATUS_ERRORS, STATUS_TILES};
+        use vxgi_cpu_mirror::svo_anisotropic::NODE_VALUES;
+        anyhow::ensure!(
+            list_count <= self.slots,
+            "vct-svo's chain holds {} voxel fragments; this frame listed {list_count} voxels",
+            self.slots
+        );
+        anyhow::ensure!(
+            status[STATUS_ERRORS] & ERR_POOL == 0,
+            "vct-svo's chain holds {} octree tiles; this frame's structure asked for {}",
+            self.tiles,
+            status[STATUS_TILES]
+        );
+        let above = levels[self.depth as usize] as usize * 8 * NODE_VALUES;
+        anyhow::ensure!(
+            self.aniso_values == 0 || above <= self.aniso_values,
+            "vct-svo's chain holds {} directional values; this frame's octree has {above}",
+            self.aniso_values
+        );
+        Ok(())
+    }
+}
 
 /// vct-svo's chain over an octree built already (`volume`, by [`crate::render::VctSvo`]'s GPU
 /// passes with the host steps between them). Where [`lights_in_chain`]: voxelize, voxel_light, the
@@ -233,9 +297,10 @@ pub(crate) fn svo_chain(
     data: &SceneData,
     cones: &ConeSettings,
     volume: &crate::render::SvoCache,
-) -> Result<Chain> {
+) -> Result<(Chain, Option<OctreeRoom>)> {
     use crate::kernels::gbuffer;
     let in_chain = lights_in_chain(scene);
+    let room = (in_chain && !scene.instances.list.is_empty()).then(|| OctreeRoom::of(ctx, volume));
     let g = gbuffer::case_for(data, "render".into(), 0);
     let d = direct_light::case_with_gbuffer(ctx, data, &Default::default(), "render".into(), 0);
     let params = svo_cone_trace::svo_cone_params(&volume.frame, cones);
@@ -245,10 +310,12 @@ pub(crate) fn svo_chain(
         copies: Vec::new(),
         frame: volume.frame,
     };
-    // Lit in the chain: the cone pass binds the value passes' bricks and directional values, zero
-    // until they run (a chain's shared resource holds one first content).
-    let mut octree = std::borrow::Cow::Borrowed(&volume.built.octree);
+    // Lit in the chain: the cone pass binds the octree the chain builds and its directional
+    // values, zero until they run (a chain's shared resource holds one first content).
     let mut aniso = volume.aniso.as_deref().map(std::borrow::Cow::Borrowed);
+    if let (Some(a), Some(room)) = (&mut aniso, &room) {
+        *a = std::borrow::Cow::Owned(vec![[0.0; 4]; room.aniso_values]);
+    }
     if in_chain {
         let photons = match scene.render.photon_map {
             0 => {
@@ -260,8 +327,14 @@ pub(crate) fn svo_chain(
                 Some(photon_passes(ctx, &mut chain, data, map)?)
             }
         };
-        light_octree(ctx, &mut chain, volume, scene.render.bounces, photons)?;
-        octree.to_mut().bricks.fill(0);
+        light_octree(
+            ctx,
+            &mut chain,
+            volume,
+            room.as_ref(),
+            scene.render.bounces,
+            photons,
+        )?;
         if let Some(a) = &mut aniso {
             a.to_mut().fill([0.0; 4]);
         }
@@ -273,7 +346,7 @@ pub(crate) fn svo_chain(
     let mut c = svo_cone_trace::case_for(
         data,
         &g.resources,
-        &octree,
+        &volume.built.octree,
         extras,
         volume.scale,
         &params,
@@ -287,6 +360,11 @@ pub(crate) fn svo_chain(
     let (w, h) = (data.width(), data.height());
     c.rename_resource("nodes", "octree_nodes", false);
     c.rename_resource("bricks", "octree_bricks", false);
+    if in_chain {
+        // The chain's own octree, as its structure passes leave it.
+        c.resources.remove("octree_nodes");
+        c.resources.remove("octree_bricks");
+    }
     c.resources
         .insert("tile_list".into(), screen_tiles::empty_list(w, h));
     chain.merge(gbuffer::DECL.name, g.resources)?;
@@ -309,7 +387,7 @@ pub(crate) fn svo_chain(
         svo_cone_trace::DECL.name,
         c.passes,
     );
-    Ok(chain)
+    Ok((chain, room))
 }
 
 /// The names of light view `v`'s G-buffer frame and photon parameters in vct-svo's chain: what a
@@ -407,6 +485,7 @@ fn light_octree(
     ctx: &crate::harness::GpuContext,
     chain: &mut Chain,
     volume: &crate::render::SvoCache,
+    room: Option<&OctreeRoom>,
     bounces: u32,
     photons: Option<u32>,
 ) -> Result<()> {
@@ -415,7 +494,8 @@ fn light_octree(
     use crate::kernels::{sparse_voxel_octree as svo, svo_fragments as sf};
     use vxgi_cpu_mirror::svo_anisotropic::{level_nodes, passes as aniso_passes, AnisoParams};
     let o = &volume.built.octree;
-    let capacity = volume.listed.max(1);
+    let capacity = room.map_or(volume.listed.max(1), |r| r.slots);
+    let structure_in_chain = room.is_some();
     let texels = photons.unwrap_or(0);
     let side = chain.frame.side;
     let max = ctx.limits().max_compute_workgroups_per_dimension;
@@ -514,22 +594,50 @@ fn light_octree(
         .collect();
     chain.push_as(shader, sf::DECL.name, "sparse_voxel_octree", passes);
     let scaled = chain.pass_count();
-    // The octree's value passes over the kept structure: every fragment slot, the bricks zero.
-    let frags = vec![bytemuck::Zeroable::zeroed(); (capacity + texels) as usize];
-    let mut case = svo::case_replayed(
-        ctx,
-        o.depth,
-        o.capacity_tiles,
-        &frags,
-        None,
-        false,
-        "render".into(),
-        0,
-    );
-    case.passes.retain(|p| svo::phase_of(&p.entry) != "build");
-    for (name, b) in &volume.built.structure {
-        case.resources.insert(name.clone(), buf(b.clone()));
-    }
+    let mut case = if structure_in_chain {
+        // The octree over every fragment slot: its structure from the voxels' fragments (the
+        // first `list_count` slots: with photons too the structure is the voxels' alone, whichever
+        // light cast them; a photon at a point the voxels lack adds nothing), then its values.
+        for level in 1..=o.depth {
+            chain.copies.push(ChainCopy {
+                after: scaled,
+                src_range: Some(0..4),
+                src: "list_count".into(),
+                dst: format!("octree_{}", svo::flagging_params(level)),
+                offset: std::mem::offset_of!(
+                    vxgi_cpu_mirror::sparse_voxel_octree::OctreeParams,
+                    fragments
+                ) as u64,
+            });
+        }
+        svo::case_in_chain(
+            ctx,
+            o.depth,
+            room.map_or(o.capacity_tiles, |r| r.tiles),
+            capacity + texels,
+            capacity,
+            "render".into(),
+            0,
+        )
+    } else {
+        // The octree's value passes over the kept structure: every fragment slot, the bricks zero.
+        let frags = vec![bytemuck::Zeroable::zeroed(); (capacity + texels) as usize];
+        let mut case = svo::case_replayed(
+            ctx,
+            o.depth,
+            o.capacity_tiles,
+            &frags,
+            None,
+            false,
+            "render".into(),
+            0,
+        );
+        case.passes.retain(|p| svo::phase_of(&p.entry) != "build");
+        for (name, b) in &volume.built.structure {
+            case.resources.insert(name.clone(), buf(b.clone()));
+        }
+        case
+    };
     let names: Vec<String> = case.resources.keys().cloned().collect();
     for n in names {
         case.rename_resource(&n, &format!("octree_{n}"), false);
@@ -546,7 +654,21 @@ fn light_octree(
     // The directional values, a pass per level (depth - 1 first), into the cone pass's pool.
     if let Some(a) = &volume.aniso {
         use crate::kernels::svo_anisotropic as sa;
-        let (lo, hi) = sa::split_pool(&vec![[0.0f32; 4]; a.len()], sa::POOL_WINDOW);
+        let values = room.map_or(a.len(), |r| r.aniso_values);
+        let (lo, hi) = sa::split_pool(&vec![[0.0f32; 4]; values], sa::POOL_WINDOW);
+        // Each level's node slots: as the kept structure has them, or (a structure the chain
+        // builds) as many as the level can have in the pool: the pass finds its own in `levels`.
+        let slots = |level: u32| match room {
+            None => level_nodes(&o.levels, level).len() as u64,
+            Some(r) => {
+                let most = if level == 0 {
+                    1
+                } else {
+                    1u64 << (3 * (level - 1))
+                };
+                most.min(r.tiles as u64) * 8
+            }
+        };
         let mut res = Resources::new();
         for (name, part) in [("aniso", lo), ("aniso_hi", hi)] {
             res.insert(
@@ -578,7 +700,7 @@ fn light_octree(
                 ctx,
                 format!("level {}", p.level),
                 bindings,
-                level_nodes(&o.levels, p.level).len() as u64 * 27,
+                slots(p.level) * 27,
             ));
             chain.copies.push(ChainCopy {
                 after: scaled,
