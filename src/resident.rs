@@ -8,9 +8,13 @@
 //! (`crate::pipeline::cache_room`). vct-svo's octree structure is built by its staged passes
 //! ([`crate::render::VctSvo`]) when the chain is built (their host steps between passes run then,
 //! once); its chain lights it (voxel_light or the photons, `svo_fragments`, the octree's value passes
-//! and directional values) and draws the camera's stages over it (with two bounces, instances or
-//! the photons' specular pool the staged passes light it too, and the chain is the camera's stages
-//! alone: `crate::pipeline::lights_in_chain`). A chain is prepared once by the harness
+//! and directional values) and draws the camera's stages over it. With `[[instances]]` the chain
+//! builds the structure too, in room the staged build sized (`crate::pipeline::OctreeRoom`: a
+//! frame that outgrows it is found from its GPU counts, read back with the frame's small outputs,
+//! and drawn again on a chain sized for it by [`Resident::render`]; [`Resident::present`] builds
+//! the next frame's). With two bounces, the photons' specular pool or Gaussian lobes with
+//! instances the staged passes light it too, and the chain is the camera's stages alone:
+//! `crate::pipeline::lights_in_chain`. A chain is prepared once by the harness
 //! (`prepare_chain`: every resource checked against reflection and the device limits, then created
 //! and uploaded). A frame whose geometry, materials, lights and settings equal the last one's (the
 //! camera may move) uploads the camera (one `Frame`, 80 bytes), records the G-buffer, direct light
@@ -19,7 +23,9 @@
 //! uploads them (and lrsm's light views) and re-runs what the lights feed over the kept voxels:
 //! voxel_light and the mips (vct-dense), every view's RSM and LRSM (lrsm), the light injection
 //! and the octree's values over its kept structure (vct-svo, where the chain lights it; else moved
-//! lights rebuild its octree). A frame that differs in the image size or in
+//! lights rebuild its octree). A frame whose instances moved re-lights the kept hierarchies
+//! (vct-dense, cprc) or voxelizes the scene again in the kept chain (lrsm; vct-svo, its octree's
+//! structure built again too). A frame that differs in the image size or in
 //! settings builds a new chain; where that chain's volume passes are the kept chain's over the
 //! same inputs (the settings changed are read by the camera's stages alone: the cone count, AO,
 //! the image size), it binds the kept volume's buffers instead of computing the volume again (vct-svo
@@ -48,7 +54,7 @@ struct Key {
     /// frame whose instances moved re-lights the kept hierarchies).
     hierarchies: Vec<(crate::scene::Mesh, u32)>,
     scene_sizes: (usize, usize),
-    /// lrsm with `[[instances]]`: the voxel grid's origin and voxel size (the flattened mesh's extent
+    /// lrsm and vct-svo ([`revoxelizes`]) with `[[instances]]`: the voxel grid's origin and voxel size (the flattened mesh's extent
     /// decides it; within the same grid a frame whose instances moved re-voxelizes in the chain) and
     /// the most samples a triangle splats (voxelize's dispatch is sized by it).
     world: Option<([f32; 4], u32)>,
@@ -135,7 +141,7 @@ impl Key {
     }
 
     /// The key of `scene`'s frame; `data` is the scene's [`SceneData`] where it has instances, `vox`
-    /// voxelize's input and grid where lrsm re-voxelizes moved instances ([`revoxelized`]).
+    /// voxelize's input and grid where the chain re-voxelizes moved instances ([`revoxelized`]).
     fn of(
         pipeline: Pipeline,
         scene: &Scene,
@@ -217,8 +223,8 @@ struct Built<'c> {
     mesh: crate::scene::Mesh,
     /// With instances: each voxel hierarchy's grid frame, in the chain's order.
     hierarchies: Option<Vec<crate::kernels::voxelize::VoxelFrame>>,
-    /// lrsm with instances: what a frame whose instances moved resets before re-running the volume
-    /// passes from voxelize on ([`written_in`]: cleared, restored).
+    /// lrsm and vct-svo with instances ([`revoxelizes`]): what a frame whose instances moved resets
+    /// before re-running the volume passes from voxelize on ([`written_in`]: cleared, restored).
     revoxelize: Option<Resets>,
     /// vct-svo lit in the chain: what a frame with moved lights resets before re-running the passes
     /// the lights feed ([`written_in`]: cleared, restored).
@@ -482,7 +488,10 @@ impl<'c> Resident<'c> {
     /// stay on the GPU in the returned buffers. The camera's pixels as they are: `supersample` and
     /// the exposure of very bright lights are [`Resident::render`]'s, refused here. Submit the
     /// encoder before the next `encode`: the frame's camera and lights are written with
-    /// `queue.write_buffer`, which takes effect at the next submission.
+    /// `queue.write_buffer`, which takes effect at the next submission. vct-svo with moving
+    /// instances: whether a frame outgrew its octree's room is read after the submission, which
+    /// the caller makes here, so `encode` cannot tell; [`Resident::render`] and
+    /// [`Resident::present`] do.
     pub fn encode(
         &mut self,
         scene: &Scene,
@@ -787,7 +796,7 @@ impl<'c> Resident<'c> {
                 };
                 plan = plan.with_hierarchies(h.len(), voxelized);
             }
-            // lrsm's moved instances: the whole volume again, in the kept chain.
+            // lrsm's and vct-svo's moved instances: the whole volume again, in the kept chain.
             _ if reuse && timed.start == 0 => {
                 plan = plan.with_note(
                     "voxelize",
@@ -1282,7 +1291,7 @@ fn placed_inputs(
     Ok(out)
 }
 
-/// The buffers a frame that re-voxelizes moved instances rewrites (lrsm): voxelize's triangles and
+/// The buffers a frame that re-voxelizes moved instances rewrites ([`revoxelizes`]): voxelize's triangles and
 /// parameters for the scene as it stands (the same grid and triangle count: the key holds them),
 /// and the ray caster's triangles and BVH.
 fn voxelize_inputs(
