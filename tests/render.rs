@@ -1406,22 +1406,13 @@ fn resident_cprc_frames_stay_on_the_gpu_and_match_fresh_frames() {
 /// renderer's for each frame (vct-dense, vct-svo and lrsm bit for bit; cprc within FLIP 1e-3).
 #[test]
 fn resident_frames_relight_moved_instances_in_one_submission() {
-    use vxgi::kernels::cone_trace::ConeSettings;
-    use vxgi::render::{Pipeline, Renderer};
+    use vxgi::render::Pipeline;
     use vxgi::resident::Resident;
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
     let mut scene = small(Scene::load(root.join("instances.toml")).unwrap(), 48, 40);
     scene.render.voxels = 32;
-    let cones = ConeSettings::from(&scene.render);
     for pipeline in Resident::PIPELINES {
-        let mut fresh = Renderer::new(pipeline, false);
-        let mut resident = Resident::new(gpu(), pipeline).unwrap();
-        for k in 0..7u32 {
-            let view = scene.at_frame(k);
-            let (want, _) = fresh.render(gpu(), &view, &cones, |_| {}).unwrap();
-            let before = vxgi::harness::thread_counters();
-            let got = resident.render(&view, &cones).unwrap();
-            let c = vxgi::harness::thread_counters().since(&before);
+        for (k, (want, got, c)) in animated_frames(pipeline, &scene, 7).into_iter().enumerate() {
             let at = format!("{} instances, frame {k}", pipeline.name());
             assert!(want.direct == got.direct && want.ao == got.ao, "{at}");
             if pipeline != Pipeline::Cprc {
@@ -1468,9 +1459,7 @@ fn resident_frames_relight_moved_instances_in_one_submission() {
 /// submission again.
 #[test]
 fn vct_svo_builds_its_chain_again_where_moved_instances_outgrow_its_room() {
-    use vxgi::kernels::cone_trace::ConeSettings;
-    use vxgi::render::{Pipeline, Renderer};
-    use vxgi::resident::Resident;
+    use vxgi::render::Pipeline;
     let dir = std::env::temp_dir().join(format!("vxgi-outgrow-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let obj = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/box.obj");
@@ -1488,15 +1477,10 @@ fn vct_svo_builds_its_chain_again_where_moved_instances_outgrow_its_room() {
     std::fs::write(&path, toml).unwrap();
     let mut scene = Scene::load(&path).unwrap();
     scene.render.voxels = 32;
-    let cones = ConeSettings::from(&scene.render);
-    let mut fresh = Renderer::new(Pipeline::VctSvo, false);
-    let mut resident = Resident::new(gpu(), Pipeline::VctSvo).unwrap();
-    for k in 0..3u32 {
-        let view = scene.at_frame(k);
-        let (want, _) = fresh.render(gpu(), &view, &cones, |_| {}).unwrap();
-        let before = vxgi::harness::thread_counters();
-        let got = resident.render(&view, &cones).unwrap();
-        let c = vxgi::harness::thread_counters().since(&before);
+    for (k, (want, got, c)) in animated_frames(Pipeline::VctSvo, &scene, 3)
+        .into_iter()
+        .enumerate()
+    {
         let at = format!("frame {k}");
         assert!(
             want.direct == got.direct && want.indirect == got.indirect && want.ao == got.ao,
@@ -1510,6 +1494,34 @@ fn vct_svo_builds_its_chain_again_where_moved_instances_outgrow_its_room() {
         }
     }
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// Frames `0..frames` of `scene`'s animation by a fresh renderer each and by one resident renderer:
+/// per frame (the fresh frame, the resident one, what the resident frame counted).
+fn animated_frames(
+    pipeline: vxgi::render::Pipeline,
+    scene: &Scene,
+    frames: u32,
+) -> Vec<(
+    vxgi::render::Rendered,
+    vxgi::render::Rendered,
+    vxgi::harness::Counters,
+)> {
+    use vxgi::kernels::cone_trace::ConeSettings;
+    use vxgi::render::Renderer;
+    use vxgi::resident::Resident;
+    let cones = ConeSettings::from(&scene.render);
+    let mut fresh = Renderer::new(pipeline, false);
+    let mut resident = Resident::new(gpu(), pipeline).unwrap();
+    (0..frames)
+        .map(|k| {
+            let view = scene.at_frame(k);
+            let (want, _) = fresh.render(gpu(), &view, &cones, |_| {}).unwrap();
+            let before = vxgi::harness::thread_counters();
+            let got = resident.render(&view, &cones).unwrap();
+            (want, got, vxgi::harness::thread_counters().since(&before))
+        })
+        .collect()
 }
 
 /// `scene`'s frame, then its first (point) light moved by 0.3 in x, by one resident renderer: (a
@@ -2068,13 +2080,10 @@ fn resident_frames_draw_unlit_scenes_and_vct_svo_instances() {
     scene.render.voxels = 32;
     scene.render.voxel_lobes = true;
     scene.render.photon_map = 0;
-    let cones = ConeSettings::from(&scene.render);
-    let mut fresh = Renderer::new(Pipeline::VctSvo, false);
-    let mut resident = Resident::new(gpu(), Pipeline::VctSvo).unwrap();
-    for k in 0..3u32 {
-        let view = scene.at_frame(k);
-        let (want, _) = fresh.render(gpu(), &view, &cones, |_| {}).unwrap();
-        let got = resident.render(&view, &cones).unwrap();
+    for (k, (want, got, _)) in animated_frames(Pipeline::VctSvo, &scene, 3)
+        .into_iter()
+        .enumerate()
+    {
         let at = format!("vct-svo instances, frame {k}");
         assert!(
             want.direct == got.direct && want.indirect == got.indirect && want.ao == got.ao,
