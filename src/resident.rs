@@ -774,6 +774,19 @@ impl<'c> Resident<'c> {
                 }
                 plan
             }
+            // The frame whose chain builds the octree's structure itself: the staged passes ran
+            // first to size it.
+            Pipeline::VctSvo if !reuse && b.octree_room.is_some() => {
+                Pipeline::VctSvo.plan(scene, cones, cached).with_note(
+                    "sparse_voxel_octree",
+                    &format!(
+                        "the chain's room sized by the staged passes first (this frame only): {}",
+                        b.octree_room
+                            .as_ref()
+                            .map_or(String::new(), |r| r.describe())
+                    ),
+                )
+            }
             // The frame that built the octree: the build's own notes (static part kept, its
             // subdivisions replayed).
             Pipeline::VctSvo if !reuse && !b.build_stages.is_empty() => self

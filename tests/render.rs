@@ -1488,6 +1488,9 @@ fn vct_svo_builds_its_chain_again_where_moved_instances_outgrow_its_room() {
         );
         let plan = got.plan.to_string();
         assert_eq!(plan.contains("room was too small"), k == 1, "{at}: {plan}");
+        // Frames 0 and 1 build a chain: the staged passes size its room first.
+        let sized = plan.contains("sized by the staged passes first");
+        assert_eq!(sized, k < 2, "{at}: {plan}");
         if k == 2 {
             assert_reused_frame(&at, &c);
             assert_eq!(c.submissions, 1, "{at}: {c:?}");

@@ -260,6 +260,17 @@ impl OctreeRoom {
         }
     }
 
+    /// The room in words, for the plan.
+    pub fn describe(&self) -> String {
+        format!(
+            "{} voxel fragments, {} octree tiles, {} directional values ({}x the first frame's)",
+            self.slots,
+            self.tiles,
+            self.aniso_values,
+            Self::HEADROOM
+        )
+    }
+
     /// Whether the frame whose GPU counts these are fit: voxelize's `list_count`, the octree's
     /// `status` and `levels` (the node pool's overflow bit, the tiles above the leaves).
     pub fn check(&self, list_count: u32, status: &[u32], levels: &[u32]) -> Result<()> {
