@@ -663,6 +663,11 @@ impl<'c> Resident<'c> {
             // The frame's octree did not fit the chain's room: the frame again, on a chain sized
             // for it.
             (out, report) = self.submitted(scene, cones, true, None)?;
+            // A chain sized from this very frame holds it; were it not so, say so rather than
+            // return the frame.
+            if let Some(again) = self.outgrown.take() {
+                anyhow::bail!("vct-svo's octree outgrew a chain sized for its frame: {again}");
+            }
             report.plan = report.plan.with_note(
                 "sparse_voxel_octree",
                 &format!("the last chain's room was too small ({why}): built again, sized from this frame"),
