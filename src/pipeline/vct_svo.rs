@@ -926,3 +926,44 @@ pub(crate) fn svo_cone_trace_step(f: &mut HostFrame) -> Result<()> {
     });
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::OctreeRoom;
+    use vxgi_cpu_mirror::sparse_voxel_octree::{ERR_POOL, LEVELS_WORDS};
+    use vxgi_cpu_mirror::svo_anisotropic::NODE_VALUES;
+
+    /// A frame fits its room up to each bound and not one past it: the voxels listed, the pool's
+    /// overflow bit and the directional values of the nodes above the leaves.
+    #[test]
+    fn a_frame_outgrows_the_room_at_each_bound() {
+        let room = OctreeRoom {
+            depth: 3,
+            slots: 100,
+            tiles: 50,
+            aniso_values: 10 * 8 * NODE_VALUES,
+        };
+        let mut levels = vec![0u32; LEVELS_WORDS];
+        levels[3] = 10;
+        let ok = [0, 40, 0, 0];
+        assert!(room.check(100, &ok, &levels).is_ok());
+        let e = room.check(101, &ok, &levels).unwrap_err().to_string();
+        assert!(
+            e.contains("100 voxel fragments") && e.contains("101"),
+            "{e}"
+        );
+        let e = room
+            .check(100, &[ERR_POOL, 61, 0, 0], &levels)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("50 octree tiles") && e.contains("61"), "{e}");
+        levels[3] = 11;
+        assert!(room.check(100, &ok, &levels).is_err());
+        // Without directional values their bound does not apply.
+        let isotropic = OctreeRoom {
+            aniso_values: 0,
+            ..room
+        };
+        assert!(isotropic.check(100, &ok, &levels).is_ok());
+    }
+}
