@@ -54,9 +54,10 @@ struct Key {
     /// frame whose instances moved re-lights the kept hierarchies).
     hierarchies: Vec<(crate::scene::Mesh, u32)>,
     scene_sizes: (usize, usize),
-    /// lrsm and vct-svo ([`revoxelizes`]) with `[[instances]]`: the voxel grid's origin and voxel size (the flattened mesh's extent
-    /// decides it; within the same grid a frame whose instances moved re-voxelizes in the chain) and
-    /// the most samples a triangle splats (voxelize's dispatch is sized by it).
+    /// lrsm and vct-svo ([`revoxelizes`]) with `[[instances]]`: the voxel grid's origin and voxel
+    /// size (the flattened mesh's extent decides it; within the same grid a frame whose instances
+    /// moved re-voxelizes in the chain) and the most samples a triangle splats (voxelize's
+    /// dispatch is sized by it).
     world: Option<([f32; 4], u32)>,
     lights: usize,
     views: usize,
@@ -1309,9 +1310,9 @@ fn placed_inputs(
     Ok(out)
 }
 
-/// The buffers a frame that re-voxelizes moved instances rewrites ([`revoxelizes`]): voxelize's triangles and
-/// parameters for the scene as it stands (the same grid and triangle count: the key holds them),
-/// and the ray caster's triangles and BVH.
+/// The buffers a frame that re-voxelizes moved instances rewrites ([`revoxelizes`]): voxelize's
+/// triangles and parameters for the scene as it stands (the same grid and triangle count: the key
+/// holds them), and the ray caster's triangles and BVH.
 fn voxelize_inputs(
     data: &SceneData,
     scene: &Scene,

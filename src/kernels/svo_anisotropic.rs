@@ -68,7 +68,12 @@ const SCALE: f32 = super::svo_cone_trace::SCALE;
 
 /// Directional values of the first `levels[depth] * 8` nodes (the levels above the leaves).
 pub fn values(o: &Octree) -> usize {
-    o.levels[o.depth as usize] as usize * 8 * NODE_VALUES
+    values_of(o.depth, &o.levels)
+}
+
+/// [`values`] of an octree of `depth` whose tile ranges per level are `levels`.
+pub fn values_of(depth: u32, levels: &[u32]) -> usize {
+    levels[depth as usize] as usize * 8 * NODE_VALUES
 }
 
 /// The bindings of a pass of `p` over `o` with these directional values, the pool split at `window`.

@@ -275,7 +275,6 @@ impl OctreeRoom {
     /// `status` and `levels` (the node pool's overflow bit, the tiles above the leaves).
     pub fn check(&self, list_count: u32, status: &[u32], levels: &[u32]) -> Result<()> {
         use vxgi_cpu_mirror::sparse_voxel_octree::{ERR_POOL, STATUS_ERRORS, STATUS_TILES};
-        use vxgi_cpu_mirror::svo_anisotropic::NODE_VALUES;
         anyhow::ensure!(
             list_count <= self.slots,
             "vct-svo's chain holds {} voxel fragments; this frame listed {list_count} voxels",
@@ -287,7 +286,7 @@ impl OctreeRoom {
             self.tiles,
             status[STATUS_TILES]
         );
-        let above = levels[self.depth as usize] as usize * 8 * NODE_VALUES;
+        let above = svo_anisotropic::values_of(self.depth, levels);
         anyhow::ensure!(
             self.aniso_values == 0 || above <= self.aniso_values,
             "vct-svo's chain holds {} directional values; this frame's octree has {above}",
@@ -321,12 +320,6 @@ pub(crate) fn svo_chain(
         copies: Vec::new(),
         frame: volume.frame,
     };
-    // Lit in the chain: the cone pass binds the octree the chain builds and its directional
-    // values, zero until they run (a chain's shared resource holds one first content).
-    let mut aniso = volume.aniso.as_deref().map(std::borrow::Cow::Borrowed);
-    if let (Some(a), Some(room)) = (&mut aniso, &room) {
-        *a = std::borrow::Cow::Owned(vec![[0.0; 4]; room.aniso_values]);
-    }
     if in_chain {
         let photons = match scene.render.photon_map {
             0 => {
@@ -346,19 +339,12 @@ pub(crate) fn svo_chain(
             scene.render.bounces,
             photons,
         )?;
-        if let Some(a) = &mut aniso {
-            a.to_mut().fill([0.0; 4]);
-        }
     }
-    let extras = svo_cone_trace::SvoExtras {
-        aniso: aniso.as_deref(),
-        ..volume.extras()
-    };
     let mut c = svo_cone_trace::case_for(
         data,
         &g.resources,
         &volume.built.octree,
-        extras,
+        volume.extras(),
         volume.scale,
         &params,
         "render".into(),
@@ -372,9 +358,14 @@ pub(crate) fn svo_chain(
     c.rename_resource("nodes", "octree_nodes", false);
     c.rename_resource("bricks", "octree_bricks", false);
     if in_chain {
-        // The chain's own octree, as its structure passes leave it.
+        // Lit in the chain: the cone pass binds the octree and directional values the chain
+        // computes, not the staged build's.
         c.resources.remove("octree_nodes");
         c.resources.remove("octree_bricks");
+        if volume.aniso.is_some() {
+            c.resources.remove("aniso");
+            c.resources.remove("aniso_hi");
+        }
     }
     c.resources
         .insert("tile_list".into(), screen_tiles::empty_list(w, h));
@@ -486,12 +477,14 @@ fn photon_passes(
 /// fixed-point scale and one fragment per listed voxel: its light, or with photons its coverage
 /// from `vox_colour`, then one per photon texel), the octree's value passes (splat, border
 /// transfer, distribution) over the structure `volume` kept (its buffers `octree_*`, the bricks
-/// zero), and the directional values level by level. `1 / scale` is copied into the cone pass's and
-/// the directional passes' parameters after the scale is found. The normal pool (Gaussian lobes
-/// without photons) keeps the staged build's scale: its lobes read ratios of its channels, which a
-/// power-of-two scale leaves exact. The kernels' error bits (`scale_state[1]`, the octree's
-/// `status[0]`) are not read back: the scale makes every finite value fit, and a photon at a
-/// lattice point the kept structure lacks adds nothing.
+/// zero) or, with a `room`, over the structure the chain builds first in it from the voxels'
+/// fragments, and the directional values level by level. `1 / scale` is copied into the cone
+/// pass's and the directional passes' parameters after the scale is found. The normal pool
+/// (Gaussian lobes without photons) keeps the staged build's scale: its lobes read ratios of its
+/// channels, which a power-of-two scale leaves exact. svo_fragments' error bits (`scale_state[1]`)
+/// are not read back: the scale makes every finite value fit, and a photon at a lattice point the
+/// structure lacks adds nothing. The octree's `status` is read back where a `room` can be
+/// outgrown ([`OctreeRoom::check`]).
 fn light_octree(
     ctx: &crate::harness::GpuContext,
     chain: &mut Chain,
@@ -506,7 +499,6 @@ fn light_octree(
     use vxgi_cpu_mirror::svo_anisotropic::{level_nodes, passes as aniso_passes, AnisoParams};
     let o = &volume.built.octree;
     let capacity = room.map_or(volume.listed.max(1), |r| r.slots);
-    let structure_in_chain = room.is_some();
     let texels = photons.unwrap_or(0);
     let side = chain.frame.side;
     let max = ctx.limits().max_compute_workgroups_per_dimension;
@@ -605,7 +597,7 @@ fn light_octree(
         .collect();
     chain.push_as(shader, sf::DECL.name, "sparse_voxel_octree", passes);
     let scaled = chain.pass_count();
-    let mut case = if structure_in_chain {
+    let mut case = if let Some(room) = room {
         // The octree over every fragment slot: its structure from the voxels' fragments (the
         // first `list_count` slots: with photons too the structure is the voxels' alone, whichever
         // light cast them; a photon at a point the voxels lack adds nothing), then its values.
@@ -624,7 +616,7 @@ fn light_octree(
         svo::case_in_chain(
             ctx,
             o.depth,
-            room.map_or(o.capacity_tiles, |r| r.tiles),
+            room.tiles,
             capacity + texels,
             capacity,
             "render".into(),
