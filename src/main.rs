@@ -641,7 +641,7 @@ fn run_render(
         );
         println!(
             "stages (GPU time{}): {}",
-            if pipeline == Pipeline::VctSvo {
+            if pipeline == Pipeline::VctSvo && !vxgi::pipeline::builds_in_chain(&scene) {
                 "; the octree build by wall clock"
             } else {
                 ""

@@ -5,15 +5,16 @@
 //! [`Resident`] draws every pipeline's frames from its chain ([`crate::pipeline`]), the verified
 //! kernels on the inputs their cases define; cprc's cache stages are dispatched from the cache
 //! count the GPU found, in buffers sized for the most caches a frame can place
-//! (`crate::pipeline::cache_room`). vct-svo's octree structure is built by its staged passes
+//! (`crate::pipeline::cache_room`). vct-svo's chain builds its whole octree, the first frame
+//! included (`crate::pipeline::builds_in_chain`): the light injection (voxel_light or the photons),
+//! `svo_fragments`, the octree's structure and values and its directional values, in room sized at
+//! load from the scene's voxels (`crate::pipeline::OctreeRoom`: a frame that outgrows it, as moved
+//! instances may, is found from its GPU counts, read back with the frame's small outputs, and drawn
+//! again on a chain sized for it by [`Resident::render`]; [`Resident::present`] builds the next
+//! frame's). With Gaussian lobes its structure is built by the staged passes
 //! ([`crate::render::VctSvo`]) when the chain is built (their host steps between passes run then,
-//! once); its chain lights it (voxel_light or the photons, `svo_fragments`, the octree's value passes
-//! and directional values) and draws the camera's stages over it. With `[[instances]]` the chain
-//! builds the structure too, in room the staged build sized (`crate::pipeline::OctreeRoom`: a
-//! frame that outgrows it is found from its GPU counts, read back with the frame's small outputs,
-//! and drawn again on a chain sized for it by [`Resident::render`]; [`Resident::present`] builds
-//! the next frame's). With two bounces, the photons' specular pool or Gaussian lobes with
-//! instances the staged passes light it too, and the chain is the camera's stages alone:
+//! once) and the chain lights it; with two bounces, the photons' specular pool or Gaussian lobes
+//! with instances the staged passes light it too, and the chain is the camera's stages alone:
 //! `crate::pipeline::lights_in_chain`. A chain is prepared once by the harness
 //! (`prepare_chain`: every resource checked against reflection and the device limits, then created
 //! and uploaded). A frame whose geometry, materials, lights and settings equal the last one's (the
@@ -29,7 +30,8 @@
 //! settings builds a new chain; where that chain's volume passes are the kept chain's over the
 //! same inputs (the settings changed are read by the camera's stages alone: the cone count, AO,
 //! the image size), it binds the kept volume's buffers instead of computing the volume again (vct-svo
-//! uploads the octree its staged passes built, without building it again). Anything else
+//! with Gaussian lobes uploads the octree its staged passes built, without building it again).
+//! Anything else
 //! rebuilds the whole chain, and the plan says why.
 use crate::harness::HostResource;
 use crate::harness::{GpuContext, Prepared, ReadbackSet};
@@ -168,8 +170,8 @@ impl Key {
             _ => (Vec::new(), (0, 0)),
         };
         // With instances the voxels depend on the meshes in their own frames, not where they stand
-        // (vct-svo's octree lit by the staged passes on the flattened scene: moved instances build
-        // it again).
+        // (vct-svo's octree, built from the flattened scene where the staged passes light it: moved
+        // instances build it again).
         let base;
         let scene = if instanced && (pipeline != Pipeline::VctSvo || revoxelizes) {
             base = Scene {
@@ -569,8 +571,8 @@ impl<'c> Resident<'c> {
             // volume where it can; any other change frees it first.
             let old = self.built.take().filter(|b| b.key.may_keep_volume(&key));
             let (built, took) = self.build(scene, cones, key, old.as_ref())?;
-            // A vct-svo chain the staged passes lit has no volume passes: its octree is kept where
-            // they found it built for this scene already.
+            // A vct-svo chain over an octree the staged passes lit has no volume passes: its octree
+            // is kept where they found it built for this scene already.
             self.kept_volume = took && built.build_stages.is_empty();
             drop(old);
             self.built = Some(built);
@@ -780,13 +782,12 @@ impl<'c> Resident<'c> {
                 }
                 plan
             }
-            // The frame whose chain builds the octree's structure itself: the staged passes ran
-            // first to size it.
+            // The frame whose chain builds the octree's structure itself: its room sized at load.
             Pipeline::VctSvo if !reuse && b.octree_room.is_some() => {
                 Pipeline::VctSvo.plan(scene, cones, cached).with_note(
                     "sparse_voxel_octree",
                     &format!(
-                        "the chain's room sized by the staged passes first (this frame only): {}",
+                        "the chain's room sized at load from the scene's voxels and octree structure (counted on the host): {}",
                         b.octree_room
                             .as_ref()
                             .map_or(String::new(), |r| r.describe())
@@ -895,6 +896,15 @@ impl<'c> Resident<'c> {
                 let direct = if soft { "soft_direct" } else { "radiance" };
                 (chain, Some(VolumeMemory::Lrsm(memory)), direct)
             }
+            // The whole octree in the chain, in room sized at load (moved lights and instances
+            // re-run it from their first stage).
+            Pipeline::VctSvo if crate::pipeline::builds_in_chain(scene) => {
+                let (chain, room) =
+                    crate::pipeline::svo_chain(self.ctx, scene, &data, cones, None)?;
+                let (room, memory) = room.context("vct-svo's chain sizes its room")?;
+                octree_room = Some(room);
+                (chain, Some(VolumeMemory::Octree(memory)), "radiance")
+            }
             Pipeline::VctSvo => {
                 // The octree's structure by the staged passes (their host steps run once, here);
                 // the chain lights it where `lights_in_chain` (moved lights re-run that), else
@@ -903,9 +913,8 @@ impl<'c> Resident<'c> {
                 // uploaded again, not built.
                 let (volume, built) = self.svo.volume(self.ctx, scene, cones)?;
                 build_stages = built;
-                let (chain, room) =
-                    crate::pipeline::svo_chain(self.ctx, scene, &data, cones, volume)?;
-                octree_room = room;
+                let (chain, _) =
+                    crate::pipeline::svo_chain(self.ctx, scene, &data, cones, Some(volume))?;
                 let memory = VolumeMemory::Octree(volume.memory());
                 (chain, Some(memory), "radiance")
             }
@@ -949,8 +958,8 @@ impl<'c> Resident<'c> {
                 .iter()
                 .find(|s| s.stage == crate::kernels::gbuffer::DECL.name)
                 .map_or(0, |s| s.passes.len());
-        // Moved lights re-run the volume from its first stage the lights feed (a vct-svo chain the
-        // staged passes lit has none: its octree, built outside the chain, is rebuilt).
+        // Moved lights re-run the volume from its first stage the lights feed (a vct-svo chain over an
+        // octree the staged passes lit has none: its octree, built outside the chain, is rebuilt).
         let relight = start_of(Reuse::Lights).unwrap_or(gbuffer);
         // What the camera's passes also write starts each reused frame as a fresh chain has it
         // (cleared or restored), so a new chain keeps its own.

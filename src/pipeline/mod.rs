@@ -133,8 +133,8 @@ pub use lrsm::LRSM;
 pub(crate) use lrsm::*;
 pub use vct_dense::VCT_DENSE;
 pub(crate) use vct_dense::*;
-pub use vct_svo::VCT_SVO;
 pub(crate) use vct_svo::*;
+pub use vct_svo::{builds_in_chain, lights_in_chain, OctreeRoom, LIT_IN_CHAIN_VOXELS, VCT_SVO};
 
 /// Where a scene's voxel hierarchies stand this frame (CPRC 3.1): what the cones read (`placed`, one
 /// record per hierarchy) and what voxel_light lights each hierarchy with (its grid record, placed by

@@ -1,6 +1,6 @@
 //! vct-svo (Crassin et al. 2011: the sparse voxel octree): its declaration, the plan's rules for its
-//! stages, and its chain over an octree structure built already (lighting it where
-//! [`lights_in_chain`]).
+//! stages, and its chain: the whole octree where [`builds_in_chain`], else over an octree structure
+//! its staged passes built (lighting it where [`lights_in_chain`]).
 use super::host::{HostFrame, Side};
 use super::*;
 use crate::kernels::{sparse_voxel_octree, svo_anisotropic, svo_cone_trace, svo_photons};
@@ -202,14 +202,15 @@ fn svo_cone_trace_plan(i: &PlanInputs) -> Vec<PlannedPass> {
 
 /// Whether `scene`'s frames light vct-svo's octree in the chain: voxel_light, the fragments
 /// (`svo_fragments`: the fixed-point scale and the fragments, on the GPU), the octree's value
-/// passes and its directional values, over the structure the staged build made (with
-/// `[[instances]]`, the structure too: [`OctreeRoom`]); with photon injection the photons too
+/// passes and its directional values, over the structure the chain builds ([`builds_in_chain`]:
+/// in room sized at load, [`OctreeRoom`]) or, with Gaussian lobes, the staged build made; with
+/// photon injection the photons too
 /// (svo_photons per light view). Moved lights, and moved instances, then re-light it in the
 /// frame's one submission. A second bounce, the glossy photons' specular pool (photons with
 /// Gaussian lobes), the lobes' normal pool with instances (kept in the staged build's node layout,
 /// which a structure built again does not keep) and grids past [`LIT_IN_CHAIN_VOXELS`] still build
 /// the octree's values with the staged passes (host steps between them).
-pub(crate) fn lights_in_chain(scene: &Scene) -> bool {
+pub fn lights_in_chain(scene: &Scene) -> bool {
     let r = &scene.render;
     let specular_pool = r.photon_map > 0 && r.voxel_lobes;
     let lobes_with_instances = r.voxel_lobes && !scene.instances.list.is_empty();
@@ -222,12 +223,19 @@ pub(crate) fn lights_in_chain(scene: &Scene) -> bool {
 /// The largest grid side whose octree [`lights_in_chain`] lights.
 pub const LIT_IN_CHAIN_VOXELS: u32 = 128;
 
-/// What a chain that builds vct-svo's octree structure itself (a scene with `[[instances]]`, lit in
-/// the chain: moved instances change the structure) holds for it, sized at load from the first
-/// frame's staged build with [`OctreeRoom::HEADROOM`] times its counts: voxel fragment slots,
-/// node pool tiles and directional values. A later frame that needs more is found after it ran
-/// ([`OctreeRoom::check`] on the GPU's counts, read back with the frame's small outputs) and the
-/// renderer builds its chain again for it, sized from that frame.
+/// Whether vct-svo's chain builds its octree's structure itself, the first frame included (no staged
+/// passes at all): where [`lights_in_chain`], except with Gaussian lobes (their normal pool is
+/// built by the staged passes, in the staged structure's node layout). Its room is sized at load
+/// ([`OctreeRoom::at_load`]).
+pub fn builds_in_chain(scene: &Scene) -> bool {
+    lights_in_chain(scene) && !scene.render.voxel_lobes
+}
+
+/// What a chain that builds vct-svo's octree structure itself ([`builds_in_chain`]) holds for it,
+/// sized at load from the scene as it stands with [`OctreeRoom::HEADROOM`] times its counts: voxel
+/// fragment slots, node pool tiles and directional values. A later frame that needs more (moved
+/// instances) is found after it ran ([`OctreeRoom::check`] on the GPU's counts, read back with the
+/// frame's small outputs) and the renderer builds its chain again for it, sized from that frame.
 #[derive(Clone, Debug, PartialEq)]
 pub struct OctreeRoom {
     pub depth: u32,
@@ -240,34 +248,73 @@ pub struct OctreeRoom {
 }
 
 impl OctreeRoom {
-    /// Room for the instances' voxels to grow as they move: twice the first frame's counts.
+    /// Room for moving instances' voxels to grow: twice the counts at load. A scene without
+    /// instances keeps its voxels and structure (moved lights change only their values), so its
+    /// room is its counts.
     pub const HEADROOM: u32 = 2;
     /// The chain's buffers [`OctreeRoom::check`] reads after a frame.
     pub const READ: [&'static str; 3] = ["list_count", "octree_status", "octree_levels"];
 
-    fn of(ctx: &crate::harness::GpuContext, volume: &crate::render::SvoCache) -> Self {
-        use crate::kernels::sparse_voxel_octree as svo;
-        let o = &volume.built.octree;
-        let h = Self::HEADROOM as usize;
-        Self {
-            depth: o.depth,
-            slots: volume.listed.max(1).saturating_mul(Self::HEADROOM),
-            tiles: o
-                .capacity_tiles
-                .saturating_mul(Self::HEADROOM)
-                .min(svo::max_capacity(ctx)),
-            aniso_values: volume.aniso.as_ref().map_or(0, |a| a.len() * h),
-        }
+    /// The room for `scene` as it stands, from the counts its frame will have, found on the host
+    /// without the GPU: the voxels voxelize lists are those its samples land in (the mirror's
+    /// `occupancy`, the same samples), one structure fragment each; the octree's structure over
+    /// them (the mirror's structure pass: integer, the GPU's up to tile order) gives the node tiles
+    /// and the nodes above the leaves. With the octree's memory at those counts.
+    pub fn at_load(
+        ctx: &crate::harness::GpuContext,
+        scene: &Scene,
+    ) -> Result<(Self, sparse_voxel_octree::MemoryReport)> {
+        use vxgi_cpu_mirror::sparse_voxel_octree::{capacity_bound, STATUS_TILES};
+        let side = scene.render.voxels;
+        let (input, _) = crate::kernels::voxelize::prepare(scene, side)?;
+        let bits = vxgi_cpu_mirror::voxelize::occupancy(&input.tris, side);
+        let voxels = (side as u64).pow(3);
+        let frags: Vec<Fragment> = bits
+            .iter()
+            .enumerate()
+            .flat_map(|(w, &b)| {
+                (0..32u64)
+                    .filter(move |k| b >> k & 1 == 1)
+                    .map(move |k| w as u64 * 32 + k)
+            })
+            .filter(|&m| m < voxels)
+            .map(|m| Fragment {
+                pos: vxgi_cpu_mirror::morton::decode(m as u32),
+                ..bytemuck::Zeroable::zeroed()
+            })
+            .collect();
+        let depth = side.trailing_zeros() - 1;
+        let mut o = Octree::empty(depth, capacity_bound(depth, frags.len()) as u32);
+        o.build_structure(&frags);
+        let h = if scene.instances.list.is_empty() {
+            1
+        } else {
+            Self::HEADROOM
+        };
+        let room = Self {
+            depth,
+            slots: (frags.len() as u32).max(1).saturating_mul(h),
+            tiles: o.status[STATUS_TILES]
+                .max(1)
+                .saturating_mul(h)
+                .min(sparse_voxel_octree::max_capacity(ctx)),
+            aniso_values: if scene.render.anisotropic_voxels {
+                svo_anisotropic::values_of(depth, &o.levels) * h as usize
+            } else {
+                0
+            },
+        };
+        let mut memory = sparse_voxel_octree::MemoryReport::of(&o);
+        memory.anisotropic_bytes = room.aniso_values as u64 / h as u64 * 16;
+        memory.bytes += memory.anisotropic_bytes;
+        Ok((room, memory))
     }
 
     /// The room in words, for the plan.
     pub fn describe(&self) -> String {
         format!(
-            "{} voxel fragments, {} octree tiles, {} directional values ({}x the first frame's)",
-            self.slots,
-            self.tiles,
-            self.aniso_values,
-            Self::HEADROOM
+            "{} voxel fragments, {} octree tiles, {} directional values",
+            self.slots, self.tiles, self.aniso_values,
         )
     }
 
@@ -296,29 +343,46 @@ impl OctreeRoom {
     }
 }
 
-/// vct-svo's chain over an octree built already (`volume`, by [`crate::render::VctSvo`]'s GPU
-/// passes with the host steps between them). Where [`lights_in_chain`]: voxelize, voxel_light, the
-/// fragments, the octree's values and directional values over the kept structure, then the
-/// camera's stages; else the camera's stages alone (gbuffer, direct_light, screen_tiles,
-/// svo_cone_trace) over the octree's nodes, bricks and pools as they are.
+/// vct-svo's chain. Where [`builds_in_chain`] (`volume` None): voxelize, the light injection, the
+/// fragments, the octree's structure (in room sized at load: [`OctreeRoom`]), its values and
+/// directional values, then the camera's stages: the whole frame, the first one included. Else over
+/// an octree built already (`volume`, by [`crate::render::VctSvo`]'s GPU passes with the host steps
+/// between them): where [`lights_in_chain`], voxelize, voxel_light, the fragments, the octree's
+/// values and directional values over the kept structure, then the camera's stages; else the
+/// camera's stages alone (gbuffer, direct_light, screen_tiles, svo_cone_trace) over the octree's
+/// nodes, bricks and pools as they are. With the room (and the octree's memory at load) where the
+/// chain builds the structure.
 pub(crate) fn svo_chain(
     ctx: &crate::harness::GpuContext,
     scene: &Scene,
     data: &SceneData,
     cones: &ConeSettings,
-    volume: &crate::render::SvoCache,
-) -> Result<(Chain, Option<OctreeRoom>)> {
+    volume: Option<&crate::render::SvoCache>,
+) -> Result<(
+    Chain,
+    Option<(OctreeRoom, sparse_voxel_octree::MemoryReport)>,
+)> {
     use crate::kernels::gbuffer;
     let in_chain = lights_in_chain(scene);
-    let room = (in_chain && !scene.instances.list.is_empty()).then(|| OctreeRoom::of(ctx, volume));
+    anyhow::ensure!(
+        volume.is_none() == builds_in_chain(scene),
+        "vct-svo's chain builds its octree where builds_in_chain, else binds the staged build's"
+    );
+    let room = match volume {
+        None => Some(OctreeRoom::at_load(ctx, scene)?),
+        Some(_) => None,
+    };
+    let anisotropic = volume.map_or(scene.render.anisotropic_voxels, |v| v.aniso.is_some());
     let g = gbuffer::case_for(data, "render".into(), 0);
     let d = direct_light::case_with_gbuffer(ctx, data, &Default::default(), "render".into(), 0);
-    let params = svo_cone_trace::svo_cone_params(&volume.frame, cones);
     let mut chain = Chain {
         resources: Resources::new(),
         stages: Vec::new(),
         copies: Vec::new(),
-        frame: volume.frame,
+        frame: volume.map_or_else(
+            || crate::kernels::voxelize::frame_of(&scene.mesh, scene.render.voxels),
+            |v| v.frame,
+        ),
     };
     if in_chain {
         let photons = match scene.render.photon_map {
@@ -331,21 +395,38 @@ pub(crate) fn svo_chain(
                 Some(photon_passes(ctx, &mut chain, data, map)?)
             }
         };
-        light_octree(
-            ctx,
-            &mut chain,
-            volume,
-            room.as_ref(),
-            scene.render.bounces,
-            photons,
-        )?;
+        let octree = match (volume, &room) {
+            (Some(v), _) => Lit::Kept(v),
+            (None, Some((r, _))) => Lit::Built(r, anisotropic),
+            (None, None) => unreachable!("a room where no staged build is"),
+        };
+        light_octree(ctx, &mut chain, octree, scene.render.bounces, photons)?;
     }
+    let params = svo_cone_trace::svo_cone_params(&chain.frame, cones);
+    // Where the chain builds the octree, the cone pass's case binds placeholders the chain's
+    // buffers replace (its parameters' `inv_scale` copied in once the scale is found).
+    let unbuilt = room
+        .as_ref()
+        .map(|(r, _)| vxgi_cpu_mirror::sparse_voxel_octree::Octree::empty(r.depth, 1));
+    let (octree, extras, scale) = match (volume, &unbuilt) {
+        (Some(v), _) => (&v.built.octree, v.extras(), v.scale),
+        (None, Some(o)) => (
+            o,
+            svo_cone_trace::SvoExtras {
+                aniso: anisotropic.then_some(&[][..]),
+                normals: None,
+                spec: None,
+            },
+            1.0,
+        ),
+        (None, None) => unreachable!("a room where no staged build is"),
+    };
     let mut c = svo_cone_trace::case_for(
         data,
         &g.resources,
-        &volume.built.octree,
-        volume.extras(),
-        volume.scale,
+        octree,
+        extras,
+        scale,
         &params,
         "render".into(),
         0,
@@ -362,7 +443,7 @@ pub(crate) fn svo_chain(
         // computes, not the staged build's.
         c.resources.remove("octree_nodes");
         c.resources.remove("octree_bricks");
-        if volume.aniso.is_some() {
+        if anisotropic {
             c.resources.remove("aniso");
             c.resources.remove("aniso_hi");
         }
@@ -472,6 +553,15 @@ fn photon_passes(
     Ok(texels as u32)
 }
 
+/// The octree [`light_octree`] lights.
+#[derive(Clone, Copy)]
+enum Lit<'a> {
+    /// The staged build's structure, kept: its values computed again over it.
+    Kept(&'a crate::render::SvoCache),
+    /// Built by the chain in this room; whether with directional values.
+    Built(&'a OctreeRoom, bool),
+}
+
 /// The octree lit in `chain` after its light injection (`photons`: the photon texels
 /// [`photon_passes`] cast; `None`: voxel_light's `vox_radiance`): `svo_fragments` (the frame's
 /// fixed-point scale and one fragment per listed voxel: its light, or with photons its coverage
@@ -488,8 +578,7 @@ fn photon_passes(
 fn light_octree(
     ctx: &crate::harness::GpuContext,
     chain: &mut Chain,
-    volume: &crate::render::SvoCache,
-    room: Option<&OctreeRoom>,
+    octree: Lit,
     bounces: u32,
     photons: Option<u32>,
 ) -> Result<()> {
@@ -497,8 +586,16 @@ fn light_octree(
     use crate::harness::{HostBuffer, ScalarKind};
     use crate::kernels::{sparse_voxel_octree as svo, svo_fragments as sf};
     use vxgi_cpu_mirror::svo_anisotropic::{level_nodes, passes as aniso_passes, AnisoParams};
-    let o = &volume.built.octree;
-    let capacity = room.map_or(volume.listed.max(1), |r| r.slots);
+    let (depth, capacity, scale) = match octree {
+        Lit::Kept(v) => (v.built.octree.depth, v.listed.max(1), v.scale),
+        // The scale is found on the GPU and copied in: 1 until then.
+        Lit::Built(r, _) => (r.depth, r.slots, 1.0),
+    };
+    // The directional values' count, where the octree has them.
+    let aniso = match octree {
+        Lit::Kept(v) => v.aniso.as_ref().map(|a| a.len()),
+        Lit::Built(r, on) => on.then_some(r.aniso_values),
+    };
     let texels = photons.unwrap_or(0);
     let side = chain.frame.side;
     let max = ctx.limits().max_compute_workgroups_per_dimension;
@@ -597,49 +694,53 @@ fn light_octree(
         .collect();
     chain.push_as(shader, sf::DECL.name, "sparse_voxel_octree", passes);
     let scaled = chain.pass_count();
-    let mut case = if let Some(room) = room {
-        // The octree over every fragment slot: its structure from the voxels' fragments (the
-        // first `list_count` slots: with photons too the structure is the voxels' alone, whichever
-        // light cast them; a photon at a point the voxels lack adds nothing), then its values.
-        for level in 1..=o.depth {
-            chain.copies.push(ChainCopy {
-                after: scaled,
-                src_range: Some(0..4),
-                src: "list_count".into(),
-                dst: format!("octree_{}", svo::flagging_params(level)),
-                offset: std::mem::offset_of!(
-                    vxgi_cpu_mirror::sparse_voxel_octree::OctreeParams,
-                    fragments
-                ) as u64,
-            });
+    let mut case = match octree {
+        Lit::Built(room, _) => {
+            // The octree over every fragment slot: its structure from the voxels' fragments (the
+            // first `list_count` slots: with photons too the structure is the voxels' alone, whichever
+            // light cast them; a photon at a point the voxels lack adds nothing), then its values.
+            for level in 1..=depth {
+                chain.copies.push(ChainCopy {
+                    after: scaled,
+                    src_range: Some(0..4),
+                    src: "list_count".into(),
+                    dst: format!("octree_{}", svo::flagging_params(level)),
+                    offset: std::mem::offset_of!(
+                        vxgi_cpu_mirror::sparse_voxel_octree::OctreeParams,
+                        fragments
+                    ) as u64,
+                });
+            }
+            svo::case_in_chain(
+                ctx,
+                depth,
+                room.tiles,
+                capacity + texels,
+                capacity,
+                "render".into(),
+                0,
+            )
         }
-        svo::case_in_chain(
-            ctx,
-            o.depth,
-            room.tiles,
-            capacity + texels,
-            capacity,
-            "render".into(),
-            0,
-        )
-    } else {
-        // The octree's value passes over the kept structure: every fragment slot, the bricks zero.
-        let frags = vec![bytemuck::Zeroable::zeroed(); (capacity + texels) as usize];
-        let mut case = svo::case_replayed(
-            ctx,
-            o.depth,
-            o.capacity_tiles,
-            &frags,
-            None,
-            false,
-            "render".into(),
-            0,
-        );
-        case.passes.retain(|p| svo::phase_of(&p.entry) != "build");
-        for (name, b) in &volume.built.structure {
-            case.resources.insert(name.clone(), buf(b.clone()));
+        Lit::Kept(volume) => {
+            let o = &volume.built.octree;
+            // The octree's value passes over the kept structure: every fragment slot, the bricks zero.
+            let frags = vec![bytemuck::Zeroable::zeroed(); (capacity + texels) as usize];
+            let mut case = svo::case_replayed(
+                ctx,
+                o.depth,
+                o.capacity_tiles,
+                &frags,
+                None,
+                false,
+                "render".into(),
+                0,
+            );
+            case.passes.retain(|p| svo::phase_of(&p.entry) != "build");
+            for (name, b) in &volume.built.structure {
+                case.resources.insert(name.clone(), buf(b.clone()));
+            }
+            case
         }
-        case
     };
     let names: Vec<String> = case.resources.keys().cloned().collect();
     for n in names {
@@ -655,15 +756,14 @@ fn light_octree(
         offset: std::mem::offset_of!(vxgi_cpu_mirror::svo_cone_trace::SvoParams, inv_scale) as u64,
     });
     // The directional values, a pass per level (depth - 1 first), into the cone pass's pool.
-    if let Some(a) = &volume.aniso {
+    if let Some(values) = aniso {
         use crate::kernels::svo_anisotropic as sa;
-        let values = room.map_or(a.len(), |r| r.aniso_values);
         let (lo, hi) = sa::split_pool(&vec![[0.0f32; 4]; values], sa::POOL_WINDOW);
         // Each level's node slots: as the kept structure has them, or (a structure the chain
         // builds) as many as the level can have in the pool: the pass finds its own in `levels`.
-        let slots = |level: u32| match room {
-            None => level_nodes(&o.levels, level).len() as u64,
-            Some(r) => {
+        let slots = |level: u32| match octree {
+            Lit::Kept(v) => level_nodes(&v.built.octree.levels, level).len() as u64,
+            Lit::Built(r, _) => {
                 let most = if level == 0 {
                     1
                 } else {
@@ -681,7 +781,7 @@ fn light_octree(
         }
         let shader = sa::DECL.shader()?;
         let mut passes = Vec::new();
-        for p in aniso_passes(o.depth, 1.0 / volume.scale) {
+        for p in aniso_passes(depth, 1.0 / scale) {
             let name = format!("aniso_params_{}", p.level);
             res.insert(name.clone(), buf(HostBuffer::pod(&p)));
             let bindings = sa::DECL
