@@ -12,18 +12,20 @@
 //   the same way; the sample's albedo is vox_lut of the channels of texel ((Us >> 4) mod W,
 //   (Vs >> 4) mod H) at texture.x in vox_texels (packed sRGB8 r | g << 8 | b << 16).
 // Windows: splat and resolve see the voxels [params.window_first, window_first + window_voxels)
-//   (Morton indices), their `acc`, `vox_colour` and `vox_normal` bound from that window's first
-//   voxel, so a grid whose buffers pass one storage binding is voxelized a window at a time (the
-//   same samples and sums: each window keeps its own voxels' samples); one window of side^3 voxels
-//   is the whole grid.
+//   (Morton indices), their `vox_colour` and `vox_normal` bound from that window's first voxel, so a
+//   grid whose buffers pass one storage binding is voxelized a window at a time (the same samples
+//   and sums: each window keeps its own voxels' samples); one window of side^3 voxels is the whole
+//   grid. `acc` holds one window's accumulators (window_voxels x 8 words), the same buffer for every
+//   window: resolve leaves it zero for the next window's splat and the next frame's, so the
+//   accumulators cost 32 bytes per voxel of a window, not of the grid.
 // Pass `splat` (one invocation per triangle row: gid.x = triangle, gid.y = i): adds albedo, normal
 //   (two's complement in u32) and 1 into acc[8 w .. 8 w + 7] = (r, g, b, nx, ny, nz, count, -) of the
 //   sample's voxel v (Morton index) at w = v - window_first, for the samples in the window. acc must
 //   start zeroed.
-// Pass `resolve` (one invocation per voxel of the window): colour = (sum_albedo / count / 4096, 1),
-//   normal = (sum_normal / count / 4096, 0) — the mean, not renormalised — or zeros when empty; a
-//   non-empty voxel appends its index v to `list` (atomic counter list_count[0]; order is the GPU's,
-//   the comparison sorts it).
+// Pass `resolve` (one invocation per voxel of the window): takes the window's sums out of acc
+//   (atomicExchange with 0), colour = (sum_albedo / count / 4096, 1), normal = (sum_normal / count /
+//   4096, 0) — the mean, not renormalised — or zeros when empty; a non-empty voxel appends its index
+//   v to `list` (atomic counter list_count[0]; order is the GPU's, the comparison sorts it).
 // Pass `occupancy_bits` (dispatched as splat): the same samples, no albedo or normal: sets bit (v mod 32) of
 //   occupancy[v / 32] for the sample's voxel v (Morton index) by atomicOr: binary occlusion voxels, one
 //   bit per voxel (level 0 of occlusion_voxels.wgsl's pyramid), where splat's accumulators take 32
@@ -182,7 +184,11 @@ fn resolve(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
         return;
     }
     let base = v * 8u;
-    let count = atomicLoad(&acc[base + 6u]);
+    var sums: array<u32, 7>;
+    for (var k = 0u; k < 7u; k++) {
+        sums[k] = atomicExchange(&acc[base + k], 0u);
+    }
+    let count = sums[6];
     if (count == 0u) {
         vox_colour[v] = vec4<f32>(0.0);
         vox_normal[v] = vec4<f32>(0.0);
@@ -190,12 +196,8 @@ fn resolve(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
     }
     let c = f32(count);
     let s = 1.0 / 4096.0;
-    let alb = vec3<f32>(f32(atomicLoad(&acc[base])), f32(atomicLoad(&acc[base + 1u])), f32(atomicLoad(&acc[base + 2u])));
-    let nrm = vec3<f32>(
-        f32(bitcast<i32>(atomicLoad(&acc[base + 3u]))),
-        f32(bitcast<i32>(atomicLoad(&acc[base + 4u]))),
-        f32(bitcast<i32>(atomicLoad(&acc[base + 5u]))),
-    );
+    let alb = vec3<f32>(f32(sums[0]), f32(sums[1]), f32(sums[2]));
+    let nrm = vec3<f32>(f32(bitcast<i32>(sums[3])), f32(bitcast<i32>(sums[4])), f32(bitcast<i32>(sums[5])));
     vox_colour[v] = vec4<f32>(alb / c * s, 1.0);
     vox_normal[v] = vec4<f32>(nrm / c * s, 0.0);
     let slot = atomicAdd(&list_count[0], 1u);

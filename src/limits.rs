@@ -1,15 +1,22 @@
 //! The device limits a frame's settings must fit, checked from the scene before anything large is
 //! allocated: the light views' layered RSMs (lrsm), the photon maps (vct-svo), the image (every
-//! pipeline, with its supersampling), the dense voxel accumulators (lrsm: its occlusion voxels). Each
+//! pipeline, with its supersampling), the dense voxel grids (lrsm: its occlusion voxels). Each
 //! refusal names the quantity, the limit and the setting to change. `vxgi scene` runs the same checks.
 use crate::render::Pipeline;
 use crate::scene::Scene;
 
-/// Bytes per voxel of voxelization's dense accumulators (eight u32 atomics: RGB albedo, normal, count).
-pub const VOXEL_ACCUMULATOR_BYTES: u64 = 32;
+/// Bytes per voxel of each dense grid voxelization writes (colour, normal: a vec4<f32>). Its
+/// accumulators (32 bytes per voxel) take one storage binding's window of the grid at a time.
+pub const VOXEL_GRID_BYTES: u64 = crate::kernels::voxelize::GRID_BYTES;
 
+/// `b` in MiB, with the bytes where one decimal would hide them (a limit of 2 GiB - 1 beside 2 GiB).
 fn mib(b: u64) -> String {
-    format!("{:.1} MiB", b as f64 / (1u64 << 20) as f64)
+    let m = format!("{:.1} MiB", b as f64 / (1u64 << 20) as f64);
+    if b.is_multiple_of(1u64 << 20) {
+        m
+    } else {
+        format!("{m}, {b} bytes")
+    }
 }
 
 /// Two bounces are vct-svo's (and the reference's) alone: refused rather than one rendered silently.
@@ -71,7 +78,7 @@ pub fn check(scene: &Scene, pipeline: Pipeline, limits: &wgpu::Limits) -> Result
         );
     }
     // lrsm voxelizes into occupancy bits (level 0 of its occlusion voxels; the mips above it are
-    // bytes), gathered from one binding; every other pipeline into the dense accumulators.
+    // bytes), gathered from one binding; every other pipeline into dense grids.
     if pipeline == Pipeline::Lrsm {
         let occ = vxgi_cpu_mirror::occlusion_voxels::pyramid_bytes(r.voxels);
         if occ > binding {
@@ -85,10 +92,10 @@ pub fn check(scene: &Scene, pipeline: Pipeline, limits: &wgpu::Limits) -> Result
             );
         }
     }
-    let voxel_bytes = (r.voxels as u64).pow(3) * VOXEL_ACCUMULATOR_BYTES;
+    let voxel_bytes = (r.voxels as u64).pow(3) * VOXEL_GRID_BYTES;
     if pipeline != Pipeline::Lrsm && voxel_bytes > limits.max_buffer_size {
         return Err(format!(
-            "voxels = {}: the voxelizer's accumulators ({VOXEL_ACCUMULATOR_BYTES} bytes per voxel) need {} in one buffer, past the device's max_buffer_size ({}): lower voxels",
+            "voxels = {}: the voxelized grid ({VOXEL_GRID_BYTES} bytes per voxel for its colour, as many for its normals) needs {} in one buffer, past the device's max_buffer_size ({}): lower voxels",
             r.voxels,
             mib(voxel_bytes),
             mib(limits.max_buffer_size)
@@ -102,7 +109,7 @@ pub fn check(scene: &Scene, pipeline: Pipeline, limits: &wgpu::Limits) -> Result
     {
         return past(
             format!(
-                "voxels = {} with [[instances]]: a hierarchy's accumulators ({VOXEL_ACCUMULATOR_BYTES} bytes per voxel)",
+                "voxels = {} with [[instances]]: a hierarchy's voxel grid ({VOXEL_GRID_BYTES} bytes per voxel)",
                 r.voxels
             ),
             voxel_bytes,

@@ -1963,8 +1963,8 @@ fn accurate_preset_meets_its_flip_goals_on_the_cornell_box() {
 
 /// The resident chain's memory by stage adds up to what it holds, names declared stages only, and
 /// puts each structure where its stage writes it: vct-dense's voxelize holds at least its 32-byte
-/// accumulators per voxel (and grows with the grid), vct-svo's octree (built outside the chain)
-/// is uploaded.
+/// accumulators per voxel (one window: the whole grid at these sizes) and grows with the grid,
+/// vct-svo's octree (uploaded, or built in the chain) is counted.
 #[test]
 fn resident_memory_by_stage_adds_up_and_follows_the_declaration() {
     use vxgi::kernels::cone_trace::ConeSettings;

@@ -678,9 +678,9 @@ fn resource_limits_are_checked_from_the_settings() {
     let e = vxgi::limits::check(&s, Pipeline::Lrsm, &limits).unwrap_err();
     assert!(e.contains("vct-svo only"), "{e}");
     vxgi::limits::check(&s, Pipeline::VctSvo, &limits).unwrap();
-    // Grids past one binding are voxelized, lit and sampled in windows; the accumulators must fit
-    // one buffer (512 MiB at 256^3, 4 GiB at 512^3), and the depth-ordered blend's normal pyramid
-    // one binding.
+    // Grids past one binding are voxelized, lit and sampled in windows (the accumulators one
+    // window at a time); the colour and normal grids must each fit one buffer (256 MiB at 256^3,
+    // 2 GiB at 512^3), and the depth-ordered blend's normal pyramid one binding.
     let mut s = Scene::cornell_box();
     s.render.voxels = 256;
     for p in [Pipeline::VctDense, Pipeline::VctSvo, Pipeline::Cprc] {

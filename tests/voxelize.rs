@@ -163,7 +163,7 @@ fn map_kd_textures_colour_the_voxels_per_sample() {
 }
 
 /// The Cornell box at 256^3, past lavapipe's 128 MiB binding: voxelize in the windows `case_for`
-/// derives from the device (its accumulators 512 MiB), then voxel_light in windows, each GPU vs
+/// derives from the device (the grid's accumulators would be 512 MiB), then voxel_light in windows, each GPU vs
 /// mirror. Slow in a debug build: `cargo test --release -- --ignored past_one_binding`.
 #[test]
 #[ignore = "about 30 s and 3 GB: cargo test --release -- --ignored past_one_binding"]

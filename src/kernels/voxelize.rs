@@ -77,8 +77,8 @@ pub enum VoxelizeError {
     #[error("voxels = {0}: must be a power of two in 8..=512")]
     Side(u32),
     #[error(
-        "voxels = {side}: the accumulators need {bytes} bytes in one buffer, past the device's \
-         max_buffer_size ({limit}); use a smaller grid"
+        "voxels = {side}: the voxel grid (colour or normal, 16 bytes per voxel) needs {bytes} bytes \
+         in one buffer, past the device's max_buffer_size ({limit}); use a smaller grid"
     )]
     TooLarge { side: u32, bytes: u64, limit: u64 },
     #[error(
@@ -225,8 +225,12 @@ pub fn prepare_in(
     ))
 }
 
-/// Bytes of accumulators per voxel (`acc`: eight u32).
+/// Bytes of accumulators per voxel of a window (`acc`: eight u32).
 pub const ACC_BYTES: u64 = 32;
+
+/// Bytes per voxel of each of the grids voxelize writes whole (`vox_colour`, `vox_normal`: a
+/// vec4<f32>).
+pub const GRID_BYTES: u64 = 16;
 
 /// The voxels of one window ([`case_windowed`]) on a device with this storage-binding limit: the
 /// whole grid where its accumulators fit one binding, else the largest power of two whose do (a
@@ -249,8 +253,9 @@ pub fn case_for(
 }
 
 /// [`case_for`] with windows of `window` voxels (a power of two, at most side^3): splat and resolve
-/// once per window over the window's part of `acc`, `vox_colour` and `vox_normal` (their parameters
-/// `params_w<k>`); one window binds the buffers whole under `params`, as a chain does.
+/// once per window, into the one window of accumulators `acc` (window x 32 bytes, left zero by each
+/// resolve) and the window's part of `vox_colour` and `vox_normal` (their parameters `params_w<k>`);
+/// one window binds the buffers whole under `params`, as a chain does.
 pub fn case_windowed(
     ctx: &GpuContext,
     input: &VoxInput,
@@ -266,17 +271,21 @@ pub fn case_windowed(
         "a window of {window} voxels does not tile {side}^3"
     );
     let limit = ctx.limits().max_buffer_size;
-    if voxels * ACC_BYTES > limit {
+    if voxels * GRID_BYTES > limit {
         return Err(VoxelizeError::TooLarge {
             side,
-            bytes: voxels * ACC_BYTES,
+            bytes: voxels * GRID_BYTES,
             limit,
         });
     }
     let mut resources = sampling_inputs(tris, side);
     let v = voxels as usize;
     let zeroed = |bytes: usize, s| HostResource::Buffer(HostBuffer::zeroed(bytes, s));
-    resources.insert("acc".into(), zeroed(v * 32, ScalarKind::U32));
+    // One window's accumulators, bound whole for every window: resolve leaves them zero.
+    resources.insert(
+        "acc".into(),
+        zeroed((window * ACC_BYTES) as usize, ScalarKind::U32),
+    );
     resources.insert("vox_colour".into(), zeroed(v * 16, ScalarKind::F32));
     resources.insert("vox_normal".into(), zeroed(v * 16, ScalarKind::F32));
     resources.insert("list".into(), zeroed(v * 4, ScalarKind::U32));
@@ -317,7 +326,7 @@ pub fn case_windowed(
                     *view = View::Buffer(name.clone());
                 }
             }
-            let per_voxel = [("acc", ACC_BYTES), ("vox_colour", 16), ("vox_normal", 16)];
+            let per_voxel = [("vox_colour", GRID_BYTES), ("vox_normal", GRID_BYTES)];
             super::bind_grid_window(&mut bindings, first, window, &per_voxel);
         }
         let at = if window < voxels {
@@ -354,14 +363,14 @@ pub fn case_windowed(
         resources,
         passes,
         checks: vec![
-            check("acc", morton(8)),
+            check("acc", Indexing::Linear),
             check("vox_colour", morton(4)),
             check("vox_normal", morton(4)),
             check("list", Indexing::Linear),
             check("list_count", Indexing::Linear),
             check("occupancy", Indexing::Linear),
         ],
-        effective_bytes: voxels * 68 + occupancy_words(voxels) as u64 * 4,
+        effective_bytes: voxels * 36 + window * ACC_BYTES + occupancy_words(voxels) as u64 * 4,
     })
 }
 
@@ -544,7 +553,6 @@ impl Kernel for Voxelize {
         let mut colour = Vec::with_capacity(acc.len());
         let mut normal = Vec::with_capacity(acc.len());
         let mut list = Vec::new();
-        let mut raw = Vec::with_capacity(acc.len() * 8);
         for (v, a) in acc.iter().enumerate() {
             let (c, n) = resolve(a);
             colour.push(c);
@@ -552,10 +560,10 @@ impl Kernel for Voxelize {
             if a.count > 0 {
                 list.push(v as u32);
             }
-            raw.extend(a.albedo);
-            raw.extend(a.normal.map(|x| x as u32));
-            raw.extend([a.count, 0]);
         }
+        // Resolve leaves every window's accumulators zero (the next window's splat, and the next
+        // frame's, start from them).
+        let raw = vec![0u32; b("acc").as_u32().len()];
         let count = list.len() as u32;
         list.resize(
             case.resources["list"]
