@@ -567,6 +567,20 @@ fn run_render(
     eprintln!("{quality}");
     // The frames stay on the GPU: one resident renderer draws them all.
     let mut resident = vxgi::resident::Resident::new(&ctx, pipeline)?;
+    // Voxelization's work, for its throughput: the triangles and surface samples of the one grid
+    // (scenes with [[instances]] are voxelized per hierarchy by vct-dense and cprc: not reported).
+    let vox_work = if scene.instances.list.is_empty() {
+        vxgi::kernels::voxelize::prepare(&scene, scene.render.voxels)
+            .ok()
+            .map(|(input, _)| {
+                (
+                    input.tris.len(),
+                    vxgi_cpu_mirror::voxelize::sample_count(&input.tris),
+                )
+            })
+    } else {
+        None
+    };
     let mut rows = Vec::new();
     let mut last_memory: Option<Vec<(&str, u64)>> = None;
     for k in 0..frames {
@@ -648,6 +662,15 @@ fn run_render(
             },
             stages.join(", ")
         );
+        let vox_seconds = r.stages.iter().find(|(n, _)| *n == "voxelize");
+        if let (Some((tris, samples)), Some((_, secs))) = (vox_work, vox_seconds) {
+            println!(
+                "voxelize: {tris} triangles, {samples} surface samples into {}^3: {:.0} triangles/s, {:.1} M samples/s (its GPU time, every window included)",
+                scene.render.voxels,
+                tris as f64 / secs,
+                samples as f64 / secs / 1e6
+            );
+        }
         if let Some((listed, all)) = r.cone_tiles {
             println!(
                 "cone pass: {listed} of {all} 8x8 screen tiles hold a surface (the other {} not dispatched)",

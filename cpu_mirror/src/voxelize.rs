@@ -94,6 +94,17 @@ pub fn sample_albedo(t: &VoxTriangle, texels: &[u32], lut: &[u32], i: i32, j: i3
     [0, 8, 16].map(|s| lut[((texel >> s) & 255) as usize])
 }
 
+/// The surface samples (voxel fragments) the kernel's passes take of `tris`: rows `i` in `0..=n`,
+/// columns `j` in `0..=n - i` of each triangle, (n + 1)(n + 2) / 2 for its `n` = `a.w`.
+pub fn sample_count(tris: &[VoxTriangle]) -> u64 {
+    tris.iter()
+        .map(|t| {
+            let n = t.a[3].max(0) as u64;
+            (n + 1) * (n + 2) / 2
+        })
+        .sum()
+}
+
 /// Accumulate every sample of every triangle into a grid of side `side` (Morton order).
 pub fn accumulate(tris: &[VoxTriangle], texels: &[u32], lut: &[u32], side: u32) -> Vec<Acc> {
     let mut acc = vec![Acc::default(); (side as usize).pow(3)];
@@ -185,9 +196,8 @@ pub fn voxelize(input: &VoxInput, side: u32) -> (Vec<[f32; 4]>, Vec<[f32; 4]>, V
 mod tests {
     use super::*;
 
-    #[test]
-    fn occupancy_sets_the_bits_of_the_voxels_the_samples_count() {
-        // Two triangles across an 8^3 grid, one clamped at the far corner.
+    /// Two triangles across an 8^3 grid, one clamped at the far corner.
+    fn two_triangles() -> [VoxTriangle; 2] {
         let v = |x: i32, y: i32, z: i32, w: i32| [x, y, z, w];
         let tri = |a: [i32; 4], b, c| VoxTriangle {
             a,
@@ -195,7 +205,7 @@ mod tests {
             c,
             ..Default::default()
         };
-        let tris = [
+        [
             tri(
                 v(0, 0, 0, 17),
                 v(8 * SUB - 1, 0, 0, 0),
@@ -206,7 +216,21 @@ mod tests {
                 v(9 * SUB, 7 * SUB, 7 * SUB, 0),
                 v(7 * SUB, 9 * SUB, 8 * SUB, 0),
             ),
-        ];
+        ]
+    }
+
+    #[test]
+    fn sample_count_is_what_accumulate_counts() {
+        let tris = two_triangles();
+        let acc = accumulate(&tris, &[], &[], 8);
+        let counted: u64 = acc.iter().map(|a| a.count as u64).sum();
+        assert_eq!(sample_count(&tris), counted);
+        assert!(counted > 0);
+    }
+
+    #[test]
+    fn occupancy_sets_the_bits_of_the_voxels_the_samples_count() {
+        let tris = two_triangles();
         let side = 8;
         let acc = accumulate(&tris, &[], &[], side);
         let bits = occupancy(&tris, side);
