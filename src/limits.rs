@@ -5,7 +5,7 @@
 use crate::render::Pipeline;
 use crate::scene::Scene;
 
-/// Bytes per voxel of each dense grid voxelization writes (colour, normal: a vec4<f32>). Its
+/// Bytes per voxel of each dense grid voxelization writes (colour, normal: a `vec4<f32>`). Its
 /// accumulators (32 bytes per voxel) take one storage binding's window of the grid at a time.
 pub const VOXEL_GRID_BYTES: u64 = crate::kernels::voxelize::GRID_BYTES;
 

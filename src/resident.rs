@@ -383,6 +383,9 @@ pub struct Resident<'c> {
     /// Why the last frame's octree did not fit its chain's room ([`crate::pipeline::OctreeRoom`]):
     /// the chain was dropped, the next frame builds it again.
     outgrown: Option<String>,
+    /// vct-svo in a room: the last `encode` copied the octree's counts out with its frame, for
+    /// [`Resident::check_encoded`] to read once the caller has submitted it.
+    encoded_counts: bool,
 }
 
 impl<'c> Resident<'c> {
@@ -412,6 +415,7 @@ impl<'c> Resident<'c> {
             kept_volume: false,
             svo: crate::render::VctSvo::new(),
             outgrown: None,
+            encoded_counts: false,
         })
     }
 
@@ -475,6 +479,41 @@ impl<'c> Resident<'c> {
         frame.map(|(_, report)| report)
     }
 
+    /// After the caller has submitted the encoder of the last [`Resident::encode`] (or
+    /// [`Resident::encode_with_gbuffer`]): whether that frame fit vct-svo's octree room. An error
+    /// names what outgrew it; that frame's indirect light and AO are then incomplete, and the next
+    /// `encode` builds the chain again, sized from the scene it is given. Ok for every other
+    /// pipeline and chain, which have no room to outgrow. Reads a few words back; waits for the
+    /// submission.
+    pub fn check_encoded(&mut self) -> Result<()> {
+        if !std::mem::take(&mut self.encoded_counts) {
+            return Ok(());
+        }
+        let Some(b) = self.built.as_ref() else {
+            return Ok(());
+        };
+        let Some(room) = b.octree_room.as_ref() else {
+            return Ok(());
+        };
+        let (out, _) = b.prepared.finish_read(&b.counts, 0)?;
+        let words = |n: &str| -> Vec<u32> {
+            bytemuck::cast_slice(&out[n].buffer().expect("a buffer").bytes).to_vec()
+        };
+        let fit = room.check(
+            words("list_count")[0],
+            &words("octree_status"),
+            &words("octree_levels"),
+        );
+        if let Err(e) = fit {
+            self.built = None;
+            anyhow::bail!(
+                "the frame encoded last outgrew vct-svo's octree room ({e}): its indirect light is \
+                 incomplete; the next encode builds the chain again, sized from its scene"
+            );
+        }
+        Ok(())
+    }
+
     /// [`Resident::check`], and a scene whose pixels are the camera's: what `encode` and `present`
     /// draw (supersampling and the exposure of very bright lights are [`Resident::render`]'s).
     fn check_pixels(&self, scene: &Scene) -> Result<()> {
@@ -491,10 +530,11 @@ impl<'c> Resident<'c> {
     /// stay on the GPU in the returned buffers. The camera's pixels as they are: `supersample` and
     /// the exposure of very bright lights are [`Resident::render`]'s, refused here. Submit the
     /// encoder before the next `encode`: the frame's camera and lights are written with
-    /// `queue.write_buffer`, which takes effect at the next submission. vct-svo with moving
-    /// instances: whether a frame outgrew its octree's room is read after the submission, which
-    /// the caller makes here, so `encode` cannot tell; [`Resident::render`] and
-    /// [`Resident::present`] do.
+    /// `queue.write_buffer`, which takes effect at the next submission. vct-svo, whose chain builds
+    /// its octree in room sized at load: whether a frame outgrew it (moving instances can) is
+    /// known only once the frame has run, so `encode` records a copy of the octree's counts (a
+    /// few words) and [`Resident::check_encoded`], called after the caller's submission, reads
+    /// them; [`Resident::render`] and [`Resident::present`] check by themselves.
     pub fn encode(
         &mut self,
         scene: &Scene,
@@ -535,6 +575,10 @@ impl<'c> Resident<'c> {
             return Err(e);
         }
         let b = self.built.as_ref().expect("recorded");
+        self.encoded_counts = b.octree_room.is_some();
+        if self.encoded_counts {
+            b.prepared.encode_read(encoder, &b.counts, 0..0);
+        }
         let buffer = |n: &str| b.prepared.buffer(n).cloned().expect("the chain's output");
         Ok(FrameBuffers {
             direct: buffer(b.direct),
@@ -702,6 +746,8 @@ impl<'c> Resident<'c> {
         images: bool,
         draw: Option<Draw<'_>>,
     ) -> Result<(crate::harness::Resources, FrameReport)> {
+        // This frame reads its counts itself: nothing is left for check_encoded.
+        self.encoded_counts = false;
         let name = self.pipeline.name();
         let mut encoder = self
             .ctx

@@ -1456,15 +1456,11 @@ fn resident_frames_relight_moved_instances_in_one_submission() {
     }
 }
 
-/// vct-svo's chain builds its octree's structure where instances move, in room sized at load (twice
-/// the counts of the scene as it stands then): three nested boxes that grow from almost nothing to nearly the static
-/// box's size need three times the voxels. The frame that outgrows the room is drawn again on a
-/// chain sized for it (the plan says so) and equals a fresh renderer's; the frame after it is one
-/// submission again.
-#[test]
-fn vct_svo_builds_its_chain_again_where_moved_instances_outgrow_its_room() {
-    use vxgi::render::Pipeline;
-    let dir = std::env::temp_dir().join(format!("vxgi-outgrow-{}", std::process::id()));
+/// Three nested boxes, instances of scenes/box.obj, that grow from almost nothing (frame 0) to
+/// nearly the static box's size (frame 1) at 32^3 voxels: a frame that outgrows vct-svo's room
+/// sized at load. The scene and the folder its file is written to (remove it after).
+fn growing_boxes(tag: &str) -> (Scene, std::path::PathBuf) {
+    let dir = std::env::temp_dir().join(format!("vxgi-outgrow-{tag}-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let obj = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/box.obj");
     let obj = format!("{:?}", obj.display().to_string());
@@ -1481,6 +1477,44 @@ fn vct_svo_builds_its_chain_again_where_moved_instances_outgrow_its_room() {
     std::fs::write(&path, toml).unwrap();
     let mut scene = Scene::load(&path).unwrap();
     scene.render.voxels = 32;
+    (scene, dir)
+}
+
+/// `encode` cannot see a room outgrown (the caller submits): `check_encoded`, after the
+/// submission, says so for the frame that outgrew it, and the next `encode` of that frame fits a
+/// chain sized from it.
+#[test]
+fn check_encoded_reports_a_frame_that_outgrew_vct_svos_room() {
+    use vxgi::kernels::cone_trace::ConeSettings;
+    use vxgi::resident::Resident;
+    let (scene, dir) = growing_boxes("encode");
+    let cones = ConeSettings::from(&scene.render);
+    let ctx = gpu();
+    let mut ours = Resident::new(ctx, vxgi::render::Pipeline::VctSvo).unwrap();
+    let mut frame = |k: u32| {
+        let mut encoder = ctx.device.create_command_encoder(&Default::default());
+        ours.encode(&scene.at_frame(k), &cones, &mut encoder)
+            .unwrap();
+        ctx.queue.submit([encoder.finish()]);
+        ours.check_encoded()
+    };
+    frame(0).unwrap();
+    let e = frame(1).unwrap_err().to_string();
+    assert!(e.contains("outgrew vct-svo's octree room"), "{e}");
+    frame(1).unwrap();
+    frame(1).unwrap();
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// vct-svo's chain builds its octree's structure where instances move, in room sized at load (twice
+/// the counts of the scene as it stands then): three nested boxes that grow from almost nothing to nearly the static
+/// box's size need three times the voxels. The frame that outgrows the room is drawn again on a
+/// chain sized for it (the plan says so) and equals a fresh renderer's; the frame after it is one
+/// submission again.
+#[test]
+fn vct_svo_builds_its_chain_again_where_moved_instances_outgrow_its_room() {
+    use vxgi::render::Pipeline;
+    let (scene, dir) = growing_boxes("render");
     for (k, (want, got, c)) in animated_frames(Pipeline::VctSvo, &scene, 3)
         .into_iter()
         .enumerate()

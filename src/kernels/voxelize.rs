@@ -229,7 +229,7 @@ pub fn prepare_in(
 pub const ACC_BYTES: u64 = 32;
 
 /// Bytes per voxel of each of the grids voxelize writes whole (`vox_colour`, `vox_normal`: a
-/// vec4<f32>).
+/// `vec4<f32>`).
 pub const GRID_BYTES: u64 = 16;
 
 /// The voxels of one window ([`case_windowed`]) on a device with this storage-binding limit: the
