@@ -473,6 +473,9 @@ pub fn embedded_flip(pipeline: Pipeline, scene: &Scene) -> Result<f32> {
             );
         }
         queue.submit([encoder.finish()]);
+        // vct-svo's octree lives in room sized at load; whether this frame fit it is known once
+        // it has run (Ok at once for the other pipelines).
+        vxgi.check_encoded()?;
     }
     let direct = read_texture(&device, &queue, &output[0])?;
     let indirect = read_texture(&device, &queue, &output[1])?;
