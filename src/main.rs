@@ -517,8 +517,9 @@ fn run_render(
     check_bounces(pipeline, &scene)?;
     if loops > vxgi::quality::LOOP_LIMIT {
         eprintln!(
-            "warning: these settings give up to {loops} loop iterations per invocation; lavapipe stops \
-             loops past {} without an error (fewer cones, a wider cone angle, a longer cone_step or fewer voxels keep under it)",
+            "warning: these settings give up to {loops} loop iterations per invocation (a bound: every cone marched to its end); \
+             lavapipe stops loops past {} without an error, cutting the cones short where they run that long \
+             (fewer cones, a wider cone angle, a longer cone_step or fewer voxels keep under it)",
             vxgi::quality::LOOP_LIMIT
         );
     }

@@ -164,18 +164,19 @@ impl fmt::Display for FramePlan {
 /// Light views `lrsm::light_views` gives `scene`'s lights: one per spot of at most 60 degrees and per
 /// directional light, six cube faces per point light or wider spot.
 pub fn light_views(scene: &Scene) -> usize {
+    scene.lights.iter().map(views_of).sum()
+}
+
+/// The light views of one light ([`light_views`]): 1, or 6 cube faces.
+pub fn views_of(light: &crate::scene::Light) -> usize {
     use crate::scene::Light;
-    scene
-        .lights
-        .iter()
-        .map(|l| match l {
-            // The light views' own rule (lrsm::light_views): one view where the cone's cosine, in
-            // f32 as the GPU light holds it, is at least 0.5.
-            Light::Spot { cone_deg, .. } if cone_deg.to_radians().cos() >= 0.5 => 1,
-            Light::Directional { .. } => 1,
-            _ => 6,
-        })
-        .sum()
+    match light {
+        // The light views' own rule (lrsm::light_views): one view where the cone's cosine, in
+        // f32 as the GPU light holds it, is at least 0.5.
+        Light::Spot { cone_deg, .. } if cone_deg.to_radians().cos() >= 0.5 => 1,
+        Light::Directional { .. } => 1,
+        _ => 6,
+    }
 }
 
 /// The pass size of a mip chain of a `side`^3 grid that builds its first `built` levels (level 0

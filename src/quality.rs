@@ -140,15 +140,15 @@ pub fn march_steps(side: u32, tan: f32, step: f32) -> u64 {
 /// driver's watchdog or lavapipe's loop limit ends it. 2^-12 keeps every step above 3 ULP.
 pub const MIN_CONE_STEP: f32 = 1.0 / 4096.0;
 
-/// The loop iterations of one march step of the instanced kernels (cone_trace_instanced,
-/// cache_creation_instanced) for `scene` as it stands: the hierarchies its sample's cell lists
+/// The hierarchies one march step of the instanced kernels (cone_trace_instanced,
+/// cache_creation_instanced) reads for `scene` as it stands: those its sample's cell lists
 /// (`cache_creation::placed_cells`, what the frame uploads), in the cell that lists the most
-/// (`cache_creation::sample_iterations`), plus the step's own iteration; 1 where a step reads one
-/// volume (no instances, or a pipeline that flattens them). Counted where the
-/// instances stand now: keyframes that crowd them later raise it.
-pub fn placed_iterations(scene: &Scene, pipeline: Pipeline) -> u64 {
+/// (`cache_creation::sample_iterations`); `None` where a step reads one volume (no instances, or a
+/// pipeline that flattens them). Counted where the instances stand now: keyframes that crowd them
+/// later raise it.
+pub fn placed_hierarchies(scene: &Scene, pipeline: Pipeline) -> Option<u64> {
     if scene.instances.list.is_empty() || !matches!(pipeline, Pipeline::VctDense | Pipeline::Cprc) {
-        return 1;
+        return None;
     }
     let (_, parts) = crate::render::hierarchy_parts(scene);
     let frames: Vec<_> = parts
@@ -157,28 +157,87 @@ pub fn placed_iterations(scene: &Scene, pipeline: Pipeline) -> u64 {
         .collect();
     let at = crate::pipeline::placement(scene, &frames).expect("one grid frame per hierarchy");
     let cells = vxgi_cpu_mirror::cache_creation::placed_cells(&at.placed);
-    1 + vxgi_cpu_mirror::cache_creation::sample_iterations(&cells) as u64
+    Some(vxgi_cpu_mirror::cache_creation::sample_iterations(&cells) as u64)
+}
+
+/// lavapipe's count of a loop that runs `n` times: its iterations and the test that exits it.
+const fn looped(n: u64) -> u64 {
+    n + 1
+}
+
+/// The most loop iterations one step of `pipeline`'s cone march runs on `scene` (its settings as
+/// resolved), every loop of the step counted as lavapipe counts them (one shared counter, a loop
+/// of n iterations counting n + 1 with its exit test), read from the kernels' WGSL:
+/// - the march's own `while` (common/cone_march.wgsl, lrsm_cone_trace.wgsl): 1;
+/// - a quadrilinear sample of a dense pyramid (vct-dense, cprc, and lrsm's occlusion voxels): two
+///   levels of 8 trilinear corners (common/pyramid_grid.wgsl `sample_grid`, lrsm_cone_trace.wgsl's
+///   occlusion level; the depth-ordered blend's 4 corner pairs take fewer);
+/// - with `[[instances]]` (vct-dense, cprc: common/placed_pyramids.wgsl) the cell's list of `h`
+///   hierarchies ([`placed_hierarchies`]), each sampled so;
+/// - vct-svo (svo_cone_trace.wgsl `sample_cone`): the descent to the finer level's node (`find`,
+///   up to `depth` levels) and, where it is missing, to the coarser one's (`depth - 1`), then two
+///   levels of 8 corners;
+/// - lrsm (lrsm_cone_trace.wgsl `sample_cone`): the occlusion sample, the loop over the light
+///   views, and in every view the sample lies in front of (a bound: a wide sample's disc may
+///   overlap several; of a point light's six cube faces at most three) the taps
+///   (common/lrsm_sample.wgsl `lrsm_taps`: the levels below the fetched one, 2 levels of 4 taps)
+///   and Algorithm 1 (its depth slices, their normal slices, and per layer three 8-tap fetches).
+///
+/// Checked on lavapipe: vct-svo at 64^3 (depth 5, 63 steps a cone of 2.5 degrees) departs from its
+/// mirror from 38 cones on and agrees up to 36; this bound (30 a step) allows 34.
+pub fn step_iterations(scene: &Scene, pipeline: Pipeline) -> u64 {
+    let r = &scene.render;
+    let quadrilinear = 2 * looped(8);
+    match pipeline {
+        Pipeline::VctDense | Pipeline::Cprc => match placed_hierarchies(scene, pipeline) {
+            None => 1 + quadrilinear,
+            Some(h) => 1 + looped(h) + h * quadrilinear,
+        },
+        Pipeline::VctSvo => {
+            let depth = r.voxels.trailing_zeros().saturating_sub(1) as u64;
+            1 + looped(depth) + looped(depth.saturating_sub(1)) + quadrilinear
+        }
+        Pipeline::Lrsm => {
+            // A cube's faces come in opposite pairs and a sample lies in front of (zv > 0) at most
+            // one of each pair: 3 of a point light's 6 views are sampled, the loop runs over all.
+            let views = crate::plan::light_views(scene) as u64;
+            let sampled: u64 = scene
+                .lights
+                .iter()
+                .map(|l| match crate::plan::views_of(l) {
+                    6 => 3,
+                    v => v as u64,
+                })
+                .sum();
+            let levels = (r.rsm_side / 2).max(1).trailing_zeros() as u64 + 1;
+            let taps = looped(levels) + looped(2) + 2 * looped(4);
+            let (ds, ns) = (
+                r.lrsm_depth_splits as u64 + 1,
+                r.lrsm_normal_splits as u64 + 1,
+            );
+            let algorithm_1 = looped(ds) + ds * looped(ns) + ds * ns * 3 * looped(8);
+            1 + quadrilinear + looped(views) + sampled * (taps + algorithm_1)
+        }
+    }
 }
 
 /// The worst case of loop iterations in one invocation of the kernels whose loops the settings
-/// size, for `pipeline` on `scene` (its settings as resolved): per pixel, every diffuse cone's march,
-/// the glossy cone's where a material has Ks (its narrowest aperture, tan 0.02), and the interleaved
-/// resolve's (2N - 1)^2 neighbours (vct-dense, vct-svo, lrsm; lrsm's Algorithm 1 loops over its
-/// layers within each step, `lrsm_depth_splits x lrsm_normal_splits` of them); cprc the largest of a
-/// cache texel's march, a pre-convolved texel's sum over the cache (res^2 texels) and the gather's
-/// caches (the tiles within its radius, at most 3 x slices caches and no more than pixels each).
-/// With `[[instances]]` (vct-dense and cprc, which march through one hierarchy per instance) every
-/// step of a march reads its cell's hierarchies ([`placed_iterations`]), a factor on the marches.
-/// Not counted: data-dependent loops (the BVH's traversal).
+/// size, for `pipeline` on `scene` (its settings as resolved): per pixel, every diffuse cone's march
+/// (each step [`step_iterations`]), the glossy cone's where a material has Ks (its narrowest
+/// aperture, tan 0.02), and the interleaved resolve's (2N - 1)^2 neighbours (vct-dense, vct-svo,
+/// lrsm); lrsm's shadow cones (their own entry) where `shadow_cone_angle` traces them; cprc the
+/// largest of a cache texel's march, a pre-convolved texel's sum over the cache (res^2 texels) and
+/// the gather's caches (the tiles within its radius, at most 3 x slices caches and no more than
+/// pixels each). Not counted: data-dependent loops (the BVH's traversal).
 pub fn loop_iterations(scene: &Scene, pipeline: Pipeline) -> u64 {
-    let placed = placed_iterations(scene, pipeline);
     let r = &scene.render;
     let side = r.voxels;
+    let per_step = step_iterations(scene, pipeline);
     match pipeline {
         Pipeline::Cprc => {
             let s = crate::cprc::CprcSettings::from(r);
             let tan = vxgi_cpu_mirror::cache_creation::cone_tan(s.res);
-            let creation = march_steps(side, tan, r.cone_step) * placed;
+            let creation = march_steps(side, tan, r.cone_step).saturating_mul(per_step);
             let preconvolve = (s.res * s.res) as u64;
             let reach = s.radius_px.div_ceil(s.tile) as u64;
             let per_tile = (3 * s.slices as u64).min((s.tile * s.tile) as u64);
@@ -187,20 +246,29 @@ pub fn loop_iterations(scene: &Scene, pipeline: Pipeline) -> u64 {
         }
         _ => {
             let tan = r.cone_half_angle.to_radians().tan();
-            let layers = if pipeline == Pipeline::Lrsm {
-                (r.lrsm_depth_splits * r.lrsm_normal_splits) as u64
-            } else {
-                1
-            };
             let glossy = if scene.materials.iter().any(|m| m.is_glossy()) {
                 march_steps(side, 0.02, r.cone_step)
             } else {
                 0
             };
-            let marches =
-                (r.cones as u64 * march_steps(side, tan, r.cone_step) + glossy) * layers * placed;
+            let steps = (r.cones as u64)
+                .saturating_mul(march_steps(side, tan, r.cone_step))
+                .saturating_add(glossy);
+            let marches = steps
+                .saturating_mul(per_step)
+                .saturating_add(looped(r.cones as u64));
             let n = r.cone_interleave as u64;
-            marches + (2 * n - 1).pow(2)
+            let gather = marches + (2 * n - 1).pow(2);
+            if pipeline == Pipeline::Lrsm && r.shadow_cone_angle > 0.0 {
+                // One shadow cone per light, each step an occlusion sample.
+                let shadow_tan = r.shadow_cone_angle.to_radians().tan();
+                let shadow = (scene.lights.len() as u64)
+                    .saturating_mul(march_steps(side, shadow_tan, r.cone_step))
+                    .saturating_mul(1 + 2 * looped(8));
+                gather.max(shadow)
+            } else {
+                gather
+            }
         }
     }
 }
@@ -247,27 +315,47 @@ mod tests {
             ..scene.clone()
         };
         for p in [Pipeline::VctDense, Pipeline::Cprc] {
-            // The room and two boxes: a step is its own iteration and at most the three
-            // hierarchies'.
-            let per_step = placed_iterations(&scene, p);
-            assert!((2..=4).contains(&per_step), "{p:?}: {per_step}");
-            let marches = match p {
-                Pipeline::Cprc => {
-                    let s = crate::cprc::CprcSettings::from(&scene.render);
-                    let tan = vxgi_cpu_mirror::cache_creation::cone_tan(s.res);
-                    march_steps(scene.render.voxels, tan, scene.render.cone_step)
-                }
-                _ => {
-                    loop_iterations(&flat, p) - (2 * scene.render.cone_interleave as u64 - 1).pow(2)
-                }
-            };
-            let want = marches * per_step;
-            let got = loop_iterations(&scene, p);
-            assert!(got >= want, "{p:?}: {got} < {want}");
+            // The room and two boxes: at most the three hierarchies in a cell, each sampled as the
+            // one volume of the flat scene is.
+            let h = placed_hierarchies(&scene, p).unwrap();
+            assert!((1..=3).contains(&h), "{p:?}: {h}");
+            let (one, placed) = (step_iterations(&flat, p), step_iterations(&scene, p));
+            assert_eq!(placed, 1 + (h + 1) + h * (one - 1), "{p:?}");
+            assert!(
+                loop_iterations(&scene, p) >= loop_iterations(&flat, p),
+                "{p:?}"
+            );
         }
         // vct-svo and lrsm march one volume whatever the instances.
-        assert_eq!(placed_iterations(&scene, Pipeline::Lrsm), 1);
-        assert_eq!(placed_iterations(&flat, Pipeline::VctDense), 1);
+        assert_eq!(placed_hierarchies(&scene, Pipeline::Lrsm), None);
+        assert_eq!(placed_hierarchies(&flat, Pipeline::VctDense), None);
+    }
+
+    /// The count is an upper bound where lavapipe shows the limit: vct-svo on the Cornell box at
+    /// 64^3 with cones of 2.5 degrees departs from its mirror from 38 cones on (its marches cut
+    /// short) and agrees at 36 (`vxgi bisect SCENE --pipeline vct-svo --voxels 64 --cones N
+    /// --cone-half-angle 2.5` at 64x64). Every count that lavapipe cuts must be past the limit, and
+    /// the defaults well below it.
+    #[test]
+    fn the_count_bounds_what_lavapipe_cuts() {
+        let mut scene = Scene::cornell_box();
+        scene.render.voxels = 64;
+        scene.render.cone_half_angle = 2.5;
+        scene.render.cones = 38;
+        let cut = loop_iterations(&scene, Pipeline::VctSvo);
+        assert!(cut > LOOP_LIMIT, "{cut}");
+        scene.render.cones = 16;
+        let fine = loop_iterations(&scene, Pipeline::VctSvo);
+        assert!(fine < LOOP_LIMIT / 2, "{fine}");
+        for p in [
+            Pipeline::VctDense,
+            Pipeline::VctSvo,
+            Pipeline::Lrsm,
+            Pipeline::Cprc,
+        ] {
+            let loops = loop_iterations(&Scene::cornell_box(), p);
+            assert!(loops < LOOP_LIMIT / 2, "{p:?}: {loops}");
+        }
     }
 
     #[test]
