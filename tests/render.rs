@@ -2148,7 +2148,7 @@ fn resident_frames_draw_unlit_scenes_and_vct_svo_instances() {
 /// 0.238, cprc 0.177 against 0.180, vct-svo 0.245 against 0.236; docs/scale.md). About 40 s and 2.3
 /// GB on lavapipe: `cargo test --release -- --ignored at_256`.
 #[test]
-#[ignore = "about 40 s and 2.3 GB on lavapipe: cargo test --release -- --ignored at_256"]
+#[ignore = "about 20 s and 2.1 GB on lavapipe: cargo test --release -- --ignored at_256"]
 fn the_cone_tracers_render_the_cornell_box_at_256_voxels() {
     use vxgi::kernels::cone_trace::ConeSettings;
     use vxgi::render::Pipeline;

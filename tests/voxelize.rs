@@ -166,7 +166,7 @@ fn map_kd_textures_colour_the_voxels_per_sample() {
 /// derives from the device (the grid's accumulators would be 512 MiB), then voxel_light in windows, each GPU vs
 /// mirror. Slow in a debug build: `cargo test --release -- --ignored past_one_binding`.
 #[test]
-#[ignore = "about 30 s and 3 GB: cargo test --release -- --ignored past_one_binding"]
+#[ignore = "about 20 s and 4 GB: cargo test --release -- --ignored past_one_binding"]
 fn voxelize_and_voxel_light_past_one_binding_match_their_mirrors() {
     use vxgi::kernels::{voxel_light, voxelize};
     let scene = Scene::cornell_box();
