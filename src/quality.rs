@@ -194,7 +194,7 @@ pub fn step_iterations(scene: &Scene, pipeline: Pipeline) -> u64 {
             Some(h) => 1 + looped(h) + h * quadrilinear,
         },
         Pipeline::VctSvo => {
-            let depth = r.voxels.trailing_zeros().saturating_sub(1) as u64;
+            let depth = vxgi_cpu_mirror::sparse_voxel_octree::depth_for(r.voxels) as u64;
             1 + looped(depth) + looped(depth.saturating_sub(1)) + quadrilinear
         }
         Pipeline::Lrsm => {

@@ -731,13 +731,9 @@ impl StaticVoxels {
             // decide the structure).
             let points: Vec<vxgi_cpu_mirror::sparse_voxel_octree::Fragment> = list
                 .iter()
-                .map(|&m| vxgi_cpu_mirror::sparse_voxel_octree::Fragment {
-                    pos: vxgi_cpu_mirror::morton::decode(m),
-                    _pad: 0,
-                    value: [0; 4],
-                })
+                .map(|&m| vxgi_cpu_mirror::sparse_voxel_octree::Fragment::point(m))
                 .collect();
-            let depth = frame.side.trailing_zeros() - 1;
+            let depth = vxgi_cpu_mirror::sparse_voxel_octree::depth_for(frame.side);
             let statics =
                 vxgi_cpu_mirror::sparse_voxel_octree::StaticStructure::record(depth, &points);
             self.kept = Some(Box::new((fixed, frame, grid, list, statics)));
@@ -879,7 +875,7 @@ impl VctSvo {
         }
         progress("sparse voxel octree");
         let t = std::time::Instant::now();
-        let depth = frame.side.trailing_zeros() - 1;
+        let depth = vxgi_cpu_mirror::sparse_voxel_octree::depth_for(frame.side);
         let statics = self.statics.structure().filter(|_| replay);
         if statics.is_some() {
             if let Some(p) = plan

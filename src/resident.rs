@@ -496,15 +496,7 @@ impl<'c> Resident<'c> {
             return Ok(());
         };
         let (out, _) = b.prepared.finish_read(&b.counts, 0)?;
-        let words = |n: &str| -> Vec<u32> {
-            bytemuck::cast_slice(&out[n].buffer().expect("a buffer").bytes).to_vec()
-        };
-        let fit = room.check(
-            words("list_count")[0],
-            &words("octree_status"),
-            &words("octree_levels"),
-        );
-        if let Err(e) = fit {
+        if let Err(e) = room.check_read(&out) {
             self.built = None;
             anyhow::bail!(
                 "the frame encoded last outgrew vct-svo's octree room ({e}): its indirect light is \
@@ -771,15 +763,10 @@ impl<'c> Resident<'c> {
         let (out, pass_ns) = p.finish_read(reads, timed.len())?;
         let bytes = |n: &str| &out[n].buffer().expect("a buffer").bytes;
         // vct-svo whose chain builds the octree's structure: whether this frame's fit its room.
-        let outgrown = b.octree_room.as_ref().and_then(|room| {
-            let words = |n: &str| bytemuck::cast_slice::<u8, u32>(bytes(n)).to_vec();
-            room.check(
-                words("list_count")[0],
-                &words("octree_status"),
-                &words("octree_levels"),
-            )
-            .err()
-        });
+        let outgrown = b
+            .octree_room
+            .as_ref()
+            .and_then(|room| room.check_read(&out).err());
         // Per stage: the GPU time of its passes (timestamps), where it ran this frame; a frame that
         // built the chain first the stages that built it outside the chain.
         let mut stages: Vec<(&'static str, f64)> = if reuse {

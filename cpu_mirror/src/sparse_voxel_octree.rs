@@ -131,6 +131,23 @@ pub struct Fragment {
     pub value: [u32; 4],
 }
 
+impl Fragment {
+    /// The structure fragment of voxel `m` (Morton index) of the grid: its point, value 0 (a zero
+    /// value splats nothing: the structure is the points').
+    pub fn point(m: u32) -> Self {
+        Self {
+            pos: crate::morton::decode(m),
+            _pad: 0,
+            value: [0; 4],
+        }
+    }
+}
+
+/// The octree's depth over a grid of `side` voxels a side (a power of two): 2^(depth + 1) = side.
+pub fn depth_for(side: u32) -> u32 {
+    side.trailing_zeros().saturating_sub(1)
+}
+
 /// The kernel's uniform block (`struct OctreeParams`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq, bytemuck::Pod, bytemuck::Zeroable)]

@@ -133,6 +133,19 @@ pub fn occupancy_words(voxels: u64) -> usize {
     (voxels.div_ceil(32) as usize).max(8)
 }
 
+/// The voxels (Morton indices, ascending) whose bits are set in `bits`, of a grid of `voxels`.
+pub fn occupied(bits: &[u32], voxels: u64) -> impl Iterator<Item = u32> + '_ {
+    bits.iter()
+        .enumerate()
+        .flat_map(|(w, &b)| {
+            (0..32u64)
+                .filter(move |k| b >> k & 1 == 1)
+                .map(move |k| w as u64 * 32 + k)
+        })
+        .take_while(move |&m| m < voxels)
+        .map(|m| m as u32)
+}
+
 /// Entry `occupancy_bits`: the bit of every voxel a sample lands in (the voxels `accumulate` counts), for
 /// a grid of side `side`. The same samples as [`accumulate`], no albedo or normal: binary occlusion
 /// voxels at an eighth of a byte per voxel, where the accumulators take 32 bytes.

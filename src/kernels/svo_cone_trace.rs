@@ -363,7 +363,7 @@ pub struct GeneratedOctree {
 impl GeneratedOctree {
     pub fn new(ctx: &GpuContext, seed: u64, index: usize) -> GeneratedOctree {
         let c = lit_case(ctx, seed, index);
-        let depth = c.frame.side.trailing_zeros() - 1;
+        let depth = vxgi_cpu_mirror::sparse_voxel_octree::depth_for(c.frame.side);
         let frags =
             grid_fragments(&c.radiance, SCALE).expect("generated radiance fits the fixed point");
         let octree = build_fitted(depth, &frags);

@@ -92,7 +92,7 @@ fn octree_reasons(mut passes: Vec<PlannedPass>) -> Vec<PlannedPass> {
 
 /// The octree's depth over the grid.
 fn depth(i: &PlanInputs) -> u32 {
-    i.scene.render.voxels.trailing_zeros().saturating_sub(1)
+    vxgi_cpu_mirror::sparse_voxel_octree::depth_for(i.scene.render.voxels)
 }
 
 /// Light injection by photons instead of voxel_light (`photon_map` > 0).
@@ -264,32 +264,25 @@ impl OctreeRoom {
         ctx: &crate::harness::GpuContext,
         scene: &Scene,
     ) -> Result<(Self, sparse_voxel_octree::MemoryReport)> {
-        use vxgi_cpu_mirror::sparse_voxel_octree::{capacity_bound, STATUS_TILES};
+        use vxgi_cpu_mirror::sparse_voxel_octree::{capacity_bound, depth_for, STATUS_TILES};
         let side = scene.render.voxels;
         let (input, _) = crate::kernels::voxelize::prepare(scene, side)?;
         let bits = vxgi_cpu_mirror::voxelize::occupancy(&input.tris, side);
-        let voxels = (side as u64).pow(3);
-        let frags: Vec<Fragment> = bits
-            .iter()
-            .enumerate()
-            .flat_map(|(w, &b)| {
-                (0..32u64)
-                    .filter(move |k| b >> k & 1 == 1)
-                    .map(move |k| w as u64 * 32 + k)
-            })
-            .filter(|&m| m < voxels)
-            .map(|m| Fragment {
-                pos: vxgi_cpu_mirror::morton::decode(m as u32),
-                ..bytemuck::Zeroable::zeroed()
-            })
+        let frags: Vec<Fragment> = vxgi_cpu_mirror::voxelize::occupied(&bits, (side as u64).pow(3))
+            .map(Fragment::point)
             .collect();
-        let depth = side.trailing_zeros() - 1;
+        let depth = depth_for(side);
         let mut o = Octree::empty(depth, capacity_bound(depth, frags.len()) as u32);
         o.build_structure(&frags);
         let h = if scene.instances.list.is_empty() {
             1
         } else {
             Self::HEADROOM
+        };
+        let aniso = if scene.render.anisotropic_voxels {
+            svo_anisotropic::values_of(depth, &o.levels)
+        } else {
+            0
         };
         let room = Self {
             depth,
@@ -298,14 +291,10 @@ impl OctreeRoom {
                 .max(1)
                 .saturating_mul(h)
                 .min(sparse_voxel_octree::max_capacity(ctx)),
-            aniso_values: if scene.render.anisotropic_voxels {
-                svo_anisotropic::values_of(depth, &o.levels) * h as usize
-            } else {
-                0
-            },
+            aniso_values: aniso * h as usize,
         };
         let mut memory = sparse_voxel_octree::MemoryReport::of(&o);
-        memory.anisotropic_bytes = room.aniso_values as u64 / h as u64 * 16;
+        memory.anisotropic_bytes = aniso as u64 * 16;
         memory.bytes += memory.anisotropic_bytes;
         Ok((room, memory))
     }
@@ -341,6 +330,15 @@ impl OctreeRoom {
         );
         Ok(())
     }
+
+    /// [`OctreeRoom::check`] on the [`OctreeRoom::READ`] buffers of a frame's read-back outputs.
+    pub fn check_read(&self, out: &crate::harness::Resources) -> Result<()> {
+        let words = |n: &str| -> Vec<u32> {
+            bytemuck::cast_slice(&out[n].buffer().expect("a buffer").bytes).to_vec()
+        };
+        let [count, status, levels] = Self::READ.map(words);
+        self.check(count[0], &status, &levels)
+    }
 }
 
 /// vct-svo's chain. Where [`builds_in_chain`] (`volume` None): voxelize, the light injection, the
@@ -373,6 +371,12 @@ pub(crate) fn svo_chain(
         Some(_) => None,
     };
     let anisotropic = volume.map_or(scene.render.anisotropic_voxels, |v| v.aniso.is_some());
+    // The octree the chain lights and the cone pass reads: its own, in the room, or the staged
+    // build's.
+    let lit = match (&room, volume) {
+        (Some((r, _)), _) => Lit::Built(r, anisotropic),
+        (None, v) => Lit::Kept(v.expect("a staged build where the chain builds no octree")),
+    };
     let g = gbuffer::case_for(data, "render".into(), 0);
     let d = direct_light::case_with_gbuffer(ctx, data, &Default::default(), "render".into(), 0);
     let mut chain = Chain {
@@ -395,31 +399,23 @@ pub(crate) fn svo_chain(
                 Some(photon_passes(ctx, &mut chain, data, map)?)
             }
         };
-        let octree = match (volume, &room) {
-            (Some(v), _) => Lit::Kept(v),
-            (None, Some((r, _))) => Lit::Built(r, anisotropic),
-            (None, None) => unreachable!("a room where no staged build is"),
-        };
-        light_octree(ctx, &mut chain, octree, scene.render.bounces, photons)?;
+        light_octree(ctx, &mut chain, lit, scene.render.bounces, photons)?;
     }
     let params = svo_cone_trace::svo_cone_params(&chain.frame, cones);
     // Where the chain builds the octree, the cone pass's case binds placeholders the chain's
     // buffers replace (its parameters' `inv_scale` copied in once the scale is found).
-    let unbuilt = room
-        .as_ref()
-        .map(|(r, _)| vxgi_cpu_mirror::sparse_voxel_octree::Octree::empty(r.depth, 1));
-    let (octree, extras, scale) = match (volume, &unbuilt) {
-        (Some(v), _) => (&v.built.octree, v.extras(), v.scale),
-        (None, Some(o)) => (
-            o,
-            svo_cone_trace::SvoExtras {
+    let unbuilt;
+    let (octree, extras, scale) = match lit {
+        Lit::Kept(v) => (&v.built.octree, v.extras(), v.scale),
+        Lit::Built(r, _) => {
+            unbuilt = vxgi_cpu_mirror::sparse_voxel_octree::Octree::empty(r.depth, 1);
+            let extras = svo_cone_trace::SvoExtras {
                 aniso: anisotropic.then_some(&[][..]),
                 normals: None,
                 spec: None,
-            },
-            1.0,
-        ),
-        (None, None) => unreachable!("a room where no staged build is"),
+            };
+            (&unbuilt, extras, 1.0)
+        }
     };
     let mut c = svo_cone_trace::case_for(
         data,
@@ -843,7 +839,7 @@ impl SvoParts {
 
 /// The octree's depth for the frame's grid: 2^(depth+1) voxels a side.
 fn depth_of(f: &HostFrame) -> u32 {
-    f.frame.side.trailing_zeros() - 1
+    vxgi_cpu_mirror::sparse_voxel_octree::depth_for(f.frame.side)
 }
 
 /// The light by photons: their values, and the voxels' coverage alone.
