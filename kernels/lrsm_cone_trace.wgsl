@@ -2,7 +2,7 @@
 // Algorithm 1): per G-buffer pixel, the cones of common/cone_march.wgsl, whose samples take occlusion
 // from the binary occlusion voxels' mips and outgoing radiance from every light view's LRSM.
 // Mirror: cpu_mirror/src/lrsm_cone_trace.rs (`LrsmVolume`, a cone_trace `Volume`). Declaration:
-// src/kernels/lrsm_cone_trace.rs. Uses common/cone_march.wgsl, common/lrsm_sample.wgsl,
+// src/kernels/lrsm_cone_trace.rs. Uses common/cone_march.wgsl, common/lrsm_texel.wgsl, common/lrsm_sample.wgsl,
 // common/lrsm_math.wgsl and common/lrsm_view.wgsl.
 //
 // Occlusion: level l of the occlusion pyramid starts at word occ_offsets[l] of `occ` (Morton order,
@@ -39,9 +39,9 @@
 @group(0) @binding(12) var<storage, read> occ_offsets: array<u32>;
 @group(0) @binding(13) var<uniform> params: SampleParams;
 @group(0) @binding(14) var<storage, read> depth_ranges: array<vec4<f32>>;
-@group(0) @binding(15) var<storage, read> lrsm_radiance: array<vec4<f32>>;
-@group(0) @binding(16) var<storage, read> lrsm_normal: array<vec4<f32>>;
-@group(0) @binding(17) var<storage, read> lrsm_moments: array<vec4<f32>>;
+@group(0) @binding(15) var<storage, read> lrsm_radiance: array<vec2<u32>>;
+@group(0) @binding(16) var<storage, read> lrsm_normal: array<vec2<u32>>;
+@group(0) @binding(17) var<storage, read> lrsm_moments: array<vec2<u32>>;
 @group(0) @binding(18) var<storage, read> views: array<LrsmView>;
 @group(0) @binding(19) var<storage, read> lights: array<Light>;
 @group(0) @binding(20) var<storage, read> shadow_params: ShadowParams;

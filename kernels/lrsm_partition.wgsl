@@ -16,10 +16,13 @@
 // one layer are merged and empty texels cancel after normalising by opacity:
 //   out_radiance = (sum R, count) / 4, out_normal = (sum n, count) / 4,
 //   out_moments  = (sum z', sum z'^2, count, 0) / 4,   z' = (z - zmin) * inv_range  (warped to [0, 1])
-// One invocation per quad; it writes that quad's texel in every layer.
+// each stored as binary16 (common/lrsm_texel.wgsl). One invocation per quad; it writes that quad's
+// texel in every layer.
 // Accuracy: subtraction, products and adds are correctly rounded and * 0.25 exact: radiance and normal
-// are exact; the z'^2 accumulation may be fused into an FMA (allowed by WGSL), which moves each of
-// three nonnegative partial sums by at most 1 ULP: moments within 4 ULP.
+// are exact in f32; the z'^2 accumulation may be fused into an FMA (allowed by WGSL), which moves each
+// of three nonnegative partial sums by at most 1 ULP: moments within 4 f32 ULP. Either is then rounded
+// to binary16 either way: within 1 binary16 ULP of the mirror's round-to-nearest (4 f32 ULP cannot
+// cross more than one binary16 rounding boundary).
 
 struct PartitionParams {
     depth_slices: u32,
@@ -33,9 +36,9 @@ struct PartitionParams {
 @group(0) @binding(2) var<storage, read> rsm_radiance: array<vec4<f32>>;
 @group(0) @binding(3) var<storage, read> rsm_normal: array<vec4<f32>>;
 @group(0) @binding(4) var<storage, read> rsm_depth: array<f32>;
-@group(0) @binding(5) var<storage, read_write> out_radiance: array<vec4<f32>>;
-@group(0) @binding(6) var<storage, read_write> out_normal: array<vec4<f32>>;
-@group(0) @binding(7) var<storage, read_write> out_moments: array<vec4<f32>>;
+@group(0) @binding(5) var<storage, read_write> out_radiance: array<vec2<u32>>;
+@group(0) @binding(6) var<storage, read_write> out_normal: array<vec2<u32>>;
+@group(0) @binding(7) var<storage, read_write> out_moments: array<vec2<u32>>;
 
 fn normal_slice(ndotl: f32) -> u32 {
     return min(u32(max(ndotl, 0.0) * f32(params.normal_slices)), params.normal_slices - 1u);
@@ -66,9 +69,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
                 }
             }
             let out = (d * params.normal_slices + j) * params.layer_texels + q;
-            out_radiance[out] = r * 0.25;
-            out_normal[out] = n * 0.25;
-            out_moments[out] = m * 0.25;
+            out_radiance[out] = lrsm_pack(r * 0.25);
+            out_normal[out] = lrsm_pack(n * 0.25);
+            out_moments[out] = lrsm_pack(m * 0.25);
         }
     }
 }

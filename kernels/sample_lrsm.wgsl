@@ -1,12 +1,14 @@
 // sample_lrsm — Algorithm 1 "Sample LRSM" of Sugihara et al. 2014 ("Layered Reflective Shadow Maps"):
 // the outgoing radiance of cone samples from the layers of a pre-filtered LRSM (eq. 5, 8, 12, 14, 15).
 // Mirror: cpu_mirror/src/sample_lrsm.rs. Declaration: src/kernels/sample_lrsm.rs.
-// Uses kernels/common/lrsm_sample.wgsl (the per-sample algorithm) and common/lrsm_math.wgsl.
+// Uses kernels/common/lrsm_sample.wgsl (the per-sample algorithm), common/lrsm_texel.wgsl and
+// common/lrsm_math.wgsl.
 //
 // LRSM (written by lrsm_partition + lrsm_prefilter): levels 0..levels-1 concatenated; level k holds
 // layers = depth_slices * normal_slices layers of side s_k = side0 >> k, layer-major, 2D Morton order
 // within a layer. Streams radiance = (A R, A), normal = (A n, A), moments = (A z', A z'^2, A, 0), z' the
-// depth warped into the layer by depth_ranges[d] = (zmin, zmax, 1 / (zmax - zmin), 0).
+// depth warped into the layer by depth_ranges[d] = (zmin, zmax, 1 / (zmax - zmin), 0); each texel stored
+// as binary16 (common/lrsm_texel.wgsl; unpacked exactly, so the bound is that of f32 inputs).
 // Per cone sample i: cone_pos[i] = (u, v, mip, zc): the cone sample projected into the RSM ([0, 1]^2),
 // its mip level (log2 of the projected diameter in level-0 texels), and its light-space depth; any
 // finite values (coordinates outside [0, 1] clamp to the edge, mips to the chain; NaN's clamping is
@@ -32,9 +34,9 @@
 
 @group(0) @binding(0) var<uniform> params: SampleParams;
 @group(0) @binding(1) var<storage, read> depth_ranges: array<vec4<f32>>;
-@group(0) @binding(2) var<storage, read> lrsm_radiance: array<vec4<f32>>;
-@group(0) @binding(3) var<storage, read> lrsm_normal: array<vec4<f32>>;
-@group(0) @binding(4) var<storage, read> lrsm_moments: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read> lrsm_radiance: array<vec2<u32>>;
+@group(0) @binding(3) var<storage, read> lrsm_normal: array<vec2<u32>>;
+@group(0) @binding(4) var<storage, read> lrsm_moments: array<vec2<u32>>;
 @group(0) @binding(5) var<storage, read> cone_pos: array<vec4<f32>>;
 @group(0) @binding(6) var<storage, read> cone_dir: array<vec4<f32>>;
 @group(0) @binding(7) var<storage, read_write> radiance: array<vec4<f32>>;

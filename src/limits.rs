@@ -148,7 +148,7 @@ pub fn check(scene: &Scene, pipeline: Pipeline, limits: &wgpu::Limits) -> Result
     match pipeline {
         Pipeline::Lrsm => {
             // Every view's LRSM (all layers, whole mip chain) is gathered from one binding per
-            // stream (radiance, normal, depth moments: vec4<f32> each).
+            // stream (radiance, normal, depth moments: four binary16 values each).
             let config = crate::lrsm::PartitionConfig {
                 rsm_side: r.rsm_side,
                 depth_splits: r.lrsm_depth_splits,
@@ -158,13 +158,14 @@ pub fn check(scene: &Scene, pipeline: Pipeline, limits: &wgpu::Limits) -> Result
             // One stream of the three `lrsm_bytes` counts.
             let per_view = crate::lrsm::lrsm_bytes(&config) / 3;
             let layers = config.layers() as u64;
-            let texels = per_view / (layers * 16);
+            let texel = crate::kernels::lrsm_prefilter::TEXEL_BYTES;
+            let texels = per_view / (layers * texel);
             let bytes = views * per_view;
             if bytes > binding.min(limits.max_buffer_size) {
                 let fit = binding.min(limits.max_buffer_size) / per_view;
                 return past(
                     format!(
-                        "lrsm: {} lights in {views} light views (a point light has six) x {layers} layers x {texels} texels of rsm_side = {} (its LRSM and mips), 16 bytes each,",
+                        "lrsm: {} lights in {views} light views (a point light has six) x {layers} layers x {texels} texels of rsm_side = {} (its LRSM and mips), {texel} bytes each,",
                         scene.lights.len(),
                         r.rsm_side
                     ),

@@ -82,7 +82,7 @@ impl PartitionConfig {
                 layers: layers.min(u32::MAX as u64) as u32,
             });
         }
-        let bytes = layers * self.layer_texels() * 16;
+        let bytes = layers * self.layer_texels() * crate::kernels::lrsm_prefilter::TEXEL_BYTES;
         if bytes > max_storage_binding {
             return Err(LrsmError::LayerArrayTooLarge {
                 layers: layers as u32,
@@ -237,10 +237,10 @@ pub fn synthetic_rsm(side: u32, config: &PartitionConfig, seed: u64) -> Rsm {
     rsm
 }
 
-/// Bytes of the LRSM for `config`: three `vec4<f32>` streams per layer texel over the whole mip chain
-/// (the paper's Table 1 stores 16-bit channels: half of this).
+/// Bytes of the LRSM for `config`: three streams of four binary16 values per layer texel over the whole
+/// mip chain (the paper's Table 1's 16-bit channels).
 pub fn lrsm_bytes(config: &PartitionConfig) -> u64 {
-    lrsm_texels(config) * 3 * 16
+    lrsm_texels(config) * 3 * crate::kernels::lrsm_prefilter::TEXEL_BYTES
 }
 
 /// Texels of one view's LRSM stream: every layer over the whole mip chain, level by level (level k

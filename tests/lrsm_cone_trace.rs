@@ -28,11 +28,11 @@ fn the_cornell_box_gathers_indirect_light_and_reports_its_memory() {
         lit > 48 * 48 / 4,
         "only {lit} pixels receive indirect light"
     );
-    // One 32^2 RSM of 36 bytes a texel; six LRSMs of 4 layers, 16^2 .. 1^2, 48 bytes a texel.
+    // One 32^2 RSM of 36 bytes a texel; six LRSMs of 4 layers, 16^2 .. 1^2, 24 bytes a texel.
     assert_eq!(memory.views, 6);
     assert_eq!(memory.rsm, 32 * 32 * 36);
     let texels: u64 = (0..5).map(|k| 4 * (16u64 >> k).pow(2)).sum();
-    assert_eq!(memory.lrsm, 6 * texels * 48);
+    assert_eq!(memory.lrsm, 6 * texels * 24);
     // Every declared stage ran (the chain records the volume's, then the camera's).
     let mut names: Vec<&str> = frame.stages.iter().map(|s| s.0).collect();
     let mut declared = Pipeline::Lrsm.stages();

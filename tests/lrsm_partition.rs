@@ -3,6 +3,7 @@
 use crate::common;
 
 use common::{case_passes, gpu};
+use vxgi::cpu_mirror::lrsm_prefilter::unpack_stream;
 use vxgi::harness::kernel::verify_case;
 use vxgi::harness::run::run;
 use vxgi::kernels::lrsm_partition::{case_for, LrsmPartition, DECL};
@@ -91,7 +92,7 @@ fn every_covered_texel_lands_in_its_layers_with_warped_depth_in_unit_range() {
         &["out_moments"],
     )
     .unwrap();
-    let m: &[[f32; 4]] = bytemuck::cast_slice(&out.buffer("out_moments").bytes);
+    let m = unpack_stream(bytemuck::cast_slice(&out.buffer("out_moments").bytes));
     let ranges = c.depth_ranges();
     let texels = c.layer_texels() as usize;
     for q in 0..texels {
@@ -105,6 +106,7 @@ fn every_covered_texel_lands_in_its_layers_with_warped_depth_in_unit_range() {
                     .count();
             }
         }
+        // Counts / 4 are multiples of 1/4: binary16 holds them exactly.
         let got: f32 = (0..c.layers() as usize)
             .map(|l| m[l * texels + q][2] * 4.0)
             .sum();
@@ -112,9 +114,10 @@ fn every_covered_texel_lands_in_its_layers_with_warped_depth_in_unit_range() {
         for l in 0..c.layers() as usize {
             let t = m[l * texels + q];
             if t[2] > 0.0 {
+                // Each binary16 value within 2^-10 of its own size (either rounding).
                 let (mu, mu2) = (t[0] / t[2], t[1] / t[2]);
                 assert!(
-                    (0.0..=1.0).contains(&mu) && (0.0..=1.0 + 1e-6).contains(&mu2),
+                    (0.0..=1.0 + 2e-3).contains(&mu) && (0.0..=1.0 + 2e-3).contains(&mu2),
                     "quad {q} layer {l}: {t:?}"
                 );
             }
@@ -135,19 +138,19 @@ proptest::proptest! {
 }
 
 /// The paper's Table 2 LRSM memory (1024^2 RSM -> 512^2 LRSM, 16-bit channels): 33.6 MB for 2x2 layers
-/// and 50.4 MB for 3x2. Our layout stores f32 (exact GPU-vs-mirror arithmetic), so twice that.
+/// and 50.4 MB for 3x2; ours stores binary16 too.
 #[test]
-fn lrsm_memory_matches_table_2_at_twice_the_bits() {
+fn lrsm_memory_matches_table_2() {
     for (a, b, paper_mb) in [(1u32, 1u32, 33.6f64), (2, 1, 50.4)] {
         let c = config(1024, a, b, 0.05);
         let ours = vxgi::lrsm::lrsm_bytes(&c) as f64 / 1e6;
         eprintln!(
-            "LRSM {}x{} layers of 512^2: {ours:.1} MB (paper, 16-bit: {paper_mb} MB)",
+            "LRSM {}x{} layers of 512^2: {ours:.1} MB (paper: {paper_mb} MB)",
             a + 1,
             b + 1
         );
         assert!(
-            (ours / 2.0 - paper_mb).abs() < 0.1,
+            (ours - paper_mb).abs() < 0.1,
             "{ours} MB vs paper {paper_mb} MB"
         );
     }

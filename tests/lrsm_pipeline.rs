@@ -4,6 +4,7 @@
 use crate::common;
 
 use common::gpu;
+use vxgi::cpu_mirror::lrsm_prefilter::unpack_stream;
 use vxgi::harness::kernel::verify_case;
 use vxgi::harness::run::run;
 use vxgi::kernels::{lrsm_partition, lrsm_prefilter, sample_lrsm};
@@ -42,7 +43,7 @@ fn partition_prefilter_sample_compose_on_the_gpu() {
     )
     .unwrap();
     let streams: [Vec<[f32; 4]>; 3] = ["out_radiance", "out_normal", "out_moments"]
-        .map(|n| bytemuck::cast_slice(&level0.buffer(n).bytes).to_vec());
+        .map(|n| unpack_stream(bytemuck::cast_slice(&level0.buffer(n).bytes)));
 
     // 2. Pre-filter the GPU's level 0 on the GPU, every level verified on its GPU input.
     let side0 = config.rsm_side / 2;
@@ -85,22 +86,24 @@ fn partition_prefilter_sample_compose_on_the_gpu() {
     let mut gpu_streams = streams.clone();
     for k in 1..levels {
         for (s, stream) in gpu_streams.iter_mut().enumerate() {
-            stream.extend_from_slice(bytemuck::cast_slice(
+            stream.extend(unpack_stream(bytemuck::cast_slice(
                 &chain.buffer(&lrsm_prefilter::stream_name(s, k)).bytes,
-            ));
+            )));
         }
     }
-    // Radiance and normal streams are exact. Moments: level 0 within the partition's 4-ULP contraction
-    // allowance; each pre-filter level sums nonnegative values that differ by that relative amount and
-    // rounds once more, so at most one more ULP per level.
-    assert_eq!(gpu_streams[0], built.streams[0]);
-    assert_eq!(gpu_streams[1], built.streams[1]);
-    for (g, m) in gpu_streams[2].iter().zip(&built.streams[2]) {
-        for c in 0..4 {
-            assert!(
-                vxgi::harness::compare::ulp_distance(g[c], m[c]) <= 4 + levels as u64,
-                "{g:?} vs {m:?}"
-            );
+    // Every texel is stored as binary16, which GPU and mirror may round to different neighbours (1
+    // binary16 ULP, at most 2^-10 of the value); a pre-filter level averages children that differ
+    // by that relative amount of the texel's largest value and rounds once more, so level k is
+    // within k + 1 such steps of the texel's largest component (its opacity bounds a normal's).
+    for (gs, ms) in gpu_streams.iter().zip(&built.streams) {
+        for (g, m) in gs.iter().zip(ms) {
+            let scale = m.iter().fold(0.0f32, |a, x| a.max(x.abs()));
+            for c in 0..4 {
+                assert!(
+                    (g[c] - m[c]).abs() <= (levels + 1) as f32 * scale / 1024.0 + 6.0e-8,
+                    "{g:?} vs {m:?}"
+                );
+            }
         }
     }
     built.streams = gpu_streams;

@@ -653,7 +653,7 @@ fn resource_limits_are_checked_from_the_settings() {
     s.lights = vec![light.clone(); 200];
     let e = vxgi::limits::check(&s, Pipeline::Lrsm, &limits).unwrap_err();
     assert!(
-        e.contains("1200 light views") && e.contains("rsm_side = 128") && e.contains("at most 384"),
+        e.contains("1200 light views") && e.contains("rsm_side = 128") && e.contains("at most 768"),
         "{e}"
     );
     vxgi::limits::check(&s, Pipeline::VctDense, &limits).unwrap();

@@ -10,7 +10,8 @@
 //! texel order and the sums scaled by 1/4, i.e. the opacity-weighted box average over the quad
 //! ("texels are merged if they are assigned to the same layer"):
 //! `radiance = (sum R, count) / 4`, `normal = (sum n, count) / 4`,
-//! `moments = (sum z', sum z'^2, count, 0) / 4`, `z' = (z - zmin_d) * inv_range_d` (warped to [0, 1]).
+//! `moments = (sum z', sum z'^2, count, 0) / 4`, `z' = (z - zmin_d) * inv_range_d` (warped to [0, 1]),
+//! each stored as binary16 ([`crate::lrsm_prefilter::quantize`]).
 use crate::ftz4;
 use glam::Vec4;
 use rayon::prelude::*;
@@ -60,11 +61,8 @@ pub fn quad_layer(
             );
         }
     }
-    [
-        ftz4(r * 0.25, flush).into(),
-        ftz4(n * 0.25, flush).into(),
-        ftz4(m * 0.25, flush).into(),
-    ]
+    // Stored as binary16 (lrsm_prefilter's storage).
+    [r, n, m].map(|s| crate::lrsm_prefilter::quantize(ftz4(s * 0.25, flush).into()))
 }
 
 /// All layers of LRSM level 0: three streams of `layers * layer_texels` texels, layer-major.

@@ -16,6 +16,12 @@ pub enum Tolerance {
     /// operations on that element's path (first step towards the conformance suite's acceptance
     /// intervals); the bounds travel as the mirror output `<resource>@bound`.
     MirrorBound,
+    /// u32 words each holding two IEEE binary16 values (WGSL's `pack2x16float`, low half first),
+    /// compared half by half: at most `ulps` binary16 ULPs apart, or the GPU's ±0 where the mirror's
+    /// half is subnormal (a GPU may flush binary16 subnormals). WGSL leaves the rounding of an f32
+    /// that binary16 cannot hold to the implementation (either neighbour), so a mirror that rounds to
+    /// nearest is at most 1 binary16 ULP from any conforming GPU on the same f32 value.
+    Half { ulps: u32 },
 }
 
 /// Name of the mirror output that carries the per-element bounds of `resource`.
@@ -43,6 +49,36 @@ pub fn ulp_distance(a: f32, b: f32) -> u64 {
         }
     };
     (key(a) - key(b)).unsigned_abs()
+}
+
+/// Distance in binary16 units in the last place between two f32 that binary16 holds exactly (0 for
+/// +0/-0; u64::MAX if either is NaN and they differ).
+pub fn half_ulp_distance(a: f32, b: f32) -> u64 {
+    if a.is_nan() || b.is_nan() {
+        return if a.to_bits() == b.to_bits() {
+            0
+        } else {
+            u64::MAX
+        };
+    }
+    let key = |x: f32| -> i64 {
+        let bits = half::f16::from_f32(x).to_bits();
+        let magnitude = (bits & 0x7fff) as i64;
+        if bits & 0x8000 != 0 {
+            -magnitude
+        } else {
+            magnitude
+        }
+    };
+    (key(a) - key(b)).unsigned_abs()
+}
+
+/// The two binary16 values of each word (`unpack2x16float`: low half first), as f32 (exact).
+pub fn unpack_halves(words: &[u32]) -> Vec<f32> {
+    words
+        .iter()
+        .flat_map(|&w| [w as u16, (w >> 16) as u16].map(|h| half::f16::from_bits(h).to_f32()))
+        .collect()
 }
 
 /// `x` with subnormals replaced by zero of the same sign: what a flush-to-zero GPU does.
@@ -78,6 +114,19 @@ impl Tolerance {
                 let (g, m) = (gpu as f64, mirror as f64);
                 (g - m).abs() <= abs + rel * m.abs() || gpu.to_bits() == mirror.to_bits()
             }
+            Tolerance::Half { ulps } => {
+                half_ulp_distance(gpu, mirror) <= ulps as u64
+                    || (gpu == 0.0 && mirror.abs() < half::f16::MIN_POSITIVE.to_f32())
+            }
+        }
+    }
+
+    /// How far apart `gpu` and `mirror` are in this tolerance's units (binary16 ULPs for
+    /// [`Tolerance::Half`], f32 ULPs otherwise).
+    pub fn distance(&self, gpu: f32, mirror: f32) -> u64 {
+        match self {
+            Tolerance::Half { .. } => half_ulp_distance(gpu, mirror),
+            _ => ulp_distance(gpu, mirror),
         }
     }
 }
@@ -99,6 +148,21 @@ pub enum Indexing {
 }
 
 impl Indexing {
+    /// The same elements with every 32-bit scalar read as two binary16 halves.
+    pub fn halves(&self) -> Indexing {
+        match *self {
+            Indexing::Linear => Indexing::Linear,
+            Indexing::Grid { dims, components } => Indexing::Grid {
+                dims,
+                components: 2 * components,
+            },
+            Indexing::Morton { n, components } => Indexing::Morton {
+                n,
+                components: 2 * components,
+            },
+        }
+    }
+
     pub fn describe(&self, scalar_index: usize) -> String {
         match *self {
             Indexing::Linear => format!("[{scalar_index}]"),
@@ -313,7 +377,7 @@ pub fn compare_f32_bounded(
     }
     let mut candidates: Vec<(bool, Mismatch)> = Vec::new();
     for (i, (&g, &m)) in gpu.iter().zip(mirror).enumerate() {
-        let mut ulp = ulp_distance(g, m);
+        let mut ulp = tolerance.distance(g, m);
         let bound = bounds.and_then(|b| b.get(i).copied());
         if let Some(b) = bound {
             let diff = (g as f64 - m as f64).abs();
@@ -330,7 +394,7 @@ pub fn compare_f32_bounded(
             if let Some(ftz) = mirror_ftz {
                 if tolerance.accepts_bounded(g, ftz[i], bound) {
                     ok = true;
-                    ulp = ulp_distance(g, ftz[i]);
+                    ulp = tolerance.distance(g, ftz[i]);
                     c.flushed += 1;
                 }
             }
@@ -393,9 +457,50 @@ pub fn compare_u32(
     )
 }
 
+/// Compare words of two binary16 values each under [`Tolerance::Half`] (`indexing` counts the
+/// halves); `alt` as for [`compare_u32`].
+pub fn compare_halves(
+    meta: (&str, &str, &str, u64),
+    gpu: &[u32],
+    mirror: &[u32],
+    alt: Option<&[u32]>,
+    tolerance: Tolerance,
+    indexing: Indexing,
+) -> Comparison {
+    let a = alt.map(unpack_halves);
+    compare_f32(
+        meta,
+        &unpack_halves(gpu),
+        &unpack_halves(mirror),
+        a.as_deref(),
+        tolerance,
+        indexing,
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn halves_accept_either_rounding_and_a_flushed_subnormal_only() {
+        let meta = ("k", "o", "c", 0);
+        let h = |x: f32| half::f16::from_f32(x).to_bits() as u32;
+        let word = |lo: f32, hi: f32| h(lo) | (h(hi) << 16);
+        let tol = Tolerance::Half { ulps: 1 };
+        let next = f32::from(half::f16::from_bits(half::f16::from_f32(1.5).to_bits() + 1));
+        let next2 = f32::from(half::f16::from_bits(half::f16::from_f32(1.5).to_bits() + 2));
+        let sub = f32::from(half::f16::from_bits(3));
+        let ok = |g: u32, m: u32| compare_halves(meta, &[g], &[m], None, tol, Indexing::Linear);
+        assert!(ok(word(next, 0.0), word(1.5, 0.0)).passed());
+        assert!(ok(word(0.0, 0.0), word(sub, 0.0)).passed());
+        assert!(!ok(word(next2, 0.0), word(1.5, 0.0)).passed());
+        // The high half is compared too, and a distance is counted in binary16 ULPs.
+        let c = ok(word(1.5, next2), word(1.5, 1.5));
+        assert!(!c.passed());
+        assert_eq!(c.max_ulp, 2);
+        assert_eq!(half_ulp_distance(-sub, sub), 6);
+    }
 
     #[test]
     fn ulp_distance_across_zero_and_neighbours() {

@@ -4,8 +4,8 @@
 //! dispatch rule, the outputs with their tolerances) plus a [`Kernel`] impl that generates cases and
 //! runs the mirror. From that the driver gives: run on GPU, run the mirror, compare, time both.
 use crate::compare::{
-    bound_name, compare_f32_bounded, compare_u32, flush_subnormal, Comparison, Indexing, Tolerance,
-    UlpHistogram,
+    bound_name, compare_f32_bounded, compare_halves, compare_u32, flush_subnormal, Comparison,
+    Indexing, Tolerance, UlpHistogram,
 };
 use crate::context::GpuContext;
 use crate::error::Result;
@@ -704,6 +704,15 @@ pub fn verify_case(
                     check.indexing.clone(),
                 )
             }
+            // Words of two binary16 values, compared half by half.
+            _ if matches!(tol, Tolerance::Half { .. }) => compare_halves(
+                meta,
+                gpu.as_u32(),
+                mirror.as_u32(),
+                ftz.as_ref().map(|b| b.as_u32()),
+                tol,
+                check.indexing.halves(),
+            ),
             // Integer outputs may depend on float inputs (occlusion_voxels: alpha > 0): where the
             // inputs hold subnormals, the flush-to-zero mirror's integers are accepted too.
             _ => compare_u32(

@@ -2,7 +2,7 @@
 // shared by sample_lrsm.wgsl and lrsm_cone_trace.wgsl. Mirror: cpu_mirror/src/sample_lrsm.rs (`sample`,
 // on the streams from `base` on). The including kernel declares `params: SampleParams`, `depth_ranges`,
 // `lrsm_radiance`, `lrsm_normal` and `lrsm_moments` (see sample_lrsm.wgsl's header for the layout) and
-// includes common/lrsm_math.wgsl.
+// includes common/lrsm_math.wgsl; common/lrsm_texel.wgsl comes before this file.
 
 // With N as a cull, its factor ramps from 0 to 1 over N in [0, LRSM_CULL_RAMP] (surfaces within 1.8
 // degrees of edge-on fade out) instead of stepping at 0: continuous in N, so a sample whose N rounds
@@ -106,7 +106,7 @@ fn fetch_normal(t: ptr<function, Taps>, layer: u32, first: u32) -> vec4<f32> {
     for (var i = 0u; i < 8u; i = i + 1u) {
         let w = (*t).weight[i];
         if (w != 0.0) {
-            acc = acc + lrsm_normal[tap_index(t, i, layer, first)] * w;
+            acc = acc + lrsm_unpack(lrsm_normal[tap_index(t, i, layer, first)]) * w;
         }
     }
     return acc;
@@ -117,7 +117,7 @@ fn fetch_moments(t: ptr<function, Taps>, layer: u32, first: u32) -> vec4<f32> {
     for (var i = 0u; i < 8u; i = i + 1u) {
         let w = (*t).weight[i];
         if (w != 0.0) {
-            acc = acc + lrsm_moments[tap_index(t, i, layer, first)] * w;
+            acc = acc + lrsm_unpack(lrsm_moments[tap_index(t, i, layer, first)]) * w;
         }
     }
     return acc;
@@ -128,7 +128,7 @@ fn fetch_radiance(t: ptr<function, Taps>, layer: u32, first: u32) -> vec4<f32> {
     for (var i = 0u; i < 8u; i = i + 1u) {
         let w = (*t).weight[i];
         if (w != 0.0) {
-            acc = acc + lrsm_radiance[tap_index(t, i, layer, first)] * w;
+            acc = acc + lrsm_unpack(lrsm_radiance[tap_index(t, i, layer, first)]) * w;
         }
     }
     return acc;

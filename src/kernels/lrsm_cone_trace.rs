@@ -14,6 +14,7 @@ use anyhow::Context;
 use std::collections::BTreeMap;
 use vxgi_cpu_mirror::cone_trace::ConeParams;
 use vxgi_cpu_mirror::lrsm_cone_trace::{soft_direct, LrsmVolume, ShadowParams};
+use vxgi_cpu_mirror::lrsm_prefilter::{pack_stream, unpack_stream};
 use vxgi_cpu_mirror::reflective_shadow_map::GpuView;
 use vxgi_cpu_mirror::sample_lrsm::{Lrsm, SampleParams};
 use vxgi_harness::run::run;
@@ -26,7 +27,7 @@ pub static DECL: KernelDecl = KernelDecl {
     name: "lrsm_cone_trace",
     wgsl_path: "kernels/lrsm_cone_trace.wgsl",
     wgsl: include_str!("../../kernels/lrsm_cone_trace.wgsl"),
-    includes: &[super::TANGENT_BASIS, super::SCENE_TYPES, CONE_MARCH, LRSM_SAMPLE, LRSM_MATH, LRSM_VIEW, LIGHTS, BRDF],
+    includes: &[super::TANGENT_BASIS, super::SCENE_TYPES, CONE_MARCH, super::LRSM_TEXEL, LRSM_SAMPLE, LRSM_MATH, LRSM_VIEW, LIGHTS, BRDF],
     entry: "main",
     inputs: &[
         "frame",
@@ -136,7 +137,8 @@ pub struct LrsmFrame {
     pub views: Vec<GpuView>,
     pub params: SampleParams,
     pub depth_ranges: Vec<[f32; 4]>,
-    /// Every view's LRSM (all levels), concatenated: radiance, normal, moments.
+    /// Every view's LRSM (all levels), concatenated: radiance, normal, moments, as the values the
+    /// GPU's binary16 texels hold (`vxgi_cpu_mirror::lrsm_prefilter`'s storage).
     pub streams: [Vec<[f32; 4]>; 3],
     /// Bytes of each structure: occlusion voxels, RSMs (one view at a time), LRSMs.
     pub memory: LrsmMemory,
@@ -148,7 +150,7 @@ pub struct LrsmMemory {
     pub occlusion: u64,
     /// One RSM (radiance + normal: 2 x 16 bytes, depth 4 bytes per texel).
     pub rsm: u64,
-    /// All views' LRSMs (3 streams of 16 bytes per texel, every level).
+    /// All views' LRSMs (3 streams of 8 bytes per texel, every level).
     pub lrsm: u64,
     pub views: u32,
 }
@@ -158,7 +160,7 @@ impl LrsmMemory {
         Self {
             occlusion: occ.len() as u64 * 4,
             rsm: (rsm_side as u64).pow(2) * 36,
-            lrsm: streams[0].len() as u64 * 48,
+            lrsm: streams[0].len() as u64 * 3 * lrsm_prefilter::TEXEL_BYTES,
             views: views as u32,
         }
     }
@@ -191,7 +193,7 @@ pub fn lrsm_on_gpu(
         &pcase.passes,
         &["out_radiance", "out_normal", "out_moments"],
     )?;
-    let f4 = |b: &HostBuffer| bytemuck::cast_slice::<u8, [f32; 4]>(&b.bytes).to_vec();
+    let f4 = |b: &HostBuffer| unpack_stream(bytemuck::cast_slice(&b.bytes));
     let level0 = [
         f4(out.buffer("out_radiance")),
         f4(out.buffer("out_normal")),
@@ -436,6 +438,9 @@ pub fn case_for(
     seed: u64,
 ) -> Case {
     let f4 = |v: &[[f32; 4]]| HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(v)));
+    let packed = |v: &[[f32; 4]]| {
+        HostResource::Buffer(HostBuffer::u32(bytemuck::cast_slice(&pack_stream(v))))
+    };
     let mixed = |bytes: &[u8]| {
         HostResource::Buffer(HostBuffer {
             bytes: bytes.to_vec(),
@@ -473,9 +478,9 @@ pub fn case_for(
             mixed(bytemuck::bytes_of(&frame.params)),
         ),
         ("depth_ranges".to_string(), f4(&frame.depth_ranges)),
-        ("lrsm_radiance".to_string(), f4(&streams[0])),
-        ("lrsm_normal".to_string(), f4(&streams[1])),
-        ("lrsm_moments".to_string(), f4(&streams[2])),
+        ("lrsm_radiance".to_string(), packed(&streams[0])),
+        ("lrsm_normal".to_string(), packed(&streams[1])),
+        ("lrsm_moments".to_string(), packed(&streams[2])),
         ("views".to_string(), mixed(bytemuck::cast_slice(&views))),
     ]);
     let lights = if data.lights.is_empty() {
@@ -534,7 +539,8 @@ fn frame_of(data: &Resources, params: &ConeParams) -> LrsmFrame {
         views: bytemuck::cast_slice(&b("views").bytes).to_vec(),
         params: sp,
         depth_ranges: f4("depth_ranges"),
-        streams: [f4("lrsm_radiance"), f4("lrsm_normal"), f4("lrsm_moments")],
+        streams: ["lrsm_radiance", "lrsm_normal", "lrsm_moments"]
+            .map(|n| unpack_stream(bytemuck::cast_slice(&b(n).bytes))),
         memory: LrsmMemory::default(),
     }
 }

@@ -4,6 +4,7 @@
 use crate::lrsm::{synthetic_rsm, LrsmError, PartitionConfig, Rsm};
 use std::collections::BTreeMap;
 use vxgi_cpu_mirror::lrsm_partition::{partition, PartitionParams};
+use vxgi_cpu_mirror::lrsm_prefilter::pack_stream;
 use vxgi_harness::{
     Bindings, Block, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, Indexing, Kernel,
     KernelDecl, Resources, Shader, Tolerance,
@@ -23,13 +24,16 @@ vxgi_harness::bindings! {
             rsm_depth: Vec<f32>,
         }
         outputs: {
-            // Selected adds of inputs and an exact * 0.25: bit for bit.
-            out_radiance: Vec<[f32; 4]> => Tolerance::Exact,
-            out_normal: Vec<[f32; 4]> => Tolerance::Exact,
-            // z' = (z - zmin) * inv_range is exact to reproduce (no add after the product), but the
-            // z'^2 accumulation may fuse into an FMA (WGSL allows contraction): each of 3 nonnegative
-            // partial sums moves by at most 1 ULP -> 4 ULP.
-            out_moments: Vec<[f32; 4]> => Tolerance::Ulp { ulps: 4, abs_floor: 0.0 },
+            // Texels stored as binary16 pairs (common/lrsm_texel.wgsl). Radiance and normal: selected
+            // adds of inputs and an exact * 0.25, bit for bit in f32, then rounded to binary16 either
+            // way (WGSL leaves the direction open): 1 binary16 ULP. Moments: z' = (z - zmin) *
+            // inv_range is exact to reproduce, but the z'^2 accumulation may fuse into an FMA (WGSL
+            // allows contraction), moving each of 3 nonnegative partial sums by at most 1 f32 ULP ->
+            // 4 f32 ULP, far less than binary16's spacing (2^13 f32 ULP), so one rounding boundary
+            // at most lies between GPU and mirror: still 1 binary16 ULP.
+            out_radiance: Vec<[u32; 2]> => Tolerance::Half { ulps: 1 },
+            out_normal: Vec<[u32; 2]> => Tolerance::Half { ulps: 1 },
+            out_moments: Vec<[u32; 2]> => Tolerance::Half { ulps: 1 },
         }
     }
 }
@@ -38,7 +42,7 @@ pub static DECL: KernelDecl = KernelDecl {
     name: "lrsm_partition",
     wgsl_path: "kernels/lrsm_partition.wgsl",
     wgsl: WGSL,
-    includes: &[],
+    includes: &[super::LRSM_TEXEL],
     entry: "main",
     inputs: Io::INPUTS,
     outputs: Io::OUTPUTS,
@@ -68,7 +72,7 @@ pub fn case_for(
         layer_texels: texels as u32,
         _pad: 0,
     };
-    let out = vec![[0.0; 4]; (config.layers() as u64 * texels) as usize];
+    let out = vec![[0; 2]; (config.layers() as u64 * texels) as usize];
     let io = Io {
         params: Block(params),
         depth_ranges: config.depth_ranges(),
@@ -81,7 +85,7 @@ pub fn case_for(
     };
     let indexing = Indexing::Grid {
         dims: [texels as u32, config.layers(), 1],
-        components: 4,
+        components: 2,
     };
     let mut case = DECL.case_of(shader, ctx, &io, texels, label, seed);
     for o in Io::OUTPUTS {
@@ -139,7 +143,8 @@ impl Kernel for LrsmPartition {
             &io.depth_ranges,
             &io.params.0,
             mode == FloatMode::FlushToZero,
-        );
+        )
+        .map(|s| pack_stream(&s));
         io.outputs()
     }
 }

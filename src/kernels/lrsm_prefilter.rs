@@ -4,7 +4,9 @@ use super::{reduction_chain_passes, ChainStream};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::collections::BTreeMap;
-use vxgi_cpu_mirror::lrsm_prefilter::{reduce_level, Streams};
+use vxgi_cpu_mirror::lrsm_prefilter::{
+    pack_stream, quantize, reduce_level, unpack_stream, Streams,
+};
 use vxgi_harness::{
     Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
     KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
@@ -16,22 +18,24 @@ pub static DECL: KernelDecl = KernelDecl {
     name: "lrsm_prefilter",
     wgsl_path: "kernels/lrsm_prefilter.wgsl",
     wgsl: WGSL,
-    includes: &[],
+    includes: &[super::LRSM_TEXEL],
     entry: "main",
     inputs: &["src_radiance", "src_normal", "src_moments"],
-    // Four correctly rounded adds and an exact * 0.25: bit for bit (or the flush-to-zero result).
+    // Exact unpacking, four correctly rounded adds and an exact * 0.25: the mirror's f32 bit for bit
+    // (or the flush-to-zero result, which binary16 rounds alike); stored as binary16 rounded either
+    // way (WGSL leaves the direction open): 1 binary16 ULP.
     outputs: &[
         Output {
             binding: "dst_radiance",
-            tolerance: Tolerance::Exact,
+            tolerance: Tolerance::Half { ulps: 1 },
         },
         Output {
             binding: "dst_normal",
-            tolerance: Tolerance::Exact,
+            tolerance: Tolerance::Half { ulps: 1 },
         },
         Output {
             binding: "dst_moments",
-            tolerance: Tolerance::Exact,
+            tolerance: Tolerance::Half { ulps: 1 },
         },
     ],
     dispatch: DispatchRule::PerElement {
@@ -41,14 +45,16 @@ pub static DECL: KernelDecl = KernelDecl {
     summary: "box-filtered mip level of every LRSM layer, opacity-weighted (LRSM 4.2, Table 1)",
 };
 
-const TEXEL_BYTES: u64 = 16;
+/// Bytes of one texel of one stream as stored (four binary16 values).
+pub const TEXEL_BYTES: u64 = 8;
 const STREAMS: [&str; 3] = ["radiance", "normal", "moments"];
 
 pub fn stream_name(stream: usize, level: u32) -> String {
     format!("{}_{level}", STREAMS[stream])
 }
 
-/// Generated level-0 layers: opacities 0, 1/4 .. 1 and subnormal, warped depths in [0, 1], unit normals.
+/// Generated level-0 layers: opacities 0, 1/4 .. 1 and subnormal, warped depths in [0, 1], unit normals,
+/// radiance up to 4 and past binary16's range (clamped), as stored.
 pub fn generate(layers: u32, side: u32, seed: u64) -> Streams {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let n = (layers * side * side) as usize;
@@ -71,14 +77,15 @@ pub fn generate(layers: u32, side: u32, seed: u64) -> Streams {
             rng.random_range(0.1..1.0),
         )
         .normalize();
+        let scale = if rng.random_ratio(1, 16) { 1.0e5 } else { 1.0 };
         let r: [f32; 3] = [
-            rng.random_range(0.0..4.0),
+            scale * rng.random_range(0.0..4.0),
             rng.random_range(0.0..4.0),
             rng.random_range(0.0..4.0),
         ];
-        out[0].push([a * r[0], a * r[1], a * r[2], a]);
-        out[1].push([a * n3.x, a * n3.y, a * n3.z, a]);
-        out[2].push([a * z, a * z * z, a, 0.0]);
+        out[0].push(quantize([a * r[0], a * r[1], a * r[2], a]));
+        out[1].push(quantize([a * n3.x, a * n3.y, a * n3.z, a]));
+        out[2].push(quantize([a * z, a * z * z, a, 0.0]));
     }
     out
 }
@@ -97,7 +104,7 @@ pub fn chain_case(
     for (s, data) in level0.iter().enumerate() {
         resources.insert(
             stream_name(s, 0),
-            HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(data))),
+            HostResource::Buffer(HostBuffer::u32(bytemuck::cast_slice(&pack_stream(data)))),
         );
     }
     let levels = side.trailing_zeros();
@@ -112,7 +119,7 @@ pub fn chain_case(
                 stream_name(s, k),
                 HostResource::Buffer(HostBuffer::zeroed(
                     (count * TEXEL_BYTES) as usize,
-                    ScalarKind::F32,
+                    ScalarKind::U32,
                 )),
             );
             checks.push(Check {
@@ -120,7 +127,7 @@ pub fn chain_case(
                 output: DECL.outputs[s].binding,
                 indexing: Indexing::Grid {
                     dims: [(side >> k).pow(2), layers, 1],
-                    components: 4,
+                    components: 2,
                 },
             });
         }
@@ -186,12 +193,19 @@ impl Kernel for LrsmPrefilter {
                 .trim_start_matches("radiance_")
                 .parse()
                 .expect("radiance_<level>");
-            let src = |s: usize| -> &[[f32; 4]] {
-                bytemuck::cast_slice(&data[&stream_name(s, k - 1)].buffer().expect("buffer").bytes)
+            let src = |s: usize| -> Vec<[f32; 4]> {
+                unpack_stream(bytemuck::cast_slice(
+                    &data[&stream_name(s, k - 1)].buffer().expect("buffer").bytes,
+                ))
             };
-            let level = reduce_level([src(0), src(1), src(2)], mode == FloatMode::FlushToZero);
+            let (r, n, m) = (src(0), src(1), src(2));
+            let level = reduce_level([&r, &n, &m], mode == FloatMode::FlushToZero);
             for (s, v) in level.iter().enumerate() {
-                out.insert(stream_name(s, k), HostBuffer::f32(bytemuck::cast_slice(v)));
+                let words = pack_stream(v);
+                out.insert(
+                    stream_name(s, k),
+                    HostBuffer::u32(bytemuck::cast_slice(&words)),
+                );
             }
         }
         out

@@ -43,6 +43,13 @@ pub const LRSM_MATH: (&str, &str) = (
     include_str!("../../kernels/common/lrsm_math.wgsl"),
 );
 
+/// How an LRSM texel is stored (binary16 pairs), included by lrsm_partition, lrsm_prefilter and
+/// before LRSM_SAMPLE.
+pub const LRSM_TEXEL: (&str, &str) = (
+    "kernels/common/lrsm_texel.wgsl",
+    include_str!("../../kernels/common/lrsm_texel.wgsl"),
+);
+
 /// Algorithm 1 (Sample LRSM) for one cone sample, included by sample_lrsm and lrsm_cone_trace.
 pub const LRSM_SAMPLE: (&str, &str) = (
     "kernels/common/lrsm_sample.wgsl",

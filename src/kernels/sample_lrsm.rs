@@ -9,7 +9,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::collections::BTreeMap;
 use vxgi_cpu_mirror::lrsm_partition::{partition, PartitionParams};
-use vxgi_cpu_mirror::lrsm_prefilter::reduce_level;
+use vxgi_cpu_mirror::lrsm_prefilter::{pack_stream, reduce_level, unpack_stream};
 use vxgi_cpu_mirror::sample_lrsm::{sample, sample_bound, Lrsm, SampleParams};
 use vxgi_harness::compare::bound_name;
 use vxgi_harness::{
@@ -26,9 +26,9 @@ vxgi_harness::bindings! {
         inputs: {
             params: Block<SampleParams>,
             depth_ranges: Vec<[f32; 4]>,
-            lrsm_radiance: Vec<[f32; 4]>,
-            lrsm_normal: Vec<[f32; 4]>,
-            lrsm_moments: Vec<[f32; 4]>,
+            lrsm_radiance: Vec<[u32; 2]>,
+            lrsm_normal: Vec<[u32; 2]>,
+            lrsm_moments: Vec<[u32; 2]>,
             cone_pos: Vec<[f32; 4]>,
             cone_dir: Vec<[f32; 4]>,
         }
@@ -46,7 +46,7 @@ pub static DECL: KernelDecl = KernelDecl {
     name: "sample_lrsm",
     wgsl_path: "kernels/sample_lrsm.wgsl",
     wgsl: WGSL,
-    includes: &[LRSM_SAMPLE, LRSM_MATH],
+    includes: &[super::LRSM_TEXEL, LRSM_SAMPLE, LRSM_MATH],
     entry: "main",
     inputs: Io::INPUTS,
     outputs: Io::OUTPUTS,
@@ -189,9 +189,9 @@ pub fn case_for(
     let io = Io {
         params: Block(lrsm.params),
         depth_ranges: lrsm.depth_ranges.clone(),
-        lrsm_radiance: lrsm.streams[0].clone(),
-        lrsm_normal: lrsm.streams[1].clone(),
-        lrsm_moments: lrsm.streams[2].clone(),
+        lrsm_radiance: pack_stream(&lrsm.streams[0]),
+        lrsm_normal: pack_stream(&lrsm.streams[1]),
+        lrsm_moments: pack_stream(&lrsm.streams[2]),
         cone_pos: pos.to_vec(),
         cone_dir: dir.to_vec(),
         radiance: vec![[0.0; 4]; pos.len()],
@@ -199,11 +199,10 @@ pub fn case_for(
     let bindings = DECL.bind_by_name();
     let pass = DECL.pass(shader, ctx, "sample".into(), bindings, pos.len() as u64);
     let layers = (lrsm.params.depth_slices * lrsm.params.normal_slices) as u64;
-    // Per sample: its two vec4s, up to 8 taps (trilinear) of 3 texels of 16 bytes per layer, and
+    // Per sample: its two vec4s, up to 8 taps (trilinear) of 3 texels of 8 bytes per layer, and
     // the output.
-
     io.case(label, seed, vec![pass])
-        .with_effective_bytes(pos.len() as u64 * (32 + 16 + layers * 8 * 48))
+        .with_effective_bytes(pos.len() as u64 * (32 + 16 + layers * 8 * 24))
 }
 
 pub struct SampleLrsm;
@@ -242,11 +241,13 @@ impl Kernel for SampleLrsm {
         mode: FloatMode,
     ) -> BTreeMap<String, HostBuffer> {
         let mut io = Io::read(data);
+        let [radiance, normal, moments] =
+            [&io.lrsm_radiance, &io.lrsm_normal, &io.lrsm_moments].map(|s| unpack_stream(s));
         let lrsm = Lrsm {
             depth_ranges: &io.depth_ranges,
-            radiance: &io.lrsm_radiance,
-            normal: &io.lrsm_normal,
-            moments: &io.lrsm_moments,
+            radiance: &radiance,
+            normal: &normal,
+            moments: &moments,
         };
         let (params, flush) = (io.params.0, mode == FloatMode::FlushToZero);
         let pairs = || io.cone_pos.iter().zip(&io.cone_dir);

@@ -324,7 +324,7 @@ pub(crate) fn lrsm_chain(
                     after,
                     src: lrsm_prefilter::stream_name(s, k),
                     dst: dst.to_string(),
-                    offset: first * 16,
+                    offset: first * lrsm_prefilter::TEXEL_BYTES,
                 });
             }
             first += config.layers() as u64 * ((side0 >> k) as u64).pow(2);
@@ -353,7 +353,7 @@ pub(crate) fn lrsm_chain(
     let memory = LrsmMemory {
         occlusion: words as u64 * 4,
         rsm: texels as u64 * 36,
-        lrsm: per_view * views.len() as u64 * 48,
+        lrsm: per_view * views.len() as u64 * 3 * lrsm_prefilter::TEXEL_BYTES,
         views: views.len() as u32,
     };
     let params = cone_trace::cone_params(&vframe, cones);
