@@ -66,7 +66,77 @@ pub struct KernelDecl {
     pub summary: &'static str,
 }
 
+/// The [`KernelDecl`] of the kernel `name` whose WGSL is `kernels/<name>.wgsl` in the calling crate:
+/// `name`, `wgsl_path` and `wgsl` follow from the name, `includes` defaults to none and `entry` to
+/// `"main"`; the rest is given as `field: value` pairs (`inputs`, `outputs`, `dispatch`, `mirror`,
+/// `summary`: [`KernelDecl::check`] refuses a declaration that leaves one empty).
+///
+/// ```ignore
+/// pub static DECL: KernelDecl = vxgi_harness::kernel_decl!("layer_decay",
+///     inputs: Io::INPUTS, outputs: Io::OUTPUTS,
+///     dispatch: DispatchRule::PerElement { binding: "decay" },
+///     mirror: "vxgi_cpu_mirror::layer_decay::layer_decay", summary: "layer decay f(zc)");
+/// ```
+#[macro_export]
+macro_rules! kernel_decl {
+    ($name:literal, $($field:ident: $value:expr),* $(,)?) => {
+        $crate::kernel_decl!($name in $name, $($field: $value),*)
+    };
+    // A second declaration of another kernel's file (another entry or volume): `"svo_bounce" in
+    // "svo_cone_trace"`.
+    ($name:literal in $file:literal, $($field:ident: $value:expr),* $(,)?) => {
+        {
+            // A declaration that gives every field leaves the defaults unused.
+            #[allow(clippy::needless_update)]
+            let decl = $crate::KernelDecl {
+                name: $name,
+                wgsl_path: concat!("kernels/", $file, ".wgsl"),
+                wgsl: include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/kernels/", $file, ".wgsl")),
+                $($field: $value,)*
+                ..$crate::KernelDecl::DEFAULTS
+            };
+            decl
+        }
+    };
+}
+
 impl KernelDecl {
+    /// What [`kernel_decl!`](crate::kernel_decl!) fills in where a declaration gives nothing: no
+    /// includes, entry `main`; the other fields empty, which [`KernelDecl::check`] refuses.
+    pub const DEFAULTS: KernelDecl = KernelDecl {
+        name: "",
+        wgsl_path: "",
+        wgsl: "",
+        includes: &[],
+        entry: "main",
+        inputs: &[],
+        outputs: &[],
+        dispatch: DispatchRule::PerElement { binding: "" },
+        mirror: "",
+        summary: "",
+    };
+
+    /// Whether the declaration names everything a listing and a verification need: its WGSL, a
+    /// mirror, a summary and at least one output, the element binding of a per-element dispatch.
+    pub fn check(&self) -> std::result::Result<(), String> {
+        let empty = [
+            ("name", self.name),
+            ("wgsl", self.wgsl),
+            ("mirror", self.mirror),
+            ("summary", self.summary),
+        ]
+        .into_iter()
+        .find(|(_, v)| v.trim().is_empty())
+        .map(|(f, _)| f);
+        let dispatch_empty = matches!(self.dispatch, DispatchRule::PerElement { binding: "" });
+        match (empty, self.outputs.is_empty(), dispatch_empty) {
+            (Some(f), ..) => Err(format!("kernel `{}`: `{f}` is empty", self.name)),
+            (_, true, _) => Err(format!("kernel `{}` declares no output", self.name)),
+            (.., true) => Err(format!("kernel `{}`: dispatch names no binding", self.name)),
+            _ => Ok(()),
+        }
+    }
+
     /// Parse, validate and reflect the WGSL.
     pub fn shader(&self) -> Result<Shader> {
         let mut parts: Vec<(&str, &str)> = self.includes.to_vec();
@@ -736,6 +806,11 @@ pub fn verify(
     progress: &mut dyn FnMut(usize),
 ) -> Result<KernelReport> {
     let decl = kernel.decl();
+    decl.check()
+        .map_err(|message| crate::HarnessError::Invalid {
+            kernel: decl.name.into(),
+            message,
+        })?;
     let shader = decl.shader()?;
     let mut rep = KernelReport {
         kernel: decl.name.into(),
@@ -777,4 +852,41 @@ pub fn verify(
         progress(i + 1);
     }
     Ok(rep)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_declaration_that_leaves_a_field_empty_is_refused_by_name() {
+        let base = KernelDecl {
+            name: "k",
+            wgsl: "@compute @workgroup_size(1) fn main() {}",
+            outputs: &[Output {
+                binding: "y",
+                tolerance: Tolerance::Exact,
+            }],
+            dispatch: DispatchRule::PerElement { binding: "y" },
+            mirror: "m::f",
+            summary: "s",
+            ..KernelDecl::DEFAULTS
+        };
+        assert_eq!(base.check(), Ok(()));
+        let e = KernelDecl {
+            summary: " ",
+            ..base
+        };
+        assert!(e.check().unwrap_err().contains("`summary`"));
+        let e = KernelDecl {
+            outputs: &[],
+            ..base
+        };
+        assert!(e.check().unwrap_err().contains("no output"));
+        let e = KernelDecl {
+            dispatch: DispatchRule::PerElement { binding: "" },
+            ..base
+        };
+        assert!(e.check().unwrap_err().contains("dispatch"));
+    }
 }

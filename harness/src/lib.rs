@@ -36,3 +36,16 @@ pub use run::{
     Workgroups,
 };
 pub use shader::{Binding, BindingKind, ScalarKind, Shader};
+
+/// What a kernel declaration names: `use vxgi_harness::prelude::*;` (no `Result`, which would shadow
+/// the standard one).
+pub mod prelude {
+    pub use crate::bindings::{Bindings, Block, Structs};
+    pub use crate::compare::{Indexing, Tolerance};
+    pub use crate::context::GpuContext;
+    pub use crate::kernel::{
+        Case, Check, DispatchRule, FloatMode, Kernel, KernelDecl, MirrorOutputs, Output,
+    };
+    pub use crate::run::{HostBuffer, HostResource, Resources, View};
+    pub use crate::shader::{ScalarKind, Shader};
+}

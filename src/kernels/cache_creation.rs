@@ -9,15 +9,10 @@ use vxgi_cpu_mirror::cache_creation::{
 };
 use vxgi_cpu_mirror::cone_trace::{ConeParams, Volume};
 use vxgi_harness::compare::bound_name;
-use vxgi_harness::{
-    Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
-    KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
-};
+use vxgi_harness::prelude::*;
 
-pub static DECL: KernelDecl = KernelDecl {
-    name: "cache_creation",
-    wgsl_path: "kernels/cache_creation.wgsl",
-    wgsl: include_str!("../../kernels/cache_creation.wgsl"),
+pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
+    "cache_creation",
     includes: &[super::TANGENT_BASIS, super::SCENE_TYPES, super::CONE_MARCH, super::PYRAMID_GRID, super::PYRAMID],
     entry: "create",
     inputs: &["cone", "pyramid", "pyramid_1", "pyramid_2", "pyramid_normal", "cache_params", "caches", "texel_dirs"],
@@ -29,14 +24,12 @@ pub static DECL: KernelDecl = KernelDecl {
     dispatch: DispatchRule::PerElement { binding: "cache_radiance" },
     mirror: "vxgi_cpu_mirror::cache_creation::create_texel",
     summary: "one cone per radiance-cache texel (hemi-octahedral) through the radiance pyramid (CPRC 3.1)",
-};
+);
 
 /// cache_creation with the per-instance hierarchies of CPRC 3.1 as its volume: the same kernel file and
 /// entry, the pyramids placed by rigid transforms (common/placed_pyramids.wgsl) instead of one.
-pub static INSTANCED_DECL: KernelDecl = KernelDecl {
-    name: "cache_creation_instanced",
-    wgsl_path: "kernels/cache_creation.wgsl",
-    wgsl: include_str!("../../kernels/cache_creation.wgsl"),
+pub static INSTANCED_DECL: KernelDecl = vxgi_harness::kernel_decl!(
+    "cache_creation_instanced" in "cache_creation",
     includes: &[
         super::TANGENT_BASIS,
         super::SCENE_TYPES,
@@ -54,7 +47,7 @@ pub static INSTANCED_DECL: KernelDecl = KernelDecl {
     dispatch: DispatchRule::PerElement { binding: "cache_radiance" },
     mirror: "vxgi_cpu_mirror::cache_creation::create_texel (PlacedPyramids)",
     summary: "cache_creation through several voxel hierarchies placed by rigid transforms (CPRC 3.1 multiple hierarchies)",
-};
+);
 
 /// The creation pass over `caches` (two vec4s each: origin, normal) at `res x res` texels. The
 /// normal pyramid is bound only where `cone` asks for the depth-ordered blend (else one element).
@@ -253,12 +246,7 @@ impl Kernel for CacheCreation {
         let case = case_for(ctx, &pyr, &params, &caches, res, label, seed);
         super::cone_trace::with_pyramid_split(case, index)
     }
-    fn mirror(
-        &self,
-        _case: &Case,
-        data: &Resources,
-        _mode: FloatMode,
-    ) -> BTreeMap<String, HostBuffer> {
+    fn mirror(&self, _case: &Case, data: &Resources, _mode: FloatMode) -> MirrorOutputs {
         // Radiance-scale arithmetic, as cone_trace's: one mode serves both.
         mirror_outputs(data)
     }
@@ -316,12 +304,7 @@ impl Kernel for CacheCreationInstanced {
         );
         super::cone_trace::with_pyramid_split(case, index)
     }
-    fn mirror(
-        &self,
-        _case: &Case,
-        data: &Resources,
-        _mode: FloatMode,
-    ) -> BTreeMap<String, HostBuffer> {
+    fn mirror(&self, _case: &Case, data: &Resources, _mode: FloatMode) -> MirrorOutputs {
         mirror_outputs(data)
     }
 }

@@ -6,11 +6,8 @@ use std::collections::BTreeMap;
 use vxgi_cpu_mirror::cache_placement::{best_pixels, score, score_bound};
 use vxgi_cpu_mirror::cluster_extract::{extract, Cluster};
 use vxgi_harness::compare::bound_name;
+use vxgi_harness::prelude::*;
 use vxgi_harness::run::{grid_for, Pass, Workgroups};
-use vxgi_harness::{
-    Bindings, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, Kernel, KernelDecl, Resources,
-    Shader, Structs, Tolerance,
-};
 
 vxgi_harness::bindings! {
     /// cache_placement's bindings: the clusters and each pixel's cluster, normal and position in;
@@ -37,10 +34,8 @@ vxgi_harness::bindings! {
     }
 }
 
-pub static DECL: KernelDecl = KernelDecl {
-    name: "cache_placement",
-    wgsl_path: "kernels/cache_placement.wgsl",
-    wgsl: include_str!("../../kernels/cache_placement.wgsl"),
+pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
+    "cache_placement",
     includes: &[super::tile_normal_histogram::OCTAHEDRAL_BINS],
     entry: "score_pixels",
     inputs: Io::INPUTS,
@@ -48,7 +43,7 @@ pub static DECL: KernelDecl = KernelDecl {
     dispatch: DispatchRule::PerElement { binding: "scores" },
     mirror: "vxgi_cpu_mirror::cache_placement::score",
     summary: "placement score per pixel and the argmax pixel per cluster as its radiance cache (CPRC 3.2)",
-};
+);
 
 pub fn case_for(ctx: &GpuContext, inp: &DistributionInputs, label: String, seed: u64) -> Case {
     let (clusters, pixel_cluster) = extract(
@@ -156,12 +151,7 @@ impl Kernel for CachePlacement {
         let (inp, label) = super::cluster_extract::generated_distribution(seed, index);
         case_for(ctx, &inp, label, seed)
     }
-    fn mirror(
-        &self,
-        _case: &Case,
-        data: &Resources,
-        _mode: FloatMode,
-    ) -> BTreeMap<String, HostBuffer> {
+    fn mirror(&self, _case: &Case, data: &Resources, _mode: FloatMode) -> MirrorOutputs {
         let (scores, bounds) = mirror_scores(data);
         let (picks, _) = accepted_picks(data, data["picks"].buffer().expect("picks").as_u32());
         BTreeMap::from([

@@ -3,16 +3,12 @@
 //! radiance: smooth skies, single bright texels, zeros, large and subnormal values.
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use std::collections::BTreeMap;
 use vxgi_cpu_mirror::cache_preconvolve::{
     irradiance_texel, irradiance_weights, mip_len, mip_texel, PreconvolveParams,
 };
 use vxgi_harness::compare::bound_name;
+use vxgi_harness::prelude::*;
 use vxgi_harness::run::{grid_for, Pass, Workgroups};
-use vxgi_harness::{
-    Bindings, Block, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, Indexing, Kernel,
-    KernelDecl, Resources, Shader, Tolerance,
-};
 
 vxgi_harness::bindings! {
     /// cache_preconvolve's bindings: the caches' radiance in, their mips and irradiance maps out.
@@ -33,11 +29,8 @@ vxgi_harness::bindings! {
     }
 }
 
-pub static DECL: KernelDecl = KernelDecl {
-    name: "cache_preconvolve",
-    wgsl_path: "kernels/cache_preconvolve.wgsl",
-    wgsl: include_str!("../../kernels/cache_preconvolve.wgsl"),
-    includes: &[],
+pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
+    "cache_preconvolve",
     entry: "mips",
     inputs: Io::INPUTS,
     outputs: Io::OUTPUTS,
@@ -46,7 +39,7 @@ pub static DECL: KernelDecl = KernelDecl {
     },
     mirror: "vxgi_cpu_mirror::cache_preconvolve::mip_texel",
     summary: "radiance caches' mip chains and cosine-folded irradiance maps (CPRC 3.1, PCRC)",
-};
+);
 
 /// Both passes over `radiance` (count caches of res^2 texels) with irradiance maps of irr^2 texels.
 pub fn case_for(
@@ -167,12 +160,7 @@ impl Kernel for CachePreconvolve {
         let label = format!("#{index} {count} caches {res}^2, irradiance {irr}^2");
         case_for(ctx, &rad, res, irr, label, seed)
     }
-    fn mirror(
-        &self,
-        _case: &Case,
-        data: &Resources,
-        mode: FloatMode,
-    ) -> BTreeMap<String, HostBuffer> {
+    fn mirror(&self, _case: &Case, data: &Resources, mode: FloatMode) -> MirrorOutputs {
         let mut io = Io::read(data);
         let (p, rad, w) = (io.params.0, &io.cache_radiance, &io.irr_weights);
         let t = (p.res * p.res) as usize;

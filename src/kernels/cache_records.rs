@@ -3,15 +3,11 @@
 //! the distribution (CPRC 3.2). Cases place caches with the distribution mirrors on generated
 //! G-buffers, with capacities above, at and below the cluster count (overflow), and none.
 use super::cluster_extract::DistributionInputs;
-use std::collections::BTreeMap;
 use vxgi_cpu_mirror::cache_records::{bounds, records, RecordsParams, ARGS_LEN};
 use vxgi_cpu_mirror::cluster_extract::Cluster;
 use vxgi_harness::compare::bound_name;
+use vxgi_harness::prelude::*;
 use vxgi_harness::run::{grid_for, Pass, Workgroups};
-use vxgi_harness::{
-    Bindings, Block, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, Kernel, KernelDecl,
-    Resources, Shader, Structs, Tolerance,
-};
 
 vxgi_harness::bindings! {
     /// cache_records' bindings: the distribution's clusters and picks and the G-buffer's normals and
@@ -41,12 +37,9 @@ vxgi_harness::bindings! {
     }
 }
 
-pub static DECL: KernelDecl = KernelDecl {
-    name: "cache_records",
-    wgsl_path: "kernels/cache_records.wgsl",
-    wgsl: include_str!("../../kernels/cache_records.wgsl"),
+pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
+    "cache_records",
     includes: &[super::tile_normal_histogram::OCTAHEDRAL_BINS],
-    entry: "main",
     inputs: Io::INPUTS,
     outputs: Io::OUTPUTS,
     dispatch: DispatchRule::PerItem {
@@ -54,7 +47,7 @@ pub static DECL: KernelDecl = KernelDecl {
     },
     mirror: "vxgi_cpu_mirror::cache_records::records",
     summary: "radiance caches' records (position, radius, pixel, normal, creation origin, tile ranges) and the cache stages' indirect arguments from the clusters and picks (CPRC 3.2)",
-};
+);
 
 /// The bindings for `capacity` caches over `tiles` screen tiles (outputs zeroed, one slot and one
 /// tile at least), with these inputs; empty lists get one zero element (bindings cannot be empty).
@@ -175,12 +168,7 @@ impl Kernel for CacheRecords {
         case_for(ctx, &inp, p, format!("{label} capacity {capacity}"), seed)
     }
 
-    fn mirror(
-        &self,
-        _case: &Case,
-        data: &Resources,
-        _mode: FloatMode,
-    ) -> BTreeMap<String, HostBuffer> {
+    fn mirror(&self, _case: &Case, data: &Resources, _mode: FloatMode) -> MirrorOutputs {
         let io = Io::read(data);
         let p = io.records_params.0;
         let (clusters, positions) = (&io.clusters.0, &io.positions);

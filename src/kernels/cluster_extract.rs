@@ -3,18 +3,14 @@
 use super::cluster_keys::{depths, sanitise};
 use crate::gbuffers::{normals, packed, GPattern};
 use bytemuck::Zeroable;
-use std::collections::BTreeMap;
 use vxgi_cpu_mirror::cluster_extract::{extract, heads, Cluster};
 use vxgi_cpu_mirror::cluster_keys::{axis_directions, keys, slice_bounds, KeyInputs, KeyParams};
 use vxgi_cpu_mirror::histogram_axes::all_axes;
 use vxgi_cpu_mirror::octahedral::reweight_table;
 use vxgi_cpu_mirror::radix_sort::sort;
 use vxgi_cpu_mirror::tile_normal_histogram::histograms;
+use vxgi_harness::prelude::*;
 use vxgi_harness::run::{grid_for, Pass, Workgroups};
-use vxgi_harness::{
-    Bindings, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, Kernel, KernelDecl, Resources,
-    Shader, Structs, Tolerance,
-};
 
 vxgi_harness::bindings! {
     /// cluster_extract's bindings: key-sorted pixels with their normals and positions in; the
@@ -40,10 +36,8 @@ vxgi_harness::bindings! {
     }
 }
 
-pub static DECL: KernelDecl = KernelDecl {
-    name: "cluster_extract",
-    wgsl_path: "kernels/cluster_extract.wgsl",
-    wgsl: include_str!("../../kernels/cluster_extract.wgsl"),
+pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
+    "cluster_extract",
     includes: &[super::tile_normal_histogram::OCTAHEDRAL_BINS, super::BLOCK_SCAN],
     entry: "mark_heads",
     inputs: Io::INPUTS,
@@ -51,7 +45,7 @@ pub static DECL: KernelDecl = KernelDecl {
     dispatch: DispatchRule::PerElement { binding: "heads" },
     mirror: "vxgi_cpu_mirror::cluster_extract::extract",
     summary: "clusters of key-sorted pixels: heads, prefix sum, per-cluster normal sum and bounding box (CPRC 3.2)",
-};
+);
 
 /// World positions for a generated G-buffer: the pixel's view ray at its depth.
 pub fn positions(width: u32, height: u32, depth: &[f32]) -> Vec<[f32; 4]> {
@@ -212,12 +206,7 @@ impl Kernel for ClusterExtract {
         let (inp, label) = generated_distribution(seed, index);
         case_for(ctx, &inp, label, seed)
     }
-    fn mirror(
-        &self,
-        _case: &Case,
-        data: &Resources,
-        _mode: FloatMode,
-    ) -> BTreeMap<String, HostBuffer> {
+    fn mirror(&self, _case: &Case, data: &Resources, _mode: FloatMode) -> MirrorOutputs {
         let mut io = Io::read(data);
         let clusters;
         (clusters, io.pixel_cluster) = extract(&io.keys, &io.pixels, &io.normals, &io.positions);

@@ -4,15 +4,11 @@
 use crate::gbuffers::{normals, packed, GPattern};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use std::collections::BTreeMap;
 use vxgi_cpu_mirror::cluster_keys::{axis_directions, keys, slice_bounds, KeyInputs, KeyParams};
 use vxgi_cpu_mirror::histogram_axes::all_axes;
 use vxgi_cpu_mirror::octahedral::reweight_table;
 use vxgi_cpu_mirror::tile_normal_histogram::histograms;
-use vxgi_harness::{
-    Bindings, Block, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, Indexing, Kernel,
-    KernelDecl, Resources, Shader, Tolerance,
-};
+use vxgi_harness::prelude::*;
 
 vxgi_harness::bindings! {
     /// cluster_keys' bindings: per-pixel normals and depths and each tile's axes in, keys out.
@@ -32,18 +28,15 @@ vxgi_harness::bindings! {
     }
 }
 
-pub static DECL: KernelDecl = KernelDecl {
-    name: "cluster_keys",
-    wgsl_path: "kernels/cluster_keys.wgsl",
-    wgsl: include_str!("../../kernels/cluster_keys.wgsl"),
+pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
+    "cluster_keys",
     includes: &[super::tile_normal_histogram::OCTAHEDRAL_BINS],
-    entry: "main",
     inputs: Io::INPUTS,
     outputs: Io::OUTPUTS,
     dispatch: DispatchRule::PerElement { binding: "keys" },
     mirror: "vxgi_cpu_mirror::cluster_keys::keys",
     summary: "per-pixel cluster key: tile, best-aligned tile axis, depth slice (CPRC 3.2)",
-};
+);
 
 /// Pixels whose depth is not a finite positive number become background (geometry flag cleared): the
 /// documented treatment of bad depth at the API boundary.
@@ -172,12 +165,7 @@ impl Kernel for ClusterKeys {
             seed,
         )
     }
-    fn mirror(
-        &self,
-        _case: &Case,
-        data: &Resources,
-        _mode: FloatMode,
-    ) -> BTreeMap<String, HostBuffer> {
+    fn mirror(&self, _case: &Case, data: &Resources, _mode: FloatMode) -> MirrorOutputs {
         let mut io = Io::read(data);
         let inputs = KeyInputs {
             normals: &io.normals,

@@ -15,18 +15,12 @@ use vxgi_cpu_mirror::direct_light::GpuMaterial;
 use vxgi_cpu_mirror::gbuffer::Frame;
 use vxgi_cpu_mirror::surface_coverage_mip::Coverage;
 use vxgi_harness::compare::bound_name;
+use vxgi_harness::prelude::*;
 use vxgi_harness::run::{run, Pass, View, Workgroups};
-use vxgi_harness::{
-    Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
-    KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
-};
 
-pub static DECL: KernelDecl = KernelDecl {
-    name: "cone_trace",
-    wgsl_path: "kernels/cone_trace.wgsl",
-    wgsl: include_str!("../../kernels/cone_trace.wgsl"),
+pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
+    "cone_trace",
     includes: &[super::TANGENT_BASIS, super::SCENE_TYPES, super::CONE_MARCH, super::PYRAMID_GRID, super::PYRAMID],
-    entry: "main",
     inputs: &[
         "frame", "triangles", "materials", "gb_position", "gb_normal", "gb_triangle", "gb_albedo", "cone", "cone_dirs", "tile_list",
         "pyramid", "pyramid_1", "pyramid_2", "pyramid_normal",
@@ -44,14 +38,12 @@ pub static DECL: KernelDecl = KernelDecl {
     },
     mirror: "vxgi_cpu_mirror::cone_trace::shade_pixel (+ resolve where interleave > 1)",
     summary: "AO + diffuse cones + one glossy cone per pixel, quadrilinear marching of the radiance pyramid (CPRC 4, VCT 5-7)",
-};
+);
 
 /// cone_trace through several voxel hierarchies placed by rigid transforms (an instance's own, CPRC 3.1):
 /// the same kernel file and pixel entry with common/placed_pyramids.wgsl as the volume.
-pub static INSTANCED_DECL: KernelDecl = KernelDecl {
-    name: "cone_trace_instanced",
-    wgsl_path: "kernels/cone_trace.wgsl",
-    wgsl: include_str!("../../kernels/cone_trace.wgsl"),
+pub static INSTANCED_DECL: KernelDecl = vxgi_harness::kernel_decl!(
+    "cone_trace_instanced" in "cone_trace",
     includes: &[
         super::TANGENT_BASIS,
         super::SCENE_TYPES,
@@ -59,7 +51,6 @@ pub static INSTANCED_DECL: KernelDecl = KernelDecl {
         super::PYRAMID_GRID,
         super::PLACED_PYRAMIDS,
     ],
-    entry: "main",
     inputs: &[
         "frame", "triangles", "materials", "gb_position", "gb_normal", "gb_triangle", "gb_albedo", "cone", "cone_dirs", "tile_list",
         "pyramid", "pyramid_1", "pyramid_2", "placed", "placed_cells",
@@ -76,7 +67,7 @@ pub static INSTANCED_DECL: KernelDecl = KernelDecl {
     },
     mirror: "vxgi_cpu_mirror::cone_trace::shade_pixel (PlacedPyramids)",
     summary: "cone_trace through several voxel hierarchies placed by rigid transforms (instances, CPRC 3.1)",
-};
+);
 
 /// Cone settings (the `[render]`-level knobs of the vct-dense pipeline).
 #[derive(Clone, Copy, Debug)]
@@ -751,12 +742,7 @@ impl Kernel for ConeTraceInstanced {
         );
         with_pyramid_split(case, index)
     }
-    fn mirror(
-        &self,
-        _case: &Case,
-        data: &Resources,
-        _mode: FloatMode,
-    ) -> BTreeMap<String, HostBuffer> {
+    fn mirror(&self, _case: &Case, data: &Resources, _mode: FloatMode) -> MirrorOutputs {
         bounded_outputs(&mirror_cones(data))
     }
 }
@@ -779,12 +765,7 @@ impl Kernel for ConeTrace {
             index,
         )
     }
-    fn mirror(
-        &self,
-        _case: &Case,
-        data: &Resources,
-        _mode: FloatMode,
-    ) -> BTreeMap<String, HostBuffer> {
+    fn mirror(&self, _case: &Case, data: &Resources, _mode: FloatMode) -> MirrorOutputs {
         // Radiance-scale arithmetic; subnormal alphas at coarse levels only scale terms that are
         // already below the bound: one mode serves both.
         bounded_outputs(&mirror_cones(data))

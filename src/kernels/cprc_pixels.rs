@@ -5,16 +5,12 @@
 //! gathered values over a wide range of magnitudes.
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use std::collections::BTreeMap;
 use vxgi_cpu_mirror::bvh_trace::GpuTriangle;
 use vxgi_cpu_mirror::cprc_pixels::{self as m, GPixel};
 use vxgi_cpu_mirror::gbuffer::Frame;
 use vxgi_harness::compare::bound_name;
+use vxgi_harness::prelude::*;
 use vxgi_harness::run::{grid_for, Pass, Workgroups};
-use vxgi_harness::{
-    Bindings, Block, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, Kernel, KernelDecl,
-    Resources, Shader, Tolerance,
-};
 
 vxgi_harness::bindings! {
     /// cprc_pixels' bindings: the G-buffer, the lobe table and the gather's results in; the
@@ -51,10 +47,8 @@ vxgi_harness::bindings! {
     }
 }
 
-pub static DECL: KernelDecl = KernelDecl {
-    name: "cprc_pixels",
-    wgsl_path: "kernels/cprc_pixels.wgsl",
-    wgsl: include_str!("../../kernels/cprc_pixels.wgsl"),
+pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
+    "cprc_pixels",
     includes: &[super::SCENE_TYPES],
     entry: "inputs",
     inputs: Io::INPUTS,
@@ -62,7 +56,7 @@ pub static DECL: KernelDecl = KernelDecl {
     dispatch: DispatchRule::PerElement { binding: "depth" },
     mirror: "vxgi_cpu_mirror::cprc_pixels::pixel",
     summary: "cprc's per-pixel inputs from the G-buffer (packed normals, depth, directions, Ks) and its indirect and AO images from the gather (CPRC 3.2-3.3)",
-};
+);
 
 /// A G-buffer and what the two entries read besides it, by binding.
 pub struct PixelData<'a> {
@@ -305,12 +299,7 @@ impl Kernel for CprcPixels {
         case_for(ctx, &d, format!("#{index} {w}x{h}"), seed)
     }
 
-    fn mirror(
-        &self,
-        _case: &Case,
-        data: &Resources,
-        _mode: FloatMode,
-    ) -> BTreeMap<String, HostBuffer> {
+    fn mirror(&self, _case: &Case, data: &Resources, _mode: FloatMode) -> MirrorOutputs {
         let mut io = Io::read(data);
         let frame = io.frame.0;
         let triangles: &[GpuTriangle] = bytemuck::cast_slice(&io.triangles);

@@ -8,11 +8,8 @@ use vxgi_cpu_mirror::bvh_trace::{GpuNode, GpuTriangle};
 use vxgi_cpu_mirror::direct_light::{shade_with_bound, GpuLight, GpuMaterial};
 use vxgi_cpu_mirror::gbuffer::Frame;
 use vxgi_harness::compare::bound_name;
+use vxgi_harness::prelude::*;
 use vxgi_harness::run::run;
-use vxgi_harness::{
-    Bindings, Block, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing,
-    Kernel, KernelDecl, Resources, ScalarKind, Shader, Structs, Tolerance,
-};
 
 vxgi_harness::bindings! {
     /// direct_light's bindings: the scene (camera frame, BVH, triangles, lights, materials) and its
@@ -39,17 +36,14 @@ vxgi_harness::bindings! {
     }
 }
 
-pub static DECL: KernelDecl = KernelDecl {
-    name: "direct_light",
-    wgsl_path: "kernels/direct_light.wgsl",
-    wgsl: include_str!("../../kernels/direct_light.wgsl"),
+pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
+    "direct_light",
     includes: &[
         super::SCENE_TYPES,
         super::gbuffer::BVH_TRACE,
         super::LIGHTS,
         super::BRDF,
     ],
-    entry: "main",
     inputs: Io::INPUTS,
     outputs: Io::OUTPUTS,
     dispatch: DispatchRule::PerElement {
@@ -58,7 +52,7 @@ pub static DECL: KernelDecl = KernelDecl {
     mirror: "vxgi_cpu_mirror::direct_light::shade_with_bound",
     summary:
         "direct light, one exact shadow ray per light through the BVH, diffuse + normalised Phong",
-};
+);
 
 /// The G-buffer of `data` computed on the GPU (the `gbuffer` kernel).
 pub fn gpu_gbuffer(ctx: &GpuContext, data: &SceneData) -> Resources {
@@ -155,12 +149,7 @@ impl Kernel for DirectLight {
         let (scene, label) = generated_scene(seed, index);
         case_for(ctx, &SceneData::new(&scene), label, seed)
     }
-    fn mirror(
-        &self,
-        _case: &Case,
-        data: &Resources,
-        _mode: FloatMode,
-    ) -> BTreeMap<String, HostBuffer> {
+    fn mirror(&self, _case: &Case, data: &Resources, _mode: FloatMode) -> MirrorOutputs {
         // Subnormals play no part at scene scales (smallest inputs ~1e-3 units): one mode serves both.
         let (l, e) = mirror_direct(data);
         let f = |v: &[[f32; 4]]| HostBuffer::f32(bytemuck::cast_slice(v));

@@ -11,10 +11,7 @@ use vxgi_cpu_mirror::gather_caches::{
 };
 use vxgi_cpu_mirror::octahedral::unpack;
 use vxgi_harness::compare::bound_name;
-use vxgi_harness::{
-    Bindings, Block, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, Kernel, KernelDecl,
-    Resources, Shader, Tolerance,
-};
+use vxgi_harness::prelude::*;
 
 vxgi_harness::bindings! {
     /// gather_caches' bindings: the pixels' positions and directions and the caches' records and
@@ -44,18 +41,15 @@ vxgi_harness::bindings! {
     }
 }
 
-pub static DECL: KernelDecl = KernelDecl {
-    name: "gather_caches",
-    wgsl_path: "kernels/gather_caches.wgsl",
-    wgsl: include_str!("../../kernels/gather_caches.wgsl"),
+pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
+    "gather_caches",
     includes: &[super::TANGENT_BASIS],
-    entry: "main",
     inputs: Io::INPUTS,
     outputs: Io::OUTPUTS,
     dispatch: DispatchRule::PerElement { binding: "weight_sum" },
     mirror: "vxgi_cpu_mirror::gather_caches::gather",
     summary: "per pixel, caches within the screen radius evaluated (irradiance by normal, mips by reflection) and weighted min(w_w, w_s) (CPRC 3.3)",
-};
+);
 
 /// Caches placed on a G-buffer by the distribution mirrors: positions, pixels, normals (payload), and the
 /// per-tile ranges.
@@ -283,12 +277,7 @@ impl Kernel for GatherCaches {
             seed,
         )
     }
-    fn mirror(
-        &self,
-        _case: &Case,
-        data: &Resources,
-        _mode: FloatMode,
-    ) -> BTreeMap<String, HostBuffer> {
+    fn mirror(&self, _case: &Case, data: &Resources, _mode: FloatMode) -> MirrorOutputs {
         mirror_outputs(data)
     }
 }

@@ -4,13 +4,9 @@
 //! tiny cone radii, depths outside the layer, arbitrary finite bit patterns).
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use std::collections::BTreeMap;
 use vxgi_cpu_mirror::gaussian_depth_visibility::{visibility, visibility_bound, VisibilityParams};
 use vxgi_harness::compare::bound_name;
-use vxgi_harness::{
-    Bindings, Block, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, Kernel, KernelDecl,
-    Resources, Shader, Tolerance,
-};
+use vxgi_harness::prelude::*;
 
 pub const WGSL: &str = include_str!("../../kernels/gaussian_depth_visibility.wgsl");
 
@@ -35,12 +31,9 @@ vxgi_harness::bindings! {
     }
 }
 
-pub static DECL: KernelDecl = KernelDecl {
-    name: "gaussian_depth_visibility",
-    wgsl_path: "kernels/gaussian_depth_visibility.wgsl",
-    wgsl: WGSL,
+pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
+    "gaussian_depth_visibility",
     includes: &[LRSM_MATH],
-    entry: "main",
     inputs: Io::INPUTS,
     outputs: Io::OUTPUTS,
     dispatch: DispatchRule::PerElement {
@@ -48,7 +41,7 @@ pub static DECL: KernelDecl = KernelDecl {
     },
     mirror: "vxgi_cpu_mirror::gaussian_depth_visibility::visibility",
     summary: "Gaussian depth visibility V (LRSM eq. 10-12) from pre-filtered depth moments",
-};
+);
 
 /// Moments and cone samples of one generated case.
 #[derive(Clone, Debug)]
@@ -223,12 +216,7 @@ impl Kernel for GaussianDepthVisibility {
         )
     }
 
-    fn mirror(
-        &self,
-        _case: &Case,
-        data: &Resources,
-        mode: FloatMode,
-    ) -> BTreeMap<String, HostBuffer> {
+    fn mirror(&self, _case: &Case, data: &Resources, mode: FloatMode) -> MirrorOutputs {
         let mut io = Io::read(data);
         let (params, flush) = (io.params.0, mode == FloatMode::FlushToZero);
         let samples = || io.moments.iter().zip(&io.cone);

@@ -6,7 +6,6 @@ use crate::trace::SceneData;
 use glam::{Vec2, Vec3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use std::collections::BTreeMap;
 use std::sync::Arc;
 use vxgi_cpu_mirror::bvh_trace::GpuNode;
 use vxgi_cpu_mirror::direct_light::GpuMaterial;
@@ -14,11 +13,8 @@ use vxgi_cpu_mirror::gbuffer::{
     accepted_texel, albedo, albedo_bound, texel_bounds, Frame, Textures,
 };
 use vxgi_harness::compare::bound_name;
+use vxgi_harness::prelude::*;
 use vxgi_harness::run::{Pass, Workgroups};
-use vxgi_harness::{
-    Bindings, Block, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing,
-    Kernel, KernelDecl, Resources, ScalarKind, Shader, Structs, Tolerance,
-};
 
 pub const BVH_TRACE: (&str, &str) = (
     "kernels/common/bvh_trace.wgsl",
@@ -55,18 +51,15 @@ vxgi_harness::bindings! {
     }
 }
 
-pub static DECL: KernelDecl = KernelDecl {
-    name: "gbuffer",
-    wgsl_path: "kernels/gbuffer.wgsl",
-    wgsl: include_str!("../../kernels/gbuffer.wgsl"),
+pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
+    "gbuffer",
     includes: &[super::SCENE_TYPES, BVH_TRACE],
-    entry: "main",
     inputs: Io::INPUTS,
     outputs: Io::OUTPUTS,
     dispatch: DispatchRule::PerElement { binding: "gb_triangle" },
     mirror: "vxgi_cpu_mirror::gbuffer::shade_pixel",
     summary: "primary ray per pixel through the flattened BVH: position + t, shading normal + side, triangle, albedo (Kd or map_Kd)",
-};
+);
 
 fn quad(mesh: &mut Mesh, corners: [Vec3; 4], material: u32) {
     // Two CCW triangles; flat normals (unique vertices per triangle); UVs over [0, 2]^2 (the texture
@@ -465,12 +458,7 @@ impl Kernel for Gbuffer {
         }
         case_for(&data, label, seed)
     }
-    fn mirror(
-        &self,
-        _case: &Case,
-        data: &Resources,
-        _mode: FloatMode,
-    ) -> BTreeMap<String, HostBuffer> {
+    fn mirror(&self, _case: &Case, data: &Resources, _mode: FloatMode) -> MirrorOutputs {
         // Subnormals play no part in ray-triangle arithmetic at scene scales: one mode serves both.
         let m = mirror_gbuffer(
             data,

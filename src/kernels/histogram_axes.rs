@@ -5,14 +5,10 @@ use super::tile_normal_histogram::{params, size_for};
 use crate::gbuffers::{normals, packed, GPattern};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use std::collections::BTreeMap;
 use vxgi_cpu_mirror::histogram_axes::all_axes;
 use vxgi_cpu_mirror::octahedral::{reweight_table, BIN_COUNT};
 use vxgi_cpu_mirror::tile_normal_histogram::histograms;
-use vxgi_harness::{
-    Bindings, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, Kernel, KernelDecl, Resources,
-    Shader, Tolerance,
-};
+use vxgi_harness::prelude::*;
 
 vxgi_harness::bindings! {
     /// histogram_axes' bindings: each tile's raw and blurred histograms in, its three axes out.
@@ -31,18 +27,14 @@ vxgi_harness::bindings! {
     }
 }
 
-pub static DECL: KernelDecl = KernelDecl {
-    name: "histogram_axes",
-    wgsl_path: "kernels/histogram_axes.wgsl",
-    wgsl: include_str!("../../kernels/histogram_axes.wgsl"),
-    includes: &[],
-    entry: "main",
+pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
+    "histogram_axes",
     inputs: Io::INPUTS,
     outputs: Io::OUTPUTS,
     dispatch: DispatchRule::PerElement { binding: "axes" },
     mirror: "vxgi_cpu_mirror::histogram_axes::all_axes",
     summary: "three axes per tile by re-weighted histogram argmax (CPRC 3.2)",
-};
+);
 
 /// Axes case from histograms (raw, blurred) of `tiles` tiles.
 pub fn axes_case(
@@ -112,12 +104,7 @@ impl Kernel for HistogramAxes {
             seed,
         )
     }
-    fn mirror(
-        &self,
-        _case: &Case,
-        data: &Resources,
-        _mode: FloatMode,
-    ) -> BTreeMap<String, HostBuffer> {
+    fn mirror(&self, _case: &Case, data: &Resources, _mode: FloatMode) -> MirrorOutputs {
         let mut io = Io::read(data);
         io.axes = all_axes(&io.blurred, &io.histogram, &io.reweight);
         io.outputs()

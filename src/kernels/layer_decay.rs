@@ -3,14 +3,8 @@
 //! than two overlaps, and huge and tiny magnitudes.
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use std::collections::BTreeMap;
 use vxgi_cpu_mirror::layer_decay::layer_decay;
-use vxgi_harness::{
-    Bindings, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, Kernel, KernelDecl, Resources,
-    Shader, Tolerance,
-};
-
-pub const WGSL: &str = include_str!("../../kernels/layer_decay.wgsl");
+use vxgi_harness::prelude::*;
 
 use super::LRSM_MATH;
 
@@ -29,18 +23,15 @@ vxgi_harness::bindings! {
     }
 }
 
-pub static DECL: KernelDecl = KernelDecl {
-    name: "layer_decay",
-    wgsl_path: "kernels/layer_decay.wgsl",
-    wgsl: WGSL,
+pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
+    "layer_decay",
     includes: &[LRSM_MATH],
-    entry: "main",
     inputs: Io::INPUTS,
     outputs: Io::OUTPUTS,
     dispatch: DispatchRule::PerElement { binding: "decay" },
     mirror: "vxgi_cpu_mirror::layer_decay::layer_decay",
     summary: "layer decay f(zc) (LRSM eq. 15), smoothstep falloff over the layer overlaps",
-};
+);
 
 /// `count` generated (zc, zmin, zmax, delta) samples.
 pub fn samples(seed: u64, index: usize, count: usize) -> Vec<[f32; 4]> {
@@ -106,12 +97,7 @@ impl Kernel for LayerDecay {
         )
     }
 
-    fn mirror(
-        &self,
-        _case: &Case,
-        data: &Resources,
-        mode: FloatMode,
-    ) -> BTreeMap<String, HostBuffer> {
+    fn mirror(&self, _case: &Case, data: &Resources, mode: FloatMode) -> MirrorOutputs {
         let mut io = Io::read(data);
         let flush = mode == FloatMode::FlushToZero;
         io.decay = io

@@ -11,24 +11,17 @@ use crate::lrsm::{light_views, PartitionConfig, Rsm};
 use crate::scene::Scene;
 use crate::trace::SceneData;
 use anyhow::Context;
-use std::collections::BTreeMap;
 use vxgi_cpu_mirror::cone_trace::ConeParams;
 use vxgi_cpu_mirror::lrsm_cone_trace::{soft_direct, LrsmVolume, ShadowParams};
 use vxgi_cpu_mirror::lrsm_prefilter::{pack_stream, unpack_stream};
 use vxgi_cpu_mirror::reflective_shadow_map::GpuView;
 use vxgi_cpu_mirror::sample_lrsm::{Lrsm, SampleParams};
+use vxgi_harness::prelude::*;
 use vxgi_harness::run::run;
-use vxgi_harness::{
-    Case, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Kernel, KernelDecl,
-    Output, Resources, ScalarKind, Shader, Tolerance,
-};
 
-pub static DECL: KernelDecl = KernelDecl {
-    name: "lrsm_cone_trace",
-    wgsl_path: "kernels/lrsm_cone_trace.wgsl",
-    wgsl: include_str!("../../kernels/lrsm_cone_trace.wgsl"),
+pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
+    "lrsm_cone_trace",
     includes: &[super::TANGENT_BASIS, super::SCENE_TYPES, CONE_MARCH, super::LRSM_TEXEL, LRSM_SAMPLE, LRSM_MATH, LRSM_VIEW, LIGHTS, BRDF],
-    entry: "main",
     inputs: &[
         "frame",
         "triangles",
@@ -76,7 +69,7 @@ pub static DECL: KernelDecl = KernelDecl {
     },
     mirror: "vxgi_cpu_mirror::cone_trace::shade_pixel over vxgi_cpu_mirror::lrsm_cone_trace::LrsmVolume; lrsm_cone_trace::soft_direct",
     summary: "LRSM final gathering: cones through the occlusion voxels' mips, each sample's radiance from every light view's LRSM (LRSM eq. 1, Algorithm 1)",
-};
+);
 
 /// The lrsm pipeline's knobs.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -651,12 +644,7 @@ impl Kernel for LrsmConeTrace {
         )
     }
 
-    fn mirror(
-        &self,
-        case: &Case,
-        data: &Resources,
-        _mode: FloatMode,
-    ) -> BTreeMap<String, HostBuffer> {
+    fn mirror(&self, case: &Case, data: &Resources, _mode: FloatMode) -> MirrorOutputs {
         // Radiance-scale arithmetic, as cone_trace: one mode serves both.
         let mut out = bounded_outputs(&mirror_gather(data));
         if case.checks.iter().any(|c| c.resource == "soft_direct") {

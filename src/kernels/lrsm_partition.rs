@@ -2,13 +2,9 @@
 //! into depth x <n.l> layers at quarter resolution. Inputs pass [`PartitionConfig::validate`] and
 //! [`Rsm::validate`] first: bad partitions and non-finite texels are errors at the API boundary.
 use crate::lrsm::{synthetic_rsm, LrsmError, PartitionConfig, Rsm};
-use std::collections::BTreeMap;
 use vxgi_cpu_mirror::lrsm_partition::{partition, PartitionParams};
 use vxgi_cpu_mirror::lrsm_prefilter::pack_stream;
-use vxgi_harness::{
-    Bindings, Block, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, Indexing, Kernel,
-    KernelDecl, Resources, Shader, Tolerance,
-};
+use vxgi_harness::prelude::*;
 
 pub const WGSL: &str = include_str!("../../kernels/lrsm_partition.wgsl");
 
@@ -38,18 +34,15 @@ vxgi_harness::bindings! {
     }
 }
 
-pub static DECL: KernelDecl = KernelDecl {
-    name: "lrsm_partition",
-    wgsl_path: "kernels/lrsm_partition.wgsl",
-    wgsl: WGSL,
+pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
+    "lrsm_partition",
     includes: &[super::LRSM_TEXEL],
-    entry: "main",
     inputs: Io::INPUTS,
     outputs: Io::OUTPUTS,
     dispatch: DispatchRule::PerItem { what: "RSM 2x2 quad (params.layer_texels); each writes its texel in every layer" },
     mirror: "vxgi_cpu_mirror::lrsm_partition::partition",
     summary: "RSM split into depth x <n.l> layers at quarter resolution, texels merged per layer (LRSM 4.3, 5)",
-};
+);
 
 /// Resources and the pass for `rsm` under `config`; errors on what the kernel must not be given.
 pub fn case_for(
@@ -131,12 +124,7 @@ impl Kernel for LrsmPartition {
             .expect("generated configurations are valid")
     }
 
-    fn mirror(
-        &self,
-        _case: &Case,
-        data: &Resources,
-        mode: FloatMode,
-    ) -> BTreeMap<String, HostBuffer> {
+    fn mirror(&self, _case: &Case, data: &Resources, mode: FloatMode) -> MirrorOutputs {
         let mut io = Io::read(data);
         [io.out_radiance, io.out_normal, io.out_moments] = partition(
             (&io.rsm_radiance, &io.rsm_normal, &io.rsm_depth),

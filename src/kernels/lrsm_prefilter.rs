@@ -7,19 +7,13 @@ use std::collections::BTreeMap;
 use vxgi_cpu_mirror::lrsm_prefilter::{
     pack_stream, quantize, reduce_level, unpack_stream, Streams,
 };
-use vxgi_harness::{
-    Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
-    KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
-};
+use vxgi_harness::prelude::*;
 
 pub const WGSL: &str = include_str!("../../kernels/lrsm_prefilter.wgsl");
 
-pub static DECL: KernelDecl = KernelDecl {
-    name: "lrsm_prefilter",
-    wgsl_path: "kernels/lrsm_prefilter.wgsl",
-    wgsl: WGSL,
+pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
+    "lrsm_prefilter",
     includes: &[super::LRSM_TEXEL],
-    entry: "main",
     inputs: &["src_radiance", "src_normal", "src_moments"],
     // Exact unpacking, four correctly rounded adds and an exact * 0.25: the mirror's f32 bit for bit
     // (or the flush-to-zero result, which binary16 rounds alike); stored as binary16 rounded either
@@ -43,7 +37,7 @@ pub static DECL: KernelDecl = KernelDecl {
     },
     mirror: "vxgi_cpu_mirror::lrsm_prefilter::reduce_level",
     summary: "box-filtered mip level of every LRSM layer, opacity-weighted (LRSM 4.2, Table 1)",
-};
+);
 
 /// Bytes of one texel of one stream as stored (four binary16 values).
 pub const TEXEL_BYTES: u64 = 8;
@@ -180,12 +174,7 @@ impl Kernel for LrsmPrefilter {
         )
     }
 
-    fn mirror(
-        &self,
-        case: &Case,
-        data: &Resources,
-        mode: FloatMode,
-    ) -> BTreeMap<String, HostBuffer> {
+    fn mirror(&self, case: &Case, data: &Resources, mode: FloatMode) -> MirrorOutputs {
         let mut out = BTreeMap::new();
         for check in case.checks.iter().filter(|c| c.output == "dst_radiance") {
             let k: u32 = check

@@ -1,7 +1,7 @@
 //! Kernel declarations: each pairs a WGSL file in `kernels/` with its mirror module in `cpu_mirror/`.
-//! To add a kernel: `kernels/<name>.wgsl`, `cpu_mirror/src/<name>.rs`, `src/kernels/<name>.rs` with a
-//! `DECL` and a `Kernel` impl, and one line in [`all`], which gives it the generic tests
-//! (tests/every_kernel.rs); its own properties go to `tests/<name>.rs`.
+//! To add a kernel: `kernels/<name>.wgsl`, `cpu_mirror/src/<name>.rs`, `src/kernels/<name>.rs` with
+//! a `DECL` (`vxgi_harness::kernel_decl!`) and a `Kernel` impl, and one line in [`all`], which gives
+//! it the generic tests (tests/every_kernel.rs); its own properties go to `tests/<name>.rs`.
 pub mod cache_creation;
 pub mod cache_placement;
 pub mod cache_preconvolve;

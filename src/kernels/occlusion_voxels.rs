@@ -5,19 +5,11 @@
 use crate::grids::{generate, Pattern};
 use std::collections::BTreeMap;
 use vxgi_cpu_mirror::occlusion_voxels::{binarize, level_words, reduce, reduce_bits, Coverage};
+use vxgi_harness::prelude::*;
 use vxgi_harness::run::{run, View};
-use vxgi_harness::{
-    Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
-    KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
-};
 
-pub const WGSL: &str = include_str!("../../kernels/occlusion_voxels.wgsl");
-
-pub static DECL: KernelDecl = KernelDecl {
-    name: "occlusion_voxels",
-    wgsl_path: "kernels/occlusion_voxels.wgsl",
-    wgsl: WGSL,
-    includes: &[],
+pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
+    "occlusion_voxels",
     entry: "reduce_bits",
     inputs: &["src"],
     // Integers only: bit for bit.
@@ -28,7 +20,7 @@ pub static DECL: KernelDecl = KernelDecl {
     dispatch: DispatchRule::PerElement { binding: "dst" },
     mirror: "vxgi_cpu_mirror::occlusion_voxels::{reduce_bits, reduce}",
     summary: "mips of LRSM's binary occlusion voxels (level 0 a bit per voxel, above a byte, 4 per u32; no atomics): mean of 8 children rounded half up = solid fraction (LRSM 3.2, 5), or (entries *_surface) CPRC's surface coverage min(1, sum/4)",
-};
+);
 
 /// Host resource of level `k`.
 pub fn level_name(k: u32) -> String {
@@ -156,12 +148,7 @@ impl Kernel for OcclusionVoxels {
     }
 
     /// Level 1 from the case's bits, level k from the GPU's level k - 1 (integers: no float mode).
-    fn mirror(
-        &self,
-        case: &Case,
-        data: &Resources,
-        _mode: FloatMode,
-    ) -> BTreeMap<String, HostBuffer> {
+    fn mirror(&self, case: &Case, data: &Resources, _mode: FloatMode) -> MirrorOutputs {
         // The rule the case's reduce passes run.
         let coverage = if case.passes.iter().any(|p| p.entry.ends_with("_surface")) {
             Coverage::Surface

@@ -6,16 +6,11 @@ use rand_chacha::ChaCha8Rng;
 use std::collections::BTreeMap;
 use thiserror::Error;
 use vxgi_cpu_mirror::radix_sort::{key_mask, passes, sort, SortParams, BLOCK, DIGIT_BITS};
+use vxgi_harness::prelude::*;
 use vxgi_harness::run::{grid_for, Pass, View, Workgroups};
-use vxgi_harness::{
-    Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
-    KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
-};
 
-pub static DECL: KernelDecl = KernelDecl {
-    name: "radix_sort",
-    wgsl_path: "kernels/radix_sort.wgsl",
-    wgsl: include_str!("../../kernels/radix_sort.wgsl"),
+pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
+    "radix_sort",
     includes: &[super::BLOCK_SCAN],
     entry: "count_digits",
     inputs: &["src_keys", "src_values"],
@@ -27,7 +22,7 @@ pub static DECL: KernelDecl = KernelDecl {
     dispatch: DispatchRule::PerItem { what: "block of 256 elements (count_digits, scatter); the counts' block scan between them" },
     mirror: "vxgi_cpu_mirror::radix_sort::sort",
     summary: "stable LSD radix sort of (key, value) pairs, 4-bit digits, passes only for the key bits used",
-};
+);
 
 #[derive(Debug, Error, PartialEq)]
 pub enum SortError {
@@ -188,12 +183,7 @@ impl Kernel for RadixSort {
             .0
     }
     /// From the case's own input (`data` may hold the GPU's sorted result under the same name).
-    fn mirror(
-        &self,
-        case: &Case,
-        _data: &Resources,
-        _mode: FloatMode,
-    ) -> BTreeMap<String, HostBuffer> {
+    fn mirror(&self, case: &Case, _data: &Resources, _mode: FloatMode) -> MirrorOutputs {
         let keys = case.resources["keys_a"].buffer().expect("keys").as_u32();
         let values = case.resources["values_a"]
             .buffer()

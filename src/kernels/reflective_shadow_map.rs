@@ -5,16 +5,12 @@ use super::direct_light::gpu_gbuffer;
 use super::gbuffer::generated_scene;
 use crate::lrsm::{light_views, LightView, Rsm};
 use crate::trace::SceneData;
-use std::collections::BTreeMap;
 use vxgi_cpu_mirror::direct_light::GpuLight;
 use vxgi_cpu_mirror::reflective_shadow_map::{rsm, GpuView};
 use vxgi_harness::bindings::field;
 use vxgi_harness::compare::bound_name;
+use vxgi_harness::prelude::*;
 use vxgi_harness::run::run;
-use vxgi_harness::{
-    Bindings, Block, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Kernel,
-    KernelDecl, Resources, Shader, Tolerance,
-};
 
 /// The light view's struct and projection, included by reflective_shadow_map and lrsm_cone_trace.
 pub const LRSM_VIEW: (&str, &str) = (
@@ -44,12 +40,9 @@ vxgi_harness::bindings! {
     }
 }
 
-pub static DECL: KernelDecl = KernelDecl {
-    name: "reflective_shadow_map",
-    wgsl_path: "kernels/reflective_shadow_map.wgsl",
-    wgsl: include_str!("../../kernels/reflective_shadow_map.wgsl"),
+pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
+    "reflective_shadow_map",
     includes: &[super::LIGHTS, LRSM_VIEW],
-    entry: "main",
     inputs: Io::INPUTS,
     outputs: Io::OUTPUTS,
     dispatch: DispatchRule::PerElement {
@@ -57,7 +50,7 @@ pub static DECL: KernelDecl = KernelDecl {
     },
     mirror: "vxgi_cpu_mirror::reflective_shadow_map::rsm",
     summary: "reflective shadow map of one light view (spot cone or point-light cube face): albedo/pi E <n.l>, normal, <n.l>, normalised light-space depth, 2D Morton order (LRSM 5)",
-};
+);
 
 /// The inputs every light-view kernel (this one, svo_photons) reads besides its own parameters:
 /// `lights` (one default light of zero intensity when there is none: a binding cannot be empty) and
@@ -222,12 +215,7 @@ impl Kernel for ReflectiveShadowMap {
         case_for(shader, ctx, &lights, &view, &gb, label, seed)
     }
 
-    fn mirror(
-        &self,
-        _case: &Case,
-        data: &Resources,
-        _mode: FloatMode,
-    ) -> BTreeMap<String, HostBuffer> {
+    fn mirror(&self, _case: &Case, data: &Resources, _mode: FloatMode) -> MirrorOutputs {
         // Scene-scale arithmetic: no subnormals arise; one mode serves both (subnormal results are
         // accepted flushed by the harness anyway).
         let mut io = Io::read(data);

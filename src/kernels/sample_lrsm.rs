@@ -7,15 +7,11 @@ use super::{LRSM_MATH, LRSM_SAMPLE};
 use crate::lrsm::{synthetic_rsm, PartitionConfig};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use std::collections::BTreeMap;
 use vxgi_cpu_mirror::lrsm_partition::{partition, PartitionParams};
 use vxgi_cpu_mirror::lrsm_prefilter::{pack_stream, reduce_level, unpack_stream};
 use vxgi_cpu_mirror::sample_lrsm::{sample, sample_bound, Lrsm, SampleParams};
 use vxgi_harness::compare::bound_name;
-use vxgi_harness::{
-    Bindings, Block, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, Kernel, KernelDecl,
-    Resources, Shader, Tolerance,
-};
+use vxgi_harness::prelude::*;
 
 pub const WGSL: &str = include_str!("../../kernels/sample_lrsm.wgsl");
 
@@ -42,18 +38,15 @@ vxgi_harness::bindings! {
     }
 }
 
-pub static DECL: KernelDecl = KernelDecl {
-    name: "sample_lrsm",
-    wgsl_path: "kernels/sample_lrsm.wgsl",
-    wgsl: WGSL,
+pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
+    "sample_lrsm",
     includes: &[super::LRSM_TEXEL, LRSM_SAMPLE, LRSM_MATH],
-    entry: "main",
     inputs: Io::INPUTS,
     outputs: Io::OUTPUTS,
     dispatch: DispatchRule::PerElement { binding: "radiance" },
     mirror: "vxgi_cpu_mirror::sample_lrsm::sample",
     summary: "Sample LRSM (LRSM Algorithm 1): radiance of cone samples from the layered, pre-filtered RSM",
-};
+);
 
 /// A complete LRSM (all levels concatenated) plus the parameters to sample it.
 #[derive(Clone, Debug)]
@@ -234,12 +227,7 @@ impl Kernel for SampleLrsm {
         case_for(shader, ctx, &lrsm, &pos, &dir, label, seed)
     }
 
-    fn mirror(
-        &self,
-        _case: &Case,
-        data: &Resources,
-        mode: FloatMode,
-    ) -> BTreeMap<String, HostBuffer> {
+    fn mirror(&self, _case: &Case, data: &Resources, mode: FloatMode) -> MirrorOutputs {
         let mut io = Io::read(data);
         let [radiance, normal, moments] =
             [&io.lrsm_radiance, &io.lrsm_normal, &io.lrsm_moments].map(|s| unpack_stream(s));

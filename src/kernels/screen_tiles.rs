@@ -7,11 +7,8 @@ use rand_chacha::ChaCha8Rng;
 use std::collections::BTreeMap;
 use vxgi_cpu_mirror::gbuffer::Frame;
 use vxgi_cpu_mirror::screen_tiles::{list_len, tile_list, tiles_xy, HEADER};
+use vxgi_harness::prelude::*;
 use vxgi_harness::run::{Pass, Workgroups};
-use vxgi_harness::{
-    Bindings, Block, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Kernel,
-    KernelDecl, Resources, ScalarKind, Shader, Tolerance,
-};
 
 vxgi_harness::bindings! {
     /// screen_tiles' bindings: the G-buffer's normals in, the tile list (header, then tiles) out.
@@ -29,12 +26,8 @@ vxgi_harness::bindings! {
     }
 }
 
-pub static DECL: KernelDecl = KernelDecl {
-    name: "screen_tiles",
-    wgsl_path: "kernels/screen_tiles.wgsl",
-    wgsl: include_str!("../../kernels/screen_tiles.wgsl"),
-    includes: &[],
-    entry: "main",
+pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
+    "screen_tiles",
     inputs: Io::INPUTS,
     outputs: Io::OUTPUTS,
     dispatch: DispatchRule::PerItem {
@@ -42,7 +35,7 @@ pub static DECL: KernelDecl = KernelDecl {
     },
     mirror: "vxgi_cpu_mirror::screen_tiles::tile_list",
     summary: "work list of the 8x8 screen tiles holding a surface + indirect dispatch arguments (empty tiles are not dispatched)",
-};
+);
 
 /// The frame constants screen_tiles reads (only the size matters to it).
 pub fn frame_of_size(width: u32, height: u32) -> Frame {
@@ -147,12 +140,7 @@ impl Kernel for ScreenTiles {
         case_for(&n, w, h, format!("#{index} {w}x{h} fill {fill}"), seed)
     }
 
-    fn mirror(
-        &self,
-        case: &Case,
-        data: &Resources,
-        _mode: FloatMode,
-    ) -> BTreeMap<String, HostBuffer> {
+    fn mirror(&self, case: &Case, data: &Resources, _mode: FloatMode) -> MirrorOutputs {
         let mut io = Io::read(data);
         let [w, h, ..] = io.frame.0.size;
         debug_assert_eq!(case.passes.len(), 1);

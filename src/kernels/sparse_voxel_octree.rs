@@ -12,16 +12,12 @@ use vxgi_cpu_mirror::sparse_voxel_octree::{
     OctreeParams, StaticStructure, ARGS_SLOTS, BRICK_WORDS, ERR_OUTSIDE, ERR_OVERFLOW, ERR_POOL,
     LEVELS_WORDS, MAX_DEPTH, SLOT_CLASS, SLOT_RING, STATS_WORDS, STATUS_ERRORS, STATUS_TILES,
 };
+use vxgi_harness::prelude::*;
 use vxgi_harness::run::{grid_for, Pass, View, Workgroups};
-use vxgi_harness::{
-    Case, Check, DispatchRule, FloatMode, GpuContext, HarnessError, HostBuffer, HostResource,
-    Indexing, Kernel, KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
-};
+use vxgi_harness::HarnessError;
 
-pub static DECL: KernelDecl = KernelDecl {
-    name: "sparse_voxel_octree",
-    wgsl_path: "kernels/sparse_voxel_octree.wgsl",
-    wgsl: include_str!("../../kernels/sparse_voxel_octree.wgsl"),
+pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
+    "sparse_voxel_octree",
     includes: &[super::SVO_NODE],
     entry: "flag_parents",
     inputs: &["params", "fragments"],
@@ -38,7 +34,7 @@ pub static DECL: KernelDecl = KernelDecl {
     dispatch: DispatchRule::PerItem { what: "fragment (x 8 in flag_parents); node of a level, list entry or list entry x class voxel (indirect, GPU-written arguments)" },
     mirror: "vxgi_cpu_mirror::sparse_voxel_octree::build",
     summary: "sparse voxel octree, 3x3x3 vertex-centred bricks: build (atomic tiles), splat, border transfer (add, copy), Gaussian distribution over levels (VCT 4.1-4.2.3, 8.2)",
-};
+);
 
 /// Bytes of one node record and one brick.
 pub const NODE_BYTES: u64 = std::mem::size_of::<Node>() as u64;
@@ -535,12 +531,7 @@ impl Kernel for SparseVoxelOctree {
         let cap = default_capacity(ctx, depth, frags.len());
         case_for(ctx, depth, cap, &frags, label, seed)
     }
-    fn mirror(
-        &self,
-        case: &Case,
-        _data: &Resources,
-        _mode: FloatMode,
-    ) -> BTreeMap<String, HostBuffer> {
+    fn mirror(&self, case: &Case, _data: &Resources, _mode: FloatMode) -> MirrorOutputs {
         let p: OctreeParams = *bytemuck::from_bytes(
             &case.resources["params_l1_v0"]
                 .buffer()

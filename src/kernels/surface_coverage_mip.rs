@@ -3,22 +3,15 @@
 use crate::grids::{generate, Grid, Pattern};
 use std::collections::BTreeMap;
 use vxgi_cpu_mirror::surface_coverage_mip::{reduce_level, Coverage, MipParams};
+use vxgi_harness::prelude::*;
 use vxgi_harness::run::View;
-use vxgi_harness::{
-    Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
-    KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
-};
 use wgpu::util::DeviceExt;
 
 /// The WGSL source; its header comment is the binding contract.
 pub const WGSL: &str = include_str!("../../kernels/surface_coverage_mip.wgsl");
 
-pub static DECL: KernelDecl = KernelDecl {
-    name: "surface_coverage_mip",
-    wgsl_path: "kernels/surface_coverage_mip.wgsl",
-    wgsl: WGSL,
-    includes: &[],
-    entry: "main",
+pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
+    "surface_coverage_mip",
     inputs: &["params", "src_colour", "src_normal"],
     outputs: &[
         // C = sum / max(alpha_sum, 4): the sums are correctly rounded f32 adds in the mirror's order (exact
@@ -32,7 +25,7 @@ pub static DECL: KernelDecl = KernelDecl {
     dispatch: DispatchRule::PerElement { binding: "dst_colour" },
     mirror: "vxgi_cpu_mirror::surface_coverage_mip::reduce_level",
     summary: "one mip level of a dense Morton-ordered voxel grid, surface- or volume-coverage alpha (CPRC 3.1)",
-};
+);
 
 /// Bytes per voxel per buffer (one vec4<f32>).
 const VOXEL_BYTES: u64 = 16;
@@ -220,12 +213,7 @@ impl Kernel for SurfaceCoverageMip {
         )
     }
 
-    fn mirror(
-        &self,
-        case: &Case,
-        data: &Resources,
-        mode: FloatMode,
-    ) -> BTreeMap<String, HostBuffer> {
+    fn mirror(&self, case: &Case, data: &Resources, mode: FloatMode) -> MirrorOutputs {
         chain_mirror(case, data, mode)
     }
 }

@@ -3,15 +3,11 @@
 //! (sparse_voxel_octree's families) with the mirror, fills every other level's directional values with
 //! the mirror and runs one level's pass on the GPU: the kernel's contract given exact inputs.
 use super::sparse_voxel_octree::generated;
-use std::collections::BTreeMap;
 use vxgi_cpu_mirror::sparse_voxel_octree::{build_fitted, Node, Octree};
 use vxgi_cpu_mirror::svo_anisotropic::{self as mirror, AnisoParams, NODE_VALUES};
 use vxgi_harness::compare::bound_name;
+use vxgi_harness::prelude::*;
 use vxgi_harness::run::run;
-use vxgi_harness::{
-    Bindings, Block, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Kernel,
-    KernelDecl, Resources, Shader, Tolerance,
-};
 
 vxgi_harness::bindings! {
     /// svo_anisotropic's bindings: the level's parameters and the octree in (its `levels`: each
@@ -35,18 +31,15 @@ vxgi_harness::bindings! {
     }
 }
 
-pub static DECL: KernelDecl = KernelDecl {
-    name: "svo_anisotropic",
-    wgsl_path: "kernels/svo_anisotropic.wgsl",
-    wgsl: include_str!("../../kernels/svo_anisotropic.wgsl"),
+pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
+    "svo_anisotropic",
     includes: &[super::SVO_NODE],
-    entry: "main",
     inputs: Io::INPUTS,
     outputs: Io::OUTPUTS,
     dispatch: DispatchRule::PerElement { binding: "aniso" },
     mirror: "vxgi_cpu_mirror::svo_anisotropic::level_pass",
     summary: "anisotropic voxels of the sparse voxel octree: six directional values per brick voxel by front-to-back compositing of child rows, one level per pass (VCT 7.1)",
-};
+);
 
 /// Directional values per binding of the pool: WebGPU's default max_storage_buffer_binding_size
 /// (128 MiB) of vec4s, which every device binds; a larger pool is bound as `aniso` and `aniso_hi`
@@ -200,12 +193,7 @@ impl Kernel for SvoAnisotropic {
         case
     }
 
-    fn mirror(
-        &self,
-        _case: &Case,
-        data: &Resources,
-        _mode: FloatMode,
-    ) -> BTreeMap<String, HostBuffer> {
+    fn mirror(&self, _case: &Case, data: &Resources, _mode: FloatMode) -> MirrorOutputs {
         // Values of scene scale, alphas in [0, 1]: no subnormals arise from non-zero inputs
         // (accepted flushed by the harness anyway).
         let mut io = Io::read(data);

@@ -13,17 +13,11 @@ use vxgi_cpu_mirror::cone_trace::ConeParams;
 use vxgi_cpu_mirror::sparse_voxel_octree::{bricks_in_layout, build_fitted, Fragment, Octree};
 use vxgi_cpu_mirror::svo_cone_trace::{normal_value, SvoParams, SvoVolume};
 use vxgi_harness::compare::bound_name;
-use vxgi_harness::{
-    Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
-    KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
-};
+use vxgi_harness::prelude::*;
 
-pub static DECL: KernelDecl = KernelDecl {
-    name: "svo_cone_trace",
-    wgsl_path: "kernels/svo_cone_trace.wgsl",
-    wgsl: include_str!("../../kernels/svo_cone_trace.wgsl"),
+pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
+    "svo_cone_trace",
     includes: &[super::SVO_NODE, super::TANGENT_BASIS, super::SCENE_TYPES, super::CONE_MARCH],
-    entry: "main",
     inputs: &[
         "frame", "triangles", "materials", "gb_position", "gb_normal", "gb_triangle", "gb_albedo", "cone", "cone_dirs", "tile_list",
         "nodes", "bricks", "svo", "aniso", "aniso_hi", "normal_bricks", "spec_bricks",
@@ -42,7 +36,7 @@ pub static DECL: KernelDecl = KernelDecl {
     },
     mirror: "vxgi_cpu_mirror::cone_trace::shade_pixel (volume: vxgi_cpu_mirror::svo_cone_trace::SvoVolume)",
     summary: "cone_trace's AO + diffuse + glossy cones marching the sparse voxel octree (quadrilinear brick sampling, VCT 5-7)",
-};
+);
 
 /// Fixed-point scale of the octree's values where they fit it: 2^16 steps per unit of radiance.
 /// A frame whose values are brighter gets a smaller one from [`fixed_scale`].
@@ -466,20 +460,13 @@ impl Kernel for SvoConeTrace {
         }
         case
     }
-    fn mirror(
-        &self,
-        _case: &Case,
-        data: &Resources,
-        _mode: FloatMode,
-    ) -> BTreeMap<String, HostBuffer> {
+    fn mirror(&self, _case: &Case, data: &Resources, _mode: FloatMode) -> MirrorOutputs {
         bounded_outputs(&mirror_cones(data))
     }
 }
 
-pub static BOUNCE_DECL: KernelDecl = KernelDecl {
-    name: "svo_bounce",
-    wgsl_path: "kernels/svo_cone_trace.wgsl",
-    wgsl: include_str!("../../kernels/svo_cone_trace.wgsl"),
+pub static BOUNCE_DECL: KernelDecl = vxgi_harness::kernel_decl!(
+    "svo_bounce" in "svo_cone_trace",
     includes: &[super::SVO_NODE, super::TANGENT_BASIS, super::SCENE_TYPES, super::CONE_MARCH],
     entry: "voxel_main",
     inputs: &[
@@ -495,7 +482,7 @@ pub static BOUNCE_DECL: KernelDecl = KernelDecl {
     },
     mirror: "vxgi_cpu_mirror::cone_trace::shade_voxel (volume: vxgi_cpu_mirror::svo_cone_trace::SvoVolume)",
     summary: "second bounce of vct-svo: diffuse cones from every non-empty voxel's centre along its mean normal through the octree, times its albedo",
-};
+);
 
 /// The non-empty voxels of a grid as the bounce pass reads them.
 pub struct BounceVoxels {
@@ -740,12 +727,7 @@ impl Kernel for SvoBounce {
         )
     }
 
-    fn mirror(
-        &self,
-        _case: &Case,
-        data: &Resources,
-        _mode: FloatMode,
-    ) -> BTreeMap<String, HostBuffer> {
+    fn mirror(&self, _case: &Case, data: &Resources, _mode: FloatMode) -> MirrorOutputs {
         let b = |n: &str| data[n].buffer().expect("buffer");
         let params: ConeParams = *bytemuck::from_bytes(&b("cone").bytes);
         let svo: SvoParams = *bytemuck::from_bytes(&b("svo").bytes);

@@ -9,7 +9,6 @@ use super::svo_photons::Photons;
 use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use std::collections::BTreeMap;
 use vxgi_cpu_mirror::sparse_voxel_octree::Fragment;
 use vxgi_cpu_mirror::svo_fragments::{
     fragments, lattice_peak, lattice_scale, peak, photon_fragments, photon_points, point_bound,
@@ -17,12 +16,7 @@ use vxgi_cpu_mirror::svo_fragments::{
 };
 pub use vxgi_cpu_mirror::svo_fragments::{FragmentParams, LatticeParams, STATE_WORDS};
 use vxgi_harness::bindings::{Block, Structs};
-use vxgi_harness::{
-    Bindings, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, Kernel, KernelDecl, Resources,
-    Shader, Tolerance,
-};
-
-pub const WGSL: &str = include_str!("../../kernels/svo_fragments.wgsl");
+use vxgi_harness::prelude::*;
 
 const _: () = assert!(SCALE == super::svo_cone_trace::SCALE);
 
@@ -63,11 +57,8 @@ vxgi_harness::bindings! {
     }
 }
 
-pub static DECL: KernelDecl = KernelDecl {
-    name: "svo_fragments",
-    wgsl_path: "kernels/svo_fragments.wgsl",
-    wgsl: WGSL,
-    includes: &[],
+pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
+    "svo_fragments",
     entry: "peak",
     inputs: Io::INPUTS,
     outputs: Io::OUTPUTS,
@@ -76,7 +67,7 @@ pub static DECL: KernelDecl = KernelDecl {
     },
     mirror: "vxgi_cpu_mirror::svo_fragments::{run, run_photons}",
     summary: "the octree's fragments of a lit voxel grid, or of a grid's coverage and a photon map, on the GPU: per-point, per-channel counts and maxima, a peak bound, the largest fitting power-of-two fixed-point scale, Morton-decoded points and values rounded half away from zero",
-};
+);
 
 /// Voxel mode's entry points, in order.
 pub const VOXEL_PASSES: [&str; 3] = ["peak", "scale", "write_fragments"];
@@ -492,12 +483,7 @@ impl Kernel for SvoFragments {
 
     /// The case's passes in order, from its own inputs (the state before the first pass: every
     /// operation is exact, nothing to take from the GPU's read-back).
-    fn mirror(
-        &self,
-        case: &Case,
-        _data: &Resources,
-        _mode: FloatMode,
-    ) -> BTreeMap<String, HostBuffer> {
+    fn mirror(&self, case: &Case, _data: &Resources, _mode: FloatMode) -> MirrorOutputs {
         let mut io = Io::read(&case.resources);
         let entries: Vec<&str> = case.passes.iter().map(|p| p.entry.as_str()).collect();
         mirror_passes(&mut io, &entries);

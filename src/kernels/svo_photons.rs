@@ -7,18 +7,14 @@ use super::sparse_voxel_octree::{to_fixed, SvoError};
 use super::voxelize::VoxelFrame;
 use crate::lrsm::{light_views, LightView};
 use crate::trace::SceneData;
-use std::collections::BTreeMap;
 use vxgi_cpu_mirror::bvh_trace::GpuTriangle;
 use vxgi_cpu_mirror::direct_light::{GpuLight, GpuMaterial};
 use vxgi_cpu_mirror::sparse_voxel_octree::Fragment;
 use vxgi_cpu_mirror::svo_photons::{photons, PhotonParams};
 use vxgi_harness::bindings::field;
 use vxgi_harness::compare::bound_name;
+use vxgi_harness::prelude::*;
 use vxgi_harness::run::run;
-use vxgi_harness::{
-    Bindings, Block, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, Kernel, KernelDecl,
-    Resources, Shader, Structs, Tolerance,
-};
 
 vxgi_harness::bindings! {
     /// svo_photons' bindings: the light view's G-buffer, the lights and the scene's triangles and
@@ -51,12 +47,9 @@ vxgi_harness::bindings! {
     }
 }
 
-pub static DECL: KernelDecl = KernelDecl {
-    name: "svo_photons",
-    wgsl_path: "kernels/svo_photons.wgsl",
-    wgsl: include_str!("../../kernels/svo_photons.wgsl"),
+pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
+    "svo_photons",
     includes: &[super::LIGHTS, super::SCENE_TYPES],
-    entry: "main",
     inputs: Io::INPUTS,
     outputs: Io::OUTPUTS,
     dispatch: DispatchRule::PerElement {
@@ -64,7 +57,7 @@ pub static DECL: KernelDecl = KernelDecl {
     },
     mirror: "vxgi_cpu_mirror::svo_photons::photons",
     summary: "light injection of vct-svo: one photon per light-view texel, its reflected flux as radiance of the voxel it lands in (VCT 8.2), and on glossy surfaces its specular part as a mirror-direction lobe (VCT 7)",
-};
+);
 
 /// The photon pass's parameters for `view` (its G-buffer frame) over the voxel grid `frame`.
 pub fn params_for(view: &LightView, frame: &VoxelFrame) -> PhotonParams {
@@ -371,12 +364,7 @@ impl Kernel for SvoPhotons {
         )
     }
 
-    fn mirror(
-        &self,
-        _case: &Case,
-        data: &Resources,
-        _mode: FloatMode,
-    ) -> BTreeMap<String, HostBuffer> {
+    fn mirror(&self, _case: &Case, data: &Resources, _mode: FloatMode) -> MirrorOutputs {
         // Scene-scale arithmetic: no subnormals arise (accepted flushed by the harness anyway).
         let mut io = Io::read(data);
         let ph = photons(

@@ -5,14 +5,10 @@
 //! whole, fractional and out-of-range levels. [`sample_on_gpu`] is the own-device API.
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use std::collections::BTreeMap;
 use vxgi_cpu_mirror::sparse_voxel_octree::{build, Octree};
 use vxgi_cpu_mirror::svo_sample::{sample_all, SampleParams};
+use vxgi_harness::prelude::*;
 use vxgi_harness::run::run;
-use vxgi_harness::{
-    Bindings, Block, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, Kernel, KernelDecl,
-    Resources, Shader, Tolerance,
-};
 
 vxgi_harness::bindings! {
     /// svo_sample's bindings: the octree and the queries (x, y, z, level) in, the samples out.
@@ -35,10 +31,8 @@ vxgi_harness::bindings! {
     }
 }
 
-pub static DECL: KernelDecl = KernelDecl {
-    name: "svo_sample",
-    wgsl_path: "kernels/svo_sample.wgsl",
-    wgsl: include_str!("../../kernels/svo_sample.wgsl"),
+pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
+    "svo_sample",
     includes: &[super::SVO_NODE],
     entry: "svo_sample",
     inputs: Io::INPUTS,
@@ -46,7 +40,7 @@ pub static DECL: KernelDecl = KernelDecl {
     dispatch: DispatchRule::PerElement { binding: "queries" },
     mirror: "vxgi_cpu_mirror::svo_sample::sample_all",
     summary: "quadrilinear sampling of the sparse voxel octree: descend to the node, trilinear in its 3x3x3 brick, blend two levels (VCT 5)",
-};
+);
 
 /// Fixed-point scale of the generated octrees' values (2^16 steps per unit).
 pub const CASE_SCALE: f32 = 65536.0;
@@ -139,12 +133,7 @@ impl Kernel for SvoSample {
         let q = queries(&mut rng, depth, 2048);
         case_for(ctx, &octree, CASE_SCALE, &q, label, seed)
     }
-    fn mirror(
-        &self,
-        case: &Case,
-        _data: &Resources,
-        _mode: FloatMode,
-    ) -> BTreeMap<String, HostBuffer> {
+    fn mirror(&self, case: &Case, _data: &Resources, _mode: FloatMode) -> MirrorOutputs {
         let mut io = Io::read(&case.resources);
         io.samples = sample_all(
             bytemuck::cast_slice(&io.nodes),

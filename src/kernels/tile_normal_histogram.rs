@@ -2,15 +2,11 @@
 //! the first stage of the clustered cache distribution (CPRC 3.2), integer and exact. Its output feeds
 //! `histogram_axes`.
 use crate::gbuffers::{normals, packed, GPattern};
-use std::collections::BTreeMap;
 use thiserror::Error;
 use vxgi_cpu_mirror::octahedral::BIN_COUNT;
 use vxgi_cpu_mirror::tile_normal_histogram::{histograms, HistogramParams};
+use vxgi_harness::prelude::*;
 use vxgi_harness::run::{Pass, Workgroups};
-use vxgi_harness::{
-    Bindings, Block, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, Indexing, Kernel,
-    KernelDecl, Resources, Shader, Tolerance,
-};
 
 /// Shared octahedral binning, included by both kernels.
 pub const OCTAHEDRAL_BINS: (&str, &str) = (
@@ -34,12 +30,9 @@ vxgi_harness::bindings! {
     }
 }
 
-pub static DECL: KernelDecl = KernelDecl {
-    name: "tile_normal_histogram",
-    wgsl_path: "kernels/tile_normal_histogram.wgsl",
-    wgsl: include_str!("../../kernels/tile_normal_histogram.wgsl"),
+pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
+    "tile_normal_histogram",
     includes: &[OCTAHEDRAL_BINS],
-    entry: "main",
     inputs: Io::INPUTS,
     outputs: Io::OUTPUTS,
     dispatch: DispatchRule::PerItem {
@@ -47,7 +40,7 @@ pub static DECL: KernelDecl = KernelDecl {
     },
     mirror: "vxgi_cpu_mirror::tile_normal_histogram::histograms",
     summary: "per-tile octahedral normal histogram and its wrapped binomial blur (CPRC 3.2)",
-};
+);
 
 #[derive(Debug, Error, PartialEq)]
 pub enum TileError {
@@ -152,12 +145,7 @@ impl Kernel for TileNormalHistogram {
         )
         .expect("valid case")
     }
-    fn mirror(
-        &self,
-        _case: &Case,
-        data: &Resources,
-        _mode: FloatMode,
-    ) -> BTreeMap<String, HostBuffer> {
+    fn mirror(&self, _case: &Case, data: &Resources, _mode: FloatMode) -> MirrorOutputs {
         let mut io = Io::read(data);
         (io.histogram, io.blurred) = histograms(&io.normals, &io.params.0);
         io.outputs()

@@ -11,11 +11,8 @@ use vxgi_cpu_mirror::direct_light::GpuLight;
 use vxgi_cpu_mirror::voxel_light::{light_voxel, VoxelGrid};
 use vxgi_harness::bindings::field;
 use vxgi_harness::compare::bound_name;
+use vxgi_harness::prelude::*;
 use vxgi_harness::run::{run, Pass, View};
-use vxgi_harness::{
-    Bindings, Block, Case, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing,
-    Kernel, KernelDecl, Resources, Shader, Structs, Tolerance,
-};
 
 vxgi_harness::bindings! {
     /// voxel_light's bindings: the grid, the scene's BVH, triangles and lights, the voxels' albedo
@@ -41,18 +38,15 @@ vxgi_harness::bindings! {
     }
 }
 
-pub static DECL: KernelDecl = KernelDecl {
-    name: "voxel_light",
-    wgsl_path: "kernels/voxel_light.wgsl",
-    wgsl: include_str!("../../kernels/voxel_light.wgsl"),
+pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
+    "voxel_light",
     includes: &[super::SCENE_TYPES, super::gbuffer::BVH_TRACE, super::LIGHTS],
-    entry: "main",
     inputs: Io::INPUTS,
     outputs: Io::OUTPUTS,
     dispatch: DispatchRule::PerElement { binding: "list" },
     mirror: "vxgi_cpu_mirror::voxel_light::light_voxel",
     summary: "direct light into the non-empty voxels, one exact shadow ray per light (CPRC 3.1 voxel illumination)",
-};
+);
 
 pub fn voxel_grid(frame: &VoxelFrame, lights: usize) -> VoxelGrid {
     VoxelGrid::in_world(
@@ -292,12 +286,7 @@ impl Kernel for VoxelLight {
         }
         case
     }
-    fn mirror(
-        &self,
-        _case: &Case,
-        data: &Resources,
-        _mode: FloatMode,
-    ) -> BTreeMap<String, HostBuffer> {
+    fn mirror(&self, _case: &Case, data: &Resources, _mode: FloatMode) -> MirrorOutputs {
         // Scene-scale arithmetic: no subnormals arise, one mode serves both.
         let (l, e) = mirror_radiance(data);
         let f = |v: &[[f32; 4]]| HostBuffer::f32(bytemuck::cast_slice(v));

@@ -10,17 +10,11 @@ use std::collections::BTreeMap;
 use vxgi_cpu_mirror::voxelize::{
     accumulate, occupancy, occupancy_words, resolve, VoxInput, VoxTriangle, FIXED, SUB,
 };
+use vxgi_harness::prelude::*;
 use vxgi_harness::run::{grid_for, run, Pass, View, Workgroups};
-use vxgi_harness::{
-    Case, Check, DispatchRule, FloatMode, GpuContext, HostBuffer, HostResource, Indexing, Kernel,
-    KernelDecl, Output, Resources, ScalarKind, Shader, Tolerance,
-};
 
-pub static DECL: KernelDecl = KernelDecl {
-    name: "voxelize",
-    wgsl_path: "kernels/voxelize.wgsl",
-    wgsl: include_str!("../../kernels/voxelize.wgsl"),
-    includes: &[],
+pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
+    "voxelize",
     entry: "splat",
     inputs: &["params", "vox_triangles", "vox_texels", "vox_lut"],
     outputs: &[
@@ -39,7 +33,7 @@ pub static DECL: KernelDecl = KernelDecl {
     dispatch: DispatchRule::PerElement { binding: "vox_colour" },
     mirror: "vxgi_cpu_mirror::voxelize::{voxelize, occupancy}",
     summary: "surface-sampling voxelization (CPRC 3.1): mean albedo and normal per voxel, alpha 1, non-empty list; or (entry occupancy_bits) one bit per non-empty voxel",
-};
+);
 
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
@@ -533,12 +527,7 @@ impl Kernel for Voxelize {
         case_for(ctx, &input, side, format!("{label}, {side}^3"), seed)
             .expect("generated grids fit")
     }
-    fn mirror(
-        &self,
-        case: &Case,
-        data: &Resources,
-        _mode: FloatMode,
-    ) -> BTreeMap<String, HostBuffer> {
+    fn mirror(&self, case: &Case, data: &Resources, _mode: FloatMode) -> MirrorOutputs {
         // No subnormal can arise: the smallest non-zero value is 1 / count / 4096 >= 2^-36, so the
         // flush-to-zero mode computes the same.
         let b = |n: &str| data[n].buffer().expect("buffer");
