@@ -8,8 +8,32 @@ use vxgi::harness::GpuContext;
 /// long as it makes them from its own thread).
 const DEVICES: usize = 2;
 
-/// A GPU context for this test thread. No adapter is a test *failure* with the install hint, never
-/// a skip.
+/// Why `ctx` cannot run every declared kernel (the first kernels past a device limit), if it cannot:
+/// e.g. an OpenGL adapter found where no Vulkan driver is installed binds 16 storage buffers a stage
+/// where lrsm's gather binds 20, which would fail a dozen tests with validation errors.
+fn unfit(ctx: &GpuContext) -> Option<String> {
+    let limits = ctx.device.limits();
+    let short: Vec<String> = vxgi::kernels::all()
+        .iter()
+        .filter_map(|k| {
+            let needs = vxgi::limits::kernel_needs(k.decl()).ok()?;
+            let past = vxgi::limits::exceeded(&needs, &limits);
+            (!past.is_empty()).then(|| format!("{} ({})", k.decl().name, past.join(", ")))
+        })
+        .take(3)
+        .collect();
+    (!short.is_empty()).then(|| {
+        format!(
+            "adapter `{}` ({:?}) cannot run {}",
+            ctx.info.name,
+            ctx.info.backend,
+            short.join("; ")
+        )
+    })
+}
+
+/// A GPU context for this test thread. No adapter, or one that cannot run every kernel, is a test
+/// *failure* with the install hint, never a skip.
 pub fn gpu() -> &'static GpuContext {
     use std::sync::atomic::{AtomicUsize, Ordering};
     use std::sync::OnceLock;
@@ -20,12 +44,21 @@ pub fn gpu() -> &'static GpuContext {
     }
     let all = CONTEXTS.get_or_init(|| {
         (0..DEVICES)
-            .map(|_| GpuContext::new().map_err(|e| e.to_string()))
+            .map(|_| {
+                let ctx = GpuContext::new().map_err(|e| e.to_string())?;
+                match unfit(&ctx) {
+                    Some(why) => Err(why),
+                    None => Ok(ctx),
+                }
+            })
             .collect()
     });
     match &all[PICK.with(|p| *p)] {
         Ok(ctx) => ctx,
-        Err(e) => panic!("GPU tests need a wgpu adapter: {e}"),
+        Err(e) => panic!(
+            "GPU tests need a wgpu adapter that runs every kernel: {e}. Install Mesa's Vulkan \
+             driver (lavapipe): `.ci/ensure-gpu`, or `apt-get install mesa-vulkan-drivers`"
+        ),
     }
 }
 
