@@ -1,9 +1,8 @@
 //! Declaration of `kernels/lrsm_prefilter.wgsl` (mirror: `vxgi_cpu_mirror::lrsm_prefilter`): the mip chain
 //! of every LRSM layer, verified level by level on the level the GPU produced before it.
-use super::{reduction_chain_passes, ChainStream};
+use super::{chain_levels, reduction_chain_case, ChainStream};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use std::collections::BTreeMap;
 use vxgi_cpu_mirror::lrsm_prefilter::{
     pack_stream, quantize, reduce_level, unpack_stream, Streams,
 };
@@ -94,39 +93,10 @@ pub fn chain_case(
     label: String,
     seed: u64,
 ) -> Case {
-    let mut resources = Resources::new();
-    for (s, data) in level0.iter().enumerate() {
-        resources.insert(
-            stream_name(s, 0),
-            HostResource::Buffer(HostBuffer::u32(bytemuck::cast_slice(&pack_stream(data)))),
-        );
-    }
     let levels = side.trailing_zeros();
     let parents: Vec<u64> = (1..=levels)
         .map(|k| layers as u64 * ((side >> k) as u64).pow(2))
         .collect();
-    let mut checks = Vec::new();
-    let mut effective = 0;
-    for (k, &count) in (1u32..).zip(&parents) {
-        for s in 0..3 {
-            resources.insert(
-                stream_name(s, k),
-                HostResource::Buffer(HostBuffer::zeroed(
-                    (count * TEXEL_BYTES) as usize,
-                    ScalarKind::U32,
-                )),
-            );
-            checks.push(Check {
-                resource: stream_name(s, k),
-                output: DECL.outputs[s].binding,
-                indexing: Indexing::Grid {
-                    dims: [(side >> k).pow(2), layers, 1],
-                    components: 2,
-                },
-            });
-        }
-        effective += 5 * count * 3 * TEXEL_BYTES;
-    }
     let names: [&dyn Fn(u32) -> String; 3] =
         [&|k| stream_name(0, k), &|k| stream_name(1, k), &|k| {
             stream_name(2, k)
@@ -138,16 +108,27 @@ pub fn chain_case(
             resource: names[s],
         })
         .collect();
-    let passes =
-        reduction_chain_passes(&DECL, shader, ctx, &parents, 4, TEXEL_BYTES, &streams, &[]);
-    Case {
+    let level0 = level0
+        .iter()
+        .map(|d| HostBuffer::u32(bytemuck::cast_slice(&pack_stream(d))))
+        .collect();
+    let indexing = |k: u32| Indexing::Grid {
+        dims: [(side >> k).pow(2), layers, 1],
+        components: 2,
+    };
+    reduction_chain_case(
+        &DECL,
+        shader,
+        ctx,
+        &streams,
+        level0,
+        &parents,
+        (4, TEXEL_BYTES),
+        &indexing,
+        Vec::new(),
         label,
         seed,
-        resources,
-        passes,
-        checks,
-        effective_bytes: effective,
-    }
+    )
 }
 
 pub struct LrsmPrefilter;
@@ -175,13 +156,8 @@ impl Kernel for LrsmPrefilter {
     }
 
     fn mirror(&self, case: &Case, data: &Resources, mode: FloatMode) -> MirrorOutputs {
-        let mut out = BTreeMap::new();
-        for check in case.checks.iter().filter(|c| c.output == "dst_radiance") {
-            let k: u32 = check
-                .resource
-                .trim_start_matches("radiance_")
-                .parse()
-                .expect("radiance_<level>");
+        let mut out = MirrorOutputs::new();
+        for k in chain_levels(case, 3) {
             let src = |s: usize| -> Vec<[f32; 4]> {
                 unpack_stream(bytemuck::cast_slice(
                     &data[&stream_name(s, k - 1)].buffer().expect("buffer").bytes,

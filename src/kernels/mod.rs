@@ -263,6 +263,74 @@ pub fn bind_grid_window(
     }
 }
 
+/// A Morton-ordered mip chain as one case: level 0 of each stream given (`level0`, in `streams`'
+/// order), levels `1..=parents.len()` zeroed, produced by [`reduction_chain_passes`] and each checked
+/// against the declared output its stream writes, named by `indexing(k)`; `fixed` are resources every
+/// pass binds by their own name (parameters). The mirror of level `k` reads the GPU's level `k - 1`.
+#[allow(clippy::too_many_arguments)]
+pub fn reduction_chain_case(
+    decl: &KernelDecl,
+    shader: &Shader,
+    ctx: &GpuContext,
+    streams: &[ChainStream],
+    level0: Vec<vxgi_harness::HostBuffer>,
+    parents: &[u64],
+    (factor, elem_bytes): (u64, u64),
+    indexing: &dyn Fn(u32) -> vxgi_harness::Indexing,
+    fixed: Vec<(String, vxgi_harness::HostBuffer)>,
+    label: String,
+    seed: u64,
+) -> vxgi_harness::Case {
+    use vxgi_harness::{Check, HostBuffer, HostResource, Resources};
+    let mut resources = Resources::new();
+    let mut bound = Vec::new();
+    for (name, b) in fixed {
+        bound.push((name.clone(), View::Buffer(name.clone())));
+        resources.insert(name, HostResource::Buffer(b));
+    }
+    let scalars: Vec<_> = level0.iter().map(|b| b.scalar).collect();
+    for (s, b) in streams.iter().zip(level0) {
+        resources.insert((s.resource)(0), HostResource::Buffer(b));
+    }
+    let outputs: Vec<&'static str> = streams
+        .iter()
+        .map(|s| {
+            let o = decl.outputs.iter().find(|o| o.binding == s.dst_binding);
+            o.unwrap_or_else(|| panic!("`{}` is not an output of {}", s.dst_binding, decl.name))
+                .binding
+        })
+        .collect();
+    let mut checks = Vec::new();
+    for (k, &count) in (1u32..).zip(parents) {
+        for ((s, &scalar), &output) in streams.iter().zip(&scalars).zip(&outputs) {
+            let zero = HostBuffer::zeroed((count * elem_bytes) as usize, scalar);
+            resources.insert((s.resource)(k), HostResource::Buffer(zero));
+            checks.push(Check {
+                resource: (s.resource)(k),
+                output,
+                indexing: indexing(k),
+            });
+        }
+    }
+    // Each parent reads its `factor` children and writes itself, in every stream.
+    let effective = parents.iter().sum::<u64>() * (factor + 1) * streams.len() as u64 * elem_bytes;
+    vxgi_harness::Case {
+        label,
+        seed,
+        passes: reduction_chain_passes(
+            decl, shader, ctx, parents, factor, elem_bytes, streams, &bound,
+        ),
+        resources,
+        checks,
+        effective_bytes: effective,
+    }
+}
+
+/// The levels `1..=n` a [`reduction_chain_case`] of `streams` streams checks.
+pub fn chain_levels(case: &vxgi_harness::Case, streams: usize) -> std::ops::RangeInclusive<u32> {
+    1..=(case.checks.len() / streams) as u32
+}
+
 /// Passes for levels `1..=parents.len()` of a Morton-ordered mip chain: element `p` of level `k`
 /// reduces elements `factor * p .. factor * (p + 1)` of level `k - 1` (8 children in 3D, 4 in 2D), so
 /// any run of parents reads one contiguous window. A level whose source is larger than one storage

@@ -4,7 +4,6 @@ use crate::grids::{generate, Grid, Pattern};
 use std::collections::BTreeMap;
 use vxgi_cpu_mirror::surface_coverage_mip::{reduce_level, Coverage, MipParams};
 use vxgi_harness::prelude::*;
-use vxgi_harness::run::View;
 use wgpu::util::DeviceExt;
 
 /// The WGSL source; its header comment is the binding contract.
@@ -68,84 +67,44 @@ pub fn chain_case_to(
     seed: u64,
 ) -> Case {
     let n = grid.n;
-    let mut resources = Resources::new();
-    resources.insert(
-        "params".into(),
-        HostResource::Buffer(HostBuffer::pod(&MipParams {
-            coverage: coverage as u32,
-        })),
-    );
-    resources.insert(
-        colour_name(0),
-        HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(&grid.colour))),
-    );
-    resources.insert(
-        normal_name(0),
-        HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(&grid.normal))),
-    );
-    let mut checks = Vec::new();
-    let mut effective = 0;
     let parents: Vec<u64> = (1..levels.clamp(1, levels_below(n) + 1))
         .map(|k| ((n >> k) as u64).pow(3))
         .collect();
-    for (k, &count) in (1u32..).zip(&parents) {
-        let side = n >> k;
-        for name in [colour_name(k), normal_name(k)] {
-            resources.insert(
-                name,
-                HostResource::Buffer(HostBuffer::zeroed(
-                    (count * VOXEL_BYTES) as usize,
-                    ScalarKind::F32,
-                )),
-            );
-        }
-        checks.push(Check {
-            resource: colour_name(k),
-            output: "dst_colour",
-            indexing: Indexing::Morton {
-                n: side,
-                components: 4,
-            },
-        });
-        checks.push(Check {
-            resource: normal_name(k),
-            output: "dst_normal",
-            indexing: Indexing::Morton {
-                n: side,
-                components: 4,
-            },
-        });
-        effective += 9 * count * 2 * VOXEL_BYTES; // read 8 children + write 1 parent, colour and normal
-    }
-    let passes = super::reduction_chain_passes(
+    let streams = [
+        super::ChainStream {
+            src_binding: "src_colour",
+            dst_binding: "dst_colour",
+            resource: &colour_name,
+        },
+        super::ChainStream {
+            src_binding: "src_normal",
+            dst_binding: "dst_normal",
+            resource: &normal_name,
+        },
+    ];
+    let level0 = [&grid.colour, &grid.normal]
+        .map(|g| HostBuffer::f32(bytemuck::cast_slice(g)))
+        .to_vec();
+    let params = HostBuffer::pod(&MipParams {
+        coverage: coverage as u32,
+    });
+    let indexing = |k: u32| Indexing::Morton {
+        n: n >> k,
+        components: 4,
+    };
+    super::reduction_chain_case(
         &DECL,
         shader,
         ctx,
+        &streams,
+        level0,
         &parents,
-        8,
-        VOXEL_BYTES,
-        &[
-            super::ChainStream {
-                src_binding: "src_colour",
-                dst_binding: "dst_colour",
-                resource: &colour_name,
-            },
-            super::ChainStream {
-                src_binding: "src_normal",
-                dst_binding: "dst_normal",
-                resource: &normal_name,
-            },
-        ],
-        &[("params".to_string(), View::Buffer("params".into()))],
-    );
-    Case {
+        (8, VOXEL_BYTES),
+        &indexing,
+        vec![("params".into(), params)],
         label,
         seed,
-        resources,
-        passes,
-        checks,
-        effective_bytes: effective,
-    }
+    )
 }
 
 /// Mirror of every level of a chain case, each from the level the GPU produced before it.
@@ -160,13 +119,8 @@ pub fn chain_mirror(
     } else {
         Coverage::Volume
     };
-    let mut out = BTreeMap::new();
-    for check in case.checks.iter().filter(|c| c.output == "dst_colour") {
-        let k: u32 = check
-            .resource
-            .trim_start_matches("colour_")
-            .parse()
-            .expect("colour_<level>");
+    let mut out = MirrorOutputs::new();
+    for k in super::chain_levels(case, 2) {
         let src = |name: String| -> &[[f32; 4]] {
             bytemuck::cast_slice(&data[&name].buffer().expect("buffer").bytes)
         };
