@@ -32,28 +32,18 @@ pub fn bound_name(resource: &str) -> String {
 /// Distance in units in the last place between two f32 (0 for +0/-0; u64::MAX if either is NaN
 /// and they differ).
 pub fn ulp_distance(a: f32, b: f32) -> u64 {
-    if a.is_nan() || b.is_nan() {
-        return if a.to_bits() == b.to_bits() {
-            0
-        } else {
-            u64::MAX
-        };
-    }
-    // Map the sign-magnitude bit patterns onto a monotonic integer line.
-    let key = |x: f32| -> i64 {
-        let bits = x.to_bits() as i32 as i64;
-        if bits < 0 {
-            -(bits & 0x7fff_ffff)
-        } else {
-            bits
-        }
-    };
-    (key(a) - key(b)).unsigned_abs()
+    distance_by(a, b, |x| (x.to_bits() & 0x7fff_ffff) as i64)
 }
 
 /// Distance in binary16 units in the last place between two f32 that binary16 holds exactly (0 for
 /// +0/-0; u64::MAX if either is NaN and they differ).
 pub fn half_ulp_distance(a: f32, b: f32) -> u64 {
+    distance_by(a, b, |x| (half::f16::from_f32(x).to_bits() & 0x7fff) as i64)
+}
+
+/// The distance of two floats whose sign-magnitude bit patterns (`magnitude`: the pattern without
+/// its sign bit) are mapped onto a monotonic integer line.
+fn distance_by(a: f32, b: f32, magnitude: impl Fn(f32) -> i64) -> u64 {
     if a.is_nan() || b.is_nan() {
         return if a.to_bits() == b.to_bits() {
             0
@@ -61,13 +51,11 @@ pub fn half_ulp_distance(a: f32, b: f32) -> u64 {
             u64::MAX
         };
     }
-    let key = |x: f32| -> i64 {
-        let bits = half::f16::from_f32(x).to_bits();
-        let magnitude = (bits & 0x7fff) as i64;
-        if bits & 0x8000 != 0 {
-            -magnitude
+    let key = |x: f32| {
+        if x.is_sign_negative() {
+            -magnitude(x)
         } else {
-            magnitude
+            magnitude(x)
         }
     };
     (key(a) - key(b)).unsigned_abs()
