@@ -155,3 +155,36 @@ fn lrsm_memory_matches_table_2() {
         );
     }
 }
+
+/// Radiance past binary16's range is stored as its largest finite value (65504), on the GPU as in the
+/// mirror, not as infinity or an indeterminate word: a quad of four covered texels of radiance 1e6
+/// averages to 1e6, past the clamp; one texel of 9.6e4 averages to 2.4e4, within it (and exact).
+#[test]
+fn radiance_past_binary16_is_clamped_to_its_largest_value() {
+    let shader = DECL.shader().unwrap();
+    let c = config(4, 0, 0, 0.0);
+    let mut rsm = synthetic_rsm(4, &c, 1);
+    for t in 0..16 {
+        rsm.radiance[t] = [1.0e6, 1.0e6, 1.0e6, 1.0];
+        rsm.depth[t] = 0.5;
+    }
+    rsm.radiance[4] = [9.6e4, 0.0, 0.0, 1.0];
+    for t in 5..8 {
+        rsm.radiance[t][3] = 0.0;
+    }
+    let case = case_for(&shader, gpu(), &rsm, &c, "clamp".into(), 0).unwrap();
+    let (comps, ..) = verify_case(gpu(), &shader, &LrsmPartition, &case, None).unwrap();
+    assert!(comps.iter().all(|x| x.passed()), "{}", comps[0].report());
+    let out = run(
+        gpu(),
+        &shader,
+        DECL.name,
+        &case.resources,
+        &case.passes,
+        &["out_radiance"],
+    )
+    .unwrap();
+    let r = unpack_stream(bytemuck::cast_slice(&out.buffer("out_radiance").bytes));
+    assert_eq!(r[0], [65504.0, 65504.0, 65504.0, 1.0]);
+    assert_eq!(r[1], [24000.0, 0.0, 0.0, 0.25]);
+}
