@@ -102,17 +102,34 @@ pub struct GpuContext {
 }
 
 impl GpuContext {
-    /// First adapter wgpu finds (honours WGPU_BACKEND, WGPU_ADAPTER_NAME), with the adapter's own limits
-    /// (wgpu's defaults cap buffers at 256 MiB) and timestamp queries when it has them.
+    /// The adapter wgpu finds first on Vulkan, Metal or DX12, else on any backend (OpenGL), unless
+    /// WGPU_BACKEND chooses (WGPU_ADAPTER_NAME is honoured too), with the adapter's own limits (wgpu's
+    /// defaults cap buffers at 256 MiB) and timestamp queries when it has them. OpenGL comes last:
+    /// Mesa's binds 16 storage buffers a stage, fewer than the cone passes need, and wgpu would pick
+    /// it before a CPU Vulkan driver (lavapipe) that runs them all.
     pub fn new() -> Result<Self> {
-        let instance =
-            wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
-        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
-            power_preference: wgpu::PowerPreference::HighPerformance,
-            ..Default::default()
-        }))
-        .map_err(|e| HarnessError::NoAdapter(e.to_string()))?;
-        Self::for_adapter(&adapter)
+        let chosen = wgpu::Backends::from_env().is_some();
+        let tries: &[Option<wgpu::Backends>] = if chosen {
+            &[None]
+        } else {
+            &[Some(wgpu::Backends::PRIMARY), None]
+        };
+        let mut last = String::new();
+        for backends in tries {
+            let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+            if let Some(b) = backends {
+                desc.backends = *b;
+            }
+            let instance = wgpu::Instance::new(desc);
+            match pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+                power_preference: wgpu::PowerPreference::HighPerformance,
+                ..Default::default()
+            })) {
+                Ok(adapter) => return Self::for_adapter(&adapter),
+                Err(e) => last = e.to_string(),
+            }
+        }
+        Err(HarnessError::NoAdapter(last))
     }
 
     /// A device on `adapter` (e.g. one chosen to present to a window's surface) as [`GpuContext::new`]
