@@ -1,11 +1,11 @@
 //! GPU vs mirror for `kernels/cache_placement.wgsl` (CPRC 3.2): scores within their bounds, picks
 //! accepted by score, and how often the picks differ.
 use crate::common;
+use crate::common::run_case;
 
 use common::{case_passes, gpu};
 use vxgi::gbuffers::GPattern;
 use vxgi::harness::kernel::verify_case;
-use vxgi::harness::run::run;
 use vxgi::kernels::cache_placement::{accepted_picks, case_for, CachePlacement, DECL};
 use vxgi::kernels::cluster_extract::distribution_inputs;
 
@@ -40,15 +40,7 @@ fn one_pixel_clusters_and_pick_agreement() {
         let case = case_for(gpu(), &inp, format!("{pattern:?}"), 0);
         let (comps, ..) = verify_case(gpu(), &shader, &CachePlacement, &case, None).unwrap();
         assert!(comps.iter().all(|c| c.passed()), "{pattern:?}");
-        let out = run(
-            gpu(),
-            &shader,
-            DECL.name,
-            &case.resources,
-            &case.passes,
-            &["picks", "scores"],
-        )
-        .unwrap();
+        let out = run_case(&shader, DECL.name, &case, &["picks", "scores"]);
         let mut data = case.resources.clone();
         data.extend(out.resources.clone());
         let count = data["cluster_count"].buffer().unwrap().as_u32()[0] as usize;

@@ -1,11 +1,11 @@
 //! GPU vs mirror for `kernels/cache_records.wgsl` (the caches' records and the cache stages' indirect
 //! arguments), and its capacity rule: clusters past the capacity get no cache and are counted.
 use crate::common;
+use crate::common::run_case;
 
 use common::gpu;
 use vxgi::gbuffers::GPattern;
 use vxgi::harness::kernel::verify_case;
-use vxgi::harness::run::run;
 use vxgi::kernels::cache_records::{case_for, params, CacheRecords, DECL};
 use vxgi::kernels::cluster_extract::distribution_inputs;
 use vxgi_cpu_mirror::cache_records::groups;
@@ -19,15 +19,7 @@ fn clusters_past_the_capacity_are_counted_and_get_no_cache() {
         let case = case_for(gpu(), &inp, p, format!("capacity {capacity}"), 0);
         let (comps, ..) = verify_case(gpu(), &shader, &CacheRecords, &case, None).unwrap();
         assert!(comps.iter().all(|c| c.passed()), "capacity {capacity}");
-        let out = run(
-            gpu(),
-            &shader,
-            DECL.name,
-            &case.resources,
-            &case.passes,
-            &["cache_args"],
-        )
-        .unwrap();
+        let out = run_case(&shader, DECL.name, &case, &["cache_args"]);
         let args = out.buffer("cache_args").as_u32().to_vec();
         let clusters = case.resources["cluster_count"].buffer().unwrap().as_u32()[0];
         assert!(

@@ -1,9 +1,9 @@
 //! GPU vs mirror for `kernels/cluster_extract.wgsl` (CPRC 3.2), and what clusters must satisfy.
 use crate::common;
+use crate::common::run_case;
 
 use common::{case_passes, gpu};
 use vxgi::gbuffers::GPattern;
-use vxgi::harness::run::run;
 use vxgi::kernels::cluster_extract::{case_for, distribution_inputs, ClusterExtract, DECL};
 use vxgi_cpu_mirror::cluster_extract::Cluster;
 
@@ -24,15 +24,12 @@ fn clusters_partition_the_geometry_pixels_and_bound_them() {
     let inp = distribution_inputs(128, 72, 32, 16, GPattern::Spheres, 4);
     let shader = DECL.shader().unwrap();
     let case = case_for(gpu(), &inp, "spheres".into(), 4);
-    let out = run(
-        gpu(),
+    let out = run_case(
         &shader,
         DECL.name,
-        &case.resources,
-        &case.passes,
+        &case,
         &["cluster_count", "clusters", "pixel_cluster"],
-    )
-    .unwrap();
+    );
     let count = out.buffer("cluster_count").as_u32()[0] as usize;
     let clusters: &[Cluster] = bytemuck::cast_slice(&out.buffer("clusters").bytes);
     let pixel_cluster = out.buffer("pixel_cluster").as_u32();

@@ -1,5 +1,6 @@
 //! GPU vs mirror for `kernels/cluster_keys.wgsl`, and keys through the GPU radix sort (CPRC 3.2).
 use crate::common;
+use crate::common::run_case;
 
 use common::gpu;
 use vxgi::gbuffers::{normals, packed, GPattern};
@@ -43,15 +44,7 @@ fn bad_depths_become_background_and_keys_sort_into_clusters_on_the_gpu() {
         "spheres".into(),
         1,
     );
-    let out = run(
-        gpu(),
-        &shader,
-        DECL.name,
-        &case.resources,
-        &case.passes,
-        &["keys"],
-    )
-    .unwrap();
+    let out = run_case(&shader, DECL.name, &case, &["keys"]);
     let keys = out.buffer("keys").as_u32().to_vec();
     for (i, k) in keys.iter().enumerate() {
         if !(d[i].is_finite() && d[i] > 0.0) {

@@ -2,10 +2,10 @@
 //! property for every finite input, and the approximation error of the Gaussian model (eq. 12) against
 //! the exact fraction of RSM texels inside the cone sample.
 use crate::common;
+use crate::common::run_case;
 
 use common::{assert_case_passes, gpu};
 use proptest::prelude::*;
-use vxgi::harness::run::run;
 use vxgi::harness::Kernel;
 use vxgi::kernels::gaussian_depth_visibility::{
     case_for, moments_of, GaussianDepthVisibility, Inputs, DECL,
@@ -15,15 +15,7 @@ use vxgi_cpu_mirror::gaussian_depth_visibility::{erfc_approx, visibility, Cdf, V
 fn gpu_visibility(inputs: &Inputs, params: VisibilityParams) -> Vec<f32> {
     let shader = DECL.shader().unwrap();
     let case = case_for(&shader, gpu(), inputs, params, "direct".into(), 0);
-    let out = run(
-        gpu(),
-        &shader,
-        DECL.name,
-        &case.resources,
-        &case.passes,
-        &["visibility"],
-    )
-    .unwrap();
+    let out = run_case(&shader, DECL.name, &case, &["visibility"]);
     out.buffer("visibility").as_f32().to_vec()
 }
 

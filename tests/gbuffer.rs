@@ -2,10 +2,10 @@
 //! (Cornell box, smooth-normal triangle soups, box stacks with rays on shared edges, scenes far from the
 //! origin and tiny ones).
 use crate::common;
+use crate::common::run_case;
 
 use common::gpu;
 use vxgi::harness::kernel::verify_case;
-use vxgi::harness::run::run;
 use vxgi::kernels::gbuffer::{case_for, generated_scene, mirror_gbuffer, Gbuffer, DECL};
 use vxgi::trace::SceneData;
 
@@ -20,15 +20,7 @@ fn rays_on_shared_edges_rarely_need_acceptance() {
         let case = case_for(&SceneData::new(&scene), label.clone(), 5);
         let (comps, ..) = verify_case(gpu(), &shader, &Gbuffer, &case, None).unwrap();
         assert!(comps.iter().all(|c| c.passed()), "{label}");
-        let out = run(
-            gpu(),
-            &shader,
-            DECL.name,
-            &case.resources,
-            &case.passes,
-            &["gb_triangle"],
-        )
-        .unwrap();
+        let out = run_case(&shader, DECL.name, &case, &["gb_triangle"]);
         let tri = out.buffer("gb_triangle").as_u32();
         accepted += mirror_gbuffer(&case.resources, tri).accepted_differences;
         pixels += tri.len();
@@ -46,15 +38,7 @@ fn a_scene_without_triangles_sees_nothing() {
     let data = SceneData::new(&scene);
     let case = case_for(&data, "empty".into(), 0);
     let shader = DECL.shader().unwrap();
-    let out = run(
-        gpu(),
-        &shader,
-        DECL.name,
-        &case.resources,
-        &case.passes,
-        &["gb_triangle", "gb_position"],
-    )
-    .unwrap();
+    let out = run_case(&shader, DECL.name, &case, &["gb_triangle", "gb_position"]);
     assert!(out
         .buffer("gb_triangle")
         .as_u32()
@@ -81,15 +65,7 @@ fn zero_vertex_normals_fall_back_to_the_face_normal() {
     let shader = DECL.shader().unwrap();
     let (comps, ..) = verify_case(gpu(), &shader, &Gbuffer, &case, None).unwrap();
     assert!(comps.iter().all(|c| c.passed()));
-    let out = run(
-        gpu(),
-        &shader,
-        DECL.name,
-        &case.resources,
-        &case.passes,
-        &["gb_normal"],
-    )
-    .unwrap();
+    let out = run_case(&shader, DECL.name, &case, &["gb_normal"]);
     let n = out.buffer("gb_normal").as_f32();
     assert!(n.iter().all(|x| x.is_finite()));
     assert!(n

@@ -1,10 +1,10 @@
 //! `kernels/histogram_axes.wgsl` (CPRC 3.2): degenerate histograms. GPU vs mirror over generated
 //! G-buffers runs in tests/tile_normal_histogram.rs, on the histograms that kernel produces.
 use crate::common;
+use crate::common::run_case;
 
 use common::gpu;
 use vxgi::gbuffers::{normals, packed, GPattern};
-use vxgi::harness::run::run;
 use vxgi::kernels::histogram_axes::{axes_case, DECL as AXES_DECL};
 use vxgi::kernels::tile_normal_histogram::params;
 use vxgi_cpu_mirror::octahedral::BIN_COUNT;
@@ -17,15 +17,7 @@ fn identical_normals_still_give_three_distinct_axes() {
     let (raw, blurred) = histograms(&n, &params(w, h, tile).unwrap());
     let shader = AXES_DECL.shader().unwrap();
     let case = axes_case(&shader, gpu(), &raw, &blurred, "identical".into(), 3);
-    let out = run(
-        gpu(),
-        &shader,
-        AXES_DECL.name,
-        &case.resources,
-        &case.passes,
-        &["axes"],
-    )
-    .unwrap();
+    let out = run_case(&shader, AXES_DECL.name, &case, &["axes"]);
     let axes: &[[u32; 4]] = bytemuck::cast_slice(&out.buffer("axes").bytes);
     for a in axes {
         assert!(a[0] != a[1] && a[1] != a[2] && a[0] != a[2], "{a:?}");

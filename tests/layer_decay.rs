@@ -1,25 +1,17 @@
 //! GPU vs mirror for `kernels/layer_decay.wgsl` (LRSM eq. 15), its range property, and the partition of
 //! unity across an overlap.
 use crate::common;
+use crate::common::run_case;
 
 use common::{assert_case_passes, gpu};
 use proptest::prelude::*;
-use vxgi::harness::run::run;
 use vxgi::kernels::layer_decay::{case_for, LayerDecay, DECL};
 
 fn gpu_decay(samples: &[[f32; 4]]) -> Vec<f32> {
     let shader = DECL.shader().unwrap();
     let case = case_for(&shader, gpu(), samples, "direct".into(), 0);
     assert_case_passes(&shader, &LayerDecay, &case);
-    let out = run(
-        gpu(),
-        &shader,
-        DECL.name,
-        &case.resources,
-        &case.passes,
-        &["decay"],
-    )
-    .unwrap();
+    let out = run_case(&shader, DECL.name, &case, &["decay"]);
     out.buffer("decay").as_f32().to_vec()
 }
 

@@ -1,11 +1,11 @@
 //! GPU vs mirror for `kernels/lrsm_partition.wgsl`, bad input refused at the API boundary, and what a
 //! partition must conserve.
 use crate::common;
+use crate::common::run_case;
 
 use common::{case_passes, gpu};
 use vxgi::cpu_mirror::lrsm_prefilter::unpack_stream;
 use vxgi::harness::kernel::verify_case;
-use vxgi::harness::run::run;
 use vxgi::kernels::lrsm_partition::{case_for, LrsmPartition, DECL};
 use vxgi::lrsm::{synthetic_rsm, LrsmError, PartitionConfig};
 
@@ -83,15 +83,7 @@ fn every_covered_texel_lands_in_its_layers_with_warped_depth_in_unit_range() {
     let case = case_for(&shader, gpu(), &rsm, &c, "conservation".into(), 4).unwrap();
     let (comps, ..) = verify_case(gpu(), &shader, &LrsmPartition, &case, None).unwrap();
     assert!(comps.iter().all(|x| x.passed()));
-    let out = run(
-        gpu(),
-        &shader,
-        DECL.name,
-        &case.resources,
-        &case.passes,
-        &["out_moments"],
-    )
-    .unwrap();
+    let out = run_case(&shader, DECL.name, &case, &["out_moments"]);
     let m = unpack_stream(bytemuck::cast_slice(&out.buffer("out_moments").bytes));
     let ranges = c.depth_ranges();
     let texels = c.layer_texels() as usize;
@@ -175,15 +167,7 @@ fn radiance_past_binary16_is_clamped_to_its_largest_value() {
     let case = case_for(&shader, gpu(), &rsm, &c, "clamp".into(), 0).unwrap();
     let (comps, ..) = verify_case(gpu(), &shader, &LrsmPartition, &case, None).unwrap();
     assert!(comps.iter().all(|x| x.passed()), "{}", comps[0].report());
-    let out = run(
-        gpu(),
-        &shader,
-        DECL.name,
-        &case.resources,
-        &case.passes,
-        &["out_radiance"],
-    )
-    .unwrap();
+    let out = run_case(&shader, DECL.name, &case, &["out_radiance"]);
     let r = unpack_stream(bytemuck::cast_slice(&out.buffer("out_radiance").bytes));
     assert_eq!(r[0], [65504.0, 65504.0, 65504.0, 1.0]);
     assert_eq!(r[1], [24000.0, 0.0, 0.0, 0.25]);

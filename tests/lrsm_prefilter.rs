@@ -1,10 +1,10 @@
 //! GPU vs mirror for `kernels/lrsm_prefilter.wgsl`: every level of every layer, bit for bit; and the point
 //! of carrying opacity: normalised moments of a coarse texel are the moments of the covered texels.
 use crate::common;
+use crate::common::run_case;
 
 use common::{case_passes, gpu};
 use vxgi::harness::kernel::verify_case;
-use vxgi::harness::run::run;
 use vxgi::kernels::lrsm_prefilter::{chain_case, generate, stream_name, LrsmPrefilter, DECL};
 
 #[test]
@@ -23,15 +23,7 @@ fn normalised_coarse_moments_are_the_covered_texels_moments() {
     );
     let (comps, ..) = verify_case(gpu(), &shader, &LrsmPrefilter, &case, None).unwrap();
     assert!(comps.iter().all(|c| c.passed()));
-    let out = run(
-        gpu(),
-        &shader,
-        DECL.name,
-        &case.resources,
-        &case.passes,
-        &[&stream_name(2, 2)],
-    )
-    .unwrap();
+    let out = run_case(&shader, DECL.name, &case, &[&stream_name(2, 2)]);
     let coarse: &[[f32; 4]] = bytemuck::cast_slice(&out.buffer(&stream_name(2, 2)).bytes);
     // Level 2 texel P covers level-0 texels 16P .. 16P+16 (Morton order, per layer).
     for (p, m) in coarse.iter().enumerate() {

@@ -1,9 +1,9 @@
 //! GPU vs mirror for `kernels/sample_lrsm.wgsl` (LRSM Algorithm 1) on LRSMs built from synthetic RSMs.
 use crate::common;
+use crate::common::run_case;
 
 use common::{case_passes, gpu};
 use vxgi::harness::kernel::{verify, verify_case};
-use vxgi::harness::run::run;
 use vxgi::harness::{Corruption, VerifyOptions};
 use vxgi::kernels::sample_lrsm::{build_lrsm, case_for, cone_samples, BuiltLrsm, SampleLrsm, DECL};
 use vxgi::lrsm::PartitionConfig;
@@ -26,15 +26,7 @@ fn gpu_radiance(lrsm: &BuiltLrsm, pos: &[[f32; 4]], dir: &[[f32; 4]]) -> Vec<[f3
     let case = case_for(&shader, gpu(), lrsm, pos, dir, "samples".into(), 0);
     let (comps, ..) = verify_case(gpu(), &shader, &SampleLrsm, &case, None).unwrap();
     assert!(comps[0].passed(), "{}", comps[0].report());
-    let out = run(
-        gpu(),
-        &shader,
-        DECL.name,
-        &case.resources,
-        &case.passes,
-        &["radiance"],
-    )
-    .unwrap();
+    let out = run_case(&shader, DECL.name, &case, &["radiance"]);
     bytemuck::cast_slice(&out.buffer("radiance").bytes).to_vec()
 }
 

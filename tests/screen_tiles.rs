@@ -1,9 +1,9 @@
 //! GPU vs mirror for `kernels/screen_tiles.wgsl` (the work list of screen tiles holding a surface), and
 //! the skip rule it implements: empty tiles are listed nowhere, so the cone passes never dispatch them.
 use crate::common;
+use crate::common::run_case;
 
 use common::{assert_case_passes, gpu};
-use vxgi::harness::run::run;
 use vxgi::kernels::screen_tiles::{case_for, normals, ScreenTiles, DECL};
 use vxgi_cpu_mirror::screen_tiles::HEADER;
 
@@ -11,15 +11,7 @@ fn gpu_list(normal: &[[f32; 4]], w: u32, h: u32) -> Vec<u32> {
     let shader = DECL.shader().unwrap();
     let case = case_for(normal, w, h, "direct".into(), 0);
     assert_case_passes(&shader, &ScreenTiles, &case);
-    let out = run(
-        gpu(),
-        &shader,
-        DECL.name,
-        &case.resources,
-        &case.passes,
-        &["tile_list"],
-    )
-    .unwrap();
+    let out = run_case(&shader, DECL.name, &case, &["tile_list"]);
     out.buffer("tile_list").as_u32().to_vec()
 }
 

@@ -6,11 +6,11 @@
 //! lattice, raises its error bit. `fixed_scale`'s bound is the exact sums' scale where every point
 //! holds one value, and rounds the product up where nearest would accept an overflow.
 use crate::common;
+use crate::common::run_case;
 
 use common::{assert_case_passes, gpu};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use vxgi::harness::run::run;
 use vxgi::harness::Kernel;
 use vxgi::kernels::svo_cone_trace::{coverage_only, fixed_scale, grid_fragments, grid_values};
 use vxgi::kernels::svo_fragments::{
@@ -114,15 +114,7 @@ fn a_negative_value_raises_the_error_bit() {
     let io = io_for(&radiance, &list, list.len() as u32, 0, false, 1);
     let case = case_for(&shader, gpu(), &io, "negative".into(), 0);
     assert_case_passes(&shader, &SvoFragments, &case);
-    let out = run(
-        gpu(),
-        &shader,
-        DECL.name,
-        &case.resources,
-        &case.passes,
-        &["scale_state", "fragments"],
-    )
-    .unwrap();
+    let out = run_case(&shader, DECL.name, &case, &["scale_state", "fragments"]);
     assert_eq!(out.buffer("scale_state").as_u32()[1], ERR_VALUE);
     let frags: Vec<Fragment> = bytemuck::pod_collect_to_vec(&out.buffer("fragments").bytes);
     assert_eq!(frags[2].value, [0, 16384, 0, 65536]);
@@ -455,15 +447,7 @@ fn a_photon_past_the_lattice_raises_the_point_error_bit() {
     let io = photon_io_for(&colour, &list, n, n, &ph, 8, 1);
     let case = photon_case_for(&shader, gpu(), &io, "past the lattice".into(), 0);
     assert_case_passes(&shader, &SvoFragments, &case);
-    let out = run(
-        gpu(),
-        &shader,
-        DECL.name,
-        &case.resources,
-        &case.passes,
-        &["scale_state", "point_count"],
-    )
-    .unwrap();
+    let out = run_case(&shader, DECL.name, &case, &["scale_state", "point_count"]);
     assert_eq!(out.buffer("scale_state").as_u32()[1], ERR_POINT);
     // The last point's red channel.
     assert!(out.buffer("point_count").as_u32()[4 * (9 * 9 * 9 - 1)] >= 1);

@@ -1,11 +1,11 @@
 //! GPU vs mirror for `kernels/tile_normal_histogram.wgsl` (CPRC 3.2), with `histogram_axes` on its
 //! output in the same property test; stress cases and bad input.
 use crate::common;
+use crate::common::run_case;
 
 use common::{case_passes, gpu};
 use vxgi::gbuffers::{normals, packed, GPattern};
 use vxgi::harness::kernel::verify_case;
-use vxgi::harness::run::run;
 use vxgi::kernels::histogram_axes::{axes_case, HistogramAxes, DECL as AXES_DECL};
 use vxgi::kernels::tile_normal_histogram::{
     case_for, params, TileError, TileNormalHistogram, DECL,
@@ -40,15 +40,7 @@ fn bad_normals_count_as_background_and_bad_sizes_are_errors() {
     );
     let case = case_for(&n, params(w, h, 16).unwrap(), "bad normals".into(), 9).unwrap();
     let shader = DECL.shader().unwrap();
-    let out = run(
-        gpu(),
-        &shader,
-        DECL.name,
-        &case.resources,
-        &case.passes,
-        &["histogram"],
-    )
-    .unwrap();
+    let out = run_case(&shader, DECL.name, &case, &["histogram"]);
     assert_eq!(
         out.buffer("histogram").as_u32().iter().sum::<u32>(),
         geometry

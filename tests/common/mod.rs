@@ -62,6 +62,18 @@ pub fn gpu() -> &'static GpuContext {
     }
 }
 
+/// Run `case`'s passes of the kernel `name` on this thread's GPU and read back `outputs` (no
+/// comparison: for properties of the GPU's own result).
+pub fn run_case(
+    shader: &vxgi::harness::Shader,
+    name: &str,
+    case: &vxgi::harness::Case,
+    outputs: &[&str],
+) -> vxgi::harness::RunOutput {
+    vxgi::harness::run::run(gpu(), shader, name, &case.resources, &case.passes, outputs)
+        .unwrap_or_else(|e| panic!("{name}, case `{}`: {e:#}", case.label))
+}
+
 /// scenes/thin_wall.toml (one-voxel wall between a lit and a dark room) at `width x height`.
 pub fn thin_wall(width: u32, height: u32) -> vxgi::scene::Scene {
     let mut scene = vxgi::scene::Scene::load(
