@@ -329,20 +329,24 @@ fn the_gpu_work_list_is_a_permutation_of_the_mirrors() {
 #[test]
 fn an_indirect_argument_buffer_too_small_is_refused() {
     let shader = WORKLIST.shader().unwrap();
+    let refused = |case: &vxgi::harness::Case| {
+        let passes = &case.passes;
+        run(
+            gpu(),
+            &shader,
+            "worklist_test",
+            &case.resources,
+            passes,
+            &[],
+        )
+        .unwrap_err()
+    };
     let mut case = Worklist.case(&shader, gpu(), 1, 0);
     case.passes[1].workgroups = Workgroups::Indirect {
         buffer: "args".into(),
         offset: 8,
     };
-    let err = run(
-        gpu(),
-        &shader,
-        "worklist_test",
-        &case.resources,
-        &case.passes,
-        &[],
-    )
-    .unwrap_err();
+    let err = refused(&case);
     assert!(err.to_string().contains("indirect"), "{err}");
 
     // Dispatching from a buffer the same pass binds as writable storage is refused before dispatch.
@@ -351,15 +355,7 @@ fn an_indirect_argument_buffer_too_small_is_refused() {
         buffer: "args".into(),
         offset: 0,
     };
-    let err = run(
-        gpu(),
-        &shader,
-        "worklist_test",
-        &case.resources,
-        &case.passes,
-        &[],
-    )
-    .unwrap_err();
+    let err = refused(&case);
     assert!(
         err.to_string().contains("`args`") && err.to_string().contains("writable"),
         "{err}"

@@ -1252,52 +1252,26 @@ fn resident_frames_equal_fresh_ones_in_one_submission() {
             s.render.lrsm_surface_coverage = surface;
         }
     };
+    use Pipeline::{Lrsm, VctDense, VctSvo};
+    let (cornell, thin) = (Scene::cornell_box, Scene::thin_wall);
     type Setting = Box<dyn Fn(&mut Scene)>;
     let cases: Vec<(Pipeline, Scene, Setting)> = vec![
+        (VctDense, cornell(), Box::new(dense(1, false))),
+        (VctDense, cornell(), Box::new(dense(2, false))),
+        (VctDense, cornell(), Box::new(dense(1, true))),
+        (VctDense, thin(), Box::new(dense(1, false))),
+        (Lrsm, cornell(), Box::new(lrsm(0.0, false))),
+        (Lrsm, cornell(), Box::new(lrsm(5.0, true))),
+        (Lrsm, thin(), Box::new(lrsm(0.0, false))),
+        (VctSvo, cornell(), Box::new(|_| {})),
         (
-            Pipeline::VctDense,
-            Scene::cornell_box(),
-            Box::new(dense(1, false)),
-        ),
-        (
-            Pipeline::VctDense,
-            Scene::cornell_box(),
-            Box::new(dense(2, false)),
-        ),
-        (
-            Pipeline::VctDense,
-            Scene::cornell_box(),
-            Box::new(dense(1, true)),
-        ),
-        (
-            Pipeline::VctDense,
-            Scene::thin_wall(),
-            Box::new(dense(1, false)),
-        ),
-        (
-            Pipeline::Lrsm,
-            Scene::cornell_box(),
-            Box::new(lrsm(0.0, false)),
-        ),
-        (
-            Pipeline::Lrsm,
-            Scene::cornell_box(),
-            Box::new(lrsm(5.0, true)),
-        ),
-        (
-            Pipeline::Lrsm,
-            Scene::thin_wall(),
-            Box::new(lrsm(0.0, false)),
-        ),
-        (Pipeline::VctSvo, Scene::cornell_box(), Box::new(|_| {})),
-        (
-            Pipeline::VctSvo,
-            Scene::thin_wall(),
+            VctSvo,
+            thin(),
             Box::new(|s: &mut Scene| s.render.anisotropic_voxels = true),
         ),
         (
-            Pipeline::VctSvo,
-            Scene::cornell_box(),
+            VctSvo,
+            cornell(),
             Box::new(|s: &mut Scene| s.render.voxel_lobes = true),
         ),
     ];
