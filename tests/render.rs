@@ -1236,9 +1236,7 @@ fn sponza_renders_with_every_pipeline() {
 /// back besides its images, uploads only the camera and did GPU work.
 #[test]
 fn resident_frames_equal_fresh_ones_in_one_submission() {
-    use vxgi::kernels::cone_trace::ConeSettings;
-    use vxgi::render::{Pipeline, Renderer};
-    use vxgi::resident::Resident;
+    use vxgi::render::Pipeline;
     let dense = |interleave, ordered| {
         move |s: &mut Scene| {
             s.render.cone_interleave = interleave;
@@ -1279,17 +1277,11 @@ fn resident_frames_equal_fresh_ones_in_one_submission() {
         let mut scene = small(base, 48, 40);
         scene.render.voxels = 32;
         set(&mut scene);
-        let cones = ConeSettings::from(&scene.render);
-        let mut fresh = Renderer::new(pipeline, false);
-        let mut resident = Resident::new(gpu(), pipeline).unwrap();
-        for k in 0..3u32 {
-            // Far enough round that some tiles leave the box: the tile list and the partly written
-            // outputs must start each frame fresh.
-            let view = scene.orbited(25.0 * k as f32);
-            let (want, _) = fresh.render(gpu(), &view, &cones, |_| {}).unwrap();
-            let before = vxgi::harness::thread_counters();
-            let got = resident.render(&view, &cones).unwrap();
-            let c = vxgi::harness::thread_counters().since(&before);
+        // Far enough round that some tiles leave the box: the tile list and the partly written
+        // outputs must start each frame fresh.
+        let frames = kept_frames(pipeline, 3, |k| scene.orbited(25.0 * k as f32));
+        for (k, f) in frames.into_iter().enumerate() {
+            let (want, got, c) = (f.want, f.got, f.counters);
             let at = format!("{pipeline:?} {:?}, frame {k}", scene.render);
             for (name, a, b) in [
                 ("direct", &want.direct, &got.direct),
@@ -1321,30 +1313,22 @@ fn resident_frames_equal_fresh_ones_in_one_submission() {
 /// the same number of caches.
 #[test]
 fn resident_cprc_frames_stay_on_the_gpu_and_match_fresh_frames() {
-    use vxgi::kernels::cone_trace::ConeSettings;
-    use vxgi::render::{Pipeline, Renderer, VolumeMemory};
-    use vxgi::resident::Resident;
+    use vxgi::render::{Pipeline, VolumeMemory};
     let glossy =
         Scene::load(Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/thin_wall_glossy.toml"))
             .unwrap();
     for base in [Scene::cornell_box(), glossy] {
         let mut scene = small(base, 48, 40);
         scene.render.voxels = 32;
-        let cones = ConeSettings::from(&scene.render);
-        let mut fresh = Renderer::new(Pipeline::Cprc, false);
-        let mut resident = Resident::new(gpu(), Pipeline::Cprc).unwrap();
-        for k in 0..3u32 {
-            let view = scene.orbited(25.0 * k as f32);
-            let (want, memory) = fresh.render(gpu(), &view, &cones, |_| {}).unwrap();
-            let before = vxgi::harness::thread_counters();
-            let got = resident.render(&view, &cones).unwrap();
-            let c = vxgi::harness::thread_counters().since(&before);
+        let frames = kept_frames(Pipeline::Cprc, 3, |k| scene.orbited(25.0 * k as f32));
+        for (k, f) in frames.into_iter().enumerate() {
+            let (want, got, c) = (f.want, f.got, f.counters);
             let at = format!("cprc {:?}, frame {k}", scene.mesh.positions.len());
             assert!(want.direct == got.direct, "{at}: direct differs");
             assert!(want.ao == got.ao, "{at}: ao differs");
             let flip = fresh_vs_resident(&want, &got);
             let (Some(VolumeMemory::Caches(a)), Some(VolumeMemory::Caches(b))) =
-                (memory, resident.memory())
+                (f.want_memory, f.got_memory)
             else {
                 panic!("{at}: cprc reports its caches")
             };
@@ -1512,6 +1496,48 @@ fn vct_svo_builds_its_chain_again_where_moved_instances_outgrow_its_room() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// One frame drawn by a fresh renderer and by a resident one that drew the frames before it.
+struct KeptFrame {
+    want: vxgi::render::Rendered,
+    /// The fresh renderer's volume memory, and the resident one's after its frame.
+    want_memory: Option<vxgi::render::VolumeMemory>,
+    got: vxgi::render::Rendered,
+    got_memory: Option<vxgi::render::VolumeMemory>,
+    /// What the resident frame counted.
+    counters: vxgi::harness::Counters,
+}
+
+/// Frames `0..frames` of `pipeline`, frame `k` of them `frame(k)`, by a fresh renderer each and by
+/// one resident renderer; cone settings from frame 0's scene.
+fn kept_frames(
+    pipeline: vxgi::render::Pipeline,
+    frames: u32,
+    frame: impl Fn(u32) -> Scene,
+) -> Vec<KeptFrame> {
+    use vxgi::kernels::cone_trace::ConeSettings;
+    use vxgi::render::Renderer;
+    use vxgi::resident::Resident;
+    let cones = ConeSettings::from(&frame(0).render);
+    let mut fresh = Renderer::new(pipeline, false);
+    let mut resident = Resident::new(gpu(), pipeline).unwrap();
+    (0..frames)
+        .map(|k| {
+            let view = frame(k);
+            let (want, want_memory) = fresh.render(gpu(), &view, &cones, |_| {}).unwrap();
+            let before = vxgi::harness::thread_counters();
+            let got = resident.render(&view, &cones).unwrap();
+            let counters = vxgi::harness::thread_counters().since(&before);
+            KeptFrame {
+                want,
+                want_memory,
+                got,
+                got_memory: resident.memory(),
+                counters,
+            }
+        })
+        .collect()
+}
+
 /// Frames `0..frames` of `scene`'s animation by a fresh renderer each and by one resident renderer:
 /// per frame (the fresh frame, the resident one, what the resident frame counted).
 fn animated_frames(
@@ -1523,20 +1549,9 @@ fn animated_frames(
     vxgi::render::Rendered,
     vxgi::harness::Counters,
 )> {
-    use vxgi::kernels::cone_trace::ConeSettings;
-    use vxgi::render::Renderer;
-    use vxgi::resident::Resident;
-    let cones = ConeSettings::from(&scene.render);
-    let mut fresh = Renderer::new(pipeline, false);
-    let mut resident = Resident::new(gpu(), pipeline).unwrap();
-    (0..frames)
-        .map(|k| {
-            let view = scene.at_frame(k);
-            let (want, _) = fresh.render(gpu(), &view, &cones, |_| {}).unwrap();
-            let before = vxgi::harness::thread_counters();
-            let got = resident.render(&view, &cones).unwrap();
-            (want, got, vxgi::harness::thread_counters().since(&before))
-        })
+    kept_frames(pipeline, frames, |k| scene.at_frame(k))
+        .into_iter()
+        .map(|f| (f.want, f.got, f.counters))
         .collect()
 }
 
