@@ -4,9 +4,9 @@ use crate::common;
 use crate::common::run_case;
 
 use common::{case_passes, gpu};
-use vxgi::cpu_mirror::lrsm_prefilter::unpack_stream;
 use vxgi::harness::kernel::verify_case;
 use vxgi::kernels::lrsm_partition::{case_for, LrsmPartition, DECL};
+use vxgi::kernels::lrsm_prefilter::values;
 use vxgi::lrsm::{synthetic_rsm, LrsmError, PartitionConfig};
 
 fn config(side: u32, a: u32, b: u32, overlap: f32) -> PartitionConfig {
@@ -84,7 +84,7 @@ fn every_covered_texel_lands_in_its_layers_with_warped_depth_in_unit_range() {
     let (comps, ..) = verify_case(gpu(), &shader, &LrsmPartition, &case, None).unwrap();
     assert!(comps.iter().all(|x| x.passed()));
     let out = run_case(&shader, DECL.name, &case, &["out_moments"]);
-    let m = unpack_stream(bytemuck::cast_slice(&out.buffer("out_moments").bytes));
+    let m = values(out.buffer("out_moments"));
     let ranges = c.depth_ranges();
     let texels = c.layer_texels() as usize;
     for q in 0..texels {
@@ -168,7 +168,7 @@ fn radiance_past_binary16_is_clamped_to_its_largest_value() {
     let (comps, ..) = verify_case(gpu(), &shader, &LrsmPartition, &case, None).unwrap();
     assert!(comps.iter().all(|x| x.passed()), "{}", comps[0].report());
     let out = run_case(&shader, DECL.name, &case, &["out_radiance"]);
-    let r = unpack_stream(bytemuck::cast_slice(&out.buffer("out_radiance").bytes));
+    let r = values(out.buffer("out_radiance"));
     assert_eq!(r[0], [65504.0, 65504.0, 65504.0, 1.0]);
     assert_eq!(r[1], [24000.0, 0.0, 0.0, 0.25]);
 }

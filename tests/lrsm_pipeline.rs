@@ -4,7 +4,6 @@
 use crate::common;
 
 use common::gpu;
-use vxgi::cpu_mirror::lrsm_prefilter::unpack_stream;
 use vxgi::harness::kernel::verify_case;
 use vxgi::harness::run::run;
 use vxgi::kernels::{lrsm_partition, lrsm_prefilter, sample_lrsm};
@@ -43,7 +42,7 @@ fn partition_prefilter_sample_compose_on_the_gpu() {
     )
     .unwrap();
     let streams: [Vec<[f32; 4]>; 3] = ["out_radiance", "out_normal", "out_moments"]
-        .map(|n| unpack_stream(bytemuck::cast_slice(&level0.buffer(n).bytes)));
+        .map(|n| lrsm_prefilter::values(level0.buffer(n)));
 
     // 2. Pre-filter the GPU's level 0 on the GPU, every level verified on its GPU input.
     let side0 = config.rsm_side / 2;
@@ -86,9 +85,9 @@ fn partition_prefilter_sample_compose_on_the_gpu() {
     let mut gpu_streams = streams.clone();
     for k in 1..levels {
         for (s, stream) in gpu_streams.iter_mut().enumerate() {
-            stream.extend(unpack_stream(bytemuck::cast_slice(
-                &chain.buffer(&lrsm_prefilter::stream_name(s, k)).bytes,
-            )));
+            stream.extend(lrsm_prefilter::values(
+                chain.buffer(&lrsm_prefilter::stream_name(s, k)),
+            ));
         }
     }
     // Every texel is stored as binary16, which GPU and mirror may round to different neighbours (1

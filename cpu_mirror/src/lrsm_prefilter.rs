@@ -27,7 +27,7 @@ pub const HALF_MAX: f32 = 65504.0;
 
 /// `v` as stored: clamped to +-[`HALF_MAX`], rounded to the nearest binary16 (ties to even).
 pub fn quantize(v: [f32; 4]) -> [f32; 4] {
-    v.map(|x| f16::from_f32(x.clamp(-HALF_MAX, HALF_MAX)).to_f32())
+    unpack(pack(v))
 }
 
 /// The kernel's `lrsm_pack`: a texel as two `pack2x16float` words.

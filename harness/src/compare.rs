@@ -434,13 +434,25 @@ pub fn compare_u32(
     indexing: Indexing,
 ) -> Comparison {
     let bits = |v: &[u32]| -> Vec<f32> { v.iter().map(|&x| f32::from_bits(x)).collect() };
-    let a = alt.map(bits);
+    compare_words(meta, [gpu, mirror], alt, bits, Tolerance::Exact, indexing)
+}
+
+/// Compare words as the f32 values `decode` reads from them.
+fn compare_words(
+    meta: (&str, &str, &str, u64),
+    [gpu, mirror]: [&[u32]; 2],
+    alt: Option<&[u32]>,
+    decode: impl Fn(&[u32]) -> Vec<f32>,
+    tolerance: Tolerance,
+    indexing: Indexing,
+) -> Comparison {
+    let a = alt.map(&decode);
     compare_f32(
         meta,
-        &bits(gpu),
-        &bits(mirror),
+        &decode(gpu),
+        &decode(mirror),
         a.as_deref(),
-        Tolerance::Exact,
+        tolerance,
         indexing,
     )
 }
@@ -455,15 +467,7 @@ pub fn compare_halves(
     tolerance: Tolerance,
     indexing: Indexing,
 ) -> Comparison {
-    let a = alt.map(unpack_halves);
-    compare_f32(
-        meta,
-        &unpack_halves(gpu),
-        &unpack_halves(mirror),
-        a.as_deref(),
-        tolerance,
-        indexing,
-    )
+    compare_words(meta, [gpu, mirror], alt, unpack_halves, tolerance, indexing)
 }
 
 #[cfg(test)]

@@ -13,7 +13,6 @@ use crate::trace::SceneData;
 use anyhow::Context;
 use vxgi_cpu_mirror::cone_trace::ConeParams;
 use vxgi_cpu_mirror::lrsm_cone_trace::{soft_direct, LrsmVolume, ShadowParams};
-use vxgi_cpu_mirror::lrsm_prefilter::{pack_stream, unpack_stream};
 use vxgi_cpu_mirror::reflective_shadow_map::GpuView;
 use vxgi_cpu_mirror::sample_lrsm::{Lrsm, SampleParams};
 use vxgi_harness::prelude::*;
@@ -186,7 +185,7 @@ pub fn lrsm_on_gpu(
         &pcase.passes,
         &["out_radiance", "out_normal", "out_moments"],
     )?;
-    let f4 = |b: &HostBuffer| unpack_stream(bytemuck::cast_slice(&b.bytes));
+    let f4 = lrsm_prefilter::values;
     let level0 = [
         f4(out.buffer("out_radiance")),
         f4(out.buffer("out_normal")),
@@ -431,9 +430,7 @@ pub fn case_for(
     seed: u64,
 ) -> Case {
     let f4 = |v: &[[f32; 4]]| HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(v)));
-    let packed = |v: &[[f32; 4]]| {
-        HostResource::Buffer(HostBuffer::u32(bytemuck::cast_slice(&pack_stream(v))))
-    };
+    let packed = |v: &[[f32; 4]]| HostResource::Buffer(lrsm_prefilter::stored(v));
     let mixed = |bytes: &[u8]| {
         HostResource::Buffer(HostBuffer {
             bytes: bytes.to_vec(),
@@ -533,7 +530,7 @@ fn frame_of(data: &Resources, params: &ConeParams) -> LrsmFrame {
         params: sp,
         depth_ranges: f4("depth_ranges"),
         streams: ["lrsm_radiance", "lrsm_normal", "lrsm_moments"]
-            .map(|n| unpack_stream(bytemuck::cast_slice(&b(n).bytes))),
+            .map(|n| lrsm_prefilter::values(b(n))),
         memory: LrsmMemory::default(),
     }
 }

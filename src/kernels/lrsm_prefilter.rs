@@ -42,6 +42,16 @@ pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
 pub const TEXEL_BYTES: u64 = 8;
 const STREAMS: [&str; 3] = ["radiance", "normal", "moments"];
 
+/// A stream's values as the GPU buffer that stores them (binary16 pairs, lossless for stored values).
+pub fn stored(stream: &[[f32; 4]]) -> HostBuffer {
+    HostBuffer::u32(bytemuck::cast_slice(&pack_stream(stream)))
+}
+
+/// The values a stored stream's buffer holds.
+pub fn values(buffer: &HostBuffer) -> Vec<[f32; 4]> {
+    unpack_stream(bytemuck::cast_slice(&buffer.bytes))
+}
+
 pub fn stream_name(stream: usize, level: u32) -> String {
     format!("{}_{level}", STREAMS[stream])
 }
@@ -108,10 +118,7 @@ pub fn chain_case(
             resource: names[s],
         })
         .collect();
-    let level0 = level0
-        .iter()
-        .map(|d| HostBuffer::u32(bytemuck::cast_slice(&pack_stream(d))))
-        .collect();
+    let level0 = level0.iter().map(|d| stored(d)).collect();
     let indexing = |k: u32| Indexing::Grid {
         dims: [(side >> k).pow(2), layers, 1],
         components: 2,
@@ -158,19 +165,11 @@ impl Kernel for LrsmPrefilter {
     fn mirror(&self, case: &Case, data: &Resources, mode: FloatMode) -> MirrorOutputs {
         let mut out = MirrorOutputs::new();
         for k in chain_levels(case, 3) {
-            let src = |s: usize| -> Vec<[f32; 4]> {
-                unpack_stream(bytemuck::cast_slice(
-                    &data[&stream_name(s, k - 1)].buffer().expect("buffer").bytes,
-                ))
-            };
+            let src = |s: usize| values(data[&stream_name(s, k - 1)].buffer().expect("buffer"));
             let (r, n, m) = (src(0), src(1), src(2));
             let level = reduce_level([&r, &n, &m], mode == FloatMode::FlushToZero);
             for (s, v) in level.iter().enumerate() {
-                let words = pack_stream(v);
-                out.insert(
-                    stream_name(s, k),
-                    HostBuffer::u32(bytemuck::cast_slice(&words)),
-                );
+                out.insert(stream_name(s, k), stored(v));
             }
         }
         out

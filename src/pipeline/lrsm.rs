@@ -353,7 +353,7 @@ pub(crate) fn lrsm_chain(
     let memory = LrsmMemory {
         occlusion: words as u64 * 4,
         rsm: texels as u64 * 36,
-        lrsm: per_view * views.len() as u64 * 3 * lrsm_prefilter::TEXEL_BYTES,
+        lrsm: crate::lrsm::lrsm_bytes(&config) * views.len() as u64,
         views: views.len() as u32,
     };
     let params = cone_trace::cone_params(&vframe, cones);

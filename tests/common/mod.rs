@@ -8,17 +8,17 @@ use vxgi::harness::GpuContext;
 /// long as it makes them from its own thread).
 const DEVICES: usize = 2;
 
-/// Why `ctx` cannot run every declared kernel (the first kernels past a device limit), if it cannot:
-/// e.g. an OpenGL adapter found where no Vulkan driver is installed binds 16 storage buffers a stage
-/// where lrsm's gather binds 20, which would fail a dozen tests with validation errors.
-fn unfit(ctx: &GpuContext) -> Option<String> {
+/// Why `ctx` cannot run every declared kernel (the first kernels past a device limit; `needs` each
+/// kernel's), if it cannot: e.g. an OpenGL adapter found where no Vulkan driver is installed binds 16
+/// storage buffers a stage where lrsm's gather binds 20, which would fail a dozen tests with
+/// validation errors.
+fn unfit(ctx: &GpuContext, needs: &[vxgi::limits::KernelNeeds]) -> Option<String> {
     let limits = ctx.device.limits();
-    let short: Vec<String> = vxgi::kernels::all()
+    let short: Vec<String> = needs
         .iter()
-        .filter_map(|k| {
-            let needs = vxgi::limits::kernel_needs(k.decl()).ok()?;
-            let past = vxgi::limits::exceeded(&needs, &limits);
-            (!past.is_empty()).then(|| format!("{} ({})", k.decl().name, past.join(", ")))
+        .filter_map(|n| {
+            let past = vxgi::limits::exceeded(n, &limits);
+            (!past.is_empty()).then(|| format!("{} ({})", n.kernel, past.join(", ")))
         })
         .take(3)
         .collect();
@@ -43,10 +43,14 @@ pub fn gpu() -> &'static GpuContext {
         static PICK: usize = NEXT.fetch_add(1, Ordering::Relaxed) % DEVICES;
     }
     let all = CONTEXTS.get_or_init(|| {
+        let needs: Vec<_> = vxgi::kernels::all()
+            .iter()
+            .filter_map(|k| vxgi::limits::kernel_needs(k.decl()).ok())
+            .collect();
         (0..DEVICES)
             .map(|_| {
                 let ctx = GpuContext::new().map_err(|e| e.to_string())?;
-                match unfit(&ctx) {
+                match unfit(&ctx, &needs) {
                     Some(why) => Err(why),
                     None => Ok(ctx),
                 }
