@@ -4,14 +4,16 @@
 //!
 //! alpha_i comes from the binary occlusion voxels' mips (the paper's volume coverage, or the surface
 //! coverage of `lrsm_surface_coverage`) or from vct-dense's lit-voxel pyramid (surface coverage of
-//! the voxels' own fragments). L_i comes from the LRSMs (Algorithm 1 and its variants below) or from
-//! that pyramid (`rgb / alpha`: voxel_light's radiance of the voxels in the sample, with exact shadow
+//! the voxels' own fragments). L_i comes from the LRSMs (Algorithm 1 and its variants below), from
+//! the RSM texels themselves without filtering ([`Footprint`]: the most the light views can give), or
+//! from that pyramid (`rgb / alpha`: voxel_light's radiance of the voxels in the sample, with exact shadow
 //! rays, averaged over the voxels' coverage: the radiance of the surface the sample holds, which is
 //! what eq. 1's L_i asks for). Both sources share the voxel grid, the march and the cone set, so a
 //! row differs from another only in the factor it swaps.
 // Negated comparisons as in the kernel, so NaN takes the skip branch.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 use crate::kernels::cone_trace::Pyramids;
+use crate::lrsm::Rsm;
 use glam::{Vec3, Vec4};
 use vxgi_cpu_mirror::cone_trace::{ConeParams, Pyramid, SampleError, Volume};
 use vxgi_cpu_mirror::gaussian_depth_visibility::{normal_cdf, visibility, Cdf, VisibilityParams};
@@ -80,6 +82,33 @@ pub struct Algorithm {
     /// it is more, L is scaled down to alpha_i's. A bound, not a fit: light reflected by more
     /// surface than the sample holds is not in the sample.
     pub capped: bool,
+    /// Sample every depth layer whose core meets the sample's depth window `[zc - rc, zc + rc]`,
+    /// the window clipped to that core, with no decay: eq. 14's sum over every layer, where Algorithm
+    /// 1 samples only the layers whose range holds zc (the paper's shortcut, after layered variance
+    /// shadow maps). A layer's core is its slice `[d, d + 1] / slices` without the overlaps (the
+    /// first and last open-ended), so the cores tile depth and each depth is counted by one layer.
+    pub all_layers: bool,
+    /// Replace the filtered layers by the exact footprint: every RSM texel inside the sample's disc
+    /// in the light's image (the part inside the image; the views' disc shares split the rest).
+    pub exact: Option<Footprint>,
+}
+
+/// What the exact footprint sums over the texels inside the sample's disc whose depth lies in the
+/// sample's window `|z - zc| <= rc`, divided by the disc's texels.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Footprint {
+    /// Their radiance, N only culling: what Algorithm 1's `sum f A R V N` estimates by filtered
+    /// layers and a Gaussian depth test.
+    Radiance,
+    /// Their radiance times `<n, vc> / <n, l>`: each texel's lit surface, its area per unit of
+    /// the light's image `1 / <n, l>` (eq. 3's Jacobian, per texel), projected along the cone, over
+    /// the cone's cross-section (the disc). eq. 1's premultiplied `alpha_i L_i` of the lit surface
+    /// in the sample, exact up to the RSM's resolution.
+    Surface,
+    /// Their radiance times `1 / <n, l>`, N only culling: the lit surface's radiance times its
+    /// area over the cone's cross-section, unprojected, as an isotropic voxel's coverage is (the
+    /// occlusion alpha that composites it is the same isotropic coverage).
+    Area,
 }
 
 /// One row of the diagnostic: a frame's two sources.
@@ -92,14 +121,22 @@ pub struct Swap {
 /// The volume the diagnostic frame marches: alpha and L each from its [`Swap`] source.
 pub struct FactorVolume<'a> {
     pub lrsm: &'a LrsmVolume<'a>,
+    /// Each light view's RSM, in the views' order (read by [`Algorithm::exact`] alone).
+    pub rsms: &'a [Rsm],
     pub voxels: Pyramid<'a>,
     pub swap: Swap,
 }
 
 impl<'a> FactorVolume<'a> {
-    pub fn new(lrsm: &'a LrsmVolume<'a>, pyramids: &'a Pyramids, swap: Swap) -> Self {
+    pub fn new(
+        lrsm: &'a LrsmVolume<'a>,
+        rsms: &'a [Rsm],
+        pyramids: &'a Pyramids,
+        swap: Swap,
+    ) -> Self {
         Self {
             lrsm,
+            rsms,
             voxels: Pyramid {
                 p: lrsm.p,
                 voxels: &pyramids.colour,
@@ -121,7 +158,7 @@ impl<'a> FactorVolume<'a> {
                 }
             }
             Radiance::Lrsm(a) if a.is_kernel() => (self.lrsm.radiance(x, diam, d).0, 0.0),
-            Radiance::Lrsm(a) => lrsm_radiance(self.lrsm, x, diam, d, a),
+            Radiance::Lrsm(a) => lrsm_radiance(self.lrsm, self.rsms, x, diam, d, a),
         }
     }
 }
@@ -170,10 +207,18 @@ impl Volume for FactorVolume<'_> {
 }
 
 /// lrsm_cone_trace's per-sample radiance (every view's disc share times its Sample LRSM) with
-/// Algorithm 1 changed as `a` says; no error bound (a diagnostic, not a mirror).
-pub fn lrsm_radiance(vol: &LrsmVolume, x: Vec3, diam: f32, d: Vec3, a: Algorithm) -> (Vec3, f32) {
+/// Algorithm 1 changed as `a` says (`rsms`: each view's RSM, for `a.exact`); no error bound (a
+/// diagnostic, not a mirror).
+pub fn lrsm_radiance(
+    vol: &LrsmVolume,
+    rsms: &[Rsm],
+    x: Vec3,
+    diam: f32,
+    d: Vec3,
+    a: Algorithm,
+) -> (Vec3, f32) {
     let (mut sum, mut lit) = (Vec3::ZERO, 0.0);
-    for v in vol.views {
+    for (k, v) in vol.views.iter().enumerate() {
         let Some((nx, ny, zv)) = v.project(x) else {
             continue;
         };
@@ -208,7 +253,10 @@ pub fn lrsm_radiance(vol: &LrsmVolume, x: Vec3, diam: f32, d: Vec3, a: Algorithm
         } else {
             (eye - x).normalize()
         };
-        let (r, c) = sample(&lrsm, vol.sp, pos, -d, rc, l, a);
+        let (r, c) = match a.exact {
+            Some(f) => exact(&rsms[k], pos, texels, -d, rc, f),
+            None => sample(&lrsm, vol.sp, pos, -d, rc, l, a),
+        };
         sum += r * w;
         lit += c * w;
     }
@@ -240,9 +288,17 @@ fn sample(
     let (mut jnum, mut jden, mut hit) = (Vec3::ZERO, 0.0f32, 0.0f32);
     for d in 0..p.depth_slices {
         let range = lrsm.depth_ranges[d as usize];
-        if !(zc >= range[0] && zc <= range[1]) {
-            continue;
-        }
+        let (zc, rc) = if a.all_layers {
+            match core_window(d, p.depth_slices, zc, rc) {
+                Some(w) => w,
+                None => continue,
+            }
+        } else {
+            if !(zc >= range[0] && zc <= range[1]) {
+                continue;
+            }
+            (zc, rc)
+        };
         for j in 0..p.normal_slices {
             let layer = d * p.normal_slices + j;
             let nm = fetch(lrsm.normal, &taps, layer, false);
@@ -264,7 +320,11 @@ fn sample(
             if !(vis > 0.0) && !a.front_shadowed {
                 continue;
             }
-            let decay = layer_decay(zc, range[0], range[1], p.overlap, false);
+            let decay = if a.all_layers {
+                1.0
+            } else {
+                layer_decay(zc, range[0], range[1], p.overlap, false)
+            };
             // N's factor: the paper's weight, or the kernel's cull ramp.
             let n_w = if a.view_weight {
                 big_n
@@ -301,6 +361,76 @@ fn sample(
     }
 }
 
+/// The part of the depth window `[zc - rc, zc + rc]` inside depth slice `d`'s core (`[d, d + 1] /
+/// slices` without the overlaps, the first and last open-ended), as (centre, radius); None where
+/// they do not meet. The cores tile depth, so the parts of a window over every slice tile it.
+pub fn core_window(d: u32, slices: u32, zc: f32, rc: f32) -> Option<(f32, f32)> {
+    let n = slices as f32;
+    let core_lo = if d == 0 {
+        f32::NEG_INFINITY
+    } else {
+        d as f32 / n
+    };
+    let core_hi = if d + 1 == slices {
+        f32::INFINITY
+    } else {
+        (d + 1) as f32 / n
+    };
+    let (lo, hi) = ((zc - rc).max(core_lo), (zc + rc).min(core_hi));
+    (hi > lo).then_some((0.5 * (lo + hi), 0.5 * (hi - lo)))
+}
+
+/// The exact footprint at `pos = (u, v, mip, zc)`: the RSM texels whose centres lie within the
+/// disc of diameter `texels` (level-0 LRSM texels, so its radius in RSM texels) around (u, v),
+/// summed as `f` says over those in the window `|z - zc| <= rc` and facing `vc`, over the disc's
+/// texels inside the image. Returns (L, the share of the disc they cover with the same weights).
+fn exact(rsm: &Rsm, pos: [f32; 4], texels: f32, vc: Vec3, rc: f32, f: Footprint) -> (Vec3, f32) {
+    let side = rsm.side as i64;
+    let [u, v, _, zc] = pos;
+    // At least the texel under the centre.
+    let rad = texels.max(0.5);
+    let (cx, cy) = (u * side as f32, v * side as f32);
+    let span = |c: f32| {
+        (
+            ((c - rad).floor() as i64).max(0),
+            ((c + rad).ceil() as i64).min(side - 1),
+        )
+    };
+    let ((x0, x1), (y0, y1)) = (span(cx), span(cy));
+    let (mut sum, mut lit, mut count) = (Vec3::ZERO, 0.0f32, 0u32);
+    for y in y0..=y1 {
+        for x in x0..=x1 {
+            let (dx, dy) = (x as f32 + 0.5 - cx, y as f32 + 0.5 - cy);
+            if dx * dx + dy * dy > rad * rad {
+                continue;
+            }
+            count += 1;
+            let m = vxgi_cpu_mirror::morton::encode2(x as u32, y as u32) as usize;
+            let r = rsm.radiance[m];
+            if !(r[3] > 0.5 && (rsm.depth[m] - zc).abs() <= rc) {
+                continue;
+            }
+            let n = rsm.normal[m];
+            let big_n = Vec3::new(n[0], n[1], n[2]).dot(vc);
+            if !(big_n > 0.0) {
+                continue;
+            }
+            let w = match f {
+                Footprint::Radiance => (big_n / CULL_RAMP).min(1.0),
+                // <n, l> as the RSM stores it; 1e-3 bounds a texel seen edge-on from the light.
+                Footprint::Surface => big_n / n[3].max(1e-3),
+                Footprint::Area => (big_n / CULL_RAMP).min(1.0) / n[3].max(1e-3),
+            };
+            sum += Vec3::new(r[0], r[1], r[2]) * w;
+            lit += w;
+        }
+    }
+    if count == 0 {
+        return (Vec3::ZERO, 0.0);
+    }
+    (sum / count as f32, lit / count as f32)
+}
+
 fn cdf_of(p: &SampleParams) -> Cdf {
     if p.cdf == 1 {
         Cdf::AS7127
@@ -320,6 +450,8 @@ impl Algorithm {
         jacobian: false,
         area: false,
         capped: false,
+        all_layers: false,
+        exact: None,
     };
 
     /// Whether the kernel computes this L (its mirror, `lrsm_cone_trace`'s, gives it); the
@@ -470,5 +602,136 @@ pub fn rows() -> Vec<(&'static str, Swap)> {
                 }),
             ),
         ),
+        (
+            "the default, every layer the sample's depth window meets (eq. 14's sum)",
+            s(
+                Surface,
+                lrsm(Algorithm {
+                    all_layers: true,
+                    ..default
+                }),
+            ),
+        ),
+        (
+            "exact footprint: the RSM texels in the disc and the depth window, N only culls",
+            s(
+                Surface,
+                lrsm(Algorithm {
+                    exact: Some(Footprint::Radiance),
+                    ..default
+                }),
+            ),
+        ),
+        (
+            "exact footprint, premultiplied: their lit surface <n, vc> / <n, l>",
+            s(
+                Surface,
+                lrsm(Algorithm {
+                    exact: Some(Footprint::Surface),
+                    premultiplied: true,
+                    view_weight: true,
+                    ..default
+                }),
+            ),
+        ),
+        (
+            "exact footprint, premultiplied: their lit surface 1 / <n, l>, N only culls",
+            s(
+                Surface,
+                lrsm(Algorithm {
+                    exact: Some(Footprint::Area),
+                    premultiplied: true,
+                    ..default
+                }),
+            ),
+        ),
+        (
+            "exact footprint, premultiplied, 1 / <n, l>, N only culls, lit coverage at most alpha",
+            s(
+                Surface,
+                lrsm(Algorithm {
+                    exact: Some(Footprint::Area),
+                    premultiplied: true,
+                    capped: true,
+                    ..default
+                }),
+            ),
+        ),
     ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_cores_tile_every_window() {
+        for slices in [1, 2, 3, 8] {
+            for (zc, rc) in [
+                (0.5, 0.01),
+                (0.49, 0.3),
+                (-0.2, 0.5),
+                (0.9, 2.0),
+                (0.25, 0.25),
+            ] {
+                let parts: Vec<(f32, f32)> = (0..slices)
+                    .filter_map(|d| core_window(d, slices, zc, rc))
+                    .collect();
+                let width: f32 = parts.iter().map(|p| 2.0 * p.1).sum();
+                assert!(
+                    (width - 2.0 * rc).abs() < 1e-5,
+                    "{slices} {zc} {rc}: {parts:?}"
+                );
+                for p in &parts {
+                    assert!(p.0 - p.1 >= zc - rc - 1e-6 && p.0 + p.1 <= zc + rc + 1e-6);
+                }
+            }
+        }
+        assert_eq!(core_window(1, 2, 0.2, 0.1), None);
+    }
+
+    /// An RSM of side 8 whose texels all face the cone at <n, l> = 1/2, at depth 0.5 with radiance
+    /// 1, except the right half, at depth 0.9.
+    fn rsm() -> Rsm {
+        let side = 8u32;
+        let (mut radiance, mut normal, mut depth) = (vec![], vec![], vec![]);
+        for m in 0..side * side {
+            let [x, _] = vxgi_cpu_mirror::morton::decode2(m);
+            radiance.push([1.0, 1.0, 1.0, 1.0]);
+            normal.push([0.0, 0.0, 1.0, 0.5]);
+            depth.push(if x < side / 2 { 0.5 } else { 0.9 });
+        }
+        Rsm {
+            side,
+            radiance,
+            normal,
+            depth,
+        }
+    }
+
+    #[test]
+    fn the_exact_footprint_counts_the_texels_in_the_disc_and_the_window() {
+        let rsm = rsm();
+        let vc = Vec3::Z;
+        // A disc of radius 1.5 texels inside the left half: every texel counts.
+        let pos = [2.0 / 8.0, 4.0 / 8.0, 0.0, 0.5];
+        let (l, lit) = exact(&rsm, pos, 1.5, vc, 0.05, Footprint::Radiance);
+        assert_eq!((l, lit), (Vec3::ONE, 1.0));
+        // Premultiplied surface: <n, vc> / <n, l> = 2 per texel.
+        let (l, _) = exact(&rsm, pos, 1.5, vc, 0.05, Footprint::Surface);
+        assert_eq!(l, Vec3::splat(2.0));
+        // Centred on the halves' edge: half the disc's texels lie at 0.9, outside the window.
+        let (l, lit) = exact(
+            &rsm,
+            [0.5, 0.5, 0.0, 0.5],
+            2.0,
+            vc,
+            0.05,
+            Footprint::Radiance,
+        );
+        assert_eq!((l, lit), (Vec3::splat(0.5), 0.5));
+        // Seen from behind: nothing.
+        let (l, _) = exact(&rsm, pos, 1.5, -vc, 0.05, Footprint::Radiance);
+        assert_eq!(l, Vec3::ZERO);
+    }
 }

@@ -1130,7 +1130,20 @@ pub fn render_lrsm_factors(
     let params = cone_trace::cone_params(&built.voxels, cones);
     let vol = built.volume(&params);
     let pyramids = f.pyramid.as_ref().expect("the pyramid");
-    let factors = crate::lrsm_factors::FactorVolume::new(&vol, pyramids, swap);
+    // The exact footprint's rows read each light view's RSM, as the frame's views made them.
+    let rsms = match swap.radiance {
+        Radiance::Lrsm(a) if a.exact.is_some() => crate::lrsm::light_views(
+            &f.data.lights,
+            f.data.bounds,
+            f.scene.render.rsm_side,
+            f.data.frame.eye[3],
+        )?
+        .iter()
+        .map(|v| crate::kernels::reflective_shadow_map::rsm_mirror(&f.data, v))
+        .collect(),
+        _ => Vec::new(),
+    };
+    let factors = crate::lrsm_factors::FactorVolume::new(&vol, &rsms, pyramids, swap);
     let out = f.shade(&factors, vol.lmax);
     f.cones_out = Some(out);
     Ok(f.rendered())

@@ -310,23 +310,7 @@ impl LrsmFrame {
             v.view.info[2] = streams[0].len() as u32;
             let rsm = match on_gpu("reflective_shadow_map") {
                 Some(ctx) => rsm_on_gpu(ctx, data, v).context("reflective shadow map")?,
-                None => {
-                    let [pos, nrm, alb] =
-                        super::reflective_shadow_map::view_gbuffer_mirror(data, v);
-                    let r = vxgi_cpu_mirror::reflective_shadow_map::rsm(
-                        &v.view,
-                        &data.lights,
-                        &pos,
-                        &nrm,
-                        &alb,
-                    );
-                    Rsm {
-                        side: settings.rsm_side,
-                        radiance: r.radiance,
-                        normal: r.normal,
-                        depth: r.depth,
-                    }
-                }
+                None => super::reflective_shadow_map::rsm_mirror(data, v),
             };
             let p = std::time::Instant::now();
             let s = match on_gpu("lrsm_partition") {

@@ -145,6 +145,18 @@ pub fn view_gbuffer_mirror_triangles(
     )
 }
 
+/// The RSM of `view` by the mirrors: G-buffer ray-cast from the light, then this kernel's mirror.
+pub fn rsm_mirror(data: &SceneData, view: &LightView) -> Rsm {
+    let [pos, nrm, alb] = view_gbuffer_mirror(data, view);
+    let r = vxgi_cpu_mirror::reflective_shadow_map::rsm(&view.view, &data.lights, &pos, &nrm, &alb);
+    Rsm {
+        side: view.view.info[0],
+        radiance: r.radiance,
+        normal: r.normal,
+        depth: r.depth,
+    }
+}
+
 /// The RSM of `view` on the GPU: G-buffer from the view, then this kernel.
 pub fn rsm_on_gpu(ctx: &GpuContext, data: &SceneData, view: &LightView) -> anyhow::Result<Rsm> {
     let gb = view_gbuffer(ctx, data, view);
