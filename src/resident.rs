@@ -1192,6 +1192,8 @@ fn stage_memory(
 fn written(chain: &Chain, range: std::ops::Range<usize>) -> Vec<String> {
     use crate::harness::{BindingKind, View};
     let mut out: Vec<String> = Vec::new();
+    // Membership by hash: a chain of thousands of hierarchies writes tens of thousands of buffers.
+    let mut seen: std::collections::HashSet<&str> = std::collections::HashSet::new();
     let mut at = 0;
     for st in &chain.stages {
         for pass in &st.passes {
@@ -1214,7 +1216,7 @@ fn written(chain: &Chain, range: std::ops::Range<usize>) -> Vec<String> {
                     continue;
                 };
                 let buffer = matches!(chain.resources.get(name), Some(HostResource::Buffer(_)));
-                if writable && buffer && !out.contains(name) {
+                if writable && buffer && seen.insert(name.as_str()) {
                     out.push(name.clone());
                 }
             }

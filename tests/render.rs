@@ -2217,3 +2217,46 @@ fn vct_svo_lit_in_the_chain_is_the_staged_frame() {
         assert!(staged.indirect == got.indirect, "{at}: indirect differs");
     }
 }
+
+/// Passes that are not timed share one compute pass (wgpu barriers each dispatch; a chain of
+/// thousands of instances has too many passes to time, and a compute pass each would cost time
+/// quadratic in its size): on a context without timestamp queries every pipeline draws, bit for bit,
+/// what it draws with a compute pass per timed pass, on the Cornell box and on scenes/instances.toml
+/// (vct-dense's hierarchies).
+#[test]
+fn untimed_passes_in_one_compute_pass_draw_the_same_frames() {
+    use vxgi::resident::Resident;
+    let mut untimed = vxgi::harness::GpuContext::new().unwrap();
+    untimed.timestamps = false;
+    let mut cornell = small(Scene::cornell_box(), 24, 24);
+    cornell.render.voxels = 16;
+    cornell.render.rsm_side = 32;
+    let mut instances = small(
+        Scene::load(Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/instances.toml")).unwrap(),
+        24,
+        24,
+    );
+    instances.render.voxels = 32;
+    let cases = Resident::PIPELINES
+        .into_iter()
+        .map(|p| (p, &cornell))
+        .chain([(vxgi::render::Pipeline::VctDense, &instances)]);
+    for (p, scene) in cases {
+        let cones = vxgi::kernels::cone_trace::ConeSettings::from(&scene.render);
+        let draw = |ctx| {
+            Resident::new(ctx, p)
+                .unwrap()
+                .render(scene, &cones)
+                .unwrap()
+        };
+        let (timed, shared) = (draw(gpu()), draw(&untimed));
+        for (name, a, b) in [
+            ("direct", &timed.direct, &shared.direct),
+            ("indirect", &timed.indirect, &shared.indirect),
+            ("ao", &timed.ao, &shared.ao),
+        ] {
+            assert!(a == b, "{}: {name} differs with one compute pass", p.name());
+        }
+        assert!(timed.indirect.pixels.iter().flatten().any(|&v| v > 0.0));
+    }
+}

@@ -1209,22 +1209,14 @@ impl Prepared<'_> {
     }
 
     /// Record the passes `range` into `encoder`, with the timestamp writes of those passes where the
-    /// adapter has timestamps ([`Prepared::encode_read`] resolves them).
+    /// adapter has timestamps ([`Prepared::encode_read`] resolves them). Timed passes are one compute
+    /// pass each (a timestamp pair brackets a compute pass); untimed ones share one compute pass.
+    /// wgpu still tracks each dispatch's usage and puts a barrier between dispatches that need one,
+    /// and opening a compute pass costs time in the number of the device's buffers, so a chain of
+    /// thousands of passes (a scene of thousands of instances, too many to time) recorded one pass
+    /// each would cost time quadratic in its size.
     pub fn encode_steps(&self, encoder: &mut wgpu::CommandEncoder, range: std::ops::Range<usize>) {
-        for pi in range {
-            let step = &self.steps[pi];
-            let timestamp_writes =
-                self.queries
-                    .as_ref()
-                    .map(|(set, _, _)| wgpu::ComputePassTimestampWrites {
-                        query_set: set,
-                        beginning_of_pass_write_index: Some(pi as u32 * 2),
-                        end_of_pass_write_index: Some(pi as u32 * 2 + 1),
-                    });
-            let mut cpass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some(&step.label),
-                timestamp_writes,
-            });
+        let record = |cpass: &mut wgpu::ComputePass<'_>, step: &Step| {
             cpass.set_pipeline(&step.pipeline);
             for (g, bg) in &step.bind_groups {
                 cpass.set_bind_group(*g, bg, &[]);
@@ -1238,6 +1230,30 @@ impl Prepared<'_> {
                     cpass.dispatch_workgroups_indirect(buf, *offset);
                 }
             }
+        };
+        let Some((set, _, _)) = &self.queries else {
+            if !range.is_empty() {
+                let mut cpass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some(&self.steps[range.start].label),
+                    timestamp_writes: None,
+                });
+                for step in &self.steps[range] {
+                    record(&mut cpass, step);
+                }
+            }
+            return;
+        };
+        for pi in range {
+            let step = &self.steps[pi];
+            let mut cpass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some(&step.label),
+                timestamp_writes: Some(wgpu::ComputePassTimestampWrites {
+                    query_set: set,
+                    beginning_of_pass_write_index: Some(pi as u32 * 2),
+                    end_of_pass_write_index: Some(pi as u32 * 2 + 1),
+                }),
+            });
+            record(&mut cpass, step);
         }
     }
 
