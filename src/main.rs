@@ -584,6 +584,8 @@ fn run_render(
     };
     let mut rows = Vec::new();
     let mut last_memory: Option<Vec<(&str, u64)>> = None;
+    // Whether every frame's chain was timed by timestamp queries.
+    let mut timed = true;
     for k in 0..frames {
         let dir = if frames == 1 {
             out.clone()
@@ -654,15 +656,22 @@ fn run_render(
             "wrote direct, indirect, combined, ao (.exr + .png) to {}",
             dir.display()
         );
-        println!(
-            "stages (GPU time{}): {}",
-            if pipeline == Pipeline::VctSvo && !vxgi::pipeline::builds_in_chain(&scene) {
-                "; the octree build by wall clock"
-            } else {
-                ""
-            },
-            stages.join(", ")
-        );
+        if stages.is_empty() {
+            timed = false;
+            println!(
+                "stages: not timed (the frame's chain has more passes than a timestamp query set holds, or the adapter has no timestamps)"
+            );
+        } else {
+            println!(
+                "stages (GPU time{}): {}",
+                if pipeline == Pipeline::VctSvo && !vxgi::pipeline::builds_in_chain(&scene) {
+                    "; the octree build by wall clock"
+                } else {
+                    ""
+                },
+                stages.join(", ")
+            );
+        }
         let vox_seconds = r.stages.iter().find(|(n, _)| *n == "voxelize");
         if let (Some((tris, samples)), Some((_, secs))) = (vox_work, vox_seconds) {
             println!(
@@ -689,7 +698,7 @@ fn run_render(
     println!(
         "{} ({} timing; per frame in {})",
         vxgi::frames::summary(&rows),
-        if ctx.timestamps {
+        if ctx.timestamps && timed {
             "GPU: timestamp queries"
         } else {
             "GPU: wall clock around submit and wait"

@@ -774,7 +774,10 @@ impl<'c> Resident<'c> {
         } else {
             b.build_stages.clone()
         };
-        for (name, r) in &b.stages {
+        // A chain with more passes than a query set holds is not timed: its stages report nothing
+        // rather than zero.
+        let untimed = pass_ns.is_empty();
+        for (name, r) in b.stages.iter().filter(|_| !untimed) {
             // Stages outside this frame's passes, and those without passes (cprc's chain keeps
             // vct-dense's empty cone stages), report no time.
             if r.is_empty() || r.start < timed.start || r.end > timed.end {
