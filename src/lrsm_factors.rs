@@ -4,7 +4,8 @@
 //!
 //! alpha_i comes from the binary occlusion voxels' mips (the paper's volume coverage, or the surface
 //! coverage of `lrsm_surface_coverage`) or from vct-dense's lit-voxel pyramid (surface coverage of
-//! the voxels' own fragments). L_i comes from the LRSMs (Algorithm 1 and its variants below), from
+//! the voxels' own fragments). L_i comes from the LRSMs (Algorithm 1 and its variants below, on
+//! the pipeline's LRSMs or on area-weighted ones, [`area_lrsm`]), from
 //! the RSM texels themselves without filtering ([`Footprint`]: the most the light views can give), or
 //! from that pyramid (`rgb / alpha`: voxel_light's radiance of the voxels in the sample, with exact shadow
 //! rays, averaged over the voxels' coverage: the radiance of the surface the sample holds, which is
@@ -91,6 +92,12 @@ pub struct Algorithm {
     /// Replace the filtered layers by the exact footprint: every RSM texel inside the sample's disc
     /// in the light's image (the part inside the image; the views' disc shares split the rest).
     pub exact: Option<Footprint>,
+    /// Read the LRSMs partitioned with per-texel area weights ([`area_lrsm`]: every stream's texel
+    /// weighs `1 / <n, l>`, eq. 3's Jacobian before filtering) instead of the pipeline's.
+    pub area_lrsm: bool,
+    /// Fetch one level finer than `log2` of the disc's diameter in texels: the trilinear fetch's
+    /// 2 x 2 taps then span about the disc, where at the default level they span about twice it.
+    pub finer: bool,
 }
 
 /// What the exact footprint sums over the texels inside the sample's disc whose depth lies in the
@@ -123,6 +130,9 @@ pub struct FactorVolume<'a> {
     pub lrsm: &'a LrsmVolume<'a>,
     /// Each light view's RSM, in the views' order (read by [`Algorithm::exact`] alone).
     pub rsms: &'a [Rsm],
+    /// Every view's [`area_lrsm`], laid out as the pipeline's LRSMs (read by
+    /// [`Algorithm::area_lrsm`] alone).
+    pub area: &'a [Vec<[f32; 4]>; 3],
     pub voxels: Pyramid<'a>,
     pub swap: Swap,
 }
@@ -131,12 +141,14 @@ impl<'a> FactorVolume<'a> {
     pub fn new(
         lrsm: &'a LrsmVolume<'a>,
         rsms: &'a [Rsm],
+        area: &'a [Vec<[f32; 4]>; 3],
         pyramids: &'a Pyramids,
         swap: Swap,
     ) -> Self {
         Self {
             lrsm,
             rsms,
+            area,
             voxels: Pyramid {
                 p: lrsm.p,
                 voxels: &pyramids.colour,
@@ -158,7 +170,7 @@ impl<'a> FactorVolume<'a> {
                 }
             }
             Radiance::Lrsm(a) if a.is_kernel() => (self.lrsm.radiance(x, diam, d).0, 0.0),
-            Radiance::Lrsm(a) => lrsm_radiance(self.lrsm, self.rsms, x, diam, d, a),
+            Radiance::Lrsm(a) => lrsm_radiance(self.lrsm, (self.rsms, self.area), x, diam, d, a),
         }
     }
 }
@@ -207,11 +219,11 @@ impl Volume for FactorVolume<'_> {
 }
 
 /// lrsm_cone_trace's per-sample radiance (every view's disc share times its Sample LRSM) with
-/// Algorithm 1 changed as `a` says (`rsms`: each view's RSM, for `a.exact`); no error bound (a
-/// diagnostic, not a mirror).
+/// Algorithm 1 changed as `a` says (`rsms`: each view's RSM, for `a.exact`; `area`: the views'
+/// [`area_lrsm`]s, for `a.area_lrsm`); no error bound (a diagnostic, not a mirror).
 pub fn lrsm_radiance(
     vol: &LrsmVolume,
-    rsms: &[Rsm],
+    (rsms, area): (&[Rsm], &[Vec<[f32; 4]>; 3]),
     x: Vec3,
     diam: f32,
     d: Vec3,
@@ -233,17 +245,26 @@ pub fn lrsm_radiance(
             continue;
         }
         let base = v.info[2] as usize;
-        let lrsm = Lrsm {
-            depth_ranges: vol.lrsm.depth_ranges,
-            radiance: &vol.lrsm.radiance[base..],
-            normal: &vol.lrsm.normal[base..],
-            moments: &vol.lrsm.moments[base..],
+        let lrsm = if a.area_lrsm {
+            Lrsm {
+                depth_ranges: vol.lrsm.depth_ranges,
+                radiance: &area[0][base..],
+                normal: &area[1][base..],
+                moments: &area[2][base..],
+            }
+        } else {
+            Lrsm {
+                depth_ranges: vol.lrsm.depth_ranges,
+                radiance: &vol.lrsm.radiance[base..],
+                normal: &vol.lrsm.normal[base..],
+                moments: &vol.lrsm.moments[base..],
+            }
         };
         let (cx, cy) = (nx.clamp(-1.0, 1.0), ny.clamp(-1.0, 1.0));
         let pos = [
             (cx + 1.0) * 0.5,
             (1.0 - cy) * 0.5,
-            texels.log2(),
+            texels.log2() - if a.finer { 1.0 } else { 0.0 },
             (zv - v.eye[3]) * v.forward[3],
         ];
         let rc = 0.5 * diam * v.forward[3];
@@ -361,6 +382,53 @@ fn sample(
     }
 }
 
+/// The LRSM of `rsm` (every level, as `lrsm_partition` and `lrsm_prefilter` lay it out) with
+/// each member texel of a quad weighing `1 / <n, l>` (<n, l> as the RSM stores it, at least 1e-3):
+/// the area of surface it stands for per unit of the light's image, so that the filtered streams
+/// are area-weighted means (radiance `sum a R / 4` with `sum a / 4` in w, normal and moments the
+/// same) rather than means over the light's image. Stored as binary16 as the pipeline's.
+pub fn area_lrsm(rsm: &Rsm, config: &crate::lrsm::PartitionConfig) -> [Vec<[f32; 4]>; 3] {
+    use vxgi_cpu_mirror::lrsm_partition::normal_slice;
+    use vxgi_cpu_mirror::lrsm_prefilter::{quantize, reduce_level};
+    let ranges = config.depth_ranges();
+    let slices = config.normal_slices();
+    let texels = config.layer_texels() as usize;
+    let mut level: [Vec<[f32; 4]>; 3] = Default::default();
+    for layer in 0..config.layers() {
+        let range = ranges[(layer / slices) as usize];
+        for quad in 0..texels {
+            let mut sums = [Vec4::ZERO; 3];
+            for t in 4 * quad..4 * quad + 4 {
+                let (z, c) = (rsm.depth[t], rsm.normal[t][3]);
+                let member = rsm.radiance[t][3] > 0.5
+                    && normal_slice(c, slices) == layer % slices
+                    && z >= range[0]
+                    && z <= range[1];
+                if !member {
+                    continue;
+                }
+                let a = 1.0 / c.max(1e-3);
+                let zw = (z - range[0]) * range[2];
+                let (r, n) = (rsm.radiance[t], rsm.normal[t]);
+                sums[0] += Vec4::new(r[0], r[1], r[2], 1.0) * a;
+                sums[1] += Vec4::new(n[0], n[1], n[2], 1.0) * a;
+                sums[2] += Vec4::new(zw, zw * zw, 1.0, 0.0) * a;
+            }
+            for (out, sum) in level.iter_mut().zip(sums) {
+                out.push(quantize((sum * 0.25).into()));
+            }
+        }
+    }
+    let mut streams = level.clone();
+    for _ in 1..(config.rsm_side / 2).trailing_zeros() + 1 {
+        level = reduce_level([&level[0], &level[1], &level[2]], false);
+        for (s, l) in streams.iter_mut().zip(&level) {
+            s.extend_from_slice(l);
+        }
+    }
+    streams
+}
+
 /// The part of the depth window `[zc - rc, zc + rc]` inside depth slice `d`'s core (`[d, d + 1] /
 /// slices` without the overlaps, the first and last open-ended), as (centre, radius); None where
 /// they do not meet. The cores tile depth, so the parts of a window over every slice tile it.
@@ -452,6 +520,8 @@ impl Algorithm {
         capped: false,
         all_layers: false,
         exact: None,
+        area_lrsm: false,
+        finer: false,
     };
 
     /// Whether the kernel computes this L (its mirror, `lrsm_cone_trace`'s, gives it); the
@@ -657,6 +727,41 @@ pub fn rows() -> Vec<(&'static str, Swap)> {
                 }),
             ),
         ),
+        (
+            "area-weighted LRSM, premultiplied, N weighs L",
+            s(
+                Surface,
+                lrsm(Algorithm {
+                    area_lrsm: true,
+                    premultiplied: true,
+                    view_weight: true,
+                    ..default
+                }),
+            ),
+        ),
+        (
+            "area-weighted LRSM, premultiplied, N weighs L, fetched one level finer",
+            s(
+                Surface,
+                lrsm(Algorithm {
+                    area_lrsm: true,
+                    premultiplied: true,
+                    view_weight: true,
+                    finer: true,
+                    ..default
+                }),
+            ),
+        ),
+        (
+            "the default fetched one level finer",
+            s(
+                Surface,
+                lrsm(Algorithm {
+                    finer: true,
+                    ..default
+                }),
+            ),
+        ),
     ]
 }
 
@@ -707,6 +812,31 @@ mod tests {
             normal,
             depth,
         }
+    }
+
+    /// Where every texel has the same <n, l> = c, the area-weighted LRSM is the pipeline's times
+    /// 1 / c in every stream and level (c = 1/2: a power of two, exact in binary16).
+    #[test]
+    fn an_area_weighted_lrsm_of_equal_cosines_is_the_plain_one_scaled() {
+        let config = crate::lrsm::PartitionConfig {
+            rsm_side: 16,
+            depth_splits: 1,
+            normal_splits: 1,
+            overlap: 0.05,
+        };
+        let mut rsm = crate::lrsm::synthetic_rsm(16, &config, 7);
+        for n in &mut rsm.normal {
+            n[3] = 0.5;
+        }
+        let plain = crate::kernels::sample_lrsm::lrsm_mirror(&rsm, &config);
+        let area = area_lrsm(&rsm, &config);
+        for (p, a) in plain.iter().zip(&area) {
+            assert_eq!(p.len(), a.len());
+            for (x, y) in p.iter().zip(a) {
+                assert_eq!(x.map(|v| v * 2.0), *y);
+            }
+        }
+        assert!(plain[0].iter().any(|t| t[3] > 0.0));
     }
 
     #[test]

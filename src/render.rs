@@ -1130,9 +1130,10 @@ pub fn render_lrsm_factors(
     let params = cone_trace::cone_params(&built.voxels, cones);
     let vol = built.volume(&params);
     let pyramids = f.pyramid.as_ref().expect("the pyramid");
-    // The exact footprint's rows read each light view's RSM, as the frame's views made them.
-    let rsms = match swap.radiance {
-        Radiance::Lrsm(a) if a.exact.is_some() => crate::lrsm::light_views(
+    // The exact footprint's and the area-weighted LRSM's rows read each light view's RSM, as the
+    // frame's views made them.
+    let rsms: Vec<crate::lrsm::Rsm> = match swap.radiance {
+        Radiance::Lrsm(a) if a.exact.is_some() || a.area_lrsm => crate::lrsm::light_views(
             &f.data.lights,
             f.data.bounds,
             f.scene.render.rsm_side,
@@ -1143,7 +1144,20 @@ pub fn render_lrsm_factors(
         .collect(),
         _ => Vec::new(),
     };
-    let factors = crate::lrsm_factors::FactorVolume::new(&vol, &rsms, pyramids, swap);
+    let mut area: [Vec<[f32; 4]>; 3] = Default::default();
+    if matches!(swap.radiance, Radiance::Lrsm(a) if a.area_lrsm) {
+        let config =
+            crate::kernels::lrsm_cone_trace::LrsmSettings::from(&f.scene.render).partition();
+        for rsm in &rsms {
+            for (all, view) in area
+                .iter_mut()
+                .zip(crate::lrsm_factors::area_lrsm(rsm, &config))
+            {
+                all.extend(view);
+            }
+        }
+    }
+    let factors = crate::lrsm_factors::FactorVolume::new(&vol, &rsms, &area, pyramids, swap);
     let out = f.shade(&factors, vol.lmax);
     f.cones_out = Some(out);
     Ok(f.rendered())
