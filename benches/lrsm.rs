@@ -47,6 +47,7 @@ fn bench(c: &mut Criterion) {
         depth_splits: 1,
         normal_splits: 1,
         overlap: 0.05,
+        area_weights: false,
     };
     let built = sample_lrsm::build_lrsm(config, 1, 0, false);
     let (pos, dir) = sample_lrsm::cone_samples(&built, 2, 1 << 18);
@@ -177,6 +178,7 @@ fn bench(c: &mut Criterion) {
             depth_splits: a,
             normal_splits: b,
             overlap: 0.05,
+            area_weights: false,
         };
         eprintln!(
             "  {:<12} {:>8} {:>10} {:>12.1} {:>16}",

@@ -24,6 +24,10 @@
 //   centre alone, L jumped at the seams and the image showed bands along them); inside a view, a radius
 //   from its edges, w = 1. The march then reads (L * alpha, alpha): its colour step
 //   C += (1 - A) a' (L alpha) / alpha is eq. 1's alpha_i L_i with cone_march's step correction.
+//   With area-weighted LRSMs (params.area = 1, `lrsm_area_weights`): mip = log2(texels) - 1 (the
+//   trilinear taps then span about the disc, at log2(texels) about twice it), and L is already eq.
+//   1's premultiplied alpha_i L_i (the lit surface in the sample, its area from the light's image,
+//   projected along the cone by N, over the cone's cross-section): the march reads (L, alpha).
 // Shadow cones (entry `shadow`, the option `[render] shadow_cone_angle` > 0; the default direct light is
 // direct_light's exact rays): per G-buffer pixel, direct light as direct_light.wgsl computes it (same
 // incident light, BRDF and cut-offs) with each light's visibility V = 1 - A of one cone of half-angle
@@ -137,11 +141,15 @@ fn sample_cone(x: vec3<f32>, l: f32, diam: f32, d: vec3<f32>, tan_half: f32) -> 
         }
         let cx = clamp(nx, -1.0, 1.0);
         let cy = clamp(ny, -1.0, 1.0);
-        let pos = vec4<f32>((cx + 1.0) * 0.5, (1.0 - cy) * 0.5, log2(texels), (zv - v.eye.w) * v.forward.w);
+        // Area-weighted LRSMs are fetched one level finer: the trilinear taps then span about the disc.
+        let mip = log2(texels) - f32(params.area);
+        let pos = vec4<f32>((cx + 1.0) * 0.5, (1.0 - cy) * 0.5, mip, (zv - v.eye.w) * v.forward.w);
         let dir = vec4<f32>(-d, (0.5 * diam) * v.forward.w);
         lsum += lrsm_sample(pos, dir, v.info.z).xyz * w;
     }
-    return vec4<f32>(lsum * s.w, s.w);
+    // Area-weighted LRSMs give eq. 1's premultiplied alpha_i L_i: the lit surface in the sample
+    // projected along the cone over its cross-section, which alpha must not scale again.
+    return vec4<f32>(select(lsum * s.w, lsum, params.area != 0u), s.w);
 }
 
 // Visibility 1 - A of a shadow cone from o along d up to t_end (the gather's march rules).

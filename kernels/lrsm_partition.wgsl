@@ -16,19 +16,24 @@
 // one layer are merged and empty texels cancel after normalising by opacity:
 //   out_radiance = (sum R, count) / 4, out_normal = (sum n, count) / 4,
 //   out_moments  = (sum z', sum z'^2, count, 0) / 4,   z' = (z - zmin) * inv_range  (warped to [0, 1])
-// each stored as binary16 (common/lrsm_texel.wgsl). One invocation per quad; it writes that quad's
-// texel in every layer.
+// each stored as binary16 (common/lrsm_texel.wgsl). With params.area_weights = 1 each member texel's
+// radiance and moment terms (the counts in w included) weigh a = 1 / max(<n.l>, 1e-3), the area of
+// surface it stands for per unit of the light's image (eq. 3's Jacobian before filtering): the
+// filtered radiance, opacity and moments are then area-weighted; the normal stream stays as above.
+// One invocation per quad; it writes that quad's texel in every layer.
 // Accuracy: subtraction, products and adds are correctly rounded and * 0.25 exact: radiance and normal
 // are exact in f32; the z'^2 accumulation may be fused into an FMA (allowed by WGSL), which moves each
-// of three nonnegative partial sums by at most 1 ULP: moments within 4 f32 ULP. Either is then rounded
-// to binary16 either way: within 1 binary16 ULP of the mirror's round-to-nearest (4 f32 ULP cannot
-// cross more than one binary16 rounding boundary).
+// of three nonnegative partial sums by at most 1 ULP: moments within 4 f32 ULP. With area weights the
+// division 1 / c is within 2.5 ULP and each weighted term may fuse with its sum: every term and sum is
+// nonnegative (R >= 0, z' >= 0 for members, a > 0), so each value is within 9 f32 ULP relative. Either
+// is then rounded to binary16 either way: within 1 binary16 ULP of the mirror's round-to-nearest (an
+// f32 difference far below a binary16 ULP cannot cross more than one binary16 rounding boundary).
 
 struct PartitionParams {
     depth_slices: u32,
     normal_slices: u32,
     layer_texels: u32,
-    _pad: u32,
+    area_weights: u32,
 }
 
 @group(0) @binding(0) var<uniform> params: PartitionParams;
@@ -39,6 +44,9 @@ struct PartitionParams {
 @group(0) @binding(5) var<storage, read_write> out_radiance: array<vec2<u32>>;
 @group(0) @binding(6) var<storage, read_write> out_normal: array<vec2<u32>>;
 @group(0) @binding(7) var<storage, read_write> out_moments: array<vec2<u32>>;
+
+// The smallest <n.l> an area weight divides by (mirror: lrsm_partition::MIN_COSINE).
+const MIN_COSINE: f32 = 1.0e-3;
 
 fn normal_slice(ndotl: f32) -> u32 {
     return min(u32(max(ndotl, 0.0) * f32(params.normal_slices)), params.normal_slices - 1u);
@@ -63,9 +71,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
                 let z = rsm_depth[t];
                 if (rad.w > 0.5 && normal_slice(nrm.w) == j && z >= range.x && z <= range.y) {
                     let zw = (z - range.x) * range.z;
-                    r = r + vec4<f32>(rad.xyz, 1.0);
+                    let a = select(1.0, 1.0 / max(nrm.w, MIN_COSINE), params.area_weights != 0u);
+                    r = r + vec4<f32>(rad.xyz, 1.0) * a;
                     n = n + vec4<f32>(nrm.xyz, 1.0);
-                    m = m + vec4<f32>(zw, zw * zw, 1.0, 0.0);
+                    m = m + vec4<f32>(zw, zw * zw, 1.0, 0.0) * a;
                 }
             }
             let out = (d * params.normal_slices + j) * params.layer_texels + q;

@@ -154,6 +154,7 @@ pub fn check(scene: &Scene, pipeline: Pipeline, limits: &wgpu::Limits) -> Result
                 depth_splits: r.lrsm_depth_splits,
                 normal_splits: r.lrsm_normal_splits,
                 overlap: r.lrsm_overlap,
+                area_weights: r.lrsm_area_weights,
             };
             // One stream of the three `lrsm_bytes` counts.
             let per_view = crate::lrsm::lrsm_bytes(&config) / 3;

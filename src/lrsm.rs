@@ -52,6 +52,9 @@ pub struct PartitionConfig {
     pub depth_splits: u32,
     pub normal_splits: u32,
     pub overlap: f32,
+    /// Each RSM texel weighs `1 / <n.l>` in the radiance and moment streams (`lrsm_area_weights`;
+    /// see kernels/lrsm_partition.wgsl).
+    pub area_weights: bool,
 }
 
 impl PartitionConfig {

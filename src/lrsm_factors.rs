@@ -5,7 +5,7 @@
 //! alpha_i comes from the binary occlusion voxels' mips (the paper's volume coverage, or the surface
 //! coverage of `lrsm_surface_coverage`) or from vct-dense's lit-voxel pyramid (surface coverage of
 //! the voxels' own fragments). L_i comes from the LRSMs (Algorithm 1 and its variants below, on
-//! the pipeline's LRSMs or on area-weighted ones, [`area_lrsm`]), from
+//! the frame's LRSMs or on area-weighted ones), from
 //! the RSM texels themselves without filtering ([`Footprint`]: the most the light views can give), or
 //! from that pyramid (`rgb / alpha`: voxel_light's radiance of the voxels in the sample, with exact shadow
 //! rays, averaged over the voxels' coverage: the radiance of the surface the sample holds, which is
@@ -92,8 +92,9 @@ pub struct Algorithm {
     /// Replace the filtered layers by the exact footprint: every RSM texel inside the sample's disc
     /// in the light's image (the part inside the image; the views' disc shares split the rest).
     pub exact: Option<Footprint>,
-    /// Read the LRSMs partitioned with per-texel area weights ([`area_lrsm`]: every stream's texel
-    /// weighs `1 / <n, l>`, eq. 3's Jacobian before filtering) instead of the pipeline's.
+    /// Read the LRSMs partitioned with area weights (lrsm_partition's `area_weights`: each texel's
+    /// radiance and moments weigh `1 / <n, l>`, eq. 3's Jacobian before filtering) instead of the
+    /// frame's.
     pub area_lrsm: bool,
     /// Fetch one level finer than `log2` of the disc's diameter in texels: the trilinear fetch's
     /// 2 x 2 taps then span about the disc, where at the default level they span about twice it.
@@ -130,8 +131,8 @@ pub struct FactorVolume<'a> {
     pub lrsm: &'a LrsmVolume<'a>,
     /// Each light view's RSM, in the views' order (read by [`Algorithm::exact`] alone).
     pub rsms: &'a [Rsm],
-    /// Every view's [`area_lrsm`], laid out as the pipeline's LRSMs (read by
-    /// [`Algorithm::area_lrsm`] alone).
+    /// Every view's area-weighted LRSM, laid out as the frame's (read by [`Algorithm::area_lrsm`]
+    /// alone).
     pub area: &'a [Vec<[f32; 4]>; 3],
     pub voxels: Pyramid<'a>,
     pub swap: Swap,
@@ -220,7 +221,7 @@ impl Volume for FactorVolume<'_> {
 
 /// lrsm_cone_trace's per-sample radiance (every view's disc share times its Sample LRSM) with
 /// Algorithm 1 changed as `a` says (`rsms`: each view's RSM, for `a.exact`; `area`: the views'
-/// [`area_lrsm`]s, for `a.area_lrsm`); no error bound (a diagnostic, not a mirror).
+/// area-weighted LRSMs, for `a.area_lrsm`); no error bound (a diagnostic, not a mirror).
 pub fn lrsm_radiance(
     vol: &LrsmVolume,
     (rsms, area): (&[Rsm], &[Vec<[f32; 4]>; 3]),
@@ -380,53 +381,6 @@ fn sample(
     } else {
         (num, den)
     }
-}
-
-/// The LRSM of `rsm` (every level, as `lrsm_partition` and `lrsm_prefilter` lay it out) with
-/// each member texel of a quad weighing `1 / <n, l>` (<n, l> as the RSM stores it, at least 1e-3):
-/// the area of surface it stands for per unit of the light's image, so that the filtered streams
-/// are area-weighted means (radiance `sum a R / 4` with `sum a / 4` in w, normal and moments the
-/// same) rather than means over the light's image. Stored as binary16 as the pipeline's.
-pub fn area_lrsm(rsm: &Rsm, config: &crate::lrsm::PartitionConfig) -> [Vec<[f32; 4]>; 3] {
-    use vxgi_cpu_mirror::lrsm_partition::normal_slice;
-    use vxgi_cpu_mirror::lrsm_prefilter::{quantize, reduce_level};
-    let ranges = config.depth_ranges();
-    let slices = config.normal_slices();
-    let texels = config.layer_texels() as usize;
-    let mut level: [Vec<[f32; 4]>; 3] = Default::default();
-    for layer in 0..config.layers() {
-        let range = ranges[(layer / slices) as usize];
-        for quad in 0..texels {
-            let mut sums = [Vec4::ZERO; 3];
-            for t in 4 * quad..4 * quad + 4 {
-                let (z, c) = (rsm.depth[t], rsm.normal[t][3]);
-                let member = rsm.radiance[t][3] > 0.5
-                    && normal_slice(c, slices) == layer % slices
-                    && z >= range[0]
-                    && z <= range[1];
-                if !member {
-                    continue;
-                }
-                let a = 1.0 / c.max(1e-3);
-                let zw = (z - range[0]) * range[2];
-                let (r, n) = (rsm.radiance[t], rsm.normal[t]);
-                sums[0] += Vec4::new(r[0], r[1], r[2], 1.0) * a;
-                sums[1] += Vec4::new(n[0], n[1], n[2], 1.0) * a;
-                sums[2] += Vec4::new(zw, zw * zw, 1.0, 0.0) * a;
-            }
-            for (out, sum) in level.iter_mut().zip(sums) {
-                out.push(quantize((sum * 0.25).into()));
-            }
-        }
-    }
-    let mut streams = level.clone();
-    for _ in 1..(config.rsm_side / 2).trailing_zeros() + 1 {
-        level = reduce_level([&level[0], &level[1], &level[2]], false);
-        for (s, l) in streams.iter_mut().zip(&level) {
-            s.extend_from_slice(l);
-        }
-    }
-    streams
 }
 
 /// The part of the depth window `[zc - rc, zc + rc]` inside depth slice `d`'s core (`[d, d + 1] /
@@ -812,31 +766,6 @@ mod tests {
             normal,
             depth,
         }
-    }
-
-    /// Where every texel has the same <n, l> = c, the area-weighted LRSM is the pipeline's times
-    /// 1 / c in every stream and level (c = 1/2: a power of two, exact in binary16).
-    #[test]
-    fn an_area_weighted_lrsm_of_equal_cosines_is_the_plain_one_scaled() {
-        let config = crate::lrsm::PartitionConfig {
-            rsm_side: 16,
-            depth_splits: 1,
-            normal_splits: 1,
-            overlap: 0.05,
-        };
-        let mut rsm = crate::lrsm::synthetic_rsm(16, &config, 7);
-        for n in &mut rsm.normal {
-            n[3] = 0.5;
-        }
-        let plain = crate::kernels::sample_lrsm::lrsm_mirror(&rsm, &config);
-        let area = area_lrsm(&rsm, &config);
-        for (p, a) in plain.iter().zip(&area) {
-            assert_eq!(p.len(), a.len());
-            for (x, y) in p.iter().zip(a) {
-                assert_eq!(x.map(|v| v * 2.0), *y);
-            }
-        }
-        assert!(plain[0].iter().any(|t| t[3] > 0.0));
     }
 
     #[test]

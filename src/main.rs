@@ -365,6 +365,11 @@ struct RenderFlags {
     /// N only culls back faces) [default false].
     #[arg(long = "lrsm-view-weight", alias = "lrsm_view_weight")]
     lrsm_view_weight: Option<bool>,
+    /// lrsm: area-weighted LRSMs (each RSM texel weighs 1 / <n.l>) read as eq. 1's premultiplied
+    /// product, one level finer, N weighing it: the reference's indirect energy (false: Algorithm
+    /// 1's layers) [default false].
+    #[arg(long = "lrsm-area-weights", alias = "lrsm_area_weights")]
+    lrsm_area_weights: Option<bool>,
     /// lrsm: soft shadows from shadow cones of this half-angle through the occlusion voxels, degrees
     /// (0 = exact shadow rays) [default 0].
     #[arg(long = "shadow-cone-angle", alias = "shadow_cone_angle")]
@@ -454,6 +459,7 @@ fn load_scene(path: &Option<PathBuf>, flags: &RenderFlags) -> Result<vxgi::scene
         lrsm_overlap,
         lrsm_surface_coverage,
         lrsm_view_weight,
+        lrsm_area_weights,
         shadow_cone_angle,
         cache_resolution,
         irradiance_resolution,

@@ -1146,14 +1146,15 @@ pub fn render_lrsm_factors(
     };
     let mut area: [Vec<[f32; 4]>; 3] = Default::default();
     if matches!(swap.radiance, Radiance::Lrsm(a) if a.area_lrsm) {
-        let config =
-            crate::kernels::lrsm_cone_trace::LrsmSettings::from(&f.scene.render).partition();
+        // The kernels' partition with area weights (their mirror), whatever the scene says.
+        let config = crate::lrsm::PartitionConfig {
+            area_weights: true,
+            ..crate::kernels::lrsm_cone_trace::LrsmSettings::from(&f.scene.render).partition()
+        };
         for rsm in &rsms {
-            for (all, view) in area
-                .iter_mut()
-                .zip(crate::lrsm_factors::area_lrsm(rsm, &config))
-            {
-                all.extend(view);
+            let view = crate::kernels::sample_lrsm::lrsm_mirror(rsm, &config);
+            for (all, v) in area.iter_mut().zip(view) {
+                all.extend(v);
             }
         }
     }

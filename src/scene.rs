@@ -233,6 +233,12 @@ pub struct RenderSettings {
     /// of only culling back faces (false, the default: a Lambertian surface's radiance does not
     /// depend on where it is seen from; eq. 2's view weight cancels for one surface).
     pub lrsm_view_weight: bool,
+    /// lrsm: each RSM texel weighs `1 / <n.l>` (the surface it stands for) in the LRSMs' radiance
+    /// and moments, which the gather reads as eq. 1's premultiplied product, one level finer, N
+    /// weighing it (false, the default: Algorithm 1's opacity-weighted layers). Gathers the
+    /// reference's indirect energy where the default gathers about two thirds, at a slightly worse
+    /// FLIP on the Cornell box and thin_wall (docs/accuracy/lrsm.md).
+    pub lrsm_area_weights: bool,
     /// lrsm: soft shadows — direct light's visibility from one cone of this half-angle (degrees) per
     /// light through the occlusion voxels instead of an exact shadow ray; 0 (the default) = exact rays,
     /// the light-transport contract. In [0, 45].
@@ -477,6 +483,7 @@ impl Default for RenderSettings {
             lrsm_overlap: 0.05,
             lrsm_surface_coverage: true,
             lrsm_view_weight: false,
+            lrsm_area_weights: false,
             shadow_cone_angle: 0.0,
             // The paper's 16^2 caches and two-tile gathering radius; 16-pixel tiles give ~1000
             // caches at 256x256.

@@ -165,11 +165,13 @@ fn a_soft_direct_term_at_the_bottom_of_the_normal_range_may_flush() {
 }
 
 /// lrsm at the Cornell box's own 256x256 against the committed converged reference (4096 spp): the
-/// paper's literal settings (volume-coverage occlusion, N weighing L) and the defaults (surface
-/// coverage, N only culling). Measured on lavapipe with the trilinear LRSM fetch and the views' seam
-/// weights (`disc_share`): combined FLIP 0.471 / 0.329, indirect 0.839 / 0.569, indirect energy
-/// 0.081 / 0.667 of the reference's (docs/accuracy/lrsm.md has the per-factor table between them). A regression guard at the measured values
-/// plus a small margin, and the indirect energy's share.
+/// paper's literal settings (volume-coverage occlusion, N weighing L), the defaults (surface
+/// coverage, N only culling) and `lrsm_area_weights`. Measured on lavapipe with the trilinear LRSM
+/// fetch and the views' seam weights (`disc_share`): combined FLIP 0.471 / 0.329 / 0.356, indirect
+/// 0.839 / 0.569 / 0.582, indirect energy 0.081 / 0.667 / 0.998 of the reference's
+/// (docs/accuracy/lrsm.md has the per-factor table between them). A regression guard at the measured
+/// values plus a small margin, and the indirect energy's share (for the area weights within a
+/// quarter of the reference's: [0.8, 1.25]).
 #[test]
 fn lrsm_against_the_converged_reference() {
     let dir =
@@ -180,19 +182,22 @@ fn lrsm_against_the_converged_reference() {
         img.pixels.iter().flatten().map(|&c| c as f64).sum()
     };
     let p = std::path::Path::new("");
-    for (paper, max_combined, max_indirect, share) in [
-        (true, 0.48, 0.85, 0.06..0.12),
-        (false, 0.34, 0.58, 0.6..0.75),
+    // (the paper's settings, area weights): the paper's, the defaults, `lrsm_area_weights`.
+    for ((paper, area), max_combined, max_indirect, share) in [
+        ((true, false), 0.48, 0.85, 0.06..0.12),
+        ((false, false), 0.34, 0.58, 0.6..0.75),
+        ((false, true), 0.37, 0.60, 0.8..1.25),
     ] {
         let mut scene = Scene::cornell_box();
         scene.render.lrsm_surface_coverage = !paper;
         scene.render.lrsm_view_weight = paper;
+        scene.render.lrsm_area_weights = area;
         let (r, _) = render_lrsm(gpu(), &scene, &ConeSettings::default(), |_| {}).unwrap();
         let comb = vxgi::images::compare(&ref_combined, p, &r.combined, p).unwrap();
         let ind = vxgi::images::compare(&ref_indirect, p, &r.indirect, p).unwrap();
         let ratio = energy(&r.indirect) / energy(&ref_indirect);
         println!(
-            "lrsm (the paper's settings: {paper}) vs 4096 spp: combined FLIP {:.3}, indirect {:.3}, indirect energy {ratio:.3} of the reference's",
+            "lrsm (the paper's settings: {paper}, area weights: {area}) vs 4096 spp: combined FLIP {:.3}, indirect {:.3}, indirect energy {ratio:.3} of the reference's",
             comb.flip_mean, ind.flip_mean
         );
         assert!(

@@ -15,6 +15,7 @@ fn config(side: u32, a: u32, b: u32, overlap: f32) -> PartitionConfig {
         depth_splits: a,
         normal_splits: b,
         overlap,
+        area_weights: false,
     }
 }
 

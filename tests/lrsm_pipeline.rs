@@ -16,6 +16,7 @@ fn partition_prefilter_sample_compose_on_the_gpu() {
         depth_splits: 1,
         normal_splits: 1,
         overlap: 0.05,
+        area_weights: false,
     };
     let rsm = synthetic_rsm(64, &config, 3);
 

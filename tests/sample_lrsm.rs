@@ -16,6 +16,7 @@ fn one_layer_64() -> (PartitionConfig, BuiltLrsm) {
         depth_splits: 1,
         normal_splits: 1,
         overlap: 0.05,
+        area_weights: false,
     };
     (config, build_lrsm(config, 5, 0, true))
 }
@@ -94,7 +95,7 @@ fn params_struct_matches_the_reflected_wgsl_layout() {
         "min_alpha",
         "overlap",
         "view_weight",
-        "_pad0",
+        "area",
         "_pad1",
         "_pad2",
     ];
@@ -108,9 +109,9 @@ fn params_struct_matches_the_reflected_wgsl_layout() {
         std::mem::offset_of!(SampleParams, min_alpha),
         std::mem::offset_of!(SampleParams, overlap),
         std::mem::offset_of!(SampleParams, view_weight),
+        std::mem::offset_of!(SampleParams, area),
         std::mem::offset_of!(SampleParams, _pad),
         std::mem::offset_of!(SampleParams, _pad) + 4,
-        std::mem::offset_of!(SampleParams, _pad) + 8,
     ];
     let want: Vec<(String, u32)> = names
         .iter()

@@ -71,7 +71,9 @@ impl LrsmVolume<'_> {
             } else {
                 diam * v.right[3] / zv
             };
-            let mip = texels.log2();
+            // Area-weighted LRSMs one level finer; the subtraction rounds once, within d_mip's
+            // allowance for log2's own rounding.
+            let mip = texels.log2() - self.sp.area as f32;
             let zc = (zv - v.eye[3]) * v.forward[3];
             // The share of the sample's projected disc (radius texels / side0 in NDC, capped at 64 so
             // that it stays finite as zv -> 0, floored at 1e-30 so that the share's division stays
@@ -180,8 +182,10 @@ impl Volume for LrsmVolume<'_> {
         })
     }
 
-    /// `(L * alpha, alpha)`; where the mirror's alpha is 0 the LRSMs are not read (as in the kernel) and
-    /// the colour error is `lmax` times the alpha's.
+    /// `(L * alpha, alpha)`, or `(L, alpha)` with area-weighted LRSMs (`sp.area`: L is then eq. 1's
+    /// premultiplied product); where the mirror's alpha is 0 the LRSMs are not read (as in the
+    /// kernel) and the colour error is `lmax` times the alpha's, or `lmax` itself when premultiplied
+    /// and the alpha may be above 0 on the GPU (which then adds L whole).
     fn sample_cone(
         &self,
         x: Vec3,
@@ -191,17 +195,32 @@ impl Volume for LrsmVolume<'_> {
         _tan_half: f32,
     ) -> (Vec4, SampleError) {
         let (s, serr) = self.sample(x, lf);
+        let premultiplied = self.sp.area != 0;
+        // With premultiplied L a GPU whose alpha is above 0 where the mirror's is 0, or 0 where the
+        // mirror's is within its error of it, adds or leaves L whole.
+        let flip = if premultiplied { self.lmax } else { 0.0 };
         #[allow(clippy::neg_cmp_op_on_partial_ord)]
         if !(s.w > 0.0) {
             return (
                 s,
                 SampleError {
-                    rgb: self.lmax * serr.a,
+                    rgb: if serr.a > 0.0 { flip } else { 0.0 } + self.lmax * serr.a,
                     a: serr.a,
                 },
             );
         }
         let (l, l_err) = self.radiance(x, diam, d);
+        if premultiplied {
+            return (
+                l.extend(s.w),
+                SampleError {
+                    rgb: l_err
+                        + 8.0 * f32::EPSILON * l.abs().max_element()
+                        + if s.w <= serr.a { flip } else { 0.0 },
+                    a: serr.a,
+                },
+            );
+        }
         let rgb = l * s.w;
         (
             Vec4::new(rgb.x, rgb.y, rgb.z, s.w),

@@ -11,7 +11,9 @@
 //! ("texels are merged if they are assigned to the same layer"):
 //! `radiance = (sum R, count) / 4`, `normal = (sum n, count) / 4`,
 //! `moments = (sum z', sum z'^2, count, 0) / 4`, `z' = (z - zmin_d) * inv_range_d` (warped to [0, 1]),
-//! each stored as binary16 ([`crate::lrsm_prefilter::quantize`]).
+//! each stored as binary16 ([`crate::lrsm_prefilter::quantize`]). With `area_weights` the radiance
+//! and moment sums weigh each texel by `a = 1 / max(<n.l>, 1e-3)` (`sum a R`, `sum a`, `sum a z'`,
+//! ...); the normal's stay unweighted.
 use crate::ftz4;
 use glam::Vec4;
 use rayon::prelude::*;
@@ -24,8 +26,16 @@ pub struct PartitionParams {
     pub normal_slices: u32,
     /// Texels per layer at LRSM level 0: (RSM side / 2)^2.
     pub layer_texels: u32,
-    pub _pad: u32,
+    /// 1: each member texel weighs `1 / max(<n.l>, 1e-3)` in the radiance and moment streams
+    /// (`lrsm_area_weights`): the area of surface it stands for per unit of the light's image, so
+    /// that the filtered radiance, opacity and depth moments are area-weighted (the normal stream
+    /// stays opacity-weighted). 0: every member texel weighs 1.
+    pub area_weights: u32,
 }
+
+/// The smallest `<n.l>` an area weight divides by: a texel lit at grazing stands for at most 1000
+/// times its area in the light's image.
+pub const MIN_COSINE: f32 = 1.0e-3;
 
 /// `<n.l>` slice of a texel, as the kernel computes it.
 pub fn normal_slice(ndotl: f32, normal_slices: u32) -> u32 {
@@ -39,6 +49,7 @@ pub fn quad_layer(
     range: [f32; 4],
     slice: u32,
     normal_slices: u32,
+    area_weights: bool,
     flush: bool,
 ) -> [[f32; 4]; 3] {
     let (rad, nrm, depth) = rsm;
@@ -53,10 +64,18 @@ pub fn quad_layer(
             let zw = crate::ftz(crate::ftz(z - range[0], flush) * range[2], flush);
             let c = ftz4(Vec4::from(rad[t]), flush);
             let nv = ftz4(Vec4::from(nrm[t]), flush);
-            r = ftz4(r + Vec4::new(c.x, c.y, c.z, 1.0), flush);
+            let a = if area_weights {
+                crate::ftz(1.0 / crate::ftz(nrm[t][3], flush).max(MIN_COSINE), flush)
+            } else {
+                1.0
+            };
+            r = ftz4(r + ftz4(Vec4::new(c.x, c.y, c.z, 1.0) * a, flush), flush);
             n = ftz4(n + Vec4::new(nv.x, nv.y, nv.z, 1.0), flush);
             m = ftz4(
-                m + Vec4::new(zw, crate::ftz(zw * zw, flush), 1.0, 0.0),
+                m + ftz4(
+                    Vec4::new(zw, crate::ftz(zw * zw, flush), 1.0, 0.0) * a,
+                    flush,
+                ),
                 flush,
             );
         }
@@ -89,9 +108,46 @@ pub fn partition(
                 depth_ranges[d as usize],
                 j,
                 p.normal_slices,
+                p.area_weights != 0,
                 flush,
             )
         })
         .collect();
     [0, 1, 2].map(|s| texels.iter().map(|x| x[s]).collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Where every texel has <n.l> = 1/2, area weights double the radiance and moment streams (a
+    /// power of two: exact, in binary16 too) and leave the normal stream as it is.
+    #[test]
+    fn area_weights_of_equal_cosines_scale_radiance_and_moments() {
+        let side = 8usize;
+        let rad: Vec<[f32; 4]> = (0..side * side)
+            .map(|i| [0.1 * (i % 7) as f32, 0.5, 0.25, (i % 5 != 0) as u32 as f32])
+            .collect();
+        let nrm: Vec<[f32; 4]> = (0..side * side).map(|_| [0.6, 0.0, 0.8, 0.5]).collect();
+        let depth: Vec<f32> = (0..side * side).map(|i| (i % 11) as f32 / 11.0).collect();
+        let ranges = [
+            [-0.05, 0.525, 1.0 / 0.575, 0.0],
+            [0.475, 1.05, 1.0 / 0.575, 0.0],
+        ];
+        let p = |area_weights| PartitionParams {
+            depth_slices: 2,
+            normal_slices: 2,
+            layer_texels: (side * side / 4) as u32,
+            area_weights,
+        };
+        let plain = partition((&rad, &nrm, &depth), &ranges, &p(0), false);
+        let area = partition((&rad, &nrm, &depth), &ranges, &p(1), false);
+        for s in [0, 2] {
+            for (a, b) in plain[s].iter().zip(&area[s]) {
+                assert_eq!(a.map(|v| 2.0 * v), *b);
+            }
+        }
+        assert_eq!(plain[1], area[1]);
+        assert!(plain[0].iter().any(|t| t[3] > 0.0));
+    }
 }

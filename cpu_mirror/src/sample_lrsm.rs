@@ -33,7 +33,12 @@ pub struct SampleParams {
     /// 1: N = <n, vc> weighs each layer's radiance (Algorithm 1 as written); 0: N only culls back
     /// faces (see kernels/common/lrsm_sample.wgsl).
     pub view_weight: u32,
-    pub _pad: [u32; 3],
+    /// 1: the LRSMs are area-weighted (lrsm_partition's `area_weights`) and the gather reads eq. 1's
+    /// premultiplied product: a sample's L is the colour the march adds (not alpha L), fetched one
+    /// level finer than log2 of the disc's diameter in texels (the trilinear taps then span about
+    /// the disc). Sample LRSM itself does not read it.
+    pub area: u32,
+    pub _pad: [u32; 2],
 }
 
 /// The LRSM as the kernel binds it: every level of every layer, levels concatenated.
@@ -348,7 +353,8 @@ mod tests {
             min_alpha: 1e-6,
             overlap: 0.05,
             view_weight: 1,
-            _pad: [0; 3],
+            area: 0,
+            _pad: [0; 2],
         }
     }
 

@@ -23,7 +23,10 @@ struct SampleParams {
     // faces (eq. 2's w' holds <n.v> in its numerator and denominator alike, so for one surface it
     // cancels: a Lambertian surface's radiance does not depend on where it is seen from).
     view_weight: u32,
-    _pad0: u32,
+    // 1: the LRSMs are area-weighted (lrsm_partition's area_weights) and lrsm_cone_trace reads eq. 1's
+    // premultiplied product: a sample's L is the colour its march adds (not alpha L), fetched one
+    // level finer than log2 of the disc's diameter in texels. Sample LRSM itself does not read it.
+    area: u32,
     _pad1: u32,
     _pad2: u32,
 }

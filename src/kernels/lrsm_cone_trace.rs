@@ -84,6 +84,9 @@ pub struct LrsmSettings {
     pub surface_coverage: bool,
     /// N weighs each layer's radiance (Algorithm 1 as written) instead of only culling back faces.
     pub view_weight: bool,
+    /// Area-weighted LRSMs read as eq. 1's premultiplied product (`lrsm_area_weights`; N then
+    /// weighs L whatever `view_weight` says): docs/accuracy/lrsm.md.
+    pub area_weights: bool,
 }
 
 impl From<&crate::scene::RenderSettings> for LrsmSettings {
@@ -96,6 +99,7 @@ impl From<&crate::scene::RenderSettings> for LrsmSettings {
             overlap: r.lrsm_overlap,
             surface_coverage: r.lrsm_surface_coverage,
             view_weight: r.lrsm_view_weight,
+            area_weights: r.lrsm_area_weights,
         }
     }
 }
@@ -108,6 +112,7 @@ impl LrsmSettings {
             depth_splits: self.depth_splits,
             normal_splits: self.normal_splits,
             overlap: self.overlap,
+            area_weights: self.area_weights,
         }
     }
 }
@@ -588,6 +593,8 @@ impl Kernel for LrsmConeTrace {
             // weight in every third case.
             surface_coverage: index % 8 == 6,
             view_weight: index % 3 == 1,
+            // Every fourth case with area-weighted LRSMs (premultiplied samples one level finer).
+            area_weights: index % 4 == 3,
         };
         let frame = LrsmFrame::build(
             ctx,

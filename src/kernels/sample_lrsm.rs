@@ -64,7 +64,7 @@ pub fn lrsm_mirror(rsm: &crate::lrsm::Rsm, config: &PartitionConfig) -> [Vec<[f3
         depth_slices: config.depth_slices(),
         normal_slices: config.normal_slices(),
         layer_texels: config.layer_texels() as u32,
-        _pad: 0,
+        area_weights: config.area_weights as u32,
     };
     let level0 = partition(
         (&rsm.radiance, &rsm.normal, &rsm.depth),
@@ -86,7 +86,8 @@ pub fn lrsm_mirror(rsm: &crate::lrsm::Rsm, config: &PartitionConfig) -> [Vec<[f3
 
 /// Sample LRSM's parameters for LRSMs made with `config` (variance floor 1e-4: sigma >= 1% of a layer;
 /// opacity floor 1e-6); `view_weight`: N weighs each layer's radiance (Algorithm 1 as written) instead
-/// of only culling back faces.
+/// of only culling back faces. Area-weighted LRSMs (`config.area_weights`) are read as eq. 1's
+/// premultiplied product, which N weighs as a projected area: `view_weight` is then set.
 pub fn sample_params(config: &PartitionConfig, cdf: u32, view_weight: bool) -> SampleParams {
     let side0 = config.rsm_side / 2;
     SampleParams {
@@ -98,8 +99,9 @@ pub fn sample_params(config: &PartitionConfig, cdf: u32, view_weight: bool) -> S
         min_variance: 1.0e-4,
         min_alpha: 1.0e-6,
         overlap: config.overlap,
-        view_weight: view_weight as u32,
-        _pad: [0; 3],
+        view_weight: (view_weight || config.area_weights) as u32,
+        area: config.area_weights as u32,
+        _pad: [0; 2],
     }
 }
 
