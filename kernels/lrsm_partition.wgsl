@@ -19,7 +19,9 @@
 // each stored as binary16 (common/lrsm_texel.wgsl). With params.area_weights = 1 each member texel's
 // radiance and moment terms (the counts in w included) weigh a = 1 / max(<n.l>, 1e-3), the area of
 // surface it stands for per unit of the light's image (eq. 3's Jacobian before filtering): the
-// filtered radiance, opacity and moments are then area-weighted; the normal stream stays as above.
+// filtered radiance, opacity and moments are then area-weighted; a texel whose <n.l> is not above 0
+// (the RSM stores max(<n.l>, 0): it faces away from the light) holds no lit surface and weighs 0.
+// The normal stream stays as above.
 // One invocation per quad; it writes that quad's texel in every layer.
 // Accuracy: subtraction, products and adds are correctly rounded and * 0.25 exact: radiance and normal
 // are exact in f32; the z'^2 accumulation may be fused into an FMA (allowed by WGSL), which moves each
@@ -71,7 +73,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
                 let z = rsm_depth[t];
                 if (rad.w > 0.5 && normal_slice(nrm.w) == j && z >= range.x && z <= range.y) {
                     let zw = (z - range.x) * range.z;
-                    let a = select(1.0, 1.0 / max(nrm.w, MIN_COSINE), params.area_weights != 0u);
+                    // A texel facing away from the light (<n.l> stored as 0) holds no lit surface.
+                    let lit = select(0.0, 1.0 / max(nrm.w, MIN_COSINE), nrm.w > 0.0);
+                    let a = select(1.0, lit, params.area_weights != 0u);
                     r = r + vec4<f32>(rad.xyz, 1.0) * a;
                     n = n + vec4<f32>(nrm.xyz, 1.0);
                     m = m + vec4<f32>(zw, zw * zw, 1.0, 0.0) * a;

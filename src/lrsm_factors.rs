@@ -90,7 +90,8 @@ pub struct Algorithm {
     /// first and last open-ended), so the cores tile depth and each depth is counted by one layer.
     pub all_layers: bool,
     /// Replace the filtered layers by the exact footprint: every RSM texel inside the sample's disc
-    /// in the light's image (the part inside the image; the views' disc shares split the rest).
+    /// in the light's image, the disc centred where the LRSM lookup is (the sample's projection
+    /// clamped to the image) and cut to the image; the views' disc shares weigh them as the LRSMs'.
     pub exact: Option<Footprint>,
     /// Read the LRSMs partitioned with area weights (lrsm_partition's `area_weights`: each texel's
     /// radiance and moments weigh `1 / <n, l>`, eq. 3's Jacobian before filtering) instead of the
@@ -405,7 +406,9 @@ pub fn core_window(d: u32, slices: u32, zc: f32, rc: f32) -> Option<(f32, f32)> 
 /// The exact footprint at `pos = (u, v, mip, zc)`: the RSM texels whose centres lie within the
 /// disc of diameter `texels` (level-0 LRSM texels, so its radius in RSM texels) around (u, v),
 /// summed as `f` says over those in the window `|z - zc| <= rc` and facing `vc`, over the disc's
-/// texels inside the image. Returns (L, the share of the disc they cover with the same weights).
+/// texels inside the image. Returns (L, the same sum of the weights alone, over the same count: for
+/// `Radiance` the share of the disc they cover, for the others their lit surface's measure, which
+/// the capped rows compare with alpha).
 fn exact(rsm: &Rsm, pos: [f32; 4], texels: f32, vc: Vec3, rc: f32, f: Footprint) -> (Vec3, f32) {
     let side = rsm.side as i64;
     let [u, v, _, zc] = pos;

@@ -366,8 +366,8 @@ struct RenderFlags {
     #[arg(long = "lrsm-view-weight", alias = "lrsm_view_weight")]
     lrsm_view_weight: Option<bool>,
     /// lrsm: area-weighted LRSMs (each RSM texel weighs 1 / <n.l>) read as eq. 1's premultiplied
-    /// product, one level finer, N weighing it: the reference's indirect energy (false: Algorithm
-    /// 1's layers) [default false].
+    /// product, one level finer, N weighing it: 0.92-1.00 of the reference's indirect energy
+    /// (false: Algorithm 1's layers) [default false].
     #[arg(long = "lrsm-area-weights", alias = "lrsm_area_weights")]
     lrsm_area_weights: Option<bool>,
     /// lrsm: soft shadows from shadow cones of this half-angle through the occlusion voxels, degrees
@@ -662,10 +662,15 @@ fn run_render(
             "wrote direct, indirect, combined, ao (.exr + .png) to {}",
             dir.display()
         );
-        if stages.is_empty() {
-            timed = false;
+        timed &= resident.timed();
+        if !resident.timed() {
             println!(
-                "stages: not timed (the frame's chain has more passes than a timestamp query set holds, or the adapter has no timestamps)"
+                "stages: not timed (the frame's chain has more passes than a timestamp query set holds, or the adapter has no timestamps){}",
+                if stages.is_empty() {
+                    String::new()
+                } else {
+                    format!("; built outside the chain, by wall clock: {}", stages.join(", "))
+                }
             );
         } else {
             println!(

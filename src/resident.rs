@@ -377,6 +377,8 @@ pub struct Resident<'c> {
     /// Whether the last frame's new chain took the volume of the chain before it (a new image size
     /// or settings the volume does not read).
     kept_volume: bool,
+    /// Whether the last frame's chain was timed pass by pass (timestamp queries).
+    timed: bool,
     /// vct-svo: the staged passes that build the octree, holding the last one and what it was
     /// built for (a chain at another image size uploads it again instead of building it).
     svo: crate::render::VctSvo,
@@ -413,6 +415,7 @@ impl<'c> Resident<'c> {
             caches: None,
             rebuilt: None,
             kept_volume: false,
+            timed: true,
             svo: crate::render::VctSvo::new(),
             outgrown: None,
             encoded_counts: false,
@@ -446,6 +449,13 @@ impl<'c> Resident<'c> {
     /// before the first frame.
     pub fn memory_by_stage(&self) -> Option<&[(&'static str, u64)]> {
         self.built.as_ref().map(|b| b.stage_memory.as_slice())
+    }
+
+    /// Whether the last frame's chain was timed pass by pass by timestamp queries: a chain with more
+    /// passes than a query set holds, or an adapter without timestamps, is timed by the wall clock
+    /// around its submission, and its stages report no time.
+    pub fn timed(&self) -> bool {
+        self.timed
     }
 
     /// One frame (supersampling and bright lights as every pipeline's, see `render::supersampled`).
@@ -776,8 +786,9 @@ impl<'c> Resident<'c> {
         };
         // A chain with more passes than a query set holds is not timed: its stages report nothing
         // rather than zero.
-        let untimed = pass_ns.is_empty();
-        for (name, r) in b.stages.iter().filter(|_| !untimed) {
+        self.timed = !pass_ns.is_empty() || timed.is_empty();
+        let chain_stages = if self.timed { &b.stages[..] } else { &[] };
+        for (name, r) in chain_stages {
             // Stages outside this frame's passes, and those without passes (cprc's chain keeps
             // vct-dense's empty cone stages), report no time.
             if r.is_empty() || r.start < timed.start || r.end > timed.end {

@@ -2226,6 +2226,10 @@ fn vct_svo_lit_in_the_chain_is_the_staged_frame() {
 #[test]
 fn untimed_passes_in_one_compute_pass_draw_the_same_frames() {
     use vxgi::resident::Resident;
+    assert!(
+        gpu().timestamps,
+        "the shared context must time its passes for this comparison"
+    );
     let mut untimed = vxgi::harness::GpuContext::new().unwrap();
     untimed.timestamps = false;
     let mut cornell = small(Scene::cornell_box(), 24, 24);

@@ -214,6 +214,7 @@ impl Volume for LrsmVolume<'_> {
             return (
                 l.extend(s.w),
                 SampleError {
+                    // The march's own roundings of the colour it adds, as for L alpha below.
                     rgb: l_err
                         + 8.0 * f32::EPSILON * l.abs().max_element()
                         + if s.w <= serr.a { flip } else { 0.0 },

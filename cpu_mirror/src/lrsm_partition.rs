@@ -13,7 +13,7 @@
 //! `moments = (sum z', sum z'^2, count, 0) / 4`, `z' = (z - zmin_d) * inv_range_d` (warped to [0, 1]),
 //! each stored as binary16 ([`crate::lrsm_prefilter::quantize`]). With `area_weights` the radiance
 //! and moment sums weigh each texel by `a = 1 / max(<n.l>, 1e-3)` (`sum a R`, `sum a`, `sum a z'`,
-//! ...); the normal's stay unweighted.
+//! ...; 0 where <n.l> is not above 0); the normal's stay unweighted.
 use crate::ftz4;
 use glam::Vec4;
 use rayon::prelude::*;
@@ -27,9 +27,10 @@ pub struct PartitionParams {
     /// Texels per layer at LRSM level 0: (RSM side / 2)^2.
     pub layer_texels: u32,
     /// 1: each member texel weighs `1 / max(<n.l>, 1e-3)` in the radiance and moment streams
-    /// (`lrsm_area_weights`): the area of surface it stands for per unit of the light's image, so
-    /// that the filtered radiance, opacity and depth moments are area-weighted (the normal stream
-    /// stays opacity-weighted). 0: every member texel weighs 1.
+    /// (`lrsm_area_weights`): the area of lit surface it stands for per unit of the light's image,
+    /// so that the filtered radiance, opacity and depth moments are area-weighted (the normal
+    /// stream stays opacity-weighted); a texel whose stored <n.l> is not above 0 faces away from
+    /// the light and weighs 0. 0: every member texel weighs 1.
     pub area_weights: u32,
 }
 
@@ -64,10 +65,12 @@ pub fn quad_layer(
             let zw = crate::ftz(crate::ftz(z - range[0], flush) * range[2], flush);
             let c = ftz4(Vec4::from(rad[t]), flush);
             let nv = ftz4(Vec4::from(nrm[t]), flush);
-            let a = if area_weights {
-                crate::ftz(1.0 / crate::ftz(nrm[t][3], flush).max(MIN_COSINE), flush)
-            } else {
-                1.0
+            let cos = crate::ftz(nrm[t][3], flush);
+            let a = match (area_weights, cos > 0.0) {
+                (false, _) => 1.0,
+                // Facing away from the light (the RSM stores max(<n.l>, 0)): no lit surface.
+                (true, false) => 0.0,
+                (true, true) => crate::ftz(1.0 / cos.max(MIN_COSINE), flush),
             };
             r = ftz4(r + ftz4(Vec4::new(c.x, c.y, c.z, 1.0) * a, flush), flush);
             n = ftz4(n + Vec4::new(nv.x, nv.y, nv.z, 1.0), flush);
@@ -149,5 +152,13 @@ mod tests {
         }
         assert_eq!(plain[1], area[1]);
         assert!(plain[0].iter().any(|t| t[3] > 0.0));
+        // Facing away from the light (<n.l> stored as 0 or below): no lit surface, weight 0.
+        for c in [0.0, -0.2] {
+            let away: Vec<[f32; 4]> = nrm.iter().map(|n| [n[0], n[1], n[2], c]).collect();
+            let area = partition((&rad, &away, &depth), &ranges, &p(1), false);
+            for s in [0, 2] {
+                assert!(area[s].iter().all(|t| *t == [0.0; 4]));
+            }
+        }
     }
 }

@@ -1238,6 +1238,8 @@ impl Prepared<'_> {
                     timestamp_writes: None,
                 });
                 for step in &self.steps[range] {
+                    // The step's name where a debugger or a validation error shows the pass.
+                    cpass.insert_debug_marker(&step.label);
                     record(&mut cpass, step);
                 }
             }

@@ -593,8 +593,9 @@ impl Kernel for LrsmConeTrace {
             // weight in every third case.
             surface_coverage: index % 8 == 6,
             view_weight: index % 3 == 1,
-            // Every fourth case with area-weighted LRSMs (premultiplied samples one level finer).
-            area_weights: index % 4 == 3,
+            // Every fourth case with area-weighted LRSMs (premultiplied samples one level finer),
+            // among them the surface-coverage cases (index % 8 == 6).
+            area_weights: index % 4 == 2,
         };
         let frame = LrsmFrame::build(
             ctx,
