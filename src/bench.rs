@@ -25,7 +25,8 @@ pub struct BenchRow {
     /// Every cone tracer: sampled level relative to the paper's, and correlated coverage.
     pub cone_level_bias: f32,
     pub coverage_correlation: f32,
-    /// lrsm: RSM side per light view and layers (depth x <n.l>); swept for that pipeline only.
+    /// lrsm: RSM side per light view and layers (depth x <n.l>, "area-weighted" with
+    /// `lrsm_area_weights`); swept for that pipeline only.
     pub rsm_side: u32,
     pub lrsm_layers: String,
     /// cprc: cache side in texels, distribution tile, and the caches the frame placed (0 elsewhere).
@@ -220,8 +221,8 @@ pub fn svo_sweep(base: &RenderSettings, quick: bool) -> Vec<RenderSettings> {
 
 /// lrsm's sweep: voxels {32, 64, 128} x cones {1, 5} x RSM side {64, 128, 256} x layers {1 x 1, 2 x 2,
 /// 3 x 2} = 54 (the cone angle, clamp and step at `base`'s); plus `base` at voxels 256 and 512 (its
-/// occlusion voxels are bits: the papers' 512^3 fits) = 56. Quick: 32^3, 5 cones, RSM {32, 64} x
-/// layers {1 x 1, 2 x 2} = 4.
+/// occlusion voxels are bits: the papers' 512^3 fits) and `base` with `lrsm_area_weights` = 57.
+/// Quick: 32^3, 5 cones, RSM {32, 64} x layers {1 x 1, 2 x 2} = 4.
 pub fn lrsm_sweep(base: &RenderSettings, quick: bool) -> Vec<RenderSettings> {
     type Axes<'a> = (&'a [u32], &'a [u32], &'a [u32], &'a [(u32, u32)]);
     let (voxels, cones, sides, layers): Axes = if quick {
@@ -258,6 +259,10 @@ pub fn lrsm_sweep(base: &RenderSettings, quick: bool) -> Vec<RenderSettings> {
                 ..base.clone()
             });
         }
+        out.push(RenderSettings {
+            lrsm_area_weights: true,
+            ..base.clone()
+        });
     }
     out
 }
@@ -530,9 +535,14 @@ pub fn bench(
             coverage_correlation: settings.coverage_correlation,
             rsm_side: settings.rsm_side,
             lrsm_layers: format!(
-                "{}x{}",
+                "{}x{}{}",
                 settings.lrsm_depth_splits + 1,
-                settings.lrsm_normal_splits + 1
+                settings.lrsm_normal_splits + 1,
+                if settings.lrsm_area_weights {
+                    " area-weighted"
+                } else {
+                    ""
+                }
             ),
             cache_resolution: settings.cache_resolution,
             cache_tile: settings.cache_tile,
@@ -850,7 +860,8 @@ mod tests {
             .all(|s| s.ao_range == 0.25 && s.validate().is_ok()));
         assert_eq!(svo.iter().filter(|s| s.anisotropic_voxels).count(), 25);
         let lrsm = sweep(&base, false, Pipeline::Lrsm);
-        assert_eq!(lrsm.len(), 56);
+        assert_eq!(lrsm.len(), 57);
+        assert_eq!(lrsm.iter().filter(|s| s.lrsm_area_weights).count(), 1);
         assert_eq!(lrsm.iter().filter(|s| s.voxels > 128).count(), 2);
         assert!(lrsm
             .iter()
