@@ -247,20 +247,16 @@ pub fn lrsm_radiance(
             continue;
         }
         let base = v.info[2] as usize;
-        let lrsm = if a.area_lrsm {
-            Lrsm {
-                depth_ranges: vol.lrsm.depth_ranges,
-                radiance: &area[0][base..],
-                normal: &area[1][base..],
-                moments: &area[2][base..],
-            }
+        let [radiance, normal, moments]: [&[[f32; 4]]; 3] = if a.area_lrsm {
+            [&area[0], &area[1], &area[2]]
         } else {
-            Lrsm {
-                depth_ranges: vol.lrsm.depth_ranges,
-                radiance: &vol.lrsm.radiance[base..],
-                normal: &vol.lrsm.normal[base..],
-                moments: &vol.lrsm.moments[base..],
-            }
+            [vol.lrsm.radiance, vol.lrsm.normal, vol.lrsm.moments]
+        };
+        let lrsm = Lrsm {
+            depth_ranges: vol.lrsm.depth_ranges,
+            radiance: &radiance[base..],
+            normal: &normal[base..],
+            moments: &moments[base..],
         };
         let (cx, cy) = (nx.clamp(-1.0, 1.0), ny.clamp(-1.0, 1.0));
         let pos = [
