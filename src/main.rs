@@ -1287,19 +1287,35 @@ fn run_temporal(
     }
     bar.finish_and_clear();
     let mut md = String::from(
-        "| pipeline | motion | instability | own change | reference's change | combined FLIP (frame 0) |\n|---|---|---|---|---|---|\n",
+        "| pipeline | motion | instability | on kept surfaces (share of pixels) | own change | reference's change | combined FLIP (frame 0) |\n|---|---|---|---|---|---|---|\n",
     );
-    let mut csv =
-        String::from("pipeline,motion,instability,change,reference_change,combined_flip\n");
+    let mut csv = String::from(
+        "pipeline,motion,instability,persistent_instability,persistent_share,change,reference_change,combined_flip\n",
+    );
     for r in &rows {
         let m = &r.measure;
+        let kept = m.persistent.expect("measure() masks the kept surfaces");
         md.push_str(&format!(
-            "| {} | {} | {:.4} | {:.4} | {:.4} | {:.3} |\n",
-            r.pipeline, r.motion, m.instability, m.change, m.reference_change, r.combined_flip
+            "| {} | {} | {:.4} | {:.4} ({:.0}%) | {:.4} | {:.4} | {:.3} |\n",
+            r.pipeline,
+            r.motion,
+            m.instability,
+            kept.instability,
+            kept.share * 100.0,
+            m.change,
+            m.reference_change,
+            r.combined_flip
         ));
         csv.push_str(&format!(
-            "{},{},{},{},{},{}\n",
-            r.pipeline, r.motion, m.instability, m.change, m.reference_change, r.combined_flip
+            "{},{},{},{},{},{},{},{}\n",
+            r.pipeline,
+            r.motion,
+            m.instability,
+            kept.instability,
+            kept.share,
+            m.change,
+            m.reference_change,
+            r.combined_flip
         ));
     }
     for (motion, floor) in &floors {

@@ -75,6 +75,15 @@ impl Motion {
 /// Also returns the mean `|P[t+1] - P[t]|` and `|R[t+1] - R[t]|` relative to the same mean (how much each
 /// changes on its own).
 pub fn instability(p: &[RgbImage], r: &[RgbImage]) -> Measure {
+    instability_on(p, r, None)
+}
+
+/// [`instability`], and with `persistent` (per step `t -> t + 1`, per pixel: whether the pixel sees
+/// the same surface in both frames, [`persistent_pixels`]) the same measure over those pixels alone
+/// ([`Measure::persistent`]): the change a pipeline adds where the scene under a pixel did not change.
+/// Where a pixel's surface changes (an edge crossing it), `|dP - dR|` is the difference of the
+/// pipeline's errors on the two surfaces, an error that moves with the edge rather than flicker.
+pub fn instability_on(p: &[RgbImage], r: &[RgbImage], persistent: Option<&[Vec<bool>]>) -> Measure {
     assert_eq!(p.len(), r.len(), "one pipeline frame per reference frame");
     let mean_r = r
         .iter()
@@ -85,21 +94,31 @@ pub fn instability(p: &[RgbImage], r: &[RgbImage]) -> Measure {
     let scale = if mean_r > 0.0 { 1.0 / mean_r } else { 0.0 };
     let mut steps = Vec::new();
     let (mut own_p, mut own_r) = (0.0, 0.0);
+    let (mut kept_sum, mut kept_share) = (0.0, 0.0);
     for t in 0..p.len().saturating_sub(1) {
         let n = (p[t].pixels.len() * 3).max(1) as f64;
         let (mut d, mut dp, mut dr) = (0.0, 0.0, 0.0);
+        let (mut dk, mut nk) = (0.0, 0usize);
+        let kept = persistent.map(|m| &m[t]);
         for i in 0..p[t].pixels.len() {
+            let on = kept.is_some_and(|k| k[i]);
             for c in 0..3 {
                 let a = p[t + 1].pixels[i][c] as f64 - p[t].pixels[i][c] as f64;
                 let b = r[t + 1].pixels[i][c] as f64 - r[t].pixels[i][c] as f64;
                 d += (a - b).abs();
                 dp += a.abs();
                 dr += b.abs();
+                if on {
+                    dk += (a - b).abs();
+                }
             }
+            nk += on as usize;
         }
         steps.push(d / n * scale);
         own_p += dp / n * scale;
         own_r += dr / n * scale;
+        kept_sum += dk / (nk * 3).max(1) as f64 * scale;
+        kept_share += nk as f64 / p[t].pixels.len().max(1) as f64;
     }
     let k = steps.len().max(1) as f64;
     Measure {
@@ -107,7 +126,70 @@ pub fn instability(p: &[RgbImage], r: &[RgbImage]) -> Measure {
         steps,
         change: own_p / k,
         reference_change: own_r / k,
+        persistent: persistent.map(|_| Persistent {
+            instability: kept_sum / k,
+            share: kept_share / k,
+        }),
     }
+}
+
+/// [`instability_on`]'s measure over the pixels that keep their surface from one frame to the next.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Persistent {
+    /// Mean over steps of the mean `|dP - dR|` over those pixels, relative to R's mean (the same
+    /// scale as [`Measure::instability`]).
+    pub instability: f64,
+    /// The mean fraction of pixels that keep their surface.
+    pub share: f64,
+}
+
+/// Per step `t -> t + 1` of `frames` frames of `motion`, per pixel: whether the pixel's centre sees
+/// the same surface in both frames (the gbuffer mirror's primary hit): the same triangle, or
+/// triangles of one material in one plane (normals within 0.8 degree, plane offsets within 1e-4 of
+/// the scene's extent: a wall split in two triangles is one surface). A pixel that sees nothing in
+/// either frame does not count.
+pub fn persistent_pixels(scene: &Scene, motion: Motion, frames: u32) -> Vec<Vec<bool>> {
+    use rayon::prelude::*;
+    use vxgi_cpu_mirror::gbuffer::shade_pixel;
+    type Seen = Option<(u32, u32, glam::Vec3, f32)>;
+    let hits: Vec<(Vec<Seen>, f32)> = (0..frames)
+        .into_par_iter()
+        .map(|t| {
+            let data = crate::trace::SceneData::new(&motion.at(scene, t));
+            let (w, h) = (data.width(), data.height());
+            let extent = (data.bounds.1 - data.bounds.0).length().max(1e-12);
+            let seen = (0..w * h)
+                .map(|i| {
+                    let px = shade_pixel(&data.frame, &data.nodes, &data.triangles, i % w, i / w);
+                    let tri = data.triangles.get(px.triangle as usize)?;
+                    let (a, b, c) = (
+                        glam::Vec3::from_slice(&tri.a[..3]),
+                        glam::Vec3::from_slice(&tri.b[..3]),
+                        glam::Vec3::from_slice(&tri.c[..3]),
+                    );
+                    let n = (b - a).cross(c - a).normalize_or_zero();
+                    Some((px.triangle, tri.material(), n, n.dot(a)))
+                })
+                .collect();
+            (seen, extent)
+        })
+        .collect();
+    hits.windows(2)
+        .map(|f| {
+            let tol = 1e-4 * f[0].1.max(f[1].1);
+            f[0].0
+                .iter()
+                .zip(&f[1].0)
+                .map(|(a, b)| match (a, b) {
+                    (Some(a), Some(b)) => {
+                        a.0 == b.0
+                            || (a.1 == b.1 && a.2.dot(b.2) > 0.9999 && (a.3 - b.3).abs() <= tol)
+                    }
+                    _ => false,
+                })
+                .collect()
+        })
+        .collect()
 }
 
 /// [`instability`]'s result.
@@ -119,6 +201,8 @@ pub struct Measure {
     /// Mean `|P[t+1] - P[t]|` and `|R[t+1] - R[t]|`, relative to R's mean.
     pub change: f64,
     pub reference_change: f64,
+    /// The measure over the pixels that keep their surface (where a mask was given).
+    pub persistent: Option<Persistent>,
 }
 
 /// The reference's indirect images of `frames` frames of `motion` (ideal cones with `rays` rays per
@@ -230,7 +314,8 @@ pub fn measure(
 ) -> Result<(Measure, Vec<crate::render::Rendered>)> {
     let got = pipeline_frames(ctx, pipeline, scene, motion, reference.len() as u32)?;
     let indirect: Vec<_> = got.iter().map(|f| f.indirect.clone()).collect();
-    Ok((instability(&indirect, reference), got))
+    let kept = persistent_pixels(scene, motion, reference.len() as u32);
+    Ok((instability_on(&indirect, reference, Some(&kept)), got))
 }
 
 /// `pipeline`'s frames of the sequence, one GPU-resident renderer drawing them all in order: the
@@ -341,5 +426,36 @@ mod tests {
         assert!((m.instability - 0.05).abs() < 1e-6, "{m:?}");
         assert_eq!(m.steps.len(), 2);
         assert!((m.reference_change - 0.25).abs() < 1e-6, "{m:?}");
+        assert_eq!(m.persistent, None);
+        // The same, with pixel 0 changing surface in step 0 and both kept in step 1: step 0 counts
+        // pixel 1 alone (off by 0), step 1 both (0.1 on average over mean R = 2: 0.05); 0.025.
+        let kept = [vec![false, true], vec![true, true]];
+        let m = instability_on(&q, &r, Some(&kept));
+        let k = m.persistent.unwrap();
+        assert!((k.instability - 0.025).abs() < 1e-6, "{m:?}");
+        assert!((k.share - 0.75).abs() < 1e-12, "{m:?}");
+        assert!(
+            (m.instability - 0.05).abs() < 1e-6,
+            "the mask changes only its own measure"
+        );
+    }
+
+    #[test]
+    fn a_still_scene_keeps_every_seen_pixel_and_an_orbit_uncovers_some() {
+        let mut scene = Scene::cornell_box();
+        scene.camera.width = 24;
+        scene.camera.height = 24;
+        let still = persistent_pixels(&scene, Motion::Orbit { degrees: 0.0 }, 2);
+        let seen = crate::reference::pixel_positions(&scene)
+            .iter()
+            .filter(|p| p[3] >= 0.0)
+            .count();
+        assert_eq!(still[0].iter().filter(|&&k| k).count(), seen);
+        let moved = persistent_pixels(&scene, Motion::Orbit { degrees: 10.0 }, 3);
+        assert_eq!(moved.len(), 2);
+        for step in &moved {
+            let kept = step.iter().filter(|&&k| k).count();
+            assert!(kept > seen / 2 && kept < seen, "{kept} of {seen}");
+        }
     }
 }
