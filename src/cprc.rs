@@ -454,6 +454,8 @@ pub struct CprcStats {
     /// Clusters past the frame's cache capacity, left without a cache (the resident renderer's
     /// buffers hold [`crate::pipeline`]' capacity).
     pub dropped: usize,
+    /// Caches kept from the last frame (`cache_reuse`), in place of ones placed anew.
+    pub kept: usize,
     /// Front-facing geometry pixels, and those left without a valid cache ([`coverage`]: the paper's
     /// Fig. 6 measure); `None` where not measured (resident frames: the caches stay on the GPU).
     pub coverage: Option<(usize, usize)>,
@@ -470,6 +472,7 @@ pub fn compose(
     let stats = CprcStats {
         caches: data.cache_pos.len(),
         dropped: 0,
+        kept: 0,
         coverage: Some((pixels, uncovered)),
     };
     let mut ind = Vec::with_capacity(diffuse.len());

@@ -389,6 +389,10 @@ struct RenderFlags {
     /// cprc: gathering radius in tiles [default 2].
     #[arg(long = "gather-radius", alias = "gather_radius")]
     gather_radius: Option<f32>,
+    /// cprc: keep the last frame's caches where their surface is still in view (frames after the
+    /// first of one renderer) [default false].
+    #[arg(long = "cache-reuse", alias = "cache_reuse")]
+    cache_reuse: Option<bool>,
     /// vct-svo: light-view map side per light view for photon injection (power of two, 16..=2048;
     /// 0 = voxel_light's per-voxel direct light) [default 256].
     #[arg(long = "photon-map", alias = "photon_map")]
@@ -466,6 +470,7 @@ fn load_scene(path: &Option<PathBuf>, flags: &RenderFlags) -> Result<vxgi::scene
         cache_tile,
         cache_depth_slices,
         gather_radius,
+        cache_reuse,
         photon_map,
         anisotropic_voxels,
         voxel_lobes,
@@ -632,6 +637,10 @@ fn run_render(
                         "cprc: {} radiance caches; {uncovered} of {pixels} front-facing pixels without a valid cache ({:.2}%)",
                         c.caches,
                         100.0 * uncovered as f64 / pixels.max(1) as f64
+                    ),
+                    None if scene.render.cache_reuse => println!(
+                        "cprc: {} radiance caches, {} kept from the last frame",
+                        c.caches, c.kept
                     ),
                     None => println!("cprc: {} radiance caches", c.caches),
                 }
@@ -1287,16 +1296,16 @@ fn run_temporal(
     }
     bar.finish_and_clear();
     let mut md = String::from(
-        "| pipeline | motion | instability | on kept surfaces (share of pixels) | own change | reference's change | combined FLIP (frame 0) |\n|---|---|---|---|---|---|---|\n",
+        "| pipeline | motion | instability | on kept surfaces (share of pixels) | own change | reference's change | error (mean over frames) | combined FLIP (frame 0) |\n|---|---|---|---|---|---|---|---|\n",
     );
     let mut csv = String::from(
-        "pipeline,motion,instability,persistent_instability,persistent_share,change,reference_change,combined_flip\n",
+        "pipeline,motion,instability,persistent_instability,persistent_share,change,reference_change,error,combined_flip\n",
     );
     for r in &rows {
         let m = &r.measure;
         let kept = m.persistent.expect("measure() masks the kept surfaces");
         md.push_str(&format!(
-            "| {} | {} | {:.4} | {:.4} ({:.0}%) | {:.4} | {:.4} | {:.3} |\n",
+            "| {} | {} | {:.4} | {:.4} ({:.0}%) | {:.4} | {:.4} | {:.4} | {:.3} |\n",
             r.pipeline,
             r.motion,
             m.instability,
@@ -1304,10 +1313,11 @@ fn run_temporal(
             kept.share * 100.0,
             m.change,
             m.reference_change,
+            m.error,
             r.combined_flip
         ));
         csv.push_str(&format!(
-            "{},{},{},{},{},{},{},{}\n",
+            "{},{},{},{},{},{},{},{},{}\n",
             r.pipeline,
             r.motion,
             m.instability,
@@ -1315,6 +1325,7 @@ fn run_temporal(
             kept.share,
             m.change,
             m.reference_change,
+            m.error,
             r.combined_flip
         ));
     }

@@ -809,6 +809,7 @@ impl<'c> Resident<'c> {
                 self.caches = Some(crate::cprc::CprcStats {
                     caches: a[0] as usize,
                     dropped: a[1] as usize,
+                    kept: a[2] as usize,
                     coverage: None,
                 });
                 let mut plan = Pipeline::Cprc.plan(scene, cones, cached);
@@ -816,8 +817,13 @@ impl<'c> Resident<'c> {
                     plan = plan.with_note(
                         "cache_creation",
                         &format!(
-                            "{} caches this frame, in buffers for {} (indirect dispatch from the GPU's count{})",
+                            "{} caches this frame{}, in buffers for {} (indirect dispatch from the GPU's count{})",
                             a[0],
+                            if scene.render.cache_reuse {
+                                format!(" ({} kept from the last frame)", a[2])
+                            } else {
+                                String::new()
+                            },
                             room.capacity,
                             if a[1] > 0 {
                                 format!("; {} clusters past the capacity got none", a[1])

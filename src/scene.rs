@@ -255,6 +255,12 @@ pub struct RenderSettings {
     pub cache_depth_slices: u32,
     /// cprc: gathering radius in tiles (the paper's f; > 0, at most 8).
     pub gather_radius: f32,
+    /// cprc: a frame after the first keeps the last frame's caches on the surfaces they were made
+    /// on, where their surface is still in view in the same cluster (`cache_reuse`; the paper's
+    /// sections 5-6: caches that follow surfaces instead of jumping between the pixels of their
+    /// cluster). Applies to consecutive frames of one GPU-resident renderer (false, the default: every
+    /// frame places its caches anew; a single frame is the same either way).
+    pub cache_reuse: bool,
     /// vct-svo: light injection. The side of the light-view map rendered per light view (a power of
     /// two, 16..=2048), one photon per texel splatted into the octree's leaves (VCT 8.2); 0 lights
     /// the voxels with voxel_light's per-voxel direct light instead.
@@ -492,6 +498,7 @@ impl Default for RenderSettings {
             cache_tile: 16,
             cache_depth_slices: 16,
             gather_radius: 2.0,
+            cache_reuse: false,
             photon_map: 256,
             anisotropic_voxels: true,
             voxel_lobes: false,

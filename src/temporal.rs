@@ -121,8 +121,24 @@ pub fn instability_on(p: &[RgbImage], r: &[RgbImage], persistent: Option<&[Vec<b
         kept_share += nk as f64 / p[t].pixels.len().max(1) as f64;
     }
     let k = steps.len().max(1) as f64;
+    let error = p
+        .iter()
+        .zip(r)
+        .map(|(a, b)| {
+            let n = (a.pixels.len() * 3).max(1) as f64;
+            let sum: f64 = a
+                .pixels
+                .iter()
+                .zip(&b.pixels)
+                .flat_map(|(x, y)| (0..3).map(move |c| (x[c] as f64 - y[c] as f64).abs()))
+                .sum();
+            sum / n * scale
+        })
+        .sum::<f64>()
+        / p.len().max(1) as f64;
     Measure {
         instability: steps.iter().sum::<f64>() / k,
+        error,
         steps,
         change: own_p / k,
         reference_change: own_r / k,
@@ -196,6 +212,10 @@ pub fn persistent_pixels(scene: &Scene, motion: Motion, frames: u32) -> Vec<Vec<
 #[derive(Clone, Debug, PartialEq)]
 pub struct Measure {
     pub instability: f64,
+    /// The mean over frames of the mean `|P[t] - R[t]|`, relative to R's mean: each frame's own
+    /// error against the reference, so that a change that steadies frames at the cost of their
+    /// accuracy shows.
+    pub error: f64,
     /// Per step `t -> t + 1`.
     pub steps: Vec<f64>,
     /// Mean `|P[t+1] - P[t]|` and `|R[t+1] - R[t]|`, relative to R's mean.

@@ -216,3 +216,52 @@ fn instances_get_their_own_hierarchies() {
     );
     assert!(ours.flip_mean < flat_c.flip_mean + 0.05);
 }
+
+/// `cache_reuse`: a renderer's frames after the first keep the last frame's caches where their
+/// surface is still in their cluster. A still view keeps every cache and draws the first frame again,
+/// bit for bit; a slow orbit keeps most of them, and its frames differ from a renderer's that places
+/// every frame's caches anew (the same first frame: nothing to keep yet).
+#[test]
+fn cache_reuse_keeps_the_caches_of_a_still_view_and_most_under_a_slow_orbit() {
+    use vxgi::render::{Pipeline, VolumeMemory};
+    use vxgi::resident::Resident;
+    let mut scene = Scene::cornell_box();
+    (scene.camera.width, scene.camera.height) = (64, 64);
+    scene.render.voxels = 32;
+    scene.render.cache_tile = 8;
+    let cones = ConeSettings::from(&scene.render);
+    let stats = |r: &Resident| match r.memory() {
+        Some(VolumeMemory::Caches(c)) => (c.caches, c.kept),
+        other => panic!("cprc's caches: {other:?}"),
+    };
+    let frames = |reuse: bool, degrees: f32| {
+        let mut s = scene.clone();
+        s.render.cache_reuse = reuse;
+        let mut r = Resident::new(gpu(), Pipeline::Cprc).unwrap();
+        (0..3)
+            .map(|k| {
+                let f = r.render(&s.orbited(degrees * k as f32), &cones).unwrap();
+                (f.indirect, stats(&r))
+            })
+            .collect::<Vec<_>>()
+    };
+    let still = frames(true, 0.0);
+    assert_eq!(still[0].1 .1, 0, "nothing to keep in the first frame");
+    for (k, (img, (caches, kept))) in still.iter().enumerate().skip(1) {
+        assert!(
+            *caches > 20 && kept == caches,
+            "frame {k}: {kept} of {caches} kept"
+        );
+        assert!(img == &still[0].0, "frame {k} differs from frame 0");
+    }
+    let (kept, anew) = (frames(true, 1.0), frames(false, 1.0));
+    assert!(kept[0].0 == anew[0].0, "the first frames differ");
+    for k in 1..3 {
+        let (caches, n) = kept[k].1;
+        assert!(
+            n * 10 >= caches * 7 && n < caches,
+            "frame {k}: {n} of {caches} kept"
+        );
+        assert!(kept[k].0 != anew[k].0, "frame {k}: reuse changed nothing");
+    }
+}

@@ -9,6 +9,7 @@ mod cache_creation;
 mod cache_placement;
 mod cache_preconvolve;
 mod cache_records;
+mod cache_reuse;
 mod cli;
 mod cluster_extract;
 mod cluster_keys;

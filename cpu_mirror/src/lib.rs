@@ -12,6 +12,7 @@ pub mod cache_creation;
 pub mod cache_placement;
 pub mod cache_preconvolve;
 pub mod cache_records;
+pub mod cache_reuse;
 pub mod cluster_extract;
 pub mod cluster_keys;
 pub mod cone_trace;

@@ -6,6 +6,7 @@ pub mod cache_creation;
 pub mod cache_placement;
 pub mod cache_preconvolve;
 pub mod cache_records;
+pub mod cache_reuse;
 pub mod cluster_extract;
 pub mod cluster_keys;
 pub mod cone_trace;
@@ -185,6 +186,7 @@ pub fn all() -> Vec<&'static dyn Kernel> {
         &cache_preconvolve::CachePreconvolve,
         &cprc_pixels::CprcPixels,
         &cache_records::CacheRecords,
+        &cache_reuse::CacheReuse,
         &gbuffer::Gbuffer,
         &direct_light::DirectLight,
         &voxelize::Voxelize,

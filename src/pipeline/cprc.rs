@@ -5,13 +5,15 @@
 use super::host::{HostFrame, Side};
 use super::*;
 use crate::kernels::{
-    cache_creation, cache_placement, cache_preconvolve, cache_records, cluster_extract,
-    cluster_keys, cprc_pixels, gather_caches, histogram_axes, radix_sort, tile_normal_histogram,
+    cache_creation, cache_placement, cache_preconvolve, cache_records, cache_reuse,
+    cluster_extract, cluster_keys, cprc_pixels, gather_caches, histogram_axes, radix_sort,
+    tile_normal_histogram,
 };
 
 /// cprc's frame: vct-dense's stages up to the radiance pyramid (with its reuse rule), then the
 /// cache distribution, creation, pre-convolution and the gather instead of per-pixel cones. The
-/// caches follow the view, so they are made again every frame.
+/// caches follow the view, so they are made again every frame (with `cache_reuse`, a cache whose
+/// surface is still in view in its cluster keeps its place).
 pub static CPRC: PipelineDecl = PipelineDecl {
     name: "cprc",
     stages: &[
@@ -36,6 +38,7 @@ pub static CPRC: PipelineDecl = PipelineDecl {
                 &radix_sort::DECL,
                 &cluster_extract::DECL,
                 &cache_placement::DECL,
+                &cache_reuse::DECL,
                 &cache_records::DECL,
             ],
             reuse: Reuse::Camera,
@@ -148,6 +151,18 @@ fn distribution_plan(i: &PlanInputs) -> Vec<PlannedPass> {
             ),
         ));
     }
+    if i.scene.render.cache_reuse {
+        passes.extend(lit(
+            i,
+            PlannedPass::new(
+                STAGE,
+                "cache_reuse",
+                "the last frame's caches",
+                true,
+                "each cluster keeps the last frame's cache still on its surface, if any (entries clear, claim; none in a renderer's first frame)",
+            ),
+        ));
+    }
     passes.extend(lit(
         i,
         PlannedPass::new(
@@ -158,6 +173,18 @@ fn distribution_plan(i: &PlanInputs) -> Vec<PlannedPass> {
             "each cluster's cache record, and the cache stages' workgroups from the count",
         ),
     ));
+    if i.scene.render.cache_reuse {
+        passes.extend(lit(
+            i,
+            PlannedPass::new(
+                STAGE,
+                "cache_reuse",
+                "one per cluster",
+                true,
+                "a kept cache's record takes its last position, normal and pixel (entry keep)",
+            ),
+        ));
+    }
     passes
 }
 
@@ -342,6 +369,46 @@ pub(crate) fn cprc_chain(
     for (decl, passes) in stages {
         chain.push_as(decl.shader()?, decl.name, "cache_distribution", passes);
     }
+    // With reuse: the last frame's records, copied before this frame's overwrite them (zeros, no
+    // caches, in a new chain), claimed by the clusters whose surface still holds them.
+    // One slot per entry of the clusters buffer (pixel_cluster's values index it).
+    let slots = chain.resources["clusters"].buffer().map_or(1, |b| {
+        b.bytes.len() / std::mem::size_of::<vxgi_cpu_mirror::cluster_extract::Cluster>()
+    });
+    let reuse = scene
+        .render
+        .cache_reuse
+        .then(|| cache_reuse::passes(ctx, slots, room.capacity as usize));
+    if let Some((claim, _)) = &reuse {
+        chain.merge(
+            cache_reuse::DECL.name,
+            cache_reuse::resources(
+                slots,
+                room.capacity as usize,
+                vxgi_cpu_mirror::cache_reuse::ReuseParams::DEFAULT,
+            ),
+        )?;
+        let after = chain.pass_count();
+        for (src, dst) in [
+            ("cache_pos", "prev_pos"),
+            ("cache_normal", "prev_normal"),
+            ("cache_count", "prev_count"),
+        ] {
+            chain.copies.push(ChainCopy {
+                src_range: None,
+                after,
+                src: src.into(),
+                dst: dst.into(),
+                offset: 0,
+            });
+        }
+        chain.push_as(
+            cache_reuse::DECL.shader()?,
+            cache_reuse::DECL.name,
+            "cache_distribution",
+            claim.clone(),
+        );
+    }
     // The records of every cache slot and the cache stages' arguments.
     let cone = cone_trace::cone_params(&chain.frame, cones);
     let params = vxgi_cpu_mirror::cache_records::RecordsParams {
@@ -376,6 +443,14 @@ pub(crate) fn cprc_chain(
         "cache_distribution",
         vec![cache_records::pass(ctx, &params)],
     );
+    if let Some((_, keep)) = reuse {
+        chain.push_as(
+            cache_reuse::DECL.shader()?,
+            cache_reuse::DECL.name,
+            "cache_distribution",
+            vec![keep],
+        );
+    }
     let after_records = chain.pass_count();
     // Creation, pre-convolution and the gather over every slot, dispatched from the arguments.
     let len = pyramid_texels(&chain);
