@@ -2,7 +2,8 @@
 // cache follows its surface instead of jumping to whichever pixel of its cluster scores best this
 // frame (Rehfeld et al. 2014, sections 5-6: "RCs follow surfaces, but jump"; reusing the last
 // frame's caches). Mirror: cpu_mirror/src/cache_reuse.rs (its module comment defines every output).
-// Uses kernels/common/octahedral_bins.wgsl (oct_is_geometry, oct_unpack).
+// Uses kernels/common/octahedral_bins.wgsl (oct_is_geometry, oct_unpack), common/scene_types.wgsl
+// (Frame) and common/cache_records_params.wgsl (RecordsParams).
 //
 // Between cache_placement and cache_records of cprc's distribution, with the last frame's records
 // copied into prev_pos, prev_normal and prev_count before cache_records overwrites them:
@@ -24,27 +25,6 @@
 // 2.5 ULP, sqrt); the mirror derives a bound for each and accepts any outcome within it (a pixel
 // beside the boundary, a candidate on the edge of a test). Everything keep writes is copied, but
 // for the origin (one multiply-add, within a bound).
-
-struct Frame {
-    eye: vec4<f32>,
-    forward: vec4<f32>,
-    right: vec4<f32>,
-    up: vec4<f32>,
-    size: vec4<u32>,
-}
-
-struct RecordsParams {
-    width: u32,
-    tile: u32,
-    tiles_x: u32,
-    capacity: u32,
-    per: vec3<u32>,
-    max_groups: u32,
-    offset: f32,
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
-}
 
 struct ReuseParams {
     reach: f32,

@@ -1,6 +1,6 @@
 // cprc_pixels — what cprc reads from a frame's G-buffer and writes back to its pixels (Rehfeld et al.
 // 2014, 3.2-3.3). Mirror: cpu_mirror/src/cprc_pixels.rs (its module comment defines every output).
-// Uses kernels/common/scene_types.wgsl (Triangle).
+// Uses kernels/common/scene_types.wgsl (Frame, Triangle).
 //
 // inputs (one invocation per pixel): from the G-buffer (gb_position, gb_normal, gb_triangle), the
 //   camera (frame) and the triangles' materials, the distribution's and the gather's per-pixel inputs:
@@ -12,14 +12,6 @@
 //   gathers, ao = 1 on any geometry.
 // Accuracy: normals, positions, specular, ao exact (the quantisation is one correctly rounded product
 // and round); depth, pixel_dirs and indirect within the mirror's per-element bounds.
-
-struct Frame {
-    eye: vec4<f32>,
-    forward: vec4<f32>,
-    right: vec4<f32>,
-    up: vec4<f32>,
-    size: vec4<u32>,
-}
 
 @group(0) @binding(0) var<storage, read> frame: Frame;
 @group(0) @binding(1) var<storage, read> triangles: array<Triangle>;

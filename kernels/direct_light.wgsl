@@ -13,14 +13,6 @@
 // Accuracy: per-element bound (see shade_with_bound): 64 ULP per light term, 8 ULP absolute on the
 // cosines, pow's exp2/log2 rule; a term whose visibility or spot edge rounding decides adds its value.
 
-struct Frame {
-    eye: vec4<f32>,
-    forward: vec4<f32>,
-    right: vec4<f32>,
-    up: vec4<f32>,
-    size: vec4<u32>,   // width, height, light count, 0
-}
-
 @group(0) @binding(0) var<storage, read> frame: Frame;
 @group(0) @binding(1) var<storage, read> nodes: array<BvhNode>;
 @group(0) @binding(2) var<storage, read> triangles: array<Triangle>;

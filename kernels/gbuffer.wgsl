@@ -21,14 +21,6 @@
 // within 1e-4 barycentric of an edge, or meeting triangles at equal depth): there the mirror accepts
 // the GPU's pick after checking it is one rounding could have made.
 
-struct Frame {
-    eye: vec4<f32>,      // w = ray offset epsilon
-    forward: vec4<f32>,
-    right: vec4<f32>,
-    up: vec4<f32>,
-    size: vec4<u32>,     // width, height, light count, projection (0 perspective, 1 orthographic)
-}
-
 @group(0) @binding(0) var<storage, read> frame: Frame;
 @group(0) @binding(1) var<storage, read> nodes: array<BvhNode>;
 @group(0) @binding(2) var<storage, read> triangles: array<Triangle>;

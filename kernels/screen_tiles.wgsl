@@ -9,15 +9,7 @@
 // `tile_list` = [groups_x, groups_y, groups_z, count, tile...], zero on entry: thread 0 of a listed
 // tile appends it (atomic counter, so the order is free) and raises the arguments with atomicMax:
 // groups_x = min(count, 65535), groups_y = ceil(count / 65535), groups_z = 1. `surface` is workgroup
-// memory, which WGSL zero-initialises. Exact (integers).
-
-struct Frame {
-    eye: vec4<f32>,
-    forward: vec4<f32>,
-    right: vec4<f32>,
-    up: vec4<f32>,
-    size: vec4<u32>,   // width, height (the rest unused here)
-}
+// memory, which WGSL zero-initialises. Exact (integers). Uses kernels/common/scene_types.wgsl (Frame).
 
 @group(0) @binding(0) var<storage, read> frame: Frame;
 @group(0) @binding(4) var<storage, read> gb_normal: array<vec4<f32>>;

@@ -13,14 +13,6 @@
 // `shade_pixel`, generic over `Volume`). See cone_trace.wgsl's header for the full definition.
 // Needs common/tangent_basis.wgsl (the pixel entry's cone frame) and common/scene_types.wgsl.
 
-struct Frame {
-    eye: vec4<f32>,
-    forward: vec4<f32>,
-    right: vec4<f32>,
-    up: vec4<f32>,
-    size: vec4<u32>,
-}
-
 struct ConeParams {
     origin: vec4<f32>,   // xyz, w = s0
     ao_range: f32,

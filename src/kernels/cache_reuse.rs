@@ -51,7 +51,11 @@ vxgi_harness::bindings! {
 
 pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
     "cache_reuse",
-    includes: &[super::tile_normal_histogram::OCTAHEDRAL_BINS],
+    includes: &[
+        super::tile_normal_histogram::OCTAHEDRAL_BINS,
+        super::SCENE_TYPES,
+        super::CACHE_RECORDS_PARAMS,
+    ],
     entry: "claim",
     inputs: Io::INPUTS,
     outputs: Io::OUTPUTS,

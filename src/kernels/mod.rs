@@ -38,6 +38,13 @@ pub mod voxelize;
 
 use vxgi_harness::Kernel;
 
+/// cache_records' uniform block, included by cache_records and cache_reuse (which binds the same
+/// buffer in cprc's chain).
+pub const CACHE_RECORDS_PARAMS: (&str, &str) = (
+    "kernels/common/cache_records_params.wgsl",
+    include_str!("../../kernels/common/cache_records_params.wgsl"),
+);
+
 /// Shared LRSM arithmetic (erfc, Gaussian depth visibility, layer decay), included by the LRSM kernels.
 pub const LRSM_MATH: (&str, &str) = (
     "kernels/common/lrsm_math.wgsl",

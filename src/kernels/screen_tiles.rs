@@ -28,6 +28,7 @@ vxgi_harness::bindings! {
 
 pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
     "screen_tiles",
+    includes: &[super::SCENE_TYPES],
     inputs: Io::INPUTS,
     outputs: Io::OUTPUTS,
     dispatch: DispatchRule::PerItem {
