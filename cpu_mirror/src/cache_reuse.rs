@@ -361,3 +361,71 @@ pub fn keep(
     }
     (count, bounds)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 4 x 4 view down -z (90 degrees), every pixel on the plane z = -2 facing the camera, one
+    /// cluster per pixel.
+    fn view() -> (Frame, Vec<[f32; 4]>, Vec<[u32; 2]>, Vec<u32>) {
+        let frame = Frame {
+            eye: [0.0; 4],
+            forward: [0.0, 0.0, -1.0, 0.0],
+            right: [1.0, 0.0, 0.0, 0.0],
+            up: [0.0, 1.0, 0.0, 0.0],
+            size: [4, 4, 0, 0],
+        };
+        let positions = (0..16)
+            .map(|p| {
+                let (x, y) = ((p % 4) as f32 + 0.5, (p / 4) as f32 + 0.5);
+                [
+                    (x / 4.0 * 2.0 - 1.0) * 2.0,
+                    (1.0 - y / 4.0 * 2.0) * 2.0,
+                    -2.0,
+                    1.0,
+                ]
+            })
+            .collect();
+        let normals = vec![crate::octahedral::pack(Some([0, 0, 32767])); 16];
+        (frame, positions, normals, (0..16).collect())
+    }
+
+    #[test]
+    fn a_pixel_centre_is_its_pixels_sure_candidate_and_a_corner_is_either_pixel() {
+        let (frame, positions, normals, clusters) = view();
+        let params = ReuseParams::DEFAULT;
+        let prev_pos = vec![positions[9], [0.0, 0.0, -2.0, 0.0], [0.0, 0.0, 2.0, 0.0]];
+        let prev_normal = vec![[0.0, 0.0, 1.0, 0.0]; 3];
+        let inp = Inputs {
+            frame: &frame,
+            params: &params,
+            prev_pos: &prev_pos,
+            prev_normal: &prev_normal,
+            pixel_cluster: &clusters,
+            normals: &normals,
+            positions: &positions,
+            slots: 16,
+        };
+        assert_eq!(
+            claim(&inp, 0),
+            vec![Outcome {
+                pixel: 9,
+                candidate: Verdict::Yes
+            }]
+        );
+        // The image's centre is the corner of pixels 5, 6, 9 and 10: any of them.
+        let mut corner: Vec<u32> = claim(&inp, 1).iter().map(|o| o.pixel).collect();
+        corner.sort_unstable();
+        assert_eq!(corner, vec![5, 6, 9, 10]);
+        // Behind the camera: no pixel.
+        assert_eq!(claim(&inp, 2)[0].pixel, NONE);
+        // The GPU's choice of cache 1 for cluster 10 is possible; cluster 9 must keep cache 0,
+        // which is sure and lower.
+        let mut gpu = vec![0; 16];
+        gpu[9] = NONE - 1;
+        gpu[10] = NONE - 1;
+        let (kept, _, _) = accept(&inp, 3, &gpu, &[9, 10, NONE], &[0; 3]);
+        assert_eq!((kept[9], kept[10]), (NONE, NONE - 1));
+    }
+}
