@@ -75,7 +75,8 @@ fn claim(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
     let d = x - frame.eye.xyz;
     let z = dot(d, frame.forward.xyz);
     prev_pixel[i] = NONE;
-    // Negated comparisons: NaN is neither in front nor on the image.
+    // Negated comparisons: where NaN survives (WGSL may assume it does not), it is neither in front
+    // nor on the image; the mirror accepts any outcome for non-finite inputs.
     if (!(z > 0.0)) {
         return;
     }

@@ -80,7 +80,8 @@ pub fn instability(p: &[RgbImage], r: &[RgbImage]) -> Measure {
 
 /// [`instability`], and with `persistent` (per step `t -> t + 1`, per pixel: whether the pixel sees
 /// the same surface in both frames, [`persistent_pixels`]) the same measure over those pixels alone
-/// ([`Measure::persistent`]): the change a pipeline adds where the scene under a pixel did not change.
+/// ([`Measure::persistent`]): the change a pipeline adds where a pixel kept its surface (which may
+/// have moved, as an instance does). Steps in which no pixel kept its surface do not count in it.
 /// Where a pixel's surface changes (an edge crossing it), `|dP - dR|` is the difference of the
 /// pipeline's errors on the two surfaces, an error that moves with the edge rather than flicker.
 pub fn instability_on(p: &[RgbImage], r: &[RgbImage], persistent: Option<&[Vec<bool>]>) -> Measure {
@@ -94,7 +95,7 @@ pub fn instability_on(p: &[RgbImage], r: &[RgbImage], persistent: Option<&[Vec<b
     let scale = if mean_r > 0.0 { 1.0 / mean_r } else { 0.0 };
     let mut steps = Vec::new();
     let (mut own_p, mut own_r) = (0.0, 0.0);
-    let (mut kept_sum, mut kept_share) = (0.0, 0.0);
+    let (mut kept_sum, mut kept_share, mut kept_steps) = (0.0, 0.0, 0usize);
     for t in 0..p.len().saturating_sub(1) {
         let n = (p[t].pixels.len() * 3).max(1) as f64;
         let (mut d, mut dp, mut dr) = (0.0, 0.0, 0.0);
@@ -117,7 +118,10 @@ pub fn instability_on(p: &[RgbImage], r: &[RgbImage], persistent: Option<&[Vec<b
         steps.push(d / n * scale);
         own_p += dp / n * scale;
         own_r += dr / n * scale;
-        kept_sum += dk / (nk * 3).max(1) as f64 * scale;
+        if nk > 0 {
+            kept_sum += dk / (nk * 3) as f64 * scale;
+            kept_steps += 1;
+        }
         kept_share += nk as f64 / p[t].pixels.len().max(1) as f64;
     }
     let k = steps.len().max(1) as f64;
@@ -143,7 +147,7 @@ pub fn instability_on(p: &[RgbImage], r: &[RgbImage], persistent: Option<&[Vec<b
         change: own_p / k,
         reference_change: own_r / k,
         persistent: persistent.map(|_| Persistent {
-            instability: kept_sum / k,
+            instability: kept_sum / kept_steps.max(1) as f64,
             share: kept_share / k,
         }),
     }

@@ -95,15 +95,18 @@ pub struct Outcome {
 /// Every outcome `claim` may have for cache `i` on a GPU within WGSL's accuracy rules; the first is
 /// the exact arithmetic's (its pixel is the mirror's `prev_pixel`).
 ///
-/// Bounds, each doubled for any order of a dot product's terms, fused or not: `d = X - eye` rounds
-/// each component by `u |d_k|`; a dot product of `d` with `v` is then within `(2 + 3) u sum |d_k
-/// v_k|`. `(d . r) / (z (r . r))` adds the relative errors of `z` and of `r . r` (3 u), the product
-/// (u) and the division (2.5 u); the `+ 1`, `* 0.5` (exact) and `* w` add `2 u` of the result. The
-/// normal test: the integer-to-float conversion is exact, `* (1 / 32767)` rounds the constant and
-/// the product (2 u each), the dot `3 u` of `sum |n_k m_k|`. The distance test: `e = P - X` rounds
-/// `u |e_k|`, `e . e` within `5 u e . e`; the reach `reach * 2 * z * sqrt(u . u) / h`: `z`'s
-/// relative error, the sqrt of a dot (1.5 u + 2.5 u as 1 / inverseSqrt: 4.5 u), three products and a
-/// division (5.5 u), squared: twice that and one more product.
+/// Bounds, in units of `u` = 2^-24 (half an ULP: an ULP is up to `2 u` relative), each doubled for
+/// any order of a dot product's terms, fused or not: `d = X - eye` rounds each component by
+/// `u |d_k|`; a dot product of `d` with `v` is then within `(2 + 3) u sum |d_k v_k|`. `(d . r) / (z
+/// (r . r))` adds the relative errors of `z`, of `r . r` (3 u), the product (u) and the division (2.5
+/// ULP: 5 u); the `+ 1`, `* 0.5` (exact) and `* w` add `2 u` of the result. The normal test: the
+/// constant `1 / 32767` and the product round (u each), the dot `3 u` of `sum |n_k m_k|`. The
+/// distance test: `e = P - X` rounds `u |e_k|`, `e . e` within `5 u e . e`; the reach `reach * 2 *
+/// z * sqrt(u . u) / h`: `z`'s relative error, the sqrt (the dot's 3 u halved, and sqrt as `1 /
+/// inverseSqrt`: 2 ULP and 2.5 ULP, 9 u), two products (u each) and a division (5 u), 17.5 u in
+/// all; squared, twice that and one more product. Where the inputs are not finite, or `z` is within
+/// its bound of 0 (the projection unbounded), every outcome is possible (WGSL may also assume that
+/// no value is NaN or infinite).
 pub fn claim(inp: &Inputs, i: usize) -> Vec<Outcome> {
     let f = inp.frame;
     let v3 = |a: [f32; 4]| [a[0] as f64, a[1] as f64, a[2] as f64];
@@ -120,29 +123,56 @@ pub fn claim(inp: &Inputs, i: usize) -> Vec<Outcome> {
         pixel: NONE,
         candidate: Verdict::No,
     }];
-    if !(d.iter().all(|c| c.is_finite()) && w > 0 && h > 0) {
+    if w == 0 || h == 0 {
         return none;
+    }
+    // Any pixel, each a candidate or not as its cluster's tests allow: the GPU's arithmetic is not
+    // bounded here.
+    let any = || {
+        let mut out = none.clone();
+        for p in 0..w * h {
+            if let Some(gathers) = gathers(inp, p) {
+                let candidate = if gathers {
+                    Verdict::Either
+                } else {
+                    Verdict::No
+                };
+                out.push(Outcome {
+                    pixel: p,
+                    candidate,
+                });
+            }
+        }
+        out
+    };
+    let finite = |a: [f32; 4]| a.iter().all(|c| c.is_finite());
+    if ![
+        inp.prev_pos[i],
+        inp.prev_normal[i],
+        f.eye,
+        f.forward,
+        f.right,
+        f.up,
+    ]
+    .into_iter()
+    .all(finite)
+    {
+        return any();
     }
     let z = dot(d, fw);
     let bz = 2.0 * 5.0 * U * abs_dot(d, fw);
+    if z + bz <= 0.0 {
+        return none;
+    }
     if z - bz <= 0.0 {
-        // Behind the camera, or too near the eye's plane for the projection to be bounded: every
-        // outcome is possible.
-        return if z + bz <= 0.0 {
-            none
-        } else {
-            vec![Outcome {
-                pixel: NONE,
-                candidate: Verdict::Either,
-            }]
-        };
+        return any();
     }
     let rel_z = bz / z;
     // A coordinate in pixels and its bound: `(dot(d, a) / (z dot(a, a)) * sign + 1) * 0.5 * size`.
     let coord = |a: [f64; 3], sign: f64, size: u32| {
         let aa = dot(a, a);
         let n = dot(d, a) / (z * aa);
-        let bn = 2.0 * (5.0 * U * abs_dot(d, a) / (z * aa) + n.abs() * (rel_z + 6.5 * U));
+        let bn = 2.0 * (5.0 * U * abs_dot(d, a) / (z * aa) + n.abs() * (rel_z + 9.0 * U));
         let c = (sign * n + 1.0) * 0.5 * size as f64;
         let bc = 0.5 * size as f64 * bn + 2.0 * 2.0 * U * c.abs();
         (c, bc)
@@ -150,8 +180,8 @@ pub fn claim(inp: &Inputs, i: usize) -> Vec<Outcome> {
     let (fx, bx) = coord(r, 1.0, w);
     let (fy, by) = coord(u, -1.0, h);
     if !(fx.is_finite() && fy.is_finite() && bx.is_finite() && by.is_finite()) {
-        // A degenerate camera (r or u zero): the GPU's coordinates are NaN or infinite, on no pixel.
-        return none;
+        // A degenerate camera (r or u zero).
+        return any();
     }
     // The columns (rows) the GPU may land in, and whether it may fall off the image.
     let cells = |c: f64, b: f64, size: u32| -> (Vec<u32>, bool) {
@@ -171,7 +201,7 @@ pub fn claim(inp: &Inputs, i: usize) -> Vec<Outcome> {
     let m = v3(inp.prev_normal[i]);
     let up_len = dot(u, u).sqrt();
     let reach = inp.params.reach as f64 * 2.0 * z * up_len / h as f64;
-    let b_reach = 2.0 * 2.0 * (rel_z + 10.0 * U) + U;
+    let b_reach = 2.0 * (2.0 * (rel_z + 17.5 * U) + U);
     for &y in &ys {
         for &xx in &xs {
             let p = y * w + xx;
@@ -207,6 +237,15 @@ pub fn claim(inp: &Inputs, i: usize) -> Vec<Outcome> {
     out
 }
 
+/// Whether pixel `p` may keep a cache at all (it lies in a cluster slot, gathers and has a geometry
+/// normal): the tests on the inputs alone, exact; `None` past the pixel arrays.
+fn gathers(inp: &Inputs, p: u32) -> Option<bool> {
+    let p = p as usize;
+    let c = *inp.pixel_cluster.get(p)?;
+    let (pos, n) = (inp.positions.get(p)?, inp.normals.get(p)?);
+    Some((c as usize) < inp.slots && pos[3] == 1.0 && unpack(*n).is_some())
+}
+
 /// Whether the last-frame cache at `x` (normal `m`) is a candidate for pixel `p`'s cluster: `None`
 /// where `p` is outside the pixel arrays (the kernel writes no pixel then: it cannot happen for a
 /// pixel on the image with arrays of the image's size).
@@ -218,17 +257,16 @@ fn candidate(
     reach: f64,
     b_reach: f64,
 ) -> Option<Verdict> {
+    if !gathers(inp, p)? {
+        return Some(Verdict::No);
+    }
     let p = p as usize;
-    let c = *inp.pixel_cluster.get(p)?;
     let pos = inp.positions[p];
-    let q = match unpack(inp.normals[p]) {
-        Some(q) if (c as usize) < inp.slots && pos[3] == 1.0 => q,
-        _ => return Some(Verdict::No),
-    };
+    let q = unpack(inp.normals[p]).expect("a geometry normal");
     let np = q.map(|v| v as f64 / 32767.0);
     let cos = np[0] * m[0] + np[1] * m[1] + np[2] * m[2];
     let abs = np[0].abs() * m[0].abs() + np[1].abs() * m[1].abs() + np[2].abs() * m[2].abs();
-    let normal = verdict(cos, inp.params.min_cos as f64, 2.0 * 7.0 * U * abs);
+    let normal = verdict(cos, inp.params.min_cos as f64, 2.0 * 5.0 * U * abs);
     let e = [0, 1, 2].map(|k| pos[k] as f64 - x[k]);
     let ee = e[0] * e[0] + e[1] * e[1] + e[2] * e[2];
     let rr = reach * reach;
@@ -247,9 +285,10 @@ fn candidate(
 }
 
 /// `kept` and `prev_pixel` as the GPU must have them, given its own (`gpu_kept`, `gpu_pixel`): per
-/// cache, the GPU's pixel where it is among [`claim`]'s outcomes, else the mirror's; per cluster, the
-/// GPU's choice where it is possible (a cache that may be a candidate of that cluster, and no lower
-/// cache certainly is; or none where no cache certainly is), else the mirror's. `prev_pixel` past
+/// cache, the GPU's pixel where it is among [`claim`]'s outcomes, else the mirror's; that pixel's
+/// verdict then says whether the cache is certainly, possibly or not a candidate of the pixel's
+/// cluster. Per cluster, the GPU's choice where it is possible (a possible candidate, and no lower
+/// cache certainly one; or none where no cache certainly is), else the mirror's. `prev_pixel` past
 /// `prev_count` keeps `first_pixel`, what it held. Also returns how many accepted values differ from
 /// the exact arithmetic's.
 pub fn accept(
@@ -261,34 +300,27 @@ pub fn accept(
 ) -> (Vec<u32>, Vec<u32>, usize) {
     let n = prev_count.min(inp.prev_pos.len()).min(gpu_pixel.len());
     let mut pixel = first_pixel.to_vec();
-    pixel[..n].copy_from_slice(&gpu_pixel[..n]);
     let mut sure = vec![u32::MAX; inp.slots];
     let mut possible: Vec<Vec<u32>> = vec![Vec::new(); inp.slots];
     let mut differ = 0;
     for i in 0..n {
         let outcomes = claim(inp, i);
-        let ok = outcomes.iter().any(|o| o.pixel == gpu_pixel[i]);
-        if !ok {
-            pixel[i] = outcomes[0].pixel;
-        } else if gpu_pixel[i] != outcomes[0].pixel {
-            differ += 1;
-        }
-        let cluster = |o: &Outcome| inp.pixel_cluster.get(o.pixel as usize).copied();
-        for o in &outcomes {
-            if o.candidate != Verdict::No {
-                if let Some(c) = cluster(o) {
-                    possible[c as usize].push(i as u32);
-                }
+        let o = match outcomes.iter().find(|o| o.pixel == gpu_pixel[i]) {
+            Some(o) => {
+                differ += (o.pixel != outcomes[0].pixel) as usize;
+                *o
             }
-        }
-        // Certain: every outcome a candidate of one cluster.
-        let first = cluster(&outcomes[0]);
-        if outcomes
-            .iter()
-            .all(|o| o.candidate == Verdict::Yes && cluster(o) == first)
-        {
-            if let Some(c) = first {
-                sure[c as usize] = sure[c as usize].min(i as u32);
+            None => outcomes[0],
+        };
+        pixel[i] = o.pixel;
+        let Some(&c) = inp.pixel_cluster.get(o.pixel as usize) else {
+            continue;
+        };
+        let c = c as usize;
+        if c < inp.slots && o.candidate != Verdict::No {
+            possible[c].push(i as u32);
+            if o.candidate == Verdict::Yes {
+                sure[c] = sure[c].min(i as u32);
             }
         }
     }
