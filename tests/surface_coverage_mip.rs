@@ -43,15 +43,9 @@ fn check_chain(n: u32, pattern: Pattern, coverage: Coverage, seed: u64) {
 
     // Exactness where the arithmetic is exact: alpha always, everything for volume coverage.
     let readback: Vec<&str> = case.checks.iter().map(|c| c.resource.as_str()).collect();
-    let out = run(
-        ctx,
-        &shader,
-        DECL.name,
-        &case.resources,
-        &case.passes,
-        &readback,
-    )
-    .expect("GPU run");
+    let out = case
+        .run(ctx, &shader, DECL.name, &readback)
+        .expect("GPU run");
     let mut data = case.resources.clone();
     data.extend(out.resources.clone());
     let ieee = chain_mirror(&case, &data, FloatMode::Ieee);

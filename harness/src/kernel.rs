@@ -151,14 +151,7 @@ impl KernelDecl {
         case: &Case,
         outputs: &[&str],
     ) -> Result<crate::run::RunOutput> {
-        crate::run::run(
-            ctx,
-            &self.shader()?,
-            self.name,
-            &case.resources,
-            &case.passes,
-            outputs,
-        )
+        case.run(ctx, &self.shader()?, self.name, outputs)
     }
 
     /// The complete WGSL (includes, then the kernel) for `create_shader_module` in another renderer.
@@ -408,6 +401,18 @@ pub struct Case {
 }
 
 impl Case {
+    /// Run its passes once with `shader` (kernel `kernel`, for messages) on the GPU; read back
+    /// `readback`.
+    pub fn run(
+        &self,
+        ctx: &GpuContext,
+        shader: &Shader,
+        kernel: &str,
+        readback: &[&str],
+    ) -> Result<crate::run::RunOutput> {
+        crate::run::run(ctx, shader, kernel, &self.resources, &self.passes, readback)
+    }
+
     /// This case with the check of `resource` indexed by `indexing` (a grid rather than the element
     /// list [`crate::bindings::Bindings::case`] assumes), for the mismatch report.
     pub fn with_indexing(mut self, resource: &str, indexing: Indexing) -> Self {

@@ -16,7 +16,7 @@ use vxgi_cpu_mirror::gbuffer::Frame;
 use vxgi_cpu_mirror::surface_coverage_mip::Coverage;
 use vxgi_harness::compare::bound_name;
 use vxgi_harness::prelude::*;
-use vxgi_harness::run::{run, Pass, View, Workgroups};
+use vxgi_harness::run::{Pass, View, Workgroups};
 
 pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
     "cone_trace",
@@ -203,14 +203,7 @@ pub fn gpu_pyramid(
         .chain(&normal_names)
         .map(|s| s.as_str())
         .collect();
-    let out = run(
-        ctx,
-        &shader,
-        surface_coverage_mip::DECL.name,
-        &case.resources,
-        &case.passes,
-        &refs,
-    )?;
+    let out = case.run(ctx, &shader, surface_coverage_mip::DECL.name, &refs)?;
     let concat = |level0: &[[f32; 4]], names: &[String]| {
         let mut pyr = Vec::with_capacity(pyramid_len(side));
         pyr.extend_from_slice(level0);

@@ -9,7 +9,6 @@ use vxgi_cpu_mirror::direct_light::{shade_with_bound, GpuLight, GpuMaterial};
 use vxgi_cpu_mirror::gbuffer::Frame;
 use vxgi_harness::compare::bound_name;
 use vxgi_harness::prelude::*;
-use vxgi_harness::run::run;
 
 vxgi_harness::bindings! {
     /// direct_light's bindings: the scene (camera frame, BVH, triangles, lights, materials) and its
@@ -60,15 +59,14 @@ pub fn gpu_gbuffer(ctx: &GpuContext, data: &SceneData) -> Resources {
     let shader = super::gbuffer::DECL
         .shader()
         .expect("gbuffer.wgsl is valid");
-    let out = run(
-        ctx,
-        &shader,
-        "gbuffer",
-        &case.resources,
-        &case.passes,
-        &["gb_position", "gb_normal", "gb_triangle", "gb_albedo"],
-    )
-    .expect("gbuffer runs");
+    let out = case
+        .run(
+            ctx,
+            &shader,
+            "gbuffer",
+            &["gb_position", "gb_normal", "gb_triangle", "gb_albedo"],
+        )
+        .expect("gbuffer runs");
     out.resources
 }
 

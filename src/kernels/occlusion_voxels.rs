@@ -6,7 +6,7 @@ use crate::grids::{generate, Pattern};
 use std::collections::BTreeMap;
 use vxgi_cpu_mirror::occlusion_voxels::{binarize, level_words, reduce, reduce_bits, Coverage};
 use vxgi_harness::prelude::*;
-use vxgi_harness::run::{run, View};
+use vxgi_harness::run::View;
 
 pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
     "occlusion_voxels",
@@ -103,14 +103,7 @@ pub fn occlusion_on_gpu(
     let case = case_for(&shader, ctx, bits, side, coverage, "occlusion".into(), 0);
     let names: Vec<String> = (1..=side.trailing_zeros()).map(level_name).collect();
     let refs: Vec<&str> = names.iter().map(String::as_str).collect();
-    let out = run(
-        ctx,
-        &shader,
-        DECL.name,
-        &case.resources,
-        &case.passes,
-        &refs,
-    )?;
+    let out = case.run(ctx, &shader, DECL.name, &refs)?;
     Ok(std::iter::once(bits.to_vec())
         .chain(names.iter().map(|n| out.buffer(n).as_u32().to_vec()))
         .collect())

@@ -10,7 +10,6 @@ use vxgi_cpu_mirror::reflective_shadow_map::{rsm, GpuView};
 use vxgi_harness::bindings::field;
 use vxgi_harness::compare::bound_name;
 use vxgi_harness::prelude::*;
-use vxgi_harness::run::run;
 
 /// The light view's struct and projection, included by reflective_shadow_map and lrsm_cone_trace.
 pub const LRSM_VIEW: (&str, &str) = (
@@ -162,12 +161,10 @@ pub fn rsm_on_gpu(ctx: &GpuContext, data: &SceneData, view: &LightView) -> anyho
     let gb = view_gbuffer(ctx, data, view);
     let shader = DECL.shader()?;
     let case = case_for(&shader, ctx, &data.lights, view, &gb, "rsm".into(), 0);
-    let out = run(
+    let out = case.run(
         ctx,
         &shader,
         DECL.name,
-        &case.resources,
-        &case.passes,
         &["rsm_radiance", "rsm_normal", "rsm_depth"],
     )?;
     let f4 = |n: &str| bytemuck::cast_slice::<u8, [f32; 4]>(&out.buffer(n).bytes).to_vec();

@@ -638,14 +638,7 @@ pub fn bounce_on_gpu(
         "bounce".into(),
         0,
     );
-    let out = vxgi_harness::run::run(
-        ctx,
-        &shader,
-        BOUNCE_DECL.name,
-        &case.resources,
-        &case.passes,
-        &["vx_indirect"],
-    )?;
+    let out = case.run(ctx, &shader, BOUNCE_DECL.name, &["vx_indirect"])?;
     Ok(bytemuck::cast_slice(&out.buffer("vx_indirect").bytes).to_vec())
 }
 

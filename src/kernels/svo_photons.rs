@@ -14,7 +14,6 @@ use vxgi_cpu_mirror::svo_photons::{photons, PhotonParams};
 use vxgi_harness::bindings::field;
 use vxgi_harness::compare::bound_name;
 use vxgi_harness::prelude::*;
-use vxgi_harness::run::run;
 
 vxgi_harness::bindings! {
     /// svo_photons' bindings: the light view's G-buffer, the lights and the scene's triangles and
@@ -212,12 +211,10 @@ pub fn photons_on_gpu(
             "photons".into(),
             0,
         );
-        let res = run(
+        let res = case.run(
             ctx,
             &shader,
             DECL.name,
-            &case.resources,
-            &case.passes,
             &["photon_pos", "photon_value", "photon_spec"],
         )?;
         out.pos
