@@ -42,13 +42,7 @@ fn bench(c: &mut Criterion) {
     eprintln!("adapter: {}", ctx.describe());
 
     // Sample LRSM: the paper's 1024^2 RSM -> 512^2 LRSM, 2 x 2 layers; 262144 cone samples.
-    let config = PartitionConfig {
-        rsm_side: 1024,
-        depth_splits: 1,
-        normal_splits: 1,
-        overlap: 0.05,
-        area_weights: false,
-    };
+    let config = PartitionConfig::two_by_two(1024);
     let built = sample_lrsm::build_lrsm(config, 1, 0, false);
     let (pos, dir) = sample_lrsm::cone_samples(&built, 2, 1 << 18);
     let shader = sample_lrsm::DECL.shader().expect("WGSL validates");
@@ -174,11 +168,9 @@ fn bench(c: &mut Criterion) {
         (512, 1, 1, f64::NAN),
     ] {
         let cfg = PartitionConfig {
-            rsm_side: rsm,
             depth_splits: a,
             normal_splits: b,
-            overlap: 0.05,
-            area_weights: false,
+            ..PartitionConfig::two_by_two(rsm)
         };
         eprintln!(
             "  {:<12} {:>8} {:>10} {:>12.1} {:>16}",

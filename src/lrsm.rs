@@ -58,6 +58,18 @@ pub struct PartitionConfig {
 }
 
 impl PartitionConfig {
+    /// The paper's partition for Sibenik and Sponza: 2 x 2 layers (one depth and one <n.l> split),
+    /// overlap 0.05 (the `[render]` default), Algorithm 1's opacity-weighted layers.
+    pub fn two_by_two(rsm_side: u32) -> Self {
+        Self {
+            rsm_side,
+            depth_splits: 1,
+            normal_splits: 1,
+            overlap: 0.05,
+            area_weights: false,
+        }
+    }
+
     pub fn depth_slices(&self) -> u32 {
         self.depth_splits + 1
     }

@@ -11,13 +11,7 @@ use vxgi::lrsm::{synthetic_rsm, PartitionConfig};
 
 #[test]
 fn partition_prefilter_sample_compose_on_the_gpu() {
-    let config = PartitionConfig {
-        rsm_side: 64,
-        depth_splits: 1,
-        normal_splits: 1,
-        overlap: 0.05,
-        area_weights: false,
-    };
+    let config = PartitionConfig::two_by_two(64);
     let rsm = synthetic_rsm(64, &config, 3);
 
     // 1. Partition on the GPU.

@@ -9,15 +9,9 @@ use vxgi::kernels::sample_lrsm::{build_lrsm, case_for, cone_samples, BuiltLrsm, 
 use vxgi::lrsm::PartitionConfig;
 use vxgi_cpu_mirror::sample_lrsm::SampleParams;
 
-/// A 64^2 RSM in one layer (seed 5), partitioned and pre-filtered.
-fn one_layer_64() -> (PartitionConfig, BuiltLrsm) {
-    let config = PartitionConfig {
-        rsm_side: 64,
-        depth_splits: 1,
-        normal_splits: 1,
-        overlap: 0.05,
-        area_weights: false,
-    };
+/// A 64^2 RSM (seed 5) in 2 x 2 layers, partitioned and pre-filtered.
+fn lrsm_64() -> (PartitionConfig, BuiltLrsm) {
+    let config = PartitionConfig::two_by_two(64);
     (config, build_lrsm(config, 5, 0, true))
 }
 
@@ -33,7 +27,7 @@ fn gpu_radiance(lrsm: &BuiltLrsm, pos: &[[f32; 4]], dir: &[[f32; 4]]) -> Vec<[f3
 
 #[test]
 fn samples_gather_light_and_only_layers_containing_zc_are_sampled() {
-    let (config, lrsm) = one_layer_64();
+    let (config, lrsm) = lrsm_64();
     let (pos, dir) = cone_samples(&lrsm, 6, 5000);
     let l = &gpu_radiance(&lrsm, &pos, &dir);
     let lit = l.iter().filter(|x| x[0] + x[1] + x[2] > 0.0).count();
@@ -141,7 +135,7 @@ proptest::proptest! {
 /// moves by a small share of its range per step.
 #[test]
 fn the_lookup_is_trilinear_so_light_is_continuous_across_texel_edges() {
-    let (_, lrsm) = one_layer_64();
+    let (_, lrsm) = lrsm_64();
     let n = 2000;
     let mut pos = Vec::new();
     let mut dir = Vec::new();
