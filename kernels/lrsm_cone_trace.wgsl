@@ -60,15 +60,6 @@ struct ShadowParams {
 
 const PI: f32 = 3.14159265358979;
 
-fn spread3(v: u32) -> u32 {
-    var x = v & 0x3ffu;
-    x = (x | (x << 16u)) & 0x030000ffu;
-    x = (x | (x << 8u)) & 0x0300f00fu;
-    x = (x | (x << 4u)) & 0x030c30c3u;
-    x = (x | (x << 2u)) & 0x09249249u;
-    return x;
-}
-
 // (0, 0, 0, occlusion) at x, trilinear in occlusion level l.
 fn sample_level(x: vec3<f32>, l: u32) -> vec4<f32> {
     let n = i32(cone.side >> l);
@@ -87,7 +78,7 @@ fn sample_level(x: vec3<f32>, l: u32) -> vec4<f32> {
             continue;
         }
         let u = vec3<u32>(i);
-        let m = spread3(u.x) | (spread3(u.y) << 1u) | (spread3(u.z) << 2u);
+        let m = morton3(u);
         var b: u32;
         if (l == 0u) {
             b = ((occ[off + (m >> 5u)] >> (m & 31u)) & 1u) * 255u;

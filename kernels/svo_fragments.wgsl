@@ -2,6 +2,7 @@
 // coverage and a photon map, and their fixed-point scale, on the GPU (the host's fixed_scale,
 // grid_fragments and svo_photons::to_fragments in src/kernels/, without reading anything back).
 // Mirror: cpu_mirror/src/svo_fragments.rs. Declaration: src/kernels/svo_fragments.rs.
+// Uses kernels/common/morton.wgsl.
 //
 // Bindings: params (capacity: voxel fragment slots; coverage_only; threshold: T32 below, voxel
 // mode's `scale` only); vox_radiance, a Morton voxel grid as voxel_light writes it, (L alpha,
@@ -136,19 +137,6 @@ struct Fragment {
 @group(0) @binding(11) var<storage, read_write> point_count: array<atomic<u32>>;
 @group(0) @binding(12) var<storage, read_write> point_max: array<atomic<u32>>;
 
-fn compact3(v: u32) -> u32 {
-    var x = v & 0x09249249u;
-    x = (x | (x >> 2u)) & 0x030c30c3u;
-    x = (x | (x >> 4u)) & 0x0300f00fu;
-    x = (x | (x >> 8u)) & 0x030000ffu;
-    x = (x | (x >> 16u)) & 0x000003ffu;
-    return x;
-}
-
-fn decode(m: u32) -> vec3<u32> {
-    return vec3<u32>(compact3(m), compact3(m >> 1u), compact3(m >> 2u));
-}
-
 // The bits of voxel m's four values as the kernel reads them.
 fn voxel_bits(m: u32) -> vec4<u32> {
     let b = bitcast<vec4<u32>>(vox_radiance[m]);
@@ -230,7 +218,7 @@ fn write_fragments(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_w
     }
     let m = list[i];
     let f = to_fixed(voxel_bits(m));
-    fragments[i] = Fragment(decode(m), f.value);
+    fragments[i] = Fragment(morton_decode(m), f.value);
     if (f.bad) {
         atomicOr(&scale_state[1], ERR_VALUE);
     }
@@ -263,7 +251,7 @@ fn voxel_points(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
         return;
     }
     let m = list[i];
-    add_value(decode(m), clamped(voxel_bits(m)));
+    add_value(morton_decode(m), clamped(voxel_bits(m)));
 }
 
 // Bits of ((x + y) / 2) clamped at 0 as the header states (x = q[a], y = q[3]).

@@ -2,7 +2,7 @@
 // with exact hard shadows (one shadow ray per light through the BVH) instead of the paper's shadow
 // cones, as the light-transport contract asks. Output is the pre-multiplied (radiance * alpha, alpha)
 // grid surface_coverage_mip filters. Mirror: cpu_mirror/src/voxel_light.rs. Uses common/bvh_trace.wgsl and
-// common/lights.wgsl.
+// common/lights.wgsl (and common/morton.wgsl).
 //
 // One invocation per entry of `list` (the voxelize kernel's non-empty voxels; entries past
 // list_count[0] return). Windows: with grid.size.w > 0 only the voxels v in [size.z, size.z + size.w)
@@ -40,15 +40,6 @@ struct VoxelGrid {
 
 const PI: f32 = 3.14159265358979;
 
-fn compact3(v: u32) -> u32 {
-    var x = v & 0x09249249u;
-    x = (x | (x >> 2u)) & 0x030c30c3u;
-    x = (x | (x >> 4u)) & 0x0300f00fu;
-    x = (x | (x >> 8u)) & 0x030000ffu;
-    x = (x | (x >> 16u)) & 0x000003ffu;
-    return x;
-}
-
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let k = gid.x + gid.y * groups.x * 64u;
@@ -66,7 +57,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
     let ml = vox_normal[w].xyz;
     let m = vec3<f32>(dot(grid.normal_model[0].xyz, ml), dot(grid.normal_model[1].xyz, ml), dot(grid.normal_model[2].xyz, ml));
     let len = sqrt(dot(m, m));
-    let cell = vec3<f32>(f32(compact3(v)), f32(compact3(v >> 1u)), f32(compact3(v >> 2u)));
+    let cell = vec3<f32>(morton_decode(v));
     let cl = grid.origin.xyz + (cell + vec3<f32>(0.5)) * grid.origin.w;
     let c = vec3<f32>(
         dot(grid.model[0].xyz, cl) + grid.model[0].w,

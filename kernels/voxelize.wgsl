@@ -2,6 +2,7 @@
 // (Rehfeld et al. 2014, 3.1 "Voxelization": sample all surfaces uniformly, write each sample to its
 // cell, average albedo and normals per cell, keep a list of the non-empty cells).
 // Mirror: cpu_mirror/src/voxelize.rs. Declaration and host preparation: src/kernels/voxelize.rs.
+// Uses kernels/common/morton.wgsl.
 //
 // Integer arithmetic throughout the sampling, so the result does not depend on the order of atomic
 // additions and the mirror reproduces it exactly:
@@ -83,32 +84,6 @@ fn sample_albedo(t: VoxTriangle, i: i32, j: i32) -> vec3<u32> {
     let y = wrap(vs >> 4u, h);
     let texel = vox_texels[t.texture.x + y * w + x];
     return vec3<u32>(vox_lut[texel & 255u], vox_lut[(texel >> 8u) & 255u], vox_lut[(texel >> 16u) & 255u]);
-}
-
-fn spread3(v: u32) -> u32 {
-    var x = v & 0x3ffu;
-    x = (x | (x << 16u)) & 0x030000ffu;
-    x = (x | (x << 8u)) & 0x0300f00fu;
-    x = (x | (x << 4u)) & 0x030c30c3u;
-    x = (x | (x << 2u)) & 0x09249249u;
-    return x;
-}
-
-fn compact3(v: u32) -> u32 {
-    var x = v & 0x09249249u;
-    x = (x | (x >> 2u)) & 0x030c30c3u;
-    x = (x | (x >> 4u)) & 0x0300f00fu;
-    x = (x | (x >> 8u)) & 0x030000ffu;
-    x = (x | (x >> 16u)) & 0x000003ffu;
-    return x;
-}
-
-fn morton_decode(m: u32) -> vec3<u32> {
-    return vec3<u32>(compact3(m), compact3(m >> 1u), compact3(m >> 2u));
-}
-
-fn morton3(p: vec3<u32>) -> u32 {
-    return spread3(p.x) | (spread3(p.y) << 1u) | (spread3(p.z) << 2u);
 }
 
 // The Morton index of the voxel sample (i, j) of t lands in (clamped to the grid).

@@ -25,7 +25,7 @@ fn ordered_cell(off: u32, n: i32, i: vec3<i32>) -> OrderedCell {
         return OrderedCell(vec4<f32>(0.0), vec4<f32>(0.0));
     }
     let u = vec3<u32>(i);
-    let m = off + (spread3(u.x) | (spread3(u.y) << 1u) | (spread3(u.z) << 2u));
+    let m = off + morton3(u);
     return OrderedCell(pyramid_at(m), pyramid_normal[m]);
 }
 

@@ -2,7 +2,8 @@
 // `pyramid` binding: the levels of a Morton grid of side 2^L concatenated from element `base` (level l
 // at base + (8^(L+1) - 8^(L-l+1)) / 7), each voxel (L * alpha, alpha); outside the grid = empty.
 // Used by common/pyramid.wgsl (one pyramid, the cone's grid) and common/placed_pyramids.wgsl (several
-// pyramids placed by rigid transforms). Mirror: cpu_mirror/src/cone_trace.rs (`trilinear_level`).
+// pyramids placed by rigid transforms), after common/morton.wgsl. Mirror: cpu_mirror/src/cone_trace.rs
+// (`trilinear_level`).
 
 @group(0) @binding(8) var<storage, read> pyramid: array<vec4<f32>>;
 // A pyramid larger than one storage binding is bound in up to three consecutive windows of one
@@ -21,15 +22,6 @@ fn pyramid_at(i: u32) -> vec4<f32> {
         return pyramid_1[i - len0];
     }
     return pyramid_2[i - len0 - len1];
-}
-
-fn spread3(v: u32) -> u32 {
-    var x = v & 0x3ffu;
-    x = (x | (x << 16u)) & 0x030000ffu;
-    x = (x | (x << 8u)) & 0x0300f00fu;
-    x = (x | (x << 4u)) & 0x030c30c3u;
-    x = (x | (x << 2u)) & 0x09249249u;
-    return x;
 }
 
 fn grid_level_offset(side: u32, l: u32) -> u32 {
@@ -69,7 +61,7 @@ fn sample_grid(x: vec3<f32>, l: u32, origin: vec3<f32>, inv_s0: f32, side: u32, 
             continue;
         }
         let u = vec3<u32>(i);
-        let v = pyramid_at(off + (spread3(u.x) | (spread3(u.y) << 1u) | (spread3(u.z) << 2u)));
+        let v = pyramid_at(off + morton3(u));
         acc += v * (w.x * w.y * w.z);
     }
     return acc;

@@ -13,7 +13,7 @@ use vxgi_harness::prelude::*;
 
 pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
     "cache_creation",
-    includes: &[super::TANGENT_BASIS, super::SCENE_TYPES, super::CONE_MARCH, super::PYRAMID_GRID, super::PYRAMID],
+    includes: &[super::TANGENT_BASIS, super::SCENE_TYPES, super::CONE_MARCH, super::MORTON, super::PYRAMID_GRID, super::PYRAMID],
     entry: "create",
     inputs: &["cone", "pyramid", "pyramid_1", "pyramid_2", "pyramid_normal", "cache_params", "caches", "texel_dirs"],
     outputs: &[
@@ -34,6 +34,7 @@ pub static INSTANCED_DECL: KernelDecl = vxgi_harness::kernel_decl!(
         super::TANGENT_BASIS,
         super::SCENE_TYPES,
         super::CONE_MARCH,
+        super::MORTON,
         super::PYRAMID_GRID,
         super::PLACED_PYRAMIDS,
     ],

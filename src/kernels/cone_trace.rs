@@ -20,7 +20,7 @@ use vxgi_harness::run::{Pass, View, Workgroups};
 
 pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
     "cone_trace",
-    includes: &[super::TANGENT_BASIS, super::SCENE_TYPES, super::CONE_MARCH, super::PYRAMID_GRID, super::PYRAMID],
+    includes: &[super::TANGENT_BASIS, super::SCENE_TYPES, super::CONE_MARCH, super::MORTON, super::PYRAMID_GRID, super::PYRAMID],
     inputs: &[
         "frame", "triangles", "materials", "gb_position", "gb_normal", "gb_triangle", "gb_albedo", "cone", "cone_dirs", "tile_list",
         "pyramid", "pyramid_1", "pyramid_2", "pyramid_normal",
@@ -48,6 +48,7 @@ pub static INSTANCED_DECL: KernelDecl = vxgi_harness::kernel_decl!(
         super::TANGENT_BASIS,
         super::SCENE_TYPES,
         super::CONE_MARCH,
+        super::MORTON,
         super::PYRAMID_GRID,
         super::PLACED_PYRAMIDS,
     ],

@@ -20,7 +20,7 @@ use vxgi_harness::run::run;
 
 pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
     "lrsm_cone_trace",
-    includes: &[super::TANGENT_BASIS, super::SCENE_TYPES, CONE_MARCH, super::LRSM_TEXEL, LRSM_SAMPLE, LRSM_MATH, LRSM_VIEW, LIGHTS, BRDF],
+    includes: &[super::TANGENT_BASIS, super::SCENE_TYPES, CONE_MARCH, super::LRSM_TEXEL, LRSM_SAMPLE, LRSM_MATH, LRSM_VIEW, LIGHTS, BRDF, super::MORTON],
     inputs: &[
         "frame",
         "triangles",

@@ -45,6 +45,13 @@ pub const CACHE_RECORDS_PARAMS: (&str, &str) = (
     include_str!("../../kernels/common/cache_records_params.wgsl"),
 );
 
+/// The voxel grids' Morton order (spread3, compact3, morton3, morton_decode), included by voxelize,
+/// voxel_light, svo_fragments, lrsm_cone_trace and before PYRAMID_GRID.
+pub const MORTON: (&str, &str) = (
+    "kernels/common/morton.wgsl",
+    include_str!("../../kernels/common/morton.wgsl"),
+);
+
 /// Shared LRSM arithmetic (erfc, Gaussian depth visibility, layer decay), included by the LRSM kernels.
 pub const LRSM_MATH: (&str, &str) = (
     "kernels/common/lrsm_math.wgsl",
@@ -98,8 +105,8 @@ pub const TANGENT_BASIS: (&str, &str) = (
     include_str!("../../kernels/common/tangent_basis.wgsl"),
 );
 
-/// Trilinear sampling of a pyramid level in the `pyramid` binding, included before PYRAMID or
-/// PLACED_PYRAMIDS.
+/// Trilinear sampling of a pyramid level in the `pyramid` binding, included after MORTON and before
+/// PYRAMID or PLACED_PYRAMIDS.
 pub const PYRAMID_GRID: (&str, &str) = (
     "kernels/common/pyramid_grid.wgsl",
     include_str!("../../kernels/common/pyramid_grid.wgsl"),

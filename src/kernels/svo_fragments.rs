@@ -59,6 +59,7 @@ vxgi_harness::bindings! {
 
 pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
     "svo_fragments",
+    includes: &[super::MORTON],
     entry: "peak",
     inputs: Io::INPUTS,
     outputs: Io::OUTPUTS,

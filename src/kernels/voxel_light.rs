@@ -40,7 +40,7 @@ vxgi_harness::bindings! {
 
 pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
     "voxel_light",
-    includes: &[super::SCENE_TYPES, super::gbuffer::BVH_TRACE, super::LIGHTS],
+    includes: &[super::SCENE_TYPES, super::gbuffer::BVH_TRACE, super::LIGHTS, super::MORTON],
     inputs: Io::INPUTS,
     outputs: Io::OUTPUTS,
     dispatch: DispatchRule::PerElement { binding: "list" },

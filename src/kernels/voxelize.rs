@@ -15,6 +15,7 @@ use vxgi_harness::run::{grid_for, run, Pass, View, Workgroups};
 
 pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
     "voxelize",
+    includes: &[super::MORTON],
     entry: "splat",
     inputs: &["params", "vox_triangles", "vox_texels", "vox_lut"],
     outputs: &[

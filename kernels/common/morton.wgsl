@@ -1,0 +1,28 @@
+// common/morton.wgsl — the Morton order of the voxel grids (mirror: vxgi_cpu_mirror::morton):
+// bit i of x, y, z at bits 3i, 3i + 1, 3i + 2, for coordinates below 1024. Integers only: exact.
+
+fn spread3(v: u32) -> u32 {
+    var x = v & 0x3ffu;
+    x = (x | (x << 16u)) & 0x030000ffu;
+    x = (x | (x << 8u)) & 0x0300f00fu;
+    x = (x | (x << 4u)) & 0x030c30c3u;
+    x = (x | (x << 2u)) & 0x09249249u;
+    return x;
+}
+
+fn compact3(v: u32) -> u32 {
+    var x = v & 0x09249249u;
+    x = (x | (x >> 2u)) & 0x030c30c3u;
+    x = (x | (x >> 4u)) & 0x0300f00fu;
+    x = (x | (x >> 8u)) & 0x030000ffu;
+    x = (x | (x >> 16u)) & 0x000003ffu;
+    return x;
+}
+
+fn morton3(p: vec3<u32>) -> u32 {
+    return spread3(p.x) | (spread3(p.y) << 1u) | (spread3(p.z) << 2u);
+}
+
+fn morton_decode(m: u32) -> vec3<u32> {
+    return vec3<u32>(compact3(m), compact3(m >> 1u), compact3(m >> 2u));
+}
