@@ -4,7 +4,7 @@ use crate::common;
 
 use common::gpu;
 use vxgi::harness::run::run;
-use vxgi::kernels::voxel_light::{case_for, DECL};
+use vxgi::kernels::voxel_light::{case_for, light_on_gpu, DECL};
 use vxgi::kernels::voxelize::voxelize_on_gpu;
 use vxgi::scene::Scene;
 use vxgi::trace::SceneData;
@@ -41,4 +41,31 @@ fn cornell_floor_voxel_has_the_analytic_radiance() {
         rad[v as usize]
     );
     assert_eq!(rad[v as usize][3], 1.0);
+}
+
+/// A point light moving 0.01 along x a step (the moving-light row of docs/temporal.md) changes the
+/// lit voxels' summed radiance by under 0.1% a step (measured: at most 0.03% at 64^3 and 128^3),
+/// though the voxel pipelines' indirect images change about 3% of their mean a step: that flicker
+/// is in where the light lands, as the cones sample it, not in how much is injected.
+#[test]
+fn a_slowly_moving_light_injects_a_steady_total() {
+    use vxgi::scene::Light;
+    let base = Scene::cornell_box();
+    let (grid, list, frame) = voxelize_on_gpu(gpu(), &base, 64).unwrap();
+    let totals: Vec<f64> = (0..4)
+        .map(|t| {
+            let mut s = base.clone();
+            for l in &mut s.lights {
+                if let Light::Point { position, .. } = l {
+                    position[0] += 0.01 * t as f32;
+                }
+            }
+            let data = SceneData::new(&s);
+            let rad = light_on_gpu(gpu(), &data, &grid, &list, &frame).unwrap();
+            rad.iter().map(|v| (v[0] + v[1] + v[2]) as f64).sum()
+        })
+        .collect();
+    for w in totals.windows(2) {
+        assert!(((w[1] - w[0]) / w[0]).abs() < 1e-3, "{totals:?}");
+    }
 }
