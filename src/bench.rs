@@ -515,7 +515,7 @@ pub fn bench(
                 let motion = ideal.motion;
                 let (reference, _) = ideal.of(&s);
                 Some(
-                    crate::temporal::measure(ctx, pipeline, &s, motion, reference)?
+                    crate::temporal::measure(ctx, pipeline, &s, motion, reference, None)?
                         .0
                         .instability,
                 )

@@ -1265,6 +1265,8 @@ fn run_temporal(
     for motion in motions {
         // The ideal cones of each cone set a pipeline traces (a preset may narrow it), once each.
         let mut references = temporal::IdealFrames::new(motion, frames, rays);
+        // Which pixels keep their surface depends on the camera and geometry alone: once a motion.
+        let kept = temporal::persistent_pixels(&scene, motion, frames);
         for &p in &pipelines {
             let own = vxgi::quality::resolved(&scene, p)
                 .map_err(anyhow::Error::msg)?
@@ -1282,7 +1284,7 @@ fn run_temporal(
                 ));
             }
             bar.set_message(format!("{}: {}", motion.name(), p.name()));
-            let (measure, got) = temporal::measure(&ctx, p, &own, motion, reference)?;
+            let (measure, got) = temporal::measure(&ctx, p, &own, motion, reference, Some(&kept))?;
             let name = Path::new(p.name());
             let flip =
                 vxgi::images::compare(&ref_combined, name, &got[0].combined, name)?.flip_mean;

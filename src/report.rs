@@ -161,7 +161,8 @@ pub fn report(
                     ));
                     let motion = ideal.motion;
                     let (reference, _) = ideal.of(scene);
-                    let (m, _) = crate::temporal::measure(ctx, kind, scene, motion, reference)?;
+                    let (m, _) =
+                        crate::temporal::measure(ctx, kind, scene, motion, reference, None)?;
                     Some(m.instability)
                 }
                 _ => None,

@@ -328,18 +328,19 @@ impl IdealFrames {
 }
 
 /// `pipeline`'s instability over the frames of `motion` against `reference` (the ideal cones of
-/// those frames, one per frame), with its frames as [`pipeline_frames`] draws them.
+/// those frames, one per frame), with its frames as [`pipeline_frames`] draws them; over the kept
+/// surfaces too where `kept` ([`persistent_pixels`] of the same frames) is given.
 pub fn measure(
     ctx: &crate::harness::GpuContext,
     pipeline: Pipeline,
     scene: &Scene,
     motion: Motion,
     reference: &[RgbImage],
+    kept: Option<&[Vec<bool>]>,
 ) -> Result<(Measure, Vec<crate::render::Rendered>)> {
     let got = pipeline_frames(ctx, pipeline, scene, motion, reference.len() as u32)?;
     let indirect: Vec<_> = got.iter().map(|f| f.indirect.clone()).collect();
-    let kept = persistent_pixels(scene, motion, reference.len() as u32);
-    Ok((instability_on(&indirect, reference, Some(&kept)), got))
+    Ok((instability_on(&indirect, reference, kept), got))
 }
 
 /// `pipeline`'s frames of the sequence, one GPU-resident renderer drawing them all in order: the
