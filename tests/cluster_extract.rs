@@ -1,4 +1,5 @@
-//! GPU vs mirror for `kernels/cluster_extract.wgsl` (CPRC 3.2), and what clusters must satisfy.
+//! GPU vs mirror for `kernels/cluster_extract.wgsl` (CPRC 3.2), and what clusters must satisfy; its
+//! generated G-buffers also drive cache_placement's property test.
 use crate::common;
 use crate::common::run_case;
 
@@ -12,10 +13,13 @@ proptest::proptest! {
 
     #[test]
     fn proptest_g_buffers(w in 1u32..160, h in 1u32..90, tile in 1u32..=64, slices in 1u32..40, family in 0usize..8, seed in proptest::prelude::any::<u64>()) {
-        let shader = DECL.shader().unwrap();
+        // cluster_extract's clusters, and cache_placement's scores and picks over them.
+        use vxgi::kernels::cache_placement::{self, CachePlacement};
         let inp = distribution_inputs(w, h, tile, slices, GPattern::family(family), seed);
         let case = case_for(gpu(), &inp, "prop".into(), seed);
-        case_passes(&shader, &ClusterExtract, &case)?;
+        case_passes(&DECL.shader().unwrap(), &ClusterExtract, &case)?;
+        let case = cache_placement::case_for(gpu(), &inp, "prop".into(), seed);
+        case_passes(&cache_placement::DECL.shader().unwrap(), &CachePlacement, &case)?;
     }
 }
 
