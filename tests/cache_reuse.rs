@@ -34,7 +34,7 @@ fn caches_on_centres(lift: f64) -> (Vec<u32>, Vec<u32>, Vec<u32>, Io) {
     io.prev_pixel = vec![0; front.len()];
     io.reuse_params.0 = vxgi_cpu_mirror::cache_reuse::ReuseParams::DEFAULT;
     let shader = DECL.shader().unwrap();
-    let (mut all, keep) = passes(gpu(), io.kept.len(), front.len());
+    let (mut all, keep) = passes(gpu(), io.kept.len(), front.len(), io.cache_pos.len());
     all.push(keep);
     let case = io.case(format!("centres lifted by {lift}"), 7, all);
     assert_case_passes(&shader, &CacheReuse, &case);

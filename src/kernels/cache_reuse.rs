@@ -67,8 +67,9 @@ pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
 );
 
 /// The passes before cache_records (`clear` over `slots` cluster slots, `claim` over `prev` last-frame
-/// caches) and the one after it (`keep` over the slots).
-pub fn passes(ctx: &GpuContext, slots: usize, prev: usize) -> (Vec<Pass>, Pass) {
+/// caches) and the one after it (`keep` over the first `caches` slots: the cache buffers' capacity,
+/// past which no slot holds a cache).
+pub fn passes(ctx: &GpuContext, slots: usize, prev: usize, caches: usize) -> (Vec<Pass>, Pass) {
     let max = ctx.limits().max_compute_workgroups_per_dimension;
     let pass = |entry: &str, n: usize| Pass {
         label: format!("{} {entry}", DECL.name),
@@ -78,7 +79,7 @@ pub fn passes(ctx: &GpuContext, slots: usize, prev: usize) -> (Vec<Pass>, Pass) 
     };
     (
         vec![pass("clear", slots), pass("claim", prev)],
-        pass("keep", slots),
+        pass("keep", caches.min(slots)),
     )
 }
 
@@ -321,7 +322,7 @@ impl Kernel for CacheReuse {
 
     fn case(&self, _shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
         let (io, label) = generated(seed, index);
-        let (mut all, keep) = passes(ctx, io.kept.len(), io.prev_pos.len());
+        let (mut all, keep) = passes(ctx, io.kept.len(), io.prev_pos.len(), io.cache_pos.len());
         all.push(keep);
         io.case(label, seed, all)
     }

@@ -375,10 +375,10 @@ pub(crate) fn cprc_chain(
     let slots = chain.resources["clusters"].buffer().map_or(1, |b| {
         b.bytes.len() / std::mem::size_of::<vxgi_cpu_mirror::cluster_extract::Cluster>()
     });
-    let reuse = scene
-        .render
-        .cache_reuse
-        .then(|| cache_reuse::passes(ctx, slots, room.capacity as usize));
+    let reuse = scene.render.cache_reuse.then(|| {
+        let capacity = room.capacity as usize;
+        cache_reuse::passes(ctx, slots, capacity, capacity)
+    });
     if let Some((claim, _)) = &reuse {
         chain.merge(
             cache_reuse::DECL.name,
