@@ -1223,12 +1223,7 @@ fn run_temporal(
     }
     let scene = load_scene(&scene, &flags)?;
     let pipelines = if pipelines.is_empty() {
-        vec![
-            Pipeline::VctDense,
-            Pipeline::VctSvo,
-            Pipeline::Lrsm,
-            Pipeline::Cprc,
-        ]
+        Pipeline::ALL.to_vec()
     } else {
         pipelines
     };
@@ -1451,12 +1446,7 @@ fn run_scene(path: Option<std::path::PathBuf>) -> Result<()> {
         Ok(ctx) => {
             let limits = ctx.limits();
             let mut refused = 0;
-            for p in [
-                Pipeline::VctDense,
-                Pipeline::VctSvo,
-                Pipeline::Lrsm,
-                Pipeline::Cprc,
-            ] {
+            for p in Pipeline::ALL {
                 match vxgi::limits::check(&scene, p, &limits) {
                     Ok(()) => println!("{}: fits this device's limits", p.name()),
                     Err(e) => {
@@ -1501,12 +1491,7 @@ fn run_limits() -> Result<()> {
         );
     }
     println!();
-    for p in [
-        Pipeline::VctDense,
-        Pipeline::VctSvo,
-        Pipeline::Lrsm,
-        Pipeline::Cprc,
-    ] {
+    for p in Pipeline::ALL {
         let decls = pipeline_kernels(p);
         let kernels: Vec<&str> = decls.iter().map(|k| k.name).collect();
         let mut over = Vec::new();

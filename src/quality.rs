@@ -347,12 +347,7 @@ mod tests {
         scene.render.cones = 16;
         let fine = loop_iterations(&scene, Pipeline::VctSvo);
         assert!(fine < LOOP_LIMIT / 2, "{fine}");
-        for p in [
-            Pipeline::VctDense,
-            Pipeline::VctSvo,
-            Pipeline::Lrsm,
-            Pipeline::Cprc,
-        ] {
+        for p in Pipeline::ALL {
             let loops = loop_iterations(&Scene::cornell_box(), p);
             assert!(loops < LOOP_LIMIT / 2, "{p:?}: {loops}");
         }
@@ -395,12 +390,7 @@ mod tests {
     #[test]
     fn every_preset_sets_only_keys_it_knows_and_validates() {
         for q in [Quality::Fast, Quality::Balanced, Quality::Accurate] {
-            for p in [
-                Pipeline::VctDense,
-                Pipeline::VctSvo,
-                Pipeline::Lrsm,
-                Pipeline::Cprc,
-            ] {
+            for p in Pipeline::ALL {
                 let mut scene = Scene::cornell_box();
                 scene.render.quality = q;
                 let (s, said) = resolved(&scene, p).unwrap();

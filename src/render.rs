@@ -428,6 +428,14 @@ pub enum Pipeline {
 }
 
 impl Pipeline {
+    /// Every pipeline, in the order the tables list them.
+    pub const ALL: [Pipeline; 4] = [
+        Pipeline::VctDense,
+        Pipeline::VctSvo,
+        Pipeline::Lrsm,
+        Pipeline::Cprc,
+    ];
+
     /// The pipeline named `name` (its `--pipeline` value).
     pub fn from_name(name: &str) -> Option<Self> {
         [

@@ -58,12 +58,7 @@ fn every_split_renders_and_only_the_gpu_gbuffer_departs() {
 fn the_all_mirror_split_is_the_mirror_frame() {
     let scene = small_box();
     let cones = ConeSettings::from(&scene.render);
-    for pipeline in [
-        Pipeline::VctDense,
-        Pipeline::VctSvo,
-        Pipeline::Lrsm,
-        Pipeline::Cprc,
-    ] {
+    for pipeline in Pipeline::ALL {
         let all = stages(pipeline, &scene, &cones).unwrap().len();
         let split = render_split(gpu(), &scene, &cones, pipeline, all, |_| {}).unwrap();
         let (mirror, _) = vxgi::render::mirror_frame(pipeline, &scene, &cones).unwrap();

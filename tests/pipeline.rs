@@ -8,13 +8,6 @@ use vxgi::pipeline::{Reuse, Split};
 use vxgi::render::Pipeline;
 use vxgi::scene::Scene;
 
-const PIPELINES: [Pipeline; 4] = [
-    Pipeline::VctDense,
-    Pipeline::VctSvo,
-    Pipeline::Lrsm,
-    Pipeline::Cprc,
-];
-
 /// Scenes whose plans take every branch of the rules: no lights, photons, lobes, directional
 /// values, two bounces, soft shadows, glossy materials, interleaved cones.
 fn scenes() -> Vec<(String, Scene)> {
@@ -53,7 +46,7 @@ fn kernels_of(line: &str) -> Vec<&str> {
 fn every_planned_pass_runs_a_kernel_its_stage_declares_in_the_declared_order() {
     for (what, scene) in scenes() {
         let cones = ConeSettings::from(&scene.render);
-        for pipeline in PIPELINES {
+        for pipeline in Pipeline::ALL {
             let decl = pipeline.decl();
             for cached in [false, true] {
                 let plan = pipeline.plan(&scene, &cones, cached);
@@ -101,7 +94,7 @@ fn bisect_splits_at_declared_stages_in_frame_order() {
         scene.render.bounces = 1;
         scene.render.shadow_cone_angle = 0.0;
         let cones = ConeSettings::from(&scene.render);
-        for pipeline in PIPELINES {
+        for pipeline in Pipeline::ALL {
             let order = vxgi::bisect::stages(pipeline, &scene, &cones).unwrap();
             let all = pipeline.stages();
             let mut at = 0;

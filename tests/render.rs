@@ -1071,12 +1071,7 @@ fn supersampled_frames_are_the_larger_frames_box_filtered() {
     scene.render.supersample = 2;
     let big = scene.supersampled().unwrap();
     let cones = ConeSettings::from(&scene.render);
-    for pipeline in [
-        Pipeline::VctDense,
-        Pipeline::VctSvo,
-        Pipeline::Lrsm,
-        Pipeline::Cprc,
-    ] {
+    for pipeline in Pipeline::ALL {
         let (r, _) = Renderer::new(pipeline, false)
             .render(gpu(), &scene, &cones, |_| {})
             .unwrap();
@@ -1126,12 +1121,7 @@ fn bright_lights_render_in_every_pipeline() {
             .unwrap()
             .0
     };
-    for p in [
-        Pipeline::VctDense,
-        Pipeline::VctSvo,
-        Pipeline::Lrsm,
-        Pipeline::Cprc,
-    ] {
+    for p in Pipeline::ALL {
         let huge = base.with_lights_scaled(3e38 / 10.0);
         let r = frame(p, &huge);
         assert!(all_finite(&r), "{p:?}: non-finite pixels with a 3e38 light");
@@ -1203,12 +1193,7 @@ fn sponza_renders_with_every_pipeline() {
     let mut s = small(common::scene_file("sponza.toml"), 80, 45);
     s.render.voxels = 64;
     let cones = ConeSettings::from(&s.render);
-    for p in [
-        Pipeline::VctDense,
-        Pipeline::VctSvo,
-        Pipeline::Lrsm,
-        Pipeline::Cprc,
-    ] {
+    for p in Pipeline::ALL {
         let (r, _) = Renderer::new(p, false)
             .render(gpu(), &s, &cones, |_| {})
             .unwrap();
@@ -1894,12 +1879,7 @@ fn a_static_scene_gives_identical_consecutive_frames_in_every_pipeline() {
     scene.render.voxels = 32;
     scene.render.rsm_side = 32;
     let cones = ConeSettings::from(&scene.render);
-    for p in [
-        Pipeline::VctDense,
-        Pipeline::VctSvo,
-        Pipeline::Lrsm,
-        Pipeline::Cprc,
-    ] {
+    for p in Pipeline::ALL {
         let mut frames = Vec::new();
         let mut fresh = Renderer::new(p, false);
         for _ in 0..2 {
@@ -1996,12 +1976,7 @@ fn resident_memory_by_stage_adds_up_and_follows_the_declaration() {
     let of = |by: &[(&str, u64)], stage: &str| {
         by.iter().find(|(s, _)| *s == stage).map_or(0, |(_, b)| *b)
     };
-    for pipeline in [
-        Pipeline::VctDense,
-        Pipeline::VctSvo,
-        Pipeline::Lrsm,
-        Pipeline::Cprc,
-    ] {
+    for pipeline in Pipeline::ALL {
         let mut voxelize = Vec::new();
         for side in [16u32, 32] {
             let mut scene = small(Scene::cornell_box(), 32, 32);
@@ -2056,12 +2031,7 @@ fn resident_frames_draw_unlit_scenes_and_vct_svo_instances() {
     unlit.render.rsm_side = 32;
     unlit.lights.clear();
     let cones = ConeSettings::from(&unlit.render);
-    for pipeline in [
-        Pipeline::VctDense,
-        Pipeline::VctSvo,
-        Pipeline::Lrsm,
-        Pipeline::Cprc,
-    ] {
+    for pipeline in Pipeline::ALL {
         let mut fresh = Renderer::new(pipeline, false);
         let mut resident = Resident::new(gpu(), pipeline).unwrap();
         for k in 0..2 {
