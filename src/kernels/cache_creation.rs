@@ -262,30 +262,9 @@ impl Kernel for CacheCreationInstanced {
     /// cache_creation's cases with the scene's pyramid as hierarchy 0 (in place) and again as one or
     /// two more placed by `cone_trace::random_placement`: instances of one mesh.
     fn case(&self, _shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
-        use rand::SeedableRng;
-        let c = lit_case(ctx, seed, index);
-        let pyr = gpu_pyramid(ctx, &c.radiance, &c.normal, c.frame.side).expect("mip chain runs");
-        // Placed pyramids have no depth-ordered blend (common/placed_pyramids.wgsl's trilinear).
-        let params = ConeParams {
-            depth_order: 0,
-            ..cone_params(&c.frame, &c.settings)
-        };
+        let p = super::cone_trace::placed_case(ctx, seed, 0xca5e, index, 1 + index % 2);
+        let (c, params, placed) = (p.lit, p.params, p.placed);
         let res = RES[index % RES.len()];
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0xca5e ^ index as u64);
-        let (s0, side) = (c.frame.voxel, c.frame.side);
-        let origin = c.frame.origin;
-        let mut placed = vec![Placed::new(
-            origin.to_array(),
-            s0,
-            side,
-            0,
-            glam::Mat4::IDENTITY,
-            s0,
-        )];
-        for _ in 0..1 + index % 2 {
-            let m = super::cone_trace::random_placement(&mut rng, &c.frame);
-            placed.push(Placed::new(origin.to_array(), s0, side, 0, m, s0));
-        }
         let caches = caches_on_pixels(&c.gbuffer, &params, 97);
         let label = format!(
             "{}, {} hierarchies, {} caches of {res}^2",
@@ -293,16 +272,7 @@ impl Kernel for CacheCreationInstanced {
             placed.len(),
             caches.len() / 2
         );
-        let case = instanced_case_for(
-            ctx,
-            &pyr.colour,
-            &placed,
-            &params,
-            &caches,
-            res,
-            label,
-            seed,
-        );
+        let case = instanced_case_for(ctx, &p.pyramid, &placed, &params, &caches, res, label, seed);
         super::cone_trace::with_pyramid_split(case, index)
     }
     fn mirror(&self, _case: &Case, data: &Resources, _mode: FloatMode) -> MirrorOutputs {

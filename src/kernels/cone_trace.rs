@@ -21,18 +21,9 @@ use vxgi_harness::run::{Pass, View, Workgroups};
 pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
     "cone_trace",
     includes: &[super::TANGENT_BASIS, super::SCENE_TYPES, super::CONE_MARCH, super::MORTON, super::PYRAMID_GRID, super::PYRAMID],
-    inputs: &[
-        "frame", "triangles", "materials", "gb_position", "gb_normal", "gb_triangle", "gb_albedo", "cone", "cone_dirs", "tile_list",
-        "pyramid", "pyramid_1", "pyramid_2", "pyramid_normal",
-    ],
-    outputs: &[
-        // Per element (see `cone_trace::MAG`): 4e-4 of the accumulated magnitudes (~30 operations per
-        // sample, <= ~64 samples, pow/log2 per WGSL's exp2/log2 rules), plus the whole remainder where a
-        // stop is within rounding of its threshold.
-        Output { binding: "indirect", tolerance: Tolerance::MirrorBound },
-        Output { binding: "ao", tolerance: Tolerance::MirrorBound },
-        Output { binding: "irradiance", tolerance: Tolerance::MirrorBound },
-    ],
+    inputs: super::march_inputs!["pyramid", "pyramid_1", "pyramid_2", "pyramid_normal"],
+    // The march's bound (`super::march_outputs!`), the pyramid's trilinear sample in it.
+    outputs: super::march_outputs![],
     dispatch: DispatchRule::PerItem {
         what: "8x8 screen tile holding a surface (screen_tiles' list, dispatched indirectly)",
     },
@@ -52,17 +43,10 @@ pub static INSTANCED_DECL: KernelDecl = vxgi_harness::kernel_decl!(
         super::PYRAMID_GRID,
         super::PLACED_PYRAMIDS,
     ],
-    inputs: &[
-        "frame", "triangles", "materials", "gb_position", "gb_normal", "gb_triangle", "gb_albedo", "cone", "cone_dirs", "tile_list",
-        "pyramid", "pyramid_1", "pyramid_2", "placed", "placed_cells",
-    ],
-    outputs: &[
-        // As cone_trace's, each sample's error the sum of its hierarchies' (their local points'
-        // rounding included).
-        Output { binding: "indirect", tolerance: Tolerance::MirrorBound },
-        Output { binding: "ao", tolerance: Tolerance::MirrorBound },
-        Output { binding: "irradiance", tolerance: Tolerance::MirrorBound },
-    ],
+    inputs: super::march_inputs!["pyramid", "pyramid_1", "pyramid_2", "placed", "placed_cells"],
+    // As cone_trace's, each sample's error the sum of its hierarchies' (their local points'
+    // rounding included).
+    outputs: super::march_outputs![],
     dispatch: DispatchRule::PerItem {
         what: "8x8 screen tile holding a surface (screen_tiles' list, dispatched indirectly)",
     },
@@ -700,38 +684,65 @@ pub fn random_placement(rng: &mut impl rand::Rng, frame: &VoxelFrame) -> glam::M
         * glam::Mat4::from_translation(-centre)
 }
 
+/// What an instanced cone-pass case (cone_trace, cache_creation) is made from: [`lit_case`]'s scene
+/// and its pyramid as hierarchy 0 (in place), then `copies` more of it placed by
+/// [`random_placement`] (instances of one mesh, drawn from `seed ^ salt ^ index`); the march's parameters
+/// without the depth-ordered blend (common/placed_pyramids.wgsl's trilinear).
+pub struct PlacedCase {
+    pub lit: LitCase,
+    pub pyramid: Vec<[f32; 4]>,
+    pub placed: Vec<vxgi_cpu_mirror::cache_creation::Placed>,
+    pub params: ConeParams,
+}
+
+pub fn placed_case(
+    ctx: &GpuContext,
+    seed: u64,
+    salt: u64,
+    index: usize,
+    copies: usize,
+) -> PlacedCase {
+    use rand::SeedableRng;
+    use vxgi_cpu_mirror::cache_creation::Placed;
+    let lit = lit_case(ctx, seed, index);
+    let pyramid = gpu_pyramid(ctx, &lit.radiance, &lit.normal, lit.frame.side)
+        .expect("mip chain runs")
+        .colour;
+    let params = ConeParams {
+        depth_order: 0,
+        ..cone_params(&lit.frame, &lit.settings)
+    };
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ salt ^ index as u64);
+    let (s0, side, origin) = (lit.frame.voxel, lit.frame.side, lit.frame.origin.to_array());
+    let mut placed = vec![Placed::new(origin, s0, side, 0, glam::Mat4::IDENTITY, s0)];
+    for _ in 0..copies {
+        let m = random_placement(&mut rng, &lit.frame);
+        placed.push(Placed::new(origin, s0, side, 0, m, s0));
+    }
+    PlacedCase {
+        lit,
+        pyramid,
+        placed,
+        params,
+    }
+}
+
 pub struct ConeTraceInstanced;
 
 impl Kernel for ConeTraceInstanced {
     fn decl(&self) -> &'static KernelDecl {
         &INSTANCED_DECL
     }
-    /// cone_trace's cases with the scene's pyramid as hierarchy 0 (in place) and once more placed by
-    /// [`random_placement`].
+    /// cone_trace's cases through [`placed_case`] with one copy.
     fn case(&self, _shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
-        use rand::SeedableRng;
-        use vxgi_cpu_mirror::cache_creation::Placed;
-        let c = lit_case(ctx, seed, index);
-        let pyr = gpu_pyramid(ctx, &c.radiance, &c.normal, c.frame.side).expect("mip chain runs");
-        // Placed pyramids have no depth-ordered blend (common/placed_pyramids.wgsl's trilinear).
-        let params = ConeParams {
-            depth_order: 0,
-            ..cone_params(&c.frame, &c.settings)
-        };
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0xc0e ^ index as u64);
-        let (s0, side, origin) = (c.frame.voxel, c.frame.side, c.frame.origin);
-        let m = random_placement(&mut rng, &c.frame);
-        let placed = [
-            Placed::new(origin.to_array(), s0, side, 0, glam::Mat4::IDENTITY, s0),
-            Placed::new(origin.to_array(), s0, side, 0, m, s0),
-        ];
+        let p = placed_case(ctx, seed, 0xc0e, index, 1);
         let case = instanced_case_for(
-            &c.data,
-            &c.gbuffer,
-            &pyr.colour,
-            &placed,
-            &params,
-            format!("{}, 2 hierarchies", c.label),
+            &p.lit.data,
+            &p.lit.gbuffer,
+            &p.pyramid,
+            &p.placed,
+            &p.params,
+            format!("{}, 2 hierarchies", p.lit.label),
             seed,
         );
         with_pyramid_split(case, index)

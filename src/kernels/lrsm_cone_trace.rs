@@ -21,47 +21,14 @@ use vxgi_harness::run::run;
 pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
     "lrsm_cone_trace",
     includes: &[super::TANGENT_BASIS, super::SCENE_TYPES, CONE_MARCH, super::LRSM_TEXEL, LRSM_SAMPLE, LRSM_MATH, LRSM_VIEW, LIGHTS, BRDF, super::MORTON],
-    inputs: &[
-        "frame",
-        "triangles",
-        "materials",
-        "gb_position",
-        "gb_normal",
-        "gb_triangle",
-        "gb_albedo",
-        "cone",
-        "cone_dirs",
-        "tile_list",
-        "occ",
-        "occ_offsets",
-        "params",
-        "depth_ranges",
-        "lrsm_radiance",
-        "lrsm_normal",
-        "lrsm_moments",
-        "views",
-        "lights",
-        "shadow_params",
+    inputs: super::march_inputs![
+        "occ", "occ_offsets", "params", "depth_ranges", "lrsm_radiance", "lrsm_normal",
+        "lrsm_moments", "views", "lights", "shadow_params",
     ],
-    // The march's bound (cone_trace's) with each sample's LRSM bound, computed per pixel by the mirror.
-    outputs: &[
-        Output {
-            binding: "indirect",
-            tolerance: Tolerance::MirrorBound,
-        },
-        Output {
-            binding: "ao",
-            tolerance: Tolerance::MirrorBound,
-        },
-        Output {
-            binding: "irradiance",
-            tolerance: Tolerance::MirrorBound,
-        },
-        // Shadow cones: direct_light's term bound times the cone's visibility bound.
-        Output {
-            binding: "soft_direct",
-            tolerance: Tolerance::MirrorBound,
-        },
+    // The march's bound (`super::march_outputs!`) with each sample's LRSM bound, computed per pixel
+    // by the mirror; shadow cones: direct_light's term bound times the cone's visibility bound.
+    outputs: super::march_outputs![
+        Output { binding: "soft_direct", tolerance: Tolerance::MirrorBound },
     ],
     dispatch: DispatchRule::PerItem {
         what: "8x8 screen tile holding a surface (screen_tiles' list, dispatched indirectly)",

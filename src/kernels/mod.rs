@@ -2,6 +2,35 @@
 //! To add a kernel: `kernels/<name>.wgsl`, `cpu_mirror/src/<name>.rs`, `src/kernels/<name>.rs` with
 //! a `DECL` (`vxgi_harness::kernel_decl!`) and a `Kernel` impl, and one line in [`all`], which gives
 //! it the generic tests (tests/every_kernel.rs); its own properties go to `tests/<name>.rs`.
+/// The input bindings of a per-pixel cone tracer (a kernel on common/cone_march.wgsl): the march's
+/// own (scene, G-buffer, cone set, tile list), then those of the volume it samples.
+macro_rules! march_inputs {
+    ($($volume:literal),* $(,)?) => {
+        &[
+            "frame", "triangles", "materials", "gb_position", "gb_normal", "gb_triangle", "gb_albedo",
+            "cone", "cone_dirs", "tile_list", $($volume),*
+        ]
+    };
+}
+pub(crate) use march_inputs;
+
+/// The outputs of a per-pixel cone tracer, then any of its own: indirect light, AO and irradiance
+/// per pixel, each within the mirror's per-element bound (`vxgi_cpu_mirror::cone_trace::MAG`: 4e-4
+/// of the accumulated magnitudes, ~30 operations per sample, <= ~64 samples, pow/log2 per WGSL's
+/// exp2/log2 rules, plus the whole remainder where a stop is within rounding of its threshold);
+/// each declaration says what its volume's sampling adds to it.
+macro_rules! march_outputs {
+    ($($extra:expr),* $(,)?) => {
+        &[
+            vxgi_harness::Output { binding: "indirect", tolerance: vxgi_harness::Tolerance::MirrorBound },
+            vxgi_harness::Output { binding: "ao", tolerance: vxgi_harness::Tolerance::MirrorBound },
+            vxgi_harness::Output { binding: "irradiance", tolerance: vxgi_harness::Tolerance::MirrorBound },
+            $($extra),*
+        ]
+    };
+}
+pub(crate) use march_outputs;
+
 pub mod cache_creation;
 pub mod cache_placement;
 pub mod cache_preconvolve;

@@ -18,19 +18,14 @@ use vxgi_harness::prelude::*;
 pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
     "svo_cone_trace",
     includes: &[super::SVO_NODE, super::TANGENT_BASIS, super::SCENE_TYPES, super::CONE_MARCH],
-    inputs: &[
-        "frame", "triangles", "materials", "gb_position", "gb_normal", "gb_triangle", "gb_albedo", "cone", "cone_dirs", "tile_list",
+    inputs: super::march_inputs![
         "nodes", "bricks", "svo", "aniso", "aniso_hi", "normal_bricks", "spec_bricks",
     ],
-    outputs: &[
-        // cone_trace's bound (see `cone_trace::MAG`): the march is the same code; the octree's sample
-        // adds the conversion f32(u32) * inv_scale (two correctly rounded operations per voxel) to the
-        // ~30 operations per sample the bound already covers, and the sample point's rounding is in
-        // the mirror's SampleError as for the pyramid.
-        Output { binding: "indirect", tolerance: Tolerance::MirrorBound },
-        Output { binding: "ao", tolerance: Tolerance::MirrorBound },
-        Output { binding: "irradiance", tolerance: Tolerance::MirrorBound },
-    ],
+    // The march's bound (`super::march_outputs!`): the march is cone_trace's code; the octree's
+    // sample adds the conversion f32(u32) * inv_scale (two correctly rounded operations per voxel)
+    // to the ~30 operations per sample the bound already covers, and the sample point's rounding is
+    // in the mirror's SampleError as for the pyramid.
+    outputs: super::march_outputs![],
     dispatch: DispatchRule::PerItem {
         what: "8x8 screen tile holding a surface (screen_tiles' list, dispatched indirectly)",
     },
