@@ -8,7 +8,9 @@
 // cache normal) and solid angle (w), a host table: hemi-octahedral, res x res, row-major.
 // One invocation per (cache, texel): index c * texels + t marches from the origin along
 // bt x + bb y + n z (the pixel entry's tangent basis) with half-angle tan_half (the mean texel's solid
-// angle) and writes cache_radiance[index] = (radiance rgb, 0).
+// angle) and writes cache_radiance[index] = (radiance rgb, 0). A cache whose caches[2c + 1].w is not
+// 0 is skipped: its texels were carried from the last frame (cache_reuse's keep, when the volume is
+// unchanged) and stay as they are.
 // Accuracy: cone_trace's march bound (MAG of the accumulated magnitudes, allowances where a stop is
 // within rounding of its threshold).
 
@@ -31,9 +33,13 @@ fn create(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
         return;
     }
     let c = i / cache_params.texels;
+    let record = caches[2u * c + 1u];
+    if (record.w != 0.0) {
+        return;
+    }
     let td = texel_dirs[i % cache_params.texels];
     let o = caches[2u * c].xyz;
-    let n = caches[2u * c + 1u].xyz;
+    let n = record.xyz;
     let basis = tangent_basis(n);
     let bt = basis.t;
     let bb = basis.b;

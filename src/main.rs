@@ -393,6 +393,10 @@ struct RenderFlags {
     /// first of one renderer) [default false].
     #[arg(long = "cache-reuse", alias = "cache_reuse")]
     cache_reuse: Option<bool>,
+    /// cprc with cache reuse: kept caches keep their radiance texels (not traced again) while the
+    /// volume is unchanged; the same frames either way [default true].
+    #[arg(long = "cache-carry", alias = "cache_carry")]
+    cache_carry: Option<bool>,
     /// vct-svo: light-view map side per light view for photon injection (power of two, 16..=2048;
     /// 0 = voxel_light's per-voxel direct light) [default 256].
     #[arg(long = "photon-map", alias = "photon_map")]
@@ -471,6 +475,7 @@ fn load_scene(path: &Option<PathBuf>, flags: &RenderFlags) -> Result<vxgi::scene
         cache_depth_slices,
         gather_radius,
         cache_reuse,
+        cache_carry,
         photon_map,
         anisotropic_voxels,
         voxel_lobes,

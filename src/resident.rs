@@ -682,6 +682,12 @@ impl<'c> Resident<'c> {
         if let Some(first) = first {
             encode_range(p, encoder, first..b.per_frame.start, &b.copies)?;
         }
+        if self.pipeline == Pipeline::Cprc && scene.render.cache_reuse {
+            // Kept caches carry their texels where the volume is the last frame's: nothing re-lit,
+            // moved or built this frame.
+            let params = crate::pipeline::cprc::reuse_params(scene, reuse && first.is_none());
+            p.write_buffer("reuse_params", bytemuck::bytes_of(&params))?;
+        }
         let camera = match gbuffer {
             None => b.per_frame.clone(),
             Some(g) => {
@@ -820,7 +826,12 @@ impl<'c> Resident<'c> {
                             "{} caches this frame{}, in buffers for {} (indirect dispatch from the GPU's count{})",
                             a[0],
                             if scene.render.cache_reuse {
-                                format!(" ({} kept from the last frame)", a[2])
+                                let carried = if cached && scene.render.cache_carry {
+                                    ", their texels carried, not traced"
+                                } else {
+                                    ""
+                                };
+                                format!(" ({} kept from the last frame{carried})", a[2])
                             } else {
                                 String::new()
                             },

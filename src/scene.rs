@@ -261,6 +261,11 @@ pub struct RenderSettings {
     /// cluster). Applies to consecutive frames of one GPU-resident renderer (false, the default: every
     /// frame places its caches anew; a single frame is the same either way).
     pub cache_reuse: bool,
+    /// cprc with `cache_reuse`: a kept cache also keeps its radiance texels, and is not traced again,
+    /// in frames whose volume is the last frame's (nothing re-lit or moved: a camera moving through
+    /// a still scene). The same record through the same voxels traces the same texels, so frames are
+    /// the same either way; true (the default) skips the work.
+    pub cache_carry: bool,
     /// vct-svo: light injection. The side of the light-view map rendered per light view (a power of
     /// two, 16..=2048), one photon per texel splatted into the octree's leaves (VCT 8.2); 0 lights
     /// the voxels with voxel_light's per-voxel direct light instead.
@@ -499,6 +504,7 @@ impl Default for RenderSettings {
             cache_depth_slices: 16,
             gather_radius: 2.0,
             cache_reuse: false,
+            cache_carry: true,
             photon_map: 256,
             anisotropic_voxels: true,
             voxel_lobes: false,

@@ -265,3 +265,50 @@ fn cache_reuse_keeps_the_caches_of_a_still_view_and_most_under_a_slow_orbit() {
         assert!(kept[k].0 != anew[k].0, "frame {k}: reuse changed nothing");
     }
 }
+
+/// `cache_carry`: with `cache_reuse`, a kept cache keeps its radiance texels (cache_creation skips
+/// it) in the frames whose volume is the last frame's. Over a slow orbit, a moving light (which
+/// re-lights the voxels: nothing is carried) and the orbit again, the frames are bit for bit those
+/// of a renderer that traces every kept cache again, and the plan says which frames carried.
+#[test]
+fn carried_caches_give_the_frames_that_traced_caches_give() {
+    use vxgi::render::Pipeline;
+    use vxgi::resident::Resident;
+    use vxgi::temporal::Motion;
+    let mut scene = Scene::cornell_box();
+    (scene.camera.width, scene.camera.height) = (64, 64);
+    scene.render.voxels = 32;
+    scene.render.cache_tile = 8;
+    scene.render.cache_reuse = true;
+    let cones = ConeSettings::from(&scene.render);
+    // Frames 2 and 3 move the light; 0, 1 and 4 share one light.
+    let view = |k: u32| {
+        let lit = Motion::Light { step: 0.05 }.at(&scene, k.clamp(1, 3) - 1);
+        lit.orbited(1.0 * k as f32)
+    };
+    let frames = |carry: bool| {
+        let mut r = Resident::new(gpu(), Pipeline::Cprc).unwrap();
+        (0..5u32)
+            .map(|k| {
+                let mut s = view(k);
+                s.render.cache_carry = carry;
+                let f = r.render(&s, &cones).unwrap();
+                (f.indirect, f.plan.to_string().contains("texels carried"))
+            })
+            .collect::<Vec<_>>()
+    };
+    let (carried, traced) = (frames(true), frames(false));
+    let said: Vec<bool> = carried.iter().map(|f| f.1).collect();
+    assert_eq!(
+        said,
+        [false, true, false, false, true],
+        "frames that carried"
+    );
+    assert!(
+        traced.iter().all(|f| !f.1),
+        "cache_carry = false carries nothing"
+    );
+    for (k, (a, b)) in carried.iter().zip(&traced).enumerate() {
+        assert!(a.0 == b.0, "frame {k}: carried and traced caches differ");
+    }
+}

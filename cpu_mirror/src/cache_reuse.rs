@@ -13,9 +13,14 @@
 //! - `kept[c] = 0xffffffff - (the lowest candidate i of c)`, `0` without one (`clear` zeroes every
 //!   slot first);
 //! - for `c < min(cache_count, kept.len())` with a kept cache `i`: `cache_pos[c] = (X, its own w)`,
-//!   `cache_normal[c] = (m, 0)`, `caches[2c] = (X + m offset, 0)`, `caches[2c + 1] = (m, 0)`,
-//!   `cache_pixel[c] = (p % w, p / w)` for `p = prev_pixel[i]`. Other slots keep what they held.
-//!   `cache_args[2]` (0 from cache_records) grows by the number of slots that kept a cache.
+//!   `cache_normal[c] = (m, 0)`, `cache_pixel[c] = (p % w, p / w)` for `p = prev_pixel[i]`, and the
+//!   creation record the cache was traced from last frame: `caches[2c] = prev_caches[2i]`,
+//!   `caches[2c + 1] = (prev_caches[2i + 1].xyz, carry)`. With `carry` (1: the volume the caches
+//!   were traced through is unchanged since the last frame) its `texels` radiance texels are copied
+//!   too, `cache_radiance[c texels + t] = prev_radiance[i texels + t]`, and cache_creation skips
+//!   the cache (`caches[2c + 1].w != 0`): tracing the same record through the same volume again
+//!   would give the same texels. Other slots keep what they held. `cache_args[2]` (0 from
+//!   cache_records) grows by the number of slots that kept a cache. Copies only: exact.
 //!
 //! The projection's and the tests' results are computed here in f64 with a bound on the GPU's f32
 //! error ([`claim`]); an outcome within the bound of a decision's boundary is "either": the GPU may
@@ -26,7 +31,7 @@ use crate::octahedral::unpack;
 const U: f64 = f32::EPSILON as f64 / 2.0;
 pub const NONE: u32 = u32::MAX;
 
-/// The kernel's second uniform block (16 bytes).
+/// The kernel's uniform block (16 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct ReuseParams {
@@ -35,7 +40,12 @@ pub struct ReuseParams {
     pub reach: f32,
     /// The least cosine between the pixel's normal and the cache's.
     pub min_cos: f32,
-    pub _pad: [u32; 2],
+    /// 1 where the volume is unchanged since the last frame: kept caches carry their radiance
+    /// texels and are not traced again; 0 to trace them (a renderer's frame that re-lit or moved
+    /// anything, or `cache_carry = false`).
+    pub carry: u32,
+    /// Radiance texels per cache (cache_creation's `res^2`).
+    pub texels: u32,
 }
 
 impl ReuseParams {
@@ -44,7 +54,8 @@ impl ReuseParams {
     pub const DEFAULT: Self = Self {
         reach: 3.0,
         min_cos: 0.9,
-        _pad: [0; 2],
+        carry: 0,
+        texels: 1,
     };
 }
 
@@ -351,28 +362,38 @@ pub fn accept(
     (kept, pixel, differ)
 }
 
-/// The records after `keep`: `records` = (cache_pos, cache_pixel, cache_normal, caches) as
-/// cache_records left them, overwritten for every slot below `min(cache_count, kept.len())` that
-/// kept a cache. Returns how many did, and per slot the bound on the origin's components (0
-/// elsewhere): the product and the sum, fused or not, within `2 u (|X_k| + |m_k offset|)`, doubled.
-#[allow(clippy::type_complexity)]
+/// The last frame's creation records and radiance texels, which a kept cache takes (`prev_caches`
+/// two vec4s per cache, `prev_radiance` `params.texels` per cache).
+pub struct Last<'a> {
+    pub caches: &'a [[f32; 4]],
+    pub radiance: &'a [[f32; 4]],
+}
+
+/// This frame's records as cache_records left them: (cache_pos, cache_pixel, cache_normal, caches,
+/// cache_radiance).
+pub type Records<'a> = (
+    &'a mut [[f32; 4]],
+    &'a mut [[u32; 2]],
+    &'a mut [[f32; 4]],
+    &'a mut [[f32; 4]],
+    &'a mut [[f32; 4]],
+);
+
+/// The records after `keep`, overwritten for every slot below `min(cache_count, kept.len())` that
+/// kept a cache (with `carry`, its radiance texels too, where both buffers hold them). Returns how
+/// many slots kept one.
 pub fn keep(
     inp: &Inputs,
     kept: &[u32],
     prev_pixel: &[u32],
     cache_count: u32,
-    offset: f32,
-    records: (
-        &mut [[f32; 4]],
-        &mut [[u32; 2]],
-        &mut [[f32; 4]],
-        &mut [[f32; 4]],
-    ),
-) -> (u32, Vec<[f32; 4]>) {
-    let (pos, pix, nrm, crt) = records;
+    last: &Last,
+    records: Records,
+) -> u32 {
+    let (pos, pix, nrm, crt, radiance) = records;
     let mut count = 0;
     let w = inp.frame.size[0].max(1);
-    let mut bounds = vec![[0.0f32; 4]; crt.len()];
+    let t = inp.params.texels as usize;
     for c in 0..(cache_count as usize).min(kept.len()) {
         if kept[c] == 0 {
             continue;
@@ -384,14 +405,20 @@ pub fn keep(
         pos[c] = [x[0], x[1], x[2], pos[c][3]];
         pix[c] = [p % w, p / w];
         nrm[c] = [m[0], m[1], m[2], 0.0];
-        let o = [0, 1, 2].map(|k| x[k] + m[k] * offset);
-        crt[2 * c] = [o[0], o[1], o[2], 0.0];
-        crt[2 * c + 1] = [m[0], m[1], m[2], 0.0];
-        let b = [0, 1, 2]
-            .map(|k| (2.0 * 2.0 * U * (x[k].abs() as f64 + (m[k] * offset).abs() as f64)) as f32);
-        bounds[2 * c] = [b[0], b[1], b[2], 0.0];
+        let (o, d) = (last.caches[2 * i], last.caches[2 * i + 1]);
+        crt[2 * c] = o;
+        crt[2 * c + 1] = [d[0], d[1], d[2], f32::from(u8::from(inp.params.carry != 0))];
+        if inp.params.carry != 0 {
+            for k in 0..t {
+                if let (Some(&v), Some(dst)) =
+                    (last.radiance.get(i * t + k), radiance.get_mut(c * t + k))
+                {
+                    *dst = v;
+                }
+            }
+        }
     }
-    (count, bounds)
+    count
 }
 
 #[cfg(test)]

@@ -245,11 +245,11 @@ impl Kernel for CacheCreation {
         };
         let label = format!("{}, {} caches of {res}^2{order}", c.label, caches.len() / 2);
         let case = case_for(ctx, &pyr, &params, &caches, res, label, seed);
-        super::cone_trace::with_pyramid_split(case, index)
+        super::cone_trace::with_pyramid_split(with_carried(case, index), index)
     }
-    fn mirror(&self, _case: &Case, data: &Resources, _mode: FloatMode) -> MirrorOutputs {
+    fn mirror(&self, case: &Case, data: &Resources, _mode: FloatMode) -> MirrorOutputs {
         // Radiance-scale arithmetic, as cone_trace's: one mode serves both.
-        mirror_outputs(data)
+        mirror_outputs(case, data)
     }
 }
 
@@ -275,14 +275,58 @@ impl Kernel for CacheCreationInstanced {
         let case = instanced_case_for(ctx, &p.pyramid, &placed, &params, &caches, res, label, seed);
         super::cone_trace::with_pyramid_split(case, index)
     }
-    fn mirror(&self, _case: &Case, data: &Resources, _mode: FloatMode) -> MirrorOutputs {
-        mirror_outputs(data)
+    fn mirror(&self, case: &Case, data: &Resources, _mode: FloatMode) -> MirrorOutputs {
+        mirror_outputs(case, data)
     }
 }
 
-/// The mirror's outputs (radiance and bound by resource name) for a creation case, either volume.
-fn mirror_outputs(data: &Resources) -> BTreeMap<String, HostBuffer> {
-    let (out, bound) = mirror_texels(data);
+/// One case in three (`index % 3 == 1`) with every third cache carried (`caches[2c + 1].w = 1`, as
+/// cache_reuse's keep marks a cache whose texels it copied): its texels hold values the pass must
+/// leave as they are.
+fn with_carried(mut case: Case, index: usize) -> Case {
+    if index % 3 != 1 {
+        return case;
+    }
+    let params = &case.resources["cache_params"]
+        .buffer()
+        .expect("buffer")
+        .bytes;
+    let p: CacheParams = *bytemuck::from_bytes(params);
+    let t = p.texels as usize;
+    let f4 = |n: &str| -> Vec<[f32; 4]> {
+        bytemuck::pod_collect_to_vec(&case.resources[n].buffer().expect("buffer").bytes)
+    };
+    let (mut caches, mut radiance) = (f4("caches"), f4("cache_radiance"));
+    for c in (0..p.count as usize).step_by(3) {
+        caches[2 * c + 1][3] = 1.0;
+        for k in 0..t {
+            radiance[c * t + k] = [c as f32 + 0.25, k as f32, 0.5, 0.0];
+        }
+    }
+    for (name, v) in [("caches", caches), ("cache_radiance", radiance)] {
+        case.resources.insert(
+            name.into(),
+            HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(&v))),
+        );
+    }
+    case.label.push_str(", every third cache carried");
+    case
+}
+
+/// The mirror's outputs (radiance and bound by resource name) for a creation case, either volume:
+/// a carried cache's texels as the case gave them (exact), the others traced.
+fn mirror_outputs(case: &Case, data: &Resources) -> BTreeMap<String, HostBuffer> {
+    let (mut out, mut bound) = mirror_texels(data);
+    let b = |n: &str| case.resources[n].buffer().expect("buffer");
+    let p: CacheParams = *bytemuck::from_bytes(&b("cache_params").bytes);
+    let caches: &[[f32; 4]] = bytemuck::cast_slice(&b("caches").bytes);
+    let before: &[[f32; 4]] = bytemuck::cast_slice(&b("cache_radiance").bytes);
+    let t = p.texels as usize;
+    for c in (0..p.count as usize).filter(|&c| caches[2 * c + 1][3] != 0.0) {
+        for i in c * t..(c + 1) * t {
+            (out[i], bound[i]) = (before[i], [0.0; 4]);
+        }
+    }
     let f = |v: &[[f32; 4]]| HostBuffer::f32(bytemuck::cast_slice(v));
     BTreeMap::from([
         ("cache_radiance".to_string(), f(&out)),

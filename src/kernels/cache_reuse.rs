@@ -2,29 +2,30 @@
 //! frame's radiance caches kept where their surface is still in view (CPRC sections 5-6). Cases are
 //! pinhole views of three planes with last-frame caches on them (jittered by up to a pixel and a
 //! half), off them, behind the camera, off the image, with turned normals, on pixel corners and in
-//! pairs on one spot (the lowest index wins); outputs start with garbage, so a slot written wrongly
-//! or not cleared shows.
+//! pairs on one spot (the lowest index wins); every other case carries the kept caches' radiance
+//! texels (1 to 64 a cache); outputs start with garbage, so a slot written wrongly or not cleared
+//! shows.
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use vxgi_cpu_mirror::cache_records::RecordsParams;
-use vxgi_cpu_mirror::cache_reuse::{accept, keep, Inputs, ReuseParams, NONE};
+use vxgi_cpu_mirror::cache_reuse::{accept, keep, Inputs, Last, ReuseParams, NONE};
 use vxgi_cpu_mirror::gbuffer::Frame;
-use vxgi_harness::compare::bound_name;
 use vxgi_harness::prelude::*;
 use vxgi_harness::run::{grid_for, Pass, Workgroups};
 
 vxgi_harness::bindings! {
     /// cache_reuse's bindings: this frame's camera, the distribution's per-pixel clusters, normals
-    /// and positions, the last frame's caches in; each last cache's pixel, each cluster's kept cache,
-    /// and the records of the slots that keep one out.
+    /// and positions, the last frame's caches (records and radiance texels) in; each last cache's
+    /// pixel, each cluster's kept cache, and the records (and carried texels) of the slots that
+    /// keep one out.
     pub struct Io {
         inputs: {
             frame: Block<Frame>,
-            records_params: Block<RecordsParams>,
             reuse_params: Block<ReuseParams>,
             prev_count: Vec<u32>,
             prev_pos: Vec<[f32; 4]>,
             prev_normal: Vec<[f32; 4]>,
+            prev_caches: Vec<[f32; 4]>,
+            prev_radiance: Vec<[f32; 4]>,
             pixel_cluster: Vec<u32>,
             normals: Vec<[u32; 2]>,
             positions: Vec<[f32; 4]>,
@@ -41,8 +42,8 @@ vxgi_harness::bindings! {
             cache_pos: Vec<[f32; 4]> => Tolerance::Exact,
             cache_pixel: Vec<[u32; 2]> => Tolerance::Exact,
             cache_normal: Vec<[f32; 4]> => Tolerance::Exact,
-            // The origin's multiply-add (see `cache_reuse::keep`).
-            caches: Vec<[f32; 4]> => Tolerance::MirrorBound,
+            caches: Vec<[f32; 4]> => Tolerance::Exact,
+            cache_radiance: Vec<[f32; 4]> => Tolerance::Exact,
             // cache_records' arguments, the kept caches counted in [2]: integers, exact.
             cache_args: Vec<u32> => Tolerance::Exact,
         }
@@ -51,11 +52,7 @@ vxgi_harness::bindings! {
 
 pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
     "cache_reuse",
-    includes: &[
-        super::tile_normal_histogram::OCTAHEDRAL_BINS,
-        super::SCENE_TYPES,
-        super::CACHE_RECORDS_PARAMS,
-    ],
+    includes: &[super::tile_normal_histogram::OCTAHEDRAL_BINS, super::SCENE_TYPES],
     entry: "claim",
     inputs: Io::INPUTS,
     outputs: Io::OUTPUTS,
@@ -83,9 +80,10 @@ pub fn passes(ctx: &GpuContext, slots: usize, prev: usize, caches: usize) -> (Ve
     )
 }
 
-/// Its own resources for `slots` cluster slots and room for `prev` last-frame caches, all zero (no
-/// last caches; a chain's per-frame resets then clear rather than restore them): the kept choices,
-/// each last cache's pixel, the copies of the last records, and `params`.
+/// Its own resources for `slots` cluster slots and room for `prev` last-frame caches of
+/// `params.texels` radiance texels, all zero (no last caches; a chain's per-frame resets then clear
+/// rather than restore them): the kept choices, each last cache's pixel, the copies of the last
+/// records and radiance, and `params`.
 pub fn resources(slots: usize, prev: usize, params: ReuseParams) -> Resources {
     let mut r = Resources::new();
     let mut put = |name: &str, b: HostBuffer| {
@@ -97,6 +95,9 @@ pub fn resources(slots: usize, prev: usize, params: ReuseParams) -> Resources {
     put("prev_count", HostBuffer::u32(&[0]));
     put("prev_pos", HostBuffer::f32(&vec![0.0; 4 * prev.max(1)]));
     put("prev_normal", HostBuffer::f32(&vec![0.0; 4 * prev.max(1)]));
+    put("prev_caches", HostBuffer::f32(&vec![0.0; 8 * prev.max(1)]));
+    let texels = prev.max(1) * params.texels.max(1) as usize;
+    put("prev_radiance", HostBuffer::f32(&vec![0.0; 4 * texels]));
     r
 }
 
@@ -203,18 +204,24 @@ pub fn generated(seed: u64, index: usize) -> (Io, String) {
         ReuseParams {
             reach: 0.5,
             min_cos: -1.0,
-            _pad: [0; 2],
+            ..ReuseParams::DEFAULT
         },
         ReuseParams {
             reach: 3.0,
             min_cos: 0.999,
-            _pad: [0; 2],
+            ..ReuseParams::DEFAULT
         },
         ReuseParams {
             reach: 20.0,
             ..ReuseParams::DEFAULT
         },
     ][index % 4];
+    // Every other case carries the kept caches' texels (1 to 64 a cache).
+    let params = ReuseParams {
+        carry: (index % 2) as u32,
+        texels: [4, 1, 16, 64][(index / 2) % 4],
+        ..params
+    };
 
     let m = [40usize, 3, 9, 120][index % 4];
     let (mut prev_pos, mut prev_normal) = (Vec::with_capacity(m), Vec::with_capacity(m));
@@ -279,18 +286,17 @@ pub fn generated(seed: u64, index: usize) -> (Io, String) {
     let mut four =
         |n: usize| -> Vec<[f32; 4]> { (0..n).map(|_| [0; 4].map(|_| garbage(&mut rng))).collect() };
     let (cache_pos, cache_normal, caches) = (four(slots), four(slots), four(2 * slots));
-    let offset = [0.01, 0.0, -0.5, 2.0][index % 4];
+    let t = params.texels as usize;
+    let (prev_caches, prev_radiance, cache_radiance) =
+        (four(2 * len), four(len * t), four(slots * t));
     let io = Io {
         frame: Block(frame),
-        records_params: Block(RecordsParams {
-            width: w,
-            offset,
-            ..bytemuck::Zeroable::zeroed()
-        }),
         reuse_params: Block(params),
         prev_count: vec![prev_count as u32],
         prev_pos,
         prev_normal,
+        prev_caches,
+        prev_radiance,
         pixel_cluster,
         normals,
         positions,
@@ -301,14 +307,20 @@ pub fn generated(seed: u64, index: usize) -> (Io, String) {
         cache_pixel: (0..slots).map(|_| [rng.random(), rng.random()]).collect(),
         cache_normal,
         caches,
+        cache_radiance,
         // As cache_records leaves them: [2] is 0, the rest the count and workgroups.
         cache_args: (0..vxgi_cpu_mirror::cache_records::ARGS_LEN)
             .map(|k| if k == 2 { 0 } else { rng.random() })
             .collect(),
     };
     let label = format!(
-        "#{index} {w}x{h}, {} clusters in {slots} slots, {prev_count} of {len} last caches",
-        keys.len()
+        "#{index} {w}x{h}, {} clusters in {slots} slots, {prev_count} of {len} last caches{}",
+        keys.len(),
+        if params.carry != 0 {
+            format!(", carrying {t} texels each")
+        } else {
+            String::new()
+        }
     );
     (io, label)
 }
@@ -347,26 +359,26 @@ impl Kernel for CacheReuse {
             &first.prev_pixel,
         );
         let mut out = first.clone();
-        let (count, bounds) = keep(
+        let last = Last {
+            caches: &io.prev_caches,
+            radiance: &io.prev_radiance,
+        };
+        let count = keep(
             &inp,
             &kept,
             &pixel,
             io.cache_count[0],
-            io.records_params.0.offset,
+            &last,
             (
                 &mut out.cache_pos,
                 &mut out.cache_pixel,
                 &mut out.cache_normal,
                 &mut out.caches,
+                &mut out.cache_radiance,
             ),
         );
         (out.kept, out.prev_pixel) = (kept, pixel);
         out.cache_args[2] = out.cache_args[2].wrapping_add(count);
-        let mut m = out.outputs();
-        m.insert(
-            bound_name("caches"),
-            HostBuffer::f32(bytemuck::cast_slice(&bounds)),
-        );
-        m
+        out.outputs()
     }
 }

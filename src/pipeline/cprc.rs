@@ -304,6 +304,17 @@ pub(crate) fn cache_room(
 /// (`indirect`, `ao`). Nothing between the G-buffer and the images goes through the host. With
 /// `[[instances]]` the volume is [`instanced_volume`]'s hierarchies (their grid frames returned) and
 /// creation marches through all of them.
+/// cache_reuse's parameters for `scene`'s caches: `carry` where the frame's volume is the last
+/// frame's (a renderer's frame that re-lit or moved nothing) and `cache_carry` allows it.
+pub fn reuse_params(scene: &Scene, carry: bool) -> vxgi_cpu_mirror::cache_reuse::ReuseParams {
+    let res = crate::cprc::CprcSettings::from(&scene.render).res;
+    vxgi_cpu_mirror::cache_reuse::ReuseParams {
+        carry: u32::from(carry && scene.render.cache_carry),
+        texels: res * res,
+        ..vxgi_cpu_mirror::cache_reuse::ReuseParams::DEFAULT
+    }
+}
+
 pub(crate) fn cprc_chain(
     ctx: &crate::harness::GpuContext,
     scene: &Scene,
@@ -382,16 +393,14 @@ pub(crate) fn cprc_chain(
     if let Some((claim, _)) = &reuse {
         chain.merge(
             cache_reuse::DECL.name,
-            cache_reuse::resources(
-                slots,
-                room.capacity as usize,
-                vxgi_cpu_mirror::cache_reuse::ReuseParams::DEFAULT,
-            ),
+            cache_reuse::resources(slots, room.capacity as usize, reuse_params(scene, false)),
         )?;
         let after = chain.pass_count();
         for (src, dst) in [
             ("cache_pos", "prev_pos"),
             ("cache_normal", "prev_normal"),
+            ("caches", "prev_caches"),
+            ("cache_radiance", "prev_radiance"),
             ("cache_count", "prev_count"),
         ] {
             chain.copies.push(ChainCopy {

@@ -120,7 +120,7 @@ fn same_data(a: &HostResource, b: &HostResource) -> bool {
     }
 }
 
-mod cprc;
+pub(crate) mod cprc;
 mod declaration;
 pub mod host;
 mod lrsm;
