@@ -1,6 +1,8 @@
 //! Frames of a camera orbit, counted: every pipeline on the Cornell box and thin_wall at 256x256,
 //! `frames` frames 5 degrees apart with the renderer's reuse on (as `vxgi render --frames 6 --orbit 5`),
-//! and scenes/instances.toml's 7-frame animation (`vxgi render scenes/instances.toml --frames 7`).
+//! and scenes/instances.toml's 7-frame animation (`vxgi render scenes/instances.toml --frames 7`);
+//! cprc twice more with `cache_reuse`, its kept caches' texels carried (`cache_carry`, the default)
+//! and traced again.
 //! Per pipeline and scene: the medians over the frames after the first of wall clock, GPU time
 //! (timestamp queries), wall / GPU, submissions, buffers and bind groups created, bytes uploaded and
 //! read back, from the context's counters (`vxgi::frames`), of the GPU-resident renderer
@@ -11,6 +13,7 @@
 use vxgi::frames::{counted, median, FrameRow};
 use vxgi::harness::GpuContext;
 use vxgi::kernels::cone_trace::ConeSettings;
+use vxgi::render::Pipeline;
 use vxgi::resident::Resident;
 use vxgi::scene::Scene;
 
@@ -65,16 +68,38 @@ fn main() {
                 scene.orbited(5.0 * k as f32)
             }
         };
-        for p in Resident::PIPELINES {
-            let mut resident = Resident::new(&ctx, p).expect("a resident pipeline");
+        // (label, pipeline, cprc's cache reuse with its texels carried or traced).
+        let runs: Vec<(String, Pipeline, Option<bool>)> = Resident::PIPELINES
+            .into_iter()
+            .map(|p| (format!("{}, GPU-resident", p.name()), p, None))
+            .chain([true, false].map(|carry| {
+                let how = if carry { "carried" } else { "traced" };
+                (
+                    format!("cprc, cache reuse, {how}"),
+                    Pipeline::Cprc,
+                    Some(carry),
+                )
+            }))
+            .collect();
+        let settings = |mut s: Scene, reuse: Option<bool>| {
+            if let Some(carry) = reuse {
+                s.render.cache_reuse = true;
+                s.render.cache_carry = carry;
+            }
+            s
+        };
+        for (label, p, reuse) in &runs {
+            let mut resident = Resident::new(&ctx, *p).expect("a resident pipeline");
             let rows: Vec<FrameRow> = (0..frames)
                 .map(|k| {
-                    counted(&ctx, k, || resident.render(&view(k), &cones))
-                        .expect("frame")
-                        .1
+                    counted(&ctx, k, || {
+                        resident.render(&settings(view(k), *reuse), &cones)
+                    })
+                    .expect("frame")
+                    .1
                 })
                 .collect();
-            print(&format!("{}, GPU-resident", p.name()), &rows);
+            print(label, &rows);
         }
     }
 }
