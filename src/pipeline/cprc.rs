@@ -181,7 +181,7 @@ fn distribution_plan(i: &PlanInputs) -> Vec<PlannedPass> {
                 "cache_reuse",
                 "one per cluster",
                 true,
-                "a kept cache's record takes its last position, normal and pixel (entry keep)",
+                "a kept cache's record takes its last position, normal, creation record and pixel, and (cache_carry) while the volume is unchanged its radiance texels, which cache_creation then skips (entry keep)",
             ),
         ));
     }
