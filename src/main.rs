@@ -1293,21 +1293,22 @@ fn run_temporal(
                 motion: motion.name(),
                 measure,
                 combined_flip: flip,
+                frame_ms: temporal::later_frames_ms(&got),
             });
         }
     }
     bar.finish_and_clear();
     let mut md = String::from(
-        "| pipeline | motion | instability | on kept surfaces (share of pixels) | own change | reference's change | error (mean over frames) | combined FLIP (frame 0) |\n|---|---|---|---|---|---|---|---|\n",
+        "| pipeline | motion | instability | on kept surfaces (share of pixels) | own change | reference's change | error (mean over frames) | combined FLIP (frame 0) | frame ms (median after the first) |\n|---|---|---|---|---|---|---|---|---|\n",
     );
     let mut csv = String::from(
-        "pipeline,motion,instability,persistent_instability,persistent_share,change,reference_change,error,combined_flip\n",
+        "pipeline,motion,instability,persistent_instability,persistent_share,change,reference_change,error,combined_flip,frame_ms\n",
     );
     for r in &rows {
         let m = &r.measure;
         let kept = m.persistent.expect("measure() masks the kept surfaces");
         md.push_str(&format!(
-            "| {} | {} | {:.4} | {:.4} ({:.0}%) | {:.4} | {:.4} | {:.4} | {:.3} |\n",
+            "| {} | {} | {:.4} | {:.4} ({:.0}%) | {:.4} | {:.4} | {:.4} | {:.3} | {:.0} |\n",
             r.pipeline,
             r.motion,
             m.instability,
@@ -1316,10 +1317,11 @@ fn run_temporal(
             m.change,
             m.reference_change,
             m.error,
-            r.combined_flip
+            r.combined_flip,
+            r.frame_ms
         ));
         csv.push_str(&format!(
-            "{},{},{},{},{},{},{},{},{}\n",
+            "{},{},{},{},{},{},{},{},{},{}\n",
             r.pipeline,
             r.motion,
             m.instability,
@@ -1328,7 +1330,8 @@ fn run_temporal(
             m.change,
             m.reference_change,
             m.error,
-            r.combined_flip
+            r.combined_flip,
+            r.frame_ms
         ));
     }
     for (motion, floor) in &floors {

@@ -369,6 +369,24 @@ pub struct Row {
     pub measure: Measure,
     /// Combined FLIP of frame 0 against the path-traced reference.
     pub combined_flip: f32,
+    /// The median of the frames after the first of their stages' times, ms ([`later_frames_ms`]).
+    pub frame_ms: f64,
+}
+
+/// The median over the frames after the first (the first builds what the others keep) of each
+/// frame's stage times summed, in ms: GPU time where the renderer had timestamp queries. 0 for a
+/// sequence of one frame.
+pub fn later_frames_ms(frames: &[crate::render::Rendered]) -> f64 {
+    let mut ms: Vec<f64> = frames
+        .iter()
+        .skip(1)
+        .map(|f| f.stages.iter().map(|(_, s)| s).sum::<f64>() * 1e3)
+        .collect();
+    if ms.is_empty() {
+        return 0.0;
+    }
+    ms.sort_by(f64::total_cmp);
+    ms[ms.len() / 2]
 }
 
 /// The per-step instability of every row, one line each (`temporal.svg`).
