@@ -487,4 +487,64 @@ mod tests {
         let (kept, _, _) = accept(&inp, 3, &gpu, &[9, 10, NONE], &[0; 3]);
         assert_eq!((kept[9], kept[10]), (NONE, NONE - 1));
     }
+
+    /// keep: the slot takes the last cache's creation record as it was (w = carry) and, carrying,
+    /// its texels; without carry the texels stay as cache_records left them; a slot past
+    /// cache_count keeps nothing.
+    #[test]
+    fn keep_copies_the_record_and_carries_texels_only_when_asked() {
+        let (frame, positions, normals, clusters) = view();
+        let prev_pos = vec![positions[9], positions[2]];
+        let prev_normal = vec![[0.0, 0.0, 1.0, 0.0]; 2];
+        let last_caches = [
+            [1.0, 2.0, 3.0, 0.0],
+            [0.0, 0.0, 1.0, 0.0],
+            [4.0; 4],
+            [5.0; 4],
+        ];
+        let last_radiance: Vec<[f32; 4]> = (0..4).map(|t| [t as f32 + 10.0; 4]).collect();
+        let last = Last {
+            caches: &last_caches,
+            radiance: &last_radiance,
+        };
+        for carry in [0, 1] {
+            let params = ReuseParams {
+                carry,
+                texels: 2,
+                ..ReuseParams::DEFAULT
+            };
+            let inp = Inputs {
+                frame: &frame,
+                params: &params,
+                prev_pos: &prev_pos,
+                prev_normal: &prev_normal,
+                pixel_cluster: &clusters,
+                normals: &normals,
+                positions: &positions,
+                slots: 3,
+            };
+            // Slot 0 keeps last cache 1, slot 2 keeps cache 0 but lies past cache_count = 2.
+            let kept = [NONE - 1, 0, NONE];
+            let (mut pos, mut pix, mut nrm) = ([[9.0; 4]; 3], [[7, 7]; 3], [[9.0; 4]; 3]);
+            let (mut crt, mut rad) = ([[9.0; 4]; 6], [[-1.0; 4]; 6]);
+            let n = keep(
+                &inp,
+                &kept,
+                &[9, 2],
+                2,
+                &last,
+                (&mut pos, &mut pix, &mut nrm, &mut crt, &mut rad),
+            );
+            assert_eq!(n, 1);
+            assert_eq!((crt[0], crt[1]), ([4.0; 4], [5.0, 5.0, 5.0, carry as f32]));
+            assert_eq!((pix[0], pos[0][3]), ([2, 0], 9.0));
+            let carried = if carry == 1 {
+                [[12.0; 4], [13.0; 4]]
+            } else {
+                [[-1.0; 4]; 2]
+            };
+            assert_eq!(rad[..2], carried);
+            assert_eq!((crt[4], rad[4], pix[2]), ([9.0; 4], [-1.0; 4], [7, 7]));
+        }
+    }
 }
