@@ -456,6 +456,9 @@ pub struct CprcStats {
     pub dropped: usize,
     /// Caches kept from the last frame (`cache_reuse`), in place of ones placed anew.
     pub kept: usize,
+    /// Whether the kept caches carried their texels rather than being traced again
+    /// (`cache_carry`, in a frame whose volume is the last frame's).
+    pub carried: bool,
     /// Front-facing geometry pixels, and those left without a valid cache ([`coverage`]: the paper's
     /// Fig. 6 measure); `None` where not measured (resident frames: the caches stay on the GPU).
     pub coverage: Option<(usize, usize)>,
@@ -473,6 +476,7 @@ pub fn compose(
         caches: data.cache_pos.len(),
         dropped: 0,
         kept: 0,
+        carried: false,
         coverage: Some((pixels, uncovered)),
     };
     let mut ind = Vec::with_capacity(diffuse.len());

@@ -644,8 +644,14 @@ fn run_render(
                         100.0 * uncovered as f64 / pixels.max(1) as f64
                     ),
                     None if scene.render.cache_reuse => println!(
-                        "cprc: {} radiance caches, {} kept from the last frame",
-                        c.caches, c.kept
+                        "cprc: {} radiance caches, {} kept from the last frame{}",
+                        c.caches,
+                        c.kept,
+                        if c.carried {
+                            " (their texels carried, not traced)"
+                        } else {
+                            ""
+                        }
                     ),
                     None => println!("cprc: {} radiance caches", c.caches),
                 }

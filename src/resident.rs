@@ -816,6 +816,7 @@ impl<'c> Resident<'c> {
                     caches: a[0] as usize,
                     dropped: a[1] as usize,
                     kept: a[2] as usize,
+                    carried: cached && scene.render.cache_carry && scene.render.cache_reuse,
                     coverage: None,
                 });
                 let mut plan = Pipeline::Cprc.plan(scene, cones, cached);
@@ -826,7 +827,7 @@ impl<'c> Resident<'c> {
                             "{} caches this frame{}, in buffers for {} (indirect dispatch from the GPU's count{})",
                             a[0],
                             if scene.render.cache_reuse {
-                                let carried = if cached && scene.render.cache_carry {
+                                let carried = if self.caches.is_some_and(|c| c.carried) {
                                     ", their texels carried, not traced"
                                 } else {
                                     ""
