@@ -427,7 +427,36 @@ mod tests {
 
     /// A 4 x 4 view down -z (90 degrees), every pixel on the plane z = -2 facing the camera, one
     /// cluster per pixel.
-    fn view() -> (Frame, Vec<[f32; 4]>, Vec<[u32; 2]>, Vec<u32>) {
+    struct View {
+        frame: Frame,
+        positions: Vec<[f32; 4]>,
+        normals: Vec<[u32; 2]>,
+        clusters: Vec<u32>,
+    }
+
+    impl View {
+        /// The kernel's inputs over this view.
+        fn inputs<'a>(
+            &'a self,
+            params: &'a ReuseParams,
+            prev_pos: &'a [[f32; 4]],
+            prev_normal: &'a [[f32; 4]],
+            slots: usize,
+        ) -> Inputs<'a> {
+            Inputs {
+                frame: &self.frame,
+                params,
+                prev_pos,
+                prev_normal,
+                pixel_cluster: &self.clusters,
+                normals: &self.normals,
+                positions: &self.positions,
+                slots,
+            }
+        }
+    }
+
+    fn view() -> View {
         let frame = Frame {
             eye: [0.0; 4],
             forward: [0.0, 0.0, -1.0, 0.0],
@@ -447,25 +476,21 @@ mod tests {
             })
             .collect();
         let normals = vec![crate::octahedral::pack(Some([0, 0, 32767])); 16];
-        (frame, positions, normals, (0..16).collect())
+        View {
+            frame,
+            positions,
+            normals,
+            clusters: (0..16).collect(),
+        }
     }
 
     #[test]
     fn a_pixel_centre_is_its_pixels_sure_candidate_and_a_corner_is_either_pixel() {
-        let (frame, positions, normals, clusters) = view();
+        let v = view();
         let params = ReuseParams::DEFAULT;
-        let prev_pos = vec![positions[9], [0.0, 0.0, -2.0, 0.0], [0.0, 0.0, 2.0, 0.0]];
+        let prev_pos = vec![v.positions[9], [0.0, 0.0, -2.0, 0.0], [0.0, 0.0, 2.0, 0.0]];
         let prev_normal = vec![[0.0, 0.0, 1.0, 0.0]; 3];
-        let inp = Inputs {
-            frame: &frame,
-            params: &params,
-            prev_pos: &prev_pos,
-            prev_normal: &prev_normal,
-            pixel_cluster: &clusters,
-            normals: &normals,
-            positions: &positions,
-            slots: 16,
-        };
+        let inp = v.inputs(&params, &prev_pos, &prev_normal, 16);
         assert_eq!(
             claim(&inp, 0),
             vec![Outcome {
@@ -493,8 +518,8 @@ mod tests {
     /// cache_count keeps nothing.
     #[test]
     fn keep_copies_the_record_and_carries_texels_only_when_asked() {
-        let (frame, positions, normals, clusters) = view();
-        let prev_pos = vec![positions[9], positions[2]];
+        let v = view();
+        let prev_pos = vec![v.positions[9], v.positions[2]];
         let prev_normal = vec![[0.0, 0.0, 1.0, 0.0]; 2];
         let last_caches = [
             [1.0, 2.0, 3.0, 0.0],
@@ -513,16 +538,7 @@ mod tests {
                 texels: 2,
                 ..ReuseParams::DEFAULT
             };
-            let inp = Inputs {
-                frame: &frame,
-                params: &params,
-                prev_pos: &prev_pos,
-                prev_normal: &prev_normal,
-                pixel_cluster: &clusters,
-                normals: &normals,
-                positions: &positions,
-                slots: 3,
-            };
+            let inp = v.inputs(&params, &prev_pos, &prev_normal, 3);
             // Slot 0 keeps last cache 1, slot 2 keeps cache 0 but lies past cache_count = 2.
             let kept = [NONE - 1, 0, NONE];
             let (mut pos, mut pix, mut nrm) = ([[9.0; 4]; 3], [[7, 7]; 3], [[9.0; 4]; 3]);
