@@ -816,7 +816,8 @@ impl<'c> Resident<'c> {
                     caches: a[0] as usize,
                     dropped: a[1] as usize,
                     kept: a[2] as usize,
-                    carried: cached && scene.render.cache_carry && scene.render.cache_reuse,
+                    // As `record` sets reuse_params: a reused chain whose volume passes did not run.
+                    carried: reuse && !relit && scene.render.cache_reuse && scene.render.cache_carry,
                     coverage: None,
                 });
                 let mut plan = Pipeline::Cprc.plan(scene, cones, cached);

@@ -297,13 +297,6 @@ pub(crate) fn cache_room(
     }
 }
 
-/// cprc's chain: vct-dense's volume (every pyramid level: the caches' cones read them all), gbuffer
-/// and direct_light; then cprc_pixels' `inputs`, the distribution's six kernels, cache_records (its
-/// count copied into creation's and pre-convolution's uniform blocks), cache creation and
-/// pre-convolution dispatched from the GPU-built arguments, the gather, and cprc_pixels' `compose`
-/// (`indirect`, `ao`). Nothing between the G-buffer and the images goes through the host. With
-/// `[[instances]]` the volume is [`instanced_volume`]'s hierarchies (their grid frames returned) and
-/// creation marches through all of them.
 /// cache_reuse's parameters for `scene`'s caches: `carry` where the frame's volume is the last
 /// frame's (a renderer's frame that re-lit or moved nothing) and `cache_carry` allows it.
 pub fn reuse_params(scene: &Scene, carry: bool) -> vxgi_cpu_mirror::cache_reuse::ReuseParams {
@@ -315,6 +308,13 @@ pub fn reuse_params(scene: &Scene, carry: bool) -> vxgi_cpu_mirror::cache_reuse:
     }
 }
 
+/// cprc's chain: vct-dense's volume (every pyramid level: the caches' cones read them all), gbuffer
+/// and direct_light; then cprc_pixels' `inputs`, the distribution's six kernels, cache_records (its
+/// count copied into creation's and pre-convolution's uniform blocks), cache creation and
+/// pre-convolution dispatched from the GPU-built arguments, the gather, and cprc_pixels' `compose`
+/// (`indirect`, `ao`). Nothing between the G-buffer and the images goes through the host. With
+/// `[[instances]]` the volume is [`instanced_volume`]'s hierarchies (their grid frames returned) and
+/// creation marches through all of them.
 pub(crate) fn cprc_chain(
     ctx: &crate::harness::GpuContext,
     scene: &Scene,
