@@ -2,14 +2,27 @@
 // picked (Rehfeld et al. 2014, 3.2: one cache per cluster), and the indirect dispatch arguments of
 // the per-texel cache stages: creation, pre-convolution and the gather follow the distribution on the
 // GPU. Mirror: cpu_mirror/src/cache_records.rs (its module comment defines every output).
-// Uses kernels/common/octahedral_bins.wgsl (oct_is_geometry, oct_unpack) and
-// common/cache_records_params.wgsl (RecordsParams).
+// Uses kernels/common/octahedral_bins.wgsl (oct_is_geometry, oct_unpack).
 //
 // One invocation per cache slot c < capacity: count = min(cluster_count, capacity) caches. Invocation
 // 0 also writes cache_count (copied into the cache stages' uniform blocks) and cache_args (count, clusters
 // past the capacity, then per stage the workgroups (x, y, 1) of 64 covering count * per invocations).
 // Accuracy: pixels, ranges, counts and arguments exact (integers); positions copied; the normal,
 // r_w and the creation origin within the mirror's per-element bounds.
+
+// Mirror: vxgi_cpu_mirror::cache_records::RecordsParams.
+struct RecordsParams {
+    width: u32,
+    tile: u32,
+    tiles_x: u32,
+    capacity: u32,
+    per: vec3<u32>,
+    max_groups: u32,
+    offset: f32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
 
 struct Cluster {
     start_count_key: vec4<u32>,

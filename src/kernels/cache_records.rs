@@ -39,7 +39,7 @@ vxgi_harness::bindings! {
 
 pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
     "cache_records",
-    includes: &[super::tile_normal_histogram::OCTAHEDRAL_BINS, super::CACHE_RECORDS_PARAMS],
+    includes: &[super::tile_normal_histogram::OCTAHEDRAL_BINS],
     inputs: Io::INPUTS,
     outputs: Io::OUTPUTS,
     dispatch: DispatchRule::PerItem {

@@ -67,13 +67,6 @@ pub mod voxelize;
 
 use vxgi_harness::Kernel;
 
-/// cache_records' uniform block, included by cache_records and cache_reuse (which binds the same
-/// buffer in cprc's chain).
-pub const CACHE_RECORDS_PARAMS: (&str, &str) = (
-    "kernels/common/cache_records_params.wgsl",
-    include_str!("../../kernels/common/cache_records_params.wgsl"),
-);
-
 /// The voxel grids' Morton order (spread3, compact3, morton3, morton_decode), included by voxelize,
 /// voxel_light, svo_fragments, lrsm_cone_trace and before PYRAMID_GRID.
 pub const MORTON: (&str, &str) = (
