@@ -683,9 +683,9 @@ impl<'c> Resident<'c> {
             encode_range(p, encoder, first..b.per_frame.start, &b.copies)?;
         }
         if self.pipeline == Pipeline::Cprc && scene.render.cache_reuse {
-            // Kept caches carry their texels where the volume is the last frame's: nothing re-lit,
-            // moved or built this frame.
-            let params = crate::pipeline::cprc::reuse_params(scene, reuse && first.is_none());
+            // Kept caches carry their texels where the volume is the last frame's: a reused chain
+            // that re-lit or moved nothing (its volume passes not encoded this frame).
+            let params = crate::pipeline::cprc::reuse_params(scene, reuse && !relit);
             p.write_buffer("reuse_params", bytemuck::bytes_of(&params))?;
         }
         let camera = match gbuffer {
@@ -816,8 +816,9 @@ impl<'c> Resident<'c> {
                     caches: a[0] as usize,
                     dropped: a[1] as usize,
                     kept: a[2] as usize,
-                    // As `record` sets reuse_params: a reused chain whose volume passes did not run.
-                    carried: reuse && !relit && scene.render.cache_reuse && scene.render.cache_carry,
+                    // The reuse_params `record` wrote for this frame.
+                    carried: scene.render.cache_reuse
+                        && crate::pipeline::cprc::reuse_params(scene, reuse && !relit).carry != 0,
                     coverage: None,
                 });
                 let mut plan = Pipeline::Cprc.plan(scene, cones, cached);
