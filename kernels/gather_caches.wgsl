@@ -1,7 +1,11 @@
 // gather_caches — evaluating radiance caches per pixel by gathering (Rehfeld et al. 2014, 3.3):
 //   w_w = max(0, 1 - |p_w - c_w|^2 / r_w^2)   world space, r_w = cache_pos[c].w (each cache's radius)
 //   w_s = max(0, 1 - |p_s - c_s|^2 / r_s^2)   screen space in pixels, r_s = params.radius_px (integer)
-//   w   = min(w_w, w_s)
+//   w_n = max(0, n_p . n_c)                  the cosine between the pixel's and the cache's normals
+//   w   = min(w_w, w_s) w_n                 (params.angle = 1; 0: w = min(w_w, w_s), CPRC's alone)
+// (PCRC weighs by distance and a maximum angle; CPRC's two weights have no angle term. A cache
+// holds only the hemisphere above its normal, and a pixel whose normal leans away reads its
+// horizon: w_n, the angle term, fades such a cache out continuously, to nothing at 90 degrees)
 // over the caches of the tiles within r_s (caches are stored tile by tile; tile_ranges[t] = [start,
 // end)), visited tile row by tile row, caches in index order. Each cache is evaluated for the pixel:
 // diffuse = its cosine-folded irradiance map (cache_preconvolve) at the pixel's normal; glossy = its
@@ -24,7 +28,7 @@ struct GatherParams {
     res: u32,
     levels: u32,
     irr: u32,
-    _pad0: u32,
+    angle: u32,
     _pad1: u32,
     _pad2: u32,
 }
@@ -156,8 +160,11 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
                 let dw2 = (d.x * d.x + d.y * d.y) + d.z * d.z;
                 let ww = max(1.0 - dw2 / (cp.w * cp.w), 0.0);
                 let ws = max(1.0 - f32(ds2) / f32(r2), 0.0);
-                let w = min(ww, ws);
                 let cn = cache_normal[c].xyz;
+                var w = min(ww, ws);
+                if (params.angle != 0u) {
+                    w = w * max(dot(nrm, cn), 0.0);
+                }
                 let vd = bilinear(false, c * irr_len, params.irr, hemi_uv(cn, nrm));
                 var vg = vec4<f32>(0.0);
                 if (refl.w >= 0.0) {

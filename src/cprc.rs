@@ -39,6 +39,8 @@ pub struct CprcSettings {
     pub slices: u32,
     /// Gathering radius in pixels (the paper's f x tile size).
     pub radius_px: u32,
+    /// The gather's angle term (`gather_angle`).
+    pub angle: bool,
 }
 
 impl From<&RenderSettings> for CprcSettings {
@@ -49,6 +51,7 @@ impl From<&RenderSettings> for CprcSettings {
             tile: r.cache_tile,
             slices: r.cache_depth_slices,
             radius_px: ((r.gather_radius * r.cache_tile as f32).round() as u32).max(1),
+            angle: r.gather_angle,
         }
     }
 }
@@ -434,7 +437,8 @@ pub fn gather_data(
             res: s.res,
             levels: s.res.trailing_zeros() + 1,
             irr: s.irr,
-            _pad: [0; 3],
+            angle: u32::from(s.angle),
+            _pad: [0; 2],
         },
         positions: px.positions.clone(),
         pixel_dirs: px.pixel_dirs.clone(),
@@ -754,7 +758,8 @@ pub fn gbuffer_arrays(gb: &Resources) -> (Vec<[f32; 4]>, Vec<[f32; 4]>, Vec<u32>
 
 /// Pixels that gather (front-facing geometry) and those among them without a valid cache: none of the
 /// caches the gather visits has weight min(w_w, w_s) > 0 *and* faces the pixel's hemisphere
-/// (n_p . n_c > 0: a cache holds only its upper hemisphere) — the paper's Fig. 6 measure.
+/// (n_p . n_c > 0: a cache holds only its upper hemisphere), so the gather's weights (with their
+/// angle term) sum to 0 there — the paper's Fig. 6 measure.
 pub fn coverage(d: &gather_caches::GatherData) -> (usize, usize) {
     use rayon::prelude::*;
     let p = &d.params;

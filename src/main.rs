@@ -389,6 +389,10 @@ struct RenderFlags {
     /// cprc: gathering radius in tiles [default 2].
     #[arg(long = "gather-radius", alias = "gather_radius")]
     gather_radius: Option<f32>,
+    /// cprc: weigh each gathered cache by the cosine between the pixel's and the cache's normals
+    /// (none facing away); false: CPRC's world and screen weights alone [default true].
+    #[arg(long = "gather-angle", alias = "gather_angle")]
+    gather_angle: Option<bool>,
     /// cprc: keep the last frame's caches where their surface is still in view (frames after the
     /// first of one renderer) [default false].
     #[arg(long = "cache-reuse", alias = "cache_reuse")]
@@ -474,6 +478,7 @@ fn load_scene(path: &Option<PathBuf>, flags: &RenderFlags) -> Result<vxgi::scene
         cache_tile,
         cache_depth_slices,
         gather_radius,
+        gather_angle,
         cache_reuse,
         cache_carry,
         photon_map,

@@ -255,6 +255,11 @@ pub struct RenderSettings {
     pub cache_depth_slices: u32,
     /// cprc: gathering radius in tiles (the paper's f; > 0, at most 8).
     pub gather_radius: f32,
+    /// cprc: the gather's angle term, each cache's weight times max(0, n_p . n_c) (PCRC's angle
+    /// limit; CPRC's weights have none): a cache whose hemisphere leans away from the pixel's fades
+    /// out, none at 90 degrees, instead of the pixel reading its horizon. true (the default); false
+    /// gathers with CPRC's w_w and w_s alone.
+    pub gather_angle: bool,
     /// cprc: a frame after the first keeps the last frame's caches on the surfaces they were made
     /// on, where their surface is still in view in the same cluster (`cache_reuse`; the paper's
     /// sections 5-6: caches that follow surfaces instead of jumping between the pixels of their
@@ -503,6 +508,7 @@ impl Default for RenderSettings {
             cache_tile: 16,
             cache_depth_slices: 16,
             gather_radius: 2.0,
+            gather_angle: true,
             cache_reuse: false,
             cache_carry: true,
             photon_map: 256,

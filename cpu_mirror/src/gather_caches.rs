@@ -1,7 +1,11 @@
 //! Mirror of `kernels/gather_caches.wgsl`: evaluating radiance caches per pixel by gathering with the
 //! weights of CPRC 3.3: `w_w = max(0, 1 - |p_w - c_w|^2 / r_w^2)` (world, r_w per cache in
-//! `cache_pos.w`), `w_s = max(0, 1 - |p_s - c_s|^2 / r_s^2)` (screen, pixels), `w = min(w_w, w_s)`,
-//! over the caches of the tiles within the screen radius. Each cache is evaluated for the pixel (3.3):
+//! `cache_pos.w`), `w_s = max(0, 1 - |p_s - c_s|^2 / r_s^2)` (screen, pixels), times the normal weight
+//! `w_n = max(0, n_p . n_c)` where `params.angle` is set: `w = min(w_w, w_s) w_n`, over the caches of the tiles within the screen
+//! radius. PCRC weighs its caches by distance and a maximum angle; CPRC's two weights have no angle
+//! term. A cache holds only the hemisphere above its normal, and a pixel whose normal leans away
+//! from it reads that hemisphere's horizon, light the pixel's own hemisphere does not see: w_n, the
+//! angle term, fades such a cache out continuously, to nothing at 90 degrees. Each cache is evaluated for the pixel (3.3):
 //! diffuse = its cosine-folded irradiance map (`cache_preconvolve`) at the pixel's normal, glossy =
 //! its pre-convolved mip chain at the pixel's reflection vector and mip level (levels floor(lf) and
 //! floor(lf) + 1 blended; lf < 0: no glossy), both bilinear with clamp to edge in the cache's
@@ -28,7 +32,9 @@ pub struct GatherParams {
     pub levels: u32,
     /// Side of the irradiance maps.
     pub irr: u32,
-    pub _pad: [u32; 3],
+    /// 1: each weight times the angle term w_n; 0: CPRC's min(w_w, w_s) alone.
+    pub angle: u32,
+    pub _pad: [u32; 2],
 }
 
 /// Below this weight sum a pixel gathers nothing (0), on GPU and mirror alike.
@@ -162,8 +168,11 @@ pub fn gather(p: &GatherParams, inp: &GatherInputs, i: usize, vmax: [f32; 2]) ->
                 let dw2 = (d[0] * d[0] + d[1] * d[1]) + d[2] * d[2];
                 let ww = (1.0 - dw2 / (cp[3] * cp[3])).max(0.0);
                 let ws = (1.0 - ds2 as f32 / r2 as f32).max(0.0);
-                let w = ww.min(ws);
                 let cn = v3(inp.cache_normal[c as usize]);
+                let mut w = ww.min(ws);
+                if p.angle != 0 {
+                    w *= ((nrm.x * cn.x + nrm.y * cn.y) + nrm.z * cn.z).max(0.0);
+                }
                 let (uv, du) = hemi_uv(cn, nrm);
                 let vd = bilinear(inp.cache_irradiance, c as usize * irr_len, p.irr, uv);
                 g.lookup_error[0] = g.lookup_error[0].max(bilinear_error(p.irr, du, vmax[0]));
@@ -191,20 +200,24 @@ pub fn gather(p: &GatherParams, inp: &GatherInputs, i: usize, vmax: [f32; 2]) ->
 
 /// Bounds on |GPU - mirror| for a pixel's outputs (diffuse and glossy per component, weight sum) from
 /// the WGSL rules: per cache, `dw2` (3 products, 2 adds: 3 ULP of dw2, any order or fused), `/ rw2`
-/// 2.5 ULP, `1 - x` absolute 0.5 ULP of 1 plus x's error: 4u absolute per weight; the sums add one
-/// rounding per term (fused or not). A weight sum near the `MIN_WEIGHT_SUM` threshold may fall on
+/// 2.5 ULP, `1 - x` absolute 0.5 ULP of 1 plus x's error: 4u absolute for min(w_w, w_s) <= 1; the
+/// normal weight, a dot product of unit vectors (3 products, 2 adds, any order or fused: 3u times
+/// the sum of |products| <= 1), 3u absolute; their product one rounding more: 8u absolute per
+/// weight; the sums add one rounding per term (fused or not). A weight sum near the `MIN_WEIGHT_SUM` threshold may fall on
 /// either side: then any value between 0 and the gathered one is accepted. The lookups' own errors
 /// pass through the normalised mean unchanged (sum w dv / sum w <= max dv). Doubled.
 pub fn gather_bound(r: &Gathered, vmax: [f32; 2]) -> ([f32; 4], [f32; 4], f32) {
     let u = f32::EPSILON / 2.0;
     let (wsum, k) = (r.weight_sum, r.in_radius as f32);
-    let dw = k * 8.0 * u + 2.0 * k * u * wsum;
+    // Each weight's error, doubled.
+    let ew = 2.0 * 8.0 * u;
+    let dw = k * ew + 2.0 * k * u * wsum;
     let one = |g: [f32; 4], vmax: f32, dv: f32| {
         if wsum <= MIN_WEIGHT_SUM + dw {
             g.map(|x| x.abs() + vmax)
         } else {
             g.map(|x| {
-                2.0 * (k * 8.0 * u * (vmax + x.abs()) + dw * x.abs()) / wsum
+                2.0 * (k * ew * (vmax + x.abs()) + dw * x.abs()) / wsum
                     + 8.0 * u * x.abs()
                     + 2.0 * dv
             })
@@ -222,4 +235,58 @@ pub fn payload_max(maps: &[[f32; 4]]) -> f32 {
     maps.iter()
         .flat_map(|v| v.iter())
         .fold(0.0f32, |m, x| m.max(x.abs()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Two caches at the pixel's own position and pixel, with constant irradiance maps a and b:
+    /// the pixel reads their mean weighted by the cosines between its normal and theirs, and a cache
+    /// facing away (cosine <= 0) adds nothing, its weight included.
+    #[test]
+    fn caches_weigh_by_the_cosine_of_their_normal_and_none_facing_away() {
+        let mut p = GatherParams {
+            width: 1,
+            height: 1,
+            tile: 4,
+            tiles_x: 1,
+            tiles_y: 1,
+            radius_px: 4,
+            res: 1,
+            levels: 1,
+            irr: 1,
+            angle: 1,
+            _pad: [0; 2],
+        };
+        let gather_with = |p: &GatherParams, second: [f32; 3]| {
+            let normals = [[0.0, 0.0, 1.0, 0.0], [second[0], second[1], second[2], 0.0]];
+            let inp = GatherInputs {
+                positions: &[[0.0, 0.0, 0.0, 1.0]],
+                pixel_dirs: &[[0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 1.0, -1.0]],
+                cache_pos: &[[0.0, 0.0, 0.0, 1.0]; 2],
+                cache_pixel: &[[0, 0]; 2],
+                cache_normal: &normals,
+                cache_irradiance: &[[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0]],
+                cache_mips: &[[0.0; 4]; 2],
+                tile_ranges: &[[0, 2]],
+            };
+            gather(p, &inp, 0, [1.0, 0.0])
+        };
+        let c = 0.6f32;
+        let tilted = gather_with(&p, [0.8, 0.0, c]);
+        assert_eq!(tilted.weight_sum, 1.0 + c);
+        assert_eq!(tilted.diffuse, [1.0 / (1.0 + c), c / (1.0 + c), 0.0, 0.0]);
+        for away in [[1.0, 0.0, 0.0], [0.0, 0.0, -1.0]] {
+            let g = gather_with(&p, away);
+            assert_eq!((g.weight_sum, g.diffuse), (1.0, [1.0, 0.0, 0.0, 0.0]));
+            assert_eq!(g.in_radius, 2, "counted in the radius all the same");
+        }
+        p.angle = 0;
+        let g = gather_with(&p, [1.0, 0.0, 0.0]);
+        assert_eq!(
+            g.weight_sum, 2.0,
+            "without the angle term every cache weighs min(w_w, w_s)"
+        );
+    }
 }

@@ -175,7 +175,8 @@ pub fn generated_data(inp: &DistributionInputs, res: u32, irr: u32, seed: u64) -
         res,
         levels,
         irr,
-        _pad: [0; 3],
+        angle: 1,
+        _pad: [0; 2],
     };
     let mut pixel_dirs = Vec::with_capacity(2 * inp.normals.len());
     for (n, p) in inp.normals.iter().zip(&inp.positions) {
@@ -268,12 +269,19 @@ impl Kernel for GatherCaches {
     fn case(&self, shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
         let (inp, label) = super::cluster_extract::generated_distribution(seed, index);
         let (res, irr) = SIZES[index % SIZES.len()];
-        let d = generated_data(&inp, res, irr, seed ^ index as u64);
+        let mut d = generated_data(&inp, res, irr, seed ^ index as u64);
+        // One case in four gathers without the angle term (`gather_angle = false`).
+        d.params.angle = u32::from(index % 4 != 1);
+        let angle = if d.params.angle == 0 {
+            ", no angle term"
+        } else {
+            ""
+        };
         case_for(
             shader,
             ctx,
             &d,
-            format!("{label}, caches {res}^2 / {irr}^2"),
+            format!("{label}, caches {res}^2 / {irr}^2{angle}"),
             seed,
         )
     }
