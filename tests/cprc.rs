@@ -12,7 +12,7 @@ use vxgi::trace::SceneData;
 
 /// cprc at the Cornell box's own 256x256 with the default settings (16^2 caches, 16-pixel tiles)
 /// against the committed converged reference (4096 spp). Measured on lavapipe: combined FLIP 0.180,
-/// indirect 0.317 (vct-dense: 0.238 / 0.419). A regression guard at the measured values plus margin,
+/// indirect 0.330 (vct-dense: 0.238 / 0.419). A regression guard at the measured values plus margin,
 /// the indirect light's energy within 25% of the reference's, and under 0.5% of the pixels without a
 /// valid cache.
 #[test]
@@ -60,7 +60,7 @@ fn cprc_against_the_converged_reference() {
 /// met by cprc on vct-dense's voxels and cone march with finer caches
 /// (scenes/cornell_box_fine_caches.toml: 4-pixel tiles, 32^2 texels, a 4^2 irradiance map, gathering
 /// over 1.5 tiles, cone level bias -1.25, mip clamp 1.5, 2 x 2 samples per pixel). Measured on
-/// lavapipe: 0.0870 (0.0989 with one sample per pixel), indirect energy 0.96 of the reference's.
+/// lavapipe: 0.0864 (0.0981 with one sample per pixel), indirect energy 0.95 of the reference's.
 /// `vxgi bisect` on the scene file (one sample per pixel): from the G-buffer on, every GPU stage
 /// agrees with its mirror to 4e-7; the GPU G-buffer's 3 edge pixels move a few caches (indirect FLIP
 /// 0.0003 between the two frames), so the margin to 0.1 is not a driver's rounding. The scene file is

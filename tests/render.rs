@@ -2104,7 +2104,7 @@ fn resident_frames_draw_unlit_scenes_and_vct_svo_instances() {
 /// vct-dense, cprc and vct-svo at 256^3 on the Cornell box, past lavapipe's 128 MiB storage binding
 /// (their grids, accumulators and pyramids are bound in windows): finite images within 0.02 combined
 /// FLIP of the 128^3 frame against the converged reference (measured: vct-dense 0.229 against
-/// 0.238, cprc 0.177 against 0.180, vct-svo 0.245 against 0.236; docs/scale.md). About 40 s and 2.3
+/// 0.238, cprc 0.175 against 0.180, vct-svo 0.245 against 0.236; docs/scale.md). About 40 s and 2.3
 /// GB on lavapipe: `cargo test --release -- --ignored at_256`.
 #[test]
 #[ignore = "about 20 s and 2.1 GB on lavapipe: cargo test --release -- --ignored at_256"]

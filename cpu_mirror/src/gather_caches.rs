@@ -1,11 +1,12 @@
 //! Mirror of `kernels/gather_caches.wgsl`: evaluating radiance caches per pixel by gathering with the
 //! weights of CPRC 3.3: `w_w = max(0, 1 - |p_w - c_w|^2 / r_w^2)` (world, r_w per cache in
-//! `cache_pos.w`), `w_s = max(0, 1 - |p_s - c_s|^2 / r_s^2)` (screen, pixels), times the normal weight
-//! `w_n = max(0, n_p . n_c)` where `params.angle` is set: `w = min(w_w, w_s) w_n`, over the caches of the tiles within the screen
-//! radius. PCRC weighs its caches by distance and a maximum angle; CPRC's two weights have no angle
-//! term. A cache holds only the hemisphere above its normal, and a pixel whose normal leans away
-//! from it reads that hemisphere's horizon, light the pixel's own hemisphere does not see: w_n, the
-//! angle term, fades such a cache out continuously, to nothing at 90 degrees. Each cache is evaluated for the pixel (3.3):
+//! `cache_pos.w`), `w_s = max(0, 1 - |p_s - c_s|^2 / r_s^2)` (screen, pixels), times the normal
+//! weight `w_n = max(0, n_p . n_c)` where `params.angle` is set: `w = min(w_w, w_s) w_n`, over the
+//! caches of the tiles within the screen radius. PCRC weighs its caches by distance and a maximum
+//! angle; CPRC's two weights have no angle term. A cache holds only the hemisphere above its normal,
+//! and a pixel whose normal leans away from it reads that hemisphere's horizon, light the pixel's
+//! own hemisphere does not see: w_n, the angle term, fades such a cache out continuously, to nothing
+//! at 90 degrees. Each cache is evaluated for the pixel (3.3):
 //! diffuse = its cosine-folded irradiance map (`cache_preconvolve`) at the pixel's normal, glossy =
 //! its pre-convolved mip chain at the pixel's reflection vector and mip level (levels floor(lf) and
 //! floor(lf) + 1 blended; lf < 0: no glossy), both bilinear with clamp to edge in the cache's
@@ -203,9 +204,10 @@ pub fn gather(p: &GatherParams, inp: &GatherInputs, i: usize, vmax: [f32; 2]) ->
 /// 2.5 ULP, `1 - x` absolute 0.5 ULP of 1 plus x's error: 4u absolute for min(w_w, w_s) <= 1; the
 /// normal weight, a dot product of unit vectors (3 products, 2 adds, any order or fused: 3u times
 /// the sum of |products| <= 1), 3u absolute; their product one rounding more: 8u absolute per
-/// weight; the sums add one rounding per term (fused or not). A weight sum near the `MIN_WEIGHT_SUM` threshold may fall on
-/// either side: then any value between 0 and the gathered one is accepted. The lookups' own errors
-/// pass through the normalised mean unchanged (sum w dv / sum w <= max dv). Doubled.
+/// weight; the sums add one rounding per term (fused or not). A weight sum near the
+/// `MIN_WEIGHT_SUM` threshold may fall on either side: then any value between 0 and the gathered one
+/// is accepted. The lookups' own errors pass through the normalised mean unchanged (sum w dv / sum w
+/// <= max dv). Doubled.
 pub fn gather_bound(r: &Gathered, vmax: [f32; 2]) -> ([f32; 4], [f32; 4], f32) {
     let u = f32::EPSILON / 2.0;
     let (wsum, k) = (r.weight_sum, r.in_radius as f32);
