@@ -33,9 +33,10 @@ pub struct BenchRow {
     pub cache_resolution: u32,
     pub cache_tile: u32,
     pub caches: usize,
-    /// cprc: irradiance map side and gathering radius in tiles.
+    /// cprc: irradiance map side, gathering radius in tiles and the gather's angle term.
     pub irradiance_resolution: u32,
     pub gather_radius: f32,
+    pub gather_angle: bool,
     /// vct-svo: directional values above the leaves, and the photon map side (0: voxel_light).
     pub anisotropic_voxels: bool,
     pub photon_map: u32,
@@ -271,8 +272,8 @@ pub fn lrsm_sweep(base: &RenderSettings, quick: bool) -> Vec<RenderSettings> {
 /// about 1.7 caches per tile at 256x256 in the Cornell box) x cache resolution {16, 32} = 6, the
 /// voxels and cones at `base`'s; plus the fine caches of scenes/cornell_box_fine_caches.toml (32^2
 /// texels, 4^2 irradiance, radius 1.5 tiles, level bias -1.25, mip clamp 1.5) at tile {8, 4} x
-/// samples per pixel {1, 2} = 4 (docs/accuracy/cprc.md), and `base` at 256^3 = 11. Quick: tile {8, 16} x resolution
-/// {8, 16} = 4.
+/// samples per pixel {1, 2} = 4 (docs/accuracy/cprc.md), `base` at 256^3 and `base` without the
+/// gather's angle term (CPRC's own weights) = 12. Quick: tile {8, 16} x resolution {8, 16} = 4.
 pub fn cprc_sweep(base: &RenderSettings, quick: bool) -> Vec<RenderSettings> {
     let (tiles, res): (&[u32], &[u32]) = if quick {
         (&[8, 16], &[8, 16])
@@ -305,6 +306,10 @@ pub fn cprc_sweep(base: &RenderSettings, quick: bool) -> Vec<RenderSettings> {
             }
         }
         out.push(at_256(base));
+        out.push(RenderSettings {
+            gather_angle: false,
+            ..base.clone()
+        });
     }
     out
 }
@@ -549,6 +554,7 @@ pub fn bench(
             caches,
             irradiance_resolution: settings.irradiance_resolution,
             gather_radius: settings.gather_radius,
+            gather_angle: settings.gather_angle,
             anisotropic_voxels: settings.anisotropic_voxels,
             photon_map: settings.photon_map,
             voxel_lobes: settings.voxel_lobes,
@@ -602,6 +608,7 @@ fn write_csv(path: &Path, pipeline: Pipeline, rows: &[BenchRow]) -> Result<()> {
         "caches",
         "irradiance_resolution",
         "gather_radius",
+        "gather_angle",
         "anisotropic_voxels",
         "photon_map",
         "voxel_lobes",
@@ -637,6 +644,7 @@ fn write_csv(path: &Path, pipeline: Pipeline, rows: &[BenchRow]) -> Result<()> {
             r.caches.to_string(),
             r.irradiance_resolution.to_string(),
             r.gather_radius.to_string(),
+            r.gather_angle.to_string(),
             r.anisotropic_voxels.to_string(),
             r.photon_map.to_string(),
             r.voxel_lobes.to_string(),
@@ -716,8 +724,11 @@ pub fn table(rows: &[BenchRow], pipeline: Pipeline, against: &str, w: u32, h: u3
             },
             if cprc {
                 format!(
-                    "{}^2 ({}^2, {})",
-                    r.cache_resolution, r.irradiance_resolution, r.gather_radius
+                    "{}^2 ({}^2, {}{})",
+                    r.cache_resolution,
+                    r.irradiance_resolution,
+                    r.gather_radius,
+                    if r.gather_angle { "" } else { ", no angle term" }
                 )
             } else {
                 "-".into()
@@ -868,7 +879,8 @@ mod tests {
             .all(|s| s.ao_range == 0.25 && s.validate().is_ok()));
         assert_eq!(sweep(&base, true, Pipeline::Lrsm).len(), 4);
         let cprc = sweep(&base, false, Pipeline::Cprc);
-        assert_eq!(cprc.len(), 11);
+        assert_eq!(cprc.len(), 12);
+        assert_eq!(cprc.iter().filter(|s| !s.gather_angle).count(), 1);
         assert!(cprc.iter().all(|s| s.validate().is_ok()));
         assert_eq!(sweep(&base, true, Pipeline::Cprc).len(), 4);
     }

@@ -530,7 +530,7 @@ fn bench_quick_writes_csv_table_and_plot() {
     let lines: Vec<&str> = csv.lines().collect();
     assert_eq!(lines.len(), 5, "{csv}");
     assert!(lines[0].starts_with(
-        "voxels,cones,cone_half_angle,mip_clamp,cone_step,cone_level_bias,coverage_correlation,rsm_side,lrsm_layers,cache_resolution,cache_tile,caches,irradiance_resolution,gather_radius,anisotropic_voxels,photon_map,voxel_lobes,depth_ordered_blend,supersample,cone_interleave,seconds,"
+        "voxels,cones,cone_half_angle,mip_clamp,cone_step,cone_level_bias,coverage_correlation,rsm_side,lrsm_layers,cache_resolution,cache_tile,caches,irradiance_resolution,gather_radius,gather_angle,anisotropic_voxels,photon_map,voxel_lobes,depth_ordered_blend,supersample,cone_interleave,seconds,"
     ));
     assert!(lines[0].contains("combined_flip") && lines[0].contains("cone_trace_seconds"));
     // Every row: a positive time and a finite FLIP in [0, 1]; at least one row is Pareto-optimal.
