@@ -6,7 +6,6 @@ use crate::common::run_case;
 
 use common::{assert_case_passes, gpu};
 use proptest::prelude::*;
-use vxgi::harness::Kernel;
 use vxgi::kernels::gaussian_depth_visibility::{
     case_for, moments_of, GaussianDepthVisibility, Inputs, DECL,
 };
@@ -134,31 +133,14 @@ proptest! {
 
 #[test]
 fn params_struct_matches_the_reflected_wgsl_layout() {
-    let shader = DECL.shader().unwrap();
-    let (size, members) = shader.struct_layout("VisibilityParams").unwrap();
-    assert_eq!(size as usize, std::mem::size_of::<VisibilityParams>());
-    let offsets: Vec<(String, u32)> = vec![
-        (
-            "cdf".into(),
-            std::mem::offset_of!(VisibilityParams, cdf) as u32,
-        ),
-        (
-            "min_variance".into(),
-            std::mem::offset_of!(VisibilityParams, min_variance) as u32,
-        ),
-        (
-            "min_alpha".into(),
-            std::mem::offset_of!(VisibilityParams, min_alpha) as u32,
-        ),
-        (
-            "_pad".into(),
-            std::mem::offset_of!(VisibilityParams, _pad) as u32,
-        ),
-    ];
-    assert_eq!(members, offsets);
-    assert_eq!(
-        GaussianDepthVisibility.decl().name,
-        "gaussian_depth_visibility"
+    crate::common::assert_layout!(
+        DECL.shader().unwrap(),
+        VisibilityParams {
+            cdf,
+            min_variance,
+            min_alpha,
+            _pad
+        }
     );
 }
 

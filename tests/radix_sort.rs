@@ -50,18 +50,15 @@ fn bad_input_is_an_error() {
 #[test]
 fn params_struct_matches_the_reflected_wgsl_layout() {
     use vxgi_cpu_mirror::radix_sort::SortParams;
-    let (size, members) = DECL.shader().unwrap().struct_layout("SortParams").unwrap();
-    assert_eq!(size as usize, std::mem::size_of::<SortParams>());
-    let want: Vec<(String, u32)> = [
-        ("count", std::mem::offset_of!(SortParams, count)),
-        ("shift", std::mem::offset_of!(SortParams, shift)),
-        ("blocks", std::mem::offset_of!(SortParams, blocks)),
-        ("key_mask", std::mem::offset_of!(SortParams, key_mask)),
-    ]
-    .iter()
-    .map(|(n, o)| (n.to_string(), *o as u32))
-    .collect();
-    assert_eq!(members, want);
+    crate::common::assert_layout!(
+        DECL.shader().unwrap(),
+        SortParams {
+            count,
+            shift,
+            blocks,
+            key_mask
+        }
+    );
 }
 
 /// More digit counts than one invocation may loop over on lavapipe (65535 iterations: llvmpipe's

@@ -76,43 +76,13 @@ fn a_corrupted_sample_fails_verification() {
 
 #[test]
 fn params_struct_matches_the_reflected_wgsl_layout() {
-    let shader = DECL.shader().unwrap();
-    let (size, members) = shader.struct_layout("SampleParams").unwrap();
-    assert_eq!(size as usize, std::mem::size_of::<SampleParams>());
-    let names = [
-        "depth_slices",
-        "normal_slices",
-        "levels",
-        "side0",
-        "cdf",
-        "min_variance",
-        "min_alpha",
-        "overlap",
-        "view_weight",
-        "area",
-        "_pad1",
-        "_pad2",
-    ];
-    let offsets = [
-        std::mem::offset_of!(SampleParams, depth_slices),
-        std::mem::offset_of!(SampleParams, normal_slices),
-        std::mem::offset_of!(SampleParams, levels),
-        std::mem::offset_of!(SampleParams, side0),
-        std::mem::offset_of!(SampleParams, cdf),
-        std::mem::offset_of!(SampleParams, min_variance),
-        std::mem::offset_of!(SampleParams, min_alpha),
-        std::mem::offset_of!(SampleParams, overlap),
-        std::mem::offset_of!(SampleParams, view_weight),
-        std::mem::offset_of!(SampleParams, area),
-        std::mem::offset_of!(SampleParams, _pad),
-        std::mem::offset_of!(SampleParams, _pad) + 4,
-    ];
-    let want: Vec<(String, u32)> = names
-        .iter()
-        .zip(offsets)
-        .map(|(n, o)| (n.to_string(), o as u32))
-        .collect();
-    assert_eq!(members, want);
+    crate::common::assert_layout!(
+        DECL.shader().unwrap(),
+        SampleParams {
+            depth_slices, normal_slices, levels, side0, cdf, min_variance, min_alpha, overlap,
+            view_weight, area, _pad as "_pad1", _pad as "_pad2" + 4,
+        }
+    );
 }
 
 proptest::proptest! {

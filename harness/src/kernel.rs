@@ -388,6 +388,17 @@ pub struct Check {
     pub indexing: Indexing,
 }
 
+impl Check {
+    /// The check of the resource named after its output.
+    pub fn of(output: &'static str, indexing: Indexing) -> Self {
+        Check {
+            resource: output.to_string(),
+            output,
+            indexing,
+        }
+    }
+}
+
 /// One generated test case: the host resources, the passes, what to compare.
 #[derive(Clone, Debug)]
 pub struct Case {
@@ -418,6 +429,19 @@ impl Case {
     pub fn with_indexing(mut self, resource: &str, indexing: Indexing) -> Self {
         for c in self.checks.iter_mut().filter(|c| c.resource == resource) {
             c.indexing = indexing.clone();
+        }
+        self
+    }
+
+    /// This case with every check indexed as a grid of `dims` elements, each with the components its
+    /// check had (a linear check's element is one component).
+    pub fn with_grid(mut self, dims: [u32; 3]) -> Self {
+        for c in &mut self.checks {
+            let components = match c.indexing {
+                Indexing::Grid { components, .. } => components,
+                _ => 1,
+            };
+            c.indexing = Indexing::Grid { dims, components };
         }
         self
     }
@@ -466,10 +490,10 @@ impl Case {
     }
 }
 
-/// A declared kernel with its case generator and mirror.
 /// What a mirror returns: the value of every checked resource, by name.
 pub type MirrorOutputs = BTreeMap<String, HostBuffer>;
 
+/// A declared kernel with its case generator and mirror.
 pub trait Kernel: Sync {
     fn decl(&self) -> &'static KernelDecl;
 

@@ -31,9 +31,9 @@ pub use kernel::{
     KernelReport, MirrorOutputs, Output, VerifyOptions,
 };
 pub use run::{
-    buffer_as, prepare, prepare_chain, prepare_chain_adopting, run_chain, HostBuffer, HostResource,
-    HostTexture, Pass, Prepared, ReadbackSet, Resources, RunOutput, Stage, TimingSource, View,
-    Workgroups,
+    buffer_as, buffers, prepare, prepare_chain, prepare_chain_adopting, run_chain, HostBuffer,
+    HostResource, HostTexture, Pass, Prepared, ReadbackSet, Resources, RunOutput, Stage,
+    TimingSource, View, Workgroups,
 };
 pub use shader::{Binding, BindingKind, ScalarKind, Shader};
 
@@ -46,6 +46,6 @@ pub mod prelude {
     pub use crate::kernel::{
         Case, Check, DispatchRule, FloatMode, Kernel, KernelDecl, MirrorOutputs, Output,
     };
-    pub use crate::run::{HostBuffer, HostResource, Resources, View};
+    pub use crate::run::{buffers, HostBuffer, HostResource, Resources, View};
     pub use crate::shader::{ScalarKind, Shader};
 }

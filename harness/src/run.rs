@@ -46,6 +46,21 @@ impl HostBuffer {
             scalar,
         }
     }
+    /// A buffer of `values`, its scalar kind that of their element type.
+    pub fn of<E: crate::bindings::Element>(values: &[E]) -> Self {
+        Self {
+            bytes: bytemuck::cast_slice(values).to_vec(),
+            scalar: E::SCALAR,
+        }
+    }
+    /// A buffer of `#[repr(C)]` records (a WGSL array of structs; its stride is checked against
+    /// the WGSL's).
+    pub fn structs<T: bytemuck::Pod>(values: &[T]) -> Self {
+        Self {
+            bytes: bytemuck::cast_slice(values).to_vec(),
+            scalar: ScalarKind::Mixed,
+        }
+    }
     /// The bytes as f32 (an empty buffer gives an empty slice: an empty Vec's pointer is not aligned).
     pub fn as_f32(&self) -> &[f32] {
         if self.bytes.is_empty() {
@@ -121,6 +136,12 @@ pub enum HostResource {
     Texture(HostTexture),
 }
 
+impl From<HostBuffer> for HostResource {
+    fn from(b: HostBuffer) -> Self {
+        HostResource::Buffer(b)
+    }
+}
+
 impl HostResource {
     pub fn buffer(&self) -> Option<&HostBuffer> {
         match self {
@@ -138,6 +159,14 @@ impl HostResource {
 
 /// Named host resources: the inputs and zeroed outputs of a run, or what a run read back.
 pub type Resources = BTreeMap<String, HostResource>;
+
+/// Resources of these named buffers.
+pub fn buffers<const N: usize>(entries: [(&str, HostBuffer); N]) -> Resources {
+    entries
+        .into_iter()
+        .map(|(name, b)| (name.to_string(), HostResource::Buffer(b)))
+        .collect()
+}
 
 /// The buffer resource `name` of `data` as a slice of `T` (a mirror's view of its inputs), or `None`
 /// where there is no such buffer or its bytes are not a whole number of `T`.
@@ -201,6 +230,23 @@ pub struct Pass {
     /// WGSL binding name -> what it is bound to. Bindings the entry does not use are ignored.
     pub bindings: Vec<(String, View)>,
     pub workgroups: Workgroups,
+}
+
+impl Pass {
+    /// A pass of `entry` dispatched over the workgroup grid `groups`.
+    pub fn direct(
+        label: impl Into<String>,
+        entry: &str,
+        bindings: Vec<(String, View)>,
+        groups: [u32; 3],
+    ) -> Self {
+        Pass {
+            label: label.into(),
+            entry: entry.into(),
+            bindings,
+            workgroups: Workgroups::Direct(groups),
+        }
+    }
 }
 
 /// Workgroup grid for `count` invocations of `wg_size` along x: 1D while it fits, else x * y

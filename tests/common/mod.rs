@@ -78,6 +78,53 @@ pub fn run_case(
         .unwrap_or_else(|e| panic!("{name}, case `{}`: {e:#}", case.label))
 }
 
+/// The built-in Cornell box at `width x height` with `voxels`^3 voxels.
+pub fn cornell(width: u32, height: u32, voxels: u32) -> vxgi::scene::Scene {
+    let mut scene = vxgi::scene::Scene::cornell_box();
+    scene.camera.width = width;
+    scene.camera.height = height;
+    scene.render.voxels = voxels;
+    scene
+}
+
+/// `test` against `reference` (their FLIP and errors), for images that are not files.
+pub fn flip(
+    reference: &vxgi::images::RgbImage,
+    test: &vxgi::images::RgbImage,
+) -> vxgi::images::Comparison {
+    let p = std::path::Path::new("");
+    vxgi::images::compare(reference, p, test, p).expect("images of one size")
+}
+
+/// `case` on this thread's GPU, every output within its bound against the mirror, then `outputs`
+/// read back (for properties of the GPU's own result).
+#[track_caller]
+pub fn passing_run(
+    shader: &vxgi::harness::Shader,
+    kernel: &dyn vxgi::harness::Kernel,
+    case: &vxgi::harness::Case,
+    outputs: &[&str],
+) -> vxgi::harness::RunOutput {
+    assert_case_passes(shader, kernel, case);
+    run_case(shader, kernel.decl().name, case, outputs)
+}
+
+/// Asserts that a `#[repr(C)]` parameter struct has the size and member offsets of the WGSL struct
+/// of the same name in `shader`: `assert_layout!(shader, Params { a, b, _pad as "_pad0", _pad as
+/// "_pad1" + 4 })` (a Rust field named otherwise in the WGSL, at an offset past its start).
+macro_rules! assert_layout {
+    ($shader:expr, $ty:ident { $($field:ident $(as $wgsl:literal)? $(+ $plus:literal)?),* $(,)? }) => {{
+        let (size, members) = $shader.struct_layout(stringify!($ty)).unwrap();
+        assert_eq!(size as usize, std::mem::size_of::<$ty>(), "size of {}", stringify!($ty));
+        let want: Vec<(String, u32)> = vec![$((
+            [$($wgsl,)? stringify!($field)][0].to_string(),
+            (std::mem::offset_of!($ty, $field) $(+ $plus)?) as u32,
+        )),*];
+        assert_eq!(members, want, "members of {}", stringify!($ty));
+    }};
+}
+pub(crate) use assert_layout;
+
 /// scenes/thin_wall.toml (one-voxel wall between a lit and a dark room) at `width x height`.
 pub fn thin_wall(width: u32, height: u32) -> vxgi::scene::Scene {
     let mut scene = vxgi::scene::Scene::load(
@@ -170,8 +217,7 @@ pub fn against_converged_cornell(r: &vxgi::render::Rendered) -> (f32, f32) {
     let dir =
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("references/cornell_box_256_4096spp");
     let read = |name: &str| vxgi::images::read_exr(&dir.join(format!("{name}.exr"))).unwrap();
-    let p = std::path::Path::new("");
-    let comb = vxgi::images::compare(&read("combined"), p, &r.combined, p).unwrap();
+    let comb = flip(&read("combined"), &r.combined);
     let sum = |img: &[[f32; 3]]| img.iter().map(|p| p[0] + p[1] + p[2]).sum::<f32>();
     let ratio = sum(&r.indirect.pixels) / sum(&read("indirect").pixels);
     (comb.flip_mean, ratio)
