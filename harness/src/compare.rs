@@ -29,6 +29,19 @@ pub fn bound_name(resource: &str) -> String {
     format!("{resource}@bound")
 }
 
+/// A mirror's value of `output` and its per-element bounds, as two entries of its outputs.
+pub fn bounded<E: crate::bindings::Element>(
+    output: &str,
+    values: &[E],
+    bounds: &[E],
+) -> [(String, crate::run::HostBuffer); 2] {
+    use crate::run::HostBuffer;
+    [
+        (output.to_string(), HostBuffer::of(values)),
+        (bound_name(output), HostBuffer::of(bounds)),
+    ]
+}
+
 /// Distance in units in the last place between two f32 (0 for +0/-0; u64::MAX if either is NaN
 /// and they differ).
 pub fn ulp_distance(a: f32, b: f32) -> u64 {

@@ -493,6 +493,14 @@ impl Case {
 /// What a mirror returns: the value of every checked resource, by name.
 pub type MirrorOutputs = BTreeMap<String, HostBuffer>;
 
+/// Mirror outputs of these named buffers.
+pub fn mirror_outputs<const N: usize>(entries: [(&str, HostBuffer); N]) -> MirrorOutputs {
+    entries
+        .into_iter()
+        .map(|(name, b)| (name.to_string(), b))
+        .collect()
+}
+
 /// A declared kernel with its case generator and mirror.
 pub trait Kernel: Sync {
     fn decl(&self) -> &'static KernelDecl;

@@ -23,12 +23,12 @@ pub mod run;
 pub mod shader;
 
 pub use bindings::{Bindings, Block, Structs};
-pub use compare::{Comparison, Indexing, Tolerance};
+pub use compare::{bound_name, bounded, Comparison, Indexing, Tolerance};
 pub use context::{thread_counters, Counters, GpuContext};
 pub use error::{HarnessError, Result};
 pub use kernel::{
-    generated_floats, verify, Case, Check, Corruption, DispatchRule, FloatMode, Kernel, KernelDecl,
-    KernelReport, MirrorOutputs, Output, VerifyOptions,
+    generated_floats, mirror_outputs, verify, Case, Check, Corruption, DispatchRule, FloatMode,
+    Kernel, KernelDecl, KernelReport, MirrorOutputs, Output, VerifyOptions,
 };
 pub use run::{
     buffer_as, buffers, prepare, prepare_chain, prepare_chain_adopting, run_chain, HostBuffer,
@@ -41,10 +41,11 @@ pub use shader::{Binding, BindingKind, ScalarKind, Shader};
 /// the standard one).
 pub mod prelude {
     pub use crate::bindings::{Bindings, Block, Structs};
-    pub use crate::compare::{Indexing, Tolerance};
+    pub use crate::compare::{bounded, Indexing, Tolerance};
     pub use crate::context::GpuContext;
     pub use crate::kernel::{
-        Case, Check, DispatchRule, FloatMode, Kernel, KernelDecl, MirrorOutputs, Output,
+        mirror_outputs, Case, Check, DispatchRule, FloatMode, Kernel, KernelDecl, MirrorOutputs,
+        Output,
     };
     pub use crate::run::{buffers, HostBuffer, HostResource, Resources, View};
     pub use crate::shader::{ScalarKind, Shader};

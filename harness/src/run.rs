@@ -247,6 +247,19 @@ impl Pass {
             workgroups: Workgroups::Direct(groups),
         }
     }
+
+    /// A pass of an entry declared `@workgroup_size(64)` over `invocations` invocations
+    /// ([`grid_for`] within the device's workgroup limit).
+    pub fn linear(
+        ctx: &GpuContext,
+        label: impl Into<String>,
+        entry: &str,
+        bindings: Vec<(String, View)>,
+        invocations: u64,
+    ) -> Self {
+        let max = ctx.limits().max_compute_workgroups_per_dimension;
+        Self::direct(label, entry, bindings, grid_for(invocations, 64, max))
+    }
 }
 
 /// Workgroup grid for `count` invocations of `wg_size` along x: 1D while it fits, else x * y

@@ -8,7 +8,6 @@ use vxgi_cpu_mirror::cache_creation::{
     cone_tan, create_texel, texel_directions, CacheParams, Placed, PlacedPyramids,
 };
 use vxgi_cpu_mirror::cone_trace::{ConeParams, Volume};
-use vxgi_harness::compare::bound_name;
 use vxgi_harness::prelude::*;
 
 pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
@@ -77,10 +76,8 @@ pub fn case_for(
     } else {
         &[[0.0; 4]]
     };
-    case.resources.insert(
-        "pyramid_normal".into(),
-        HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(normal))),
-    );
+    case.resources
+        .insert("pyramid_normal".into(), HostBuffer::of(normal).into());
     case
 }
 
@@ -131,54 +128,36 @@ fn case_with(
         tan_half: cone_tan(res),
         _pad: 0,
     };
-    let f4 = |v: &[[f32; 4]]| HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(v)));
     let n = count * texels as usize;
-    let mut resources = Resources::new();
-    resources.insert("cone".into(), HostResource::Buffer(HostBuffer::pod(cone)));
-    resources.insert("pyramid".into(), f4(pyramid));
-    resources.insert(
-        "cache_params".into(),
-        HostResource::Buffer(HostBuffer::pod(&p)),
-    );
     let nonempty = if caches.is_empty() {
         vec![[0.0; 4]; 2]
     } else {
         caches.to_vec()
     };
-    resources.insert("caches".into(), f4(&nonempty));
-    resources.insert("texel_dirs".into(), f4(&texel_directions(res)));
+    let mut resources = buffers([
+        ("cone", HostBuffer::pod(cone)),
+        ("pyramid", HostBuffer::of(pyramid)),
+        ("cache_params", HostBuffer::pod(&p)),
+        ("caches", HostBuffer::of(&nonempty)),
+        ("texel_dirs", HostBuffer::of(&texel_directions(res))),
+        (
+            "cache_radiance",
+            HostBuffer::zeroed(n.max(1) * 16, ScalarKind::F32),
+        ),
+    ]);
     if let Some(placed) = placed {
-        resources.insert(
-            "placed".into(),
-            HostResource::Buffer(HostBuffer {
-                bytes: bytemuck::cast_slice(placed).to_vec(),
-                scalar: ScalarKind::Mixed,
-            }),
-        );
-        resources.insert(
-            "placed_cells".into(),
-            HostResource::Buffer(HostBuffer::u32(
-                &vxgi_cpu_mirror::cache_creation::placed_cells(placed),
-            )),
-        );
+        resources.extend(super::cone_trace::placed_resources(placed));
     }
-    resources.insert(
-        "cache_radiance".into(),
-        HostResource::Buffer(HostBuffer::zeroed(n.max(1) * 16, ScalarKind::F32)),
-    );
+    let grid = Indexing::Grid {
+        dims: [texels, count.max(1) as u32, 1],
+        components: 4,
+    };
     let mut case = Case {
         label,
         seed,
         passes: vec![decl.pass(&shader, ctx, "create".into(), decl.bind_by_name(), n as u64)],
         resources,
-        checks: vec![Check {
-            resource: "cache_radiance".into(),
-            output: "cache_radiance",
-            indexing: Indexing::Grid {
-                dims: [texels, count.max(1) as u32, 1],
-                components: 4,
-            },
-        }],
+        checks: vec![Check::of("cache_radiance", grid)],
         effective_bytes: n as u64 * 16,
     };
     super::cone_trace::bind_pyramid_windows(&mut case, super::cone_trace::PYRAMID_WINDOW)
@@ -221,12 +200,8 @@ impl Kernel for CacheCreation {
         let mut caches = caches_on_pixels(&c.gbuffer, &params, 97);
         // The tangent basis switches its helper axis at |n.z| = 0.999: normals on and around it, from
         // the middle of the grid.
-        let mid = [
-            params.origin[0] + 0.5 * params.side as f32 * params.origin[3],
-            params.origin[1] + 0.5 * params.side as f32 * params.origin[3],
-            params.origin[2] + 0.5 * params.side as f32 * params.origin[3],
-            0.0,
-        ];
+        let half = 0.5 * params.side as f32 * params.origin[3];
+        let mid = [0, 1, 2, 3].map(|k| if k < 3 { params.origin[k] + half } else { 0.0 });
         let z = 0.999f32;
         let r = (1.0 - z * z).sqrt();
         for n in [
@@ -304,10 +279,8 @@ fn with_carried(mut case: Case, index: usize) -> Case {
         }
     }
     for (name, v) in [("caches", caches), ("cache_radiance", radiance)] {
-        case.resources.insert(
-            name.into(),
-            HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(&v))),
-        );
+        case.resources
+            .insert(name.into(), HostBuffer::of(&v).into());
     }
     case.label.push_str(", every third cache carried");
     case
@@ -327,11 +300,7 @@ fn mirror_outputs(case: &Case, data: &Resources) -> BTreeMap<String, HostBuffer>
             (out[i], bound[i]) = (before[i], [0.0; 4]);
         }
     }
-    let f = |v: &[[f32; 4]]| HostBuffer::f32(bytemuck::cast_slice(v));
-    BTreeMap::from([
-        ("cache_radiance".to_string(), f(&out)),
-        (bound_name("cache_radiance"), f(&bound)),
-    ])
+    BTreeMap::from(bounded("cache_radiance", &out, &bound))
 }
 
 /// Every texel of a creation case's resources by the mirror: radiance and bound.

@@ -5,9 +5,8 @@ use super::cluster_extract::DistributionInputs;
 use std::collections::BTreeMap;
 use vxgi_cpu_mirror::cache_placement::{best_pixels, score, score_bound};
 use vxgi_cpu_mirror::cluster_extract::{extract, Cluster};
-use vxgi_harness::compare::bound_name;
 use vxgi_harness::prelude::*;
-use vxgi_harness::run::{grid_for, Pass, Workgroups};
+use vxgi_harness::run::Pass;
 
 vxgi_harness::bindings! {
     /// cache_placement's bindings: the clusters and each pixel's cluster, normal and position in;
@@ -71,20 +70,10 @@ pub fn case_for(ctx: &GpuContext, inp: &DistributionInputs, label: String, seed:
         scores: vec![0.0; n],
     };
     let bindings = DECL.bind_by_name();
-    let max = ctx.limits().max_compute_workgroups_per_dimension;
+    let picks = io.picks.len() as u64;
     let passes = vec![
-        Pass {
-            label: "scores".into(),
-            entry: "score_pixels".into(),
-            bindings: bindings.clone(),
-            workgroups: Workgroups::Direct(grid_for(n as u64, 64, max)),
-        },
-        Pass {
-            label: "picks".into(),
-            entry: "pick_caches".into(),
-            bindings,
-            workgroups: Workgroups::Direct(grid_for(io.picks.len() as u64, 64, max)),
-        },
+        Pass::linear(ctx, "scores", "score_pixels", bindings.clone(), n as u64),
+        Pass::linear(ctx, "picks", "pick_caches", bindings, picks),
     ];
     io.case(label, seed, passes)
 }
@@ -154,10 +143,8 @@ impl Kernel for CachePlacement {
     fn mirror(&self, _case: &Case, data: &Resources, _mode: FloatMode) -> MirrorOutputs {
         let (scores, bounds) = mirror_scores(data);
         let (picks, _) = accepted_picks(data, data["picks"].buffer().expect("picks").as_u32());
-        BTreeMap::from([
-            ("scores".to_string(), HostBuffer::f32(&scores)),
-            (bound_name("scores"), HostBuffer::f32(&bounds)),
-            ("picks".to_string(), HostBuffer::u32(&picks)),
-        ])
+        let mut out = BTreeMap::from(bounded("scores", &scores, &bounds));
+        out.insert("picks".into(), HostBuffer::of(&picks));
+        out
     }
 }

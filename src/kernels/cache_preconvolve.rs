@@ -8,7 +8,7 @@ use vxgi_cpu_mirror::cache_preconvolve::{
 };
 use vxgi_harness::compare::bound_name;
 use vxgi_harness::prelude::*;
-use vxgi_harness::run::{grid_for, Pass, Workgroups};
+use vxgi_harness::run::Pass;
 
 vxgi_harness::bindings! {
     /// cache_preconvolve's bindings: the caches' radiance in, their mips and irradiance maps out.
@@ -83,13 +83,8 @@ pub fn case_for_count(
         cache_mips: vec![[0.0; 4]; n_mips.max(1)],
         cache_irradiance: vec![[0.0; 4]; n_irr.max(1)],
     };
-    let max = ctx.limits().max_compute_workgroups_per_dimension;
-    let pass = |entry: &str, n: usize| Pass {
-        label: entry.into(),
-        entry: entry.into(),
-        bindings: DECL.bind_by_name(),
-        workgroups: Workgroups::Direct(grid_for(n as u64, 64, max)),
-    };
+    let pass =
+        |entry: &str, n: usize| Pass::linear(ctx, entry, entry, DECL.bind_by_name(), n as u64);
     let grid = |per: usize| Indexing::Grid {
         dims: [per as u32, count.max(1) as u32, 1],
         components: 4,

@@ -7,7 +7,7 @@ use vxgi_cpu_mirror::cache_records::{bounds, records, RecordsParams, ARGS_LEN};
 use vxgi_cpu_mirror::cluster_extract::Cluster;
 use vxgi_harness::compare::bound_name;
 use vxgi_harness::prelude::*;
-use vxgi_harness::run::{grid_for, Pass, Workgroups};
+use vxgi_harness::run::Pass;
 
 vxgi_harness::bindings! {
     /// cache_records' bindings: the distribution's clusters and picks and the G-buffer's normals and
@@ -94,16 +94,8 @@ pub fn outputs(capacity: usize, tiles: usize) -> Resources {
 
 /// The pass over `p.capacity` slots (one at least: slot 0 writes the arguments).
 pub fn pass(ctx: &GpuContext, p: &RecordsParams) -> Pass {
-    Pass {
-        label: DECL.name.into(),
-        entry: DECL.entry.into(),
-        bindings: DECL.bind_by_name(),
-        workgroups: Workgroups::Direct(grid_for(
-            p.capacity.max(1) as u64,
-            64,
-            ctx.limits().max_compute_workgroups_per_dimension,
-        )),
-    }
+    let slots = p.capacity.max(1) as u64;
+    Pass::linear(ctx, DECL.name, DECL.entry, DECL.bind_by_name(), slots)
 }
 
 /// A case over the clusters and picks the distribution mirrors give `inp`, with `p`.

@@ -10,7 +10,7 @@ use rand_chacha::ChaCha8Rng;
 use vxgi_cpu_mirror::cache_reuse::{accept, keep, Inputs, Last, ReuseParams, NONE};
 use vxgi_cpu_mirror::gbuffer::Frame;
 use vxgi_harness::prelude::*;
-use vxgi_harness::run::{grid_for, Pass, Workgroups};
+use vxgi_harness::run::Pass;
 
 vxgi_harness::bindings! {
     /// cache_reuse's bindings: this frame's camera, the distribution's per-pixel clusters, normals
@@ -67,12 +67,9 @@ pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
 /// caches) and the one after it (`keep` over the first `caches` slots: the cache buffers' capacity,
 /// past which no slot holds a cache).
 pub fn passes(ctx: &GpuContext, slots: usize, prev: usize, caches: usize) -> (Vec<Pass>, Pass) {
-    let max = ctx.limits().max_compute_workgroups_per_dimension;
-    let pass = |entry: &str, n: usize| Pass {
-        label: format!("{} {entry}", DECL.name),
-        entry: entry.into(),
-        bindings: DECL.bind_by_name(),
-        workgroups: Workgroups::Direct(grid_for(n.max(1) as u64, 64, max)),
+    let pass = |entry: &str, n: usize| {
+        let label = format!("{} {entry}", DECL.name);
+        Pass::linear(ctx, label, entry, DECL.bind_by_name(), n.max(1) as u64)
     };
     (
         vec![pass("clear", slots), pass("claim", prev)],
@@ -86,9 +83,7 @@ pub fn passes(ctx: &GpuContext, slots: usize, prev: usize, caches: usize) -> (Ve
 /// records and radiance, and `params`.
 pub fn resources(slots: usize, prev: usize, params: ReuseParams) -> Resources {
     let mut r = Resources::new();
-    let mut put = |name: &str, b: HostBuffer| {
-        r.insert(name.into(), HostResource::Buffer(b));
-    };
+    let mut put = |name: &str, b: HostBuffer| r.insert(name.into(), b.into());
     put("reuse_params", HostBuffer::pod(&params));
     put("kept", HostBuffer::u32(&vec![0; slots.max(1)]));
     put("prev_pixel", HostBuffer::u32(&vec![0; prev.max(1)]));

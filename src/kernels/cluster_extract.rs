@@ -10,7 +10,7 @@ use vxgi_cpu_mirror::octahedral::reweight_table;
 use vxgi_cpu_mirror::radix_sort::sort;
 use vxgi_cpu_mirror::tile_normal_histogram::histograms;
 use vxgi_harness::prelude::*;
-use vxgi_harness::run::{grid_for, Pass, Workgroups};
+use vxgi_harness::run::{grid_for, Pass};
 
 vxgi_harness::bindings! {
     /// cluster_extract's bindings: key-sorted pixels with their normals and positions in; the
@@ -181,12 +181,7 @@ pub fn case_for(ctx: &GpuContext, inp: &DistributionInputs, label: String, seed:
     ));
     let max = ctx.limits().max_compute_workgroups_per_dimension;
     let grid = grid_for(n as u64, 64, max);
-    let pass = |entry: &str| Pass {
-        label: entry.into(),
-        entry: entry.into(),
-        bindings: bindings.clone(),
-        workgroups: Workgroups::Direct(grid),
-    };
+    let pass = |entry: &str| Pass::direct(entry, entry, bindings.clone(), grid);
     let mut passes = vec![pass("mark_heads")];
     passes.extend(super::scan_passes(&bindings, n, max, "heads"));
     passes.push(pass("build_clusters"));

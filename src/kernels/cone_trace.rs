@@ -14,7 +14,6 @@ use vxgi_cpu_mirror::cone_trace::{
 use vxgi_cpu_mirror::direct_light::GpuMaterial;
 use vxgi_cpu_mirror::gbuffer::Frame;
 use vxgi_cpu_mirror::surface_coverage_mip::Coverage;
-use vxgi_harness::compare::bound_name;
 use vxgi_harness::prelude::*;
 use vxgi_harness::run::{Pass, View, Workgroups};
 
@@ -245,15 +244,14 @@ pub fn case_for(
     label: String,
     seed: u64,
 ) -> Case {
-    let f4 = |v: &[[f32; 4]]| HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(v)));
     let normal: &[[f32; 4]] = if params.depth_order != 0 {
         &pyramids.normal
     } else {
         &[[0.0; 4]]
     };
-    let volume = Resources::from([
-        ("pyramid".to_string(), f4(&pyramids.colour)),
-        ("pyramid_normal".to_string(), f4(normal)),
+    let volume = buffers([
+        ("pyramid", HostBuffer::of(&pyramids.colour)),
+        ("pyramid_normal", HostBuffer::of(normal)),
     ]);
     tracer_case(&DECL, data, gbuffer, params, volume, label, seed)
 }
@@ -270,24 +268,20 @@ pub fn instanced_case_for(
     label: String,
     seed: u64,
 ) -> Case {
-    let f4 = |v: &[[f32; 4]]| HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(v)));
-    let volume = Resources::from([
-        ("pyramid".to_string(), f4(pyramid)),
-        (
-            "placed".to_string(),
-            HostResource::Buffer(HostBuffer {
-                bytes: bytemuck::cast_slice(placed).to_vec(),
-                scalar: ScalarKind::Mixed,
-            }),
-        ),
-        (
-            "placed_cells".to_string(),
-            HostResource::Buffer(HostBuffer::u32(
-                &vxgi_cpu_mirror::cache_creation::placed_cells(placed),
-            )),
-        ),
-    ]);
+    let mut volume = placed_resources(placed);
+    volume.insert("pyramid".into(), HostBuffer::of(pyramid).into());
     tracer_case(&INSTANCED_DECL, data, gbuffer, params, volume, label, seed)
+}
+
+/// The `placed` records of hierarchies and their `placed_cells` (common/placed_pyramids.wgsl).
+pub fn placed_resources(placed: &[vxgi_cpu_mirror::cache_creation::Placed]) -> Resources {
+    buffers([
+        ("placed", HostBuffer::structs(placed)),
+        (
+            "placed_cells",
+            HostBuffer::of(&vxgi_cpu_mirror::cache_creation::placed_cells(placed)),
+        ),
+    ])
 }
 
 /// Radiance-pyramid elements per binding: WebGPU's default max_storage_buffer_binding_size (128
@@ -320,10 +314,7 @@ pub fn bind_pyramid_views(
         ));
     }
     for name in ["pyramid_1", "pyramid_2"] {
-        resources.insert(
-            name.into(),
-            HostResource::Buffer(HostBuffer::f32(&[0.0; 4])),
-        );
+        resources.insert(name.into(), HostBuffer::f32(&[0.0; 4]).into());
     }
     for pass in passes {
         for (binding, view) in &mut pass.bindings {
@@ -405,27 +396,24 @@ pub fn tracer_case(
     for name in ["gb_position", "gb_normal", "gb_triangle", "gb_albedo"] {
         resources.insert(name.into(), gbuffer[name].clone());
     }
-    resources.insert("cone".into(), HostResource::Buffer(HostBuffer::pod(params)));
-    let dirs = cone_dirs(params);
-    let f4 = |v: &[[f32; 4]]| HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(v)));
-    resources.insert("cone_dirs".into(), f4(&dirs));
+    resources.insert("cone".into(), HostBuffer::pod(params).into());
+    resources.insert(
+        "cone_dirs".into(),
+        HostBuffer::of(&cone_dirs(params)).into(),
+    );
     resources.extend(volume);
     for name in ["indirect", "ao", "irradiance"] {
         resources.insert(
             name.into(),
-            HostResource::Buffer(HostBuffer::zeroed(n * 16, ScalarKind::F32)),
+            HostBuffer::zeroed(n * 16, ScalarKind::F32).into(),
         );
     }
     // The pass runs over the 8x8 tiles that hold a surface (screen_tiles' list, here from its mirror:
     // the G-buffer is on the host; a chain builds it on the GPU), dispatched from the list's arguments.
     let normals: &[[f32; 4]] =
         bytemuck::cast_slice(&gbuffer["gb_normal"].buffer().expect("gb_normal").bytes);
-    resources.insert(
-        "tile_list".into(),
-        HostResource::Buffer(HostBuffer::u32(&vxgi_cpu_mirror::screen_tiles::tile_list(
-            normals, w, h,
-        ))),
-    );
+    let tiles = vxgi_cpu_mirror::screen_tiles::tile_list(normals, w, h);
+    resources.insert("tile_list".into(), HostBuffer::of(&tiles).into());
     let grid = Indexing::Grid {
         dims: [w, h, 1],
         components: 4,
@@ -457,13 +445,8 @@ pub fn tracer_case(
             })
             .collect(),
         checks: ["indirect", "ao", "irradiance"]
-            .into_iter()
-            .map(|name| Check {
-                resource: name.into(),
-                output: name,
-                indexing: grid.clone(),
-            })
-            .collect(),
+            .map(|name| Check::of(name, grid.clone()))
+            .to_vec(),
         effective_bytes: n as u64 * 84,
     };
     if decl.inputs.contains(&"pyramid") {
@@ -639,18 +622,15 @@ pub fn marching_label(s: &ConeSettings) -> String {
 
 /// A cone pass's mirror outputs (indirect, ao, irradiance, their bounds) by resource name.
 pub fn bounded_outputs(px: &[PixelOut]) -> BTreeMap<String, HostBuffer> {
-    let f = |g: fn(&PixelOut) -> [f32; 4]| {
-        let v: Vec<[f32; 4]> = px.iter().map(g).collect();
-        HostBuffer::f32(bytemuck::cast_slice(&v))
-    };
-    BTreeMap::from([
-        ("indirect".to_string(), f(|p| p.indirect)),
-        (bound_name("indirect"), f(|p| p.indirect_bound)),
-        ("ao".to_string(), f(|p| p.ao)),
-        (bound_name("ao"), f(|p| p.ao_bound)),
-        ("irradiance".to_string(), f(|p| p.irradiance)),
-        (bound_name("irradiance"), f(|p| p.irradiance_bound)),
-    ])
+    let f = |g: fn(&PixelOut) -> [f32; 4]| px.iter().map(g).collect::<Vec<_>>();
+    let out = bounded("indirect", &f(|p| p.indirect), &f(|p| p.indirect_bound));
+    let ao = bounded("ao", &f(|p| p.ao), &f(|p| p.ao_bound));
+    let e = bounded(
+        "irradiance",
+        &f(|p| p.irradiance),
+        &f(|p| p.irradiance_bound),
+    );
+    out.into_iter().chain(ao).chain(e).collect()
 }
 
 /// The (indirect, ao) images' pixels of a cone pass's mirror outputs.

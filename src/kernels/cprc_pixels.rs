@@ -10,7 +10,7 @@ use vxgi_cpu_mirror::cprc_pixels::{self as m, GPixel};
 use vxgi_cpu_mirror::gbuffer::Frame;
 use vxgi_harness::compare::bound_name;
 use vxgi_harness::prelude::*;
-use vxgi_harness::run::{grid_for, Pass, Workgroups};
+use vxgi_harness::run::Pass;
 
 vxgi_harness::bindings! {
     /// cprc_pixels' bindings: the G-buffer, the lobe table and the gather's results in; the
@@ -120,16 +120,7 @@ pub fn outputs(pixels: usize) -> Resources {
 
 /// The pass of `entry` (`inputs` or `compose`) over `pixels` pixels.
 pub fn pass(ctx: &GpuContext, entry: &str, pixels: usize) -> Pass {
-    Pass {
-        label: entry.into(),
-        entry: entry.into(),
-        bindings: DECL.bind_by_name(),
-        workgroups: Workgroups::Direct(grid_for(
-            pixels as u64,
-            64,
-            ctx.limits().max_compute_workgroups_per_dimension,
-        )),
-    }
+    Pass::linear(ctx, entry, entry, DECL.bind_by_name(), pixels as u64)
 }
 
 /// Both entries over `d` (`inputs`, then `compose` on what `inputs` wrote), checking every output.

@@ -7,7 +7,6 @@ use std::collections::BTreeMap;
 use vxgi_cpu_mirror::bvh_trace::{GpuNode, GpuTriangle};
 use vxgi_cpu_mirror::direct_light::{shade_with_bound, GpuLight, GpuMaterial};
 use vxgi_cpu_mirror::gbuffer::Frame;
-use vxgi_harness::compare::bound_name;
 use vxgi_harness::prelude::*;
 
 vxgi_harness::bindings! {
@@ -88,7 +87,7 @@ pub fn case_with_gbuffer(
     let n = w as usize * h as usize;
     let mut resources = scene_resources(data);
     // A G-buffer the chain's gbuffer stage computes may be left out: zeroed placeholders.
-    let zeroed = |bytes, kind| HostResource::Buffer(HostBuffer::zeroed(bytes, kind));
+    let zeroed = |bytes, kind| HostBuffer::zeroed(bytes, kind).into();
     for (name, bytes, kind) in [
         ("gb_position", 16, ScalarKind::F32),
         ("gb_normal", 16, ScalarKind::F32),
@@ -101,13 +100,7 @@ pub fn case_with_gbuffer(
     }
     let shader = DECL.shader().expect("direct_light.wgsl is valid");
     DECL.case_of(&shader, ctx, &Io::read(&resources), n as u64, label, seed)
-        .with_indexing(
-            "radiance",
-            Indexing::Grid {
-                dims: [w, h, 1],
-                components: 4,
-            },
-        )
+        .with_grid([w, h, 1])
         .with_effective_bytes(n as u64 * 52)
 }
 
@@ -150,10 +143,6 @@ impl Kernel for DirectLight {
     fn mirror(&self, _case: &Case, data: &Resources, _mode: FloatMode) -> MirrorOutputs {
         // Subnormals play no part at scene scales (smallest inputs ~1e-3 units): one mode serves both.
         let (l, e) = mirror_direct(data);
-        let f = |v: &[[f32; 4]]| HostBuffer::f32(bytemuck::cast_slice(v));
-        BTreeMap::from([
-            ("radiance".to_string(), f(&l)),
-            (bound_name("radiance"), f(&e)),
-        ])
+        BTreeMap::from(bounded("radiance", &l, &e))
     }
 }

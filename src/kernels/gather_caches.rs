@@ -228,24 +228,16 @@ pub fn case_for(
     seed: u64,
 ) -> Case {
     let n = (d.params.width * d.params.height) as usize;
-    // Bindings cannot be empty: an empty list gets one zero element.
-    fn nonempty<T: Clone + Default>(v: &[T]) -> Vec<T> {
-        if v.is_empty() {
-            vec![T::default()]
-        } else {
-            v.to_vec()
-        }
-    }
     let io = Io {
         params: Block(d.params),
-        positions: nonempty(&d.positions),
-        pixel_dirs: nonempty(&d.pixel_dirs),
-        cache_pos: nonempty(&d.cache_pos),
-        cache_pixel: nonempty(&d.cache_pixel),
-        cache_normal: nonempty(&d.cache_normal),
-        cache_irradiance: nonempty(&d.cache_irradiance),
-        cache_mips: nonempty(&d.cache_mips),
-        tile_ranges: nonempty(&d.tile_ranges),
+        positions: super::or_one(&d.positions),
+        pixel_dirs: super::or_one(&d.pixel_dirs),
+        cache_pos: super::or_one(&d.cache_pos),
+        cache_pixel: super::or_one(&d.cache_pixel),
+        cache_normal: super::or_one(&d.cache_normal),
+        cache_irradiance: super::or_one(&d.cache_irradiance),
+        cache_mips: super::or_one(&d.cache_mips),
+        tile_ranges: super::or_one(&d.tile_ranges),
         diffuse: vec![[0.0; 4]; n],
         glossy: vec![[0.0; 4]; n],
         weight_sum: vec![0.0; n],

@@ -14,7 +14,7 @@ use vxgi_cpu_mirror::gbuffer::{
 };
 use vxgi_harness::compare::bound_name;
 use vxgi_harness::prelude::*;
-use vxgi_harness::run::{Pass, Workgroups};
+use vxgi_harness::run::Pass;
 
 pub const BVH_TRACE: (&str, &str) = (
     "kernels/common/bvh_trace.wgsl",
@@ -304,40 +304,20 @@ pub fn generated_scene(seed: u64, index: usize) -> (Scene, String) {
 
 /// The scene's buffers, named as the ray-tracing kernels bind them.
 pub fn scene_resources(data: &SceneData) -> Resources {
-    let mut r = Resources::new();
-    r.insert(
-        "frame".into(),
-        HostResource::Buffer(HostBuffer::pod(&data.frame)),
-    );
-    r.insert(
-        "nodes".into(),
-        HostResource::Buffer(HostBuffer {
-            bytes: bytemuck::cast_slice(&data.nodes).to_vec(),
-            scalar: ScalarKind::Mixed,
-        }),
-    );
-    let f = |b: &[u8]| HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(b)));
-    r.insert("triangles".into(), f(bytemuck::cast_slice(&data.triangles)));
-    let lights = if data.lights.is_empty() {
-        vec![Default::default()]
-    } else {
-        data.lights.clone()
-    };
-    r.insert("lights".into(), f(bytemuck::cast_slice(&lights)));
-    r.insert(
-        "materials".into(),
-        HostResource::Buffer(HostBuffer {
-            bytes: bytemuck::cast_slice(&data.materials).to_vec(),
-            scalar: ScalarKind::Mixed,
-        }),
-    );
-    r.insert("uvs".into(), f(bytemuck::cast_slice(&data.uvs)));
-    r.insert(
-        "texels".into(),
-        HostResource::Buffer(HostBuffer::u32(&data.texels)),
-    );
-    r.insert("srgb_lut".into(), f(bytemuck::cast_slice(&data.srgb_lut)));
-    r
+    let f = |b: &[u8]| HostBuffer::f32(bytemuck::cast_slice(b));
+    buffers([
+        ("frame", HostBuffer::pod(&data.frame)),
+        ("nodes", HostBuffer::structs(&data.nodes)),
+        ("triangles", f(bytemuck::cast_slice(&data.triangles))),
+        (
+            "lights",
+            f(bytemuck::cast_slice(&super::or_one(&data.lights))),
+        ),
+        ("materials", HostBuffer::structs(&data.materials)),
+        ("uvs", f(bytemuck::cast_slice(&data.uvs))),
+        ("texels", HostBuffer::of(&data.texels)),
+        ("srgb_lut", f(bytemuck::cast_slice(&data.srgb_lut))),
+    ])
 }
 
 /// The G-buffer pass over a scene: resources (inputs plus zeroed outputs) and the pass.
@@ -345,28 +325,19 @@ pub fn case_for(data: &SceneData, label: String, seed: u64) -> Case {
     let (w, h) = (data.width(), data.height());
     let n = w as usize * h as usize;
     let mut resources = scene_resources(data);
-    let zeroed = |bytes, kind| HostResource::Buffer(HostBuffer::zeroed(bytes, kind));
-    resources.insert("gb_position".into(), zeroed(n * 16, ScalarKind::F32));
-    resources.insert("gb_normal".into(), zeroed(n * 16, ScalarKind::F32));
-    resources.insert("gb_triangle".into(), zeroed(n * 4, ScalarKind::U32));
-    resources.insert("gb_albedo".into(), zeroed(n * 16, ScalarKind::F32));
-    let pass = Pass {
-        label: "gbuffer".into(),
-        entry: "main".into(),
-        bindings: DECL.bind_by_name(),
-        workgroups: Workgroups::Direct([w.div_ceil(8), h.div_ceil(8), 1]),
-    };
-    let mut case = Io::read(&resources)
+    let f4 = |n: usize| HostBuffer::zeroed(n * 16, ScalarKind::F32);
+    resources.extend(buffers([
+        ("gb_position", f4(n)),
+        ("gb_normal", f4(n)),
+        ("gb_triangle", HostBuffer::zeroed(n * 4, ScalarKind::U32)),
+        ("gb_albedo", f4(n)),
+    ]));
+    let groups = [w.div_ceil(8), h.div_ceil(8), 1];
+    let pass = Pass::direct("gbuffer", "main", DECL.bind_by_name(), groups);
+    Io::read(&resources)
         .case(label, seed, vec![pass])
-        .with_effective_bytes(n as u64 * 52);
-    for c in &mut case.checks {
-        let components = if c.resource == "gb_triangle" { 1 } else { 4 };
-        c.indexing = Indexing::Grid {
-            dims: [w, h, 1],
-            components,
-        };
-    }
-    case
+        .with_effective_bytes(n as u64 * 52)
+        .with_grid([w, h, 1])
 }
 
 /// Mirror G-buffer given the GPU's triangle picks: texels, their bounds, and how many GPU picks

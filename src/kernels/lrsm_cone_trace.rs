@@ -6,7 +6,9 @@ use super::cone_trace::{bounded_outputs, cone_params, shade_all, tracer_case, Co
 use super::occlusion_voxels::occlusion_on_gpu;
 use super::reflective_shadow_map::{rsm_on_gpu, LRSM_VIEW};
 use super::voxelize::{occupancy_on_gpu, VoxelFrame};
-use super::{lrsm_partition, lrsm_prefilter, BRDF, CONE_MARCH, LIGHTS, LRSM_MATH, LRSM_SAMPLE};
+use super::{
+    lrsm_partition, lrsm_prefilter, or_one, BRDF, CONE_MARCH, LIGHTS, LRSM_MATH, LRSM_SAMPLE,
+};
 use crate::lrsm::{light_views, PartitionConfig, Rsm};
 use crate::scene::Scene;
 use crate::trace::SceneData;
@@ -385,74 +387,30 @@ pub fn case_for(
     label: String,
     seed: u64,
 ) -> Case {
-    let f4 = |v: &[[f32; 4]]| HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(v)));
-    let packed = |v: &[[f32; 4]]| HostResource::Buffer(lrsm_prefilter::stored(v));
-    let mixed = |bytes: &[u8]| {
-        HostResource::Buffer(HostBuffer {
-            bytes: bytes.to_vec(),
-            scalar: ScalarKind::Mixed,
-        })
-    };
     // Bindings cannot be empty: a scene without lights binds one view that sees nothing (behind it).
-    let views = if frame.views.is_empty() {
-        vec![GpuView::default()]
-    } else {
-        frame.views.clone()
-    };
-    let streams: Vec<Vec<[f32; 4]>> = frame
-        .streams
-        .iter()
-        .map(|s| {
-            if s.is_empty() {
-                vec![[0.0; 4]]
-            } else {
-                s.clone()
-            }
-        })
-        .collect();
-    let volume = Resources::from([
-        (
-            "occ".to_string(),
-            HostResource::Buffer(HostBuffer::u32(&frame.occ)),
-        ),
-        (
-            "occ_offsets".to_string(),
-            HostResource::Buffer(HostBuffer::u32(&frame.occ_offsets)),
-        ),
-        (
-            "params".to_string(),
-            mixed(bytemuck::bytes_of(&frame.params)),
-        ),
-        ("depth_ranges".to_string(), f4(&frame.depth_ranges)),
-        ("lrsm_radiance".to_string(), packed(&streams[0])),
-        ("lrsm_normal".to_string(), packed(&streams[1])),
-        ("lrsm_moments".to_string(), packed(&streams[2])),
-        ("views".to_string(), mixed(bytemuck::cast_slice(&views))),
-    ]);
-    let lights = if data.lights.is_empty() {
-        vec![Default::default()]
-    } else {
-        data.lights.clone()
-    };
+    let packed = |k: usize| lrsm_prefilter::stored(&or_one(&frame.streams[k]));
     let shadow = ShadowParams {
         tan_half: shadow_tan,
         light_count: data.lights.len() as u32,
         _pad: [0; 2],
     };
-    let mut volume = volume;
-    volume.insert(
-        "lights".to_string(),
-        f4(bytemuck::cast_slice::<_, [f32; 4]>(&lights)),
-    );
-    volume.insert(
-        "shadow_params".to_string(),
-        mixed(bytemuck::bytes_of(&shadow)),
-    );
     let n = (data.width() * data.height()) as usize;
-    volume.insert(
-        "soft_direct".to_string(),
-        HostResource::Buffer(HostBuffer::zeroed(n * 16, ScalarKind::F32)),
-    );
+    let volume = buffers([
+        ("occ", HostBuffer::of(&frame.occ)),
+        ("occ_offsets", HostBuffer::of(&frame.occ_offsets)),
+        ("params", HostBuffer::pod(&frame.params)),
+        ("depth_ranges", HostBuffer::of(&frame.depth_ranges)),
+        ("lrsm_radiance", packed(0)),
+        ("lrsm_normal", packed(1)),
+        ("lrsm_moments", packed(2)),
+        ("views", HostBuffer::structs(&or_one(&frame.views))),
+        (
+            "lights",
+            HostBuffer::f32(bytemuck::cast_slice(&or_one(&data.lights))),
+        ),
+        ("shadow_params", HostBuffer::pod(&shadow)),
+        ("soft_direct", HostBuffer::zeroed(n * 16, ScalarKind::F32)),
+    ]);
     let mut case = tracer_case(&DECL, data, gbuffer, params, volume, label, seed);
     if shadow_tan > 0.0 {
         let mut pass = case.passes[0].clone();
@@ -460,11 +418,7 @@ pub fn case_for(
         pass.entry = "shadow_main".into();
         case.passes.push(pass);
         let indexing = case.checks[0].indexing.clone();
-        case.checks.push(vxgi_harness::Check {
-            resource: "soft_direct".into(),
-            output: "soft_direct",
-            indexing,
-        });
+        case.checks.push(Check::of("soft_direct", indexing));
     }
     case
 }

@@ -174,7 +174,7 @@ pub fn scan_passes(
     max_groups: u32,
     label: &str,
 ) -> Vec<vxgi_harness::run::Pass> {
-    use vxgi_harness::run::{grid_for, Pass, Workgroups};
+    use vxgi_harness::run::{grid_for, Pass};
     [
         (
             "scan_blocks",
@@ -184,11 +184,8 @@ pub fn scan_passes(
         ("scan_add_partials", grid_for(len as u64, 64, max_groups)),
     ]
     .into_iter()
-    .map(|(entry, groups)| Pass {
-        label: format!("{label} {entry}"),
-        entry: entry.into(),
-        bindings: bindings.to_vec(),
-        workgroups: Workgroups::Direct(groups),
+    .map(|(entry, groups)| {
+        Pass::direct(format!("{label} {entry}"), entry, bindings.to_vec(), groups)
     })
     .collect()
 }
@@ -198,6 +195,15 @@ pub const SVO_NODE: (&str, &str) = (
     "kernels/common/svo_node.wgsl",
     include_str!("../../kernels/common/svo_node.wgsl"),
 );
+
+/// `values`, or one default element where there are none (a storage binding cannot be empty).
+pub fn or_one<T: Clone + Default>(values: &[T]) -> Vec<T> {
+    if values.is_empty() {
+        vec![T::default()]
+    } else {
+        values.to_vec()
+    }
+}
 
 /// Every declared kernel, in the order `vxgi verify` runs them.
 pub fn all() -> Vec<&'static dyn Kernel> {

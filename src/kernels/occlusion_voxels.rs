@@ -51,13 +51,10 @@ pub fn case_for(
 ) -> Case {
     let levels = side.trailing_zeros();
     let words: Vec<usize> = (0..=levels).map(|k| level_words(side, k)).collect();
-    let mut resources = Resources::new();
-    resources.insert(level_name(0), HostResource::Buffer(HostBuffer::u32(bits)));
+    let mut resources = Resources::from([(level_name(0), HostBuffer::of(bits).into())]);
     for (k, &w) in (1u32..).zip(&words[1..]) {
-        resources.insert(
-            level_name(k),
-            HostResource::Buffer(HostBuffer::zeroed(w * 4, ScalarKind::U32)),
-        );
+        let zero = HostBuffer::zeroed(w * 4, ScalarKind::U32);
+        resources.insert(level_name(k), zero.into());
     }
     let mut passes = Vec::new();
     let mut checks = Vec::new();
@@ -76,8 +73,7 @@ pub fn case_for(
         passes.push(pass);
         checks.push(Check {
             resource: level_name(k),
-            output: "dst",
-            indexing: Indexing::Linear,
+            ..Check::of("dst", Indexing::Linear)
         });
     }
     let effective = words.iter().map(|&w| w as u64 * 4).sum::<u64>() * 2;

@@ -7,7 +7,7 @@ use std::collections::BTreeMap;
 use thiserror::Error;
 use vxgi_cpu_mirror::radix_sort::{key_mask, passes, sort, SortParams, BLOCK, DIGIT_BITS};
 use vxgi_harness::prelude::*;
-use vxgi_harness::run::{grid_for, Pass, View, Workgroups};
+use vxgi_harness::run::{grid_for, Pass, View};
 
 pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
     "radix_sort",
@@ -58,25 +58,14 @@ pub fn case_for(
     }
     let n = keys.len();
     let blocks = n.div_ceil(BLOCK) as u32;
-    let mut resources = Resources::new();
-    let u = |v: &[u32]| HostResource::Buffer(HostBuffer::u32(v));
-    resources.insert("keys_a".into(), u(keys));
-    resources.insert("values_a".into(), u(values));
-    resources.insert(
-        "keys_b".into(),
-        HostResource::Buffer(HostBuffer::zeroed(n * 4, ScalarKind::U32)),
-    );
-    resources.insert(
-        "values_b".into(),
-        HostResource::Buffer(HostBuffer::zeroed(n * 4, ScalarKind::U32)),
-    );
-    resources.insert(
-        "counts".into(),
-        HostResource::Buffer(HostBuffer::zeroed(
-            16 * blocks as usize * 4,
-            ScalarKind::U32,
-        )),
-    );
+    let words = |n: usize| HostBuffer::zeroed(n * 4, ScalarKind::U32);
+    let mut resources = buffers([
+        ("keys_a", HostBuffer::of(keys)),
+        ("values_a", HostBuffer::of(values)),
+        ("keys_b", words(n)),
+        ("values_b", words(n)),
+        ("counts", words(16 * blocks as usize)),
+    ]);
     let grid = grid_for(
         blocks as u64,
         64,
@@ -96,10 +85,7 @@ pub fn case_for(
             key_mask: key_mask(key_bits),
         };
         let pname = format!("params_{p}");
-        resources.insert(
-            pname.clone(),
-            HostResource::Buffer(HostBuffer::pod(&params)),
-        );
+        resources.insert(pname.clone(), HostBuffer::pod(&params).into());
         let (src, dst) = if p % 2 == 0 { ("a", "b") } else { ("b", "a") };
         let bindings = vec![
             ("params".to_string(), View::Buffer(pname)),
@@ -119,12 +105,8 @@ pub fn case_for(
                 View::Buffer("scan_partials".into()),
             ),
         ];
-        let pass = |entry: &str| Pass {
-            label: format!("digit {p} {entry}"),
-            entry: entry.into(),
-            bindings: bindings.clone(),
-            workgroups: Workgroups::Direct(grid),
-        };
+        let pass =
+            |entry: &str| Pass::direct(format!("digit {p} {entry}"), entry, bindings.clone(), grid);
         pass_list.push(pass("count_digits"));
         pass_list.extend(super::scan_passes(
             &bindings,
@@ -141,18 +123,12 @@ pub fn case_for(
         seed,
         resources,
         passes: pass_list,
-        checks: vec![
-            Check {
-                resource: out[0].clone(),
-                output: "dst_keys",
-                indexing: Indexing::Linear,
-            },
-            Check {
-                resource: out[1].clone(),
-                output: "dst_values",
-                indexing: Indexing::Linear,
-            },
-        ],
+        checks: std::iter::zip(["dst_keys", "dst_values"], &out)
+            .map(|(output, r)| Check {
+                resource: r.clone(),
+                ..Check::of(output, Indexing::Linear)
+            })
+            .collect(),
         effective_bytes: total as u64 * n as u64 * 8 * 3,
     };
     Ok((case, out))

@@ -55,15 +55,8 @@ pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
 /// `lights` (one default light of zero intensity when there is none: a binding cannot be empty) and
 /// the light view's G-buffer `gb_position`, `gb_normal`, `gb_albedo`.
 pub fn light_view_inputs(lights: &[GpuLight], gb: &Resources) -> Resources {
-    let lights = if lights.is_empty() {
-        vec![GpuLight::default()]
-    } else {
-        lights.to_vec()
-    };
-    let mut resources = Resources::from([(
-        "lights".to_string(),
-        HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(&lights))),
-    )]);
+    let lights = HostBuffer::f32(bytemuck::cast_slice(&super::or_one(lights)));
+    let mut resources = Resources::from([("lights".to_string(), lights.into())]);
     for name in ["gb_position", "gb_normal", "gb_albedo"] {
         resources.insert(name.into(), gb[name].clone());
     }

@@ -8,7 +8,7 @@ use std::collections::BTreeMap;
 use vxgi_cpu_mirror::gbuffer::Frame;
 use vxgi_cpu_mirror::screen_tiles::{list_len, tile_list, tiles_xy, HEADER};
 use vxgi_harness::prelude::*;
-use vxgi_harness::run::{Pass, Workgroups};
+use vxgi_harness::run::Pass;
 
 vxgi_harness::bindings! {
     /// screen_tiles' bindings: the G-buffer's normals in, the tile list (header, then tiles) out.
@@ -49,20 +49,12 @@ pub fn frame_of_size(width: u32, height: u32) -> Frame {
 /// The pass over every tile of a `width` x `height` image (the `tile_list` resource must start at 0).
 pub fn pass(width: u32, height: u32) -> Pass {
     let (tx, ty) = tiles_xy(width, height);
-    Pass {
-        label: DECL.name.into(),
-        entry: DECL.entry.into(),
-        bindings: DECL.bind_by_name(),
-        workgroups: Workgroups::Direct([tx, ty, 1]),
-    }
+    Pass::direct(DECL.name, DECL.entry, DECL.bind_by_name(), [tx, ty, 1])
 }
 
 /// The zeroed list buffer for a `width` x `height` image (usable as indirect arguments).
 pub fn empty_list(width: u32, height: u32) -> HostResource {
-    HostResource::Buffer(HostBuffer::zeroed(
-        list_len(width, height) * 4,
-        ScalarKind::U32,
-    ))
+    HostBuffer::zeroed(list_len(width, height) * 4, ScalarKind::U32).into()
 }
 
 /// A cone-pass case (`cone_trace::tracer_case`) dispatched over every tile of its image instead of its
@@ -73,10 +65,8 @@ pub fn every_tile(case: &Case) -> Case {
     let [w, h, ..] = frame.size;
     let mut all = case.clone();
     let surface = vec![[0.0, 0.0, 0.0, 1.0]; (w * h) as usize];
-    all.resources.insert(
-        "tile_list".into(),
-        HostResource::Buffer(HostBuffer::u32(&tile_list(&surface, w, h))),
-    );
+    let tiles = HostBuffer::of(&tile_list(&surface, w, h));
+    all.resources.insert("tile_list".into(), tiles.into());
     all
 }
 

@@ -213,67 +213,40 @@ fn case_flagging(
     };
     let mut levels = vec![0u32; LEVELS_WORDS];
     levels[1] = 1; // tile 0: the root
-    let mut resources = Resources::new();
-    let buf = |b: HostBuffer| HostResource::Buffer(b);
-    // A binding cannot be empty: one unused fragment when there are none (params.fragments says 0).
+                   // A binding cannot be empty: one unused fragment when there are none (params.fragments says 0).
     let frag_data: Vec<Fragment> = if fragments.is_empty() {
         vec![bytemuck::Zeroable::zeroed()]
     } else {
         fragments.to_vec()
     };
-    resources.insert(
-        "fragments".into(),
-        buf(HostBuffer {
-            bytes: bytemuck::cast_slice(&frag_data).to_vec(),
-            scalar: ScalarKind::U32,
-        }),
-    );
-    resources.insert(
-        "nodes".into(),
-        buf(HostBuffer {
-            bytes: bytemuck::cast_slice(&nodes).to_vec(),
-            scalar: ScalarKind::U32,
-        }),
-    );
-    resources.insert(
-        "bricks".into(),
-        buf(HostBuffer::zeroed(n * BRICK_WORDS * 4, ScalarKind::U32)),
-    );
-    resources.insert(
-        "flags".into(),
-        buf(HostBuffer::zeroed(n * 4, ScalarKind::U32)),
-    );
-    resources.insert(
-        "tile_parent".into(),
-        buf(HostBuffer::u32(&vec![u32::MAX; capacity as usize])),
-    );
-    resources.insert("levels".into(), buf(HostBuffer::u32(&levels)));
-    // Errors, tiles handed out (the root's), list counters.
-    resources.insert("status".into(), buf(HostBuffer::u32(&[0, 1, 0, 0])));
-    resources.insert(
-        "stats".into(),
-        buf(HostBuffer::zeroed(STATS_WORDS * 4, ScalarKind::U32)),
-    );
+    let words = |n: usize| HostBuffer::zeroed(n * 4, ScalarKind::U32);
     let mut args = vec![0u32; ARGS_SLOTS * 3];
     args[..3].copy_from_slice(&[1, 1, 1]); // level 0: the root's tile
-    resources.insert("args".into(), buf(HostBuffer::u32(&args)));
-    resources.insert(
-        "list_active".into(),
-        buf(HostBuffer::zeroed(n * 4, ScalarKind::U32)),
-    );
-    resources.insert(
-        "list_ring".into(),
-        buf(HostBuffer::zeroed(n * 4, ScalarKind::U32)),
-    );
-
+    let mut resources = buffers([
+        (
+            "fragments",
+            HostBuffer::u32(bytemuck::cast_slice(&frag_data)),
+        ),
+        ("nodes", HostBuffer::u32(bytemuck::cast_slice(&nodes))),
+        ("bricks", words(n * BRICK_WORDS)),
+        ("flags", words(n)),
+        (
+            "tile_parent",
+            HostBuffer::of(&vec![u32::MAX; capacity as usize]),
+        ),
+        ("levels", HostBuffer::of(&levels)),
+        // Errors, tiles handed out (the root's), list counters.
+        ("status", HostBuffer::of(&[0u32, 1, 0, 0])),
+        ("stats", words(STATS_WORDS)),
+        ("args", HostBuffer::of(&args)),
+        ("list_active", words(n)),
+        ("list_ring", words(n)),
+    ]);
     if let Some(st) = statics {
-        let keys = if st.keys.is_empty() {
-            &[0u32][..]
-        } else {
-            &st.keys
-        };
-        resources.insert("static_keys".into(), buf(HostBuffer::u32(keys)));
-        resources.insert("static_offsets".into(), buf(HostBuffer::u32(&st.offsets)));
+        resources.extend(buffers([
+            ("static_keys", HostBuffer::of(&super::or_one(&st.keys))),
+            ("static_offsets", HostBuffer::of(&st.offsets)),
+        ]));
     }
     let max_groups = ctx.limits().max_compute_workgroups_per_dimension;
     let total = fragments.len() as u32;
@@ -292,9 +265,7 @@ fn case_flagging(
             format!("params_l{level}_v{variant}_flagging")
         };
         resources.entry(pname.clone()).or_insert_with(|| {
-            buf(HostBuffer::pod(&params(
-                depth, level, f, capacity, variant, max_groups,
-            )))
+            HostBuffer::pod(&params(depth, level, f, capacity, variant, max_groups)).into()
         });
         let mut bindings = vxgi_harness::run::bind_same_names(SHARED);
         if entry == "flag_static" {
@@ -571,19 +542,13 @@ impl Kernel for SparseVoxelOctree {
 
 /// The checked buffers of an octree, by binding name.
 pub fn octree_buffers(o: &Octree) -> BTreeMap<String, HostBuffer> {
-    BTreeMap::from([
-        (
-            "nodes".to_string(),
-            HostBuffer {
-                bytes: bytemuck::cast_slice(&o.nodes).to_vec(),
-                scalar: ScalarKind::U32,
-            },
-        ),
-        ("bricks".to_string(), HostBuffer::u32(&o.bricks)),
-        ("flags".to_string(), HostBuffer::u32(&o.flags)),
-        ("levels".to_string(), HostBuffer::u32(&o.levels)),
-        ("status".to_string(), HostBuffer::u32(&o.status)),
-        ("stats".to_string(), HostBuffer::u32(&o.stats)),
+    mirror_outputs([
+        ("nodes", HostBuffer::u32(bytemuck::cast_slice(&o.nodes))),
+        ("bricks", HostBuffer::of(&o.bricks)),
+        ("flags", HostBuffer::of(&o.flags)),
+        ("levels", HostBuffer::of(&o.levels)),
+        ("status", HostBuffer::of(&o.status)),
+        ("stats", HostBuffer::of(&o.stats)),
     ])
 }
 

@@ -12,7 +12,6 @@ use std::collections::BTreeMap;
 use vxgi_cpu_mirror::cone_trace::ConeParams;
 use vxgi_cpu_mirror::sparse_voxel_octree::{bricks_in_layout, build_fitted, Fragment, Octree};
 use vxgi_cpu_mirror::svo_cone_trace::{normal_value, SvoParams, SvoVolume};
-use vxgi_harness::compare::bound_name;
 use vxgi_harness::prelude::*;
 
 pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
@@ -277,26 +276,20 @@ pub fn octree_resources<'a>(octree: &Octree, extras: SvoExtras<'a>, scale: f32) 
     };
     let (normals, spec) = (pool(extras.normals), pool(extras.spec));
     let mut r = super::sparse_voxel_octree::reader_resources(octree);
-    r.insert(
-        "svo".to_string(),
-        HostResource::Buffer(HostBuffer::pod(&svo)),
-    );
-    let (lo, hi) = super::svo_anisotropic::split_pool(aniso, super::svo_anisotropic::POOL_WINDOW);
-    for (name, part) in [("aniso", lo), ("aniso_hi", hi)] {
-        r.insert(
-            name.to_string(),
-            HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(&part))),
-        );
-    }
-    r.insert(
-        "normal_bricks".to_string(),
-        HostResource::Buffer(HostBuffer::u32(normals)),
-    );
-    r.insert(
-        "spec_bricks".to_string(),
-        HostResource::Buffer(HostBuffer::u32(spec)),
-    );
+    r.extend(buffers([
+        ("svo", HostBuffer::pod(&svo)),
+        ("normal_bricks", HostBuffer::of(normals)),
+        ("spec_bricks", HostBuffer::of(spec)),
+    ]));
+    bind_pool(&mut r, aniso, super::svo_anisotropic::POOL_WINDOW);
     r
+}
+
+/// The anisotropic pool as its two bindings, `aniso` its first `window` elements.
+fn bind_pool(r: &mut Resources, pool: &[[f32; 4]], window: usize) {
+    let (lo, hi) = super::svo_anisotropic::split_pool(pool, window);
+    r.insert("aniso".into(), HostBuffer::of(&lo).into());
+    r.insert("aniso_hi".into(), HostBuffer::of(&hi).into());
 }
 
 /// Largest radiance the octree holds (allowances for rounding-decided stops scale with it).
@@ -444,13 +437,7 @@ impl Kernel for SvoConeTrace {
         // One case in eight (with anisotropic voxels) reads the pool from two bindings, as a pool
         // past one binding is read.
         if let (5, Some(pool)) = (index % 8, g.extras().aniso) {
-            let (lo, hi) = super::svo_anisotropic::split_pool(pool, pool.len().div_ceil(2));
-            for (name, part) in [("aniso", lo), ("aniso_hi", hi)] {
-                case.resources.insert(
-                    name.to_string(),
-                    HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(&part))),
-                );
-            }
+            bind_pool(&mut case.resources, pool, pool.len().div_ceil(2));
             case.label.push_str(", pool in two bindings");
         }
         case
@@ -542,22 +529,18 @@ pub fn bounce_case(
 ) -> Case {
     let n = voxels.index.len().max(1);
     let mut resources = octree_resources(octree, extras, scale);
-    resources.insert("cone".into(), HostResource::Buffer(HostBuffer::pod(params)));
-    let f4 = |v: &[[f32; 4]]| {
-        let v = if v.is_empty() { &[[0.0f32; 4]][..] } else { v };
-        HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(v)))
-    };
-    resources.insert(
-        "cone_dirs".into(),
-        f4(&vxgi_cpu_mirror::cone_trace::cone_dirs(params)),
-    );
-    resources.insert("vx_position".into(), f4(&voxels.position));
-    resources.insert("vx_normal".into(), f4(&voxels.normal));
-    resources.insert("vx_albedo".into(), f4(&voxels.albedo));
-    resources.insert(
-        "vx_indirect".into(),
-        HostResource::Buffer(HostBuffer::zeroed(n * 16, ScalarKind::F32)),
-    );
+    let f4 = |v: &[[f32; 4]]| HostBuffer::of(if v.is_empty() { &[[0.0f32; 4]] } else { v });
+    resources.extend(buffers([
+        ("cone", HostBuffer::pod(params)),
+        (
+            "cone_dirs",
+            f4(&vxgi_cpu_mirror::cone_trace::cone_dirs(params)),
+        ),
+        ("vx_position", f4(&voxels.position)),
+        ("vx_normal", f4(&voxels.normal)),
+        ("vx_albedo", f4(&voxels.albedo)),
+        ("vx_indirect", HostBuffer::zeroed(n * 16, ScalarKind::F32)),
+    ]));
     Case {
         label,
         seed,
@@ -569,14 +552,13 @@ pub fn bounce_case(
             n as u64,
         )],
         resources,
-        checks: vec![Check {
-            resource: "vx_indirect".into(),
-            output: "vx_indirect",
-            indexing: Indexing::Grid {
+        checks: vec![Check::of(
+            "vx_indirect",
+            Indexing::Grid {
                 dims: [n as u32, 1, 1],
                 components: 4,
             },
-        }],
+        )],
         effective_bytes: n as u64 * 64,
     }
 }
@@ -731,15 +713,6 @@ impl Kernel for SvoBounce {
         );
         let v: Vec<[f32; 4]> = out.iter().map(|o| o.0).collect();
         let bd: Vec<[f32; 4]> = out.iter().map(|o| o.1).collect();
-        BTreeMap::from([
-            (
-                "vx_indirect".to_string(),
-                HostBuffer::f32(bytemuck::cast_slice(&v)),
-            ),
-            (
-                bound_name("vx_indirect"),
-                HostBuffer::f32(bytemuck::cast_slice(&bd)),
-            ),
-        ])
+        BTreeMap::from(bounded("vx_indirect", &v, &bd))
     }
 }

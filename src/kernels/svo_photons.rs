@@ -94,11 +94,7 @@ pub fn case_for(
 ) -> Case {
     let n = (params.info[0] * params.info[0]) as usize;
     let inputs = super::reflective_shadow_map::light_view_inputs(lights, gb);
-    let materials = if data.materials.is_empty() {
-        vec![Default::default()]
-    } else {
-        data.materials.clone()
-    };
+    let materials = super::or_one(&data.materials);
     let io = Io {
         params: Block(*params),
         lights: field(&inputs, "lights"),
@@ -253,22 +249,13 @@ pub fn mirror_photons(
             [&gb[0], &gb[1], &gb[2]],
             &tri,
             &data.triangles,
-            &materials_or_default(data),
+            &super::or_one(&data.materials),
         );
         out.pos.extend(ph.iter().map(|p| p.pos));
         out.value.extend(ph.iter().map(|p| p.value));
         out.spec.extend(ph.iter().map(|p| p.spec));
     }
     Ok(out)
-}
-
-/// The scene's materials, or one default material where it has none (a binding cannot be empty).
-fn materials_or_default(data: &SceneData) -> Vec<vxgi_cpu_mirror::direct_light::GpuMaterial> {
-    if data.materials.is_empty() {
-        vec![Default::default()]
-    } else {
-        data.materials.clone()
-    }
 }
 
 /// Fragments of the specular photons that exist (`w > 0`), encoded for the unsigned fixed point:

@@ -6,7 +6,7 @@ use thiserror::Error;
 use vxgi_cpu_mirror::octahedral::BIN_COUNT;
 use vxgi_cpu_mirror::tile_normal_histogram::{histograms, HistogramParams};
 use vxgi_harness::prelude::*;
-use vxgi_harness::run::{Pass, Workgroups};
+use vxgi_harness::run::Pass;
 
 /// Shared octahedral binning, included by both kernels.
 pub const OCTAHEDRAL_BINS: (&str, &str) = (
@@ -98,20 +98,11 @@ pub fn case_for(
         histogram: vec![0; tiles * BIN_COUNT],
         blurred: vec![0; tiles * BIN_COUNT],
     };
-    let pass = Pass {
-        label: "histograms".into(),
-        entry: "main".into(),
-        bindings: DECL.bind_by_name(),
-        workgroups: Workgroups::Direct([p.tiles_x, tiles_y, 1]),
-    };
-    let indexing = Indexing::Grid {
-        dims: [BIN_COUNT as u32, p.tiles_x, tiles_y],
-        components: 1,
-    };
+    let groups = [p.tiles_x, tiles_y, 1];
+    let pass = Pass::direct("histograms", "main", DECL.bind_by_name(), groups);
     Ok(io
         .case(label, seed, vec![pass])
-        .with_indexing("histogram", indexing.clone())
-        .with_indexing("blurred", indexing))
+        .with_grid([BIN_COUNT as u32, p.tiles_x, tiles_y]))
 }
 
 /// The image sizes and tiles `vxgi verify` cycles through (including sizes not a multiple of the tile).

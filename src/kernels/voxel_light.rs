@@ -10,7 +10,6 @@ use vxgi_cpu_mirror::bvh_trace::{GpuNode, GpuTriangle};
 use vxgi_cpu_mirror::direct_light::GpuLight;
 use vxgi_cpu_mirror::voxel_light::{light_voxel, VoxelGrid};
 use vxgi_harness::bindings::field;
-use vxgi_harness::compare::bound_name;
 use vxgi_harness::prelude::*;
 use vxgi_harness::run::{run, Pass, View};
 
@@ -74,12 +73,7 @@ pub fn case_for(
         lights: field(&scene, "lights"),
         vox_colour: grid.colour.clone(),
         vox_normal: grid.normal.clone(),
-        // Bindings cannot be empty.
-        list: if list.is_empty() {
-            vec![0]
-        } else {
-            list.to_vec()
-        },
+        list: super::or_one(list),
         list_count: vec![list.len() as u32],
         vox_radiance: vec![[0.0; 4]; grid.colour.len()],
     };
@@ -289,10 +283,6 @@ impl Kernel for VoxelLight {
     fn mirror(&self, _case: &Case, data: &Resources, _mode: FloatMode) -> MirrorOutputs {
         // Scene-scale arithmetic: no subnormals arise, one mode serves both.
         let (l, e) = mirror_radiance(data);
-        let f = |v: &[[f32; 4]]| HostBuffer::f32(bytemuck::cast_slice(v));
-        BTreeMap::from([
-            ("vox_radiance".to_string(), f(&l)),
-            (bound_name("vox_radiance"), f(&e)),
-        ])
+        BTreeMap::from(bounded("vox_radiance", &l, &e))
     }
 }

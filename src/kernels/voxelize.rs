@@ -11,7 +11,7 @@ use vxgi_cpu_mirror::voxelize::{
     accumulate, occupancy, occupancy_words, resolve, VoxInput, VoxTriangle, FIXED, SUB,
 };
 use vxgi_harness::prelude::*;
-use vxgi_harness::run::{grid_for, run, Pass, View, Workgroups};
+use vxgi_harness::run::{grid_for, Pass, View};
 
 pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
     "voxelize",
@@ -275,33 +275,21 @@ pub fn case_windowed(
     }
     let mut resources = sampling_inputs(tris, side);
     let v = voxels as usize;
-    let zeroed = |bytes: usize, s| HostResource::Buffer(HostBuffer::zeroed(bytes, s));
-    // One window's accumulators, bound whole for every window: resolve leaves them zero.
-    resources.insert(
-        "acc".into(),
-        zeroed((window * ACC_BYTES) as usize, ScalarKind::U32),
+    let (f32s, u32s) = (
+        |n: usize| HostBuffer::zeroed(n * 4, ScalarKind::F32),
+        |n: usize| HostBuffer::zeroed(n * 4, ScalarKind::U32),
     );
-    resources.insert("vox_colour".into(), zeroed(v * 16, ScalarKind::F32));
-    resources.insert("vox_normal".into(), zeroed(v * 16, ScalarKind::F32));
-    resources.insert("list".into(), zeroed(v * 4, ScalarKind::U32));
-    resources.insert("list_count".into(), zeroed(4, ScalarKind::U32));
-    resources.insert(
-        "occupancy".into(),
-        zeroed(occupancy_words(voxels) * 4, ScalarKind::U32),
-    );
-    let texels = if input.texels.is_empty() {
-        vec![0]
-    } else {
-        input.texels.clone()
-    };
-    resources.insert(
-        "vox_texels".into(),
-        HostResource::Buffer(HostBuffer::u32(&texels)),
-    );
-    resources.insert(
-        "vox_lut".into(),
-        HostResource::Buffer(HostBuffer::u32(&input.lut)),
-    );
+    resources.extend(buffers([
+        // One window's accumulators, bound whole for every window: resolve leaves them zero.
+        ("acc", u32s((window * ACC_BYTES / 4) as usize)),
+        ("vox_colour", f32s(v * 4)),
+        ("vox_normal", f32s(v * 4)),
+        ("list", u32s(v)),
+        ("list_count", u32s(1)),
+        ("occupancy", u32s(occupancy_words(voxels))),
+        ("vox_texels", HostBuffer::of(&super::or_one(&input.texels))),
+        ("vox_lut", HostBuffer::of(&input.lut)),
+    ]));
     let max_rows = tris.iter().map(|t| t.a[3] + 1).max().unwrap_or(1) as u32;
     let max = ctx.limits().max_compute_workgroups_per_dimension;
     let mut passes = Vec::new();
@@ -315,7 +303,7 @@ pub fn case_windowed(
                 ..VoxParams::whole(side, tris.len())
             };
             let name = format!("params_w{k}");
-            resources.insert(name.clone(), HostResource::Buffer(HostBuffer::pod(&params)));
+            resources.insert(name.clone(), HostBuffer::pod(&params).into());
             for (binding, view) in &mut bindings {
                 if binding == "params" {
                     *view = View::Buffer(name.clone());
@@ -329,28 +317,25 @@ pub fn case_windowed(
         } else {
             String::new()
         };
-        passes.push(Pass {
-            label: format!("splat{at}"),
-            entry: "splat".into(),
-            bindings: bindings.clone(),
-            workgroups: Workgroups::Direct([(tris.len() as u32).div_ceil(64).max(1), max_rows, 1]),
-        });
-        passes.push(Pass {
-            label: format!("resolve{at}"),
-            entry: "resolve".into(),
+        let splat = splat_groups(tris, max_rows);
+        passes.push(Pass::direct(
+            format!("splat{at}"),
+            "splat",
+            bindings.clone(),
+            splat,
+        ));
+        let resolve = grid_for(window, 64, max);
+        passes.push(Pass::direct(
+            format!("resolve{at}"),
+            "resolve",
             bindings,
-            workgroups: Workgroups::Direct(grid_for(window, 64, max)),
-        });
+            resolve,
+        ));
     }
     passes.push(occupancy_pass(tris, max_rows));
-    let morton = |components| Indexing::Morton {
+    let morton = Indexing::Morton {
         n: side,
-        components,
-    };
-    let check = |name: &'static str, indexing| Check {
-        resource: name.into(),
-        output: name,
-        indexing,
+        components: 4,
     };
     Ok(Case {
         label,
@@ -358,12 +343,12 @@ pub fn case_windowed(
         resources,
         passes,
         checks: vec![
-            check("acc", Indexing::Linear),
-            check("vox_colour", morton(4)),
-            check("vox_normal", morton(4)),
-            check("list", Indexing::Linear),
-            check("list_count", Indexing::Linear),
-            check("occupancy", Indexing::Linear),
+            Check::of("acc", Indexing::Linear),
+            Check::of("vox_colour", morton.clone()),
+            Check::of("vox_normal", morton),
+            Check::of("list", Indexing::Linear),
+            Check::of("list_count", Indexing::Linear),
+            Check::of("occupancy", Indexing::Linear),
         ],
         effective_bytes: voxels * 36 + window * ACC_BYTES + occupancy_words(voxels) as u64 * 4,
     })
@@ -371,34 +356,29 @@ pub fn case_windowed(
 
 /// The `occupancy_bits` pass over `tris`, dispatched as splat (a triangle's rows on y).
 fn occupancy_pass(tris: &[VoxTriangle], max_rows: u32) -> Pass {
-    Pass {
-        label: "occupancy".into(),
-        entry: "occupancy_bits".into(),
-        bindings: vxgi_harness::run::bind_same_names(["params", "vox_triangles", "occupancy"]),
-        workgroups: Workgroups::Direct([(tris.len() as u32).div_ceil(64).max(1), max_rows, 1]),
-    }
+    let bindings = vxgi_harness::run::bind_same_names(["params", "vox_triangles", "occupancy"]);
+    Pass::direct(
+        "occupancy",
+        "occupancy_bits",
+        bindings,
+        splat_groups(tris, max_rows),
+    )
+}
+
+/// The sampling passes' grid: a triangle per invocation on x, its rows (at most `max_rows`) on y.
+fn splat_groups(tris: &[VoxTriangle], max_rows: u32) -> [u32; 3] {
+    [(tris.len() as u32).div_ceil(64).max(1), max_rows, 1]
 }
 
 /// What every entry's sampling binds: the parameters and the triangles (one zero triangle when there
 /// are none: a binding is never empty).
 fn sampling_inputs(tris: &[VoxTriangle], side: u32) -> Resources {
-    let bytes = if tris.is_empty() {
-        bytemuck::bytes_of(&VoxTriangle::default()).to_vec()
-    } else {
-        bytemuck::cast_slice(tris).to_vec()
-    };
-    Resources::from([
+    buffers([
         (
-            "params".to_string(),
-            HostResource::Buffer(HostBuffer::pod(&VoxParams::whole(side, tris.len()))),
+            "params",
+            HostBuffer::pod(&VoxParams::whole(side, tris.len())),
         ),
-        (
-            "vox_triangles".to_string(),
-            HostResource::Buffer(HostBuffer {
-                bytes,
-                scalar: ScalarKind::Mixed,
-            }),
-        ),
+        ("vox_triangles", HostBuffer::structs(&super::or_one(tris))),
     ])
 }
 
@@ -420,21 +400,15 @@ pub fn occupancy_case(
         return Err(VoxelizeError::OccupancyTooLarge { side, bytes, limit });
     }
     let mut resources = sampling_inputs(tris, side);
-    resources.insert(
-        "occupancy".into(),
-        HostResource::Buffer(HostBuffer::zeroed(bytes as usize, ScalarKind::U32)),
-    );
+    let zero = HostBuffer::zeroed(bytes as usize, ScalarKind::U32);
+    resources.insert("occupancy".into(), zero.into());
     let max_rows = tris.iter().map(|t| t.a[3] + 1).max().unwrap_or(1) as u32;
     Ok(Case {
         label,
         seed,
         resources,
         passes: vec![occupancy_pass(tris, max_rows)],
-        checks: vec![Check {
-            resource: "occupancy".into(),
-            output: "occupancy",
-            indexing: Indexing::Linear,
-        }],
+        checks: vec![Check::of("occupancy", Indexing::Linear)],
         effective_bytes: tris.len() as u64 * 160 + bytes,
     })
 }
@@ -457,14 +431,7 @@ pub fn occupancy_of_input(
     side: u32,
 ) -> anyhow::Result<Vec<u32>> {
     let case = occupancy_case(ctx, input, side, "occupancy".into(), 0)?;
-    let out = run(
-        ctx,
-        &DECL.shader()?,
-        DECL.name,
-        &case.resources,
-        &case.passes,
-        &["occupancy"],
-    )?;
+    let out = DECL.run(ctx, &case, &["occupancy"])?;
     Ok(out.buffer("occupancy").as_u32().to_vec())
 }
 
@@ -487,12 +454,9 @@ pub fn voxelize_in_on_gpu(
     let side = frame.side;
     let (input, frame) = prepare_in(scene, frame)?;
     let case = case_for(ctx, &input, side, "voxelize".into(), 0)?;
-    let out = run(
+    let out = DECL.run(
         ctx,
-        &DECL.shader()?,
-        DECL.name,
-        &case.resources,
-        &case.passes,
+        &case,
         &["vox_colour", "vox_normal", "list", "list_count"],
     )?;
     let count = out.buffer("list_count").as_u32()[0] as usize;
@@ -528,7 +492,7 @@ impl Kernel for Voxelize {
         case_for(ctx, &input, side, format!("{label}, {side}^3"), seed)
             .expect("generated grids fit")
     }
-    fn mirror(&self, case: &Case, data: &Resources, _mode: FloatMode) -> MirrorOutputs {
+    fn mirror(&self, _case: &Case, data: &Resources, _mode: FloatMode) -> MirrorOutputs {
         // No subnormal can arise: the smallest non-zero value is 1 / count / 4096 >= 2^-36, so the
         // flush-to-zero mode computes the same.
         let b = |n: &str| data[n].buffer().expect("buffer");
@@ -555,23 +519,15 @@ impl Kernel for Voxelize {
         // frame's, start from them).
         let raw = vec![0u32; b("acc").as_u32().len()];
         let count = list.len() as u32;
-        list.resize(
-            case.resources["list"]
-                .buffer()
-                .expect("list")
-                .as_u32()
-                .len(),
-            0,
-        );
-        let f = |v: &[[f32; 4]]| HostBuffer::f32(bytemuck::cast_slice(v));
+        list.resize(b("list").as_u32().len(), 0);
         let bits = occupancy(&tris[..p.triangles as usize], p.side);
-        BTreeMap::from([
-            ("acc".to_string(), HostBuffer::u32(&raw)),
-            ("vox_colour".to_string(), f(&colour)),
-            ("vox_normal".to_string(), f(&normal)),
-            ("list".to_string(), HostBuffer::u32(&list)),
-            ("list_count".to_string(), HostBuffer::u32(&[count])),
-            ("occupancy".to_string(), HostBuffer::u32(&bits)),
+        mirror_outputs([
+            ("acc", HostBuffer::of(&raw)),
+            ("vox_colour", HostBuffer::of(&colour)),
+            ("vox_normal", HostBuffer::of(&normal)),
+            ("list", HostBuffer::of(&list)),
+            ("list_count", HostBuffer::of(&[count])),
+            ("occupancy", HostBuffer::of(&bits)),
         ])
     }
     fn canonicalise(
