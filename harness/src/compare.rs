@@ -29,17 +29,22 @@ pub fn bound_name(resource: &str) -> String {
     format!("{resource}@bound")
 }
 
+/// The per-element bounds of a mirror's `output`, as an entry of its outputs.
+pub fn bound<E: crate::bindings::Element>(
+    output: &str,
+    bounds: &[E],
+) -> (String, crate::run::HostBuffer) {
+    (bound_name(output), crate::run::HostBuffer::of(bounds))
+}
+
 /// A mirror's value of `output` and its per-element bounds, as two entries of its outputs.
 pub fn bounded<E: crate::bindings::Element>(
     output: &str,
     values: &[E],
     bounds: &[E],
 ) -> [(String, crate::run::HostBuffer); 2] {
-    use crate::run::HostBuffer;
-    [
-        (output.to_string(), HostBuffer::of(values)),
-        (bound_name(output), HostBuffer::of(bounds)),
-    ]
+    let value = (output.to_string(), crate::run::HostBuffer::of(values));
+    [value, bound(output, bounds)]
 }
 
 /// Distance in units in the last place between two f32 (0 for +0/-0; u64::MAX if either is NaN

@@ -23,7 +23,7 @@ pub mod run;
 pub mod shader;
 
 pub use bindings::{Bindings, Block, Structs};
-pub use compare::{bound_name, bounded, Comparison, Indexing, Tolerance};
+pub use compare::{bound, bound_name, bounded, Comparison, Indexing, Tolerance};
 pub use context::{thread_counters, Counters, GpuContext};
 pub use error::{HarnessError, Result};
 pub use kernel::{
@@ -41,7 +41,7 @@ pub use shader::{Binding, BindingKind, ScalarKind, Shader};
 /// the standard one).
 pub mod prelude {
     pub use crate::bindings::{Bindings, Block, Structs};
-    pub use crate::compare::{bounded, Indexing, Tolerance};
+    pub use crate::compare::{bound, bounded, Indexing, Tolerance};
     pub use crate::context::GpuContext;
     pub use crate::kernel::{
         mirror_outputs, Case, Check, DispatchRule, FloatMode, Kernel, KernelDecl, MirrorOutputs,

@@ -6,7 +6,6 @@ use rand_chacha::ChaCha8Rng;
 use vxgi_cpu_mirror::cache_preconvolve::{
     irradiance_texel, irradiance_weights, mip_len, mip_texel, PreconvolveParams,
 };
-use vxgi_harness::compare::bound_name;
 use vxgi_harness::prelude::*;
 use vxgi_harness::run::Pass;
 
@@ -179,10 +178,7 @@ impl Kernel for CachePreconvolve {
         }
         (io.cache_mips, io.cache_irradiance) = (mips, irr);
         let mut out = io.outputs();
-        out.insert(
-            bound_name("cache_irradiance"),
-            HostBuffer::f32(bytemuck::cast_slice(&irr_b)),
-        );
+        out.extend([bound("cache_irradiance", &irr_b)]);
         out
     }
 }

@@ -5,7 +5,6 @@
 use super::cluster_extract::DistributionInputs;
 use vxgi_cpu_mirror::cache_records::{bounds, records, RecordsParams, ARGS_LEN};
 use vxgi_cpu_mirror::cluster_extract::Cluster;
-use vxgi_harness::compare::bound_name;
 use vxgi_harness::prelude::*;
 use vxgi_harness::run::Pass;
 
@@ -193,11 +192,12 @@ impl Kernel for CacheRecords {
         io.caches = pad(r.caches, 2 * slots);
         (io.tile_ranges, io.cache_count, io.cache_args) =
             (r.tile_ranges, vec![r.count], r.args.to_vec());
-        let f = |v: Vec<[f32; 4]>| HostBuffer::f32(bytemuck::cast_slice(&v));
         let mut out = io.outputs();
-        out.insert(bound_name("cache_pos"), f(pad(pos_b, slots)));
-        out.insert(bound_name("cache_normal"), f(pad(nrm_b, slots)));
-        out.insert(bound_name("caches"), f(pad(cr_b, 2 * slots)));
+        out.extend([
+            bound("cache_pos", &pad(pos_b, slots)),
+            bound("cache_normal", &pad(nrm_b, slots)),
+            bound("caches", &pad(cr_b, 2 * slots)),
+        ]);
         out
     }
 }

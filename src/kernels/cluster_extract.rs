@@ -92,7 +92,6 @@ pub fn distribution_inputs(
 }
 
 /// [`distribution_inputs`] with the caller's depths (e.g. smooth ones, without the stress values).
-#[allow(clippy::too_many_arguments)]
 pub fn distribution_inputs_with_depth(
     width: u32,
     height: u32,

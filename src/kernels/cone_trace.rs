@@ -235,7 +235,6 @@ pub fn run_case(ctx: &GpuContext, decl: &KernelDecl, case: &Case) -> anyhow::Res
 
 /// The cone pass over a scene whose G-buffer and pyramids are given. The normal pyramid is bound
 /// only where `params` asks for the depth-ordered blend (else one empty element: never read).
-#[allow(clippy::too_many_arguments)]
 pub fn case_for(
     data: &SceneData,
     gbuffer: &Resources,
@@ -258,7 +257,6 @@ pub fn case_for(
 
 /// The instanced cone pass (`INSTANCED_DECL`): `pyramid` holds every hierarchy, `placed` says where each
 /// stands and where its levels start; `params` is the march's grid (covering them all).
-#[allow(clippy::too_many_arguments)]
 pub fn instanced_case_for(
     data: &SceneData,
     gbuffer: &Resources,
@@ -378,7 +376,6 @@ pub fn with_pyramid_split(mut case: Case, index: usize) -> Case {
 
 /// The cone pass of a kernel built on `kernels/common/cone_march.wgsl` (`decl`): the scene, G-buffer
 /// and cone bindings, plus the resources of its volume (`volume`, by binding name).
-#[allow(clippy::too_many_arguments)]
 pub fn tracer_case(
     decl: &KernelDecl,
     data: &SceneData,

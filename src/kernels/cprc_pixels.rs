@@ -8,7 +8,6 @@ use rand_chacha::ChaCha8Rng;
 use vxgi_cpu_mirror::bvh_trace::GpuTriangle;
 use vxgi_cpu_mirror::cprc_pixels::{self as m, GPixel};
 use vxgi_cpu_mirror::gbuffer::Frame;
-use vxgi_harness::compare::bound_name;
 use vxgi_harness::prelude::*;
 use vxgi_harness::run::Pass;
 
@@ -361,11 +360,9 @@ impl Kernel for CprcPixels {
         }
         (io.normals, io.depth, io.positions) = (out_n, depth, positions);
         (io.pixel_dirs, io.px_specular, io.indirect, io.ao) = (dirs, spec, ind, ao);
-        let f = |v: &[[f32; 4]]| HostBuffer::f32(bytemuck::cast_slice(v));
         let mut out = io.outputs();
-        out.insert(bound_name("depth"), HostBuffer::f32(&depth_b));
-        out.insert(bound_name("pixel_dirs"), f(&dirs_b));
-        out.insert(bound_name("indirect"), f(&ind_b));
+        out.extend([bound("depth", &depth_b)]);
+        out.extend([bound("pixel_dirs", &dirs_b), bound("indirect", &ind_b)]);
         out
     }
 }

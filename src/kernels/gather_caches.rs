@@ -10,7 +10,6 @@ use vxgi_cpu_mirror::gather_caches::{
     gather, gather_bound, payload_max, GatherInputs, GatherParams,
 };
 use vxgi_cpu_mirror::octahedral::unpack;
-use vxgi_harness::compare::bound_name;
 use vxgi_harness::prelude::*;
 
 vxgi_harness::bindings! {
@@ -313,17 +312,13 @@ pub fn mirror_outputs(data: &Resources) -> BTreeMap<String, HostBuffer> {
     io.glossy = px.iter().map(|p| p.0.glossy).collect();
     io.weight_sum = px.iter().map(|p| p.0.weight_sum).collect();
     io.in_radius = px.iter().map(|p| p.0.in_radius).collect();
-    let f4 = |v: Vec<[f32; 4]>| HostBuffer::f32(bytemuck::cast_slice(&v));
+    let f4 = |g: fn(&_) -> [f32; 4]| px.iter().map(g).collect::<Vec<_>>();
     let mut out = io.outputs();
-    out.insert(
-        bound_name("diffuse"),
-        f4(px.iter().map(|p| p.1 .0).collect()),
-    );
-    out.insert(
-        bound_name("glossy"),
-        f4(px.iter().map(|p| p.1 .1).collect()),
-    );
+    out.extend([
+        bound("diffuse", &f4(|p| p.1 .0)),
+        bound("glossy", &f4(|p| p.1 .1)),
+    ]);
     let weights: Vec<f32> = px.iter().map(|p| p.1 .2).collect();
-    out.insert(bound_name("weight_sum"), HostBuffer::f32(&weights));
+    out.extend([bound("weight_sum", &weights)]);
     out
 }

@@ -5,10 +5,7 @@
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use vxgi_cpu_mirror::gaussian_depth_visibility::{visibility, visibility_bound, VisibilityParams};
-use vxgi_harness::compare::bound_name;
 use vxgi_harness::prelude::*;
-
-pub const WGSL: &str = include_str!("../../kernels/gaussian_depth_visibility.wgsl");
 
 use super::LRSM_MATH;
 
@@ -227,7 +224,7 @@ impl Kernel for GaussianDepthVisibility {
             .map(|(m, c)| visibility(*m, c[0], c[1], &params, flush))
             .collect();
         let mut out = io.outputs();
-        out.insert(bound_name("visibility"), HostBuffer::f32(&b));
+        out.extend([bound("visibility", &b)]);
         out
     }
 }

@@ -12,7 +12,6 @@ use vxgi_cpu_mirror::direct_light::GpuMaterial;
 use vxgi_cpu_mirror::gbuffer::{
     accepted_texel, albedo, albedo_bound, texel_bounds, Frame, Textures,
 };
-use vxgi_harness::compare::bound_name;
 use vxgi_harness::prelude::*;
 use vxgi_harness::run::Pass;
 
@@ -438,11 +437,12 @@ impl Kernel for Gbuffer {
         let mut io = Io::read(data);
         (io.gb_position, io.gb_normal) = (m.position, m.normal);
         (io.gb_triangle, io.gb_albedo) = (m.triangle, m.albedo);
-        let f = |v: &[[f32; 4]]| HostBuffer::f32(bytemuck::cast_slice(v));
         let mut out = io.outputs();
-        out.insert(bound_name("gb_position"), f(&m.position_bound));
-        out.insert(bound_name("gb_normal"), f(&m.normal_bound));
-        out.insert(bound_name("gb_albedo"), f(&m.albedo_bound));
+        out.extend([
+            bound("gb_position", &m.position_bound),
+            bound("gb_normal", &m.normal_bound),
+            bound("gb_albedo", &m.albedo_bound),
+        ]);
         out
     }
 }

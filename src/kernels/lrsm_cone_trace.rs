@@ -18,7 +18,6 @@ use vxgi_cpu_mirror::lrsm_cone_trace::{soft_direct, LrsmVolume, ShadowParams};
 use vxgi_cpu_mirror::reflective_shadow_map::GpuView;
 use vxgi_cpu_mirror::sample_lrsm::{Lrsm, SampleParams};
 use vxgi_harness::prelude::*;
-use vxgi_harness::run::run;
 
 pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
     "lrsm_cone_trace",
@@ -151,12 +150,10 @@ pub fn lrsm_on_gpu(
 ) -> anyhow::Result<[Vec<[f32; 4]>; 3]> {
     let pshader = lrsm_partition::DECL.shader()?;
     let pcase = lrsm_partition::case_for(&pshader, ctx, rsm, config, "partition".into(), 0)?;
-    let out = run(
+    let out = pcase.run(
         ctx,
         &pshader,
         lrsm_partition::DECL.name,
-        &pcase.resources,
-        &pcase.passes,
         &["out_radiance", "out_normal", "out_moments"],
     )?;
     let f4 = lrsm_prefilter::values;
@@ -183,14 +180,7 @@ pub fn lrsm_on_gpu(
             .flat_map(|k| (0..3).map(move |s| lrsm_prefilter::stream_name(s, k)))
             .collect();
         let refs: Vec<&str> = names.iter().map(String::as_str).collect();
-        let out = run(
-            ctx,
-            &fshader,
-            lrsm_prefilter::DECL.name,
-            &fcase.resources,
-            &fcase.passes,
-            &refs,
-        )?;
+        let out = fcase.run(ctx, &fshader, lrsm_prefilter::DECL.name, &refs)?;
         for k in 1..levels {
             for (s, stream) in streams.iter_mut().enumerate() {
                 stream.extend(f4(out.buffer(&lrsm_prefilter::stream_name(s, k))));
@@ -377,7 +367,6 @@ pub fn mirror_frame(
 
 /// The gather over a scene whose G-buffer and LRSM frame are given; with `shadow_tan` > 0 also the
 /// shadow-cone pass (`shadow_main`, cones of that tan of the half-angle) into `soft_direct`.
-#[allow(clippy::too_many_arguments)]
 pub fn case_for(
     data: &SceneData,
     gbuffer: &Resources,
@@ -559,9 +548,7 @@ impl Kernel for LrsmConeTrace {
         let mut out = bounded_outputs(&mirror_gather(data));
         if case.checks.iter().any(|c| c.resource == "soft_direct") {
             let (l, e) = mirror_soft_direct(data);
-            let f = |v: &[[f32; 4]]| HostBuffer::f32(bytemuck::cast_slice(v));
-            out.insert("soft_direct".to_string(), f(&l));
-            out.insert(vxgi_harness::compare::bound_name("soft_direct"), f(&e));
+            out.extend(bounded("soft_direct", &l, &e));
         }
         out
     }

@@ -6,8 +6,6 @@ use vxgi_cpu_mirror::lrsm_partition::{partition, PartitionParams};
 use vxgi_cpu_mirror::lrsm_prefilter::pack_stream;
 use vxgi_harness::prelude::*;
 
-pub const WGSL: &str = include_str!("../../kernels/lrsm_partition.wgsl");
-
 vxgi_harness::bindings! {
     /// lrsm_partition's bindings: one RSM in, its layers (each RSM texel's quarter-resolution
     /// texel in every layer) out.

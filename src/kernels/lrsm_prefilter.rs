@@ -8,8 +8,6 @@ use vxgi_cpu_mirror::lrsm_prefilter::{
 };
 use vxgi_harness::prelude::*;
 
-pub const WGSL: &str = include_str!("../../kernels/lrsm_prefilter.wgsl");
-
 pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
     "lrsm_prefilter",
     includes: &[super::LRSM_TEXEL],

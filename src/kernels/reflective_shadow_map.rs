@@ -8,7 +8,6 @@ use crate::trace::SceneData;
 use vxgi_cpu_mirror::direct_light::GpuLight;
 use vxgi_cpu_mirror::reflective_shadow_map::{rsm, GpuView};
 use vxgi_harness::bindings::field;
-use vxgi_harness::compare::bound_name;
 use vxgi_harness::prelude::*;
 
 /// The light view's struct and projection, included by reflective_shadow_map and lrsm_cone_trace.
@@ -231,10 +230,11 @@ impl Kernel for ReflectiveShadowMap {
         );
         (io.rsm_radiance, io.rsm_normal, io.rsm_depth) = (r.radiance, r.normal, r.depth);
         let mut out = io.outputs();
-        let v4 = |v: &[[f32; 4]]| HostBuffer::f32(bytemuck::cast_slice(v));
-        out.insert(bound_name("rsm_radiance"), v4(&r.radiance_bound));
-        out.insert(bound_name("rsm_normal"), v4(&r.normal_bound));
-        out.insert(bound_name("rsm_depth"), HostBuffer::f32(&r.depth_bound));
+        out.extend([
+            bound("rsm_radiance", &r.radiance_bound),
+            bound("rsm_normal", &r.normal_bound),
+        ]);
+        out.extend([bound("rsm_depth", &r.depth_bound)]);
         out
     }
 }

@@ -10,10 +10,7 @@ use rand_chacha::ChaCha8Rng;
 use vxgi_cpu_mirror::lrsm_partition::{partition, PartitionParams};
 use vxgi_cpu_mirror::lrsm_prefilter::{pack_stream, reduce_level, unpack_stream};
 use vxgi_cpu_mirror::sample_lrsm::{sample, sample_bound, Lrsm, SampleParams};
-use vxgi_harness::compare::bound_name;
 use vxgi_harness::prelude::*;
-
-pub const WGSL: &str = include_str!("../../kernels/sample_lrsm.wgsl");
 
 vxgi_harness::bindings! {
     /// sample_lrsm's bindings: an LRSM (every level of every layer) and cone samples in, their
@@ -249,10 +246,7 @@ impl Kernel for SampleLrsm {
             .collect();
         io.radiance = l;
         let mut out = io.outputs();
-        out.insert(
-            bound_name("radiance"),
-            HostBuffer::f32(bytemuck::cast_slice(&b)),
-        );
+        out.extend([bound("radiance", &b)]);
         out
     }
 }

@@ -5,7 +5,6 @@
 use super::sparse_voxel_octree::generated;
 use vxgi_cpu_mirror::sparse_voxel_octree::{build_fitted, Node, Octree};
 use vxgi_cpu_mirror::svo_anisotropic::{self as mirror, AnisoParams, NODE_VALUES};
-use vxgi_harness::compare::bound_name;
 use vxgi_harness::prelude::*;
 use vxgi_harness::run::run;
 
@@ -96,7 +95,7 @@ pub fn build_on_gpu(ctx: &GpuContext, o: &Octree, inv_scale: f32) -> anyhow::Res
     let mut passes = Vec::new();
     for p in mirror::passes(o.depth, inv_scale) {
         let name = format!("params_{}", p.level);
-        resources.insert(name.clone(), HostResource::Buffer(HostBuffer::pod(&p)));
+        resources.insert(name.clone(), HostBuffer::pod(&p).into());
         let mut bindings = DECL.bind_by_name();
         bindings.retain(|(b, _)| b != "params");
         bindings.push(("params".into(), vxgi_harness::run::View::Buffer(name)));
@@ -201,13 +200,14 @@ impl Kernel for SvoAnisotropic {
         // The pool whole (its unused element, if any, past every node's values), split back after.
         let lo = io.aniso.len();
         let mut pool = [io.aniso.as_slice(), &io.aniso_hi].concat();
-        let bound = mirror::level_pass(nodes, &io.bricks, &io.levels, &mut pool, &io.params.0);
+        let bounds = mirror::level_pass(nodes, &io.bricks, &io.levels, &mut pool, &io.params.0);
         io.aniso_hi = pool.split_off(lo);
         io.aniso = pool;
         let mut out = io.outputs();
-        let f = |v: &[[f32; 4]]| HostBuffer::f32(bytemuck::cast_slice(v));
-        out.insert(bound_name("aniso"), f(&bound[..lo]));
-        out.insert(bound_name("aniso_hi"), f(&bound[lo..]));
+        out.extend([
+            bound("aniso", &bounds[..lo]),
+            bound("aniso_hi", &bounds[lo..]),
+        ]);
         out
     }
 }

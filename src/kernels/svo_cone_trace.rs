@@ -621,7 +621,6 @@ pub fn bounce_on_gpu(
 
 /// The bounce pass by the mirror over the voxels' (position, normal, albedo): each voxel's value and
 /// bound. `aniso` and `normals` are read where `svo` turns them on.
-#[allow(clippy::too_many_arguments)]
 pub fn bounce_mirror(
     octree_nodes: &[vxgi_cpu_mirror::sparse_voxel_octree::Node],
     bricks: &[u32],

@@ -12,7 +12,6 @@ use vxgi_cpu_mirror::direct_light::{GpuLight, GpuMaterial};
 use vxgi_cpu_mirror::sparse_voxel_octree::Fragment;
 use vxgi_cpu_mirror::svo_photons::{photons, PhotonParams};
 use vxgi_harness::bindings::field;
-use vxgi_harness::compare::bound_name;
 use vxgi_harness::prelude::*;
 
 vxgi_harness::bindings! {
@@ -366,14 +365,10 @@ impl Kernel for SvoPhotons {
             ph.iter().flat_map(f).collect()
         };
         let mut out = io.outputs();
-        out.insert(
-            bound_name("photon_value"),
-            HostBuffer::f32(&bounds(|p| p.bound)),
-        );
-        out.insert(
-            bound_name("photon_spec"),
-            HostBuffer::f32(&bounds(|p| p.spec_bound)),
-        );
+        out.extend([
+            bound("photon_value", &bounds(|p| p.bound)),
+            bound("photon_spec", &bounds(|p| p.spec_bound)),
+        ]);
         out
     }
 }

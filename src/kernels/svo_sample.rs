@@ -8,7 +8,6 @@ use rand_chacha::ChaCha8Rng;
 use vxgi_cpu_mirror::sparse_voxel_octree::{build, Octree};
 use vxgi_cpu_mirror::svo_sample::{sample_all, SampleParams};
 use vxgi_harness::prelude::*;
-use vxgi_harness::run::run;
 
 vxgi_harness::bindings! {
     /// svo_sample's bindings: the octree and the queries (x, y, z, level) in, the samples out.
@@ -166,13 +165,6 @@ pub fn sample_on_gpu(
         return Err(SampleError::NonFinite { index, query: *q });
     }
     let case = case_for(ctx, octree, scale, queries, "sample_on_gpu".into(), 0);
-    let out = run(
-        ctx,
-        &DECL.shader()?,
-        DECL.name,
-        &case.resources,
-        &case.passes,
-        &["samples"],
-    )?;
+    let out = DECL.run(ctx, &case, &["samples"])?;
     Ok(bytemuck::cast_slice(&out.buffer("samples").bytes).to_vec())
 }

@@ -11,7 +11,7 @@ use vxgi_cpu_mirror::direct_light::GpuLight;
 use vxgi_cpu_mirror::voxel_light::{light_voxel, VoxelGrid};
 use vxgi_harness::bindings::field;
 use vxgi_harness::prelude::*;
-use vxgi_harness::run::{run, Pass, View};
+use vxgi_harness::run::{Pass, View};
 
 vxgi_harness::bindings! {
     /// voxel_light's bindings: the grid, the scene's BVH, triangles and lights, the voxels' albedo
@@ -159,37 +159,9 @@ pub fn light_on_gpu(
     list: &[u32],
     frame: &VoxelFrame,
 ) -> anyhow::Result<Vec<[f32; 4]>> {
-    light_placed_on_gpu(ctx, data, grid, list, frame, glam::Mat4::IDENTITY)
-}
-
-/// [`light_on_gpu`] for a grid placed in the world by `world_from_grid` (an instance's own hierarchy,
-/// lit where it stands without re-voxelizing); the identity is a world-space grid.
-pub fn light_placed_on_gpu(
-    ctx: &GpuContext,
-    data: &SceneData,
-    grid: &Grid,
-    list: &[u32],
-    frame: &VoxelFrame,
-    world_from_grid: glam::Mat4,
-) -> anyhow::Result<Vec<[f32; 4]>> {
-    let mut case = case_for(ctx, data, grid, list, frame, "voxel_light".into(), 0);
-    if world_from_grid != glam::Mat4::IDENTITY {
-        let placed = voxel_grid(frame, data.lights.len()).placed(world_from_grid);
-        case.resources.insert(
-            "grid".into(),
-            HostResource::Buffer(HostBuffer::pod(&placed)),
-        );
-    }
+    let case = case_for(ctx, data, grid, list, frame, "voxel_light".into(), 0);
     let window = window_voxels(grid.n, ctx.limits().max_storage_buffer_binding_size);
-    let case = in_windows(case, window);
-    let out = run(
-        ctx,
-        &DECL.shader()?,
-        DECL.name,
-        &case.resources,
-        &case.passes,
-        &["vox_radiance"],
-    )?;
+    let out = DECL.run(ctx, &in_windows(case, window), &["vox_radiance"])?;
     Ok(bytemuck::cast_slice(&out.buffer("vox_radiance").bytes).to_vec())
 }
 
