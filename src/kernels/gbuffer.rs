@@ -96,36 +96,16 @@ fn cuboid(mesh: &mut Mesh, lo: Vec3, hi: Vec3, material: u32) {
         )
     };
     let (f, t) = (false, true);
-    quad(
-        mesh,
-        [c(f, f, t), c(t, f, t), c(t, t, t), c(f, t, t)],
-        material,
-    ); // +z
-    quad(
-        mesh,
-        [c(t, f, f), c(f, f, f), c(f, t, f), c(t, t, f)],
-        material,
-    ); // -z
-    quad(
-        mesh,
-        [c(t, f, t), c(t, f, f), c(t, t, f), c(t, t, t)],
-        material,
-    ); // +x
-    quad(
-        mesh,
-        [c(f, f, f), c(f, f, t), c(f, t, t), c(f, t, f)],
-        material,
-    ); // -x
-    quad(
-        mesh,
-        [c(f, t, t), c(t, t, t), c(t, t, f), c(f, t, f)],
-        material,
-    ); // +y
-    quad(
-        mesh,
-        [c(f, f, f), c(t, f, f), c(t, f, t), c(f, f, t)],
-        material,
-    ); // -y
+    for corners in [
+        [c(f, f, t), c(t, f, t), c(t, t, t), c(f, t, t)], // +z
+        [c(t, f, f), c(f, f, f), c(f, t, f), c(t, t, f)], // -z
+        [c(t, f, t), c(t, f, f), c(t, t, f), c(t, t, t)], // +x
+        [c(f, f, f), c(f, f, t), c(f, t, t), c(f, t, f)], // -x
+        [c(f, t, t), c(t, t, t), c(t, t, f), c(f, t, f)], // +y
+        [c(f, f, f), c(t, f, f), c(t, f, t), c(f, f, t)], // -y
+    ] {
+        quad(mesh, corners, material);
+    }
 }
 
 /// A small random texture (sides 1 to 16 texels, not powers of two only).
@@ -341,6 +321,7 @@ pub fn case_for(data: &SceneData, label: String, seed: u64) -> Case {
 
 /// Mirror G-buffer given the GPU's triangle picks: texels, their bounds, and how many GPU picks
 /// differing from the mirror's own were accepted.
+#[derive(Default)]
 pub struct MirrorGbuffer {
     pub position: Vec<[f32; 4]>,
     pub normal: Vec<[f32; 4]>,
@@ -366,16 +347,7 @@ pub fn mirror_gbuffer(data: &Resources, gpu_triangle: &[u32]) -> MirrorGbuffer {
         lut: bytemuck::cast_slice(&b("srgb_lut").bytes),
     };
     let (w, h) = (frame.size[0], frame.size[1]);
-    let mut out = MirrorGbuffer {
-        position: vec![],
-        normal: vec![],
-        triangle: vec![],
-        position_bound: vec![],
-        normal_bound: vec![],
-        albedo: vec![],
-        albedo_bound: vec![],
-        accepted_differences: 0,
-    };
+    let mut out = MirrorGbuffer::default();
     for y in 0..h {
         for x in 0..w {
             let i = (y * w + x) as usize;

@@ -98,25 +98,6 @@ pub fn default_capacity(ctx: &GpuContext, depth: u32, fragments: usize) -> u32 {
     capacity_bound(depth, fragments).min(max_capacity(ctx) as u64) as u32
 }
 
-fn params(
-    depth: u32,
-    level: u32,
-    fragments: u32,
-    capacity: u32,
-    variant: u32,
-    max_groups: u32,
-) -> OctreeParams {
-    OctreeParams {
-        depth,
-        level,
-        fragments,
-        capacity_tiles: capacity,
-        variant,
-        max_groups,
-        _pad: [0; 2],
-    }
-}
-
 /// Resources and the pass sequence of a whole build: structure, splat, then transfer and distribution
 /// level by level from the leaves up ([`phase_of`] names the phase of each pass, for timing).
 pub fn case_for(
@@ -265,7 +246,16 @@ fn case_flagging(
             format!("params_l{level}_v{variant}_flagging")
         };
         resources.entry(pname.clone()).or_insert_with(|| {
-            HostBuffer::pod(&params(depth, level, f, capacity, variant, max_groups)).into()
+            let p = OctreeParams {
+                depth,
+                level,
+                fragments: f,
+                capacity_tiles: capacity,
+                variant,
+                max_groups,
+                _pad: [0; 2],
+            };
+            HostBuffer::pod(&p).into()
         });
         let mut bindings = vxgi_harness::run::bind_same_names(SHARED);
         if entry == "flag_static" {
@@ -345,14 +335,7 @@ fn case_flagging(
         seed,
         resources,
         passes,
-        checks: CHECKED
-            .iter()
-            .map(|r| Check {
-                resource: r.to_string(),
-                output: r,
-                indexing: Indexing::Linear,
-            })
-            .collect(),
+        checks: CHECKED.map(|r| Check::of(r, Indexing::Linear)).to_vec(),
         effective_bytes: n as u64 * (NODE_BYTES + BRICK_BYTES) + fragments.len() as u64 * 32,
     }
 }
@@ -401,6 +384,7 @@ pub fn generated(seed: u64, index: usize) -> (u32, Vec<Fragment>, String) {
             1 << 16,
         ]
     };
+    let point = |rng: &mut ChaCha8Rng| [0, 1, 2].map(|_| rng.random_range(0..=side));
     let frag = |pos: [u32; 3], value: [u32; 4]| Fragment {
         pos,
         _pad: 0,
@@ -409,10 +393,7 @@ pub fn generated(seed: u64, index: usize) -> (u32, Vec<Fragment>, String) {
     let mut out = Vec::new();
     let name = match family {
         0 => {
-            out.push(frag(
-                [0, 1, 2].map(|_| rng.random_range(0..=side)),
-                value(&mut rng),
-            ));
+            out.push(frag(point(&mut rng), value(&mut rng)));
             "single point"
         }
         1 => {
@@ -428,10 +409,7 @@ pub fn generated(seed: u64, index: usize) -> (u32, Vec<Fragment>, String) {
         }
         2 => {
             for _ in 0..rng.random_range(1..200) {
-                out.push(frag(
-                    [0, 1, 2].map(|_| rng.random_range(0..=side)),
-                    value(&mut rng),
-                ));
+                out.push(frag(point(&mut rng), value(&mut rng)));
             }
             "scattered points"
         }
@@ -449,7 +427,7 @@ pub fn generated(seed: u64, index: usize) -> (u32, Vec<Fragment>, String) {
         }
         4 => {
             // Many fragments on few points: atomic adds collide.
-            let p = [0, 1, 2].map(|_| rng.random_range(0..=side));
+            let p = point(&mut rng);
             for _ in 0..300 {
                 out.push(frag(p, value(&mut rng)));
             }
@@ -457,10 +435,7 @@ pub fn generated(seed: u64, index: usize) -> (u32, Vec<Fragment>, String) {
         }
         5 => {
             for _ in 0..8 {
-                out.push(frag(
-                    [0, 1, 2].map(|_| rng.random_range(0..=side)),
-                    value(&mut rng),
-                ));
+                out.push(frag(point(&mut rng), value(&mut rng)));
             }
             out.push(frag([side; 3], value(&mut rng)));
             out.push(frag([0; 3], value(&mut rng)));
@@ -471,7 +446,7 @@ pub fn generated(seed: u64, index: usize) -> (u32, Vec<Fragment>, String) {
             for _ in 0..150 {
                 let lit = rng.random_range(0..10) == 0;
                 let v = if lit { value(&mut rng) } else { [0; 4] };
-                out.push(frag([0, 1, 2].map(|_| rng.random_range(0..=side)), v));
+                out.push(frag(point(&mut rng), v));
             }
             "mostly unlit"
         }
@@ -503,17 +478,9 @@ impl Kernel for SparseVoxelOctree {
         case_for(ctx, depth, cap, &frags, label, seed)
     }
     fn mirror(&self, case: &Case, _data: &Resources, _mode: FloatMode) -> MirrorOutputs {
-        let p: OctreeParams = *bytemuck::from_bytes(
-            &case.resources["params_l1_v0"]
-                .buffer()
-                .expect("params")
-                .bytes,
-        );
-        let bytes = &case.resources["fragments"]
-            .buffer()
-            .expect("fragments")
-            .bytes;
-        let frags: &[Fragment] = bytemuck::cast_slice(bytes);
+        let b = |n: &str| case.resources[n].buffer().expect("buffer");
+        let p: OctreeParams = *bytemuck::from_bytes(&b("params_l1_v0").bytes);
+        let frags: &[Fragment] = bytemuck::cast_slice(&b("fragments").bytes);
         let o = build(p.depth, p.capacity_tiles, &frags[..p.fragments as usize]);
         octree_buffers(&o)
     }

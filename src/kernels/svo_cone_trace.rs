@@ -106,13 +106,10 @@ pub fn grid_values(radiance: &[[f32; 4]]) -> impl Iterator<Item = ([u32; 3], [f3
 /// Fragments of a lit voxel grid (Morton order, side `2^(depth + 1)`, voxels `(L * alpha, alpha)` as
 /// voxel_light writes them): one per non-empty voxel, at the leaf lattice point of its index.
 pub fn grid_fragments(radiance: &[[f32; 4]], scale: f32) -> Result<Vec<Fragment>, SvoError> {
-    radiance
-        .iter()
-        .enumerate()
-        .filter(|(_, v)| v.iter().any(|&c| c != 0.0))
-        .map(|(m, v)| {
+    grid_values(radiance)
+        .map(|(pos, v)| {
             Ok(Fragment {
-                pos: vxgi_cpu_mirror::morton::decode(m as u32),
+                pos,
                 _pad: 0,
                 value: [
                     to_fixed(v[0], scale)?,
@@ -140,27 +137,6 @@ pub struct SvoExtras<'a> {
     pub aniso: Option<&'a [[f32; 4]]>,
     pub normals: Option<&'a [u32]>,
     pub spec: Option<&'a [u32]>,
-}
-
-/// The normal pool's fragments over the voxel grid `radiance` (Morton order, alpha in w) whose mean
-/// normals are `normal` (xyz): each voxel with alpha > 0 its [`normal_value`].
-pub fn normal_fragments(
-    radiance: &[[f32; 4]],
-    normal: &[[f32; 4]],
-    scale: f32,
-) -> Result<Vec<Fragment>, SvoError> {
-    let values: Vec<[f32; 4]> = radiance
-        .iter()
-        .zip(normal)
-        .map(|(r, n)| {
-            if r[3] > 0.0 {
-                normal_value(glam::Vec3::from_slice(&n[..3]), r[3])
-            } else {
-                [0.0; 4]
-            }
-        })
-        .collect();
-    grid_fragments(&values, scale)
 }
 
 /// `frags`' points with value 0: structure only (a zero value splats nothing).
@@ -195,8 +171,9 @@ pub fn pool_in_layout(
     Ok(bricks_in_layout(&octree.nodes, &built))
 }
 
-/// The lobes' normal pool of `octree` (built from `frags`): [`pool_in_layout`] of
-/// [`normal_fragments`].
+/// The lobes' normal pool of `octree` (built from `frags`): [`pool_in_layout`] of the fragments
+/// over the voxel grid `radiance` (Morton order, alpha in w) whose mean normals are `normal` (xyz),
+/// each voxel with alpha > 0 its [`normal_value`].
 pub fn normal_pool(
     ctx: Option<&GpuContext>,
     octree: &Octree,
@@ -205,12 +182,13 @@ pub fn normal_pool(
     normal: &[[f32; 4]],
     scale: f32,
 ) -> Result<Vec<u32>, SvoError> {
-    pool_in_layout(
-        ctx,
-        octree,
-        frags,
-        &normal_fragments(radiance, normal, scale)?,
-    )
+    let values: Vec<[f32; 4]> = std::iter::zip(radiance, normal)
+        .map(|(r, n)| match r[3] > 0.0 {
+            true => normal_value(glam::Vec3::from_slice(&n[..3]), r[3]),
+            false => [0.0; 4],
+        })
+        .collect();
+    pool_in_layout(ctx, octree, frags, &grid_fragments(&values, scale)?)
 }
 
 /// The lobes' pools of `octree` (built from `frags`): the normal pool, and the specular pool where
@@ -394,19 +372,14 @@ impl GeneratedOctree {
         }
     }
 
-    /// ", anisotropic", ", lobes", both or nothing, for a case's label.
+    /// ", anisotropic", ", lobes", ", glossy voxels": the options on, for a case's label.
     pub fn options(&self) -> String {
-        let mut s = String::new();
-        if self.aniso.is_some() {
-            s += ", anisotropic";
-        }
-        if self.normals.is_some() {
-            s += ", lobes";
-        }
-        if self.spec.is_some() {
-            s += ", glossy voxels";
-        }
-        s
+        let on = [
+            (self.aniso.is_some(), ", anisotropic"),
+            (self.normals.is_some(), ", lobes"),
+            (self.spec.is_some(), ", glossy voxels"),
+        ];
+        on.iter().filter(|o| o.0).map(|o| o.1).collect()
     }
 }
 

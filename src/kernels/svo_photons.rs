@@ -265,22 +265,14 @@ pub fn spec_fragments(
     spec: &[[f32; 4]],
     scale: f32,
 ) -> Result<Vec<Fragment>, SvoError> {
-    let mut out = Vec::new();
-    for (p, q) in pos.iter().zip(spec) {
-        if p[3] == 0 || q[3] <= 0.0 {
-            continue;
+    fragments_of(pos, spec, |q| {
+        if q[3] <= 0.0 {
+            return Ok(None);
         }
         let e = |a: usize| to_fixed(((q[a] + q[3]) * 0.5).max(0.0), scale);
         let value = [e(0)?, e(1)?, e(2)?, to_fixed(q[3], scale)?];
-        if value[3] != 0 {
-            out.push(Fragment {
-                pos: [p[0], p[1], p[2]],
-                _pad: 0,
-                value,
-            });
-        }
-    }
-    Ok(out)
+        Ok((value[3] != 0).then_some(value))
+    })
 }
 
 /// Fragments of the photons that exist and carry light (in fixed point with `scale`).
@@ -289,20 +281,25 @@ pub fn to_fragments(
     value: &[[f32; 4]],
     scale: f32,
 ) -> Result<Vec<Fragment>, SvoError> {
+    fragments_of(pos, value, |v| {
+        let e = |a: usize| to_fixed(v[a], scale);
+        let value = [e(0)?, e(1)?, e(2)?, 0];
+        Ok((value != [0; 4]).then_some(value))
+    })
+}
+
+/// A fragment per photon that exists (`w` of its point non-zero) and whose value `encode` keeps.
+fn fragments_of(
+    pos: &[[u32; 4]],
+    values: &[[f32; 4]],
+    encode: impl Fn(&[f32; 4]) -> Result<Option<[u32; 4]>, SvoError>,
+) -> Result<Vec<Fragment>, SvoError> {
     let mut out = Vec::new();
-    for (p, v) in pos.iter().zip(value) {
-        if p[3] == 0 {
-            continue;
-        }
-        let value = [
-            to_fixed(v[0], scale)?,
-            to_fixed(v[1], scale)?,
-            to_fixed(v[2], scale)?,
-            0,
-        ];
-        if value != [0; 4] {
+    for (p, v) in pos.iter().zip(values).filter(|(p, _)| p[3] != 0) {
+        if let Some(value) = encode(v)? {
+            let pos = [p[0], p[1], p[2]];
             out.push(Fragment {
-                pos: [p[0], p[1], p[2]],
+                pos,
                 _pad: 0,
                 value,
             });
