@@ -133,9 +133,7 @@ fn placed_hierarchies_move_what_the_caches_see() {
     );
     // Shifted by 3 voxels along x and read 3 voxels further along x, the march's grid shifted too
     // (so its steps and far end fall where they fell).
-    let moved = [place(glam::Mat4::from_translation(glam::Vec3::new(
-        3.0, 0.0, 0.0,
-    )))];
+    let moved = [place(glam::Mat4::from_translation(glam::Vec3::X * 3.0))];
     let mut p3 = p;
     p3.origin[0] += 3.0;
     let shifted = PlacedPyramids {

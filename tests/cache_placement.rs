@@ -1,12 +1,8 @@
 //! GPU vs mirror for `kernels/cache_placement.wgsl` (CPRC 3.2): scores within their bounds, picks
 //! accepted by score, and how often the picks differ (its property test over generated G-buffers is
 //! cluster_extract's, which builds the clusters it scores).
-use crate::common;
-use crate::common::run_case;
-
-use common::gpu;
+use crate::common::{gpu, passing_run};
 use vxgi::gbuffers::GPattern;
-use vxgi::harness::kernel::verify_case;
 use vxgi::kernels::cache_placement::{accepted_picks, case_for, CachePlacement, DECL};
 use vxgi::kernels::cluster_extract::distribution_inputs;
 
@@ -27,9 +23,7 @@ fn one_pixel_clusters_and_pick_agreement() {
     {
         let inp = distribution_inputs(96, 64, 16, 16, pattern, i as u64);
         let case = case_for(gpu(), &inp, format!("{pattern:?}"), 0);
-        let (comps, ..) = verify_case(gpu(), &shader, &CachePlacement, &case, None).unwrap();
-        assert!(comps.iter().all(|c| c.passed()), "{pattern:?}");
-        let out = run_case(&shader, DECL.name, &case, &["picks", "scores"]);
+        let out = passing_run(&shader, &CachePlacement, &case, &["picks", "scores"]);
         let mut data = case.resources.clone();
         data.extend(out.resources.clone());
         let count = data["cluster_count"].buffer().unwrap().as_u32()[0] as usize;

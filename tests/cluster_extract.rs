@@ -1,9 +1,6 @@
 //! GPU vs mirror for `kernels/cluster_extract.wgsl` (CPRC 3.2), and what clusters must satisfy; its
 //! generated G-buffers also drive cache_placement's property test.
-use crate::common;
-use crate::common::run_case;
-
-use common::{case_passes, gpu};
+use crate::common::{assert_case_passes, case_passes, gpu, run_case};
 use vxgi::gbuffers::GPattern;
 use vxgi::kernels::cluster_extract::{case_for, distribution_inputs, ClusterExtract, DECL};
 use vxgi_cpu_mirror::cluster_extract::Cluster;
@@ -28,33 +25,19 @@ fn clusters_partition_the_geometry_pixels_and_bound_them() {
     let inp = distribution_inputs(128, 72, 32, 16, GPattern::Spheres, 4);
     let shader = DECL.shader().unwrap();
     let case = case_for(gpu(), &inp, "spheres".into(), 4);
-    let out = run_case(
-        &shader,
-        DECL.name,
-        &case,
-        &["cluster_count", "clusters", "pixel_cluster"],
-    );
+    let outputs = ["cluster_count", "clusters", "pixel_cluster"];
+    let out = run_case(&shader, DECL.name, &case, &outputs);
     let count = out.buffer("cluster_count").as_u32()[0] as usize;
     let clusters: &[Cluster] = bytemuck::cast_slice(&out.buffer("clusters").bytes);
     let pixel_cluster = out.buffer("pixel_cluster").as_u32();
     let geometry = inp.normals.iter().filter(|n| n[1] >> 16 == 1).count();
-    assert_eq!(
-        clusters[..count]
-            .iter()
-            .map(|c| c.start_count_key[1] as usize)
-            .sum::<usize>(),
-        geometry
-    );
-    for (p, &c) in pixel_cluster.iter().enumerate() {
-        if c == u32::MAX {
-            continue;
-        }
-        let cl = &clusters[c as usize];
-        for a in 0..3 {
-            assert!(
-                cl.bbox_min[a] <= inp.positions[p][a] && inp.positions[p][a] <= cl.bbox_max[a],
-                "pixel {p} outside cluster {c}"
-            );
+    let counted: u32 = clusters[..count].iter().map(|c| c.start_count_key[1]).sum();
+    assert_eq!(counted as usize, geometry);
+    for (p, (&c, q)) in pixel_cluster.iter().zip(&inp.positions).enumerate() {
+        if c != u32::MAX {
+            let cl = &clusters[c as usize];
+            let inside = (0..3).all(|a| cl.bbox_min[a] <= q[a] && q[a] <= cl.bbox_max[a]);
+            assert!(inside, "pixel {p} outside cluster {c}");
         }
     }
     assert!(count > 4, "{count} clusters");
@@ -65,25 +48,7 @@ fn clusters_partition_the_geometry_pixels_and_bound_them() {
 /// 390 clusters for 1402 at 512x512): 512x384 pixels, exactly the mirror's clusters.
 #[test]
 fn more_pixels_than_one_invocation_may_loop_over() {
-    let inp = vxgi::kernels::cluster_extract::distribution_inputs(
-        512,
-        384,
-        16,
-        16,
-        vxgi::gbuffers::GPattern::family(1),
-        4,
-    );
-    let case = vxgi::kernels::cluster_extract::case_for(gpu(), &inp, "large".into(), 0);
-    let shader = vxgi::kernels::cluster_extract::DECL.shader().unwrap();
-    let (comps, ..) = vxgi::harness::kernel::verify_case(
-        gpu(),
-        &shader,
-        &vxgi::kernels::cluster_extract::ClusterExtract,
-        &case,
-        None,
-    )
-    .unwrap();
-    for c in comps {
-        assert!(c.passed(), "{}", c.report());
-    }
+    let inp = distribution_inputs(512, 384, 16, 16, GPattern::family(1), 4);
+    let case = case_for(gpu(), &inp, "large".into(), 0);
+    assert_case_passes(&DECL.shader().unwrap(), &ClusterExtract, &case);
 }

@@ -1,11 +1,6 @@
 //! GPU vs mirror for `kernels/cluster_keys.wgsl`, and keys through the GPU radix sort (CPRC 3.2).
-use crate::common;
-use crate::common::run_case;
-
-use common::gpu;
+use crate::common::{case_passes, gpu, passing_run, run_case};
 use vxgi::gbuffers::{normals, packed, GPattern};
-use vxgi::harness::kernel::verify_case;
-use vxgi::harness::run::run;
 use vxgi::kernels::cluster_keys::{case_for, depths, sanitise, ClusterKeys, DECL};
 use vxgi::kernels::radix_sort;
 use vxgi_cpu_mirror::cluster_keys::BACKGROUND;
@@ -20,39 +15,23 @@ proptest::proptest! {
         let d = depths(w, h, slices, seed);
         sanitise(&mut n, &d);
         let case = case_for(&shader, gpu(), &n, &d, w, h, tile, slices, "prop".into(), seed);
-        let (comps, ..) = verify_case(gpu(), &shader, &ClusterKeys, &case, None).unwrap();
-        proptest::prop_assert!(comps[0].passed(), "{}", comps[0].report());
+        case_passes(&shader, &ClusterKeys, &case)?;
     }
 }
 
 #[test]
 fn bad_depths_become_background_and_keys_sort_into_clusters_on_the_gpu() {
-    let (w, h, tile, slices) = (96u32, 64u32, 32u32, 16u32);
+    let (w, h, tile, slices, label) = (96u32, 64u32, 32u32, 16u32, "spheres");
     let mut n = packed(&normals(w, h, GPattern::Spheres, 1));
     let d = depths(w, h, slices, 1);
     sanitise(&mut n, &d);
     let shader = DECL.shader().unwrap();
-    let case = case_for(
-        &shader,
-        gpu(),
-        &n,
-        &d,
-        w,
-        h,
-        tile,
-        slices,
-        "spheres".into(),
-        1,
-    );
+    let case = case_for(&shader, gpu(), &n, &d, w, h, tile, slices, label.into(), 1);
     let out = run_case(&shader, DECL.name, &case, &["keys"]);
     let keys = out.buffer("keys").as_u32().to_vec();
-    for (i, k) in keys.iter().enumerate() {
-        if !(d[i].is_finite() && d[i] > 0.0) {
-            assert_eq!(
-                *k, BACKGROUND,
-                "pixel {i} with depth {} must be background",
-                d[i]
-            );
+    for (i, (k, z)) in keys.iter().zip(&d).enumerate() {
+        if !(z.is_finite() && *z > 0.0) {
+            assert_eq!(*k, BACKGROUND, "pixel {i} (depth {z}) must be background");
         }
     }
     // GPU keys -> GPU sort; the stable order must equal the mirror's and group equal keys.
@@ -60,18 +39,7 @@ fn bad_depths_become_background_and_keys_sort_into_clusters_on_the_gpu() {
     let (sort_case, names) =
         radix_sort::case_for(gpu(), &keys, &values, 32, "sort keys".into(), 1).unwrap();
     let sshader = radix_sort::DECL.shader().unwrap();
-    let (comps, ..) =
-        verify_case(gpu(), &sshader, &radix_sort::RadixSort, &sort_case, None).unwrap();
-    assert!(comps.iter().all(|c| c.passed()));
-    let sorted = run(
-        gpu(),
-        &sshader,
-        radix_sort::DECL.name,
-        &sort_case.resources,
-        &sort_case.passes,
-        &[&names[0]],
-    )
-    .unwrap();
+    let sorted = passing_run(&sshader, &radix_sort::RadixSort, &sort_case, &[&names[0]]);
     let sk = sorted.buffer(&names[0]).as_u32();
     assert!(sk.windows(2).all(|p| p[0] <= p[1]));
     let clusters = 1 + sk

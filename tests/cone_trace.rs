@@ -3,8 +3,8 @@
 //! vct-dense pipeline's accuracy against the reference, printed.
 use crate::common;
 
-use common::{gpu, verified};
-use vxgi::images::{compare, RgbImage};
+use common::{cornell, flip, gpu, scene_file, verified};
+use vxgi::images::RgbImage;
 use vxgi::kernels::cone_trace::ConeSettings;
 use vxgi::reference::{render_reference, ReferenceOptions};
 use vxgi::scene::Scene;
@@ -32,36 +32,19 @@ fn marching_is_stable_on_extreme_pyramids() {
         step_factor: 0.5,
         ..Default::default()
     };
-    let clamped = ConeParams {
-        mip_clamp: 1.5,
-        ..params
-    };
-    let long_steps = ConeParams {
-        step_factor: 1.0,
-        ..clamped
-    };
+    let mut clamped = params;
+    clamped.mip_clamp = 1.5;
+    let mut long_steps = clamped;
+    long_steps.step_factor = 1.0;
     // The finest level bias (cells 1/8 of the diameter: ratio up to 4) with fully correlated
     // coverage (which divides by the step-corrected alpha).
-    let biased = ConeParams {
-        level_bias: -3.0,
-        coverage_correlation: 1.0,
-        ..clamped
-    };
-    let half_correlated = ConeParams {
-        coverage_correlation: 0.5,
-        ..long_steps
-    };
+    let mut biased = clamped;
+    (biased.level_bias, biased.coverage_correlation) = (-3.0, 1.0);
+    let mut half_correlated = long_steps;
+    half_correlated.coverage_correlation = 0.5;
     let solid = vec![[2.0, 2.0, 2.0, 1.0]; len];
     let empty = vec![[0.0; 4]; len];
-    let checker: Vec<[f32; 4]> = (0..len)
-        .map(|i| {
-            if i % 2 == 0 {
-                [2.0, 2.0, 2.0, 1.0]
-            } else {
-                [0.0; 4]
-            }
-        })
-        .collect();
+    let checker: Vec<[f32; 4]> = (0..len).map(|i| [solid[0], empty[0]][i % 2]).collect();
     for (voxels, p) in [&solid, &empty, &checker]
         .into_iter()
         .flat_map(|v| [&params, &clamped, &long_steps, &biased, &half_correlated].map(|p| (v, p)))
@@ -91,20 +74,11 @@ fn marching_is_stable_on_extreme_pyramids() {
     for _ in 0..2000 {
         diam *= 1.0 + tan;
         lf += dl;
-        assert!(
-            (lf - (diam * 16.0).log2()).abs() < 1e-3,
-            "{lf} vs {}",
-            (diam * 16.0).log2()
-        );
+        let exact = (diam * 16.0).log2();
+        assert!((lf - exact).abs() < 1e-3, "{lf} vs {exact}");
     }
-    assert_eq!(
-        diffuse_cones(5, 0.577)
-            .iter()
-            .map(|c| c[3])
-            .sum::<f32>()
-            .round(),
-        1.0
-    );
+    let weights: f32 = diffuse_cones(5, 0.577).iter().map(|c| c[3]).sum();
+    assert_eq!(weights.round(), 1.0, "cone weights {weights}");
 }
 
 /// The vct-dense pipeline against the reference on the Cornell box at 64x64 (64 spp: the reference's
@@ -127,10 +101,9 @@ fn vct_dense_against_the_reference() {
         },
         |_| {},
     );
-    let p = std::path::Path::new("");
     let rgb = |px: Vec<[f32; 3]>| RgbImage::new(64, 64, px);
-    let comb = compare(&rgb(reference.combined()), p, &r.combined, p).unwrap();
-    let ind = compare(&rgb(reference.indirect.clone()), p, &r.indirect, p).unwrap();
+    let comb = flip(&rgb(reference.combined()), &r.combined);
+    let ind = flip(&rgb(reference.indirect.clone()), &r.indirect);
     let mean =
         |img: &[[f32; 3]]| img.iter().map(|p| p[0] + p[1] + p[2]).sum::<f32>() / img.len() as f32;
     let ratio = mean(&r.indirect.pixels) / mean(&reference.indirect);
@@ -156,10 +129,9 @@ fn vct_dense_against_the_converged_reference() {
     let read = |name: &str| vxgi::images::read_exr(&dir.join(format!("{name}.exr"))).unwrap();
     let scene = Scene::cornell_box();
     let r = vxgi::render::render(gpu(), &scene, &ConeSettings::default(), |_| {}).unwrap();
-    let p = std::path::Path::new("");
-    let comb = compare(&read("combined"), p, &r.combined, p).unwrap();
-    let ind = compare(&read("indirect"), p, &r.indirect, p).unwrap();
-    let ao = compare(&read("ao"), p, &r.ao, p).unwrap();
+    let comb = flip(&read("combined"), &r.combined);
+    let ind = flip(&read("indirect"), &r.indirect);
+    let ao = flip(&read("ao"), &r.ao);
     println!(
         "256x256 Cornell box vs 4096 spp: combined FLIP {:.3} (rel MSE {:.3}), indirect {:.3}, AO {:.3}",
         comb.flip_mean, comb.rel_mse, ind.flip_mean, ao.flip_mean
@@ -178,7 +150,7 @@ fn vct_dense_against_the_converged_reference() {
 #[test]
 #[ignore = "about 2 minutes on lavapipe: cargo test --release -- --ignored interleaved_narrow"]
 fn interleaved_narrow_cones_meet_the_flip_goal_on_the_cornell_box() {
-    let scene = common::scene_file("cornell_box_interleaved.toml");
+    let scene = scene_file("cornell_box_interleaved.toml");
     let cones = ConeSettings::from(&scene.render);
     assert_eq!(cones.interleave, 8);
     let r = vxgi::render::render(gpu(), &scene, &cones, |_| {}).unwrap();
@@ -193,11 +165,7 @@ fn interleaved_narrow_cones_meet_the_flip_goal_on_the_cornell_box() {
 /// rounding, for each pattern side.
 #[test]
 fn interleaved_frames_match_the_mirror_frame() {
-    let mut scene = Scene::cornell_box();
-    scene.camera.width = 48;
-    scene.camera.height = 40;
-    scene.render.voxels = 64;
-    let p = std::path::Path::new("");
+    let scene = cornell(48, 40, 64);
     let mut images = Vec::new();
     for n in [2u32, 4, 8] {
         let cones = ConeSettings {
@@ -209,12 +177,8 @@ fn interleaved_frames_match_the_mirror_frame() {
         let r = vxgi::render::render(gpu(), &scene, &cones, |_| {}).unwrap();
         let m = vxgi::render::render_mirror(&scene, &cones).unwrap();
         for (name, a, b) in [("indirect", &m.indirect, &r.indirect), ("ao", &m.ao, &r.ao)] {
-            let c = compare(a, p, b, p).unwrap();
-            assert!(
-                c.rel_mse < 1e-6,
-                "N {n} {name}: GPU vs mirror rel MSE {}",
-                c.rel_mse
-            );
+            let e = flip(a, b).rel_mse;
+            assert!(e < 1e-6, "N {n} {name}: GPU vs mirror rel MSE {e}");
         }
         images.push(r.indirect.pixels);
     }
@@ -251,8 +215,7 @@ fn depth_ordered_blend_stops_the_thin_wall_leak() {
         "{leak_ordered} vs {leak_paper}"
     );
     let m = vxgi::render::render_mirror(&scene, &ordered).unwrap();
-    let p = std::path::Path::new("");
-    let c = compare(&m.indirect, p, &r.indirect, p).unwrap();
+    let c = flip(&m.indirect, &r.indirect);
     assert!(c.rel_mse < 1e-6, "GPU vs mirror: rel MSE {}", c.rel_mse);
     // cprc's caches march through the same pyramid (cache_creation): the same blend, less leak
     // (measured 0.036 -> 0.022; the rest is gathered across the wall from caches on the lit side). At
@@ -275,8 +238,7 @@ fn depth_ordered_blend_stops_the_thin_wall_leak() {
 /// within 0.05 of one hierarchy of the flattened scene.
 #[test]
 fn vct_dense_traces_instances_through_their_own_hierarchies() {
-    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
-    let mut scene = Scene::load(root.join("scenes/instances.toml")).unwrap();
+    let mut scene = scene_file("instances.toml");
     scene.camera.width = 64;
     scene.camera.height = 64;
     scene.render.voxels = 64;
@@ -299,10 +261,9 @@ fn vct_dense_traces_instances_through_their_own_hierarchies() {
     };
     let one = vxgi::render::render(gpu(), &flat, &cones, |_| {}).unwrap();
     let reference = render_reference(&scene, &ReferenceOptions::spp(32), |_| {});
-    let p = std::path::Path::new("");
-    let rgb = |px: Vec<[f32; 3]>| RgbImage::new(64, 64, px);
-    let ours = compare(&rgb(reference.combined()), p, &f0.combined, p).unwrap();
-    let single = compare(&rgb(reference.combined()), p, &one.combined, p).unwrap();
+    let reference = RgbImage::new(64, 64, reference.combined());
+    let ours = flip(&reference, &f0.combined);
+    let single = flip(&reference, &one.combined);
     println!(
         "instances, vct-dense: combined FLIP {:.3} with per-instance hierarchies, {:.3} with one",
         ours.flip_mean, single.flip_mean
@@ -320,13 +281,10 @@ fn instanced_cones_match_the_mirror() {
 /// for bit; the plan builds fewer levels for it and every level for the default cones.
 #[test]
 fn mip_levels_no_cone_reaches_are_not_built_and_not_missed() {
-    use vxgi::harness::{HostBuffer, HostResource};
+    use vxgi::harness::{buffer_as, buffers, HostBuffer};
     use vxgi::kernels::cone_trace::{pyramid_levels, run_case, scene_case};
     use vxgi_cpu_mirror::cone_trace::level_offset;
-    let mut scene = Scene::cornell_box();
-    scene.camera.width = 48;
-    scene.camera.height = 48;
-    scene.render.voxels = 64;
+    let scene = cornell(48, 48, 64);
     let default = ConeSettings::from(&scene.render);
     assert_eq!(
         pyramid_levels(&scene, &default, 64),
@@ -354,20 +312,15 @@ fn mip_levels_no_cone_reaches_are_not_built_and_not_missed() {
 
     let whole = scene_case(gpu(), &scene, &narrow).unwrap();
     let mut partial = whole.clone();
-    let buf = |c: &vxgi::harness::Case, n: &str| c.resources[n].buffer().unwrap().clone();
-    let mut pyramid: Vec<[f32; 4]> = bytemuck::cast_slice(&buf(&whole, "pyramid").bytes).to_vec();
+    let mut pyramid: Vec<[f32; 4]> = buffer_as(&whole.resources, "pyramid").unwrap().into();
     pyramid[level_offset(64, levels)..].fill([f32::NAN; 4]);
-    let mut params: ConeParams = *bytemuck::from_bytes(&buf(&whole, "cone").bytes);
+    let mut params: ConeParams = buffer_as(&whole.resources, "cone").unwrap()[0];
     assert_eq!(params.levels, 7);
     params.levels = levels;
-    partial.resources.insert(
-        "pyramid".into(),
-        HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(&pyramid))),
-    );
-    partial.resources.insert(
-        "cone".into(),
-        HostResource::Buffer(HostBuffer::pod(&params)),
-    );
+    partial.resources.extend(buffers([
+        ("pyramid", HostBuffer::of(&pyramid[..])),
+        ("cone", HostBuffer::structs(&[params])),
+    ]));
     // NaN in the unbuilt levels: any read of them would show.
     assert_eq!(
         run_case(gpu(), &vxgi::kernels::cone_trace::DECL, &whole).unwrap(),
@@ -377,13 +330,8 @@ fn mip_levels_no_cone_reaches_are_not_built_and_not_missed() {
     // builds all of them.
     let ours = vxgi::render::render(gpu(), &scene, &narrow, |_| {}).unwrap();
     let mirror = vxgi::render::render_mirror(&scene, &narrow).unwrap();
-    let p = std::path::Path::new("");
-    let c = compare(&mirror.indirect, p, &ours.indirect, p).unwrap();
-    assert!(
-        c.flip_mean < 0.01,
-        "GPU vs mirror indirect FLIP {}",
-        c.flip_mean
-    );
+    let f = flip(&mirror.indirect, &ours.indirect).flip_mean;
+    assert!(f < 0.01, "GPU vs mirror indirect FLIP {f}");
 }
 
 proptest::proptest! {

@@ -1,9 +1,8 @@
 //! GPU vs mirror for `kernels/direct_light.wgsl` (exact hard shadows, diffuse + normalised Phong, point /
 //! spot / directional lights) on generated scenes, fed the GPU's own G-buffer.
-use crate::common;
-
-use common::{assert_case_passes, gpu};
-use vxgi::kernels::direct_light::DirectLight;
+use crate::common::{assert_case_passes, gpu};
+use vxgi::harness::Kernel;
+use vxgi::kernels::direct_light::{DirectLight, DECL};
 
 /// Regression (found by a 40-seed `vxgi verify` sweep, seed 57): a generated albedo near the bottom of
 /// the normal range made a term of 4.0e-38 that the GPU returned as 0 (a product flushed on the way:
@@ -11,8 +10,7 @@ use vxgi::kernels::direct_light::DirectLight;
 /// seed's "box stack 48x48" cases, generated again and checked on their own.
 #[test]
 fn a_term_at_the_bottom_of_the_normal_range_may_flush() {
-    use vxgi::harness::Kernel;
-    let shader = vxgi::kernels::direct_light::DECL.shader().unwrap();
+    let shader = DECL.shader().unwrap();
     for index in [22usize, 34, 50, 62] {
         let case = DirectLight.case(&shader, gpu(), 57, index);
         assert!(case.label.contains("box stack 48x48"), "{}", case.label);

@@ -1,9 +1,7 @@
 //! GPU vs mirror for `kernels/gather_caches.wgsl` (CPRC 3.3: weights and cache evaluation), the
 //! evaluation's meaning on known maps, and the distribution's quality as the paper's Fig. 6 argues it:
 //! clustered placement vs an equidistant grid of caches.
-use crate::common;
-
-use common::{case_passes, gpu};
+use crate::common::{case_passes, gpu, run_case};
 use vxgi::gbuffers::GPattern;
 use vxgi::kernels::cluster_extract::{distribution_inputs, DistributionInputs};
 use vxgi::kernels::gather_caches::{case_for, generated_data, place_caches, GatherCaches, DECL};
@@ -26,45 +24,30 @@ proptest::proptest! {
 /// pixel normal (a constant map: exactly it), and the mip chain's level at the reflection vector.
 #[test]
 fn uniform_caches_gather_their_own_values() {
-    use vxgi::harness::run::run;
+    use vxgi_cpu_mirror::cache_preconvolve::{mip_len, mip_offset};
     let inp = distribution_inputs(64, 48, 16, 4, GPattern::family(0), 3);
     let mut d = generated_data(&inp, 8, 4, 3);
     let count = d.cache_pos.len();
     assert!(count > 0);
-    for v in d.cache_irradiance.iter_mut() {
-        *v = [3.0, 2.0, 1.0, 0.0];
-    }
+    d.cache_irradiance.fill([3.0, 2.0, 1.0, 0.0]);
     // Level l of every chain holds l + 1: a glossy level lf reads 1 + lf (blended), up to the top.
     let res = d.params.res;
     for c in 0..count {
         for l in 0..d.params.levels {
-            let off = c * vxgi_cpu_mirror::cache_preconvolve::mip_len(res)
-                + vxgi_cpu_mirror::cache_preconvolve::mip_offset(res, l);
-            for k in 0..((res >> l) * (res >> l)) as usize {
-                d.cache_mips[off + k] = [l as f32 + 1.0; 4];
-            }
+            let off = c * mip_len(res) + mip_offset(res, l);
+            d.cache_mips[off..off + ((res >> l) * (res >> l)) as usize].fill([l as f32 + 1.0; 4]);
         }
     }
     let shader = DECL.shader().unwrap();
     let case = case_for(&shader, gpu(), &d, "uniform".into(), 3);
-    let out = run(
-        gpu(),
-        &shader,
-        "gather",
-        &case.resources,
-        &case.passes,
-        &["diffuse", "glossy", "weight_sum"],
-    )
-    .unwrap();
+    let outputs = ["diffuse", "glossy", "weight_sum"];
+    let out = run_case(&shader, DECL.name, &case, &outputs);
     let diffuse: &[[f32; 4]] = bytemuck::cast_slice(&out.buffer("diffuse").bytes);
     let glossy: &[[f32; 4]] = bytemuck::cast_slice(&out.buffer("glossy").bytes);
     let ws = out.buffer("weight_sum").as_f32();
     let top = d.params.levels as f32 - 1.0;
     let mut checked = 0;
-    for i in 0..diffuse.len() {
-        if ws[i] <= 1e-3 {
-            continue;
-        }
+    for i in (0..diffuse.len()).filter(|&i| ws[i] > 1e-3) {
         checked += 1;
         // One division of sum w v by sum w, v constant: a few ULP.
         assert!(

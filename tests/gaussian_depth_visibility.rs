@@ -1,27 +1,19 @@
 //! GPU vs mirror for `kernels/gaussian_depth_visibility.wgsl`, numerical stress, the [0,1]-and-finite
 //! property for every finite input, and the approximation error of the Gaussian model (eq. 12) against
 //! the exact fraction of RSM texels inside the cone sample.
-use crate::common;
-use crate::common::run_case;
-
-use common::{assert_case_passes, gpu};
+use crate::common::{gpu, passing_run};
 use proptest::prelude::*;
 use vxgi::kernels::gaussian_depth_visibility::{
     case_for, moments_of, GaussianDepthVisibility, Inputs, DECL,
 };
 use vxgi_cpu_mirror::gaussian_depth_visibility::{erfc_approx, visibility, Cdf, VisibilityParams};
 
-fn gpu_visibility(inputs: &Inputs, params: VisibilityParams) -> Vec<f32> {
-    let shader = DECL.shader().unwrap();
-    let case = case_for(&shader, gpu(), inputs, params, "direct".into(), 0);
-    let out = run_case(&shader, DECL.name, &case, &["visibility"]);
-    out.buffer("visibility").as_f32().to_vec()
-}
-
-fn check_against_mirror(inputs: &Inputs, params: VisibilityParams, label: &str) {
+/// V on the GPU for `inputs`, the case `label` checked against the mirror first.
+fn gpu_visibility(inputs: &Inputs, params: VisibilityParams, label: &str) -> Vec<f32> {
     let shader = DECL.shader().unwrap();
     let case = case_for(&shader, gpu(), inputs, params, label.into(), 0);
-    assert_case_passes(&shader, &GaussianDepthVisibility, &case);
+    let out = passing_run(&shader, &GaussianDepthVisibility, &case, &["visibility"]);
+    out.buffer("visibility").as_f32().to_vec()
 }
 
 /// The stress table of the issue: every row on the GPU, against the mirror, finite and in [0, 1].
@@ -74,20 +66,14 @@ fn numerical_stress_table() {
             moments: rows.iter().map(|r| r.0).collect(),
             cone: rows.iter().map(|r| r.1).collect(),
         };
-        check_against_mirror(&inputs, params, &format!("stress table {cdf:?}"));
-        let v = gpu_visibility(&inputs, params);
-        for (i, x) in v.iter().enumerate() {
-            assert!(
-                x.is_finite() && (0.0..=1.0).contains(x),
-                "row {i} {:?}: V = {x}",
-                rows[i]
-            );
+        let v = gpu_visibility(&inputs, params, &format!("stress table {cdf:?}"));
+        for (i, (x, row)) in v.iter().zip(&rows).enumerate() {
+            let ok = x.is_finite() && (0.0..=1.0).contains(x);
+            assert!(ok, "row {i} {row:?}: V = {x}");
         }
         // Sanity of the model on the easy rows.
-        assert!(
-            v[0] > 0.999 && v[4] > 0.3 && v[17] == 0.0 && v[13] == 0.0,
-            "{v:?}"
-        );
+        let sane = v[0] > 0.999 && v[4] > 0.3 && v[17] == 0.0 && v[13] == 0.0;
+        assert!(sane, "{v:?}");
     }
 }
 
@@ -119,7 +105,7 @@ proptest! {
             moments: rows.iter().map(|r| [r.0, r.1, r.2, 0.0]).collect(),
             cone: rows.iter().map(|r| [r.3, r.4]).collect(),
         };
-        let v = gpu_visibility(&inputs, params);
+        let v = gpu_visibility(&inputs, params, "finite inputs");
         for (i, x) in v.iter().enumerate() {
             prop_assert!(x.is_finite() && (0.0..=1.0).contains(x), "row {:?}: V = {}", rows[i], x);
         }
@@ -127,7 +113,6 @@ proptest! {
             let x = visibility(*m, c[0], c[1], &params, false);
             prop_assert!(x.is_finite() && (0.0..=1.0).contains(&x));
         }
-        check_against_mirror(&inputs, params, "finite inputs");
     }
 }
 
@@ -213,19 +198,11 @@ fn approximation_error_against_exact_fraction() {
         );
         // The model is an approximation (a step inside the footprint is not Gaussian), but on these
         // footprints its mean error stays well below a quarter, and the CDF approximations add little.
-        assert!(
-            err[0].0 < 0.25,
-            "level {level}: model mean error {}",
-            err[0].0
-        );
-        assert!(
-            (err[1].0 - err[0].0).abs() < 1e-4,
-            "A&S 7.1.26 departs from the exact CDF"
-        );
-        assert!(
-            (err[2].0 - err[0].0).abs() < 2e-3,
-            "A&S 7.1.27 departs from the exact CDF"
-        );
+        let model = err[0].0;
+        let departs = |k: usize| (err[k].0 - model).abs();
+        assert!(model < 0.25, "level {level}: model mean error {model}");
+        assert!(departs(1) < 1e-4, "A&S 7.1.26 departs from the exact CDF");
+        assert!(departs(2) < 2e-3, "A&S 7.1.27 departs from the exact CDF");
     }
 }
 
@@ -236,13 +213,8 @@ fn erfc_approximations_are_within_their_published_bounds() {
         let exact = libm::erfc(x as f64);
         // 1.5e-7 is the formula's bound in exact arithmetic; evaluating it in f32 adds rounding of
         // Horner sums whose terms partly cancel (measured max 5.2e-7 total, near x = 0.035).
-        assert!(
-            (erfc_approx(x, Cdf::AS7126, false) as f64 - exact).abs() < 6e-7,
-            "{x}"
-        );
-        assert!(
-            (erfc_approx(x, Cdf::AS7127, false) as f64 - exact).abs() < 5e-4 + 1e-6,
-            "{x}"
-        );
+        let error = |cdf| (erfc_approx(x, cdf, false) as f64 - exact).abs();
+        assert!(error(Cdf::AS7126) < 6e-7, "{x}");
+        assert!(error(Cdf::AS7127) < 5e-4 + 1e-6, "{x}");
     }
 }

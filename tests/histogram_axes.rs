@@ -1,9 +1,6 @@
 //! `kernels/histogram_axes.wgsl` (CPRC 3.2): degenerate histograms. GPU vs mirror over generated
 //! G-buffers runs in tests/tile_normal_histogram.rs, on the histograms that kernel produces.
-use crate::common;
-use crate::common::run_case;
-
-use common::gpu;
+use crate::common::{gpu, run_case};
 use vxgi::gbuffers::{normals, packed, GPattern};
 use vxgi::kernels::histogram_axes::{axes_case, DECL as AXES_DECL};
 use vxgi::kernels::tile_normal_histogram::params;

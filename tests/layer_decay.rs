@@ -1,17 +1,13 @@
 //! GPU vs mirror for `kernels/layer_decay.wgsl` (LRSM eq. 15), its range property, and the partition of
 //! unity across an overlap.
-use crate::common;
-use crate::common::run_case;
-
-use common::{assert_case_passes, gpu};
+use crate::common::{gpu, passing_run};
 use proptest::prelude::*;
 use vxgi::kernels::layer_decay::{case_for, LayerDecay, DECL};
 
 fn gpu_decay(samples: &[[f32; 4]]) -> Vec<f32> {
     let shader = DECL.shader().unwrap();
     let case = case_for(&shader, gpu(), samples, "direct".into(), 0);
-    assert_case_passes(&shader, &LayerDecay, &case);
-    let out = run_case(&shader, DECL.name, &case, &["decay"]);
+    let out = passing_run(&shader, &LayerDecay, &case, &["decay"]);
     out.buffer("decay").as_f32().to_vec()
 }
 
@@ -22,16 +18,12 @@ fn overlapping_layers_sum_to_one_on_the_gpu() {
     let mut samples: Vec<[f32; 4]> = zs.iter().map(|&z| [z, 0.0, 0.55, 0.1]).collect();
     samples.extend(zs.iter().map(|&z| [z, 0.45, 1.0, 0.1]));
     let d = gpu_decay(&samples);
-    for (i, z) in zs.iter().enumerate() {
-        let s = d[i] + d[i + zs.len()];
+    let (lower, upper) = d.split_at(zs.len());
+    for ((z, a), b) in zs.iter().zip(lower).zip(upper) {
+        let s = a + b;
         // Each weight is within 8 ULP of k(x) and k(1 - x), whose exact sum is 1; the two divisions
         // by delta differ in rounding, so allow a few ULP of 1 beyond that.
-        assert!(
-            (s - 1.0).abs() < 2e-6,
-            "z = {z}: {} + {} = {s}",
-            d[i],
-            d[i + zs.len()]
-        );
+        assert!((s - 1.0).abs() < 2e-6, "z = {z}: {a} + {b} = {s}");
     }
 }
 

@@ -4,7 +4,7 @@
 //! says what runs, a directional light is rendered through its orthographic view.
 use crate::common;
 
-use common::{assert_case_passes, gpu};
+use common::{assert_case_passes, cornell, flip, gpu};
 use vxgi::kernels::cone_trace::ConeSettings;
 use vxgi::kernels::lrsm_cone_trace::LrsmConeTrace;
 use vxgi::render::{render_lrsm, Pipeline};
@@ -12,10 +12,7 @@ use vxgi::scene::{Light, Scene};
 
 #[test]
 fn the_cornell_box_gathers_indirect_light_and_reports_its_memory() {
-    let mut scene = Scene::cornell_box();
-    scene.camera.width = 48;
-    scene.camera.height = 48;
-    scene.render.voxels = 32;
+    let mut scene = cornell(48, 48, 32);
     scene.render.rsm_side = 32;
     let (frame, memory) = render_lrsm(gpu(), &scene, &ConeSettings::default(), |_| {}).unwrap();
     let lit = frame
@@ -24,10 +21,7 @@ fn the_cornell_box_gathers_indirect_light_and_reports_its_memory() {
         .iter()
         .filter(|p| p.iter().all(|c| c.is_finite() && *c >= 0.0) && p[0] + p[1] + p[2] > 1e-3)
         .count();
-    assert!(
-        lit > 48 * 48 / 4,
-        "only {lit} pixels receive indirect light"
-    );
+    assert!(lit > 48 * 48 / 4, "only {lit} pixels get indirect light");
     // One 32^2 RSM of 36 bytes a texel; six LRSMs of 4 layers, 16^2 .. 1^2, 24 bytes a texel.
     assert_eq!(memory.views, 6);
     assert_eq!(memory.rsm, 32 * 32 * 36);
@@ -53,28 +47,17 @@ fn the_cornell_box_gathers_indirect_light_and_reports_its_memory() {
 /// frames agreed to 1e-6).
 #[test]
 fn surface_coverage_occlusion_lets_the_gather_see_the_walls() {
-    let mut scene = Scene::cornell_box();
-    scene.camera.width = 48;
-    scene.camera.height = 48;
-    scene.render.voxels = 64;
+    let mut scene = cornell(48, 48, 64);
     scene.render.rsm_side = 32;
-    let energy = |img: &vxgi::images::RgbImage| -> f64 {
-        img.pixels.iter().flatten().map(|&c| c as f64).sum()
-    };
     scene.render.lrsm_surface_coverage = false;
-    let volume = render_lrsm(gpu(), &scene, &ConeSettings::default(), |_| {})
-        .unwrap()
-        .0;
+    let (volume, _) = render_lrsm(gpu(), &scene, &ConeSettings::default(), |_| {}).unwrap();
     scene.render.lrsm_surface_coverage = true;
-    let surface = render_lrsm(gpu(), &scene, &ConeSettings::default(), |_| {})
-        .unwrap()
-        .0;
+    let (surface, _) = render_lrsm(gpu(), &scene, &ConeSettings::default(), |_| {}).unwrap();
     let (ev, es) = (energy(&volume.indirect), energy(&surface.indirect));
     println!("lrsm indirect energy: volume coverage {ev:.3}, surface coverage {es:.3}");
     assert!(es > 2.0 * ev, "{es} vs {ev}");
     let m = vxgi::render::render_lrsm_mirror(&scene, &ConeSettings::default()).unwrap();
-    let p = std::path::Path::new("");
-    let c = vxgi::images::compare(&m.indirect, p, &surface.indirect, p).unwrap();
+    let c = flip(&m.indirect, &surface.indirect);
     assert!(c.rel_mse < 1e-4, "GPU vs mirror: rel MSE {}", c.rel_mse);
 }
 
@@ -89,10 +72,7 @@ fn the_plan_skips_rsms_without_lights_and_directional_lights_get_an_orthographic
     assert!(!again.runs("occlusion_voxels") && !again.runs("reflective_shadow_map"));
 
     // A directional light through the open front: one orthographic view, and indirect light.
-    let mut scene = Scene::cornell_box();
-    scene.camera.width = 24;
-    scene.camera.height = 24;
-    scene.render.voxels = 32;
+    let mut scene = cornell(24, 24, 32);
     scene.render.rsm_side = 32;
     scene.lights = vec![Light::Directional {
         direction: [0.0, -0.3, -1.0],
@@ -113,10 +93,7 @@ fn the_plan_skips_rsms_without_lights_and_directional_lights_get_an_orthographic
 /// direct_light's exact rays (the plan says so); lit where the exact rays light (cones only dim).
 #[test]
 fn shadow_cones_replace_the_exact_shadow_rays_when_asked() {
-    let mut scene = Scene::cornell_box();
-    scene.camera.width = 32;
-    scene.camera.height = 32;
-    scene.render.voxels = 32;
+    let mut scene = cornell(32, 32, 32);
     scene.render.rsm_side = 16;
     let (exact, _) = render_lrsm(gpu(), &scene, &ConeSettings::default(), |_| {}).unwrap();
     scene.render.shadow_cone_angle = 5.0;
@@ -124,10 +101,7 @@ fn shadow_cones_replace_the_exact_shadow_rays_when_asked() {
     assert!(!plan.runs("direct_light") && plan.runs("lrsm_cone_trace"));
     let (soft, _) = render_lrsm(gpu(), &scene, &ConeSettings::default(), |_| {}).unwrap();
     assert!(soft.plan.skipped().contains(&"direct_light"));
-    let sum = |img: &vxgi::images::RgbImage| -> f64 {
-        img.pixels.iter().map(|p| (p[0] + p[1] + p[2]) as f64).sum()
-    };
-    let (s, e) = (sum(&soft.direct), sum(&exact.direct));
+    let (s, e) = (energy(&soft.direct), energy(&exact.direct));
     assert!(s > 0.5 * e && s.is_finite(), "soft {s} exact {e}");
     // Visibility only scales the same terms: lit by the exact rays -> lit by the cones almost
     // everywhere (cones only dim), and finite, non-negative everywhere.
@@ -140,11 +114,8 @@ fn shadow_cones_replace_the_exact_shadow_rays_when_asked() {
         }
     }
     assert!(both * 10 >= lit * 9, "{both} of {lit}");
-    assert!(soft
-        .combined
-        .pixels
-        .iter()
-        .all(|p| p.iter().all(|c| c.is_finite())));
+    let finite = soft.combined.pixels.iter().flatten().all(|c| c.is_finite());
+    assert!(finite, "a non-finite combined pixel");
 }
 
 /// Regression (found by a 20-seed `vxgi verify` sweep, seed 19): a generated G-buffer albedo near the
@@ -178,10 +149,6 @@ fn lrsm_against_the_converged_reference() {
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("references/cornell_box_256_4096spp");
     let read = |name: &str| vxgi::images::read_exr(&dir.join(format!("{name}.exr"))).unwrap();
     let (ref_combined, ref_indirect) = (read("combined"), read("indirect"));
-    let energy = |img: &vxgi::images::RgbImage| -> f64 {
-        img.pixels.iter().flatten().map(|&c| c as f64).sum()
-    };
-    let p = std::path::Path::new("");
     // (the paper's settings, area weights): the paper's, the defaults, `lrsm_area_weights`.
     for ((paper, area), max_combined, max_indirect, share) in [
         ((true, false), 0.48, 0.85, 0.06..0.12),
@@ -193,23 +160,14 @@ fn lrsm_against_the_converged_reference() {
         scene.render.lrsm_view_weight = paper;
         scene.render.lrsm_area_weights = area;
         let (r, _) = render_lrsm(gpu(), &scene, &ConeSettings::default(), |_| {}).unwrap();
-        let comb = vxgi::images::compare(&ref_combined, p, &r.combined, p).unwrap();
-        let ind = vxgi::images::compare(&ref_indirect, p, &r.indirect, p).unwrap();
+        let comb = flip(&ref_combined, &r.combined).flip_mean;
+        let ind = flip(&ref_indirect, &r.indirect).flip_mean;
         let ratio = energy(&r.indirect) / energy(&ref_indirect);
         println!(
-            "lrsm (the paper's settings: {paper}, area weights: {area}) vs 4096 spp: combined FLIP {:.3}, indirect {:.3}, indirect energy {ratio:.3} of the reference's",
-            comb.flip_mean, ind.flip_mean
+            "lrsm (the paper's settings: {paper}, area weights: {area}) vs 4096 spp: combined FLIP {comb:.3}, indirect {ind:.3}, indirect energy {ratio:.3} of the reference's"
         );
-        assert!(
-            comb.flip_mean < max_combined,
-            "combined FLIP {}",
-            comb.flip_mean
-        );
-        assert!(
-            ind.flip_mean < max_indirect,
-            "indirect FLIP {}",
-            ind.flip_mean
-        );
+        assert!(comb < max_combined, "combined FLIP {comb}");
+        assert!(ind < max_indirect, "indirect FLIP {ind}");
         assert!(share.contains(&ratio), "indirect energy ratio {ratio}");
     }
 }
@@ -260,10 +218,7 @@ fn samples_crossing_a_cube_face_seam_take_radiance_continuously() {
 #[test]
 fn the_factor_diagnostic_reproduces_the_frames_it_swaps_between() {
     use vxgi::lrsm_factors::{rows, Alpha, Radiance};
-    let mut scene = Scene::cornell_box();
-    scene.camera.width = 32;
-    scene.camera.height = 32;
-    scene.render.voxels = 32;
+    let mut scene = cornell(32, 32, 32);
     scene.render.rsm_side = 16;
     let cones = ConeSettings::from(&scene.render);
     let row = |alpha: Alpha, radiance: Radiance| {
@@ -273,7 +228,6 @@ fn the_factor_diagnostic_reproduces_the_frames_it_swaps_between() {
             .expect("a row of the diagnostic");
         vxgi::render::render_lrsm_factors(&scene, &cones, swap).unwrap()
     };
-    let p = std::path::Path::new("");
     let default = row(Alpha::Surface, Radiance::Lrsm(Default::default()));
     let lrsm = vxgi::render::render_lrsm_mirror(&scene, &cones).unwrap();
     let voxels = row(Alpha::Voxels, Radiance::Voxels);
@@ -282,7 +236,7 @@ fn the_factor_diagnostic_reproduces_the_frames_it_swaps_between() {
         ("lrsm", &default.indirect, &lrsm.indirect),
         ("vct-dense", &voxels.indirect, &dense.indirect),
     ] {
-        let c = vxgi::images::compare(b, p, a, p).unwrap();
+        let c = flip(b, a);
         assert!(c.rel_mse < 1e-8, "{name}: relative MSE {}", c.rel_mse);
         assert!(
             a.pixels.iter().flatten().any(|&v| v > 0.0),
@@ -313,4 +267,9 @@ fn the_defaults_do_not_leak_more_through_the_thin_wall_than_the_papers_settings(
     let (paper, default) = (leak_of(true), leak_of(false));
     println!("thin_wall leak: the paper's settings {paper:.4}, the defaults {default:.4}");
     assert!(default > 0.0 && default <= paper, "{default} vs {paper}");
+}
+
+/// The summed channels of an image (its energy).
+fn energy(img: &vxgi::images::RgbImage) -> f64 {
+    img.pixels.iter().flatten().map(|&c| c as f64).sum()
 }

@@ -1,10 +1,8 @@
 //! GPU vs mirror for `kernels/lrsm_partition.wgsl`, bad input refused at the API boundary, and what a
-//! partition must conserve.
-use crate::common;
-use crate::common::run_case;
-
-use common::{case_passes, gpu};
-use vxgi::harness::kernel::verify_case;
+//! partition must conserve; the property test over generated cases covers lrsm_prefilter and
+//! sample_lrsm too.
+use crate::common::{case_passes, gpu, passing_run};
+use vxgi::harness::Kernel;
 use vxgi::kernels::lrsm_partition::{case_for, LrsmPartition, DECL};
 use vxgi::kernels::lrsm_prefilter::values;
 use vxgi::lrsm::{synthetic_rsm, LrsmError, PartitionConfig};
@@ -30,45 +28,31 @@ fn bad_partitions_and_rsms_are_errors_not_panics() {
 
     assert_eq!(err(config(6, 1, 1, 0.05), &rsm), LrsmError::RsmSize(6));
     assert_eq!(err(config(1, 1, 1, 0.05), &rsm), LrsmError::RsmSize(1));
-    assert!(matches!(
-        err(config(16, 8, 7, 0.01), &rsm),
-        LrsmError::TooManyLayers { layers: 72, .. }
-    ));
-    assert!(matches!(
-        err(config(8192, 7, 7, 0.01), &rsm),
-        LrsmError::LayerArrayTooLarge { .. }
-    ));
+    let e = err(config(16, 8, 7, 0.01), &rsm);
+    assert!(matches!(e, LrsmError::TooManyLayers { layers: 72, .. }));
+    let e = err(config(8192, 7, 7, 0.01), &rsm);
+    assert!(matches!(e, LrsmError::LayerArrayTooLarge { .. }));
     for overlap in [0.6, -0.1, f32::NAN, f32::INFINITY] {
-        assert!(
-            matches!(
-                err(config(16, 1, 1, overlap), &rsm),
-                LrsmError::Overlap { .. }
-            ),
-            "{overlap}"
-        );
+        let e = err(config(16, 1, 1, overlap), &rsm);
+        assert!(matches!(e, LrsmError::Overlap { .. }), "{overlap}: {e}");
     }
     let mut nan = rsm.clone();
     nan.depth[vxgi_cpu_mirror::morton::encode2(3, 5) as usize] = f32::NAN;
     let e = err(good, &nan);
-    assert!(
-        matches!(
-            e,
-            LrsmError::NonFinite {
-                x: 3,
-                y: 5,
-                what: "depth",
-                ..
-            }
-        ),
-        "{e}"
+    let at = matches!(
+        e,
+        LrsmError::NonFinite {
+            x: 3,
+            y: 5,
+            what: "depth",
+            ..
+        }
     );
-    assert!(e.to_string().contains("x=3, y=5"), "{e}");
+    assert!(at && e.to_string().contains("x=3, y=5"), "{e}");
     let mut inf = rsm.clone();
     inf.normal[0][3] = f32::INFINITY;
-    assert!(matches!(
-        err(good, &inf),
-        LrsmError::NonFinite { what: "normal", .. }
-    ));
+    let e = err(good, &inf);
+    assert!(matches!(e, LrsmError::NonFinite { what: "normal", .. }));
     let mut short = rsm.clone();
     short.depth.pop();
     assert!(matches!(err(good, &short), LrsmError::Length { .. }));
@@ -82,9 +66,7 @@ fn every_covered_texel_lands_in_its_layers_with_warped_depth_in_unit_range() {
     let c = config(32, 2, 1, 0.04);
     let rsm = synthetic_rsm(32, &c, 4);
     let case = case_for(&shader, gpu(), &rsm, &c, "conservation".into(), 4).unwrap();
-    let (comps, ..) = verify_case(gpu(), &shader, &LrsmPartition, &case, None).unwrap();
-    assert!(comps.iter().all(|x| x.passed()));
-    let out = run_case(&shader, DECL.name, &case, &["out_moments"]);
+    let out = passing_run(&shader, &LrsmPartition, &case, &["out_moments"]);
     let m = values(out.buffer("out_moments"));
     let ranges = c.depth_ranges();
     let texels = c.layer_texels() as usize;
@@ -121,12 +103,15 @@ fn every_covered_texel_lands_in_its_layers_with_warped_depth_in_unit_range() {
 proptest::proptest! {
     #![proptest_config(proptest::prelude::ProptestConfig { cases: 12, ..proptest::prelude::ProptestConfig::default() })]
 
-    /// Proptest drives the generator: any seed, any of its configuration families.
+    /// Proptest drives the generators of the three LRSM kernels (this one, lrsm_prefilter and
+    /// sample_lrsm): any seed, any of their configuration families; each kernel gets every case.
     #[test]
     fn proptest_generated_cases_match_the_mirror(seed in proptest::prelude::any::<u64>(), index in 0usize..60) {
-        let shader = DECL.shader().unwrap();
-        let case = vxgi::harness::Kernel::case(&LrsmPartition, &shader, gpu(), seed, index);
-        case_passes(&shader, &LrsmPartition, &case)?;
+        use vxgi::kernels::{lrsm_prefilter::LrsmPrefilter, sample_lrsm::SampleLrsm};
+        for kernel in [&LrsmPartition as &dyn Kernel, &LrsmPrefilter, &SampleLrsm] {
+            let shader = kernel.decl().shader().unwrap();
+            case_passes(&shader, kernel, &kernel.case(&shader, gpu(), seed, index))?;
+        }
     }
 }
 
@@ -134,14 +119,9 @@ proptest::proptest! {
 /// and 50.4 MB for 3x2; ours stores binary16 too.
 #[test]
 fn lrsm_memory_matches_table_2() {
-    for (a, b, paper_mb) in [(1u32, 1u32, 33.6f64), (2, 1, 50.4)] {
-        let c = config(1024, a, b, 0.05);
-        let ours = vxgi::lrsm::lrsm_bytes(&c) as f64 / 1e6;
-        eprintln!(
-            "LRSM {}x{} layers of 512^2: {ours:.1} MB (paper: {paper_mb} MB)",
-            a + 1,
-            b + 1
-        );
+    for (a, b, paper_mb) in [(2u32, 2u32, 33.6f64), (3, 2, 50.4)] {
+        let ours = vxgi::lrsm::lrsm_bytes(&config(1024, a - 1, b - 1, 0.05)) as f64 / 1e6;
+        eprintln!("LRSM {a}x{b} layers of 512^2: {ours:.1} MB (paper: {paper_mb} MB)");
         assert!(
             (ours - paper_mb).abs() < 0.1,
             "{ours} MB vs paper {paper_mb} MB"
@@ -166,9 +146,7 @@ fn radiance_past_binary16_is_clamped_to_its_largest_value() {
         rsm.radiance[t][3] = 0.0;
     }
     let case = case_for(&shader, gpu(), &rsm, &c, "clamp".into(), 0).unwrap();
-    let (comps, ..) = verify_case(gpu(), &shader, &LrsmPartition, &case, None).unwrap();
-    assert!(comps.iter().all(|x| x.passed()), "{}", comps[0].report());
-    let out = run_case(&shader, DECL.name, &case, &["out_radiance"]);
+    let out = passing_run(&shader, &LrsmPartition, &case, &["out_radiance"]);
     let r = values(out.buffer("out_radiance"));
     assert_eq!(r[0], [65504.0, 65504.0, 65504.0, 1.0]);
     assert_eq!(r[1], [24000.0, 0.0, 0.0, 0.25]);

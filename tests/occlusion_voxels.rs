@@ -2,12 +2,9 @@
 //! (every family, sides 2..128, random seeds through proptest, both coverage rules); each level's byte
 //! against the exact solid fraction of the leaves under it (volume coverage); one-voxel walls opaque
 //! at every level (surface coverage); the memory against the paper's Table 2; a 512^3 grid.
-use crate::common;
-
-use common::gpu;
+use crate::common::{case_passes, gpu};
 use proptest::prelude::*;
 use vxgi::grids::{generate, Pattern};
-use vxgi::harness::kernel::verify_case;
 use vxgi::kernels::occlusion_voxels::{case_for, occlusion_on_gpu, OcclusionVoxels, DECL};
 use vxgi_cpu_mirror::morton;
 use vxgi_cpu_mirror::occlusion_voxels::{binarize, level_byte, pyramid, pyramid_bytes, Coverage};
@@ -23,10 +20,7 @@ proptest! {
         let shader = DECL.shader().unwrap();
         let coverage = if surface { Coverage::Surface } else { Coverage::Volume };
         let case = case_for(&shader, gpu(), &binarize(&grid.colour, false), n, coverage, format!("{n}^3 family {family} {coverage:?}"), seed);
-        let (comps, ..) = verify_case(gpu(), &shader, &OcclusionVoxels, &case, None).unwrap();
-        for c in &comps {
-            prop_assert!(c.passed(), "{}", c.report());
-        }
+        case_passes(&shader, &OcclusionVoxels, &case)?;
     }
 }
 
@@ -45,19 +39,13 @@ fn mip_bytes_are_the_solid_fraction_of_their_leaves() {
             occlusion_on_gpu(gpu(), &binarize(&grid.colour, false), n, Coverage::Volume).unwrap();
         assert_eq!(levels, pyramid(&grid.colour, n, false, Coverage::Volume));
         for (k, words) in levels.iter().enumerate() {
-            let side = n >> k;
-            for m in 0..side.pow(3) {
+            for m in 0..(n >> k).pow(3) {
                 let [x, y, z] = morton::decode(m);
                 let b = 1u32 << k;
-                let mut solid = 0u32;
-                for dz in 0..b {
-                    for dy in 0..b {
-                        for dx in 0..b {
-                            let leaf = morton::encode(x * b + dx, y * b + dy, z * b + dz);
-                            solid += u32::from(grid.colour[leaf as usize][3] > 0.0);
-                        }
-                    }
-                }
+                let solid: u32 = (0..b.pow(3))
+                    .map(|d| morton::encode(x * b + d % b, y * b + d / b % b, z * b + d / b / b))
+                    .map(|leaf| u32::from(grid.colour[leaf as usize][3] > 0.0))
+                    .sum();
                 let exact = 255.0 * solid as f64 / (b as f64).powi(3);
                 let got = level_byte(words, k as u32, m as usize) as f64;
                 assert!(
@@ -78,28 +66,17 @@ fn surface_coverage_keeps_one_voxel_walls_opaque_at_every_level() {
     let n = 32u32;
     for (axis, at) in [(0usize, 0u32), (0, 13), (1, 31), (2, 6), (2, 17)] {
         let colour: Vec<[f32; 4]> = (0..n.pow(3))
-            .map(|m| {
-                let solid = morton::decode(m)[axis] == at;
-                [0.0, 0.0, 0.0, if solid { 1.0 } else { 0.0 }]
-            })
+            .map(|m| [0.0, 0.0, 0.0, (morton::decode(m)[axis] == at) as u8 as f32])
             .collect();
-        let grid = vxgi::grids::Grid {
-            n,
-            colour,
-            normal: vec![[0.0; 4]; n.pow(3) as usize],
-        };
-        let bits = binarize(&grid.colour, false);
+        let bits = binarize(&colour, false);
         let surface = occlusion_on_gpu(gpu(), &bits, n, Coverage::Surface).unwrap();
         let volume = occlusion_on_gpu(gpu(), &bits, n, Coverage::Volume).unwrap();
-        assert_eq!(surface, pyramid(&grid.colour, n, false, Coverage::Surface));
+        assert_eq!(surface, pyramid(&colour, n, false, Coverage::Surface));
         for k in 0..=n.trailing_zeros() as usize {
-            let side = n >> k;
-            for m in 0..side.pow(3) {
+            for m in 0..(n >> k).pow(3) {
                 let holds = morton::decode(m)[axis] == at >> k;
-                let (s, v) = (
-                    level_byte(&surface[k], k as u32, m as usize),
-                    level_byte(&volume[k], k as u32, m as usize),
-                );
+                let byte = |levels: &[Vec<u32>]| level_byte(&levels[k], k as u32, m as usize);
+                let (s, v) = (byte(&surface), byte(&volume));
                 if holds {
                     assert_eq!(s, 255, "wall {axis}={at}: level {k} block {m} surface {s}");
                     let halved = 255.0 / (1u32 << k) as f64;

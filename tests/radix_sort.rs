@@ -1,8 +1,5 @@
 //! GPU vs mirror for `kernels/radix_sort.wgsl`: the stable sort is unique, so exact.
-use crate::common;
-
-use common::{assert_case_passes, case_passes, gpu};
-use vxgi::harness::run::run;
+use crate::common::{assert_case_passes, case_passes, gpu, run_case};
 use vxgi::kernels::radix_sort::{case_for, RadixSort, SortError, DECL};
 
 proptest::proptest! {
@@ -17,7 +14,7 @@ proptest::proptest! {
         let (case, out) = case_for(gpu(), &keys, &values, key_bits, "prop".into(), 0).unwrap();
         case_passes(&shader, &RadixSort, &case)?;
         // And it is a sort: non-decreasing in the masked key, values a permutation.
-        let got = run(gpu(), &shader, DECL.name, &case.resources, &case.passes, &[&out[0], &out[1]]).unwrap();
+        let got = run_case(&shader, DECL.name, &case, &[&out[0], &out[1]]);
         let mask = if key_bits == 32 { u32::MAX } else { (1 << key_bits) - 1 };
         let k = got.buffer(&out[0]).as_u32();
         proptest::prop_assert!(k.windows(2).all(|w| (w[0] & mask) <= (w[1] & mask)));
@@ -29,22 +26,16 @@ proptest::proptest! {
 
 #[test]
 fn bad_input_is_an_error() {
-    assert_eq!(
-        case_for(gpu(), &[], &[], 8, "e".into(), 0).unwrap_err(),
-        SortError::Empty
-    );
-    assert_eq!(
-        case_for(gpu(), &[1, 2], &[1], 8, "e".into(), 0).unwrap_err(),
-        SortError::Length { keys: 2, values: 1 }
-    );
-    assert_eq!(
-        case_for(gpu(), &[1], &[1], 0, "e".into(), 0).unwrap_err(),
-        SortError::KeyBits(0)
-    );
-    assert_eq!(
-        case_for(gpu(), &[1], &[1], 33, "e".into(), 0).unwrap_err(),
-        SortError::KeyBits(33)
-    );
+    let length = SortError::Length { keys: 2, values: 1 };
+    for (keys, values, bits, want) in [
+        (&[][..], &[][..], 8, SortError::Empty),
+        (&[1, 2], &[1], 8, length),
+        (&[1], &[1], 0, SortError::KeyBits(0)),
+        (&[1], &[1], 33, SortError::KeyBits(33)),
+    ] {
+        let got = case_for(gpu(), keys, values, bits, "e".into(), 0).unwrap_err();
+        assert_eq!(got, want, "{keys:?} {values:?} {bits} bits");
+    }
 }
 
 #[test]

@@ -1,9 +1,7 @@
 //! GPU vs mirror for `kernels/reflective_shadow_map.wgsl` (generated scenes, every view of their lights),
 //! and what an RSM of the Cornell box's ceiling light must hold: the six cube faces see the whole room
 //! (but its open front), the face looking down sees the floor lit at <n.l> near 1, depths inside [0, 1].
-use crate::common;
-
-use common::gpu;
+use crate::common::gpu;
 use vxgi::kernels::reflective_shadow_map::rsm_on_gpu;
 use vxgi::lrsm::light_views;
 use vxgi::scene::{Light, Scene};
@@ -15,8 +13,7 @@ fn the_cornell_box_light_sees_the_room_through_six_faces() {
     let data = SceneData::new(&scene);
     let views = light_views(&data.lights, data.bounds, 32, data.frame.eye[3]).unwrap();
     assert_eq!(views.len(), 6, "a point light: six cube faces");
-    let mut covered = 0;
-    let mut lit_floor = false;
+    let (mut covered, mut lit_floor) = (0, false);
     for v in &views {
         let rsm = rsm_on_gpu(gpu(), &data, v).unwrap();
         assert_eq!(rsm.radiance.len(), 32 * 32);
@@ -49,12 +46,8 @@ fn a_narrow_spot_gets_one_view_and_a_directional_light_an_orthographic_one() {
         falloff_deg: None,
     }];
     let data = SceneData::new(&scene);
-    assert_eq!(
-        light_views(&data.lights, data.bounds, 16, 1e-4)
-            .unwrap()
-            .len(),
-        1
-    );
+    let views = light_views(&data.lights, data.bounds, 16, 1e-4).unwrap();
+    assert_eq!(views.len(), 1);
     // Straight down, the orthographic view would see the ceiling's outside (a back face: coverage 0):
     // light the box through its open front instead, along -z and a little down.
     scene.lights = vec![Light::Directional {

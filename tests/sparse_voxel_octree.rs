@@ -3,9 +3,10 @@
 //! consistent, work skipped, memory, and bad input.
 use crate::common;
 
-use common::gpu;
+use common::{assert_case_passes, case_passes, gpu};
 use proptest::prelude::*;
-use vxgi::harness::kernel::{verify, verify_case};
+use vxgi::harness::kernel::verify;
+use vxgi::harness::run::buffer_as;
 use vxgi::harness::{Corruption, VerifyOptions};
 use vxgi::kernels::sparse_voxel_octree::{
     build_on_gpu, case_for, default_capacity, generated, MemoryReport, SparseVoxelOctree, SvoError,
@@ -119,10 +120,7 @@ proptest! {
         let shader = DECL.shader().unwrap();
         let cap = default_capacity(gpu(), depth, frags.len());
         let case = case_for(gpu(), depth, cap, &frags, "prop".into(), 0);
-        let (comps, ..) = verify_case(gpu(), &shader, &SparseVoxelOctree, &case, None).unwrap();
-        for c in comps {
-            prop_assert!(c.passed(), "{}", c.report());
-        }
+        case_passes(&shader, &SparseVoxelOctree, &case)?;
         let o = build(depth, cap, &frags);
         assert_matches_dense(&o, &frags);
         prop_assert!(shared_voxels_consistent(&o).is_ok());
@@ -304,14 +302,10 @@ fn gpu_replay_of_the_static_structure_matches_a_full_build() {
         // flag_parents reads only the fragments the static part does not cover.
         let flagging = statics.flagging(&frags).len();
         assert!(flagging < frags.len(), "{label}");
-        if let Some(p) = case.resources.get("params_l1_v0_flagging") {
-            let p: OctreeParams = *bytemuck::from_bytes(&p.buffer().unwrap().bytes);
-            assert_eq!(p.fragments as usize, flagging, "{label}");
+        if let Some(p) = buffer_as::<OctreeParams>(&case.resources, "params_l1_v0_flagging") {
+            assert_eq!(p[0].fragments as usize, flagging, "{label}");
         }
-        let (comps, ..) = verify_case(gpu(), &shader, &SparseVoxelOctree, &case, None).unwrap();
-        for c in comps {
-            assert!(c.passed(), "{label}: {}", c.report());
-        }
+        assert_case_passes(&shader, &SparseVoxelOctree, &case);
         let o = build_on_gpu_replayed(gpu(), depth, &frags, None, Some(&statics)).unwrap();
         assert_matches_dense(&o.octree, &frags);
         // A structure recorded at another depth is refused, naming both.
@@ -345,13 +339,8 @@ fn fragments_sharing_a_point_flag_once() {
     let distinct: std::collections::HashSet<[u32; 3]> = frags.iter().map(|f| f.pos).collect();
     let cap = default_capacity(gpu(), depth, frags.len());
     let case = case_replayed(gpu(), depth, cap, &frags, None, true, label.clone(), 0);
-    let p: OctreeParams = *bytemuck::from_bytes(
-        &case.resources["params_l1_v0_flagging"]
-            .buffer()
-            .unwrap()
-            .bytes,
-    );
-    assert_eq!(p.fragments as usize, distinct.len(), "{label}");
+    let p = buffer_as::<OctreeParams>(&case.resources, "params_l1_v0_flagging").unwrap();
+    assert_eq!(p[0].fragments as usize, distinct.len(), "{label}");
     let gpu_built = build_on_gpu(gpu(), depth, &frags, None).unwrap().octree;
     let mirror = build(depth, cap, &frags);
     // The GPU's pool is cut to the tiles it used; the mirror's used tiles are the same prefix.

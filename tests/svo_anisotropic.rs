@@ -9,15 +9,17 @@ use vxgi_cpu_mirror::svo_anisotropic::AnisoParams;
 
 #[test]
 fn params_struct_matches_the_reflected_wgsl_layout() {
-    let (size, members) = DECL.shader().unwrap().struct_layout("AnisoParams").unwrap();
-    assert_eq!(size as usize, std::mem::size_of::<AnisoParams>());
-    let want: Vec<(String, u32)> = [
-        ("depth", std::mem::offset_of!(AnisoParams, depth)),
-        ("level", std::mem::offset_of!(AnisoParams, level)),
-        ("inv_scale", std::mem::offset_of!(AnisoParams, inv_scale)),
-    ]
-    .into_iter()
-    .map(|(n, o)| (n.to_string(), o as u32))
-    .collect();
-    assert_eq!(&members[..want.len()], &want[..]);
+    crate::common::assert_layout!(
+        DECL.shader().unwrap(),
+        AnisoParams {
+            depth,
+            level,
+            inv_scale,
+            _pad as "_pad0",
+            _pad as "_pad1" + 4,
+            _pad as "_pad2" + 8,
+            _pad as "_pad3" + 12,
+            _pad as "_pad4" + 16,
+        }
+    );
 }

@@ -2,19 +2,25 @@
 //! read at the voxels' own level gives the dense pyramid's level 0 back.
 use crate::common;
 
-use common::gpu;
+use common::{cornell, flip, gpu, scene_file};
+use glam::{Vec3, Vec4};
+use vxgi::kernels::cone_trace::{cone_params, ConeSettings};
+use vxgi::kernels::sparse_voxel_octree::BRICK_BYTES;
+use vxgi::kernels::svo_cone_trace::{
+    coverage_only, grid_fragments, normal_pool, svo_cone_params, SCALE,
+};
+use vxgi::kernels::{svo_photons, voxel_light, voxelize};
+use vxgi::reference::{leak, pixel_positions};
+use vxgi::render::{render_svo, Pipeline, Renderer, VctSvo};
+use vxgi::scene::Scene;
+use vxgi_cpu_mirror::cone_trace::{Pyramid, SampleError, Volume};
+use vxgi_cpu_mirror::sparse_voxel_octree::{build_fitted, leaf_of, voxel_index, BRICK_WORDS, NONE};
+use vxgi_cpu_mirror::svo_cone_trace::{
+    glossy_voxel, lobe_visibility, normal_value, SvoParams, SvoVolume,
+};
 
 #[test]
 fn level_zero_of_the_octree_is_the_voxel_grid() {
-    use glam::Vec3;
-    use vxgi::kernels::cone_trace::{cone_params, ConeSettings};
-    use vxgi::kernels::svo_cone_trace::{grid_fragments, svo_cone_params, SCALE};
-    use vxgi::kernels::{voxel_light, voxelize};
-    use vxgi::scene::Scene;
-    use vxgi_cpu_mirror::cone_trace::{Pyramid, Volume};
-    use vxgi_cpu_mirror::sparse_voxel_octree::build_fitted;
-    use vxgi_cpu_mirror::svo_cone_trace::{SvoParams, SvoVolume};
-
     let scene = Scene::cornell_box();
     let side = 32;
     let data = vxgi::trace::SceneData::new(&scene);
@@ -24,10 +30,8 @@ fn level_zero_of_the_octree_is_the_voxel_grid() {
     let depth = 4;
     let octree = build_fitted(depth, &frags);
     let settings = ConeSettings::default();
-    let (pp, sp) = (
-        cone_params(&frame, &settings),
-        svo_cone_params(&frame, &settings),
-    );
+    let pp = cone_params(&frame, &settings);
+    let sp = svo_cone_params(&frame, &settings);
     // The whole pyramid (sampling at level 0 blends level 1 with weight 0).
     let voxels = vxgi::kernels::cone_trace::gpu_pyramid(gpu(), &rad, &grid.normal, side)
         .unwrap()
@@ -69,10 +73,7 @@ fn level_zero_of_the_octree_is_the_voxel_grid() {
         );
         nonzero += (a.w > 0.0) as u32;
     }
-    assert!(
-        nonzero > 100,
-        "the points must meet the surfaces ({nonzero} did)"
-    );
+    assert!(nonzero > 100, "only {nonzero} points met the surfaces");
 }
 
 /// vct-svo on the Cornell box against the committed 4096-spp reference, with and without anisotropic
@@ -92,24 +93,17 @@ fn level_zero_of_the_octree_is_the_voxel_grid() {
 /// off by default.
 #[test]
 fn vct_svo_against_the_converged_reference() {
-    use vxgi::images::compare;
-    use vxgi::kernels::cone_trace::ConeSettings;
-    use vxgi::scene::Scene;
-    let dir =
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("references/cornell_box_256_4096spp");
-    let read = |name: &str| vxgi::images::read_exr(&dir.join(format!("{name}.exr"))).unwrap();
+    let read = |name: &str| exr("cornell_box_256_4096spp", name);
     let mut results = Vec::new();
     let mut ceiling = Vec::new();
     for (anisotropic, lobes) in [(false, false), (true, false), (true, true)] {
         let mut scene = Scene::cornell_box();
         scene.render.anisotropic_voxels = anisotropic;
         scene.render.voxel_lobes = lobes;
-        let (r, mem) =
-            vxgi::render::render_svo(gpu(), &scene, &ConeSettings::default(), |_| {}).unwrap();
-        let p = std::path::Path::new("");
-        let comb = compare(&read("combined"), p, &r.combined, p).unwrap();
-        let ind = compare(&read("indirect"), p, &r.indirect, p).unwrap();
-        let ao = compare(&read("ao"), p, &r.ao, p).unwrap();
+        let (r, mem) = render_svo(gpu(), &scene, &ConeSettings::default(), |_| {}).unwrap();
+        let comb = flip(&read("combined"), &r.combined);
+        let ind = flip(&read("indirect"), &r.indirect);
+        let ao = flip(&read("ao"), &r.ao);
         // Mean indirect luminance of the top quarter (the ceiling), ours over the reference's.
         let top = |img: &vxgi::images::RgbImage| -> f64 {
             let w = img.width as usize;
@@ -167,24 +161,17 @@ fn vct_svo_against_the_converged_reference() {
 /// they must leak less.
 #[test]
 fn thin_wall_leak_of_vct_svo_is_reported() {
-    use vxgi::kernels::cone_trace::ConeSettings;
     let mut scene = common::thin_wall(128, 64);
-    let pos = vxgi::reference::pixel_positions(&scene);
+    let pos = pixel_positions(&scene);
     let mut leaks = Vec::new();
     for (anisotropic, lobes) in [(false, false), (true, false), (true, true)] {
         scene.render.anisotropic_voxels = anisotropic;
         scene.render.voxel_lobes = lobes;
-        let (svo, _) =
-            vxgi::render::render_svo(gpu(), &scene, &ConeSettings::default(), |_| {}).unwrap();
-        leaks.push(vxgi::reference::leak(
-            &svo.indirect.pixels,
-            &pos,
-            0.0,
-            1.0 / 64.0,
-        ));
+        let (svo, _) = render_svo(gpu(), &scene, &ConeSettings::default(), |_| {}).unwrap();
+        leaks.push(leak(&svo.indirect.pixels, &pos, 0.0, 1.0 / 64.0));
     }
     let dense = vxgi::render::render(gpu(), &scene, &ConeSettings::default(), |_| {}).unwrap();
-    let leak_dense = vxgi::reference::leak(&dense.indirect.pixels, &pos, 0.0, 1.0 / 64.0);
+    let leak_dense = leak(&dense.indirect.pixels, &pos, 0.0, 1.0 / 64.0);
     println!(
         "thin_wall leak: vct-svo isotropic {:.4}, anisotropic {:.4}, anisotropic with lobes {:.4}; vct-dense {leak_dense:.4} (reference: 0)",
         leaks[0], leaks[1], leaks[2]
@@ -198,16 +185,11 @@ fn thin_wall_leak_of_vct_svo_is_reported() {
 /// on here) and the second bounce (two bounces here), and its image equals a full rebuild's.
 #[test]
 fn octree_is_reused_when_only_the_camera_moves() {
-    use vxgi::kernels::cone_trace::ConeSettings;
-    use vxgi::scene::Scene;
-    let mut scene = Scene::cornell_box();
-    scene.camera.width = 48;
-    scene.camera.height = 48;
-    scene.render.voxels = 32;
+    let mut scene = cornell(48, 48, 32);
     scene.render.bounces = 2;
     scene.render.voxel_lobes = true;
     let cones = ConeSettings::default();
-    let mut renderer = vxgi::render::Renderer::new(vxgi::render::Pipeline::VctSvo, true);
+    let mut renderer = Renderer::new(Pipeline::VctSvo, true);
     let (first, _) = renderer.render(gpu(), &scene, &cones, |_| {}).unwrap();
     assert!(first.plan.skipped().is_empty(), "{}", first.plan);
     let moved = scene.orbited(10.0);
@@ -229,7 +211,7 @@ fn octree_is_reused_when_only_the_camera_moves() {
         second.plan
     );
     assert!(second.plan.to_string().contains("its octree is reused"));
-    let (fresh, fresh_mem) = vxgi::render::render_svo(gpu(), &moved, &cones, |_| {}).unwrap();
+    let (fresh, fresh_mem) = render_svo(gpu(), &moved, &cones, |_| {}).unwrap();
     assert_eq!(second.indirect.pixels, fresh.indirect.pixels);
     assert_eq!(second.ao.pixels, fresh.ao.pixels);
     assert_eq!(mem, fresh_mem);
@@ -248,11 +230,8 @@ fn octree_is_reused_when_only_the_camera_moves() {
 /// cone there, and it changes the indirect light of the floor.
 #[test]
 fn glossy_thin_wall_runs_the_glossy_cone() {
-    use vxgi::kernels::cone_trace::ConeSettings;
-    use vxgi::scene::Scene;
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
     let load = |name: &str| {
-        let mut s = Scene::load(dir.join(name)).unwrap();
+        let mut s = scene_file(name);
         s.camera.width = 64;
         s.camera.height = 32;
         s.render.voxels = 64;
@@ -260,28 +239,15 @@ fn glossy_thin_wall_runs_the_glossy_cone() {
     };
     let (glossy, diffuse) = (load("thin_wall_glossy.toml"), load("thin_wall.toml"));
     let cones = ConeSettings::default();
-    let (g, _) = vxgi::render::render_svo(gpu(), &glossy, &cones, |_| {}).unwrap();
-    let (d, _) = vxgi::render::render_svo(gpu(), &diffuse, &cones, |_| {}).unwrap();
-    assert!(
-        g.plan
-            .to_string()
-            .contains("glossy cone for the 1 glossy material"),
-        "{}",
-        g.plan
-    );
+    let (g, _) = render_svo(gpu(), &glossy, &cones, |_| {}).unwrap();
+    let (d, _) = render_svo(gpu(), &diffuse, &cones, |_| {}).unwrap();
+    let glossy_cone = "glossy cone for the 1 glossy material";
+    assert!(g.plan.to_string().contains(glossy_cone), "{}", g.plan);
     assert!(d.plan.to_string().contains("no glossy cone"), "{}", d.plan);
     assert_ne!(g.indirect.pixels, d.indirect.pixels);
-    assert!(g
-        .indirect
-        .pixels
-        .iter()
-        .flatten()
-        .all(|v| v.is_finite() && *v >= 0.0));
+    assert!(finite_non_negative(&g.indirect));
     let dense = vxgi::render::render(gpu(), &glossy, &cones, |_| {}).unwrap();
-    assert!(dense
-        .plan
-        .to_string()
-        .contains("glossy cone for the 1 glossy material"));
+    assert!(dense.plan.to_string().contains(glossy_cone));
 }
 
 /// `bounces = 2` (vct-svo's second bounce through the voxels) against the converged two-bounce
@@ -292,29 +258,19 @@ fn glossy_thin_wall_runs_the_glossy_cone() {
 /// vct-svo's indirect, 48% to the reference's.)
 #[test]
 fn second_bounce_against_the_two_bounce_reference() {
-    use vxgi::images::compare;
-    use vxgi::kernels::cone_trace::ConeSettings;
-    use vxgi::scene::Scene;
-    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("references");
-    let read = |dir: &str, name: &str| {
-        vxgi::images::read_exr(&root.join(dir).join(format!("{name}.exr"))).unwrap()
-    };
     let two = "cornell_box_256_2bounce_4096spp";
-    let (ref_comb, ref_ind) = (read(two, "combined"), read(two, "indirect"));
-    let ref_one = read("cornell_box_256_4096spp", "indirect");
+    let (ref_comb, ref_ind) = (exr(two, "combined"), exr(two, "indirect"));
+    let ref_one = exr("cornell_box_256_4096spp", "indirect");
     let energy = |img: &[[f32; 3]]| img.iter().map(|p| p[0] + p[1] + p[2]).sum::<f32>();
     let mut flips = Vec::new();
     let mut energies = Vec::new();
     for bounces in [1, 2] {
         let mut scene = Scene::cornell_box();
         scene.render.bounces = bounces;
-        let (r, _) =
-            vxgi::render::render_svo(gpu(), &scene, &ConeSettings::default(), |_| {}).unwrap();
+        let (r, _) = render_svo(gpu(), &scene, &ConeSettings::default(), |_| {}).unwrap();
         let names: Vec<&str> = r.stages.iter().map(|s| s.0).collect();
         assert_eq!(names.contains(&"svo_bounce"), bounces == 2, "{names:?}");
-        let p = std::path::Path::new("");
-        let comb = compare(&ref_comb, p, &r.combined, p).unwrap();
-        let ind = compare(&ref_ind, p, &r.indirect, p).unwrap();
+        let (comb, ind) = (flip(&ref_comb, &r.combined), flip(&ref_ind, &r.indirect));
         println!(
             "vct-svo bounces = {bounces} vs the two-bounce 4096-spp reference: combined FLIP {:.3}, indirect {:.3}",
             comb.flip_mean, ind.flip_mean
@@ -337,23 +293,16 @@ fn second_bounce_against_the_two_bounce_reference() {
 
 #[test]
 fn svo_params_struct_matches_the_reflected_wgsl_layout() {
-    use vxgi_cpu_mirror::svo_cone_trace::SvoParams;
-    let (size, members) = vxgi::kernels::svo_cone_trace::DECL
-        .shader()
-        .unwrap()
-        .struct_layout("SvoParams")
-        .unwrap();
-    assert_eq!(size as usize, std::mem::size_of::<SvoParams>());
-    let want: Vec<(String, u32)> = [
-        ("depth", std::mem::offset_of!(SvoParams, depth)),
-        ("inv_scale", std::mem::offset_of!(SvoParams, inv_scale)),
-        ("anisotropic", std::mem::offset_of!(SvoParams, anisotropic)),
-        ("lobes", std::mem::offset_of!(SvoParams, lobes)),
-    ]
-    .into_iter()
-    .map(|(n, o)| (n.to_string(), o as u32))
-    .collect();
-    assert_eq!(&members[..want.len()], &want[..]);
+    let shader = vxgi::kernels::svo_cone_trace::DECL.shader().unwrap();
+    common::assert_layout!(
+        shader,
+        SvoParams {
+            depth,
+            inv_scale,
+            anisotropic,
+            lobes
+        }
+    );
 }
 
 /// Dynamic instances (scenes/instances.toml: a static room and box, a sliding box): where its staged
@@ -363,12 +312,7 @@ fn svo_params_struct_matches_the_reflected_wgsl_layout() {
 /// bounds), and its plan says the static part was kept.
 #[test]
 fn dynamic_instances_reuse_the_static_voxels() {
-    use vxgi::kernels::cone_trace::ConeSettings;
-    use vxgi::render::{Pipeline, Renderer, VctSvo};
-    use vxgi::scene::Scene;
-    let mut scene =
-        Scene::load(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/instances.toml"))
-            .unwrap();
+    let mut scene = scene_file("instances.toml");
     scene.camera.width = 48;
     scene.camera.height = 48;
     scene.render.voxels = 32;
@@ -379,14 +323,8 @@ fn dynamic_instances_reuse_the_static_voxels() {
     let cones = ConeSettings::default();
     let mut seq = Renderer::new(Pipeline::VctSvo, true);
     let (first, _) = seq.render(gpu(), &scene, &cones, |_| {}).unwrap();
-    assert!(
-        first
-            .plan
-            .to_string()
-            .contains("(static part voxelized now)"),
-        "{}",
-        first.plan
-    );
+    let plan = first.plan.to_string();
+    assert!(plan.contains("(static part voxelized now)"), "{plan}");
     let next = scene.at_frame(3);
     assert_ne!(next.mesh, scene.mesh, "the dynamic box moves");
     let (second, _) = seq.render(gpu(), &next, &cones, |_| {}).unwrap();
@@ -423,8 +361,7 @@ fn dynamic_instances_reuse_the_static_voxels() {
     let (fresh, _) = Renderer::new(Pipeline::VctSvo, false)
         .render(gpu(), &next, &cones, |_| {})
         .unwrap();
-    let p = std::path::Path::new("");
-    let c = vxgi::images::compare(&fresh.combined, p, &second.combined, p).unwrap();
+    let c = flip(&fresh.combined, &second.combined);
     assert_eq!(c.rel_mse, 0.0, "FLIP {}", c.flip_mean);
     // And the merged voxels give the image of the whole scene voxelized at once (instances
     // flattened).
@@ -436,7 +373,7 @@ fn dynamic_instances_reuse_the_static_voxels() {
         .render(gpu(), &flat, &cones, |_| {})
         .unwrap();
     assert!(!joint.plan.to_string().contains("static part"));
-    let c = vxgi::images::compare(&joint.combined, p, &second.combined, p).unwrap();
+    let c = flip(&joint.combined, &second.combined);
     println!(
         "merged vs joint voxelization: FLIP {:.5}, rel MSE {:.2e}",
         c.flip_mean, c.rel_mse
@@ -449,9 +386,6 @@ fn dynamic_instances_reuse_the_static_voxels() {
 /// shares of one lobe sum to 1; narrowing the cone sharpens the step.
 #[test]
 fn lobe_factor_limits_and_symmetry() {
-    use glam::{Vec3, Vec4};
-    use vxgi_cpu_mirror::cone_trace::SampleError;
-    use vxgi_cpu_mirror::svo_cone_trace::{lobe_visibility, normal_value};
     let enc = |n: Vec3, a: f32| Vec4::from_array(normal_value(n, a));
     let none = SampleError::default();
     let d = Vec3::new(0.0, 0.0, -1.0); // the cone looks down -z; its origin is at +z
@@ -494,9 +428,6 @@ proptest::proptest! {
         moves in proptest::array::uniform4(-1.0f32..1.0),
         dmoves in proptest::array::uniform3(-1.0f32..1.0),
     ) {
-        use glam::{Vec3, Vec4};
-        use vxgi_cpu_mirror::cone_trace::SampleError;
-        use vxgi_cpu_mirror::svo_cone_trace::{lobe_visibility, normal_value};
         let d = Vec3::from_array(dir);
         proptest::prop_assume!(d.length() > 0.1);
         let d = d.normalize();
@@ -509,6 +440,34 @@ proptest::proptest! {
         proptest::prop_assert!((0.0..=1.0).contains(&v));
         proptest::prop_assert!((v - w).abs() <= bound, "{v} vs {w}, bound {bound}");
     }
+
+    /// `glossy_voxel`'s bound covers what it claims, as the lobe factor's (inputs moved within their
+    /// stated errors, the direction within 16 ULP per component).
+    #[test]
+    fn glossy_voxel_bound_covers_its_inputs_errors(
+        q in proptest::array::uniform3(-1.0f32..1.0),
+        w in 0.0f32..4.0,
+        dir in proptest::array::uniform3(-1.0f32..1.0),
+        tan in 0.01f32..1.5,
+        e_rgb in 0.0f32..1e-4,
+        e_a in 0.0f32..1e-4,
+        moves in proptest::array::uniform4(-1.0f32..1.0),
+        dmoves in proptest::array::uniform3(-1.0f32..1.0),
+    ) {
+        let d = Vec3::from_array(dir);
+        proptest::prop_assume!(d.length() > 0.1);
+        let d = d.normalize();
+        let qv = Vec3::from_array(q);
+        let qv = if qv.length() > 1.0 { qv / qv.length() } else { qv } * w;
+        let e = Vec4::new((qv.x + w) * 0.5, (qv.y + w) * 0.5, (qv.z + w) * 0.5, w);
+        let err = SampleError { rgb: e_rgb * w.max(1e-3), a: e_a * w.max(1e-3) };
+        let (t, bound) = glossy_voxel(e, d, tan, err);
+        let moved = e + Vec4::new(moves[0] * err.rgb, moves[1] * err.rgb, moves[2] * err.rgb, moves[3] * err.a);
+        let dm = d + Vec3::from_array(dmoves) * (16.0 * f32::EPSILON);
+        let (u, _) = glossy_voxel(moved, dm, tan, SampleError::default());
+        proptest::prop_assert!(t >= 0.0 && t.is_finite());
+        proptest::prop_assert!((t - u).abs() <= bound * 1.0001 + 1e-30, "{t} vs {u}, bound {bound}");
+    }
 }
 
 /// The normal pool built on the GPU (a second octree build over the same points, carried into the
@@ -517,22 +476,13 @@ proptest::proptest! {
 /// fragments, whose points the pool covers with zeros).
 #[test]
 fn normal_pool_on_the_gpu_is_the_mirrors() {
-    use vxgi::kernels::svo_cone_trace::{coverage_only, grid_fragments, normal_pool, SCALE};
-    use vxgi::kernels::{svo_photons, voxelize};
-    use vxgi::scene::Scene;
-    use vxgi_cpu_mirror::sparse_voxel_octree::{
-        build_fitted, leaf_of, voxel_index, BRICK_WORDS, NONE,
-    };
     let scene = Scene::cornell_box();
     let data = vxgi::trace::SceneData::new(&scene);
     let (grid, _list, frame) = voxelize::voxelize_on_gpu(gpu(), &scene, 32).unwrap();
     let coverage = coverage_only(&grid.colour);
     let mut frags = grid_fragments(&coverage, SCALE).unwrap();
-    frags.extend(
-        svo_photons::mirror_photon_fragments(&data, &frame, 32, SCALE)
-            .unwrap()
-            .light,
-    );
+    let photons = svo_photons::mirror_photon_fragments(&data, &frame, 32, SCALE).unwrap();
+    frags.extend(photons.light);
     let octree = build_fitted(4, &frags);
     let gpu_pool =
         normal_pool(Some(gpu()), &octree, &frags, &coverage, &grid.normal, SCALE).unwrap();
@@ -553,10 +503,7 @@ fn normal_pool_on_the_gpu_is_the_mirrors() {
         assert_ne!(node, NONE);
         let v = voxel_index([0, 1, 2].map(|k| p[k] - 2 * leaf[k]));
         let at = node as usize * BRICK_WORDS + v * 4;
-        let want = vxgi_cpu_mirror::svo_cone_trace::normal_value(
-            glam::Vec3::from_slice(&grid.normal[m][..3]),
-            c[3],
-        );
+        let want = normal_value(Vec3::from_slice(&grid.normal[m][..3]), c[3]);
         for k in 0..4 {
             // A leaf lattice point holds its own voxel's value alone (fragments sit on distinct
             // points), rounded once to the fixed point.
@@ -577,9 +524,6 @@ fn normal_pool_on_the_gpu_is_the_mirrors() {
 /// directions disagree, and a narrow cone sees it sharper than a wide one.
 #[test]
 fn glossy_voxel_lobe_is_a_normalised_vmf_around_the_mirror_direction() {
-    use glam::{Vec3, Vec4};
-    use vxgi_cpu_mirror::cone_trace::SampleError;
-    use vxgi_cpu_mirror::svo_cone_trace::glossy_voxel;
     let none = SampleError::default();
     // One photon: mirror direction +y, lobe length m, weight 1, encoded ((q + w) / 2, w).
     let enc = |q: Vec3, w: f32| Vec4::new((q.x + w) * 0.5, (q.y + w) * 0.5, (q.z + w) * 0.5, w);
@@ -593,11 +537,7 @@ fn glossy_voxel_lobe_is_a_normalised_vmf_around_the_mirror_direction() {
             let sin_t = (1.0 - cos_t * cos_t).sqrt();
             for j in 0..n / 2 {
                 let phi = std::f64::consts::TAU * (j as f64 + 0.5) / (n / 2) as f64;
-                let v = Vec3::new(
-                    (sin_t * phi.cos()) as f32,
-                    cos_t as f32,
-                    (sin_t * phi.sin()) as f32,
-                );
+                let v = glam::DVec3::new(sin_t * phi.cos(), cos_t, sin_t * phi.sin()).as_vec3();
                 let (t, _) = glossy_voxel(e, -v, tan, none);
                 integral += t as f64 * (2.0 / n as f64) * (std::f64::consts::TAU / (n / 2) as f64);
             }
@@ -626,68 +566,35 @@ fn glossy_voxel_lobe_is_a_normalised_vmf_around_the_mirror_direction() {
     assert_eq!(glossy_voxel(Vec4::ZERO, -Vec3::Y, 0.1, none), (0.0, 0.0));
 }
 
-proptest::proptest! {
-    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(2000))]
-    /// `glossy_voxel`'s bound covers what it claims, as the lobe factor's (inputs moved within their
-    /// stated errors, the direction within 16 ULP per component).
-    #[test]
-    fn glossy_voxel_bound_covers_its_inputs_errors(
-        q in proptest::array::uniform3(-1.0f32..1.0),
-        w in 0.0f32..4.0,
-        dir in proptest::array::uniform3(-1.0f32..1.0),
-        tan in 0.01f32..1.5,
-        e_rgb in 0.0f32..1e-4,
-        e_a in 0.0f32..1e-4,
-        moves in proptest::array::uniform4(-1.0f32..1.0),
-        dmoves in proptest::array::uniform3(-1.0f32..1.0),
-    ) {
-        use glam::{Vec3, Vec4};
-        use vxgi_cpu_mirror::cone_trace::SampleError;
-        use vxgi_cpu_mirror::svo_cone_trace::glossy_voxel;
-        let d = Vec3::from_array(dir);
-        proptest::prop_assume!(d.length() > 0.1);
-        let d = d.normalize();
-        let qv = Vec3::from_array(q);
-        let qv = if qv.length() > 1.0 { qv / qv.length() } else { qv } * w;
-        let e = Vec4::new((qv.x + w) * 0.5, (qv.y + w) * 0.5, (qv.z + w) * 0.5, w);
-        let err = SampleError { rgb: e_rgb * w.max(1e-3), a: e_a * w.max(1e-3) };
-        let (t, bound) = glossy_voxel(e, d, tan, err);
-        let moved = e + Vec4::new(moves[0] * err.rgb, moves[1] * err.rgb, moves[2] * err.rgb, moves[3] * err.a);
-        let dm = d + Vec3::from_array(dmoves) * (16.0 * f32::EPSILON);
-        let (u, _) = glossy_voxel(moved, dm, tan, SampleError::default());
-        proptest::prop_assert!(t >= 0.0 && t.is_finite());
-        proptest::prop_assert!((t - u).abs() <= bound * 1.0001 + 1e-30, "{t} vs {u}, bound {bound}");
-    }
-}
-
 /// thin_wall_glossy (a glossy floor) with the lobes: the specular photons are splatted into a third
 /// pool (memory: two extra pools), the frame plans and runs it, and the image is finite; the Cornell
 /// box (no Ks) builds no specular pool.
 #[test]
 fn glossy_surfaces_get_a_specular_pool() {
-    use vxgi::kernels::cone_trace::ConeSettings;
-    use vxgi::scene::Scene;
-    for (path, glossy) in [(Some("scenes/thin_wall_glossy.toml"), true), (None, false)] {
-        let mut scene = match path {
-            Some(p) => {
-                Scene::load(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(p)).unwrap()
-            }
-            None => Scene::cornell_box(),
-        };
-        scene.camera.width = 64;
-        scene.camera.height = 32;
-        scene.render.voxels = 32;
+    for (glossy, mut scene) in [
+        (true, scene_file("thin_wall_glossy.toml")),
+        (false, Scene::cornell_box()),
+    ] {
+        (scene.camera.width, scene.camera.height, scene.render.voxels) = (64, 32, 32);
         scene.render.photon_map = 64;
         scene.render.voxel_lobes = true;
-        let (r, mem) =
-            vxgi::render::render_svo(gpu(), &scene, &ConeSettings::default(), |_| {}).unwrap();
-        let pools =
-            mem.normal_bytes / (mem.bricks * vxgi::kernels::sparse_voxel_octree::BRICK_BYTES);
-        assert_eq!(pools, 1 + glossy as u64, "{path:?}");
-        assert!(r
-            .indirect
-            .pixels
-            .iter()
-            .all(|p| p.iter().all(|c| c.is_finite() && *c >= 0.0)));
+        let (r, mem) = render_svo(gpu(), &scene, &ConeSettings::default(), |_| {}).unwrap();
+        let pools = mem.normal_bytes / (mem.bricks * BRICK_BYTES);
+        assert_eq!(pools, 1 + glossy as u64, "glossy {glossy}");
+        assert!(finite_non_negative(&r.indirect), "glossy {glossy}");
     }
+}
+
+/// Every channel of `img` finite and non-negative.
+fn finite_non_negative(img: &vxgi::images::RgbImage) -> bool {
+    img.pixels
+        .iter()
+        .flatten()
+        .all(|c| c.is_finite() && *c >= 0.0)
+}
+
+/// A committed reference image: `references/DIR/NAME.exr`.
+fn exr(dir: &str, name: &str) -> vxgi::images::RgbImage {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("references");
+    vxgi::images::read_exr(&root.join(dir).join(format!("{name}.exr"))).unwrap()
 }

@@ -91,20 +91,14 @@ fn the_plan_names_the_injection() {
 #[test]
 fn params_struct_matches_the_reflected_wgsl_layout() {
     use vxgi_cpu_mirror::svo_photons::PhotonParams;
-    let (size, members) = vxgi::kernels::svo_photons::DECL
-        .shader()
-        .unwrap()
-        .struct_layout("PhotonParams")
-        .unwrap();
-    assert_eq!(size as usize, std::mem::size_of::<PhotonParams>());
-    let want: Vec<(String, u32)> = [
-        ("eye", std::mem::offset_of!(PhotonParams, eye)),
-        ("forward", std::mem::offset_of!(PhotonParams, forward)),
-        ("grid", std::mem::offset_of!(PhotonParams, grid)),
-        ("info", std::mem::offset_of!(PhotonParams, info)),
-    ]
-    .into_iter()
-    .map(|(n, o)| (n.to_string(), o as u32))
-    .collect();
-    assert_eq!(members, want);
+    let shader = vxgi::kernels::svo_photons::DECL.shader().unwrap();
+    crate::common::assert_layout!(
+        shader,
+        PhotonParams {
+            eye,
+            forward,
+            grid,
+            info
+        }
+    );
 }

@@ -2,11 +2,10 @@
 //! trilinear interpolation of the dense lattice of that level (sparsity loses nothing).
 use crate::common;
 
-use common::gpu;
+use common::{case_passes, gpu};
 use proptest::prelude::*;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use vxgi::harness::kernel::verify_case;
 use vxgi::kernels::sparse_voxel_octree::{default_capacity, generated};
 use vxgi::kernels::svo_sample::{case_for, queries, sample_on_gpu, SampleError, SvoSample, DECL};
 use vxgi_cpu_mirror::sparse_voxel_octree::{build, dense_reference, Fragment};
@@ -94,10 +93,7 @@ proptest! {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let q = queries(&mut rng, depth, 512);
         let case = case_for(gpu(), &octree, 4096.0, &q, "prop".into(), seed);
-        let (comps, ..) = verify_case(gpu(), &DECL.shader().unwrap(), &SvoSample, &case, None).unwrap();
-        for c in comps {
-            prop_assert!(c.passed(), "{}", c.report());
-        }
+        case_passes(&DECL.shader().unwrap(), &SvoSample, &case)?;
     }
 }
 
@@ -115,12 +111,7 @@ fn bad_queries_are_errors() {
     let e = sample_on_gpu(gpu(), &octree, 1.0, &[[0.5; 4], [f32::NAN, 0.0, 0.0, 1.0]]).unwrap_err();
     assert!(matches!(e, SampleError::NonFinite { index: 1, .. }), "{e}");
     // An empty octree samples to zero everywhere, at every level.
-    let z = sample_on_gpu(
-        gpu(),
-        &octree,
-        1.0,
-        &[[0.3, 0.9, 0.1, 1.5], [1.0, 1.0, 1.0, 2.0]],
-    )
-    .unwrap();
+    let q = [[0.3, 0.9, 0.1, 1.5], [1.0, 1.0, 1.0, 2.0]];
+    let z = sample_on_gpu(gpu(), &octree, 1.0, &q).unwrap();
     assert_eq!(z, vec![[0.0; 4]; 2]);
 }

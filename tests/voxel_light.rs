@@ -3,7 +3,6 @@
 use crate::common;
 
 use common::gpu;
-use vxgi::harness::run::run;
 use vxgi::kernels::voxel_light::{case_for, light_on_gpu, DECL};
 use vxgi::kernels::voxelize::voxelize_on_gpu;
 use vxgi::scene::Scene;
@@ -18,15 +17,7 @@ fn cornell_floor_voxel_has_the_analytic_radiance() {
     let (grid, list, frame) = voxelize_on_gpu(gpu(), &scene, 64).unwrap();
     let data = SceneData::new(&scene);
     let case = case_for(gpu(), &data, &grid, &list, &frame, "cornell".into(), 0);
-    let out = run(
-        gpu(),
-        &DECL.shader().unwrap(),
-        DECL.name,
-        &case.resources,
-        &case.passes,
-        &["vox_radiance"],
-    )
-    .unwrap();
+    let out = DECL.run(gpu(), &case, &["vox_radiance"]).unwrap();
     let rad: &[[f32; 4]] = bytemuck::cast_slice(&out.buffer("vox_radiance").bytes);
     let v = morton::encode(32, 0, 60);
     let c = frame.origin + (glam::Vec3::new(32.0, 0.0, 60.0) + 0.5) * frame.voxel;

@@ -2,9 +2,7 @@
 //! `surface_coverage_mip`, coverage without holes, and bad grid sizes.
 use crate::common;
 
-use common::gpu;
-use std::path::Path;
-use vxgi::harness::kernel::verify_case;
+use common::{assert_case_passes, gpu, scene_file};
 use vxgi::kernels::surface_coverage_mip::{self, chain_case, SurfaceCoverageMip};
 use vxgi::kernels::voxelize::{prepare, voxelize_on_gpu, VoxelizeError};
 use vxgi::scene::Scene;
@@ -18,12 +16,10 @@ use vxgi_cpu_mirror::surface_coverage_mip::Coverage;
 fn occupancy_bits_are_the_non_empty_voxels() {
     use vxgi::kernels::voxelize::occupancy_on_gpu;
     use vxgi_cpu_mirror::occlusion_voxels::binarize;
-    let textured = Scene::load(Path::new(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/scenes/textured_cornell.toml"
-    )))
-    .unwrap();
-    for (scene, side) in [(Scene::cornell_box(), 64), (textured, 32)] {
+    for (scene, side) in [
+        (Scene::cornell_box(), 64),
+        (scene_file("textured_cornell.toml"), 32),
+    ] {
         let (grid, _, frame) = voxelize_on_gpu(gpu(), &scene, side).unwrap();
         let (bits, bits_frame) = occupancy_on_gpu(gpu(), &scene, side).unwrap();
         assert_eq!(frame, bits_frame);
@@ -62,26 +58,17 @@ fn cornell_box_floor_has_no_holes_and_feeds_the_mip_chain() {
         list.len(),
         grid.colour.iter().filter(|c| c[3] == 1.0).count()
     );
-    let case = chain_case(
-        &surface_coverage_mip::DECL.shader().unwrap(),
-        gpu(),
-        &grid,
-        Coverage::Surface,
-        "voxelized cornell box".into(),
-        0,
-    );
     let shader = surface_coverage_mip::DECL.shader().unwrap();
-    let (comps, ..) = verify_case(gpu(), &shader, &SurfaceCoverageMip, &case, None).unwrap();
-    assert!(comps.iter().all(|c| c.passed()));
+    let label = "voxelized cornell box".to_string();
+    let case = chain_case(&shader, gpu(), &grid, Coverage::Surface, label, 0);
+    assert_case_passes(&shader, &SurfaceCoverageMip, &case);
 }
 
 /// thin_wall at the default resolution: the wall (1/32 thick = one voxel) is voxelized without holes
 /// on both faces: every voxel column (y, z) has the wall's two faces in x layers 63 and 64.
 #[test]
 fn thin_wall_is_one_voxel_per_face_without_holes() {
-    let scene =
-        Scene::load(Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/thin_wall.toml")).unwrap();
-    let (grid, _, frame) = voxelize_on_gpu(gpu(), &scene, 128).unwrap();
+    let (grid, _, frame) = voxelize_on_gpu(gpu(), &scene_file("thin_wall.toml"), 128).unwrap();
     assert!((frame.voxel - 4.0 / 128.0).abs() < 1e-6);
     // The grid spans y in [0, 4) and z in [-1, 3): the rooms fill y < 2 and z < 1 (layers 0..64).
     for y in 1..63 {
@@ -179,7 +166,7 @@ fn voxelize_and_voxel_light_past_one_binding_match_their_mirrors() {
         "expected windows on a {limit}-byte binding: {} passes",
         case.passes.len()
     );
-    common::assert_case_passes(
+    assert_case_passes(
         &voxelize::DECL.shader().unwrap(),
         &voxelize::Voxelize,
         &case,
@@ -189,7 +176,7 @@ fn voxelize_and_voxel_light_past_one_binding_match_their_mirrors() {
     let light = voxel_light::case_for(gpu(), &data, &grid, &list, &frame, "256^3".into(), 0);
     let light = voxel_light::in_windows(light, voxel_light::window_voxels(side, limit));
     assert!(light.passes.len() > 1, "voxel_light in one pass");
-    common::assert_case_passes(
+    assert_case_passes(
         &voxel_light::DECL.shader().unwrap(),
         &voxel_light::VoxelLight,
         &light,
