@@ -92,8 +92,15 @@ pub fn check(scene: &Scene, pipeline: Pipeline, limits: &wgpu::Limits) -> Result
             );
         }
     }
+    // vct-svo's photons-lit octree takes its geometry from occupancy bits too (above 128^3, where
+    // its staged build runs: `coverage_alone`).
     let voxel_bytes = (r.voxels as u64).pow(3) * VOXEL_GRID_BYTES;
-    if pipeline != Pipeline::Lrsm && voxel_bytes > limits.max_buffer_size {
+    let dense = match pipeline {
+        Pipeline::Lrsm => false,
+        Pipeline::VctSvo => !crate::pipeline::coverage_alone(scene),
+        _ => true,
+    };
+    if dense && voxel_bytes > limits.max_buffer_size {
         return Err(format!(
             "voxels = {}: the voxelized grid ({VOXEL_GRID_BYTES} bytes per voxel for its colour, as many for its normals) needs {} in one buffer, past the device's max_buffer_size ({}): lower voxels",
             r.voxels,

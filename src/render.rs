@@ -825,6 +825,8 @@ impl VctSvo {
         let split = self.statics.voxels(ctx, scene, &progress)?;
         // With dynamic instances: the static part's octree structure, replayed (VCT 4.2.2).
         let replay = self.replay && split.is_some();
+        // Where the voxels give the octree its geometry alone, the occupancy bits' voxels.
+        let mut occupied = None;
         let (rad, normal, colour, frame, listed) = match split {
             Some((grid, list, frame, secs)) => {
                 stages.push(("voxelize", secs));
@@ -843,6 +845,18 @@ impl VctSvo {
                     p.why = "static part voxelized once into a grid kept for the sequence; dynamic instances each frame, merged in".into();
                 }
                 light_grid(ctx, data, plan, grid, &list, frame, stages, &progress)?
+            }
+            None if crate::pipeline::coverage_alone(scene) => {
+                progress("voxelize");
+                let t = std::time::Instant::now();
+                let side = scene.render.voxels;
+                let (bits, frame) = voxelize::occupancy_on_gpu(ctx, scene, side)?;
+                stages.push(("voxelize", t.elapsed().as_secs_f64()));
+                let list: Vec<u32> =
+                    vxgi_cpu_mirror::voxelize::occupied(&bits, (side as u64).pow(3)).collect();
+                let listed = list.len() as u32;
+                occupied = Some(list);
+                (Vec::new(), Vec::new(), Vec::new(), frame, listed)
             }
             None => lit_voxels(ctx, scene, data, plan, stages, &progress)?,
         };
@@ -864,11 +878,16 @@ impl VctSvo {
             None
         };
         // The fixed point from the values it must hold (any finite light fits).
+        let values: Vec<_> = match &occupied {
+            Some(list) => svo_cone_trace::listed_coverage(list).collect(),
+            None => svo_cone_trace::grid_values(&rad).collect(),
+        };
+        let photon_values = photons.iter().flat_map(|p| p.values());
         let scale = svo_cone_trace::fixed_scale(
-            svo_cone_trace::grid_values(&rad).chain(photons.iter().flat_map(|p| p.values())),
+            values.iter().copied().chain(photon_values),
             scene.render.bounces,
         );
-        let mut frags = svo_cone_trace::grid_fragments(&rad, scale)?;
+        let mut frags = svo_cone_trace::values_fragments(values.into_iter(), scale)?;
         // Lit in the resident chain, the structure is the voxels' alone: the chain keeps it while
         // the lights move, so it must not depend on where the photons of this light landed (a
         // photon at a point the voxels lack adds nothing there, whichever light cast it).

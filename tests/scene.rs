@@ -705,12 +705,17 @@ fn resource_limits_are_checked_from_the_settings() {
     vxgi::limits::check(&inst, Pipeline::VctSvo, &limits).unwrap();
     s.render.voxels = 512;
     for p in [Pipeline::VctDense, Pipeline::VctSvo, Pipeline::Cprc] {
+        // vct-svo lit by photons voxelizes into occupancy bits (`coverage_alone`); lit by
+        // voxel_light it needs the dense grids.
+        s.render.photon_map = if p == Pipeline::VctSvo { 0 } else { 256 };
         let e = vxgi::limits::check(&s, p, &limits).unwrap_err();
         assert!(
             e.contains("voxels = 512") && e.contains("max_buffer_size"),
             "{p:?}: {e}"
         );
     }
+    s.render.photon_map = 256;
+    vxgi::limits::check(&s, Pipeline::VctSvo, &limits).unwrap();
 }
 
 /// Fuzzing the loader: arbitrary scene text, and the shipped Cornell box's TOML, OBJ and MTL with

@@ -10,20 +10,28 @@ use vxgi_cpu_mirror::morton;
 use vxgi_cpu_mirror::surface_coverage_mip::Coverage;
 
 /// lrsm's voxelize stage (entry `occupancy_bits` alone, no accumulators) marks exactly the voxels the
-/// dense voxelization fills, on the Cornell box and a textured scene; and it takes grids the
-/// accumulators cannot: 512^3 on the Cornell box needs 16 MiB of bits where they would need 4 GiB.
+/// dense voxelization fills, on the Cornell box and a textured scene, and vct-svo's photons-lit
+/// octree (`coverage_alone`) gets from their list the geometry values the colour grid gave it,
+/// in the same order; and it takes grids the accumulators cannot: 512^3 on the Cornell box needs
+/// 16 MiB of bits where they would need 4 GiB.
 #[test]
 fn occupancy_bits_are_the_non_empty_voxels() {
+    use vxgi::kernels::svo_cone_trace::{coverage_only, grid_values, listed_coverage};
     use vxgi::kernels::voxelize::occupancy_on_gpu;
     use vxgi_cpu_mirror::occlusion_voxels::binarize;
     for (scene, side) in [
         (Scene::cornell_box(), 64),
         (scene_file("textured_cornell.toml"), 32),
     ] {
-        let (grid, _, frame) = voxelize_on_gpu(gpu(), &scene, side).unwrap();
+        let (grid, list, frame) = voxelize_on_gpu(gpu(), &scene, side).unwrap();
         let (bits, bits_frame) = occupancy_on_gpu(gpu(), &scene, side).unwrap();
         assert_eq!(frame, bits_frame);
         assert_eq!(bits, binarize(&grid.colour, false));
+        let occupied: Vec<u32> =
+            vxgi_cpu_mirror::voxelize::occupied(&bits, (side as u64).pow(3)).collect();
+        assert_eq!(occupied, list);
+        let dense: Vec<_> = grid_values(&coverage_only(&grid.colour)).collect();
+        assert_eq!(listed_coverage(&occupied).collect::<Vec<_>>(), dense);
     }
     let (bits, _) = occupancy_on_gpu(gpu(), &Scene::cornell_box(), 512).unwrap();
     let (input, _) = prepare(&Scene::cornell_box(), 512).unwrap();

@@ -660,7 +660,7 @@ pub fn build_on_gpu_replayed(
         let max = max_capacity(ctx);
         let hint = if capacity >= max {
             format!(
-                "; {max} tiles is the most one storage binding holds on this device (max_storage_buffer_binding_size {} bytes / {} bytes per tile of bricks): use a shallower octree or fewer fragments",
+                "; {max} tiles is the most one storage binding holds on this device (max_storage_buffer_binding_size {} bytes / {} bytes per tile of bricks): a shallower octree (lower voxels) or fewer fragments",
                 ctx.limits().max_storage_buffer_binding_size,
                 8 * BRICK_BYTES
             )

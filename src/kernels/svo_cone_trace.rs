@@ -106,7 +106,25 @@ pub fn grid_values(radiance: &[[f32; 4]]) -> impl Iterator<Item = ([u32; 3], [f3
 /// Fragments of a lit voxel grid (Morton order, side `2^(depth + 1)`, voxels `(L * alpha, alpha)` as
 /// voxel_light writes them): one per non-empty voxel, at the leaf lattice point of its index.
 pub fn grid_fragments(radiance: &[[f32; 4]], scale: f32) -> Result<Vec<Fragment>, SvoError> {
-    grid_values(radiance)
+    values_fragments(grid_values(radiance), scale)
+}
+
+/// The voxels' coverage where it is all an octree's geometry holds (photons carry the light):
+/// `(0, 0, 0, 1)` at the lattice point of each voxel of `list` (Morton indices, ascending). The
+/// values [`grid_values`] gives of [`coverage_only`] of voxelize's colour grid, in the same order:
+/// voxelize lists exactly the voxels its samples land in and gives each alpha 1, so the dense grid
+/// is not needed for them (its occupancy bits list the same voxels).
+pub fn listed_coverage(list: &[u32]) -> impl Iterator<Item = ([u32; 3], [f32; 4])> + '_ {
+    list.iter()
+        .map(|&m| (vxgi_cpu_mirror::morton::decode(m), [0.0, 0.0, 0.0, 1.0]))
+}
+
+/// Fragments of voxel values at their lattice points (one each, in fixed point with `scale`).
+pub fn values_fragments(
+    values: impl Iterator<Item = ([u32; 3], [f32; 4])>,
+    scale: f32,
+) -> Result<Vec<Fragment>, SvoError> {
+    values
         .map(|(pos, v)| {
             Ok(Fragment {
                 pos,

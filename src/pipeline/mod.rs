@@ -134,7 +134,9 @@ pub(crate) use lrsm::*;
 pub use vct_dense::VCT_DENSE;
 pub(crate) use vct_dense::*;
 pub(crate) use vct_svo::*;
-pub use vct_svo::{builds_in_chain, lights_in_chain, OctreeRoom, LIT_IN_CHAIN_VOXELS, VCT_SVO};
+pub use vct_svo::{
+    builds_in_chain, coverage_alone, lights_in_chain, OctreeRoom, LIT_IN_CHAIN_VOXELS, VCT_SVO,
+};
 
 /// Where a scene's voxel hierarchies stand this frame (CPRC 3.1): what the cones read (`placed`, one
 /// record per hierarchy) and what voxel_light lights each hierarchy with (its grid record, placed by

@@ -16,6 +16,7 @@ pub static VCT_SVO: PipelineDecl = PipelineDecl {
         DIRECT_LIGHT_STAGE,
         StageDecl {
             plan: |i| octree_reasons(voxelize_plan(i)),
+            host: Some(svo_voxelize_step),
             ..VOXELIZE_STAGE
         },
         StageDecl {
@@ -222,6 +223,16 @@ pub fn lights_in_chain(scene: &Scene) -> bool {
 
 /// The largest grid side whose octree [`lights_in_chain`] lights.
 pub const LIT_IN_CHAIN_VOXELS: u32 = 128;
+
+/// Whether the voxels give vct-svo's octree its geometry alone: photons carry the light, and neither
+/// the lobes' normal pool nor a second bounce reads the voxels' colour or normals. Then the staged
+/// build voxelizes into occupancy bits (a bit a voxel, lrsm's) and lists their voxels, each of
+/// coverage 1 ([`svo_cone_trace::listed_coverage`]), instead of voxelize's dense colour and normal
+/// grids (32 bytes a voxel, and 32 more of accumulators): the same fragments.
+pub fn coverage_alone(scene: &Scene) -> bool {
+    let r = &scene.render;
+    r.photon_map > 0 && !r.voxel_lobes && r.bounces == 1
+}
 
 /// Whether vct-svo's chain builds its octree's structure itself, the first frame included (no staged
 /// passes at all): where [`lights_in_chain`], except with Gaussian lobes (their normal pool is
@@ -842,6 +853,28 @@ fn depth_of(f: &HostFrame) -> u32 {
     vxgi_cpu_mirror::sparse_voxel_octree::depth_for(f.frame.side)
 }
 
+/// vct-svo's voxelization: where the voxels give the octree its geometry alone ([`coverage_alone`]),
+/// occupancy bits and their voxels listed, with no dense grid; else voxelize's grids.
+pub(crate) fn svo_voxelize_step(f: &mut HostFrame) -> Result<()> {
+    if !coverage_alone(f.scene) {
+        return super::host::voxelize_step(f);
+    }
+    let side = f.scene.render.voxels;
+    let (input, frame) = crate::kernels::voxelize::prepare(f.scene, side)?;
+    let bits = match f.side("voxelize") {
+        Side::Mirror => vxgi_cpu_mirror::voxelize::occupancy(&input.tris, side),
+        Side::Gpu(ctx) => crate::kernels::voxelize::occupancy_of_input(ctx, &input, side)?,
+    };
+    f.list = vxgi_cpu_mirror::voxelize::occupied(&bits, (side as u64).pow(3)).collect();
+    f.grid = crate::grids::Grid {
+        n: side,
+        colour: Vec::new(),
+        normal: Vec::new(),
+    };
+    f.frame = frame;
+    Ok(())
+}
+
 /// The light by photons: their values, and the voxels' coverage alone.
 pub(crate) fn photons_step(f: &mut HostFrame) -> Result<()> {
     let map = f.scene.render.photon_map;
@@ -860,15 +893,14 @@ pub(crate) fn octree_step(f: &mut HostFrame) -> Result<()> {
     let side = f.side("sparse_voxel_octree");
     let bounces = f.scene.render.bounces;
     let svo = f.svo.get_or_insert_with(Default::default);
-    let values = match &svo.photons {
-        Some(_) => svo_cone_trace::coverage_only(&f.grid.colour),
-        None => f.radiance.clone(),
+    // With photons the voxels' coverage alone, from the list of them.
+    let values: Vec<_> = match &svo.photons {
+        Some(_) => svo_cone_trace::listed_coverage(&f.list).collect(),
+        None => svo_cone_trace::grid_values(&f.radiance).collect(),
     };
-    svo.scale = svo_cone_trace::fixed_scale(
-        svo_cone_trace::grid_values(&values).chain(svo.photons.iter().flat_map(|p| p.values())),
-        bounces,
-    );
-    svo.frags = svo_cone_trace::grid_fragments(&values, svo.scale)?;
+    let photon_values = svo.photons.iter().flat_map(|p| p.values());
+    svo.scale = svo_cone_trace::fixed_scale(values.iter().copied().chain(photon_values), bounces);
+    svo.frags = svo_cone_trace::values_fragments(values.into_iter(), svo.scale)?;
     if let Some(photons) = &svo.photons {
         svo.spec_frags = photons
             .fragments(svo.scale)?
