@@ -15,7 +15,7 @@ pub static VCT_SVO: PipelineDecl = PipelineDecl {
         GBUFFER_STAGE,
         DIRECT_LIGHT_STAGE,
         StageDecl {
-            plan: |i| octree_reasons(voxelize_plan(i)),
+            plan: svo_voxelize_plan,
             host: Some(svo_voxelize_step),
             ..VOXELIZE_STAGE
         },
@@ -87,6 +87,18 @@ pub static VCT_SVO: PipelineDecl = PipelineDecl {
 fn octree_reasons(mut passes: Vec<PlannedPass>) -> Vec<PlannedPass> {
     for p in &mut passes {
         p.why = p.why.replace("radiance pyramid", "octree");
+    }
+    passes
+}
+
+/// vct-dense's voxelization, about the octree; into occupancy bits where the staged build takes
+/// its geometry from them ([`coverage_alone`]).
+fn svo_voxelize_plan(i: &PlanInputs) -> Vec<PlannedPass> {
+    let mut passes = octree_reasons(voxelize_plan(i));
+    if coverage_alone(i.scene) && !builds_in_chain(i.scene) {
+        for p in passes.iter_mut().filter(|p| p.runs) {
+            p.why = "the octree's geometry: a bit per voxel a surface sample lands in (entry occupancy_bits; no accumulators, no colour or normal grid: photons carry the light)".into();
+        }
     }
     passes
 }
