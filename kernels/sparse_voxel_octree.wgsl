@@ -59,7 +59,9 @@ struct OctreeParams {
 @group(0) @binding(0) var<uniform> params: OctreeParams;
 @group(0) @binding(1) var<storage, read> fragments: array<Fragment>;
 @group(0) @binding(2) var<storage, read_write> nodes: array<Node>;
-@group(0) @binding(3) var<storage, read_write> bricks: array<atomic<u32>>;
+// bricks (binding 3), written through brick_load, brick_store and brick_exchange:
+// common/svo_bricks_atomic_one.wgsl, one binding, or past one binding common/svo_bricks_atomic.wgsl
+// (declaration sparse_voxel_octree_windowed).
 @group(0) @binding(4) var<storage, read_write> flags: array<atomic<u32>>;
 @group(0) @binding(5) var<storage, read_write> tile_parent: array<u32>;
 @group(0) @binding(6) var<storage, read_write> levels: array<u32>;
@@ -217,18 +219,18 @@ fn init_nodes(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
 // Saturating atomic add (a compare-exchange loop): the saturated total min(MAX, sum) does not depend
 // on the order of the adds, so it matches the mirror even on overflow (which is an error anyway).
 fn atomic_add_saturating(i: u32, v: u32) {
-    var old = atomicLoad(&bricks[i]);
+    var old = brick_load(i);
     loop {
         var next = old + v;
         if (old > 0xffffffffu - v) {
             atomicOr(&status[0], ERR_OVERFLOW);
             next = 0xffffffffu;
         }
-        let r = atomicCompareExchangeWeak(&bricks[i], old, next);
-        if (r.exchanged) {
+        let r = brick_exchange(i, old, next);
+        if (r.y != 0u) {
             break;
         }
-        old = r.old_value;
+        old = r.x;
     }
 }
 
@@ -380,7 +382,7 @@ fn distribute(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
                     }
                     let c = min(q / 2u, vec3<u32>(1u));
                     let child = t * 8u + c.x + 2u * c.y + 4u * c.z;
-                    let x = atomicLoad(&bricks[child * BRICK_WORDS + voxel_index(q - 2u * c) * 4u + ch]);
+                    let x = brick_load(child * BRICK_WORDS + voxel_index(q - 2u * c) * 4u + ch);
                     var prod = x * w;
                     if (x > 0xffffffffu / w) {
                         atomicOr(&status[0], ERR_OVERFLOW);
@@ -390,7 +392,7 @@ fn distribute(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
                 }
             }
         }
-        atomicStore(&bricks[n * BRICK_WORDS + voxel_index(v) * 4u + ch], s);
+        brick_store(n * BRICK_WORDS + voxel_index(v) * 4u + ch, s);
     }
 }
 
@@ -432,10 +434,10 @@ fn transfer(gid: vec3<u32>, groups: vec3<u32>, add: bool) {
             let lo = r * BRICK_WORDS + face_voxel(axis, 0u, u, v) * 4u;
             for (var ch = 0u; ch < 4u; ch = ch + 1u) {
                 if (add) {
-                    let s = add_checked(atomicLoad(&bricks[lo + ch]), atomicLoad(&bricks[hi + ch]));
-                    atomicStore(&bricks[lo + ch], s);
+                    let s = add_checked(brick_load(lo + ch), brick_load(hi + ch));
+                    brick_store(lo + ch, s);
                 } else {
-                    atomicStore(&bricks[hi + ch], atomicLoad(&bricks[lo + ch]));
+                    brick_store(hi + ch, brick_load(lo + ch));
                 }
             }
         }
@@ -460,7 +462,7 @@ fn round_level(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workg
     }
     for (var w = 0u; w < BRICK_WORDS; w = w + 1u) {
         let i = n * BRICK_WORDS + w;
-        atomicStore(&bricks[i], add_checked(atomicLoad(&bricks[i]), 32u) >> 6u);
+        brick_store(i, add_checked(brick_load(i), 32u) >> 6u);
     }
 }
 
@@ -471,7 +473,7 @@ fn mark_parents(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
         return;
     }
     for (var w = 0u; w < BRICK_WORDS; w = w + 1u) {
-        if (atomicLoad(&bricks[n * BRICK_WORDS + w]) != 0u) {
+        if (brick_load(n * BRICK_WORDS + w) != 0u) {
             atomicOr(&flags[nodes[n].parent], FLAG_ACTIVE);
             return;
         }

@@ -34,31 +34,13 @@ struct AnisoParams {
 
 @group(0) @binding(0) var<storage, read> params: AnisoParams;
 @group(0) @binding(1) var<storage, read> nodes: array<Node>;
-@group(0) @binding(2) var<storage, read> bricks: array<u32>;
-@group(0) @binding(3) var<storage, read_write> aniso: array<vec4<f32>>;
-// The pool past `aniso`'s length (a pool larger than one storage binding comes in two; unused, one
-// element, otherwise): value i is aniso[i], or aniso_hi[i - arrayLength(&aniso)].
-@group(0) @binding(4) var<storage, read_write> aniso_hi: array<vec4<f32>>;
+// bricks: common/svo_bricks.wgsl.
+// aniso (binding 3), written and read through aniso_store and aniso_load:
+// common/svo_aniso_rw_one.wgsl, one binding, or past one binding common/svo_aniso_rw.wgsl
+// (declaration svo_anisotropic_windowed).
 // The octree's tile ranges per level (sparse_voxel_octree's `levels`): level l's tiles are
 // levels[l]..levels[l + 1].
 @group(0) @binding(5) var<storage, read> levels: array<u32>;
-
-fn aniso_load(i: u32) -> vec4<f32> {
-    let lo = arrayLength(&aniso);
-    if (i < lo) {
-        return aniso[i];
-    }
-    return aniso_hi[i - lo];
-}
-
-fn aniso_store(i: u32, v: vec4<f32>) {
-    let lo = arrayLength(&aniso);
-    if (i < lo) {
-        aniso[i] = v;
-    } else {
-        aniso_hi[i - lo] = v;
-    }
-}
 
 fn half_slab(p: vec4<f32>) -> vec4<f32> {
     return p / (1.0 + sqrt(max(1.0 - p.w, 0.0)));
@@ -101,7 +83,7 @@ fn child(at: vec2<u32>, dir: u32) -> vec4<f32> {
     }
     if (params.level + 1u == params.depth) {
         let w = n * BRICK_WORDS + at.y * 4u;
-        return vec4<f32>(f32(bricks[w]), f32(bricks[w + 1u]), f32(bricks[w + 2u]), f32(bricks[w + 3u])) * params.inv_scale;
+        return vec4<f32>(brick_words(w)) * params.inv_scale;
     }
     return aniso_load((n * 27u + at.y) * 6u + dir);
 }
@@ -118,7 +100,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
     let base = (n * 27u + vi) * 6u;
     let key = nodes[n].key;
     let bw = n * BRICK_WORDS + vi * 4u;
-    if (key == NONE || (bricks[bw] | bricks[bw + 1u] | bricks[bw + 2u] | bricks[bw + 3u]) == 0u) {
+    if (key == NONE || all(brick_words(bw) == vec4<u32>(0u))) {
         for (var dir = 0u; dir < 6u; dir++) {
             aniso_store(base + dir, vec4<f32>(0.0));
         }

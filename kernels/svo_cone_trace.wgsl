@@ -29,21 +29,12 @@ struct SvoParams {
 }
 
 @group(0) @binding(8) var<storage, read> nodes: array<Node>;
-@group(0) @binding(12) var<storage, read> bricks: array<u32>;
+// bricks and aniso (six directional values per brick voxel of the nodes above the leaves,
+// (n * 27 + voxel) * 6 + dir), read through brick_words and aniso_load: common/svo_bricks_one.wgsl and
+// common/svo_aniso_one.wgsl, one binding each, or past one binding common/svo_bricks.wgsl and
+// common/svo_aniso_windows.wgsl
+// (declaration svo_cone_trace_windowed).
 @group(0) @binding(13) var<storage, read> svo: SvoParams;
-// Six directional values per brick voxel of the nodes above the leaves, (n * 27 + voxel) * 6 + dir.
-@group(0) @binding(14) var<storage, read> aniso: array<vec4<f32>>;
-// The pool past `aniso`'s length (see svo_anisotropic.wgsl): value i is aniso[i], or
-// aniso_hi[i - arrayLength(&aniso)].
-@group(0) @binding(21) var<storage, read> aniso_hi: array<vec4<f32>>;
-
-fn aniso_load(i: u32) -> vec4<f32> {
-    let lo = arrayLength(&aniso);
-    if (i < lo) {
-        return aniso[i];
-    }
-    return aniso_hi[i - lo];
-}
 // Entry voxel_main (declaration svo_bounce): the second bounce's gather from the voxels themselves.
 @group(0) @binding(15) var<storage, read> vx_position: array<vec4<f32>>;
 @group(0) @binding(16) var<storage, read> vx_normal: array<vec4<f32>>;
@@ -57,7 +48,7 @@ fn aniso_load(i: u32) -> vec4<f32> {
 
 fn brick_voxel(n: u32, v: vec3<u32>) -> vec4<f32> {
     let w = n * BRICK_WORDS + voxel_index(v) * 4u;
-    return vec4<f32>(f32(bricks[w]), f32(bricks[w + 1u]), f32(bricks[w + 2u]), f32(bricks[w + 3u])) * svo.inv_scale;
+    return vec4<f32>(brick_words(w)) * svo.inv_scale;
 }
 
 fn normal_voxel(n: u32, v: vec3<u32>) -> vec4<f32> {

@@ -21,7 +21,7 @@ struct SampleParams {
 
 @group(0) @binding(0) var<uniform> params: SampleParams;
 @group(0) @binding(1) var<storage, read> nodes: array<Node>;
-@group(0) @binding(2) var<storage, read> bricks: array<u32>;
+// bricks: common/svo_bricks.wgsl.
 @group(0) @binding(3) var<storage, read> queries: array<vec4<f32>>;
 @group(0) @binding(4) var<storage, read_write> samples: array<vec4<f32>>;
 
@@ -31,7 +31,7 @@ fn lerp4(a: vec4<f32>, b: vec4<f32>, t: f32) -> vec4<f32> {
 
 fn voxel(base: u32, v: vec3<u32>) -> vec4<f32> {
     let w = base + voxel_index(v) * 4u;
-    return vec4<f32>(f32(bricks[w]), f32(bricks[w + 1u]), f32(bricks[w + 2u]), f32(bricks[w + 3u])) * params.inv_scale;
+    return vec4<f32>(brick_words(w)) * params.inv_scale;
 }
 
 fn sample_level(x: vec3<f32>, level: u32) -> vec4<f32> {

@@ -355,3 +355,79 @@ fn fragments_sharing_a_point_flag_once() {
         "{label}: bricks differ"
     );
 }
+
+/// The octree's pools past one storage binding: the windowed declarations of the build, the
+/// directional values and the cone pass, and svo_sample, bind a pool as windows of its buffer
+/// (`..._windowed`: every generated case with its pools split in three; svo_sample: one case in
+/// eight, here case 5), and match the mirror so.
+#[test]
+fn pools_past_one_binding_are_read_and_written_in_windows() {
+    use vxgi::harness::{Kernel, View};
+    use vxgi::kernels::sparse_voxel_octree::SparseVoxelOctreeWindowed;
+    use vxgi::kernels::{svo_anisotropic, svo_cone_trace, svo_sample};
+    let kernels: [(&dyn Kernel, &str); 4] = [
+        (&SparseVoxelOctreeWindowed, "bricks_2"),
+        (&svo_sample::SvoSample, "bricks_2"),
+        (&svo_anisotropic::SvoAnisotropicWindowed, "aniso_2"),
+        (&svo_cone_trace::SvoConeTraceWindowed, "aniso_2"),
+    ];
+    for (k, window) in kernels {
+        let shader = k.decl().shader().unwrap();
+        let case = k.case(&shader, gpu(), 3, 5);
+        assert!(case.label.contains("in three bindings"), "{}", case.label);
+        let windowed = case.passes.iter().any(|p| {
+            p.bindings.iter().any(|(b, v)| {
+                b == window && matches!(v, View::BufferRange { offset, .. } if *offset > 0)
+            })
+        });
+        assert!(
+            windowed,
+            "{}: `{window}` is not a window of its pool",
+            k.decl().name
+        );
+        assert_case_passes(&shader, k, &case);
+    }
+}
+
+/// The octree of the Cornell box at 512^3 (depth 8: 512^3 leaf voxels), with a value at every
+/// voxel a surface sample lands in: its brick pool is past one storage binding, so the GPU builds
+/// it with sparse_voxel_octree_windowed, and every node and brick word equals the mirror's build
+/// (after canonicalising the tile order). `--ignored`: a minute on two cores.
+#[test]
+#[ignore]
+fn a_depth_8_octree_past_one_binding_matches_the_mirror() {
+    use vxgi::kernels::sparse_voxel_octree::{decl_for, WINDOWED_DECL};
+    use vxgi_cpu_mirror::sparse_voxel_octree::{canonical_bricks, canonical_nodes, depth_for};
+    let side = 512;
+    let scene = vxgi::scene::Scene::cornell_box();
+    let (input, _) = vxgi::kernels::voxelize::prepare(&scene, side).unwrap();
+    let bits = vxgi_cpu_mirror::voxelize::occupancy(&input.tris, side);
+    let frags: Vec<Fragment> = vxgi_cpu_mirror::voxelize::occupied(&bits, (side as u64).pow(3))
+        .map(|m| Fragment {
+            pos: vxgi_cpu_mirror::morton::decode(m),
+            _pad: 0,
+            value: [m % 1000, 7, m % 13, 1 << 12],
+        })
+        .collect();
+    let depth = depth_for(side);
+    let cap = default_capacity(gpu(), depth, frags.len());
+    assert!(
+        std::ptr::eq(decl_for(cap), &WINDOWED_DECL),
+        "{cap} tiles fit one binding"
+    );
+    let gpu_built = build_on_gpu(gpu(), depth, &frags, None).unwrap().octree;
+    let bytes = gpu_built.bricks.len() * 4;
+    assert!(bytes > 128 << 20, "{bytes} bytes of bricks fit one binding");
+    // The GPU's pool is cut to the tiles it used; the mirror's used tiles are the same prefix.
+    let mirror = build(depth, cap, &frags);
+    let used = gpu_built.nodes.len();
+    assert!(
+        canonical_nodes(&gpu_built.nodes).0 == canonical_nodes(&mirror.nodes[..used]).0,
+        "nodes differ"
+    );
+    assert!(
+        canonical_bricks(&gpu_built.nodes, &gpu_built.bricks)
+            == canonical_bricks(&mirror.nodes[..used], &mirror.bricks[..used * BRICK_WORDS]),
+        "bricks differ"
+    );
+}

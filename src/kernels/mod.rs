@@ -190,6 +190,108 @@ pub fn scan_passes(
     .collect()
 }
 
+/// The octree's brick pool as its readers bind it (in windows), included by svo_sample,
+/// svo_anisotropic_windowed, svo_cone_trace_windowed and svo_bounce.
+pub const SVO_BRICKS: (&str, &str) = (
+    "kernels/common/svo_bricks.wgsl",
+    include_str!("../../kernels/common/svo_bricks.wgsl"),
+);
+
+/// The octree's directional values in windows, included by svo_cone_trace_windowed and svo_bounce.
+pub const SVO_ANISO_WINDOWS: (&str, &str) = (
+    "kernels/common/svo_aniso_windows.wgsl",
+    include_str!("../../kernels/common/svo_aniso_windows.wgsl"),
+);
+
+/// The octree's brick pool in one binding, included by svo_anisotropic and svo_cone_trace.
+pub const SVO_BRICKS_ONE: (&str, &str) = (
+    "kernels/common/svo_bricks_one.wgsl",
+    include_str!("../../kernels/common/svo_bricks_one.wgsl"),
+);
+
+/// The octree's brick pool as its build writes it (atomics), in windows: included by
+/// sparse_voxel_octree_windowed.
+pub const SVO_BRICKS_ATOMIC: (&str, &str) = (
+    "kernels/common/svo_bricks_atomic.wgsl",
+    include_str!("../../kernels/common/svo_bricks_atomic.wgsl"),
+);
+
+/// The octree's brick pool as its build writes it, in one binding: included by sparse_voxel_octree.
+pub const SVO_BRICKS_ATOMIC_ONE: (&str, &str) = (
+    "kernels/common/svo_bricks_atomic_one.wgsl",
+    include_str!("../../kernels/common/svo_bricks_atomic_one.wgsl"),
+);
+
+/// The octree's directional values read in one binding, included by svo_cone_trace.
+pub const SVO_ANISO_ONE: (&str, &str) = (
+    "kernels/common/svo_aniso_one.wgsl",
+    include_str!("../../kernels/common/svo_aniso_one.wgsl"),
+);
+
+/// The octree's directional values written in windows, included by svo_anisotropic_windowed.
+pub const SVO_ANISO_RW: (&str, &str) = (
+    "kernels/common/svo_aniso_rw.wgsl",
+    include_str!("../../kernels/common/svo_aniso_rw.wgsl"),
+);
+
+/// The octree's directional values written in one binding, included by svo_anisotropic.
+pub const SVO_ANISO_RW_ONE: (&str, &str) = (
+    "kernels/common/svo_aniso_rw_one.wgsl",
+    include_str!("../../kernels/common/svo_aniso_rw_one.wgsl"),
+);
+
+/// Bind the buffer resource `resource` (elements of `elem` bytes) to the WGSL bindings `views` of
+/// every pass that binds `views[0]`, `views[k]` its k-th window of `window` elements: a kernel finds
+/// element i in window i / L, L the length of `views[0]` (every window but the last is full). Windows
+/// past its end get one unused element of their own, named after the binding (writable bindings
+/// must not alias). An error, naming the resource, when it takes more windows than `views`.
+pub fn bind_windows(
+    passes: &mut [vxgi_harness::run::Pass],
+    resources: &mut vxgi_harness::Resources,
+    resource: &str,
+    views: &[&str],
+    elem: u64,
+    window: u64,
+) -> Result<(), String> {
+    use vxgi_harness::run::View;
+    assert!(
+        window > 0 && (window * elem).is_multiple_of(256),
+        "windows of {window} elements of {elem} bytes: binding offsets are 256-byte aligned"
+    );
+    let b = resources[resource].buffer().expect("a buffer");
+    let (len, scalar) = (b.bytes.len() as u64 / elem, b.scalar);
+    let count = len.div_ceil(window).max(1);
+    if count > views.len() as u64 {
+        return Err(format!(
+            "`{resource}` holds {len} elements, past {} bindings of {window}",
+            views.len()
+        ));
+    }
+    for &name in &views[count as usize..] {
+        let unused = vxgi_harness::HostBuffer::zeroed(elem as usize, scalar);
+        resources.insert(name.to_string(), unused.into());
+    }
+    for pass in passes {
+        if !pass.bindings.iter().any(|(b, _)| b == views[0]) {
+            continue;
+        }
+        pass.bindings.retain(|(b, _)| !views.contains(&b.as_str()));
+        for (k, &name) in (0u64..).zip(views) {
+            let view = match k < count {
+                true if count == 1 => View::Buffer(resource.to_string()),
+                true => View::BufferRange {
+                    name: resource.to_string(),
+                    offset: k * window * elem,
+                    size: window.min(len - k * window) * elem,
+                },
+                false => View::Buffer(name.to_string()),
+            };
+            pass.bindings.push((name.to_string(), view));
+        }
+    }
+    Ok(())
+}
+
 /// The sparse voxel octree's node layout and descent, included by sparse_voxel_octree and svo_sample.
 pub const SVO_NODE: (&str, &str) = (
     "kernels/common/svo_node.wgsl",
@@ -238,10 +340,13 @@ pub fn all() -> Vec<&'static dyn Kernel> {
         &cone_trace::ConeTraceInstanced,
         &svo_fragments::SvoFragments,
         &sparse_voxel_octree::SparseVoxelOctree,
+        &sparse_voxel_octree::SparseVoxelOctreeWindowed,
         &svo_sample::SvoSample,
         &svo_photons::SvoPhotons,
         &svo_anisotropic::SvoAnisotropic,
+        &svo_anisotropic::SvoAnisotropicWindowed,
         &svo_cone_trace::SvoConeTrace,
+        &svo_cone_trace::SvoConeTraceWindowed,
         &svo_cone_trace::SvoBounce,
         &lrsm_cone_trace::LrsmConeTrace,
     ]

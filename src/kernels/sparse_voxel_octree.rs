@@ -18,7 +18,7 @@ use vxgi_harness::HarnessError;
 
 pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
     "sparse_voxel_octree",
-    includes: &[super::SVO_NODE],
+    includes: &[super::SVO_NODE, super::SVO_BRICKS_ATOMIC_ONE],
     entry: "flag_parents",
     inputs: &["params", "fragments"],
     // Integer arithmetic only (atomic adds, shifts, saturating checks): exact. Nodes, bricks and flags
@@ -35,6 +35,40 @@ pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
     mirror: "vxgi_cpu_mirror::sparse_voxel_octree::build",
     summary: "sparse voxel octree, 3x3x3 vertex-centred bricks: build (atomic tiles), splat, border transfer (add, copy), Gaussian distribution over levels (VCT 4.1-4.2.3, 8.2)",
 );
+
+/// sparse_voxel_octree with its brick pool in windows of one buffer (kernels/common/
+/// svo_bricks_atomic.wgsl): for a pool past one storage binding (Sponza's octree at 512^3), where a
+/// branch per window would cost lavapipe about twice the build of [`DECL`] in every smaller one.
+/// [`decl_for`] picks one.
+pub static WINDOWED_DECL: KernelDecl = vxgi_harness::kernel_decl!(
+    "sparse_voxel_octree_windowed" in "sparse_voxel_octree",
+    includes: &[super::SVO_NODE, super::SVO_BRICKS_ATOMIC],
+    entry: "flag_parents",
+    // `bricks`' windows past its first (`bricks_1`..) are bound by `bind_brick_windows`.
+    inputs: &["params", "fragments"],
+    // As sparse_voxel_octree's: the windows change which binding holds a word, not the word.
+    outputs: &[
+        Output { binding: "nodes", tolerance: Tolerance::Exact },
+        Output { binding: "bricks", tolerance: Tolerance::Exact },
+        Output { binding: "flags", tolerance: Tolerance::Exact },
+        Output { binding: "levels", tolerance: Tolerance::Exact },
+        Output { binding: "status", tolerance: Tolerance::Exact },
+        Output { binding: "stats", tolerance: Tolerance::Exact },
+    ],
+    dispatch: DispatchRule::PerItem { what: "as sparse_voxel_octree's" },
+    mirror: "vxgi_cpu_mirror::sparse_voxel_octree::build",
+    summary: "sparse_voxel_octree with its brick pool in windows of one buffer (a pool past one storage binding)",
+);
+
+/// The build's declaration for a node pool of `capacity` tiles: [`WINDOWED_DECL`] where its bricks
+/// are past one binding, else [`DECL`].
+pub fn decl_for(capacity: u32) -> &'static KernelDecl {
+    if capacity as u64 * 8 * BRICK_WORDS as u64 > BRICK_WINDOW {
+        &WINDOWED_DECL
+    } else {
+        &DECL
+    }
+}
 
 /// Bytes of one node record and one brick.
 pub const NODE_BYTES: u64 = std::mem::size_of::<Node>() as u64;
@@ -86,10 +120,48 @@ pub fn to_fixed(v: f32, scale: f32) -> Result<u32, SvoError> {
     Ok(x as u32)
 }
 
-/// Largest node pool (tiles) whose brick pool fits one storage binding of this device.
+/// The brick pool's bindings, each a window of [`BRICK_WINDOW`] words of its buffer (the kernels'
+/// `bricks`, `bricks_1`, ...: kernels/common/svo_bricks.wgsl).
+pub const BRICK_VIEWS: [&str; 5] = ["bricks", "bricks_1", "bricks_2", "bricks_3", "bricks_4"];
+
+/// Words of the brick pool per binding: WebGPU's default max_storage_buffer_binding_size (128 MiB),
+/// which every device binds.
+pub const BRICK_WINDOW: u64 = 1 << 25;
+
+/// Largest node pool (tiles) whose brick pool this device holds: [`BRICK_VIEWS`] windows of
+/// [`BRICK_WINDOW`] words, in one buffer of at most its max_buffer_size.
 pub fn max_capacity(ctx: &GpuContext) -> u32 {
-    let limit = ctx.limits().max_storage_buffer_binding_size;
-    (limit / (8 * BRICK_BYTES)).min(u32::MAX as u64 / 8) as u32
+    let views = BRICK_VIEWS.len() as u64 * BRICK_WINDOW * 4;
+    let bytes = views.min(ctx.limits().max_buffer_size);
+    (bytes / (8 * BRICK_BYTES)).min(u32::MAX as u64 / 8) as u32
+}
+
+/// Bind the brick pool (resource `resource`) of `passes` in windows of `window` words
+/// ([`BRICK_VIEWS`]; [`BRICK_WINDOW`] where it is past one binding).
+pub fn bind_brick_windows(
+    passes: &mut [Pass],
+    resources: &mut Resources,
+    resource: &str,
+    window: u64,
+) -> Result<(), String> {
+    super::bind_windows(passes, resources, resource, &BRICK_VIEWS, 4, window)
+}
+
+/// `case` with its brick pool in three windows, as a pool past one binding is: the same outputs.
+pub fn with_brick_split(mut case: Case) -> Case {
+    let words = case.resources["bricks"]
+        .buffer()
+        .expect("bricks")
+        .bytes
+        .len() as u64
+        / 4;
+    let window = words.div_ceil(3).div_ceil(64).max(1) * 64;
+    bind_brick_windows(&mut case.passes, &mut case.resources, "bricks", window)
+        .expect("three windows hold it");
+    if words > window {
+        case.label.push_str(", bricks in three bindings");
+    }
+    case
 }
 
 /// The tile pool a build of `fragments` gets when the caller does not choose one: the bound of
@@ -330,6 +402,10 @@ fn case_flagging(
             push(&mut resources, "mark_parents", l, 0, f, slot(SLOT_RING));
         }
     }
+    if std::ptr::eq(decl_for(capacity), &WINDOWED_DECL) {
+        bind_brick_windows(&mut passes, &mut resources, "bricks", BRICK_WINDOW)
+            .expect("the pool's capacity is within max_capacity");
+    }
     Case {
         label,
         seed,
@@ -507,6 +583,30 @@ impl Kernel for SparseVoxelOctree {
     }
 }
 
+/// sparse_voxel_octree_windowed on sparse_voxel_octree's generated cases, every pool in three
+/// bindings.
+pub struct SparseVoxelOctreeWindowed;
+
+impl Kernel for SparseVoxelOctreeWindowed {
+    fn decl(&self) -> &'static KernelDecl {
+        &WINDOWED_DECL
+    }
+    fn case(&self, shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
+        with_brick_split(SparseVoxelOctree.case(shader, ctx, seed, index))
+    }
+    fn mirror(&self, case: &Case, data: &Resources, mode: FloatMode) -> MirrorOutputs {
+        SparseVoxelOctree.mirror(case, data, mode)
+    }
+    fn canonicalise(
+        &self,
+        resource: &str,
+        data: &mut HostBuffer,
+        all: &BTreeMap<String, HostBuffer>,
+    ) {
+        SparseVoxelOctree.canonicalise(resource, data, all)
+    }
+}
+
 /// The checked buffers of an octree, by binding name.
 pub fn octree_buffers(o: &Octree) -> BTreeMap<String, HostBuffer> {
     mirror_outputs([
@@ -637,31 +737,41 @@ pub fn build_on_gpu_replayed(
         "build_on_gpu".into(),
         0,
     );
-    let shader = DECL.shader()?;
+    let decl = decl_for(capacity.max(1));
+    let shader = decl.shader()?;
     // Two submissions: the structure first, then the values with a brick pool of exactly the tiles the
     // structure used. The pool `capacity` must be sized before the structure exists (capacity_bound:
     // ~4x what the Cornell box's 128^3 photons need), but its bricks are 12x its nodes' bytes, so
     // allocating, uploading and reading back only the used bricks saves most of a build's transfers.
-    let (structure, values): (Vec<Pass>, Vec<Pass>) = case
+    let (mut structure, mut values): (Vec<Pass>, Vec<Pass>) = case
         .passes
         .iter()
         .cloned()
         .partition(|p| phase_of(&p.entry) == "build");
     let mut resources = case.resources;
+    let windows = |passes: &mut [Pass], resources: &mut Resources| {
+        if std::ptr::eq(decl, &WINDOWED_DECL) {
+            bind_brick_windows(passes, resources, "bricks", BRICK_WINDOW)
+                .expect("within max_capacity");
+        }
+    };
     resources.insert(
         "bricks".into(),
-        HostResource::Buffer(HostBuffer::zeroed(4, ScalarKind::U32)),
+        HostBuffer::zeroed(4, ScalarKind::U32).into(),
     );
+    windows(&mut structure, &mut resources);
     const STRUCTURE: [&str; 6] = ["nodes", "flags", "tile_parent", "levels", "status", "args"];
     let built =
-        vxgi_harness::run::run(ctx, &shader, DECL.name, &resources, &structure, &STRUCTURE)?;
+        vxgi_harness::run::run(ctx, &shader, decl.name, &resources, &structure, &STRUCTURE)?;
     let status = built.buffer("status").as_u32().to_vec();
     if status[STATUS_ERRORS] & ERR_POOL != 0 {
         let max = max_capacity(ctx);
         let hint = if capacity >= max {
             format!(
-                "; {max} tiles is the most one storage binding holds on this device (max_storage_buffer_binding_size {} bytes / {} bytes per tile of bricks): a shallower octree (lower voxels) or fewer fragments",
-                ctx.limits().max_storage_buffer_binding_size,
+                "; {max} tiles is the most the brick pool holds on this device ({} bindings of {} bytes, in one buffer of at most max_buffer_size {} bytes, / {} bytes per tile of bricks): a shallower octree (lower voxels) or fewer fragments",
+                BRICK_VIEWS.len(),
+                BRICK_WINDOW * 4,
+                ctx.limits().max_buffer_size,
                 8 * BRICK_BYTES
             )
         } else {
@@ -696,14 +806,10 @@ pub fn build_on_gpu_replayed(
             (name.to_string(), b)
         })
         .collect();
-    resources.insert(
-        "bricks".into(),
-        HostResource::Buffer(HostBuffer::zeroed(
-            used * 8 * BRICK_WORDS * 4,
-            ScalarKind::U32,
-        )),
-    );
-    let out = vxgi_harness::run::run(ctx, &shader, DECL.name, &resources, &values, &CHECKED)?;
+    let pool = HostBuffer::zeroed(used * 8 * BRICK_WORDS * 4, ScalarKind::U32);
+    resources.insert("bricks".into(), pool.into());
+    windows(&mut values, &mut resources);
+    let out = vxgi_harness::run::run(ctx, &shader, decl.name, &resources, &values, &CHECKED)?;
     let b = |n: &str| out.resources[n].buffer().expect("read back").clone();
     let status = b("status").as_u32().to_vec();
     let errors = status[STATUS_ERRORS];

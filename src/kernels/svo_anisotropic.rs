@@ -23,16 +23,15 @@ vxgi_harness::bindings! {
             // Non-negative values composited front to back (sqrt, a division, products and sums):
             // within 48 ULP of the rows' magnitudes (the mirror's per-element bound); other levels
             // untouched (bound 0).
+            // The whole pool, whichever windows of it the pass binds (`bind_pool_windows`).
             aniso: Vec<[f32; 4]> => Tolerance::MirrorBound,
-            // The pool past `aniso` (the same values and bounds), or one unused element.
-            aniso_hi: Vec<[f32; 4]> => Tolerance::MirrorBound,
         }
     }
 }
 
 pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
     "svo_anisotropic",
-    includes: &[super::SVO_NODE],
+    includes: &[super::SVO_NODE, super::SVO_BRICKS_ONE, super::SVO_ANISO_RW_ONE],
     inputs: Io::INPUTS,
     outputs: Io::OUTPUTS,
     dispatch: DispatchRule::PerElement { binding: "aniso" },
@@ -40,19 +39,53 @@ pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
     summary: "anisotropic voxels of the sparse voxel octree: six directional values per brick voxel by front-to-back compositing of child rows, one level per pass (VCT 7.1)",
 );
 
-/// Directional values per binding of the pool: WebGPU's default max_storage_buffer_binding_size
-/// (128 MiB) of vec4s, which every device binds; a larger pool is bound as `aniso` and `aniso_hi`
-/// (kernels/svo_anisotropic.wgsl, svo_cone_trace.wgsl), up to twice this.
-pub const POOL_WINDOW: usize = 1 << 23;
+/// svo_anisotropic with the octree's pools in windows of one buffer (kernels/common/svo_bricks.wgsl,
+/// svo_aniso_rw.wgsl): for pools past one storage binding (Sponza's octree at 512^3), where a branch
+/// per window would cost lavapipe about twice the pass of [`DECL`] in every smaller octree.
+/// [`decl_for`] picks one.
+pub static WINDOWED_DECL: KernelDecl = vxgi_harness::kernel_decl!(
+    "svo_anisotropic_windowed" in "svo_anisotropic",
+    includes: &[super::SVO_NODE, super::SVO_BRICKS, super::SVO_ANISO_RW],
+    // The pools' windows past their first (`bricks_1`.., `aniso_1`..) are bound by `bind_pools`.
+    inputs: Io::INPUTS,
+    // As svo_anisotropic's: the windows change which binding holds a value, not the value.
+    outputs: Io::OUTPUTS,
+    dispatch: DispatchRule::PerElement { binding: "aniso" },
+    mirror: "vxgi_cpu_mirror::svo_anisotropic::level_pass",
+    summary: "svo_anisotropic with the octree's bricks and directional values in windows of one buffer (pools past one storage binding)",
+);
 
-/// The pool as its two bindings: its first `window` values and the rest, or (no rest) one unused
-/// zero element, a binding being never empty.
-pub fn split_pool(values: &[[f32; 4]], window: usize) -> (Vec<[f32; 4]>, Vec<[f32; 4]>) {
-    if values.len() <= window {
-        (values.to_vec(), vec![[0.0; 4]])
+/// The pass's declaration for an octree of `brick_words` words of bricks and `values` directional
+/// values: [`WINDOWED_DECL`] where a pool is past one binding, else [`DECL`].
+pub fn decl_for(brick_words: usize, values: usize) -> &'static KernelDecl {
+    let windowed = brick_words as u64 > super::sparse_voxel_octree::BRICK_WINDOW
+        || values as u64 > POOL_WINDOW;
+    if windowed {
+        &WINDOWED_DECL
     } else {
-        (values[..window].to_vec(), values[window..].to_vec())
+        &DECL
     }
+}
+
+/// Directional values per binding of the pool: WebGPU's default max_storage_buffer_binding_size
+/// (128 MiB) of vec4s, which every device binds; a larger pool is bound in windows of this
+/// ([`POOL_VIEWS`]: kernels/svo_anisotropic.wgsl, svo_cone_trace.wgsl).
+pub const POOL_WINDOW: u64 = 1 << 23;
+
+/// The pool's bindings, each a window of its buffer.
+pub const POOL_VIEWS: [&str; 6] = [
+    "aniso", "aniso_1", "aniso_2", "aniso_3", "aniso_4", "aniso_5",
+];
+
+/// Bind the directional values' pool (resource `resource`) of `passes` in windows of `window`
+/// values ([`POOL_VIEWS`]; [`POOL_WINDOW`] where it is past one binding).
+pub fn bind_pool_windows(
+    passes: &mut [vxgi_harness::run::Pass],
+    resources: &mut Resources,
+    resource: &str,
+    window: u64,
+) -> Result<(), String> {
+    super::bind_windows(passes, resources, resource, &POOL_VIEWS, 16, window)
 }
 
 /// Fixed-point scale of the octree's values (svo_cone_trace's).
@@ -68,17 +101,26 @@ pub fn values_of(depth: u32, levels: &[u32]) -> usize {
     levels[depth as usize] as usize * 8 * NODE_VALUES
 }
 
-/// The bindings of a pass of `p` over `o` with these directional values, the pool split at `window`.
-fn io(o: &Octree, p: AnisoParams, aniso: &[[f32; 4]], window: usize) -> Io {
-    let (aniso, aniso_hi) = split_pool(aniso, window);
+/// The bindings of a pass of `p` over `o` with these directional values.
+fn io(o: &Octree, p: AnisoParams, aniso: &[[f32; 4]]) -> Io {
     Io {
         params: Block(p),
         nodes: bytemuck::cast_slice(&o.nodes).to_vec(),
         bricks: o.bricks.clone(),
         levels: o.levels.clone(),
-        aniso,
-        aniso_hi,
+        aniso: aniso.to_vec(),
     }
+}
+
+/// Both pools of `passes` bound in windows (for [`WINDOWED_DECL`]): the bricks' of `bricks` words,
+/// the directional values' of `values`.
+pub fn bind_pools(
+    passes: &mut [vxgi_harness::run::Pass],
+    resources: &mut Resources,
+    [bricks, values]: [u64; 2],
+) -> Result<(), String> {
+    super::sparse_voxel_octree::bind_brick_windows(passes, resources, "bricks", bricks)?;
+    bind_pool_windows(passes, resources, "aniso", values)
 }
 
 /// The octree's directional values by the mirror (every level), as `build_on_gpu` returns them.
@@ -90,16 +132,17 @@ pub fn build_mirror(o: &Octree, inv_scale: f32) -> Vec<[f32; 4]> {
 pub fn build_on_gpu(ctx: &GpuContext, o: &Octree, inv_scale: f32) -> anyhow::Result<Vec<[f32; 4]>> {
     let n = values(o).max(1);
     let pool = vec![[0.0; 4]; n];
-    let mut resources = io(o, AnisoParams::default(), &pool, POOL_WINDOW).resources();
-    let shader = DECL.shader()?;
+    let mut resources = io(o, AnisoParams::default(), &pool).resources();
+    let decl = decl_for(o.bricks.len(), n);
+    let shader = decl.shader()?;
     let mut passes = Vec::new();
     for p in mirror::passes(o.depth, inv_scale) {
         let name = format!("params_{}", p.level);
         resources.insert(name.clone(), HostBuffer::pod(&p).into());
-        let mut bindings = DECL.bind_by_name();
+        let mut bindings = decl.bind_by_name();
         bindings.retain(|(b, _)| b != "params");
         bindings.push(("params".into(), vxgi_harness::run::View::Buffer(name)));
-        passes.push(DECL.pass(
+        passes.push(decl.pass(
             &shader,
             ctx,
             format!("level {}", p.level),
@@ -110,16 +153,12 @@ pub fn build_on_gpu(ctx: &GpuContext, o: &Octree, inv_scale: f32) -> anyhow::Res
     if passes.is_empty() {
         return Ok(vec![]);
     }
-    let out = run(
-        ctx,
-        &shader,
-        DECL.name,
-        &resources,
-        &passes,
-        &["aniso", "aniso_hi"],
-    )?;
+    if std::ptr::eq(decl, &WINDOWED_DECL) {
+        let windows = [super::sparse_voxel_octree::BRICK_WINDOW, POOL_WINDOW];
+        bind_pools(&mut passes, &mut resources, windows).map_err(anyhow::Error::msg)?;
+    }
+    let out = run(ctx, &shader, decl.name, &resources, &passes, &["aniso"])?;
     let mut values: Vec<[f32; 4]> = bytemuck::cast_slice(&out.buffer("aniso").bytes).to_vec();
-    values.extend_from_slice(bytemuck::cast_slice(&out.buffer("aniso_hi").bytes));
     values.truncate(n);
     Ok(values)
 }
@@ -173,23 +212,9 @@ impl Kernel for SvoAnisotropic {
             DECL.bind_by_name(),
             threads,
         );
-        // One case in eight with the pool in two bindings, as a pool past one binding is.
-        let (window, label) = if index % 8 == 5 {
-            (
-                aniso.len().div_ceil(2),
-                format!("{label}, pool in two bindings"),
-            )
-        } else {
-            (POOL_WINDOW, label)
-        };
-        let mut case = io(&o, p, &aniso, window)
+        io(&o, p, &aniso)
             .case(label, seed, vec![pass])
-            .with_effective_bytes(slots.len() as u64 * 27 * (6 * 16 + 27 * 16));
-        // An unsplit pool's `aniso_hi` is one element no pass writes: nothing to check.
-        if window >= aniso.len() {
-            case.checks.retain(|c| c.resource != "aniso_hi");
-        }
-        case
+            .with_effective_bytes(slots.len() as u64 * 27 * (6 * 16 + 27 * 16))
     }
 
     fn mirror(&self, _case: &Case, data: &Resources, _mode: FloatMode) -> MirrorOutputs {
@@ -197,17 +222,32 @@ impl Kernel for SvoAnisotropic {
         // (accepted flushed by the harness anyway).
         let mut io = Io::read(data);
         let nodes: &[Node] = bytemuck::cast_slice(&io.nodes);
-        // The pool whole (its unused element, if any, past every node's values), split back after.
-        let lo = io.aniso.len();
-        let mut pool = [io.aniso.as_slice(), &io.aniso_hi].concat();
-        let bounds = mirror::level_pass(nodes, &io.bricks, &io.levels, &mut pool, &io.params.0);
-        io.aniso_hi = pool.split_off(lo);
-        io.aniso = pool;
+        let bounds = mirror::level_pass(nodes, &io.bricks, &io.levels, &mut io.aniso, &io.params.0);
         let mut out = io.outputs();
-        out.extend([
-            bound("aniso", &bounds[..lo]),
-            bound("aniso_hi", &bounds[lo..]),
-        ]);
+        out.extend([bound("aniso", &bounds)]);
         out
+    }
+}
+
+/// svo_anisotropic_windowed on svo_anisotropic's generated cases, both pools in three bindings.
+pub struct SvoAnisotropicWindowed;
+
+impl Kernel for SvoAnisotropicWindowed {
+    fn decl(&self) -> &'static KernelDecl {
+        &WINDOWED_DECL
+    }
+    fn case(&self, shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
+        let mut case = SvoAnisotropic.case(shader, ctx, seed, index);
+        let len =
+            |n: &str, elem: u64| case.resources[n].buffer().expect(n).bytes.len() as u64 / elem;
+        let third = |n: u64, per: u64| n.div_ceil(3).div_ceil(per).max(1) * per;
+        let windows = [third(len("bricks", 4), 64), third(len("aniso", 16), 16)];
+        bind_pools(&mut case.passes, &mut case.resources, windows)
+            .expect("three windows hold them");
+        case.label.push_str(", pools in three bindings");
+        case
+    }
+    fn mirror(&self, case: &Case, data: &Resources, mode: FloatMode) -> MirrorOutputs {
+        SvoAnisotropic.mirror(case, data, mode)
     }
 }

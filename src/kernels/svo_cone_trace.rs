@@ -16,10 +16,8 @@ use vxgi_harness::prelude::*;
 
 pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
     "svo_cone_trace",
-    includes: &[super::SVO_NODE, super::TANGENT_BASIS, super::SCENE_TYPES, super::CONE_MARCH],
-    inputs: super::march_inputs![
-        "nodes", "bricks", "svo", "aniso", "aniso_hi", "normal_bricks", "spec_bricks",
-    ],
+    includes: &[super::SVO_NODE, super::SVO_BRICKS_ONE, super::SVO_ANISO_ONE, super::TANGENT_BASIS, super::SCENE_TYPES, super::CONE_MARCH],
+    inputs: super::march_inputs!["nodes", "bricks", "svo", "aniso", "normal_bricks", "spec_bricks"],
     // The march's bound (`super::march_outputs!`): the march is cone_trace's code; the octree's
     // sample adds the conversion f32(u32) * inv_scale (two correctly rounded operations per voxel)
     // to the ~30 operations per sample the bound already covers, and the sample point's rounding is
@@ -31,6 +29,37 @@ pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
     mirror: "vxgi_cpu_mirror::cone_trace::shade_pixel (volume: vxgi_cpu_mirror::svo_cone_trace::SvoVolume)",
     summary: "cone_trace's AO + diffuse + glossy cones marching the sparse voxel octree (quadrilinear brick sampling, VCT 5-7)",
 );
+
+/// svo_cone_trace with the octree's pools read in windows of one buffer each (kernels/common/
+/// svo_bricks.wgsl, svo_aniso_windows.wgsl): for pools past one storage binding (Sponza's octree at
+/// 512^3), where a branch per window in the march would cost lavapipe about twice the pass of
+/// [`DECL`] (one binding each) in every smaller frame. [`decl_for`] picks one.
+pub static WINDOWED_DECL: KernelDecl = vxgi_harness::kernel_decl!(
+    "svo_cone_trace_windowed" in "svo_cone_trace",
+    includes: &[super::SVO_NODE, super::SVO_BRICKS, super::SVO_ANISO_WINDOWS, super::TANGENT_BASIS, super::SCENE_TYPES, super::CONE_MARCH],
+    // The pools' windows past their first (`bricks_1`.., `aniso_1`..) are bound by
+    // `bind_octree_windows`.
+    inputs: super::march_inputs!["nodes", "bricks", "svo", "aniso", "normal_bricks", "spec_bricks"],
+    // As svo_cone_trace's: the windows change which binding holds a value, not the value.
+    outputs: super::march_outputs![],
+    dispatch: DispatchRule::PerItem {
+        what: "8x8 screen tile holding a surface (screen_tiles' list, dispatched indirectly)",
+    },
+    mirror: "vxgi_cpu_mirror::cone_trace::shade_pixel (volume: vxgi_cpu_mirror::svo_cone_trace::SvoVolume)",
+    summary: "svo_cone_trace with the octree's bricks and directional values in windows of one buffer (pools past one storage binding)",
+);
+
+/// The cone pass's declaration for an octree of `brick_words` words of bricks and `aniso_values`
+/// directional values: [`WINDOWED_DECL`] where a pool is past one binding, else [`DECL`].
+pub fn decl_for(brick_words: usize, aniso_values: usize) -> &'static KernelDecl {
+    let windowed = brick_words as u64 > super::sparse_voxel_octree::BRICK_WINDOW
+        || aniso_values as u64 > super::svo_anisotropic::POOL_WINDOW;
+    if windowed {
+        &WINDOWED_DECL
+    } else {
+        &DECL
+    }
+}
 
 /// Fixed-point scale of the octree's values where they fit it: 2^16 steps per unit of radiance.
 /// A frame whose values are brighter gets a smaller one from [`fixed_scale`].
@@ -249,8 +278,58 @@ pub fn case_for(
     label: String,
     seed: u64,
 ) -> Case {
+    let aniso = extras.aniso.map_or(0, |a| a.len());
+    let decl = decl_for(octree.bricks.len(), aniso);
+    case_in(
+        decl, data, gbuffer, octree, extras, scale, params, label, seed,
+    )
+}
+
+/// [`case_for`] with the declaration given ([`DECL`], or [`WINDOWED_DECL`] with its pools bound in
+/// windows of [`WHOLE`]).
+#[allow(clippy::too_many_arguments)]
+pub fn case_in(
+    decl: &'static KernelDecl,
+    data: &SceneData,
+    gbuffer: &Resources,
+    octree: &Octree,
+    extras: SvoExtras,
+    scale: f32,
+    params: &ConeParams,
+    label: String,
+    seed: u64,
+) -> Case {
     let volume = octree_resources(octree, extras, scale);
-    tracer_case(&DECL, data, gbuffer, params, volume, label, seed)
+    let mut case = tracer_case(decl, data, gbuffer, params, volume, label, seed);
+    if std::ptr::eq(decl, &WINDOWED_DECL) {
+        bind_octree_windows(&mut case, WHOLE)
+            .expect("the octree's limits keep its pools in its bindings");
+    }
+    case
+}
+
+/// The bricks' and the directional values' windows where a pool is past one binding.
+pub const WHOLE: [u64; 2] = [
+    super::sparse_voxel_octree::BRICK_WINDOW,
+    super::svo_anisotropic::POOL_WINDOW,
+];
+
+/// The octree's pools of `case` bound in windows: the bricks' of `windows[0]` words, the
+/// directional values' of `windows[1]` values.
+pub fn bind_octree_windows(case: &mut Case, windows: [u64; 2]) -> Result<(), String> {
+    let r = &mut case.resources;
+    super::sparse_voxel_octree::bind_brick_windows(&mut case.passes, r, "bricks", windows[0])?;
+    super::svo_anisotropic::bind_pool_windows(&mut case.passes, r, "aniso", windows[1])
+}
+
+/// `case` with both pools in three bindings, as pools past one binding are: the same outputs.
+fn with_pools_split(mut case: Case) -> Case {
+    let len = |n: &str, elem: u64| case.resources[n].buffer().expect(n).bytes.len() as u64 / elem;
+    let third = |n: u64, per: u64| n.div_ceil(3).div_ceil(per).max(1) * per;
+    let windows = [third(len("bricks", 4), 64), third(len("aniso", 16), 16)];
+    bind_octree_windows(&mut case, windows).expect("three windows hold them");
+    case.label.push_str(", pools in three bindings");
+    case
 }
 
 /// The octree's bindings (nodes, bricks, svo, aniso, normal_bricks) for the cone kernels.
@@ -276,16 +355,9 @@ pub fn octree_resources<'a>(octree: &Octree, extras: SvoExtras<'a>, scale: f32) 
         ("svo", HostBuffer::pod(&svo)),
         ("normal_bricks", HostBuffer::of(normals)),
         ("spec_bricks", HostBuffer::of(spec)),
+        ("aniso", HostBuffer::of(aniso)),
     ]));
-    bind_pool(&mut r, aniso, super::svo_anisotropic::POOL_WINDOW);
     r
-}
-
-/// The anisotropic pool as its two bindings, `aniso` its first `window` elements.
-fn bind_pool(r: &mut Resources, pool: &[[f32; 4]], window: usize) {
-    let (lo, hi) = super::svo_anisotropic::split_pool(pool, window);
-    r.insert("aniso".into(), HostBuffer::of(&lo).into());
-    r.insert("aniso_hi".into(), HostBuffer::of(&hi).into());
 }
 
 /// Largest radiance the octree holds (allowances for rounding-decided stops scale with it).
@@ -298,12 +370,9 @@ pub fn max_radiance(bricks: &[u32], inv_scale: f32) -> f32 {
         * inv_scale
 }
 
-/// The directional values a cone case binds, its two bindings joined.
+/// The directional values a cone case binds.
 fn pool_of(data: &Resources) -> Vec<[f32; 4]> {
-    let part = |n: &str| -> &[[f32; 4]] {
-        bytemuck::cast_slice(&data[n].buffer().expect("the pool's bindings").bytes)
-    };
-    [part("aniso"), part("aniso_hi")].concat()
+    bytemuck::cast_slice(&data["aniso"].buffer().expect("the pool").bytes).to_vec()
 }
 
 pub fn mirror_cones(data: &Resources) -> Vec<vxgi_cpu_mirror::cone_trace::PixelOut> {
@@ -408,30 +477,45 @@ impl Kernel for SvoConeTrace {
         &DECL
     }
     fn case(&self, _shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
-        let g = GeneratedOctree::new(ctx, seed, index);
-        let label = format!(
-            "{}, octree depth {}{}",
-            g.lit.label,
-            g.octree.depth,
-            g.options()
-        );
-        let mut case = case_for(
-            &g.lit.data,
-            &g.lit.gbuffer,
-            &g.octree,
-            g.extras(),
-            SCALE,
-            &g.params,
-            label,
-            seed,
-        );
-        // One case in eight (with anisotropic voxels) reads the pool from two bindings, as a pool
-        // past one binding is read.
-        if let (5, Some(pool)) = (index % 8, g.extras().aniso) {
-            bind_pool(&mut case.resources, pool, pool.len().div_ceil(2));
-            case.label.push_str(", pool in two bindings");
-        }
-        case
+        generated_case(&DECL, ctx, seed, index)
+    }
+    fn mirror(&self, _case: &Case, data: &Resources, _mode: FloatMode) -> MirrorOutputs {
+        bounded_outputs(&mirror_cones(data))
+    }
+}
+
+/// The cone pass of `decl` over case `index`'s generated octree ([`GeneratedOctree`]).
+fn generated_case(decl: &'static KernelDecl, ctx: &GpuContext, seed: u64, index: usize) -> Case {
+    let g = GeneratedOctree::new(ctx, seed, index);
+    let label = format!(
+        "{}, octree depth {}{}",
+        g.lit.label,
+        g.octree.depth,
+        g.options()
+    );
+    let (data, gb) = (&g.lit.data, &g.lit.gbuffer);
+    case_in(
+        decl,
+        data,
+        gb,
+        &g.octree,
+        g.extras(),
+        SCALE,
+        &g.params,
+        label,
+        seed,
+    )
+}
+
+/// svo_cone_trace_windowed on svo_cone_trace's generated cases, every pool in three bindings.
+pub struct SvoConeTraceWindowed;
+
+impl Kernel for SvoConeTraceWindowed {
+    fn decl(&self) -> &'static KernelDecl {
+        &WINDOWED_DECL
+    }
+    fn case(&self, _shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
+        with_pools_split(generated_case(&WINDOWED_DECL, ctx, seed, index))
     }
     fn mirror(&self, _case: &Case, data: &Resources, _mode: FloatMode) -> MirrorOutputs {
         bounded_outputs(&mirror_cones(data))
@@ -440,10 +524,10 @@ impl Kernel for SvoConeTrace {
 
 pub static BOUNCE_DECL: KernelDecl = vxgi_harness::kernel_decl!(
     "svo_bounce" in "svo_cone_trace",
-    includes: &[super::SVO_NODE, super::TANGENT_BASIS, super::SCENE_TYPES, super::CONE_MARCH],
+    includes: &[super::SVO_NODE, super::SVO_BRICKS, super::SVO_ANISO_WINDOWS, super::TANGENT_BASIS, super::SCENE_TYPES, super::CONE_MARCH],
     entry: "voxel_main",
     inputs: &[
-        "cone", "cone_dirs", "nodes", "bricks", "svo", "aniso", "aniso_hi", "normal_bricks", "spec_bricks", "vx_position", "vx_normal", "vx_albedo",
+        "cone", "cone_dirs", "nodes", "bricks", "svo", "aniso", "normal_bricks", "spec_bricks", "vx_position", "vx_normal", "vx_albedo",
     ],
     // The pixel entry's diffuse cones and their bound (see DECL).
     outputs: &[Output {
@@ -532,7 +616,7 @@ pub fn bounce_case(
         ("vx_albedo", f4(&voxels.albedo)),
         ("vx_indirect", HostBuffer::zeroed(n * 16, ScalarKind::F32)),
     ]));
-    Case {
+    let mut case = Case {
         label,
         seed,
         passes: vec![BOUNCE_DECL.pass(
@@ -551,7 +635,10 @@ pub fn bounce_case(
             },
         )],
         effective_bytes: n as u64 * 64,
-    }
+    };
+    bind_octree_windows(&mut case, WHOLE)
+        .expect("the octree's limits keep its pools in their bindings");
+    case
 }
 
 /// The second bounce's fragments: each voxel's reflected indirect light (from the bounce pass's

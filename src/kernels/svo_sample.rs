@@ -32,7 +32,8 @@ vxgi_harness::bindings! {
 
 pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
     "svo_sample",
-    includes: &[super::SVO_NODE],
+    // `bricks`' windows past its first (`bricks_1`..) are bound by `bind_brick_windows`.
+    includes: &[super::SVO_NODE, super::SVO_BRICKS],
     entry: "svo_sample",
     inputs: Io::INPUTS,
     outputs: Io::OUTPUTS,
@@ -84,9 +85,19 @@ pub fn case_for(
         samples: vec![[0.0; 4]; queries.len()],
     };
     let shader = DECL.shader().expect("svo_sample validates");
-    DECL.case_of(&shader, ctx, &io, queries.len() as u64, label, seed)
+    let mut case = DECL
+        .case_of(&shader, ctx, &io, queries.len() as u64, label, seed)
         .with_indexing("samples", vxgi_harness::Indexing::Linear)
-        .with_effective_bytes(queries.len() as u64 * (16 + 16 + 8 * 16))
+        .with_effective_bytes(queries.len() as u64 * (16 + 16 + 8 * 16));
+    let window = super::sparse_voxel_octree::BRICK_WINDOW;
+    super::sparse_voxel_octree::bind_brick_windows(
+        &mut case.passes,
+        &mut case.resources,
+        "bricks",
+        window,
+    )
+    .expect("the octree's limits keep its bricks in their bindings");
+    case
 }
 
 /// Queries of the generator: random points and levels, lattice points of random levels, node and
@@ -130,7 +141,11 @@ impl Kernel for SvoSample {
         let octree = build(depth, cap, &frags);
         let mut rng = ChaCha8Rng::seed_from_u64(seed.wrapping_add(1000 + index as u64));
         let q = queries(&mut rng, depth, 2048);
-        case_for(ctx, &octree, CASE_SCALE, &q, label, seed)
+        let case = case_for(ctx, &octree, CASE_SCALE, &q, label, seed);
+        match index % 8 {
+            5 => super::sparse_voxel_octree::with_brick_split(case),
+            _ => case,
+        }
     }
     fn mirror(&self, case: &Case, _data: &Resources, _mode: FloatMode) -> MirrorOutputs {
         let mut io = Io::read(&case.resources);

@@ -3,6 +3,8 @@
 //! its staged passes built (lighting it where [`lights_in_chain`]).
 use super::host::{HostFrame, Side};
 use super::*;
+use crate::kernels::sparse_voxel_octree::BRICK_WINDOW;
+use crate::kernels::svo_anisotropic::POOL_WINDOW;
 use crate::kernels::{sparse_voxel_octree, svo_anisotropic, svo_cone_trace, svo_photons};
 use vxgi_cpu_mirror::sparse_voxel_octree::{Fragment, Octree};
 
@@ -42,6 +44,7 @@ pub static VCT_SVO: PipelineDecl = PipelineDecl {
             kernels: &[
                 &crate::kernels::svo_fragments::DECL,
                 &sparse_voxel_octree::DECL,
+                &sparse_voxel_octree::WINDOWED_DECL,
             ],
             reuse: Reuse::Lights,
             split: Split::Always,
@@ -50,7 +53,7 @@ pub static VCT_SVO: PipelineDecl = PipelineDecl {
         },
         StageDecl {
             name: "svo_anisotropic",
-            kernels: &[&svo_anisotropic::DECL],
+            kernels: &[&svo_anisotropic::DECL, &svo_anisotropic::WINDOWED_DECL],
             reuse: Reuse::Lights,
             split: Split::WhenRun,
             plan: anisotropic_plan,
@@ -74,7 +77,11 @@ pub static VCT_SVO: PipelineDecl = PipelineDecl {
         },
         StageDecl {
             name: "svo_cone_trace",
-            kernels: &[&screen_tiles::DECL, &svo_cone_trace::DECL],
+            kernels: &[
+                &screen_tiles::DECL,
+                &svo_cone_trace::DECL,
+                &svo_cone_trace::WINDOWED_DECL,
+            ],
             reuse: Reuse::Camera,
             split: Split::Always,
             plan: svo_cone_trace_plan,
@@ -428,6 +435,17 @@ pub(crate) fn svo_chain(
     // Where the chain builds the octree, the cone pass's case binds placeholders the chain's
     // buffers replace (its parameters' `inv_scale` copied in once the scale is found).
     let unbuilt;
+    // The cone pass reads the pools in windows where one is past a binding.
+    let cone = match lit {
+        Lit::Kept(v) => svo_cone_trace::decl_for(
+            v.built.octree.bricks.len(),
+            v.aniso.as_ref().map_or(0, |a| a.len()),
+        ),
+        Lit::Built(r, _) => svo_cone_trace::decl_for(
+            r.tiles as usize * 8 * vxgi_cpu_mirror::sparse_voxel_octree::BRICK_WORDS,
+            r.aniso_values,
+        ),
+    };
     let (octree, extras, scale) = match lit {
         Lit::Kept(v) => (&v.built.octree, v.extras(), v.scale),
         Lit::Built(r, _) => {
@@ -440,7 +458,8 @@ pub(crate) fn svo_chain(
             (&unbuilt, extras, 1.0)
         }
     };
-    let mut c = svo_cone_trace::case_for(
+    let mut c = svo_cone_trace::case_in(
+        cone,
         data,
         &g.resources,
         octree,
@@ -464,14 +483,13 @@ pub(crate) fn svo_chain(
         c.resources.remove("octree_bricks");
         if anisotropic {
             c.resources.remove("aniso");
-            c.resources.remove("aniso_hi");
         }
     }
     c.resources
         .insert("tile_list".into(), screen_tiles::empty_list(w, h));
     chain.merge(gbuffer::DECL.name, g.resources)?;
     chain.merge(direct_light::DECL.name, d.resources)?;
-    chain.merge(svo_cone_trace::DECL.name, c.resources)?;
+    chain.merge(cone.name, c.resources)?;
     chain.push(gbuffer::DECL.shader()?, gbuffer::DECL.name, g.passes);
     chain.push(
         direct_light::DECL.shader()?,
@@ -484,11 +502,23 @@ pub(crate) fn svo_chain(
         svo_cone_trace::DECL.name,
         vec![screen_tiles::pass(w, h)],
     );
-    chain.push(
-        svo_cone_trace::DECL.shader()?,
-        svo_cone_trace::DECL.name,
-        c.passes,
-    );
+    let stage = svo_cone_trace::DECL.name;
+    chain.push_as(cone.shader()?, cone.name, stage, c.passes);
+    // The octree's pools in windows where they are past one binding, in every pass whose kernel
+    // reads them so (the others bind them whole: `svo_cone_trace::decl_for`).
+    for stage in &mut chain.stages {
+        let has = |name: &str| stage.shader.bindings.iter().any(|b| b.name == name);
+        let (bricks, aniso) = (has("bricks_1"), has("aniso_1"));
+        let (passes, r) = (&mut stage.passes, &mut chain.resources);
+        if bricks {
+            sparse_voxel_octree::bind_brick_windows(passes, r, "octree_bricks", BRICK_WINDOW)
+                .map_err(anyhow::Error::msg)?;
+        }
+        if aniso {
+            svo_anisotropic::bind_pool_windows(passes, r, "aniso", POOL_WINDOW)
+                .map_err(anyhow::Error::msg)?;
+        }
+    }
     Ok((chain, room))
 }
 
@@ -765,7 +795,12 @@ fn light_octree(
     for n in names {
         case.rename_resource(&n, &format!("octree_{n}"), false);
     }
-    chain.add(&svo::DECL, "sparse_voxel_octree", case)?;
+    // The build reads its brick pool in windows where it is past one binding.
+    let tiles = match octree {
+        Lit::Kept(v) => v.built.octree.capacity_tiles,
+        Lit::Built(r, _) => r.tiles,
+    };
+    chain.add(svo::decl_for(tiles), "sparse_voxel_octree", case)?;
     // svo_cone_trace's `SvoParams::inv_scale`.
     chain.copies.push(ChainCopy {
         after: scaled,
@@ -777,7 +812,6 @@ fn light_octree(
     // The directional values, a pass per level (depth - 1 first), into the cone pass's pool.
     if let Some(values) = aniso {
         use crate::kernels::svo_anisotropic as sa;
-        let (lo, hi) = sa::split_pool(&vec![[0.0f32; 4]; values], sa::POOL_WINDOW);
         // Each level's node slots: as the kept structure has them, or (a structure the chain
         // builds) as many as the level can have in the pool: the pass finds its own in `levels`.
         let slots = |level: u32| match octree {
@@ -792,18 +826,15 @@ fn light_octree(
             }
         };
         let mut res = Resources::new();
-        for (name, part) in [("aniso", lo), ("aniso_hi", hi)] {
-            res.insert(
-                name.to_string(),
-                buf(HostBuffer::f32(bytemuck::cast_slice(&part))),
-            );
-        }
-        let shader = sa::DECL.shader()?;
+        res.insert("aniso".into(), zeroed(values.max(1) * 16, ScalarKind::F32));
+        let words = tiles as usize * 8 * vxgi_cpu_mirror::sparse_voxel_octree::BRICK_WORDS;
+        let decl = sa::decl_for(words, values);
+        let shader = decl.shader()?;
         let mut passes = Vec::new();
         for p in aniso_passes(depth, 1.0 / scale) {
             let name = format!("aniso_params_{}", p.level);
             res.insert(name.clone(), buf(HostBuffer::pod(&p)));
-            let bindings = sa::DECL
+            let bindings = decl
                 .bind_by_name()
                 .into_iter()
                 .map(|(b, v)| {
@@ -817,7 +848,7 @@ fn light_octree(
                     (b, crate::harness::run::View::Buffer(to))
                 })
                 .collect();
-            passes.push(sa::DECL.pass(
+            passes.push(decl.pass(
                 &shader,
                 ctx,
                 format!("level {}", p.level),
@@ -832,8 +863,8 @@ fn light_octree(
                 offset: std::mem::offset_of!(AnisoParams, inv_scale) as u64,
             });
         }
-        chain.merge(sa::DECL.name, res)?;
-        chain.push_as(shader, sa::DECL.name, "svo_anisotropic", passes);
+        chain.merge(decl.name, res)?;
+        chain.push_as(shader, decl.name, "svo_anisotropic", passes);
     }
     Ok(())
 }
@@ -1053,7 +1084,9 @@ pub(crate) fn svo_cone_trace_step(f: &mut HostFrame) -> Result<()> {
                 "host".into(),
                 0,
             );
-            super::host::gpu_cones(ctx, &svo_cone_trace::DECL, &case)?
+            let decl =
+                svo_cone_trace::decl_for(octree.bricks.len(), extras.aniso.map_or(0, |a| a.len()));
+            super::host::gpu_cones(ctx, decl, &case)?
         }
     });
     Ok(())
