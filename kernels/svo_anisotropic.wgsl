@@ -36,7 +36,7 @@ struct AnisoParams {
 @group(0) @binding(1) var<storage, read> nodes: array<Node>;
 // bricks: common/svo_bricks.wgsl.
 // aniso (binding 3), written and read through aniso_store and aniso_load:
-// common/svo_aniso_rw_one.wgsl, one binding, or past one binding common/svo_aniso_rw.wgsl
+// common/svo_aniso_rw_pair.wgsl, one binding, or past one binding common/svo_aniso_rw.wgsl
 // (declaration svo_anisotropic_windowed).
 // The octree's tile ranges per level (sparse_voxel_octree's `levels`): level l's tiles are
 // levels[l]..levels[l + 1].

@@ -31,7 +31,7 @@ struct SvoParams {
 @group(0) @binding(8) var<storage, read> nodes: array<Node>;
 // bricks and aniso (six directional values per brick voxel of the nodes above the leaves,
 // (n * 27 + voxel) * 6 + dir), read through brick_words and aniso_load: common/svo_bricks_one.wgsl and
-// common/svo_aniso_one.wgsl, one binding each, or past one binding common/svo_bricks.wgsl and
+// common/svo_aniso_pair.wgsl, one binding each, or past one binding common/svo_bricks.wgsl and
 // common/svo_aniso_windows.wgsl
 // (declaration svo_cone_trace_windowed).
 @group(0) @binding(13) var<storage, read> svo: SvoParams;

@@ -928,8 +928,10 @@ impl VctSvo {
             let a = crate::kernels::svo_anisotropic::build_on_gpu(ctx, &built.octree, 1.0 / scale)
                 .with_context(|| {
                     format!(
-                        "anisotropic voxels ({} bytes per octree node above the leaves, in one binding): anisotropic_voxels = false or fewer voxels makes them fit",
-                        vxgi_cpu_mirror::svo_anisotropic::NODE_VALUES * 16
+                        "anisotropic voxels ({} bytes per octree node above the leaves, in at most {} bindings of {} bytes): anisotropic_voxels = false or fewer voxels makes them fit",
+                        vxgi_cpu_mirror::svo_anisotropic::NODE_VALUES * 16,
+                        crate::kernels::svo_anisotropic::POOL_VIEWS.len(),
+                        crate::kernels::svo_anisotropic::POOL_WINDOW * 16
                     )
                 })?;
             stages.push(("svo_anisotropic", t.elapsed().as_secs_f64()));

@@ -222,10 +222,10 @@ pub const SVO_BRICKS_ATOMIC_ONE: (&str, &str) = (
     include_str!("../../kernels/common/svo_bricks_atomic_one.wgsl"),
 );
 
-/// The octree's directional values read in one binding, included by svo_cone_trace.
-pub const SVO_ANISO_ONE: (&str, &str) = (
-    "kernels/common/svo_aniso_one.wgsl",
-    include_str!("../../kernels/common/svo_aniso_one.wgsl"),
+/// The octree's directional values read in one or two bindings, included by svo_cone_trace.
+pub const SVO_ANISO_PAIR: (&str, &str) = (
+    "kernels/common/svo_aniso_pair.wgsl",
+    include_str!("../../kernels/common/svo_aniso_pair.wgsl"),
 );
 
 /// The octree's directional values written in windows, included by svo_anisotropic_windowed.
@@ -234,10 +234,10 @@ pub const SVO_ANISO_RW: (&str, &str) = (
     include_str!("../../kernels/common/svo_aniso_rw.wgsl"),
 );
 
-/// The octree's directional values written in one binding, included by svo_anisotropic.
-pub const SVO_ANISO_RW_ONE: (&str, &str) = (
-    "kernels/common/svo_aniso_rw_one.wgsl",
-    include_str!("../../kernels/common/svo_aniso_rw_one.wgsl"),
+/// The octree's directional values written in one or two bindings, included by svo_anisotropic.
+pub const SVO_ANISO_RW_PAIR: (&str, &str) = (
+    "kernels/common/svo_aniso_rw_pair.wgsl",
+    include_str!("../../kernels/common/svo_aniso_rw_pair.wgsl"),
 );
 
 /// Bind the buffer resource `resource` (elements of `elem` bytes) to the WGSL bindings `views` of

@@ -16,21 +16,41 @@ use vxgi_harness::prelude::*;
 use vxgi_harness::run::{grid_for, Pass, View, Workgroups};
 use vxgi_harness::HarnessError;
 
+/// Integer arithmetic only (atomic adds, shifts, saturating checks): exact. Nodes, bricks and flags
+/// after canonicalising the atomic allocation order.
+const OUTPUTS: &[Output] = &[
+    Output {
+        binding: "nodes",
+        tolerance: Tolerance::Exact,
+    },
+    Output {
+        binding: "bricks",
+        tolerance: Tolerance::Exact,
+    },
+    Output {
+        binding: "flags",
+        tolerance: Tolerance::Exact,
+    },
+    Output {
+        binding: "levels",
+        tolerance: Tolerance::Exact,
+    },
+    Output {
+        binding: "status",
+        tolerance: Tolerance::Exact,
+    },
+    Output {
+        binding: "stats",
+        tolerance: Tolerance::Exact,
+    },
+];
+
 pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
     "sparse_voxel_octree",
     includes: &[super::SVO_NODE, super::SVO_BRICKS_ATOMIC_ONE],
     entry: "flag_parents",
     inputs: &["params", "fragments"],
-    // Integer arithmetic only (atomic adds, shifts, saturating checks): exact. Nodes, bricks and flags
-    // after canonicalising the atomic allocation order.
-    outputs: &[
-        Output { binding: "nodes", tolerance: Tolerance::Exact },
-        Output { binding: "bricks", tolerance: Tolerance::Exact },
-        Output { binding: "flags", tolerance: Tolerance::Exact },
-        Output { binding: "levels", tolerance: Tolerance::Exact },
-        Output { binding: "status", tolerance: Tolerance::Exact },
-        Output { binding: "stats", tolerance: Tolerance::Exact },
-    ],
+    outputs: OUTPUTS,
     dispatch: DispatchRule::PerItem { what: "fragment (x 8 in flag_parents); node of a level, list entry or list entry x class voxel (indirect, GPU-written arguments)" },
     mirror: "vxgi_cpu_mirror::sparse_voxel_octree::build",
     summary: "sparse voxel octree, 3x3x3 vertex-centred bricks: build (atomic tiles), splat, border transfer (add, copy), Gaussian distribution over levels (VCT 4.1-4.2.3, 8.2)",
@@ -47,14 +67,7 @@ pub static WINDOWED_DECL: KernelDecl = vxgi_harness::kernel_decl!(
     // `bricks`' windows past its first (`bricks_1`..) are bound by `bind_brick_windows`.
     inputs: &["params", "fragments"],
     // As sparse_voxel_octree's: the windows change which binding holds a word, not the word.
-    outputs: &[
-        Output { binding: "nodes", tolerance: Tolerance::Exact },
-        Output { binding: "bricks", tolerance: Tolerance::Exact },
-        Output { binding: "flags", tolerance: Tolerance::Exact },
-        Output { binding: "levels", tolerance: Tolerance::Exact },
-        Output { binding: "status", tolerance: Tolerance::Exact },
-        Output { binding: "stats", tolerance: Tolerance::Exact },
-    ],
+    outputs: OUTPUTS,
     dispatch: DispatchRule::PerItem { what: "as sparse_voxel_octree's" },
     mirror: "vxgi_cpu_mirror::sparse_voxel_octree::build",
     summary: "sparse_voxel_octree with its brick pool in windows of one buffer (a pool past one storage binding)",
@@ -737,8 +750,9 @@ pub fn build_on_gpu_replayed(
         "build_on_gpu".into(),
         0,
     );
-    let decl = decl_for(capacity.max(1));
-    let shader = decl.shader()?;
+    // The structure's passes do not touch the bricks: the one-binding declaration runs them; the
+    // values' passes run with the declaration of the pool the structure used.
+    let shader = DECL.shader()?;
     // Two submissions: the structure first, then the values with a brick pool of exactly the tiles the
     // structure used. The pool `capacity` must be sized before the structure exists (capacity_bound:
     // ~4x what the Cornell box's 128^3 photons need), but its bricks are 12x its nodes' bytes, so
@@ -749,20 +763,26 @@ pub fn build_on_gpu_replayed(
         .cloned()
         .partition(|p| phase_of(&p.entry) == "build");
     let mut resources = case.resources;
-    let windows = |passes: &mut [Pass], resources: &mut Resources| {
-        if std::ptr::eq(decl, &WINDOWED_DECL) {
-            bind_brick_windows(passes, resources, "bricks", BRICK_WINDOW)
-                .expect("within max_capacity");
+    // The case bound the pool of `capacity` tiles in windows where it is past one binding.
+    let unbind = |passes: &mut [Pass]| {
+        for p in passes {
+            p.bindings
+                .retain(|(b, _)| !BRICK_VIEWS[1..].contains(&b.as_str()));
+            for (b, v) in &mut p.bindings {
+                if b == "bricks" {
+                    *v = View::Buffer("bricks".into());
+                }
+            }
         }
     };
     resources.insert(
         "bricks".into(),
         HostBuffer::zeroed(4, ScalarKind::U32).into(),
     );
-    windows(&mut structure, &mut resources);
+    unbind(&mut structure);
     const STRUCTURE: [&str; 6] = ["nodes", "flags", "tile_parent", "levels", "status", "args"];
     let built =
-        vxgi_harness::run::run(ctx, &shader, decl.name, &resources, &structure, &STRUCTURE)?;
+        vxgi_harness::run::run(ctx, &shader, DECL.name, &resources, &structure, &STRUCTURE)?;
     let status = built.buffer("status").as_u32().to_vec();
     if status[STATUS_ERRORS] & ERR_POOL != 0 {
         let max = max_capacity(ctx);
@@ -808,7 +828,13 @@ pub fn build_on_gpu_replayed(
         .collect();
     let pool = HostBuffer::zeroed(used * 8 * BRICK_WORDS * 4, ScalarKind::U32);
     resources.insert("bricks".into(), pool.into());
-    windows(&mut values, &mut resources);
+    let decl = decl_for(used as u32);
+    unbind(&mut values);
+    if std::ptr::eq(decl, &WINDOWED_DECL) {
+        bind_brick_windows(&mut values, &mut resources, "bricks", BRICK_WINDOW)
+            .expect("within max_capacity");
+    }
+    let shader = decl.shader()?;
     let out = vxgi_harness::run::run(ctx, &shader, decl.name, &resources, &values, &CHECKED)?;
     let b = |n: &str| out.resources[n].buffer().expect("read back").clone();
     let status = b("status").as_u32().to_vec();

@@ -31,7 +31,7 @@ vxgi_harness::bindings! {
 
 pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
     "svo_anisotropic",
-    includes: &[super::SVO_NODE, super::SVO_BRICKS_ONE, super::SVO_ANISO_RW_ONE],
+    includes: &[super::SVO_NODE, super::SVO_BRICKS_ONE, super::SVO_ANISO_RW_PAIR],
     inputs: Io::INPUTS,
     outputs: Io::OUTPUTS,
     dispatch: DispatchRule::PerElement { binding: "aniso" },
@@ -40,8 +40,9 @@ pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
 );
 
 /// svo_anisotropic with the octree's pools in windows of one buffer (kernels/common/svo_bricks.wgsl,
-/// svo_aniso_rw.wgsl): for pools past one storage binding (Sponza's octree at 512^3), where a branch
-/// per window would cost lavapipe about twice the pass of [`DECL`] in every smaller octree.
+/// svo_aniso_rw.wgsl): for bricks past one storage binding or directional values past two
+/// (Sponza's octree at 512^3), where a branch per window would cost lavapipe about twice the pass
+/// of [`DECL`] (bricks in one binding, the values in up to two) in every smaller octree.
 /// [`decl_for`] picks one.
 pub static WINDOWED_DECL: KernelDecl = vxgi_harness::kernel_decl!(
     "svo_anisotropic_windowed" in "svo_anisotropic",
@@ -56,10 +57,11 @@ pub static WINDOWED_DECL: KernelDecl = vxgi_harness::kernel_decl!(
 );
 
 /// The pass's declaration for an octree of `brick_words` words of bricks and `values` directional
-/// values: [`WINDOWED_DECL`] where a pool is past one binding, else [`DECL`].
+/// values: [`WINDOWED_DECL`] where the bricks are past one binding or the values past two, else
+/// [`DECL`].
 pub fn decl_for(brick_words: usize, values: usize) -> &'static KernelDecl {
     let windowed = brick_words as u64 > super::sparse_voxel_octree::BRICK_WINDOW
-        || values as u64 > POOL_WINDOW;
+        || values as u64 > 2 * POOL_WINDOW;
     if windowed {
         &WINDOWED_DECL
     } else {
@@ -69,7 +71,7 @@ pub fn decl_for(brick_words: usize, values: usize) -> &'static KernelDecl {
 
 /// Directional values per binding of the pool: WebGPU's default max_storage_buffer_binding_size
 /// (128 MiB) of vec4s, which every device binds; a larger pool is bound in windows of this
-/// ([`POOL_VIEWS`]: kernels/svo_anisotropic.wgsl, svo_cone_trace.wgsl).
+/// ([`POOL_VIEWS`]: kernels/common/svo_aniso_rw.wgsl, svo_aniso_windows.wgsl).
 pub const POOL_WINDOW: u64 = 1 << 23;
 
 /// The pool's bindings, each a window of its buffer.
@@ -78,14 +80,26 @@ pub const POOL_VIEWS: [&str; 6] = [
 ];
 
 /// Bind the directional values' pool (resource `resource`) of `passes` in windows of `window`
-/// values ([`POOL_VIEWS`]; [`POOL_WINDOW`] where it is past one binding).
+/// values, bound as `views` (the first of [`POOL_VIEWS`] the shader declares: all six in the
+/// `_windowed` declarations, two in the others; [`POOL_WINDOW`] where it is past one binding).
 pub fn bind_pool_windows(
     passes: &mut [vxgi_harness::run::Pass],
     resources: &mut Resources,
     resource: &str,
+    views: &[&str],
     window: u64,
 ) -> Result<(), String> {
-    super::bind_windows(passes, resources, resource, &POOL_VIEWS, 16, window)
+    super::bind_windows(passes, resources, resource, views, 16, window)
+}
+
+/// The views of [`POOL_VIEWS`] the declaration `decl` binds: all six where it is windowed, else
+/// two.
+pub fn pool_views(windowed: bool) -> &'static [&'static str] {
+    if windowed {
+        &POOL_VIEWS
+    } else {
+        &POOL_VIEWS[..2]
+    }
 }
 
 /// Fixed-point scale of the octree's values (svo_cone_trace's).
@@ -112,15 +126,18 @@ fn io(o: &Octree, p: AnisoParams, aniso: &[[f32; 4]]) -> Io {
     }
 }
 
-/// Both pools of `passes` bound in windows (for [`WINDOWED_DECL`]): the bricks' of `bricks` words,
-/// the directional values' of `values`.
+/// Both pools of `passes` bound in windows: for [`WINDOWED_DECL`] the bricks' of `bricks` words
+/// and the directional values' of `values`; for [`DECL`] the values' alone, in two.
 pub fn bind_pools(
     passes: &mut [vxgi_harness::run::Pass],
     resources: &mut Resources,
+    windowed: bool,
     [bricks, values]: [u64; 2],
 ) -> Result<(), String> {
-    super::sparse_voxel_octree::bind_brick_windows(passes, resources, "bricks", bricks)?;
-    bind_pool_windows(passes, resources, "aniso", values)
+    if windowed {
+        super::sparse_voxel_octree::bind_brick_windows(passes, resources, "bricks", bricks)?;
+    }
+    bind_pool_windows(passes, resources, "aniso", pool_views(windowed), values)
 }
 
 /// The octree's directional values by the mirror (every level), as `build_on_gpu` returns them.
@@ -153,10 +170,9 @@ pub fn build_on_gpu(ctx: &GpuContext, o: &Octree, inv_scale: f32) -> anyhow::Res
     if passes.is_empty() {
         return Ok(vec![]);
     }
-    if std::ptr::eq(decl, &WINDOWED_DECL) {
-        let windows = [super::sparse_voxel_octree::BRICK_WINDOW, POOL_WINDOW];
-        bind_pools(&mut passes, &mut resources, windows).map_err(anyhow::Error::msg)?;
-    }
+    let windows = [super::sparse_voxel_octree::BRICK_WINDOW, POOL_WINDOW];
+    let windowed = std::ptr::eq(decl, &WINDOWED_DECL);
+    bind_pools(&mut passes, &mut resources, windowed, windows).map_err(anyhow::Error::msg)?;
     let out = run(ctx, &shader, decl.name, &resources, &passes, &["aniso"])?;
     let mut values: Vec<[f32; 4]> = bytemuck::cast_slice(&out.buffer("aniso").bytes).to_vec();
     values.truncate(n);
@@ -212,9 +228,21 @@ impl Kernel for SvoAnisotropic {
             DECL.bind_by_name(),
             threads,
         );
-        io(&o, p, &aniso)
+        // One case in eight with the values in two bindings, as values past one binding are.
+        let window = match index % 8 {
+            5 => {
+                label.push_str(", values in two bindings");
+                (aniso.len() as u64).div_ceil(2).div_ceil(16).max(1) * 16
+            }
+            _ => POOL_WINDOW,
+        };
+        let mut case = io(&o, p, &aniso)
             .case(label, seed, vec![pass])
-            .with_effective_bytes(slots.len() as u64 * 27 * (6 * 16 + 27 * 16))
+            .with_effective_bytes(slots.len() as u64 * 27 * (6 * 16 + 27 * 16));
+        let windows = [super::sparse_voxel_octree::BRICK_WINDOW, window];
+        bind_pools(&mut case.passes, &mut case.resources, false, windows)
+            .expect("two windows hold them");
+        case
     }
 
     fn mirror(&self, _case: &Case, data: &Resources, _mode: FloatMode) -> MirrorOutputs {
@@ -242,7 +270,7 @@ impl Kernel for SvoAnisotropicWindowed {
             |n: &str, elem: u64| case.resources[n].buffer().expect(n).bytes.len() as u64 / elem;
         let third = |n: u64, per: u64| n.div_ceil(3).div_ceil(per).max(1) * per;
         let windows = [third(len("bricks", 4), 64), third(len("aniso", 16), 16)];
-        bind_pools(&mut case.passes, &mut case.resources, windows)
+        bind_pools(&mut case.passes, &mut case.resources, true, windows)
             .expect("three windows hold them");
         case.label.push_str(", pools in three bindings");
         case

@@ -14,18 +14,29 @@ use vxgi_cpu_mirror::sparse_voxel_octree::{bricks_in_layout, build_fitted, Fragm
 use vxgi_cpu_mirror::svo_cone_trace::{normal_value, SvoParams, SvoVolume};
 use vxgi_harness::prelude::*;
 
+/// The pixel pass's bindings: the march's and the octree's.
+const INPUTS: &[&str] = super::march_inputs![
+    "nodes",
+    "bricks",
+    "svo",
+    "aniso",
+    "normal_bricks",
+    "spec_bricks"
+];
+const DISPATCH: DispatchRule = DispatchRule::PerItem {
+    what: "8x8 screen tile holding a surface (screen_tiles' list, dispatched indirectly)",
+};
+
 pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
     "svo_cone_trace",
-    includes: &[super::SVO_NODE, super::SVO_BRICKS_ONE, super::SVO_ANISO_ONE, super::TANGENT_BASIS, super::SCENE_TYPES, super::CONE_MARCH],
-    inputs: super::march_inputs!["nodes", "bricks", "svo", "aniso", "normal_bricks", "spec_bricks"],
+    includes: &[super::SVO_NODE, super::SVO_BRICKS_ONE, super::SVO_ANISO_PAIR, super::TANGENT_BASIS, super::SCENE_TYPES, super::CONE_MARCH],
+    inputs: INPUTS,
     // The march's bound (`super::march_outputs!`): the march is cone_trace's code; the octree's
     // sample adds the conversion f32(u32) * inv_scale (two correctly rounded operations per voxel)
     // to the ~30 operations per sample the bound already covers, and the sample point's rounding is
     // in the mirror's SampleError as for the pyramid.
     outputs: super::march_outputs![],
-    dispatch: DispatchRule::PerItem {
-        what: "8x8 screen tile holding a surface (screen_tiles' list, dispatched indirectly)",
-    },
+    dispatch: DISPATCH,
     mirror: "vxgi_cpu_mirror::cone_trace::shade_pixel (volume: vxgi_cpu_mirror::svo_cone_trace::SvoVolume)",
     summary: "cone_trace's AO + diffuse + glossy cones marching the sparse voxel octree (quadrilinear brick sampling, VCT 5-7)",
 );
@@ -39,21 +50,20 @@ pub static WINDOWED_DECL: KernelDecl = vxgi_harness::kernel_decl!(
     includes: &[super::SVO_NODE, super::SVO_BRICKS, super::SVO_ANISO_WINDOWS, super::TANGENT_BASIS, super::SCENE_TYPES, super::CONE_MARCH],
     // The pools' windows past their first (`bricks_1`.., `aniso_1`..) are bound by
     // `bind_octree_windows`.
-    inputs: super::march_inputs!["nodes", "bricks", "svo", "aniso", "normal_bricks", "spec_bricks"],
+    inputs: INPUTS,
     // As svo_cone_trace's: the windows change which binding holds a value, not the value.
     outputs: super::march_outputs![],
-    dispatch: DispatchRule::PerItem {
-        what: "8x8 screen tile holding a surface (screen_tiles' list, dispatched indirectly)",
-    },
+    dispatch: DISPATCH,
     mirror: "vxgi_cpu_mirror::cone_trace::shade_pixel (volume: vxgi_cpu_mirror::svo_cone_trace::SvoVolume)",
     summary: "svo_cone_trace with the octree's bricks and directional values in windows of one buffer (pools past one storage binding)",
 );
 
 /// The cone pass's declaration for an octree of `brick_words` words of bricks and `aniso_values`
-/// directional values: [`WINDOWED_DECL`] where a pool is past one binding, else [`DECL`].
+/// directional values: [`WINDOWED_DECL`] where the bricks are past one binding or the values past
+/// two, else [`DECL`] (bricks in one binding, values in up to two).
 pub fn decl_for(brick_words: usize, aniso_values: usize) -> &'static KernelDecl {
     let windowed = brick_words as u64 > super::sparse_voxel_octree::BRICK_WINDOW
-        || aniso_values as u64 > super::svo_anisotropic::POOL_WINDOW;
+        || aniso_values as u64 > 2 * super::svo_anisotropic::POOL_WINDOW;
     if windowed {
         &WINDOWED_DECL
     } else {
@@ -301,10 +311,9 @@ pub fn case_in(
 ) -> Case {
     let volume = octree_resources(octree, extras, scale);
     let mut case = tracer_case(decl, data, gbuffer, params, volume, label, seed);
-    if std::ptr::eq(decl, &WINDOWED_DECL) {
-        bind_octree_windows(&mut case, WHOLE)
-            .expect("the octree's limits keep its pools in its bindings");
-    }
+    let windowed = std::ptr::eq(decl, &WINDOWED_DECL);
+    bind_octree_windows(&mut case, windowed, WHOLE)
+        .expect("the octree's limits keep its pools in its bindings");
     case
 }
 
@@ -314,12 +323,15 @@ pub const WHOLE: [u64; 2] = [
     super::svo_anisotropic::POOL_WINDOW,
 ];
 
-/// The octree's pools of `case` bound in windows: the bricks' of `windows[0]` words, the
-/// directional values' of `windows[1]` values.
-pub fn bind_octree_windows(case: &mut Case, windows: [u64; 2]) -> Result<(), String> {
-    let r = &mut case.resources;
-    super::sparse_voxel_octree::bind_brick_windows(&mut case.passes, r, "bricks", windows[0])?;
-    super::svo_anisotropic::bind_pool_windows(&mut case.passes, r, "aniso", windows[1])
+/// The octree's pools of `case` bound in windows: with [`WINDOWED_DECL`] (`windowed`) the
+/// bricks' of `windows[0]` words and the directional values' of `windows[1]` values, in up to six;
+/// with [`DECL`] the values' alone, in two.
+pub fn bind_octree_windows(
+    case: &mut Case,
+    windowed: bool,
+    windows: [u64; 2],
+) -> Result<(), String> {
+    super::svo_anisotropic::bind_pools(&mut case.passes, &mut case.resources, windowed, windows)
 }
 
 /// `case` with both pools in three bindings, as pools past one binding are: the same outputs.
@@ -327,8 +339,8 @@ fn with_pools_split(mut case: Case) -> Case {
     let len = |n: &str, elem: u64| case.resources[n].buffer().expect(n).bytes.len() as u64 / elem;
     let third = |n: u64, per: u64| n.div_ceil(3).div_ceil(per).max(1) * per;
     let windows = [third(len("bricks", 4), 64), third(len("aniso", 16), 16)];
-    bind_octree_windows(&mut case, windows).expect("three windows hold them");
-    case.label.push_str(", pools in three bindings");
+    bind_octree_windows(&mut case, true, windows).expect("three windows hold them");
+    case.label.push_str(", pools in up to three bindings each");
     case
 }
 
@@ -477,7 +489,16 @@ impl Kernel for SvoConeTrace {
         &DECL
     }
     fn case(&self, _shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
-        generated_case(&DECL, ctx, seed, index)
+        let mut case = generated_case(&DECL, ctx, seed, index);
+        // One case in eight (with anisotropic voxels) reads the values from two bindings, as
+        // values past one binding are read.
+        let values = case.resources["aniso"].buffer().expect("aniso").bytes.len() as u64 / 16;
+        if index % 8 == 5 && values > 16 {
+            let half = values.div_ceil(2).div_ceil(16) * 16;
+            bind_octree_windows(&mut case, false, [WHOLE[0], half]).expect("two windows hold them");
+            case.label.push_str(", values in two bindings");
+        }
+        case
     }
     fn mirror(&self, _case: &Case, data: &Resources, _mode: FloatMode) -> MirrorOutputs {
         bounded_outputs(&mirror_cones(data))
@@ -636,7 +657,7 @@ pub fn bounce_case(
         )],
         effective_bytes: n as u64 * 64,
     };
-    bind_octree_windows(&mut case, WHOLE)
+    bind_octree_windows(&mut case, true, WHOLE)
         .expect("the octree's limits keep its pools in their bindings");
     case
 }

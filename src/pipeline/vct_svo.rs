@@ -247,10 +247,12 @@ pub const LIT_IN_CHAIN_VOXELS: u32 = 128;
 /// the lobes' normal pool nor a second bounce reads the voxels' colour or normals. Then the staged
 /// build voxelizes into occupancy bits (a bit a voxel, lrsm's) and lists their voxels, each of
 /// coverage 1 ([`svo_cone_trace::listed_coverage`]), instead of voxelize's dense colour and normal
-/// grids (32 bytes a voxel, and 32 more of accumulators): the same fragments.
+/// grids (32 bytes a voxel, and 32 more of accumulators): the same fragments. Not with dynamic
+/// instances, whose static part the staged build keeps as a dense grid to merge them into.
 pub fn coverage_alone(scene: &Scene) -> bool {
     let r = &scene.render;
-    r.photon_map > 0 && !r.voxel_lobes && r.bounces == 1
+    let dynamic = scene.instances.list.iter().any(|i| i.dynamic);
+    r.photon_map > 0 && !r.voxel_lobes && r.bounces == 1 && !dynamic
 }
 
 /// Whether vct-svo's chain builds its octree's structure itself, the first frame included (no staged
@@ -508,14 +510,18 @@ pub(crate) fn svo_chain(
     // reads them so (the others bind them whole: `svo_cone_trace::decl_for`).
     for stage in &mut chain.stages {
         let has = |name: &str| stage.shader.bindings.iter().any(|b| b.name == name);
-        let (bricks, aniso) = (has("bricks_1"), has("aniso_1"));
+        let bricks = has("bricks_1");
+        let views: Vec<&str> = svo_anisotropic::POOL_VIEWS
+            .into_iter()
+            .filter(|v| has(v))
+            .collect();
         let (passes, r) = (&mut stage.passes, &mut chain.resources);
         if bricks {
             sparse_voxel_octree::bind_brick_windows(passes, r, "octree_bricks", BRICK_WINDOW)
                 .map_err(anyhow::Error::msg)?;
         }
-        if aniso {
-            svo_anisotropic::bind_pool_windows(passes, r, "aniso", POOL_WINDOW)
+        if views.len() > 1 {
+            svo_anisotropic::bind_pool_windows(passes, r, "aniso", &views, POOL_WINDOW)
                 .map_err(anyhow::Error::msg)?;
         }
     }
@@ -791,9 +797,13 @@ fn light_octree(
             case
         }
     };
+    // The windows' placeholders keep their names (the chain binds the windows: svo_chain).
     let names: Vec<String> = case.resources.keys().cloned().collect();
-    for n in names {
-        case.rename_resource(&n, &format!("octree_{n}"), false);
+    for n in names
+        .iter()
+        .filter(|n| !svo::BRICK_VIEWS[1..].contains(&n.as_str()))
+    {
+        case.rename_resource(n, &format!("octree_{n}"), false);
     }
     // The build reads its brick pool in windows where it is past one binding.
     let tiles = match octree {
