@@ -16,41 +16,24 @@ use vxgi_harness::prelude::*;
 use vxgi_harness::run::{grid_for, Pass, View, Workgroups};
 use vxgi_harness::HarnessError;
 
-/// Integer arithmetic only (atomic adds, shifts, saturating checks): exact. Nodes, bricks and flags
-/// after canonicalising the atomic allocation order.
-const OUTPUTS: &[Output] = &[
-    Output {
-        binding: "nodes",
-        tolerance: Tolerance::Exact,
-    },
-    Output {
-        binding: "bricks",
-        tolerance: Tolerance::Exact,
-    },
-    Output {
-        binding: "flags",
-        tolerance: Tolerance::Exact,
-    },
-    Output {
-        binding: "levels",
-        tolerance: Tolerance::Exact,
-    },
-    Output {
-        binding: "status",
-        tolerance: Tolerance::Exact,
-    },
-    Output {
-        binding: "stats",
-        tolerance: Tolerance::Exact,
-    },
-];
+pub static DECL: KernelDecl = BASE;
 
-pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
+/// sparse_voxel_octree's declaration, which [`WINDOWED_DECL`] shares but for its includes.
+const BASE: KernelDecl = vxgi_harness::kernel_decl!(
     "sparse_voxel_octree",
     includes: &[super::SVO_NODE, super::SVO_BRICKS_ATOMIC_ONE],
     entry: "flag_parents",
     inputs: &["params", "fragments"],
-    outputs: OUTPUTS,
+    // Integer arithmetic only (atomic adds, shifts, saturating checks): exact. Nodes, bricks and flags
+    // after canonicalising the atomic allocation order.
+    outputs: &[
+        Output { binding: "nodes", tolerance: Tolerance::Exact },
+        Output { binding: "bricks", tolerance: Tolerance::Exact },
+        Output { binding: "flags", tolerance: Tolerance::Exact },
+        Output { binding: "levels", tolerance: Tolerance::Exact },
+        Output { binding: "status", tolerance: Tolerance::Exact },
+        Output { binding: "stats", tolerance: Tolerance::Exact },
+    ],
     dispatch: DispatchRule::PerItem { what: "fragment (x 8 in flag_parents); node of a level, list entry or list entry x class voxel (indirect, GPU-written arguments)" },
     mirror: "vxgi_cpu_mirror::sparse_voxel_octree::build",
     summary: "sparse voxel octree, 3x3x3 vertex-centred bricks: build (atomic tiles), splat, border transfer (add, copy), Gaussian distribution over levels (VCT 4.1-4.2.3, 8.2)",
@@ -60,18 +43,15 @@ pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
 /// svo_bricks_atomic.wgsl): for a pool past one storage binding (Sponza's octree at 512^3), where a
 /// branch per window would cost lavapipe about twice the build of [`DECL`] in every smaller one.
 /// [`decl_for`] picks one.
-pub static WINDOWED_DECL: KernelDecl = vxgi_harness::kernel_decl!(
-    "sparse_voxel_octree_windowed" in "sparse_voxel_octree",
+/// Its bindings, outputs (the windows change which binding holds a word, not the word) and mirror
+/// are [`DECL`]'s; `bricks`' windows past its first (`bricks_1`..) are bound by
+/// `bind_brick_windows`.
+pub static WINDOWED_DECL: KernelDecl = KernelDecl {
+    name: "sparse_voxel_octree_windowed",
     includes: &[super::SVO_NODE, super::SVO_BRICKS_ATOMIC],
-    entry: "flag_parents",
-    // `bricks`' windows past its first (`bricks_1`..) are bound by `bind_brick_windows`.
-    inputs: &["params", "fragments"],
-    // As sparse_voxel_octree's: the windows change which binding holds a word, not the word.
-    outputs: OUTPUTS,
-    dispatch: DispatchRule::PerItem { what: "as sparse_voxel_octree's" },
-    mirror: "vxgi_cpu_mirror::sparse_voxel_octree::build",
     summary: "sparse_voxel_octree with its brick pool in windows of one buffer (a pool past one storage binding)",
-);
+    ..BASE
+};
 
 /// The build's declaration for a node pool of `capacity` tiles: [`WINDOWED_DECL`] where its bricks
 /// are past one binding, else [`DECL`].

@@ -29,7 +29,10 @@ vxgi_harness::bindings! {
     }
 }
 
-pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
+pub static DECL: KernelDecl = BASE;
+
+/// svo_anisotropic's declaration, which [`WINDOWED_DECL`] shares but for its includes.
+const BASE: KernelDecl = vxgi_harness::kernel_decl!(
     "svo_anisotropic",
     includes: &[super::SVO_NODE, super::SVO_BRICKS_ONE, super::SVO_ANISO_RW_PAIR],
     inputs: Io::INPUTS,
@@ -44,17 +47,15 @@ pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
 /// (Sponza's octree at 512^3), where a branch per window would cost lavapipe about twice the pass
 /// of [`DECL`] (bricks in one binding, the values in up to two) in every smaller octree.
 /// [`decl_for`] picks one.
-pub static WINDOWED_DECL: KernelDecl = vxgi_harness::kernel_decl!(
-    "svo_anisotropic_windowed" in "svo_anisotropic",
+/// Its bindings, outputs (the windows change which binding holds a value, not the value) and mirror
+/// are [`DECL`]'s; the pools' windows past their first (`bricks_1`.., `aniso_1`..) are bound by
+/// `bind_pools`.
+pub static WINDOWED_DECL: KernelDecl = KernelDecl {
+    name: "svo_anisotropic_windowed",
     includes: &[super::SVO_NODE, super::SVO_BRICKS, super::SVO_ANISO_RW],
-    // The pools' windows past their first (`bricks_1`.., `aniso_1`..) are bound by `bind_pools`.
-    inputs: Io::INPUTS,
-    // As svo_anisotropic's: the windows change which binding holds a value, not the value.
-    outputs: Io::OUTPUTS,
-    dispatch: DispatchRule::PerElement { binding: "aniso" },
-    mirror: "vxgi_cpu_mirror::svo_anisotropic::level_pass",
     summary: "svo_anisotropic with the octree's bricks and directional values in windows of one buffer (pools past one storage binding)",
-);
+    ..BASE
+};
 
 /// The pass's declaration for an octree of `brick_words` words of bricks and `values` directional
 /// values: [`WINDOWED_DECL`] where the bricks are past one binding or the values past two, else

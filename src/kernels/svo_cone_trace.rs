@@ -14,29 +14,21 @@ use vxgi_cpu_mirror::sparse_voxel_octree::{bricks_in_layout, build_fitted, Fragm
 use vxgi_cpu_mirror::svo_cone_trace::{normal_value, SvoParams, SvoVolume};
 use vxgi_harness::prelude::*;
 
-/// The pixel pass's bindings: the march's and the octree's.
-const INPUTS: &[&str] = super::march_inputs![
-    "nodes",
-    "bricks",
-    "svo",
-    "aniso",
-    "normal_bricks",
-    "spec_bricks"
-];
-const DISPATCH: DispatchRule = DispatchRule::PerItem {
-    what: "8x8 screen tile holding a surface (screen_tiles' list, dispatched indirectly)",
-};
+pub static DECL: KernelDecl = BASE;
 
-pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
+/// svo_cone_trace's declaration, which [`WINDOWED_DECL`] shares but for its includes.
+const BASE: KernelDecl = vxgi_harness::kernel_decl!(
     "svo_cone_trace",
     includes: &[super::SVO_NODE, super::SVO_BRICKS_ONE, super::SVO_ANISO_PAIR, super::TANGENT_BASIS, super::SCENE_TYPES, super::CONE_MARCH],
-    inputs: INPUTS,
+    inputs: super::march_inputs!["nodes", "bricks", "svo", "aniso", "normal_bricks", "spec_bricks"],
     // The march's bound (`super::march_outputs!`): the march is cone_trace's code; the octree's
     // sample adds the conversion f32(u32) * inv_scale (two correctly rounded operations per voxel)
     // to the ~30 operations per sample the bound already covers, and the sample point's rounding is
     // in the mirror's SampleError as for the pyramid.
     outputs: super::march_outputs![],
-    dispatch: DISPATCH,
+    dispatch: DispatchRule::PerItem {
+        what: "8x8 screen tile holding a surface (screen_tiles' list, dispatched indirectly)",
+    },
     mirror: "vxgi_cpu_mirror::cone_trace::shade_pixel (volume: vxgi_cpu_mirror::svo_cone_trace::SvoVolume)",
     summary: "cone_trace's AO + diffuse + glossy cones marching the sparse voxel octree (quadrilinear brick sampling, VCT 5-7)",
 );
@@ -45,18 +37,15 @@ pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
 /// svo_bricks.wgsl, svo_aniso_windows.wgsl): for pools past one storage binding (Sponza's octree at
 /// 512^3), where a branch per window in the march would cost lavapipe about twice the pass of
 /// [`DECL`] (one binding each) in every smaller frame. [`decl_for`] picks one.
-pub static WINDOWED_DECL: KernelDecl = vxgi_harness::kernel_decl!(
-    "svo_cone_trace_windowed" in "svo_cone_trace",
+/// Its bindings, outputs (the windows change which binding holds a value, not the value) and mirror
+/// are [`DECL`]'s; the pools' windows past their first (`bricks_1`.., `aniso_1`..) are bound by
+/// `bind_octree_windows`.
+pub static WINDOWED_DECL: KernelDecl = KernelDecl {
+    name: "svo_cone_trace_windowed",
     includes: &[super::SVO_NODE, super::SVO_BRICKS, super::SVO_ANISO_WINDOWS, super::TANGENT_BASIS, super::SCENE_TYPES, super::CONE_MARCH],
-    // The pools' windows past their first (`bricks_1`.., `aniso_1`..) are bound by
-    // `bind_octree_windows`.
-    inputs: INPUTS,
-    // As svo_cone_trace's: the windows change which binding holds a value, not the value.
-    outputs: super::march_outputs![],
-    dispatch: DISPATCH,
-    mirror: "vxgi_cpu_mirror::cone_trace::shade_pixel (volume: vxgi_cpu_mirror::svo_cone_trace::SvoVolume)",
     summary: "svo_cone_trace with the octree's bricks and directional values in windows of one buffer (pools past one storage binding)",
-);
+    ..BASE
+};
 
 /// The cone pass's declaration for an octree of `brick_words` words of bricks and `aniso_values`
 /// directional values: [`WINDOWED_DECL`] where the bricks are past one binding or the values past
