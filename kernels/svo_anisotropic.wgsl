@@ -34,10 +34,10 @@ struct AnisoParams {
 
 @group(0) @binding(0) var<storage, read> params: AnisoParams;
 @group(0) @binding(1) var<storage, read> nodes: array<Node>;
-// bricks: common/svo_bricks.wgsl.
+// bricks, read through brick_words: common/svo_bricks_one.wgsl, or in windows common/svo_bricks.wgsl.
 // aniso (binding 3), written and read through aniso_store and aniso_load:
-// common/svo_aniso_rw_pair.wgsl, one binding, or past one binding common/svo_aniso_rw.wgsl
-// (declaration svo_anisotropic_windowed).
+// common/svo_aniso_rw_pair.wgsl, one or two bindings, or past those common/svo_aniso_rw.wgsl
+// (declaration svo_anisotropic_windowed, with the bricks in windows).
 // The octree's tile ranges per level (sparse_voxel_octree's `levels`): level l's tiles are
 // levels[l]..levels[l + 1].
 @group(0) @binding(5) var<storage, read> levels: array<u32>;

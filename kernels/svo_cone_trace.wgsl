@@ -30,10 +30,10 @@ struct SvoParams {
 
 @group(0) @binding(8) var<storage, read> nodes: array<Node>;
 // bricks and aniso (six directional values per brick voxel of the nodes above the leaves,
-// (n * 27 + voxel) * 6 + dir), read through brick_words and aniso_load: common/svo_bricks_one.wgsl and
-// common/svo_aniso_pair.wgsl, one binding each, or past one binding common/svo_bricks.wgsl and
-// common/svo_aniso_windows.wgsl
-// (declaration svo_cone_trace_windowed).
+// (n * 27 + voxel) * 6 + dir), read through brick_words and aniso_load: common/svo_bricks_one.wgsl
+// and common/svo_aniso_pair.wgsl, the bricks in one binding and the values in up to two, or past
+// those common/svo_bricks.wgsl and common/svo_aniso_windows.wgsl (declaration
+// svo_cone_trace_windowed).
 @group(0) @binding(13) var<storage, read> svo: SvoParams;
 // Entry voxel_main (declaration svo_bounce): the second bounce's gather from the voxels themselves.
 @group(0) @binding(15) var<storage, read> vx_position: array<vec4<f32>>;

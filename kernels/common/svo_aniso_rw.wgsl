@@ -1,5 +1,5 @@
-// The octree's directional values as svo_anisotropic_windowed writes a pool past one storage binding:
-// up to six windows of one buffer. Value i is in window i / L, L = arrayLength(&aniso) (every
+// The octree's directional values as svo_anisotropic_windowed writes values past two storage
+// bindings (or with bricks past one): up to six windows of one buffer. Value i is in window i / L, L = arrayLength(&aniso) (every
 // window but the last is full); the windows the pool does not reach are one unused value each.
 @group(0) @binding(3) var<storage, read_write> aniso: array<vec4<f32>>;
 @group(0) @binding(4) var<storage, read_write> aniso_1: array<vec4<f32>>;

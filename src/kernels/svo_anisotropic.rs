@@ -53,7 +53,7 @@ const BASE: KernelDecl = vxgi_harness::kernel_decl!(
 pub static WINDOWED_DECL: KernelDecl = KernelDecl {
     name: "svo_anisotropic_windowed",
     includes: &[super::SVO_NODE, super::SVO_BRICKS, super::SVO_ANISO_RW],
-    summary: "svo_anisotropic with the octree's bricks and directional values in windows of one buffer (pools past one storage binding)",
+    summary: "svo_anisotropic with the octree's bricks and directional values in windows of one buffer (bricks past one storage binding, values past two)",
     ..BASE
 };
 
@@ -93,8 +93,8 @@ pub fn bind_pool_windows(
     super::bind_windows(passes, resources, resource, views, 16, window)
 }
 
-/// The views of [`POOL_VIEWS`] the declaration `decl` binds: all six where it is windowed, else
-/// two.
+/// The views of [`POOL_VIEWS`] a declaration binds: all six for [`WINDOWED_DECL`] (`windowed`),
+/// two for [`DECL`].
 pub fn pool_views(windowed: bool) -> &'static [&'static str] {
     if windowed {
         &POOL_VIEWS

@@ -34,16 +34,17 @@ const BASE: KernelDecl = vxgi_harness::kernel_decl!(
 );
 
 /// svo_cone_trace with the octree's pools read in windows of one buffer each (kernels/common/
-/// svo_bricks.wgsl, svo_aniso_windows.wgsl): for pools past one storage binding (Sponza's octree at
-/// 512^3), where a branch per window in the march would cost lavapipe about twice the pass of
-/// [`DECL`] (one binding each) in every smaller frame. [`decl_for`] picks one.
+/// svo_bricks.wgsl, svo_aniso_windows.wgsl): for bricks past one storage binding or directional
+/// values past two (Sponza's octree at 512^3), where a branch per window in the march would cost
+/// lavapipe about twice the pass of [`DECL`] (bricks in one binding, values in up to two) in every
+/// smaller frame. [`decl_for`] picks one.
 /// Its bindings, outputs (the windows change which binding holds a value, not the value) and mirror
 /// are [`DECL`]'s; the pools' windows past their first (`bricks_1`.., `aniso_1`..) are bound by
 /// `bind_octree_windows`.
 pub static WINDOWED_DECL: KernelDecl = KernelDecl {
     name: "svo_cone_trace_windowed",
     includes: &[super::SVO_NODE, super::SVO_BRICKS, super::SVO_ANISO_WINDOWS, super::TANGENT_BASIS, super::SCENE_TYPES, super::CONE_MARCH],
-    summary: "svo_cone_trace with the octree's bricks and directional values in windows of one buffer (pools past one storage binding)",
+    summary: "svo_cone_trace with the octree's bricks and directional values in windows of one buffer (bricks past one storage binding, values past two)",
     ..BASE
 };
 
@@ -284,8 +285,8 @@ pub fn case_for(
     )
 }
 
-/// [`case_for`] with the declaration given ([`DECL`], or [`WINDOWED_DECL`] with its pools bound in
-/// windows of [`WHOLE`]).
+/// [`case_for`] with the declaration given, its pools bound in windows of [`WHOLE`]
+/// ([`bind_octree_windows`]: [`DECL`]'s values in two, [`WINDOWED_DECL`]'s pools in up to six).
 #[allow(clippy::too_many_arguments)]
 pub fn case_in(
     decl: &'static KernelDecl,

@@ -437,7 +437,8 @@ pub(crate) fn svo_chain(
     // Where the chain builds the octree, the cone pass's case binds placeholders the chain's
     // buffers replace (its parameters' `inv_scale` copied in once the scale is found).
     let unbuilt;
-    // The cone pass reads the pools in windows where one is past a binding.
+    // The cone pass reads the pools in windows where the bricks are past one binding or the values
+    // past two (`decl_for`).
     let cone = match lit {
         Lit::Kept(v) => svo_cone_trace::decl_for(
             v.built.octree.bricks.len(),
@@ -506,8 +507,8 @@ pub(crate) fn svo_chain(
     );
     let stage = svo_cone_trace::DECL.name;
     chain.push_as(cone.shader()?, cone.name, stage, c.passes);
-    // The octree's pools in windows where they are past one binding, in every pass whose kernel
-    // reads them so (the others bind them whole: `svo_cone_trace::decl_for`).
+    // The octree's pools in the windows each pass's kernel declares (the windowed declarations:
+    // bricks in five, values in six; the others: values in two), where the pools are past them.
     for stage in &mut chain.stages {
         let has = |name: &str| stage.shader.bindings.iter().any(|b| b.name == name);
         let bricks = has("bricks_1");
