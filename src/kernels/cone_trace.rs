@@ -301,51 +301,25 @@ pub fn bind_pyramid_views(
     resources: &mut Resources,
     window: u64,
 ) -> Result<(), String> {
-    assert!(
-        window > 0 && window.is_multiple_of(16),
-        "windows of {window} elements"
-    );
     let len = pyramid_elements(resources);
-    if len > 3 * window {
-        return Err(format!(
+    let views = ["pyramid", "pyramid_1", "pyramid_2"];
+    super::bind_windows(passes, resources, "pyramid", &views, 16, window).map_err(|_| {
+        format!(
             "the radiance pyramid holds {len} voxels, past three bindings of {window}: fewer voxels"
-        ));
-    }
-    for name in ["pyramid_1", "pyramid_2"] {
-        resources.insert(name.into(), HostBuffer::f32(&[0.0; 4]).into());
-    }
-    for pass in passes {
-        for (binding, view) in &mut pass.bindings {
-            let k = match binding.as_str() {
-                "pyramid" => 0,
-                "pyramid_1" => 1,
-                "pyramid_2" => 2,
-                // Read by the depth-ordered blend alone, which the voxel limits keep within one
-                // binding (`limits::check`): past one, its first binding's worth is bound, unread.
-                "pyramid_normal" => {
-                    let normal = resources.get("pyramid_normal").and_then(|r| r.buffer());
-                    let bytes = normal.map_or(0, |b| b.bytes.len());
-                    if bytes as u64 > PYRAMID_WINDOW * 16 {
-                        *view = View::BufferRange {
-                            name: "pyramid_normal".into(),
-                            offset: 0,
-                            size: PYRAMID_WINDOW * 16,
-                        };
-                    }
-                    continue;
-                }
-                _ => continue,
-            };
-            let first = k * window;
-            *view = if len <= window || first >= len {
-                View::Buffer(binding.clone())
-            } else {
-                View::BufferRange {
-                    name: "pyramid".into(),
-                    offset: first * 16,
-                    size: window.min(len - first) * 16,
-                }
-            };
+        )
+    })?;
+    // Read by the depth-ordered blend alone, which the voxel limits keep within one binding
+    // (`limits::check`): past one, its first binding's worth is bound, unread.
+    let normal = resources.get("pyramid_normal").and_then(|r| r.buffer());
+    if normal.map_or(0, |b| b.bytes.len()) as u64 > PYRAMID_WINDOW * 16 {
+        for (binding, view) in passes.iter_mut().flat_map(|p| &mut p.bindings) {
+            if binding == "pyramid_normal" {
+                *view = View::BufferRange {
+                    name: "pyramid_normal".into(),
+                    offset: 0,
+                    size: PYRAMID_WINDOW * 16,
+                };
+            }
         }
     }
     Ok(())

@@ -258,6 +258,18 @@ impl Kernel for SvoAnisotropic {
     }
 }
 
+/// `case` (of a windowed declaration) with both pools in up to three bindings each, as pools past
+/// their bindings are: the same outputs.
+pub fn with_pools_split(mut case: Case) -> Case {
+    let len = |n: &str, elem: u64| case.resources[n].buffer().expect(n).bytes.len() as u64 / elem;
+    let third = |n: u64, per: u64| n.div_ceil(3).div_ceil(per).max(1) * per;
+    let windows = [third(len("bricks", 4), 64), third(len("aniso", 16), 16)];
+    bind_pools(&mut case.passes, &mut case.resources, true, windows)
+        .expect("three windows hold them");
+    case.label.push_str(", pools in up to three bindings each");
+    case
+}
+
 /// svo_anisotropic_windowed on svo_anisotropic's generated cases, both pools in three bindings.
 pub struct SvoAnisotropicWindowed;
 
@@ -266,15 +278,7 @@ impl Kernel for SvoAnisotropicWindowed {
         &WINDOWED_DECL
     }
     fn case(&self, shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
-        let mut case = SvoAnisotropic.case(shader, ctx, seed, index);
-        let len =
-            |n: &str, elem: u64| case.resources[n].buffer().expect(n).bytes.len() as u64 / elem;
-        let third = |n: u64, per: u64| n.div_ceil(3).div_ceil(per).max(1) * per;
-        let windows = [third(len("bricks", 4), 64), third(len("aniso", 16), 16)];
-        bind_pools(&mut case.passes, &mut case.resources, true, windows)
-            .expect("three windows hold them");
-        case.label.push_str(", pools in three bindings");
-        case
+        with_pools_split(SvoAnisotropic.case(shader, ctx, seed, index))
     }
     fn mirror(&self, case: &Case, data: &Resources, mode: FloatMode) -> MirrorOutputs {
         SvoAnisotropic.mirror(case, data, mode)

@@ -40,7 +40,7 @@ const BASE: KernelDecl = vxgi_harness::kernel_decl!(
 /// smaller frame. [`decl_for`] picks one.
 /// Its bindings, outputs (the windows change which binding holds a value, not the value) and mirror
 /// are [`DECL`]'s; the pools' windows past their first (`bricks_1`.., `aniso_1`..) are bound by
-/// `bind_octree_windows`.
+/// `svo_anisotropic::bind_pools`.
 pub static WINDOWED_DECL: KernelDecl = KernelDecl {
     name: "svo_cone_trace_windowed",
     includes: &[super::SVO_NODE, super::SVO_BRICKS, super::SVO_ANISO_WINDOWS, super::TANGENT_BASIS, super::SCENE_TYPES, super::CONE_MARCH],
@@ -286,7 +286,7 @@ pub fn case_for(
 }
 
 /// [`case_for`] with the declaration given, its pools bound in windows of [`WHOLE`]
-/// ([`bind_octree_windows`]: [`DECL`]'s values in two, [`WINDOWED_DECL`]'s pools in up to six).
+/// ([`super::svo_anisotropic::bind_pools`]: [`DECL`]'s values in two, [`WINDOWED_DECL`]'s pools in up to six).
 #[allow(clippy::too_many_arguments)]
 pub fn case_in(
     decl: &'static KernelDecl,
@@ -302,7 +302,7 @@ pub fn case_in(
     let volume = octree_resources(octree, extras, scale);
     let mut case = tracer_case(decl, data, gbuffer, params, volume, label, seed);
     let windowed = std::ptr::eq(decl, &WINDOWED_DECL);
-    bind_octree_windows(&mut case, windowed, WHOLE)
+    super::svo_anisotropic::bind_pools(&mut case.passes, &mut case.resources, windowed, WHOLE)
         .expect("the octree's limits keep its pools in its bindings");
     case
 }
@@ -312,27 +312,6 @@ pub const WHOLE: [u64; 2] = [
     super::sparse_voxel_octree::BRICK_WINDOW,
     super::svo_anisotropic::POOL_WINDOW,
 ];
-
-/// The octree's pools of `case` bound in windows: with [`WINDOWED_DECL`] (`windowed`) the
-/// bricks' of `windows[0]` words and the directional values' of `windows[1]` values, in up to six;
-/// with [`DECL`] the values' alone, in two.
-pub fn bind_octree_windows(
-    case: &mut Case,
-    windowed: bool,
-    windows: [u64; 2],
-) -> Result<(), String> {
-    super::svo_anisotropic::bind_pools(&mut case.passes, &mut case.resources, windowed, windows)
-}
-
-/// `case` with both pools in three bindings, as pools past one binding are: the same outputs.
-fn with_pools_split(mut case: Case) -> Case {
-    let len = |n: &str, elem: u64| case.resources[n].buffer().expect(n).bytes.len() as u64 / elem;
-    let third = |n: u64, per: u64| n.div_ceil(3).div_ceil(per).max(1) * per;
-    let windows = [third(len("bricks", 4), 64), third(len("aniso", 16), 16)];
-    bind_octree_windows(&mut case, true, windows).expect("three windows hold them");
-    case.label.push_str(", pools in up to three bindings each");
-    case
-}
 
 /// The octree's bindings (nodes, bricks, svo, aniso, normal_bricks) for the cone kernels.
 pub fn octree_resources<'a>(octree: &Octree, extras: SvoExtras<'a>, scale: f32) -> Resources {
@@ -485,7 +464,13 @@ impl Kernel for SvoConeTrace {
         let values = case.resources["aniso"].buffer().expect("aniso").bytes.len() as u64 / 16;
         if index % 8 == 5 && values > 16 {
             let half = values.div_ceil(2).div_ceil(16) * 16;
-            bind_octree_windows(&mut case, false, [WHOLE[0], half]).expect("two windows hold them");
+            super::svo_anisotropic::bind_pools(
+                &mut case.passes,
+                &mut case.resources,
+                false,
+                [WHOLE[0], half],
+            )
+            .expect("two windows hold them");
             case.label.push_str(", values in two bindings");
         }
         case
@@ -526,7 +511,7 @@ impl Kernel for SvoConeTraceWindowed {
         &WINDOWED_DECL
     }
     fn case(&self, _shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
-        with_pools_split(generated_case(&WINDOWED_DECL, ctx, seed, index))
+        super::svo_anisotropic::with_pools_split(generated_case(&WINDOWED_DECL, ctx, seed, index))
     }
     fn mirror(&self, _case: &Case, data: &Resources, _mode: FloatMode) -> MirrorOutputs {
         bounded_outputs(&mirror_cones(data))
@@ -647,7 +632,7 @@ pub fn bounce_case(
         )],
         effective_bytes: n as u64 * 64,
     };
-    bind_octree_windows(&mut case, true, WHOLE)
+    super::svo_anisotropic::bind_pools(&mut case.passes, &mut case.resources, true, WHOLE)
         .expect("the octree's limits keep its pools in their bindings");
     case
 }
