@@ -220,18 +220,22 @@ pub fn svo_sweep(base: &RenderSettings, quick: bool) -> Vec<RenderSettings> {
     out
 }
 
-/// lrsm's sweep: voxels {32, 64, 128} x cones {1, 5} x RSM side {64, 128, 256} x layers {1 x 1, 2 x 2,
-/// 3 x 2} = 54 (the cone angle, clamp and step at `base`'s); plus `base` at voxels 256 and 512 (its
-/// occlusion voxels are bits: the papers' 512^3 fits) and `base` with `lrsm_area_weights` = 57.
-/// Quick: 32^3, 5 cones, RSM {32, 64} x layers {1 x 1, 2 x 2} = 4.
+/// lrsm's sweep: voxels {32, 64, 128} x cones {1, `base`'s} x RSM side {64, 128, 256} x layers
+/// {1 x 1, 2 x 2, 3 x 2} = 54 (the cone angle, interleave, clamp and step at `base`'s: its preset's
+/// narrow interleaved cones, whose count per pixel lavapipe's loop limit bounds); plus `base` at
+/// voxels 256 and 512 (its occlusion voxels are bits: the papers' 512^3 fits) and `base` with
+/// `lrsm_area_weights` the other way = 57. Quick: 32^3, `base`'s cones, RSM {32, 64} x layers
+/// {1 x 1, 2 x 2} = 4.
 pub fn lrsm_sweep(base: &RenderSettings, quick: bool) -> Vec<RenderSettings> {
     type Axes<'a> = (&'a [u32], &'a [u32], &'a [u32], &'a [(u32, u32)]);
+    let own = [base.cones];
+    let both = [1, base.cones.max(2)];
     let (voxels, cones, sides, layers): Axes = if quick {
-        (&[32], &[5], &[32, 64], &[(0, 0), (1, 1)])
+        (&[32], &own, &[32, 64], &[(0, 0), (1, 1)])
     } else {
         (
             &[32, 64, 128],
-            &[1, 5],
+            &both,
             &[64, 128, 256],
             &[(0, 0), (1, 1), (2, 1)],
         )
@@ -261,7 +265,7 @@ pub fn lrsm_sweep(base: &RenderSettings, quick: bool) -> Vec<RenderSettings> {
             });
         }
         out.push(RenderSettings {
-            lrsm_area_weights: true,
+            lrsm_area_weights: !base.lrsm_area_weights,
             ..base.clone()
         });
     }
@@ -510,7 +514,8 @@ pub fn bench(
             r = Some(f);
         }
         let r = r.expect("at least one frame");
-        // Only where the ideal cones are this frame's reference: one bounce, the plain cone set.
+        // Only where the ideal cones are this frame's reference: one bounce (an interleaved
+        // frame's: its classes' whole set).
         let orbit_instability = match &mut ideal_frames {
             Some(ideal) if crate::temporal::ideal_reference_fits(settings) => {
                 let s = Scene {
@@ -872,7 +877,8 @@ mod tests {
         assert_eq!(svo.iter().filter(|s| s.anisotropic_voxels).count(), 25);
         let lrsm = sweep(&base, false, Pipeline::Lrsm);
         assert_eq!(lrsm.len(), 57);
-        assert_eq!(lrsm.iter().filter(|s| s.lrsm_area_weights).count(), 1);
+        let other = |s: &&RenderSettings| s.lrsm_area_weights != base.lrsm_area_weights;
+        assert_eq!(lrsm.iter().filter(other).count(), 1);
         assert_eq!(lrsm.iter().filter(|s| s.voxels > 128).count(), 2);
         assert!(lrsm
             .iter()

@@ -127,8 +127,8 @@ enum Command {
         #[arg(long)]
         no_jitter: bool,
         /// The indirect image from ideal cones instead of Monte Carlo: the [render] cone set
-        /// (--cones, --cone-half-angle) with exact visibility and radiance, this many stratified rays
-        /// per cone. Compared with the Monte Carlo reference it measures the cone set's own error;
+        /// (--cones, --cone-half-angle; with --cone-interleave N the N^2 classes' whole set) with
+        /// exact visibility and radiance, this many stratified rays per cone. Compared with the Monte Carlo reference it measures the cone set's own error;
         /// with a render, the voxels'.
         #[arg(long, value_name = "RAYS")]
         ideal_cones: Option<u32>,
@@ -304,8 +304,9 @@ impl TemporalArgs {
 /// Flags overriding the scene file's `[render]` keys (same names).
 #[derive(clap::Args, Clone, Debug, Default)]
 struct RenderFlags {
-    /// A quality preset: fast, balanced (the defaults) or accurate; the keys it sets apply where
-    /// the scene file and the other flags give none (docs/accuracy/presets.md).
+    /// A quality preset: fast, balanced (the defaults; for lrsm its narrow cones) or accurate; the
+    /// keys it sets apply where the scene file and the other flags give none
+    /// (docs/accuracy/presets.md).
     #[arg(long, value_enum)]
     quality: Option<vxgi::quality::Quality>,
     /// Voxel grid side (power of two, 8..=512).
@@ -761,13 +762,6 @@ fn run_reference(
     if ideal_cones == Some(0) {
         bail!("--ideal-cones must be at least 1 ray per cone");
     }
-    if ideal_cones.is_some() && scene.render.cone_interleave > 1 {
-        eprintln!(
-            "warning: the ideal cones trace the plain set of {} cones per pixel; cone_interleave = {} \
-             (interleaved classes and their resolve) is the renderers' alone",
-            scene.render.cones, scene.render.cone_interleave
-        );
-    }
     create_out(&out)?;
     let bar = ProgressBar::new(scene.camera.height as u64);
     bar.set_style(
@@ -779,14 +773,8 @@ fn run_reference(
     if let Some(rays) = ideal_cones {
         bar.reset();
         bar.set_message("ideal cones");
-        let r = &scene.render;
-        img.indirect = vxgi::reference::ideal_cones(
-            &scene,
-            r.cones,
-            r.cone_half_angle.to_radians().tan(),
-            rays,
-            |n| bar.inc(n),
-        );
+        let (cones, tan) = vxgi::reference::cone_set(&scene.render);
+        img.indirect = vxgi::reference::ideal_cones(&scene, &cones, tan, rays, |n| bar.inc(n));
     }
     bar.finish_and_clear();
     let rgb = |px: Vec<[f32; 3]>| RgbImage::new(img.width, img.height, px);
@@ -802,7 +790,7 @@ fn run_reference(
     let indirect = match ideal_cones {
         Some(rays) => format!(
             "; indirect from {} ideal cones of {} deg, {} rays each",
-            scene.render.cones,
+            vxgi::reference::cone_set(&scene.render).0.len(),
             scene.render.cone_half_angle,
             vxgi::reference::ideal_cone_strata(rays).pow(2)
         ),

@@ -399,14 +399,31 @@ pub fn ideal_cone_strata(rays: u32) -> u32 {
     }
 }
 
+/// The diffuse cones a frame with `render`'s settings gathers, with their half-angle tangent: the
+/// plain set (`cone_trace::diffuse_cones`) without interleaving; with N x N interleaved classes the
+/// spiral of cones x N^2 they take together (`cone_trace::cone_dirs`), each of weight 1 / (cones
+/// N^2): the set whose mean the resolve's neighbourhood average converges to, so the ideal cones of
+/// an interleaved frame are of the whole set, not of one class.
+pub fn cone_set(render: &crate::scene::RenderSettings) -> (Vec<[f32; 4]>, f32) {
+    use vxgi_cpu_mirror::cone_trace::{diffuse_cones, spiral_cones};
+    let tan = render.cone_half_angle.to_radians().tan();
+    let n = render.cone_interleave.max(1);
+    let set = if n == 1 {
+        diffuse_cones(render.cones, tan)
+    } else {
+        spiral_cones(render.cones.max(1) * n * n, tan)
+    };
+    (set, tan)
+}
+
 /// Ideal cones: the indirect light a cone tracer would gather with exact visibility and radiance.
 /// It separates a cone set's own error (directions, apertures, weights) from the voxels' (filtering,
 /// coverage, self-occlusion): compare it with the Monte Carlo reference for the first, with a
 /// pipeline's render for the second.
 ///
 /// Per pixel centre (front faces; 0 elsewhere), in the kernels' tangent frame
-/// (`cone_trace::basis` of the shading normal): each cone of
-/// `cone_trace::diffuse_cones(count, tan)` gets as radiance `C` the mean of the direct radiance seen
+/// (`cone_trace::basis` of the shading normal): each cone of `cones` (axis xyz, weight w; half-angle
+/// tangent `tan`; [`cone_set`] is a frame's) gets as radiance `C` the mean of the direct radiance seen
 /// along `k x k` directions ([`ideal_cone_strata`]) stratified uniformly over its spherical cap
 /// (directions below the triangle's plane count, seeing 0); indirect = albedo x sum w C. Materials
 /// with Ks add Ks x the glossy cone's mean (the view's mirror direction, tan = clamp(sqrt(2 / (Ns +
@@ -414,15 +431,14 @@ pub fn ideal_cone_strata(rays: u32) -> u32 {
 /// finish.
 pub fn ideal_cones(
     scene: &Scene,
-    count: u32,
+    cones: &[[f32; 4]],
     tan: f32,
     rays: u32,
     progress: impl Fn(u64) + Sync,
 ) -> Vec<[f32; 3]> {
-    use vxgi_cpu_mirror::cone_trace::{basis as tangent_frame, diffuse_cones};
+    use vxgi_cpu_mirror::cone_trace::basis as tangent_frame;
     let data = SceneData::new(scene);
     let ctx = Ctx::new(&data, scene, 1);
-    let cones = diffuse_cones(count, tan);
     let k = ideal_cone_strata(rays);
     // Mean direct radiance over the cap of half-angle atan(tan) about `axis`, seen from `s`.
     let cap_mean = |s: &Surface, axis: Vec3, tan: f32| -> Vec3 {
@@ -461,7 +477,7 @@ pub fn ideal_cones(
                     };
                     let (bt, bb) = tangent_frame(s.n);
                     let mut diffuse = Vec3::ZERO;
-                    for c in &cones {
+                    for c in cones {
                         let axis = (bt * c[0] + bb * c[1] + s.n * c[2]).normalize();
                         diffuse += cap_mean(&s, axis, tan) * c[3];
                     }

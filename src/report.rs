@@ -84,21 +84,15 @@ pub fn report(
         )?;
 
         // Ideal cones gather one bounce: against a two-bounce reference they would be a wrong row.
-        // They trace one plain cone set per pixel: an interleaved scene's set is not theirs.
-        if scene.render.cone_interleave > 1 {
-            eprintln!(
-                "note: {name}: no ideal-cones row (cone_interleave = {}: the ideal cones trace the \
-                 plain set of {} cones per pixel, without the interleaved classes and their resolve)",
-                scene.render.cone_interleave, scene.render.cones
-            );
-        }
-        if scene.render.bounces == 1 && scene.render.cone_interleave == 1 {
+        // An interleaved frame's are of its classes' whole set (`reference::cone_set`).
+        if scene.render.bounces == 1 {
             progress(&format!("{name}: ideal cones"));
             let started = std::time::Instant::now();
+            let (cones, tan) = crate::reference::cone_set(&scene.render);
             let ideal = rgb(crate::reference::ideal_cones(
                 scene,
-                scene.render.cones,
-                scene.render.cone_half_angle.to_radians().tan(),
+                &cones,
+                tan,
                 IDEAL_CONE_RAYS,
                 |_| {},
             ));
@@ -152,7 +146,8 @@ pub fn report(
             let leak = name
                 .contains("thin_wall")
                 .then(|| leak(&r.indirect.pixels, &pixel_positions(scene), 0.0, 1.0 / 64.0));
-            // Only where the ideal cones are this frame's reference: one bounce, the plain cone set.
+            // Only where the ideal cones are this frame's reference: one bounce (an interleaved
+            // frame's: its classes' whole set).
             let instability = match &mut ideal_frames {
                 Some(ideal) if crate::temporal::ideal_reference_fits(&scene.render) => {
                     progress(&format!(

@@ -237,13 +237,8 @@ pub fn reference_frames(scene: &Scene, motion: Motion, frames: u32, rays: u32) -
         .into_par_iter()
         .map(|t| {
             let s = motion.at(scene, t);
-            let px = crate::reference::ideal_cones(
-                &s,
-                s.render.cones,
-                s.render.cone_half_angle.to_radians().tan(),
-                rays,
-                |_| {},
-            );
+            let (cones, tan) = crate::reference::cone_set(&s.render);
+            let px = crate::reference::ideal_cones(&s, &cones, tan, rays, |_| {});
             RgbImage::new(s.camera.width, s.camera.height, px)
         })
         .collect()
@@ -257,12 +252,11 @@ pub fn reference_floor(reference: &[RgbImage], scene: &Scene, motion: Motion, ra
     instability(reference, &finer).instability
 }
 
-/// Whether the ideal cones are the own reference of a frame with these settings, as `vxgi report` and `vxgi bench`
-/// measure against them: one bounce (they gather one) and the plain cone set per pixel (an
-/// interleaved frame traces a class of it and resolves its neighbours'). `vxgi temporal` measures
-/// interleaved frames against the plain set's ideal cones all the same.
+/// Whether the ideal cones are the own reference of a frame with these settings, as `vxgi report`
+/// and `vxgi bench` measure against them: one bounce (they gather one). An interleaved frame's
+/// reference is the ideal cones of its classes' whole set ([`crate::reference::cone_set`]).
 pub fn ideal_reference_fits(render: &crate::scene::RenderSettings) -> bool {
-    render.bounces == 1 && render.cone_interleave == 1
+    render.bounces == 1
 }
 
 /// A camera orbit over which `vxgi report` and `vxgi bench` measure each frame's temporal
@@ -289,13 +283,14 @@ impl Orbit {
     }
 }
 
-/// The ideal-cone reference frames of one motion, computed once per cone set (cone count and
-/// aperture: a quality preset may narrow a pipeline's set) and reused by every pipeline tracing it.
+/// The ideal-cone reference frames of one motion, computed once per cone set (cone count, aperture
+/// and interleave: a quality preset may narrow a pipeline's set) and reused by every pipeline
+/// tracing it.
 pub struct IdealFrames {
     pub motion: Motion,
     pub frames: u32,
     pub rays: u32,
-    sets: Vec<((u32, u32), Vec<RgbImage>)>,
+    sets: Vec<((u32, u32, u32), Vec<RgbImage>)>,
 }
 
 impl IdealFrames {
@@ -311,7 +306,8 @@ impl IdealFrames {
     /// The reference frames for `scene`'s cone set (as a pipeline resolved it), and whether they
     /// were computed by this call.
     pub fn of(&mut self, scene: &Scene) -> (&[RgbImage], bool) {
-        let set = (scene.render.cones, scene.render.cone_half_angle.to_bits());
+        let r = &scene.render;
+        let set = (r.cones, r.cone_half_angle.to_bits(), r.cone_interleave);
         let new = !self.sets.iter().any(|(k, _)| *k == set);
         if new {
             let frames = reference_frames(scene, self.motion, self.frames, self.rays);

@@ -600,7 +600,7 @@ fn bench_quick_writes_csv_table_and_plot() {
     // lrsm sweeps its own knobs: RSM sides and layer counts.
     let csv = quick("lrsm");
     assert!(
-        csv.contains("reflective_shadow_map_seconds") && csv.contains(",64,2x2,"),
+        csv.contains("reflective_shadow_map_seconds") && csv.contains(",64,2x2 area-weighted,"),
         "{csv}"
     );
     // cprc sweeps cache tiles and resolutions (Fig. 5), with the caches each frame placed.
@@ -1029,10 +1029,12 @@ fn ideal_cones_approach_the_reference_as_cones_narrow() {
     let p = Path::new("");
     let mut errors = vec![];
     for (cones, deg, rays) in [(64u32, 12.0f32, 16u32), (5, 30.0, 64)] {
+        let tan = deg.to_radians().tan();
+        let set = vxgi::cpu_mirror::cone_trace::diffuse_cones(cones, tan);
         let ideal = rgb(vxgi::reference::ideal_cones(
             &scene,
-            cones,
-            deg.to_radians().tan(),
+            &set,
+            tan,
             rays,
             |_| {},
         ));

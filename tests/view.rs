@@ -55,8 +55,12 @@ fn linear_of_png(path: &Path) -> RgbImage {
 /// screenshot of it can hold), against the screenshot at `shot`: mean FLIP.
 fn flip_against_render(pipeline: Pipeline, scene: &Scene, shot: &Path) -> f32 {
     let ctx = gpu();
+    // Its quality preset resolved, as `vxgi render` and the window do.
+    let (scene, _) = vxgi::quality::resolved(scene, pipeline).unwrap();
     let mut r = Resident::new(ctx, pipeline).unwrap();
-    let frame = r.render(scene, &ConeSettings::from(&scene.render)).unwrap();
+    let frame = r
+        .render(&scene, &ConeSettings::from(&scene.render))
+        .unwrap();
     let png = shot.with_file_name("render.png");
     let c = &frame.combined;
     image::RgbImage::from_raw(c.width, c.height, srgb8(c))
