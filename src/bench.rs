@@ -220,11 +220,10 @@ pub fn svo_sweep(base: &RenderSettings, quick: bool) -> Vec<RenderSettings> {
     out
 }
 
-/// lrsm's sweep: voxels {32, 64, 128} x cones {1, `base`'s} x RSM side {64, 128, 256} x layers
-/// {1 x 1, 2 x 2, 3 x 2} = 54 (the cone angle, interleave, clamp and step at `base`'s: its preset's
-/// narrow interleaved cones, whose count per pixel lavapipe's loop limit bounds); plus `base` at
-/// voxels 256 and 512 (its occlusion voxels are bits: the papers' 512^3 fits) and `base` with
-/// `lrsm_area_weights` the other way = 57. Quick: 32^3, `base`'s cones, RSM {32, 64} x layers
+/// lrsm's sweep: voxels {32, 64, 128} x cones {1, `base`'s (at least 2)} x RSM side {64, 128, 256} x
+/// layers {1 x 1, 2 x 2, 3 x 2} = 54 (the cone angle, interleave, clamp and step at `base`'s); plus
+/// `base` at voxels 256 and 512 (its occlusion voxels are bits: the papers' 512^3 fits) and `base`
+/// with `lrsm_area_weights` the other way = 57. Quick: 32^3, `base`'s cones, RSM {32, 64} x layers
 /// {1 x 1, 2 x 2} = 4.
 pub fn lrsm_sweep(base: &RenderSettings, quick: bool) -> Vec<RenderSettings> {
     type Axes<'a> = (&'a [u32], &'a [u32], &'a [u32], &'a [(u32, u32)]);
@@ -442,7 +441,9 @@ pub fn against(spp: u32, reference: Option<&Path>) -> String {
     }
 }
 
-/// `reference`: a directory holding the scene camera's `combined.exr` and `indirect.exr` (e.g. a
+/// The sweep ([`sweep`]) is around `scene`'s `[render]` settings as given (no preset applied), plus
+/// the point its quality preset resolves to. `reference`: a directory holding the scene camera's
+/// `combined.exr` and `indirect.exr` (e.g. a
 /// converged one, references/cornell_box_256_4096spp) to compare against instead of a reference
 /// rendered at `spp` (the planner row renders its own view's at `spp` either way). With `temporal`,
 /// each configuration's temporal instability over that orbit too.
@@ -457,7 +458,18 @@ pub fn bench(
     out: &Path,
     mut progress: impl FnMut(usize, usize, &str),
 ) -> Result<(Vec<BenchRow>, PlannerRow)> {
-    let configs = sweep(&scene.render, quick, pipeline);
+    let mut configs = sweep(&scene.render, quick, pipeline);
+    // The quality preset's point (`--quality`; `balanced` where none is given), where the sweep
+    // around the scene's own settings lacks it.
+    if !quick {
+        let preset = crate::quality::resolved(scene, pipeline)
+            .map_err(anyhow::Error::msg)?
+            .0
+            .render;
+        if !configs.contains(&preset) {
+            configs.push(preset);
+        }
+    }
     let repeats = if quick { 1 } else { 2 };
     let total = configs.len() + 2;
     let (w, h) = (scene.camera.width, scene.camera.height);

@@ -1,7 +1,8 @@
 //! Quality presets: `[render] quality = "fast" | "balanced" | "accurate"` (`--quality`), each a point
 //! of a pipeline's measured time/error front (docs/accuracy/presets.md has the table and how each
 //! point was chosen). A preset sets only the keys the scene file and the command line leave out:
-//! an explicit key always wins. `balanced` is the defaults, except for lrsm's cones.
+//! an explicit key always wins. `balanced` is the defaults with narrower interleaved cones for the
+//! per-pixel cone tracers (cprc: the defaults).
 use crate::render::Pipeline;
 use crate::scene::{RenderSettings, Scene};
 use serde::Deserialize;
@@ -13,7 +14,8 @@ pub enum Quality {
     /// Half the voxel resolution: the frame's volume an eighth of the default's (lrsm: with its
     /// balanced cones).
     Fast,
-    /// The defaults (lrsm: narrow interleaved cones and the area-weighted LRSM).
+    /// The defaults with two interleaved 5-degree cones a pixel (vct-dense, vct-svo, lrsm; lrsm with
+    /// the area-weighted LRSM); cprc: the defaults.
     #[default]
     Balanced,
     /// The settings that reach combined FLIP < 0.1 on the Cornell box against the converged
@@ -50,33 +52,46 @@ impl std::fmt::Display for Value {
     }
 }
 
-/// lrsm's cones in every preset: two of 5 degrees a pixel from an 8 x 8 interleaved pattern (128
-/// directions a neighbourhood), the narrow-cone level bias, and the area-weighted LRSM
-/// (docs/accuracy/lrsm.md). With the `[render]` defaults' five 30-degree cones a sample's disc
-/// spans coarse LRSM levels, whose filtered depth moments and radiance mix the surfaces of a wide
-/// footprint (light straddling thin_wall's wall, leak 0.135); narrow cones read fine levels. The
-/// other cone tracers' narrow set (16 cones of 2.5 degrees a pixel) passes lavapipe's loop limit
-/// by 8x here: a march step reads up to three cube faces' layers. Measured on the Cornell box and
-/// Sponza, checked on the other scenes (docs/accuracy/presets.md).
-const LRSM_CONES: [(&str, Value); 5] = [
+/// The per-pixel cone tracers' `balanced` cones: two of 5 degrees a pixel from an 8 x 8
+/// interleaved pattern (128 directions a neighbourhood) with the narrow-cone level bias, where the
+/// `[render]` defaults trace five of 30 degrees. Chosen for lrsm on the Cornell box, thin_wall and
+/// Sponza, then measured unchanged for vct-dense and vct-svo on six scenes: lower combined FLIP on
+/// every one (vct-dense on the Cornell box 0.238 -> 0.142, vct-svo 0.236 -> 0.128) for 3-70% more
+/// time (docs/accuracy/presets.md). Not cprc's: its caches' cones are its own, and the level bias
+/// alone makes thin_wall worse (0.177 -> 0.203).
+const NARROW_CONES: [(&str, Value); 4] = [
     ("cones", Value::U32(2)),
     ("cone_half_angle", Value::F32(5.0)),
     ("cone_interleave", Value::U32(8)),
     ("cone_level_bias", Value::F32(-1.25)),
-    ("lrsm_area_weights", Value::Bool(true)),
 ];
+
+/// lrsm's cones in every preset: [`NARROW_CONES`] and the area-weighted LRSM
+/// (docs/accuracy/lrsm.md). With the `[render]` defaults' five 30-degree cones a sample's disc
+/// spans coarse LRSM levels, whose filtered depth moments and radiance mix the surfaces of a wide
+/// footprint (light straddling thin_wall's wall, leak 0.135); narrow cones read fine levels. The
+/// other cone tracers' `accurate` set (16 cones of 2.5 degrees a pixel) passes lavapipe's loop
+/// limit by 8x here: a march step reads up to three cube faces' layers.
+fn lrsm_cones() -> Vec<(&'static str, Value)> {
+    [
+        NARROW_CONES.as_slice(),
+        &[("lrsm_area_weights", Value::Bool(true))],
+    ]
+    .concat()
+}
 
 /// The keys `quality` sets for `pipeline`, in `[render]`'s names.
 pub fn preset(quality: Quality, pipeline: Pipeline) -> Vec<(&'static str, Value)> {
     use Value::{F32, U32};
     match (quality, pipeline) {
-        // lrsm: every preset narrows the cones and weighs the LRSM by area (`LRSM_CONES`).
-        (Quality::Fast, Pipeline::Lrsm) => [LRSM_CONES.as_slice(), &[("voxels", U32(64))]].concat(),
-        (Quality::Balanced, Pipeline::Lrsm) => LRSM_CONES.to_vec(),
+        // lrsm: every preset narrows the cones and weighs the LRSM by area.
+        (Quality::Fast, Pipeline::Lrsm) => [lrsm_cones(), vec![("voxels", U32(64))]].concat(),
+        (Quality::Balanced, Pipeline::Lrsm) => lrsm_cones(),
         (Quality::Accurate, Pipeline::Lrsm) => {
-            [LRSM_CONES.as_slice(), &[("supersample", U32(2))]].concat()
+            [lrsm_cones(), vec![("supersample", U32(2))]].concat()
         }
-        (Quality::Balanced, _) => Vec::new(),
+        (Quality::Balanced, Pipeline::VctDense | Pipeline::VctSvo) => NARROW_CONES.to_vec(),
+        (Quality::Balanced, Pipeline::Cprc) => Vec::new(),
         (Quality::Fast, _) => vec![("voxels", U32(64))],
         // scenes/cornell_box_fine_caches.toml: four times the caches, 32^2 texels (one ~2.5 degree
         // cone each), a 4^2 irradiance map, narrow-cone level bias, a tighter mip clamp.
@@ -418,7 +433,7 @@ mod tests {
                 assert_eq!(said.len(), preset(q, p).len());
                 let loops = loop_iterations(&s, p);
                 assert!(loops < LOOP_LIMIT, "{q:?} {p:?}: {loops} iterations");
-                if q == Quality::Balanced && p != Pipeline::Lrsm {
+                if q == Quality::Balanced && p == Pipeline::Cprc {
                     assert_eq!(s.render, scene.render);
                 }
             }
