@@ -34,7 +34,14 @@ fn main() {
         let dcase = direct_light::case_with_gbuffer(&ctx, &data, &gb, "bench".into(), 0);
         let (grid, list, frame) = voxelize::voxelize_on_gpu(&ctx, &scene, 128).expect("voxelize");
         let (vtris, _) = voxelize::prepare(&scene, 128).expect("prepare");
-        let vcase = voxelize::case_for(&ctx, &vtris, 128, "bench".into(), 0).expect("fits");
+        let vcase = voxelize::case_for(
+            &ctx,
+            voxelize::Triangles::Host(&vtris),
+            128,
+            "bench".into(),
+            0,
+        )
+        .expect("fits");
         let lcase = voxel_light::case_for(&ctx, &data, &grid, &list, &frame, "bench".into(), 0);
         let (mirror_rad, _) = voxel_light::mirror_radiance(&lcase.resources);
         let pyramid = cone_trace::gpu_pyramid(&ctx, &mirror_rad, &grid.normal, 128).expect("mips");

@@ -2,7 +2,8 @@
 // (Rehfeld et al. 2014, 3.1 "Voxelization": sample all surfaces uniformly, write each sample to its
 // cell, average albedo and normals per cell, keep a list of the non-empty cells).
 // Mirror: cpu_mirror/src/voxelize.rs. Declaration and host preparation: src/kernels/voxelize.rs.
-// Uses kernels/common/morton.wgsl.
+// Uses kernels/common/morton.wgsl and kernels/common/vox_triangle.wgsl (the triangles, written by
+// triangle_setup.wgsl from the mesh or by the host's mirror of it).
 //
 // Integer arithmetic throughout the sampling, so the result does not depend on the order of atomic
 // additions and the mirror reproduces it exactly:
@@ -34,19 +35,6 @@
 // Accuracy: counts, lists, alpha, occupancy exact; colour and normal: one division (2.5 ULP) then an exact
 // power-of-two scale, and the integer-to-float conversions are exact below 2^24 (sums of up to 4096
 // samples): 3 ULP, 4 past that.
-
-struct VoxTriangle {
-    a: vec4<i32>,
-    b: vec4<i32>,
-    c: vec4<i32>,
-    na: vec4<i32>,
-    nb: vec4<i32>,
-    nc: vec4<i32>,
-    albedo: vec4<u32>,
-    uv_ab: vec4<i32>,   // Ua, Va, Ub, Vb
-    uv_c: vec4<i32>,    // Uc, Vc
-    texture: vec4<u32>, // first atlas texel, W, H, 0
-}
 
 struct VoxParams {
     side: u32,

@@ -712,7 +712,7 @@ fn run_render(
         let vox_seconds = r.stages.iter().find(|(n, _)| *n == "voxelize");
         if let (Some((tris, samples)), Some((_, secs))) = (vox_work, vox_seconds) {
             println!(
-                "voxelize: {tris} triangles, {samples} surface samples into {}^3: {:.0} triangles/s, {:.1} M samples/s (its GPU time, every window included)",
+                "voxelize: {tris} triangles, {samples} surface samples into {}^3: {:.0} triangles/s, {:.1} M samples/s (its GPU time, triangle setup and every window included)",
                 scene.render.voxels,
                 tris as f64 / secs,
                 samples as f64 / secs / 1e6

@@ -58,9 +58,8 @@ struct Key {
     scene_sizes: (usize, usize),
     /// lrsm and vct-svo ([`revoxelizes`]) with `[[instances]]`: the voxel grid's origin and voxel
     /// size (the flattened mesh's extent decides it; within the same grid a frame whose instances
-    /// moved re-voxelizes in the chain) and the most samples a triangle splats (voxelize's
-    /// dispatch is sized by it).
-    world: Option<([f32; 4], u32)>,
+    /// moved re-voxelizes in the chain: triangle_setup sizes voxelize's dispatch on the GPU).
+    world: Option<[f32; 4]>,
     lights: usize,
     views: usize,
     render: RenderSettings,
@@ -112,10 +111,7 @@ impl Key {
             what.push("the instances' meshes, grid sides or the scene's BVH size changed".into());
         }
         if self.world != next.world {
-            what.push(
-                "the scene's extent (the voxel grid) or its triangles' largest splat changed"
-                    .into(),
-            );
+            what.push("the scene's extent (the voxel grid) changed".into());
         }
         if self.volume != next.volume && self.render.voxels == next.render.voxels {
             if self.volume.unlit() == next.volume.unlit() {
@@ -153,10 +149,7 @@ impl Key {
         vox: Option<&Voxelized>,
     ) -> Self {
         let instanced = !scene.instances.list.is_empty();
-        let world = vox.map(|(input, f)| {
-            let rows = input.tris.iter().map(|t| t.a[3] + 1).max().unwrap_or(1) as u32;
-            ([f.origin.x, f.origin.y, f.origin.z, f.voxel], rows)
-        });
+        let world = vox.map(|(_, f)| [f.origin.x, f.origin.y, f.origin.z, f.voxel]);
         let revoxelizes = revoxelizes(pipeline, scene);
         let (hierarchies, scene_sizes) = match data {
             Some(d) if revoxelizes => (Vec::new(), (d.triangles.len(), d.nodes.len())),
@@ -664,8 +657,8 @@ impl<'c> Resident<'c> {
             if let (true, Some(d), Some((zero, first))) = (moved, &data, &b.revoxelize) {
                 // The volume as a fresh chain holds it, then the moved scene voxelized into it.
                 encode_resets(p, encoder, zero, first)?;
-                let input = &vox.as_ref().expect("lrsm with instances prepares it").0;
-                for (name, bytes) in voxelize_inputs(d, scene, input) {
+                let mesh = &vox.as_ref().expect("lrsm with instances prepares it").0;
+                for (name, bytes) in voxelize_inputs(d, mesh) {
                     p.write_buffer(&name, &bytes)?;
                 }
             }
@@ -1388,29 +1381,35 @@ fn placed_inputs(
     Ok(out)
 }
 
-/// The buffers a frame that re-voxelizes moved instances rewrites ([`revoxelizes`]): voxelize's
-/// triangles and parameters for the scene as it stands (the same grid and triangle count: the key
-/// holds them), and the ray caster's triangles and BVH.
+/// The buffers a frame that re-voxelizes moved instances rewrites ([`revoxelizes`]): the mesh as it
+/// stands, which the chain's triangle_setup puts on voxelize's lattice (the same grid and counts: the
+/// key holds them), and the ray caster's triangles and BVH.
 fn voxelize_inputs(
     data: &SceneData,
-    scene: &Scene,
-    input: &vxgi_cpu_mirror::voxelize::VoxInput,
+    mesh: &crate::kernels::triangle_setup::MeshInput,
 ) -> Vec<(String, Vec<u8>)> {
-    use crate::kernels::voxelize;
-    let side = scene.render.voxels;
-    // As voxelize::case_for writes them (an empty mesh's one default triangle record included).
-    let params = voxelize::VoxParams::whole(side, input.tris.len());
-    let tris = if input.tris.is_empty() {
-        bytemuck::bytes_of(&vxgi_cpu_mirror::voxelize::VoxTriangle::default()).to_vec()
-    } else {
-        bytemuck::cast_slice(&input.tris).to_vec()
-    };
+    // As triangle_setup's case writes them (an empty list's one zero element included).
+    let io = mesh.io();
+    let bytes = |b: crate::harness::HostBuffer| b.bytes;
+    use crate::harness::bindings::Field;
     vec![
         (
-            "vox_params".to_string(),
-            bytemuck::bytes_of(&params).to_vec(),
+            "setup_params".to_string(),
+            bytes(io.setup_params.to_buffer()),
         ),
-        ("vox_triangles".to_string(), tris),
+        (
+            "mesh_positions".to_string(),
+            bytes(io.mesh_positions.to_buffer()),
+        ),
+        (
+            "mesh_normals".to_string(),
+            bytes(io.mesh_normals.to_buffer()),
+        ),
+        ("mesh_uvs".to_string(), bytes(io.mesh_uvs.to_buffer())),
+        (
+            "mesh_triangles".to_string(),
+            bytes(io.mesh_triangles.to_buffer()),
+        ),
         (
             "triangles".to_string(),
             bytemuck::cast_slice(&data.triangles).to_vec(),
@@ -1433,11 +1432,11 @@ fn revoxelizes(pipeline: Pipeline, scene: &Scene) -> bool {
         }
 }
 
-/// voxelize's input and grid for `scene` as it stands, prepared once per frame, where the chain
-/// re-voxelizes moved instances ([`revoxelizes`]: its key holds the grid and the largest splat; a
-/// moved frame uploads the input).
+/// The mesh as triangle_setup reads it and the grid for `scene` as it stands, once per frame, where
+/// the chain re-voxelizes moved instances ([`revoxelizes`]: its key holds the grid; a moved frame
+/// uploads the mesh).
 type Voxelized = (
-    vxgi_cpu_mirror::voxelize::VoxInput,
+    crate::kernels::triangle_setup::MeshInput,
     crate::kernels::voxelize::VoxelFrame,
 );
 
@@ -1445,10 +1444,9 @@ fn revoxelized(pipeline: Pipeline, scene: &Scene) -> Result<Option<Voxelized>> {
     if !revoxelizes(pipeline, scene) {
         return Ok(None);
     }
-    Ok(Some(crate::kernels::voxelize::prepare(
-        scene,
-        scene.render.voxels,
-    )?))
+    use crate::kernels::voxelize;
+    let frame = voxelize::frame_of(&scene.mesh, scene.render.voxels);
+    Ok(Some((voxelize::checked_mesh(scene, frame)?, frame)))
 }
 
 /// The buffers a frame with moved lights rewrites: the lights, and lrsm's light views (each view's

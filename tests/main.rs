@@ -47,6 +47,7 @@ mod svo_fragments;
 mod svo_photons;
 mod svo_sample;
 mod tile_normal_histogram;
+mod triangle_setup;
 #[cfg(feature = "view")]
 mod view;
 mod voxel_light;

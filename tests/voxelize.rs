@@ -167,7 +167,14 @@ fn voxelize_and_voxel_light_past_one_binding_match_their_mirrors() {
     let scene = Scene::cornell_box();
     let side = 256;
     let (input, frame) = prepare(&scene, side).unwrap();
-    let case = voxelize::case_for(gpu(), &input, side, "256^3".into(), 0).unwrap();
+    let case = voxelize::case_for(
+        gpu(),
+        voxelize::Triangles::Host(&input),
+        side,
+        "256^3".into(),
+        0,
+    )
+    .unwrap();
     let limit = gpu().limits().max_storage_buffer_binding_size;
     assert!(
         (side as u64).pow(3) * voxelize::ACC_BYTES > limit && case.passes.len() > 3,

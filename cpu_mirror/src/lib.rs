@@ -41,6 +41,7 @@ pub mod svo_fragments;
 pub mod svo_photons;
 pub mod svo_sample;
 pub mod tile_normal_histogram;
+pub mod triangle_setup;
 pub mod voxel_light;
 pub mod voxelize;
 

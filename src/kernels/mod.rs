@@ -62,6 +62,7 @@ pub mod svo_fragments;
 pub mod svo_photons;
 pub mod svo_sample;
 pub mod tile_normal_histogram;
+pub mod triangle_setup;
 pub mod voxel_light;
 pub mod voxelize;
 
@@ -72,6 +73,13 @@ use vxgi_harness::Kernel;
 pub const MORTON: (&str, &str) = (
     "kernels/common/morton.wgsl",
     include_str!("../../kernels/common/morton.wgsl"),
+);
+
+/// voxelize's lattice triangle (`VoxTriangle`), included by triangle_setup (which writes it) and
+/// voxelize (which samples it).
+pub const VOX_TRIANGLE: (&str, &str) = (
+    "kernels/common/vox_triangle.wgsl",
+    include_str!("../../kernels/common/vox_triangle.wgsl"),
 );
 
 /// Shared LRSM arithmetic (erfc, Gaussian depth visibility, layer decay), included by the LRSM kernels.
@@ -333,6 +341,7 @@ pub fn all() -> Vec<&'static dyn Kernel> {
         &cache_reuse::CacheReuse,
         &gbuffer::Gbuffer,
         &direct_light::DirectLight,
+        &triangle_setup::TriangleSetup,
         &voxelize::Voxelize,
         &voxel_light::VoxelLight,
         &screen_tiles::ScreenTiles,

@@ -8,14 +8,14 @@ use crate::scene::Scene;
 use glam::Vec3;
 use std::collections::BTreeMap;
 use vxgi_cpu_mirror::voxelize::{
-    accumulate, occupancy, occupancy_words, resolve, VoxInput, VoxTriangle, FIXED, SUB,
+    accumulate, occupancy, occupancy_words, resolve, VoxInput, VoxTriangle, FIXED,
 };
 use vxgi_harness::prelude::*;
-use vxgi_harness::run::{grid_for, Pass, View};
+use vxgi_harness::run::{grid_for, Pass, View, Workgroups};
 
 pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
     "voxelize",
-    includes: &[super::MORTON],
+    includes: &[super::MORTON, super::VOX_TRIANGLE],
     entry: "splat",
     inputs: &["params", "vox_triangles", "vox_texels", "vox_lut"],
     outputs: &[
@@ -88,22 +88,6 @@ pub enum VoxelizeError {
     UvRange { triangle: usize, side: u32 },
 }
 
-/// Fixed-point texture coordinates (1/16 texel) of a triangle's vertices for a `w` x `h` texture,
-/// shifted by whole repeats to start near 0; `None` when interpolating them could overflow i32.
-fn fixed_uvs(uv: [glam::Vec2; 3], w: u32, h: u32, samples: i32) -> Option<([i32; 4], [i32; 4])> {
-    let axis = |c: [f64; 3], n: u32| -> Option<[i32; 3]> {
-        let period = n as i64 * 16;
-        let q = c.map(|x| (x * period as f64).round() as i64);
-        let shift = q.iter().min()?.div_euclid(period) * period;
-        let q = q.map(|x| x - shift);
-        let span = (q[1] - q[0]).abs() + (q[2] - q[0]).abs();
-        (span * samples as i64 + q[0].abs() < i32::MAX as i64).then(|| q.map(|x| x as i32))
-    };
-    let u = axis(uv.map(|t| t.x as f64), w)?;
-    let v = axis(uv.map(|t| -(t.y as f64)), h)?;
-    Some(([u[0], v[0], u[1], v[1]], [u[2], v[2], 0, 0]))
-}
-
 /// sRGB8 to linear in the kernel's fixed point (x 4096, rounded).
 pub fn fixed_lut() -> Vec<u32> {
     crate::trace::srgb_lut()
@@ -112,7 +96,6 @@ pub fn fixed_lut() -> Vec<u32> {
         .collect()
 }
 
-/// The scene's triangles on the kernel's lattice with the texture atlas, and the grid's frame.
 /// The grid `prepare` puts around `mesh` at `side`: origin at the bounding box's low corner, a cube of
 /// the box's largest extent.
 pub fn frame_of(mesh: &crate::scene::Mesh, side: u32) -> VoxelFrame {
@@ -128,6 +111,8 @@ pub fn frame_of(mesh: &crate::scene::Mesh, side: u32) -> VoxelFrame {
     }
 }
 
+/// The scene's triangles on the kernel's lattice with the texture atlas, and the grid's frame: the
+/// mirror of triangle_setup ([`super::triangle_setup::MeshInput`]) on the host.
 pub fn prepare(scene: &Scene, side: u32) -> Result<(VoxInput, VoxelFrame), VoxelizeError> {
     prepare_in(scene, frame_of(&scene.mesh, side))
 }
@@ -138,86 +123,83 @@ pub fn prepare_in(
     scene: &Scene,
     frame: VoxelFrame,
 ) -> Result<(VoxInput, VoxelFrame), VoxelizeError> {
+    let mesh = checked_mesh(scene, frame)?;
+    Ok((mesh.mirror().0, frame))
+}
+
+/// `scene`'s mesh as triangle_setup reads it in the grid `frame`, after the checks voxelize's
+/// arithmetic needs: the grid's side, and every textured triangle's texture coordinates within
+/// voxelize's 32-bit interpolation (`triangle_setup::uv_range_fits`, on the mirror's setup of the
+/// textured triangles alone: untextured ones always fit).
+pub fn checked_mesh(
+    scene: &Scene,
+    frame: VoxelFrame,
+) -> Result<super::triangle_setup::MeshInput, VoxelizeError> {
     let side = frame.side;
     if !(8..=512).contains(&side) || !side.is_power_of_two() {
         return Err(VoxelizeError::Side(side));
     }
-    let mesh = &scene.mesh;
-    let (lo, voxel) = (frame.origin, frame.voxel);
-    let max_q = side as i32 * SUB - 1;
-    let lattice = |p: Vec3| -> [i32; 3] {
-        ((p - lo) / voxel * SUB as f32)
-            .round()
-            .to_array()
-            .map(|c| (c as i32).clamp(0, max_q))
-    };
-    let fixed = |v: Vec3| (v * FIXED).round().to_array().map(|c| c as i32);
-    let (texels, placement) = crate::trace::texture_atlas(scene);
-    let tris = mesh
-        .triangles
-        .iter()
-        .zip(&mesh.material)
-        .enumerate()
-        .map(|(index, (t, &m))| {
-            let p = t.map(|i| lattice(mesh.positions[i as usize]));
-            let n = t.map(|i| fixed(mesh.normals[i as usize]));
-            let len = |a: [i32; 3], b: [i32; 3]| {
-                let d = Vec3::new(
-                    (b[0] - a[0]) as f32,
-                    (b[1] - a[1]) as f32,
-                    (b[2] - a[2]) as f32,
-                );
-                d.length() / SUB as f32
-            };
-            let longest = len(p[0], p[1]).max(len(p[1], p[2])).max(len(p[2], p[0]));
-            let samples = 2 * longest.ceil() as i32 + 1;
-            let kd = scene
-                .materials
-                .get(m as usize)
-                .map(|m| m.diffuse)
-                .unwrap_or([0.8; 3]);
-            let texture = placement.get(m as usize).copied().unwrap_or([0; 4]);
-            let (uv_ab, uv_c) = if texture[1] == 0 {
-                ([0; 4], [0; 4])
-            } else {
-                let uv = t.map(|i| mesh.uvs.get(i as usize).copied().unwrap_or_default());
-                fixed_uvs(uv, texture[1], texture[2], samples).ok_or(VoxelizeError::UvRange {
-                    triangle: index,
-                    side,
-                })?
-            };
-            let w = |a: [i32; 3], w: i32| [a[0], a[1], a[2], w];
-            Ok(VoxTriangle {
-                a: w(p[0], samples),
-                b: w(p[1], 0),
-                c: w(p[2], 0),
-                na: w(n[0], 0),
-                nb: w(n[1], 0),
-                nc: w(n[2], 0),
-                albedo: [
-                    (kd[0].clamp(0.0, 1.0) * FIXED).round() as u32,
-                    (kd[1].clamp(0.0, 1.0) * FIXED).round() as u32,
-                    (kd[2].clamp(0.0, 1.0) * FIXED).round() as u32,
-                    0,
-                ],
-                uv_ab,
-                uv_c,
-                texture,
-            })
-        })
-        .collect::<Result<Vec<_>, VoxelizeError>>()?;
-    Ok((
-        VoxInput {
-            tris,
-            texels,
-            lut: fixed_lut(),
-        },
-        VoxelFrame {
-            origin: lo,
-            voxel,
-            side,
-        },
-    ))
+    let mesh = super::triangle_setup::MeshInput::of(scene, frame);
+    if let Some(triangle) = mesh.uv_range_error() {
+        return Err(VoxelizeError::UvRange { triangle, side });
+    }
+    Ok(mesh)
+}
+
+/// Where the sampling passes' triangles come from: the host's (`prepare`, uploaded as
+/// `vox_triangles`) or triangle_setup's on the GPU (`vox_triangles` and the passes' indirect
+/// dispatch `vox_dispatch` written by its pass before them, in the same chain).
+#[derive(Clone, Copy)]
+pub enum Triangles<'a> {
+    Host(&'a VoxInput),
+    Setup(&'a super::triangle_setup::MeshInput),
+}
+
+impl Triangles<'_> {
+    fn count(&self) -> usize {
+        match self {
+            Triangles::Host(i) => i.tris.len(),
+            Triangles::Setup(m) => m.triangles.len(),
+        }
+    }
+
+    fn texels_lut(&self) -> (&[u32], &[u32]) {
+        match self {
+            Triangles::Host(i) => (&i.texels, &i.lut),
+            Triangles::Setup(m) => (&m.texels, &m.lut),
+        }
+    }
+
+    /// The sampling passes' grid: a triangle per invocation on x, its rows on y (the largest
+    /// sample count + 1): from the host's triangles, or triangle_setup's indirect dispatch.
+    fn sampling_groups(&self) -> Workgroups {
+        match self {
+            Triangles::Host(i) => {
+                let rows = i.tris.iter().map(|t| t.a[3] + 1).max().unwrap_or(1) as u32;
+                Workgroups::Direct([(i.tris.len() as u32).div_ceil(64).max(1), rows, 1])
+            }
+            Triangles::Setup(_) => Workgroups::Indirect {
+                buffer: "vox_dispatch".into(),
+                offset: 0,
+            },
+        }
+    }
+
+    /// What every entry's sampling binds: the parameters and (from the host) the triangles (one
+    /// zero triangle when there are none: a binding is never empty).
+    fn sampling_inputs(&self, side: u32) -> Resources {
+        let mut r = buffers([(
+            "params",
+            HostBuffer::pod(&VoxParams::whole(side, self.count())),
+        )]);
+        if let Triangles::Host(i) = self {
+            r.insert(
+                "vox_triangles".into(),
+                HostBuffer::structs(&super::or_one(&i.tris)).into(),
+            );
+        }
+        r
+    }
 }
 
 /// Bytes of accumulators per voxel of a window (`acc`: eight u32).
@@ -234,17 +216,17 @@ pub fn window_voxels(side: u32, binding_limit: u64) -> u64 {
     super::grid_window_voxels(side, binding_limit, ACC_BYTES)
 }
 
-/// Resources and passes voxelizing `input` into a grid of side `side`, in windows that fit the
+/// Resources and passes voxelizing `tris` into a grid of side `side`, in windows that fit the
 /// device's storage bindings ([`window_voxels`]).
 pub fn case_for(
     ctx: &GpuContext,
-    input: &VoxInput,
+    tris: Triangles,
     side: u32,
     label: String,
     seed: u64,
 ) -> Result<Case, VoxelizeError> {
     let window = window_voxels(side, ctx.limits().max_storage_buffer_binding_size);
-    case_windowed(ctx, input, side, window, label, seed)
+    case_windowed(ctx, tris, side, window, label, seed)
 }
 
 /// [`case_for`] with windows of `window` voxels (a power of two, at most side^3): splat and resolve
@@ -253,13 +235,12 @@ pub fn case_for(
 /// one window binds the buffers whole under `params`, as a chain does.
 pub fn case_windowed(
     ctx: &GpuContext,
-    input: &VoxInput,
+    tris: Triangles,
     side: u32,
     window: u64,
     label: String,
     seed: u64,
 ) -> Result<Case, VoxelizeError> {
-    let tris = &input.tris;
     let voxels = (side as u64).pow(3);
     assert!(
         window.is_power_of_two() && window <= voxels,
@@ -273,7 +254,8 @@ pub fn case_windowed(
             limit,
         });
     }
-    let mut resources = sampling_inputs(tris, side);
+    let mut resources = tris.sampling_inputs(side);
+    let (texels, lut) = tris.texels_lut();
     let v = voxels as usize;
     let (f32s, u32s) = (
         |n: usize| HostBuffer::zeroed(n * 4, ScalarKind::F32),
@@ -287,10 +269,9 @@ pub fn case_windowed(
         ("list", u32s(v)),
         ("list_count", u32s(1)),
         ("occupancy", u32s(occupancy_words(voxels))),
-        ("vox_texels", HostBuffer::of(&super::or_one(&input.texels))),
-        ("vox_lut", HostBuffer::of(&input.lut)),
+        ("vox_texels", HostBuffer::of(&super::or_one(texels))),
+        ("vox_lut", HostBuffer::of(lut)),
     ]));
-    let max_rows = tris.iter().map(|t| t.a[3] + 1).max().unwrap_or(1) as u32;
     let max = ctx.limits().max_compute_workgroups_per_dimension;
     let mut passes = Vec::new();
     for k in 0..voxels / window {
@@ -300,7 +281,7 @@ pub fn case_windowed(
             let params = VoxParams {
                 window_first: first as u32,
                 window_voxels: window as u32,
-                ..VoxParams::whole(side, tris.len())
+                ..VoxParams::whole(side, tris.count())
             };
             let name = format!("params_w{k}");
             resources.insert(name.clone(), HostBuffer::pod(&params).into());
@@ -317,13 +298,12 @@ pub fn case_windowed(
         } else {
             String::new()
         };
-        let splat = splat_groups(tris, max_rows);
-        passes.push(Pass::direct(
-            format!("splat{at}"),
-            "splat",
-            bindings.clone(),
-            splat,
-        ));
+        passes.push(Pass {
+            label: format!("splat{at}"),
+            entry: "splat".into(),
+            bindings: bindings.clone(),
+            workgroups: tris.sampling_groups(),
+        });
         let resolve = grid_for(window, 64, max);
         passes.push(Pass::direct(
             format!("resolve{at}"),
@@ -332,7 +312,7 @@ pub fn case_windowed(
             resolve,
         ));
     }
-    passes.push(occupancy_pass(tris, max_rows));
+    passes.push(occupancy_pass(tris));
     let morton = Indexing::Morton {
         n: side,
         components: 4,
@@ -355,61 +335,41 @@ pub fn case_windowed(
 }
 
 /// The `occupancy_bits` pass over `tris`, dispatched as splat (a triangle's rows on y).
-fn occupancy_pass(tris: &[VoxTriangle], max_rows: u32) -> Pass {
-    let bindings = vxgi_harness::run::bind_same_names(["params", "vox_triangles", "occupancy"]);
-    Pass::direct(
-        "occupancy",
-        "occupancy_bits",
-        bindings,
-        splat_groups(tris, max_rows),
-    )
+fn occupancy_pass(tris: Triangles) -> Pass {
+    Pass {
+        label: "occupancy".into(),
+        entry: "occupancy_bits".into(),
+        bindings: vxgi_harness::run::bind_same_names(["params", "vox_triangles", "occupancy"]),
+        workgroups: tris.sampling_groups(),
+    }
 }
 
-/// The sampling passes' grid: a triangle per invocation on x, its rows (at most `max_rows`) on y.
-fn splat_groups(tris: &[VoxTriangle], max_rows: u32) -> [u32; 3] {
-    [(tris.len() as u32).div_ceil(64).max(1), max_rows, 1]
-}
-
-/// What every entry's sampling binds: the parameters and the triangles (one zero triangle when there
-/// are none: a binding is never empty).
-fn sampling_inputs(tris: &[VoxTriangle], side: u32) -> Resources {
-    buffers([
-        (
-            "params",
-            HostBuffer::pod(&VoxParams::whole(side, tris.len())),
-        ),
-        ("vox_triangles", HostBuffer::structs(&super::or_one(tris))),
-    ])
-}
-
-/// Resources and the one pass that write `input`'s occupancy bits (entry `occupancy_bits`) for a grid
+/// Resources and the one pass that write `tris`' occupancy bits (entry `occupancy_bits`) for a grid
 /// of side `side`: binary occlusion voxels without the accumulators, which is what lets lrsm reach
 /// 512^3 (16 MiB of bits where the accumulators would take 4 GiB).
 pub fn occupancy_case(
     ctx: &GpuContext,
-    input: &VoxInput,
+    tris: Triangles,
     side: u32,
     label: String,
     seed: u64,
 ) -> Result<Case, VoxelizeError> {
-    let tris = &input.tris;
     let voxels = (side as u64).pow(3);
     let bytes = occupancy_words(voxels) as u64 * 4;
     let limit = ctx.limits().max_storage_buffer_binding_size;
     if bytes > limit {
         return Err(VoxelizeError::OccupancyTooLarge { side, bytes, limit });
     }
-    let mut resources = sampling_inputs(tris, side);
+    let mut resources = tris.sampling_inputs(side);
     let zero = HostBuffer::zeroed(bytes as usize, ScalarKind::U32);
     resources.insert("occupancy".into(), zero.into());
-    let max_rows = tris.iter().map(|t| t.a[3] + 1).max().unwrap_or(1) as u32;
     Ok(Case {
         label,
         seed,
         resources,
-        passes: vec![occupancy_pass(tris, max_rows)],
+        passes: vec![occupancy_pass(tris)],
         checks: vec![Check::of("occupancy", Indexing::Linear)],
-        effective_bytes: tris.len() as u64 * 160 + bytes,
+        effective_bytes: tris.count() as u64 * 160 + bytes,
     })
 }
 
@@ -430,7 +390,7 @@ pub fn occupancy_of_input(
     input: &VoxInput,
     side: u32,
 ) -> anyhow::Result<Vec<u32>> {
-    let case = occupancy_case(ctx, input, side, "occupancy".into(), 0)?;
+    let case = occupancy_case(ctx, Triangles::Host(input), side, "occupancy".into(), 0)?;
     let out = DECL.run(ctx, &case, &["occupancy"])?;
     Ok(out.buffer("occupancy").as_u32().to_vec())
 }
@@ -453,7 +413,7 @@ pub fn voxelize_in_on_gpu(
 ) -> anyhow::Result<(Grid, Vec<u32>, VoxelFrame)> {
     let side = frame.side;
     let (input, frame) = prepare_in(scene, frame)?;
-    let case = case_for(ctx, &input, side, "voxelize".into(), 0)?;
+    let case = case_for(ctx, Triangles::Host(&input), side, "voxelize".into(), 0)?;
     let out = DECL.run(
         ctx,
         &case,
@@ -486,11 +446,18 @@ impl Kernel for Voxelize {
         // binding is: the same outputs.
         if index % 8 == 5 {
             let label = format!("{label}, {side}^3 in 8 windows");
-            return case_windowed(ctx, &input, side, (side as u64).pow(3) / 8, label, seed)
+            let window = (side as u64).pow(3) / 8;
+            return case_windowed(ctx, Triangles::Host(&input), side, window, label, seed)
                 .expect("generated grids fit");
         }
-        case_for(ctx, &input, side, format!("{label}, {side}^3"), seed)
-            .expect("generated grids fit")
+        case_for(
+            ctx,
+            Triangles::Host(&input),
+            side,
+            format!("{label}, {side}^3"),
+            seed,
+        )
+        .expect("generated grids fit")
     }
     fn mirror(&self, _case: &Case, data: &Resources, _mode: FloatMode) -> MirrorOutputs {
         // No subnormal can arise: the smallest non-zero value is 1 / count / 4096 >= 2^-36, so the

@@ -201,16 +201,19 @@ pub(crate) fn lrsm_chain(
     let config = settings.partition();
     config.validate(ctx.limits().max_storage_buffer_binding_size)?;
     let side = scene.render.voxels;
-    let (input, vframe) = voxelize::prepare(scene, side)?;
+    let (mesh, setup) = super::vct_dense::setup_case(ctx, scene)?;
+    let vframe = voxelize::frame_of(&scene.mesh, side);
     let mut chain = Chain {
         resources: Resources::new(),
         stages: Vec::new(),
         copies: Vec::new(),
         frame: vframe,
     };
-    // Voxelize's occupancy bits are level 0 of the occlusion voxels (the same resource), their mips
-    // follow; every level is copied into `occ`.
-    let mut vox = voxelize::occupancy_case(ctx, &input, side, "render".into(), 0)?;
+    // The mesh on voxelize's lattice (triangle_setup), then voxelize's occupancy bits: level 0 of
+    // the occlusion voxels (the same resource), their mips follow; every level is copied into `occ`.
+    chain.add(&triangle_setup::DECL, voxelize::DECL.name, setup)?;
+    let tris = voxelize::Triangles::Setup(&mesh);
+    let mut vox = voxelize::occupancy_case(ctx, tris, side, "render".into(), 0)?;
     vox.rename_resource("params", "vox_params", false);
     vox.rename_resource("occupancy", &occv::level_name(0), false);
     chain.add(&voxelize::DECL, voxelize::DECL.name, vox)?;

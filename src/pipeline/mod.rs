@@ -11,7 +11,7 @@
 use crate::harness::{Case, HostResource, KernelDecl, Pass, Resources, Shader};
 use crate::kernels::cone_trace::{self, ConeSettings};
 use crate::kernels::lrsm_cone_trace::{self, LrsmFrame, LrsmMemory, LrsmSettings};
-use crate::kernels::{direct_light, screen_tiles, voxel_light, voxelize};
+use crate::kernels::{direct_light, screen_tiles, triangle_setup, voxel_light, voxelize};
 use crate::lrsm::{LightView, PartitionConfig};
 use crate::plan::PlannedPass;
 use crate::scene::Scene;
@@ -252,7 +252,13 @@ pub(crate) fn instanced_volume(
         } else {
             let local = scene.with_mesh_alone(mesh.clone());
             let (input, frame) = voxelize::prepare(&local, *side)?;
-            let mut v = voxelize::case_for(ctx, &input, *side, "render".into(), 0)?;
+            let mut v = voxelize::case_for(
+                ctx,
+                voxelize::Triangles::Host(&input),
+                *side,
+                "render".into(),
+                0,
+            )?;
             v.rename_resource("params", "vox_params", false);
             let own: Vec<String> = v.resources.keys().cloned().collect();
             for name in own {

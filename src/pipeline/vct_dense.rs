@@ -52,7 +52,7 @@ pub(crate) const DIRECT_LIGHT_STAGE: StageDecl = StageDecl {
 /// Voxelization (the other pipelines' say what they voxelize for: `StageDecl { plan, ..VOXELIZE_STAGE }`).
 pub(crate) const VOXELIZE_STAGE: StageDecl = StageDecl {
     name: "voxelize",
-    kernels: &[&voxelize::DECL],
+    kernels: &[&triangle_setup::DECL, &voxelize::DECL],
     reuse: Reuse::Geometry,
     split: Split::Always,
     plan: voxelize_plan,
@@ -200,21 +200,41 @@ pub(crate) fn cone_trace_plan(i: &PlanInputs) -> Vec<PlannedPass> {
     )]
 }
 
-/// A chain of voxelize alone (stage `voxelize`): the scene's voxel grid (`vox_colour`,
-/// `vox_normal`, ...) and the GPU's list of its non-empty voxels (`list`, `list_count`).
+/// A chain of the scene's voxelization alone (stage `voxelize`): triangle_setup puts the mesh on
+/// voxelize's lattice, then voxelize writes the scene's voxel grid (`vox_colour`, `vox_normal`,
+/// ...) and the GPU's list of its non-empty voxels (`list`, `list_count`).
 pub(crate) fn voxel_chain(ctx: &crate::harness::GpuContext, scene: &Scene) -> Result<Chain> {
     let side = scene.render.voxels;
-    let (input, vframe) = voxelize::prepare(scene, side)?;
-    let mut vox = voxelize::case_for(ctx, &input, side, "render".into(), 0)?;
+    let (mesh, setup) = setup_case(ctx, scene)?;
+    let mut vox = voxelize::case_for(
+        ctx,
+        voxelize::Triangles::Setup(&mesh),
+        side,
+        "render".into(),
+        0,
+    )?;
     vox.rename_resource("params", "vox_params", false);
     let mut chain = Chain {
-        resources: vox.resources,
+        resources: Resources::new(),
         stages: Vec::new(),
         copies: Vec::new(),
-        frame: vframe,
+        frame: voxelize::frame_of(&scene.mesh, side),
     };
-    chain.push(voxelize::DECL.shader()?, voxelize::DECL.name, vox.passes);
+    chain.add(&triangle_setup::DECL, voxelize::DECL.name, setup)?;
+    chain.add(&voxelize::DECL, voxelize::DECL.name, vox)?;
     Ok(chain)
+}
+
+/// `scene`'s mesh in its voxel grid, checked ([`voxelize::checked_mesh`]), and triangle_setup's case
+/// over it: the first pass of a chain's voxelization.
+pub(crate) fn setup_case(
+    ctx: &crate::harness::GpuContext,
+    scene: &Scene,
+) -> Result<(triangle_setup::MeshInput, crate::harness::Case)> {
+    let frame = voxelize::frame_of(&scene.mesh, scene.render.voxels);
+    let mesh = voxelize::checked_mesh(scene, frame)?;
+    let case = triangle_setup::case_for(ctx, &mesh, "render".into(), 0);
+    Ok((mesh, case))
 }
 
 /// The voxels lit in a chain: voxelize (stage `voxelize`) and voxel_light over every entry the
