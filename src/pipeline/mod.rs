@@ -240,8 +240,8 @@ pub(crate) fn instanced_volume(
         frame: world,
     };
     let mip_shader = scm::DECL.shader()?;
-    let (mut vox, mut light, mut mips, mut frames) =
-        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let (mut setups, mut vox, mut light, mut mips, mut frames) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let mut base = 0usize;
     let mut levels_at = Vec::new();
     let first = voxelized_by(&parts);
@@ -250,20 +250,26 @@ pub(crate) fn instanced_volume(
         let frame = if d < k {
             frames[d]
         } else {
+            // The hierarchy's mesh set up on the GPU (triangle_setup), then voxelized, every
+            // resource of the two named for the hierarchy.
             let local = scene.with_mesh_alone(mesh.clone());
-            let (input, frame) = voxelize::prepare(&local, *side)?;
-            let mut v = voxelize::case_for(
-                ctx,
-                voxelize::Triangles::Host(&input),
-                *side,
-                "render".into(),
-                0,
-            )?;
+            let frame = voxelize::frame_of(&local.mesh, *side);
+            let m = voxelize::checked_mesh(&local, frame)?;
+            let mut t = triangle_setup::case_for(ctx, &m, "render".into(), 0);
+            let tris = voxelize::Triangles::Setup(&m);
+            let mut v = voxelize::case_for(ctx, tris, *side, "render".into(), 0)?;
             v.rename_resource("params", "vox_params", false);
-            let own: Vec<String> = v.resources.keys().cloned().collect();
+            let own: Vec<String> = v
+                .resources
+                .keys()
+                .chain(t.resources.keys())
+                .cloned()
+                .collect();
             for name in own {
                 v.rename_resource(&name, &hierarchy_name(&name, k), false);
+                t.rename_resource(&name, &hierarchy_name(&name, k), false);
             }
+            setups.push(t);
             vox.push(v);
             frame
         };
@@ -325,18 +331,20 @@ pub(crate) fn instanced_volume(
         "pyramid".into(),
         HostResource::Buffer(HostBuffer::zeroed(base.max(1) * 16, ScalarKind::F32)),
     );
-    // One stage per kernel, its passes every hierarchy's in order (one shader each).
-    for (decl, cases) in [
-        (&voxelize::DECL, vox),
-        (&voxel_light::DECL, light),
-        (&scm::DECL, mips),
+    // One stage per kernel (triangle_setup's counted to voxelize), its passes every hierarchy's in
+    // order (one shader each).
+    for (decl, stage, cases) in [
+        (&triangle_setup::DECL, voxelize::DECL.name, setups),
+        (&voxelize::DECL, voxelize::DECL.name, vox),
+        (&voxel_light::DECL, voxel_light::DECL.name, light),
+        (&scm::DECL, scm::DECL.name, mips),
     ] {
         let mut passes = Vec::new();
         for c in cases {
             chain.merge(decl.name, c.resources)?;
             passes.extend(c.passes);
         }
-        chain.push(decl.shader()?, decl.name, passes);
+        chain.push_as(decl.shader()?, decl.name, stage, passes);
     }
     let after_mips = chain.pass_count();
     for (k, side, base) in levels_at {
