@@ -374,14 +374,45 @@ pub fn occupancy_case(
 }
 
 /// `scene`'s occupancy bits on the GPU in the grid `prepare` puts around it at `side` (level 0 of
-/// lrsm's occlusion voxels), and the grid's frame.
+/// lrsm's occlusion voxels), from its mesh (triangle_setup first), and the grid's frame.
 pub fn occupancy_on_gpu(
     ctx: &GpuContext,
     scene: &Scene,
     side: u32,
 ) -> anyhow::Result<(Vec<u32>, VoxelFrame)> {
-    let (input, frame) = prepare(scene, side)?;
-    Ok((occupancy_of_input(ctx, &input, side)?, frame))
+    let frame = frame_of(&scene.mesh, side);
+    let mesh = checked_mesh(scene, frame)?;
+    let case = occupancy_case(ctx, Triangles::Setup(&mesh), side, "occupancy".into(), 0)?;
+    let out = run_from_mesh(ctx, &mesh, case, &["occupancy"])?;
+    Ok((out.buffer("occupancy").as_u32().to_vec(), frame))
+}
+
+/// triangle_setup over `mesh`, then `case` (voxelize's over [`Triangles::Setup`] of it), in one
+/// submission; `readback` read back.
+fn run_from_mesh(
+    ctx: &GpuContext,
+    mesh: &super::triangle_setup::MeshInput,
+    case: Case,
+    readback: &[&str],
+) -> anyhow::Result<vxgi_harness::run::RunOutput> {
+    use vxgi_harness::run::{run_chain, Stage};
+    let setup = super::triangle_setup::case_for(ctx, mesh, "setup".into(), 0);
+    let (setup_shader, shader) = (super::triangle_setup::DECL.shader()?, DECL.shader()?);
+    let mut resources = setup.resources;
+    resources.extend(case.resources);
+    let stages = [
+        Stage {
+            shader: &setup_shader,
+            kernel: super::triangle_setup::DECL.name,
+            passes: &setup.passes,
+        },
+        Stage {
+            shader: &shader,
+            kernel: DECL.name,
+            passes: &case.passes,
+        },
+    ];
+    Ok(run_chain(ctx, &stages, &resources, readback)?)
 }
 
 /// [`occupancy_on_gpu`] of an input [`prepare`]d already (at `side`).
@@ -405,20 +436,17 @@ pub fn voxelize_on_gpu(
     voxelize_in_on_gpu(ctx, scene, frame_of(&scene.mesh, side))
 }
 
-/// [`voxelize_on_gpu`] into a given grid ([`prepare_in`]).
+/// [`voxelize_on_gpu`] into a given grid ([`prepare_in`]), from the mesh (triangle_setup first).
 pub fn voxelize_in_on_gpu(
     ctx: &GpuContext,
     scene: &Scene,
     frame: VoxelFrame,
 ) -> anyhow::Result<(Grid, Vec<u32>, VoxelFrame)> {
     let side = frame.side;
-    let (input, frame) = prepare_in(scene, frame)?;
-    let case = case_for(ctx, Triangles::Host(&input), side, "voxelize".into(), 0)?;
-    let out = DECL.run(
-        ctx,
-        &case,
-        &["vox_colour", "vox_normal", "list", "list_count"],
-    )?;
+    let mesh = checked_mesh(scene, frame)?;
+    let case = case_for(ctx, Triangles::Setup(&mesh), side, "voxelize".into(), 0)?;
+    let readback = ["vox_colour", "vox_normal", "list", "list_count"];
+    let out = run_from_mesh(ctx, &mesh, case, &readback)?;
     let count = out.buffer("list_count").as_u32()[0] as usize;
     let mut list = out.buffer("list").as_u32()[..count].to_vec();
     list.sort_unstable();
