@@ -56,7 +56,7 @@ impl std::fmt::Display for Value {
 /// interleaved pattern (128 directions a neighbourhood) with the narrow-cone level bias, where the
 /// `[render]` defaults trace five of 30 degrees. Chosen for lrsm on the Cornell box, thin_wall and
 /// Sponza, then measured unchanged for vct-dense and vct-svo on six scenes: lower combined FLIP on
-/// every one (vct-dense on the Cornell box 0.238 -> 0.142, vct-svo 0.236 -> 0.128) for 3-70% more
+/// every one (vct-dense on the Cornell box 0.238 -> 0.142, vct-svo 0.236 -> 0.128) for 3-71% more
 /// time (docs/accuracy/presets.md). Not cprc's: its caches' cones are its own, and the level bias
 /// alone makes thin_wall worse (0.177 -> 0.203).
 const NARROW_CONES: [(&str, Value); 4] = [

@@ -260,9 +260,23 @@ fn temporal_command_measures_every_pipeline_and_motion() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-/// `--quality` resolves to its preset's keys, printed with the plan; an explicit flag wins.
+/// `--quality` resolves to its preset's keys, printed with the plan (`balanced` where none is
+/// given); an explicit flag wins.
 #[test]
 fn quality_presets_resolve_and_explicit_flags_win() {
+    let narrow = "cones = 2, cone_half_angle = 5, cone_interleave = 8, cone_level_bias = -1.25";
+    for (pipeline, keys) in [
+        ("vct-dense", narrow.to_string()),
+        ("lrsm", format!("{narrow}, lrsm_area_weights = true")),
+        ("cprc", "the defaults".to_string()),
+    ] {
+        let (code, out, err) = vxgi(&["render", "--plan", "--pipeline", pipeline]);
+        assert_eq!(code, 0, "{out}\n{err}");
+        assert!(
+            out.contains(&format!("quality balanced for {pipeline}: {keys}")),
+            "{pipeline}: {out}"
+        );
+    }
     let (code, out, err) = vxgi(&["render", "--plan", "--quality", "accurate"]);
     assert_eq!(code, 0, "{out}\n{err}");
     assert!(
