@@ -38,3 +38,28 @@ fn the_gpu_sets_up_a_scene_as_prepare_does() {
         }
     }
 }
+
+/// A mesh whose triangles need more workgroups along x than the device dispatches is refused by name
+/// before anything is allocated: voxelize's passes are dispatched indirectly from triangle_setup's
+/// output, which the device does not check when the pass is recorded.
+#[test]
+fn too_many_triangles_for_one_dispatch_are_refused() {
+    use vxgi::kernels::voxelize::{case_for, Triangles, VoxelizeError};
+    let mut mesh = MeshInput::of(
+        &Scene::cornell_box(),
+        frame_of(&Scene::cornell_box().mesh, 8),
+    );
+    let limit = gpu().limits().max_compute_workgroups_per_dimension as usize;
+    mesh.triangles = vec![[0, 1, 2, 0]; limit * 64 + 1];
+    mesh.params.triangles = mesh.triangles.len() as u32;
+    let err = case_for(gpu(), Triangles::Setup(&mesh), 8, "too many".into(), 0).unwrap_err();
+    assert!(
+        matches!(err, VoxelizeError::TooManyTriangles { groups, .. } if groups == limit as u64 + 1),
+        "{err}"
+    );
+    assert!(
+        err.to_string()
+            .contains("max_compute_workgroups_per_dimension"),
+        "{err}"
+    );
+}

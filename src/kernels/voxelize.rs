@@ -86,6 +86,16 @@ pub enum VoxelizeError {
          kernel's 32-bit fixed point (1/16 texel) at voxels = {side}"
     )]
     UvRange { triangle: usize, side: u32 },
+    #[error(
+        "{triangles} triangles: voxelize's sampling passes take one invocation per triangle, \
+         {groups} workgroups of 64 along x, past the device's max_compute_workgroups_per_dimension \
+         ({limit}); split the mesh into [[instances]] or simplify it"
+    )]
+    TooManyTriangles {
+        triangles: usize,
+        groups: u64,
+        limit: u32,
+    },
 }
 
 /// sRGB8 to linear in the kernel's fixed point (x 4096, rounded).
@@ -168,6 +178,21 @@ impl Triangles<'_> {
             Triangles::Host(i) => (&i.texels, &i.lut),
             Triangles::Setup(m) => (&m.texels, &m.lut),
         }
+    }
+
+    /// That the sampling passes' workgroups along x (a triangle per invocation) are within the
+    /// device's limit: an indirect dispatch (triangle_setup's) is not checked when it is recorded.
+    fn check_groups(&self, ctx: &GpuContext) -> Result<(), VoxelizeError> {
+        let limit = ctx.limits().max_compute_workgroups_per_dimension;
+        let groups = (self.count() as u64).div_ceil(64);
+        if groups > limit as u64 {
+            return Err(VoxelizeError::TooManyTriangles {
+                triangles: self.count(),
+                groups,
+                limit,
+            });
+        }
+        Ok(())
     }
 
     /// The sampling passes' grid: a triangle per invocation on x, its rows on y (the largest
@@ -254,6 +279,7 @@ pub fn case_windowed(
             limit,
         });
     }
+    tris.check_groups(ctx)?;
     let mut resources = tris.sampling_inputs(side);
     let (texels, lut) = tris.texels_lut();
     let v = voxels as usize;
@@ -360,6 +386,7 @@ pub fn occupancy_case(
     if bytes > limit {
         return Err(VoxelizeError::OccupancyTooLarge { side, bytes, limit });
     }
+    tris.check_groups(ctx)?;
     let mut resources = tris.sampling_inputs(side);
     let zero = HostBuffer::zeroed(bytes as usize, ScalarKind::U32);
     resources.insert("occupancy".into(), zero.into());
