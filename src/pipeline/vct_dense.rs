@@ -113,7 +113,10 @@ pub(crate) fn voxelize_plan(i: &PlanInputs) -> Vec<PlannedPass> {
     vec![PlannedPass::new(
         "voxelize",
         "voxelize",
-        format!("{} triangles into {side}^3", i.scene.mesh.triangles.len()),
+        format!(
+            "{} triangles set up (triangle_setup) and voxelized into {side}^3",
+            i.scene.mesh.triangles.len()
+        ),
         !i.cached,
         if i.cached {
             CACHED
