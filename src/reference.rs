@@ -400,19 +400,25 @@ pub fn ideal_cone_strata(rays: u32) -> u32 {
 }
 
 /// The diffuse cones a frame with `render`'s settings gathers, with their half-angle tangent: the
-/// plain set (`cone_trace::diffuse_cones`) without interleaving; with N x N interleaved classes the
-/// spiral of cones x N^2 they take together (`cone_trace::cone_dirs`), each of weight 1 / (cones
-/// N^2): the set whose mean the resolve's neighbourhood average converges to, so the ideal cones of
-/// an interleaved frame are of the whole set, not of one class.
+/// kernels' `cone_dirs` (the plain set without interleaving; with N x N interleaved classes the
+/// spiral of cones x N^2 they take together), each weight divided by N^2 so that the set's weights
+/// sum to 1: the set whose mean the resolve's neighbourhood average converges to, so the ideal cones
+/// of an interleaved frame are of the whole set, not of one class.
 pub fn cone_set(render: &crate::scene::RenderSettings) -> (Vec<[f32; 4]>, f32) {
-    use vxgi_cpu_mirror::cone_trace::{diffuse_cones, spiral_cones};
+    use vxgi_cpu_mirror::cone_trace::{cone_dirs, ConeParams};
     let tan = render.cone_half_angle.to_radians().tan();
-    let n = render.cone_interleave.max(1);
-    let set = if n == 1 {
-        diffuse_cones(render.cones, tan)
-    } else {
-        spiral_cones(render.cones.max(1) * n * n, tan)
+    let params = ConeParams {
+        diffuse_cones: render.cones,
+        diffuse_tan: tan,
+        interleave: render.cone_interleave,
+        ..Default::default()
     };
+    // A power of two: the division is exact.
+    let classes = render.cone_interleave.max(1).pow(2) as f32;
+    let set = cone_dirs(&params)
+        .into_iter()
+        .map(|[x, y, z, w]| [x, y, z, w / classes])
+        .collect();
     (set, tan)
 }
 
@@ -498,4 +504,26 @@ pub fn ideal_cones(
         })
         .collect();
     rows.into_iter().flatten().collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An interleaved frame's ideal set is the spiral its N^2 classes take together, every cone of
+    /// weight 1 / (cones N^2); a plain frame's is `diffuse_cones`.
+    #[test]
+    fn a_frames_cone_set_is_its_classes_together() {
+        use vxgi_cpu_mirror::cone_trace::{diffuse_cones, spiral_cones};
+        let mut r = crate::scene::RenderSettings {
+            cones: 2,
+            cone_half_angle: 5.0,
+            cone_interleave: 8,
+            ..Default::default()
+        };
+        let (set, tan) = cone_set(&r);
+        assert_eq!(set, spiral_cones(128, tan));
+        r.cone_interleave = 1;
+        assert_eq!(cone_set(&r).0, diffuse_cones(2, tan));
+    }
 }

@@ -1444,9 +1444,10 @@ fn revoxelized(pipeline: Pipeline, scene: &Scene) -> Result<Option<Voxelized>> {
     if !revoxelizes(pipeline, scene) {
         return Ok(None);
     }
-    use crate::kernels::voxelize;
-    let frame = voxelize::frame_of(&scene.mesh, scene.render.voxels);
-    Ok(Some((voxelize::checked_mesh(scene, frame)?, frame)))
+    Ok(Some(crate::kernels::voxelize::mesh_input(
+        scene,
+        scene.render.voxels,
+    )?))
 }
 
 /// The buffers a frame with moved lights rewrites: the lights, and lrsm's light views (each view's

@@ -163,9 +163,15 @@ pub fn setup(
         .iter()
         .map(|&t| setup_triangle(params, positions, normals, uvs, t, materials))
         .collect();
+    let dispatch = dispatch(&tris);
+    (tris, dispatch)
+}
+
+/// voxelize's sampling dispatch over `tris`: a triangle per invocation on x (`ceil(n / 64)`, at
+/// least 1), its rows on y (the largest sample count + 1, 1 without triangles).
+pub fn dispatch(tris: &[VoxTriangle]) -> [u32; 3] {
     let rows = tris.iter().map(|t| t.a[3] as u32 + 1).max().unwrap_or(1);
-    let groups = (triangles.len() as u32).div_ceil(64).max(1);
-    (tris, [groups, rows, 1])
+    [(tris.len() as u32).div_ceil(64).max(1), rows, 1]
 }
 
 /// Whether voxelize's texture-coordinate interpolation of `t` stays in i32: `Us = Ua + ((Ub - Ua)

@@ -137,6 +137,16 @@ pub fn prepare_in(
     Ok((mesh.mirror().0, frame))
 }
 
+/// `scene`'s mesh as triangle_setup reads it ([`checked_mesh`]) in the grid `prepare` puts around it
+/// at `side`, and that grid.
+pub fn mesh_input(
+    scene: &Scene,
+    side: u32,
+) -> Result<(super::triangle_setup::MeshInput, VoxelFrame), VoxelizeError> {
+    let frame = frame_of(&scene.mesh, side);
+    Ok((checked_mesh(scene, frame)?, frame))
+}
+
 /// `scene`'s mesh as triangle_setup reads it in the grid `frame`, after the checks voxelize's
 /// arithmetic needs: the grid's side, and every textured triangle's texture coordinates within
 /// voxelize's 32-bit interpolation (`triangle_setup::uv_range_fits`, on the mirror's setup of the
@@ -200,8 +210,7 @@ impl Triangles<'_> {
     fn sampling_groups(&self) -> Workgroups {
         match self {
             Triangles::Host(i) => {
-                let rows = i.tris.iter().map(|t| t.a[3] + 1).max().unwrap_or(1) as u32;
-                Workgroups::Direct([(i.tris.len() as u32).div_ceil(64).max(1), rows, 1])
+                Workgroups::Direct(vxgi_cpu_mirror::triangle_setup::dispatch(&i.tris))
             }
             Triangles::Setup(_) => Workgroups::Indirect {
                 buffer: "vox_dispatch".into(),
@@ -299,6 +308,7 @@ pub fn case_windowed(
         ("vox_lut", HostBuffer::of(lut)),
     ]));
     let max = ctx.limits().max_compute_workgroups_per_dimension;
+    let sampling = tris.sampling_groups();
     let mut passes = Vec::new();
     for k in 0..voxels / window {
         let mut bindings = DECL.bind_by_name();
@@ -328,7 +338,7 @@ pub fn case_windowed(
             label: format!("splat{at}"),
             entry: "splat".into(),
             bindings: bindings.clone(),
-            workgroups: tris.sampling_groups(),
+            workgroups: sampling.clone(),
         });
         let resolve = grid_for(window, 64, max);
         passes.push(Pass::direct(
@@ -338,7 +348,7 @@ pub fn case_windowed(
             resolve,
         ));
     }
-    passes.push(occupancy_pass(tris));
+    passes.push(occupancy_pass(sampling));
     let morton = Indexing::Morton {
         n: side,
         components: 4,
@@ -360,13 +370,13 @@ pub fn case_windowed(
     })
 }
 
-/// The `occupancy_bits` pass over `tris`, dispatched as splat (a triangle's rows on y).
-fn occupancy_pass(tris: Triangles) -> Pass {
+/// The `occupancy_bits` pass, dispatched as splat (`sampling`: a triangle's rows on y).
+fn occupancy_pass(sampling: Workgroups) -> Pass {
     Pass {
         label: "occupancy".into(),
         entry: "occupancy_bits".into(),
         bindings: vxgi_harness::run::bind_same_names(["params", "vox_triangles", "occupancy"]),
-        workgroups: tris.sampling_groups(),
+        workgroups: sampling,
     }
 }
 
@@ -394,7 +404,7 @@ pub fn occupancy_case(
         label,
         seed,
         resources,
-        passes: vec![occupancy_pass(tris)],
+        passes: vec![occupancy_pass(tris.sampling_groups())],
         checks: vec![Check::of("occupancy", Indexing::Linear)],
         effective_bytes: tris.count() as u64 * 160 + bytes,
     })
@@ -407,8 +417,7 @@ pub fn occupancy_on_gpu(
     scene: &Scene,
     side: u32,
 ) -> anyhow::Result<(Vec<u32>, VoxelFrame)> {
-    let frame = frame_of(&scene.mesh, side);
-    let mesh = checked_mesh(scene, frame)?;
+    let (mesh, frame) = mesh_input(scene, side)?;
     let case = occupancy_case(ctx, Triangles::Setup(&mesh), side, "occupancy".into(), 0)?;
     let out = run_from_mesh(ctx, &mesh, case, &["occupancy"])?;
     Ok((out.buffer("occupancy").as_u32().to_vec(), frame))

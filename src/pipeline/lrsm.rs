@@ -201,8 +201,7 @@ pub(crate) fn lrsm_chain(
     let config = settings.partition();
     config.validate(ctx.limits().max_storage_buffer_binding_size)?;
     let side = scene.render.voxels;
-    let (mesh, setup) = super::vct_dense::setup_case(ctx, scene)?;
-    let vframe = voxelize::frame_of(&scene.mesh, side);
+    let (mesh, vframe, setup) = super::vct_dense::setup_case(ctx, scene)?;
     let mut chain = Chain {
         resources: Resources::new(),
         stages: Vec::new(),

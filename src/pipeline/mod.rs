@@ -253,8 +253,7 @@ pub(crate) fn instanced_volume(
             // The hierarchy's mesh set up on the GPU (triangle_setup), then voxelized, every
             // resource of the two named for the hierarchy.
             let local = scene.with_mesh_alone(mesh.clone());
-            let frame = voxelize::frame_of(&local.mesh, *side);
-            let m = voxelize::checked_mesh(&local, frame)?;
+            let (m, frame) = voxelize::mesh_input(&local, *side)?;
             let mut t = triangle_setup::case_for(ctx, &m, "render".into(), 0);
             let tris = voxelize::Triangles::Setup(&m);
             let mut v = voxelize::case_for(ctx, tris, *side, "render".into(), 0)?;

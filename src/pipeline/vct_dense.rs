@@ -208,7 +208,7 @@ pub(crate) fn cone_trace_plan(i: &PlanInputs) -> Vec<PlannedPass> {
 /// ...) and the GPU's list of its non-empty voxels (`list`, `list_count`).
 pub(crate) fn voxel_chain(ctx: &crate::harness::GpuContext, scene: &Scene) -> Result<Chain> {
     let side = scene.render.voxels;
-    let (mesh, setup) = setup_case(ctx, scene)?;
+    let (mesh, frame, setup) = setup_case(ctx, scene)?;
     let mut vox = voxelize::case_for(
         ctx,
         voxelize::Triangles::Setup(&mesh),
@@ -221,23 +221,26 @@ pub(crate) fn voxel_chain(ctx: &crate::harness::GpuContext, scene: &Scene) -> Re
         resources: Resources::new(),
         stages: Vec::new(),
         copies: Vec::new(),
-        frame: voxelize::frame_of(&scene.mesh, side),
+        frame,
     };
     chain.add(&triangle_setup::DECL, voxelize::DECL.name, setup)?;
     chain.add(&voxelize::DECL, voxelize::DECL.name, vox)?;
     Ok(chain)
 }
 
-/// `scene`'s mesh in its voxel grid, checked ([`voxelize::checked_mesh`]), and triangle_setup's case
-/// over it: the first pass of a chain's voxelization.
+/// `scene`'s mesh in its voxel grid, checked ([`voxelize::mesh_input`]), the grid, and
+/// triangle_setup's case over the mesh: the first pass of a chain's voxelization.
 pub(crate) fn setup_case(
     ctx: &crate::harness::GpuContext,
     scene: &Scene,
-) -> Result<(triangle_setup::MeshInput, crate::harness::Case)> {
-    let frame = voxelize::frame_of(&scene.mesh, scene.render.voxels);
-    let mesh = voxelize::checked_mesh(scene, frame)?;
+) -> Result<(
+    triangle_setup::MeshInput,
+    voxelize::VoxelFrame,
+    crate::harness::Case,
+)> {
+    let (mesh, frame) = voxelize::mesh_input(scene, scene.render.voxels)?;
     let case = triangle_setup::case_for(ctx, &mesh, "render".into(), 0);
-    Ok((mesh, case))
+    Ok((mesh, frame, case))
 }
 
 /// The voxels lit in a chain: voxelize (stage `voxelize`) and voxel_light over every entry the
