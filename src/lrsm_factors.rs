@@ -16,7 +16,7 @@
 use crate::kernels::cone_trace::Pyramids;
 use crate::lrsm::Rsm;
 use glam::{Vec3, Vec4};
-use vxgi_cpu_mirror::cone_trace::{ConeParams, Pyramid, SampleError, Volume};
+use vxgi_cpu_mirror::cone_trace::{quadrilinear, ConeParams, Pyramid, SampleError, Volume};
 use vxgi_cpu_mirror::gaussian_depth_visibility::{normal_cdf, visibility, Cdf, VisibilityParams};
 use vxgi_cpu_mirror::layer_decay::layer_decay;
 use vxgi_cpu_mirror::lrsm_cone_trace::{disc_share, LrsmVolume};
@@ -100,6 +100,193 @@ pub struct Algorithm {
     /// Fetch one level finer than `log2` of the disc's diameter in texels: the trilinear fetch's
     /// 2 x 2 taps then span about the disc, where at the default level they span about twice it.
     pub finer: bool,
+    /// Replace the light views' lookup by their lit texels in the occlusion pyramid's own cells
+    /// ([`Cells`]); read as a premultiplied colour.
+    pub cells: Option<Cells>,
+}
+
+/// The light views' lit RSM texels splatted into the cells of the occlusion pyramid at the
+/// sample's two levels and read trilinearly at the sample, exactly as alpha is read: per cell the
+/// texels' lit surface over the cell's face (at most 1, as surface coverage caps a cell) and their
+/// area-weighted radiance, every view's texels summed (each texel is seen by one view, so no share
+/// weights). A texel's surface is its area in the light's image at its depth, `cos` of its ray's
+/// angle to the view axis over `<n, l>`. The sample's light then sits in the cells its occlusion
+/// does: where a surface's voxels are, its light is, and nowhere else. A diagnostic (every texel
+/// near every sample: 20-120 s a frame), not a kernel.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Cells {
+    /// N culls each texel (`<n, vc> > 0`, the kernel's ramp), as Algorithm 1; without it every lit
+    /// texel counts, as an isotropic voxel's light does.
+    pub cull: bool,
+    /// Spread each texel over the cells its surface crosses: k x k sub-rays through the texel, each
+    /// meeting the plane through its point with its normal (k from the surface's width over the
+    /// cell, at most 16); without it a texel's whole surface lands in the cell of its centre's
+    /// point (a texel seen at grazing light covers a long strip).
+    pub spread: bool,
+}
+
+/// [`Cells`] at `x`, pyramid level `lf` (clamped and blended between two levels as the occlusion
+/// read's [`quadrilinear`]): (premultiplied L, lit coverage).
+fn cells(
+    rsms: &[Rsm],
+    views: &[vxgi_cpu_mirror::reflective_shadow_map::GpuView],
+    p: &ConeParams,
+    x: Vec3,
+    lf: f32,
+    vc: Vec3,
+    c: Cells,
+) -> (Vec3, f32) {
+    let (s, _) = quadrilinear(p.levels - 1, lf, |l| {
+        (
+            cells_level(rsms, views, p, x, l, vc, c),
+            SampleError::default(),
+        )
+    });
+    (s.truncate(), s.w)
+}
+
+/// [`cells`] at level `l`: (premultiplied rgb, lit coverage).
+fn cells_level(
+    rsms: &[Rsm],
+    views: &[vxgi_cpu_mirror::reflective_shadow_map::GpuView],
+    p: &ConeParams,
+    x: Vec3,
+    l: u32,
+    vc: Vec3,
+    c: Cells,
+) -> Vec4 {
+    let s = p.origin[3] * (1u32 << l) as f32;
+    let origin = Vec3::new(p.origin[0], p.origin[1], p.origin[2]);
+    let last = Vec3::splat(((p.side >> l) - 1) as f32);
+    // The trilinear read's 8 cells: base + {0, 1}^3, as cone_trace's trilinear_level.
+    let q = (x - origin) / s - Vec3::splat(0.5);
+    let base = q.floor();
+    let (mut area, mut rad) = ([0.0f32; 8], [Vec3::ZERO; 8]);
+    for (rsm, v) in rsms.iter().zip(views) {
+        let Some((nx, ny, zv)) = v.project(x) else {
+            continue;
+        };
+        let side = rsm.side as i64;
+        let (r, u) = (
+            Vec3::from_slice(&v.right[..3]),
+            Vec3::from_slice(&v.up[..3]),
+        );
+        let (f, eye) = (
+            Vec3::from_slice(&v.forward[..3]),
+            Vec3::from_slice(&v.eye[..3]),
+        );
+        let (rn, un) = (r / r.length_squared(), u / u.length_squared());
+        let ortho = v.orthographic();
+        // Texels whose points may lie in the 8 cells: within 3 cells of x across the view (at x's
+        // depth; a texel's strip may reach further, which `spread` does not follow).
+        let world_per_ndc = if ortho { 1.0 } else { zv } / r.length();
+        let reach = 3.0 * s / world_per_ndc * side as f32 / 2.0;
+        let (cx, cy) = (
+            (nx + 1.0) * 0.5 * side as f32,
+            (1.0 - ny) * 0.5 * side as f32,
+        );
+        let span = |c: f32| {
+            (
+                ((c - reach).floor() as i64).max(0),
+                ((c + reach).ceil() as i64).min(side - 1),
+            )
+        };
+        let ((x0, x1), (y0, y1)) = (span(cx), span(cy));
+        let texel = 2.0 / side as f32;
+        // The point of the ray through image point (a, b) at view depth z, or on `plane` (a point
+        // and normal) when given.
+        let point = |a: f32, b: f32, z: f32, plane: Option<(Vec3, Vec3)>| {
+            let (o, dir) = if ortho {
+                (eye + rn * a + un * b, f)
+            } else {
+                (eye, f + rn * a + un * b)
+            };
+            match plane {
+                Some((pt, n)) if n.dot(dir).abs() > 1e-6 => o + dir * (n.dot(pt - o) / n.dot(dir)),
+                _ => o + dir * z,
+            }
+        };
+        for ty in y0..=y1 {
+            for tx in x0..=x1 {
+                let m = vxgi_cpu_mirror::morton::encode2(tx as u32, ty as u32) as usize;
+                let (rr, n) = (rsm.radiance[m], rsm.normal[m]);
+                if !(rr[3] > 0.5) {
+                    continue;
+                }
+                let normal = Vec3::from_slice(&n[..3]);
+                let big_n = if c.cull { normal.dot(vc) } else { 1.0 };
+                if !(big_n > 0.0) {
+                    continue;
+                }
+                let (a, b) = (
+                    (tx as f32 + 0.5) * texel - 1.0,
+                    1.0 - (ty as f32 + 0.5) * texel,
+                );
+                let z = rsm.depth[m] / v.forward[3] + v.eye[3];
+                let pt = point(a, b, z, None);
+                // The texel's image area at its depth, its ray's cos to the axis, over <n, l>.
+                let (plane, cos) = if ortho {
+                    (texel * texel / (r.length() * u.length()), 1.0)
+                } else {
+                    let dir = f + rn * a + un * b;
+                    (
+                        texel * texel * z * z / (r.length() * u.length()),
+                        1.0 / dir.length(),
+                    )
+                };
+                let surface = plane * cos / n[3].max(1e-3)
+                    * if c.cull {
+                        (big_n / CULL_RAMP).min(1.0)
+                    } else {
+                        1.0
+                    };
+                let k = if c.spread {
+                    ((2.0 * plane.sqrt() / n[3].max(1e-3) / s).ceil() as usize).clamp(1, 16)
+                } else {
+                    1
+                };
+                let part = surface / (k * k) as f32;
+                for j in 0..k {
+                    for i in 0..k {
+                        let sub = if k == 1 {
+                            pt
+                        } else {
+                            point(
+                                a + ((i as f32 + 0.5) / k as f32 - 0.5) * texel,
+                                b - ((j as f32 + 0.5) / k as f32 - 0.5) * texel,
+                                z,
+                                Some((pt, normal)),
+                            )
+                        };
+                        // The cell holding the point; a point on the grid's high faces (the
+                        // scene's bounds: the grid is fitted to them) goes to the last cell, as
+                        // voxelize puts it.
+                        let cell = ((sub - origin) / s).floor().clamp(Vec3::ZERO, last);
+                        let o = cell - base;
+                        if o.min_element() < 0.0 || o.max_element() > 1.0 {
+                            continue;
+                        }
+                        let idx = o.x as usize | (o.y as usize) << 1 | (o.z as usize) << 2;
+                        area[idx] += part;
+                        rad[idx] += Vec3::new(rr[0], rr[1], rr[2]) * part;
+                    }
+                }
+            }
+        }
+    }
+    let t = q - base;
+    let mut out = Vec4::ZERO;
+    for (idx, (&a, &r)) in area.iter().zip(&rad).enumerate() {
+        if !(a > 0.0) {
+            continue;
+        }
+        let w = (0..3)
+            .map(|k| if idx >> k & 1 == 1 { t[k] } else { 1.0 - t[k] })
+            .product::<f32>();
+        let cov = (a / (s * s)).min(1.0);
+        out += (r / a * cov).extend(cov) * w;
+    }
+    out
 }
 
 /// What the exact footprint sums over the texels inside the sample's disc whose depth lies in the
@@ -172,7 +359,9 @@ impl<'a> FactorVolume<'a> {
                 }
             }
             Radiance::Lrsm(a) if a.is_kernel() => (self.lrsm.radiance(x, diam, d).0, 0.0),
-            Radiance::Lrsm(a) => lrsm_radiance(self.lrsm, (self.rsms, self.area), x, diam, d, a),
+            Radiance::Lrsm(a) => {
+                lrsm_radiance(self.lrsm, (self.rsms, self.area), x, lf, diam, d, a)
+            }
         }
     }
 }
@@ -221,16 +410,20 @@ impl Volume for FactorVolume<'_> {
 }
 
 /// lrsm_cone_trace's per-sample radiance (every view's disc share times its Sample LRSM) with
-/// Algorithm 1 changed as `a` says (`rsms`: each view's RSM, for `a.exact`; `area`: the views'
+/// Algorithm 1 changed as `a` says (`rsms`: each view's RSM, for `a.exact` and `a.cells`; `area`: the views'
 /// area-weighted LRSMs, for `a.area_lrsm`); no error bound (a diagnostic, not a mirror).
 pub fn lrsm_radiance(
     vol: &LrsmVolume,
     (rsms, area): (&[Rsm], &[Vec<[f32; 4]>; 3]),
     x: Vec3,
+    lf: f32,
     diam: f32,
     d: Vec3,
     a: Algorithm,
 ) -> (Vec3, f32) {
+    if let Some(c) = a.cells {
+        return cells(rsms, vol.views, vol.p, x, lf, -d, c);
+    }
     let (mut sum, mut lit) = (Vec3::ZERO, 0.0);
     for (k, v) in vol.views.iter().enumerate() {
         let Some((nx, ny, zv)) = v.project(x) else {
@@ -475,6 +668,7 @@ impl Algorithm {
         exact: None,
         area_lrsm: false,
         finer: false,
+        cells: None,
     };
 
     /// Whether the kernel computes this L (its mirror, `lrsm_cone_trace`'s, gives it); the
@@ -715,12 +909,34 @@ pub fn rows() -> Vec<(&'static str, Swap)> {
                 }),
             ),
         ),
+        (
+            "the light views' texels in the occlusion cells, N culls",
+            s(Surface, lrsm(in_cells(true, true))),
+        ),
+        (
+            "the light views' texels in the occlusion cells, isotropic (no N)",
+            s(Surface, lrsm(in_cells(false, true))),
+        ),
+        (
+            "the light views' texels in the occlusion cells, N culls, each texel at its centre",
+            s(Surface, lrsm(in_cells(true, false))),
+        ),
     ]
+}
+
+/// The [`Cells`] rows' Algorithm: read premultiplied.
+fn in_cells(cull: bool, spread: bool) -> Algorithm {
+    Algorithm {
+        premultiplied: true,
+        cells: Some(Cells { cull, spread }),
+        ..Algorithm::default()
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use vxgi_cpu_mirror::reflective_shadow_map::GpuView;
 
     #[test]
     fn the_cores_tile_every_window() {
@@ -791,5 +1007,59 @@ mod tests {
         // Seen from behind: nothing.
         let (l, _) = exact(&rsm, pos, 1.5, -vc, 0.05, Footprint::Radiance);
         assert_eq!(l, Vec3::ZERO);
+    }
+
+    /// A sun straight down -z onto the plane z = 9/16 of an 8^3 grid over the unit cube: a 16^2 RSM
+    /// whose texels all hold it, radiance 2, <n, l> = 1.
+    fn sun_on_a_plane() -> (Rsm, GpuView, ConeParams) {
+        let side = 16u32;
+        let n = (side * side) as usize;
+        let (far, z0) = (4.0f32, 9.0f32 / 16.0);
+        let rsm = Rsm {
+            side,
+            radiance: vec![[2.0, 2.0, 2.0, 1.0]; n],
+            normal: vec![[0.0, 0.0, 1.0, 1.0]; n],
+            depth: vec![(2.0 - z0) / far; n],
+        };
+        let view = GpuView {
+            eye: [0.5, 0.5, 2.0, 0.0],
+            forward: [0.0, 0.0, -1.0, 1.0 / far],
+            right: [2.0, 0.0, 0.0, 8.0],
+            up: [0.0, 2.0, 0.0, 0.0],
+            info: [side, 0, 0, 1],
+        };
+        let p = ConeParams {
+            origin: [0.0, 0.0, 0.0, 1.0 / 8.0],
+            side: 8,
+            levels: 4,
+            inv_s0: 8.0,
+            ..Default::default()
+        };
+        (rsm, view, p)
+    }
+
+    #[test]
+    fn the_occlusion_cells_hold_the_light_where_their_surface_is() {
+        let (rsm, view, p) = sun_on_a_plane();
+        let lit = Cells {
+            cull: true,
+            spread: true,
+        };
+        let at = |x: Vec3, vc: Vec3, c: Cells| {
+            cells(std::slice::from_ref(&rsm), &[view], &p, x, 0.0, vc, c)
+        };
+        // At the centre of a cell the plane crosses: its surface fills the cell's face (four
+        // texels of 1/16^2 over 1/8^2), so coverage 1 and the texels' radiance.
+        let centre = Vec3::splat(9.0 / 16.0);
+        assert_eq!(at(centre, Vec3::Z, lit), (Vec3::splat(2.0), 1.0));
+        // Halfway to the empty cell above: half of it, as the trilinear occlusion read.
+        let (l, c) = at(centre + Vec3::Z / 16.0, Vec3::Z, lit);
+        assert!((c - 0.5).abs() < 1e-6 && (l - Vec3::ONE).abs().max_element() < 1e-6);
+        // Two cells away: nothing.
+        assert_eq!(at(centre + Vec3::Z / 4.0, Vec3::Z, lit).1, 0.0);
+        // Seen from behind, N culls it, unless isotropic.
+        assert_eq!(at(centre, -Vec3::Z, lit).1, 0.0);
+        let iso = Cells { cull: false, ..lit };
+        assert_eq!(at(centre, -Vec3::Z, iso), (Vec3::splat(2.0), 1.0));
     }
 }

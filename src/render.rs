@@ -1161,18 +1161,20 @@ pub fn render_lrsm_factors(
     let params = cone_trace::cone_params(&built.voxels, cones);
     let vol = built.volume(&params);
     let pyramids = f.pyramid.as_ref().expect("the pyramid");
-    // The exact footprint's and the area-weighted LRSM's rows read each light view's RSM, as the
-    // frame's views made them.
+    // The exact footprint's, the occlusion cells' and the area-weighted LRSM's rows read each
+    // light view's RSM, as the frame's views made them.
     let rsms: Vec<crate::lrsm::Rsm> = match swap.radiance {
-        Radiance::Lrsm(a) if a.exact.is_some() || a.area_lrsm => crate::lrsm::light_views(
-            &f.data.lights,
-            f.data.bounds,
-            f.scene.render.rsm_side,
-            f.data.frame.eye[3],
-        )?
-        .iter()
-        .map(|v| crate::kernels::reflective_shadow_map::rsm_mirror(&f.data, v))
-        .collect(),
+        Radiance::Lrsm(a) if a.exact.is_some() || a.cells.is_some() || a.area_lrsm => {
+            crate::lrsm::light_views(
+                &f.data.lights,
+                f.data.bounds,
+                f.scene.render.rsm_side,
+                f.data.frame.eye[3],
+            )?
+            .iter()
+            .map(|v| crate::kernels::reflective_shadow_map::rsm_mirror(&f.data, v))
+            .collect()
+        }
         _ => Vec::new(),
     };
     let mut area: [Vec<[f32; 4]>; 3] = Default::default();
