@@ -918,7 +918,7 @@ pub fn rows() -> Vec<(&'static str, Swap)> {
             s(Surface, lrsm(in_cells(false, true))),
         ),
         (
-            "the light views' texels in the occlusion cells, N culls, each texel at its centre",
+            "the light views' texels, each at its centre's point, in the occlusion cells, N culls",
             s(Surface, lrsm(in_cells(true, false))),
         ),
     ]
