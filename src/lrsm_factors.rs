@@ -115,14 +115,25 @@ pub struct Algorithm {
 /// near every sample: 20-120 s a frame), not a kernel.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Cells {
-    /// N culls each texel (`<n, vc> > 0`, the kernel's ramp), as Algorithm 1; without it every lit
-    /// texel counts, as an isotropic voxel's light does.
-    pub cull: bool,
+    /// How N culls.
+    pub cull: Cull,
     /// Spread each texel over the cells its surface crosses: k x k sub-rays through the texel, each
     /// meeting the plane through its point with its normal (k from the surface's width over the
     /// cell, at most 16); without it a texel's whole surface lands in the cell of its centre's
     /// point (a texel seen at grazing light covers a long strip).
     pub spread: bool,
+}
+
+/// How [`Cells`] applies N = `<n, vc>` (the kernel's ramp: full weight from `CULL_RAMP` up).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Cull {
+    /// Per texel, as Algorithm 1 per layer.
+    Texel,
+    /// Per cell, by the mean normal of its texels (area-weighted): what a table of lit cells that
+    /// keeps one normal per cell can do.
+    Cell,
+    /// Not at all: every lit texel counts, as an isotropic voxel's light does.
+    None,
 }
 
 /// [`Cells`] at `x`, pyramid level `lf` (clamped and blended between two levels as the occlusion
@@ -161,7 +172,7 @@ fn cells_level(
     // The trilinear read's 8 cells: base + {0, 1}^3, as cone_trace's trilinear_level.
     let q = (x - origin) / s - Vec3::splat(0.5);
     let base = q.floor();
-    let (mut area, mut rad) = ([0.0f32; 8], [Vec3::ZERO; 8]);
+    let (mut area, mut rad, mut nsum) = ([0.0f32; 8], [Vec3::ZERO; 8], [Vec3::ZERO; 8]);
     for (rsm, v) in rsms.iter().zip(views) {
         let Some((nx, ny, zv)) = v.project(x) else {
             continue;
@@ -214,7 +225,11 @@ fn cells_level(
                     continue;
                 }
                 let normal = Vec3::from_slice(&n[..3]);
-                let big_n = if c.cull { normal.dot(vc) } else { 1.0 };
+                let big_n = if c.cull == Cull::Texel {
+                    normal.dot(vc)
+                } else {
+                    1.0
+                };
                 if !(big_n > 0.0) {
                     continue;
                 }
@@ -234,12 +249,7 @@ fn cells_level(
                         1.0 / dir.length(),
                     )
                 };
-                let surface = plane * cos / n[3].max(1e-3)
-                    * if c.cull {
-                        (big_n / CULL_RAMP).min(1.0)
-                    } else {
-                        1.0
-                    };
+                let surface = plane * cos / n[3].max(1e-3) * (big_n / CULL_RAMP).min(1.0);
                 let k = if c.spread {
                     ((2.0 * plane.sqrt() / n[3].max(1e-3) / s).ceil() as usize).clamp(1, 16)
                 } else {
@@ -269,6 +279,7 @@ fn cells_level(
                         let idx = o.x as usize | (o.y as usize) << 1 | (o.z as usize) << 2;
                         area[idx] += part;
                         rad[idx] += Vec3::new(rr[0], rr[1], rr[2]) * part;
+                        nsum[idx] += normal * part;
                     }
                 }
             }
@@ -283,8 +294,12 @@ fn cells_level(
         let w = (0..3)
             .map(|k| if idx >> k & 1 == 1 { t[k] } else { 1.0 - t[k] })
             .product::<f32>();
+        let n_w = match c.cull {
+            Cull::Cell => (nsum[idx].dot(vc) / a / CULL_RAMP).clamp(0.0, 1.0),
+            _ => 1.0,
+        };
         let cov = (a / (s * s)).min(1.0);
-        out += (r / a * cov).extend(cov) * w;
+        out += (r / a * cov).extend(cov) * w * n_w;
     }
     out
 }
@@ -911,21 +926,25 @@ pub fn rows() -> Vec<(&'static str, Swap)> {
         ),
         (
             "the light views' texels in the occlusion cells, N culls",
-            s(Surface, lrsm(in_cells(true, true))),
+            s(Surface, lrsm(in_cells(Cull::Texel, true))),
         ),
         (
             "the light views' texels in the occlusion cells, isotropic (no N)",
-            s(Surface, lrsm(in_cells(false, true))),
+            s(Surface, lrsm(in_cells(Cull::None, true))),
         ),
         (
             "the light views' texels, each at its centre's point, in the occlusion cells, N culls",
-            s(Surface, lrsm(in_cells(true, false))),
+            s(Surface, lrsm(in_cells(Cull::Texel, false))),
+        ),
+        (
+            "the light views' texels in the occlusion cells, N culls each cell by its mean normal",
+            s(Surface, lrsm(in_cells(Cull::Cell, true))),
         ),
     ]
 }
 
 /// The [`Cells`] rows' Algorithm: read premultiplied.
-fn in_cells(cull: bool, spread: bool) -> Algorithm {
+fn in_cells(cull: Cull, spread: bool) -> Algorithm {
     Algorithm {
         premultiplied: true,
         cells: Some(Cells { cull, spread }),
@@ -1042,7 +1061,7 @@ mod tests {
     fn the_occlusion_cells_hold_the_light_where_their_surface_is() {
         let (rsm, view, p) = sun_on_a_plane();
         let lit = Cells {
-            cull: true,
+            cull: Cull::Texel,
             spread: true,
         };
         let at = |x: Vec3, vc: Vec3, c: Cells| {
@@ -1059,7 +1078,17 @@ mod tests {
         assert_eq!(at(centre + Vec3::Z / 4.0, Vec3::Z, lit).1, 0.0);
         // Seen from behind, N culls it, unless isotropic.
         assert_eq!(at(centre, -Vec3::Z, lit).1, 0.0);
-        let iso = Cells { cull: false, ..lit };
+        let iso = Cells {
+            cull: Cull::None,
+            ..lit
+        };
         assert_eq!(at(centre, -Vec3::Z, iso), (Vec3::splat(2.0), 1.0));
+        // By the cell's mean normal: the same here, one surface a cell.
+        let cell = Cells {
+            cull: Cull::Cell,
+            ..lit
+        };
+        assert_eq!(at(centre, Vec3::Z, cell), (Vec3::splat(2.0), 1.0));
+        assert_eq!(at(centre, -Vec3::Z, cell).1, 0.0);
     }
 }
