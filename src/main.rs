@@ -132,6 +132,11 @@ enum Command {
         /// with a render, the voxels'.
         #[arg(long, value_name = "RAYS")]
         ideal_cones: Option<u32>,
+        /// With --ideal-cones: the cone set this pipeline's frame traces, its quality preset
+        /// resolved as `vxgi render --pipeline` resolves it (`balanced` narrows the cone tracers'
+        /// cones). Without it, the `[render]` keys as the scene file and the flags give them.
+        #[arg(long, value_enum, requires = "ideal_cones")]
+        pipeline: Option<Pipeline>,
         #[arg(long, default_value = "reference")]
         out: PathBuf,
         #[command(flatten)]
@@ -748,14 +753,24 @@ fn run_render(
 fn run_reference(
     scene: Option<PathBuf>,
     opts: vxgi::reference::ReferenceOptions,
-    ideal_cones: Option<u32>,
+    ideal_cones: Option<(u32, Option<Pipeline>)>,
     out: PathBuf,
     flags: RenderFlags,
 ) -> Result<()> {
-    let scene = load_scene(&scene, &flags)?;
-    if scene.render.quality != vxgi::quality::Quality::Balanced {
-        bail!("the reference renders the scene's light transport: a quality preset (--quality or [render] quality) applies to a pipeline's frame, not to it");
+    let mut scene = load_scene(&scene, &flags)?;
+    match ideal_cones {
+        // The ideal cones of a pipeline's cone set: its preset resolved, as its frame's.
+        Some((_, Some(pipeline))) => {
+            scene = vxgi::quality::resolved(&scene, pipeline)
+                .map_err(anyhow::Error::msg)?
+                .0;
+        }
+        _ if scene.render.quality != vxgi::quality::Quality::Balanced => {
+            bail!("the reference renders the scene's light transport: a quality preset (--quality or [render] quality) applies to a pipeline's frame, not to it (with --ideal-cones, --pipeline P takes P's cone set under the preset)");
+        }
+        _ => {}
     }
+    let ideal_cones = ideal_cones.map(|(rays, _)| rays);
     if opts.spp == 0 {
         bail!("--spp must be at least 1");
     }
@@ -789,9 +804,12 @@ fn run_reference(
     )?;
     let indirect = match ideal_cones {
         Some(rays) => format!(
-            "; indirect from {} ideal cones of {} deg, {} rays each",
+            "; indirect from {} ideal cones of {} deg ({} a pixel, {}x{} interleaved), {} rays each",
             vxgi::reference::cone_set(&scene.render).0.len(),
             scene.render.cone_half_angle,
+            scene.render.cones,
+            scene.render.cone_interleave,
+            scene.render.cone_interleave,
             vxgi::reference::ideal_cone_strata(rays).pow(2)
         ),
         None => String::new(),
@@ -1128,6 +1146,7 @@ fn real_main() -> Result<()> {
             seed,
             no_jitter,
             ideal_cones,
+            pipeline,
             out,
             render,
         } => run_reference(
@@ -1139,7 +1158,7 @@ fn real_main() -> Result<()> {
                 // Ideal cones replace the Monte Carlo indirect image: no paths for it.
                 indirect: ideal_cones.is_none(),
             },
-            ideal_cones,
+            ideal_cones.map(|rays| (rays, pipeline)),
             out,
             render,
         ),

@@ -371,9 +371,47 @@ fn render_reference_and_compare_commands() {
 {err}"
     );
     assert!(
-        out.contains("12 ideal cones of 30 deg, 9 rays each"),
+        out.contains("12 ideal cones of 30 deg (12 a pixel, 1x1 interleaved), 9 rays each"),
         "{out}"
     );
+    // With --pipeline, the cone set that pipeline's frame traces: `balanced` (the default preset)
+    // narrows vct-dense's to two 5-degree cones a pixel of an 8 x 8 pattern; cprc keeps the keys'.
+    for (pipeline, set) in [
+        (
+            "vct-dense",
+            "128 ideal cones of 5 deg (2 a pixel, 8x8 interleaved)",
+        ),
+        (
+            "cprc",
+            "5 ideal cones of 30 deg (5 a pixel, 1x1 interleaved)",
+        ),
+    ] {
+        let (code, out, err) = vxgi(&[
+            "reference",
+            &scene,
+            "--spp",
+            "1",
+            "--ideal-cones",
+            "1",
+            "--pipeline",
+            pipeline,
+            "--out",
+            &s(&dir.join("ideal-pipeline")),
+        ]);
+        assert_eq!(code, 0, "{out}\n{err}");
+        assert!(out.contains(set), "{pipeline}: {out}");
+    }
+    // --pipeline names the cone set of --ideal-cones: alone it is a usage error.
+    let (code, _, err) = vxgi(&[
+        "reference",
+        &scene,
+        "--pipeline",
+        "lrsm",
+        "--out",
+        &s(&dir.join("ideal-pipeline")),
+    ]);
+    assert_ne!(code, 0);
+    assert!(err.contains("--ideal-cones"), "{err}");
     let indirect = read_exr(&ideal_dir.join("indirect.exr")).unwrap();
     assert!(indirect.first_non_finite().is_none());
     assert!(indirect.pixels.iter().any(|p| p[1] > 0.0));
