@@ -16,7 +16,9 @@
 use crate::kernels::cone_trace::Pyramids;
 use crate::lrsm::Rsm;
 use glam::{Vec3, Vec4};
-use vxgi_cpu_mirror::cone_trace::{quadrilinear, ConeParams, Pyramid, SampleError, Volume};
+use vxgi_cpu_mirror::cone_trace::{
+    quadrilinear, trilinear_level, ConeParams, GridPoint, Pyramid, SampleError, Volume,
+};
 use vxgi_cpu_mirror::gaussian_depth_visibility::{normal_cdf, visibility, Cdf, VisibilityParams};
 use vxgi_cpu_mirror::layer_decay::layer_decay;
 use vxgi_cpu_mirror::lrsm_cone_trace::{disc_share, LrsmVolume};
@@ -169,9 +171,9 @@ fn cells_level(
     let s = p.origin[3] * (1u32 << l) as f32;
     let origin = Vec3::new(p.origin[0], p.origin[1], p.origin[2]);
     let last = Vec3::splat(((p.side >> l) - 1) as f32);
-    // The trilinear read's 8 cells: base + {0, 1}^3, as cone_trace's trilinear_level.
-    let q = (x - origin) / s - Vec3::splat(0.5);
-    let base = q.floor();
+    // The trilinear read's 8 cells, base + {0, 1}^3, where the occlusion read finds them.
+    let i0 = GridPoint::new(p, x, l).i0;
+    let base = Vec3::new(i0[0] as f32, i0[1] as f32, i0[2] as f32);
     let (mut area, mut rad, mut nsum) = ([0.0f32; 8], [Vec3::ZERO; 8], [Vec3::ZERO; 8]);
     for (rsm, v) in rsms.iter().zip(views) {
         let Some((nx, ny, zv)) = v.project(x) else {
@@ -285,23 +287,25 @@ fn cells_level(
             }
         }
     }
-    let t = q - base;
-    let mut out = Vec4::ZERO;
-    for (idx, (&a, &r)) in area.iter().zip(&rad).enumerate() {
-        if !(a > 0.0) {
-            continue;
-        }
-        let w = (0..3)
-            .map(|k| if idx >> k & 1 == 1 { t[k] } else { 1.0 - t[k] })
-            .product::<f32>();
-        let n_w = match c.cull {
-            Cull::Cell => (nsum[idx].dot(vc) / a / CULL_RAMP).clamp(0.0, 1.0),
-            _ => 1.0,
-        };
-        let cov = (a / (s * s)).min(1.0);
-        out += (r / a * cov).extend(cov) * w * n_w;
-    }
-    out
+    // Each cell's (premultiplied rgb, coverage), read with the occlusion read's own weights.
+    let cells: Vec<(usize, Vec4)> = (0..8)
+        .filter(|&idx| area[idx] > 0.0)
+        .map(|idx| {
+            let a = area[idx];
+            let n_w = match c.cull {
+                Cull::Cell => (nsum[idx].dot(vc) / a / CULL_RAMP).clamp(0.0, 1.0),
+                _ => 1.0,
+            };
+            let cov = (a / (s * s)).min(1.0);
+            let cell = [0, 1, 2].map(|k| (i0[k] + (idx >> k & 1) as i32) as u32);
+            let m = vxgi_cpu_mirror::morton::encode(cell[0], cell[1], cell[2]) as usize;
+            (m, (rad[idx] / a * cov).extend(cov) * n_w)
+        })
+        .collect();
+    trilinear_level(p, x, l, |m| {
+        cells.iter().find(|c| c.0 == m).map_or(Vec4::ZERO, |c| c.1)
+    })
+    .0
 }
 
 /// What the exact footprint sums over the texels inside the sample's disc whose depth lies in the
