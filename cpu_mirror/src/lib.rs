@@ -23,6 +23,7 @@ pub mod gaussian_depth_visibility;
 pub mod gbuffer;
 pub mod histogram_axes;
 pub mod layer_decay;
+pub mod lit_cells;
 pub mod lrsm_cone_trace;
 pub mod lrsm_partition;
 pub mod lrsm_prefilter;

@@ -46,6 +46,7 @@ pub mod gaussian_depth_visibility;
 pub mod gbuffer;
 pub mod histogram_axes;
 pub mod layer_decay;
+pub mod lit_cells;
 pub mod lrsm_cone_trace;
 pub mod lrsm_partition;
 pub mod lrsm_prefilter;
@@ -325,6 +326,7 @@ pub fn all() -> Vec<&'static dyn Kernel> {
         &lrsm_prefilter::LrsmPrefilter,
         &occlusion_voxels::OcclusionVoxels,
         &sample_lrsm::SampleLrsm,
+        &lit_cells::LitCells,
         &reflective_shadow_map::ReflectiveShadowMap,
         &tile_normal_histogram::TileNormalHistogram,
         &histogram_axes::HistogramAxes,

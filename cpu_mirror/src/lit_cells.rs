@@ -1,0 +1,428 @@
+//! Mirror of `kernels/lit_cells.wgsl`: the light views' lit RSM texels in the occlusion pyramid's
+//! own cells (lrsm's light where its occlusion is; docs/accuracy/lrsm.md, "The light in the
+//! occlusion cells").
+//!
+//! A cell holds two vec4 of sums over the lit surface that lands in it: `(sum a r, sum a g, sum a
+//! b, sum a)` and `(sum a n.x, sum a n.y, sum a n.z, 0)`, `a` each piece's area in level-0 faces
+//! (`s0^2`), `rgb` its RSM radiance, `n` its normal. Level 0 is injected ([`inject`]), each level
+//! above sums its 8 children ([`reduce`]); the gather reads a cell as [`cell_light`].
+//!
+//! Bound (level 0, per float): each piece's own arithmetic (64 ULP of it: the texel's depth,
+//! image area, cosine, `<n, l>` and `k^2` divisions, two square roots, the products), the float
+//! sum in an order the GPU chooses (`count` ULP of the summed magnitudes), and every piece whose
+//! cell the rounding of its point may change (its point within its error of a cell's face), whose
+//! sub-ray count `k` rounding may change (`2 sqrt(plane) / <n, l> / s0` within its error of an
+//! integer: the texel's pieces for both counts) or whose plane test may go either way: its whole
+//! magnitude in every cell it may land in. Levels above: the children's bounds plus 8 ULP of their
+//! summed magnitudes.
+use crate::morton;
+use crate::reflective_shadow_map::GpuView;
+use glam::{Vec3, Vec4};
+
+/// Most sub-rays across a texel (per axis).
+pub const MAX_SPREAD: u32 = 16;
+/// `|<n, d>|` at or below which a sub-ray is taken as parallel to its texel's plane (it takes the
+/// texel's own depth instead).
+pub const PARALLEL: f32 = 1e-6;
+/// Floor of `<n, l>` (an edge-on texel's area stays finite).
+pub const MIN_NDOTL: f32 = 1e-3;
+/// With N as a cull, its factor ramps from 0 to 1 over N in [0, CULL_RAMP] (common/lrsm_sample.wgsl's
+/// `LRSM_CULL_RAMP`, the same ramp per cell by its mean normal).
+pub const CULL_RAMP: f32 = 0.031_25;
+
+/// The voxel grid the cells are the level-0 cells of (the WGSL `LitGrid`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct LitGrid {
+    /// xyz the grid's low corner, w = s0 (a level-0 cell's side).
+    pub origin: [f32; 4],
+    /// x = side (cells per axis at level 0); yzw unused.
+    pub size: [u32; 4],
+}
+
+/// One light view's RSM as the kernel binds it (2D Morton order).
+#[derive(Clone, Copy)]
+pub struct RsmRef<'a> {
+    pub side: u32,
+    pub radiance: &'a [[f32; 4]],
+    pub normal: &'a [[f32; 4]],
+    pub depth: &'a [f32],
+}
+
+/// One piece of a texel's surface: where it lands (its candidate cells: the nominal first) and its
+/// eight sums.
+struct Piece {
+    cells: Vec<u32>,
+    sums: [f32; 8],
+}
+
+/// The texel's image quantities (the kernel's `texel_frame`), in its operation order.
+struct TexelFrame {
+    pt: Vec3,
+    plane: f32,
+    cosv: f32,
+    /// Error of `pt` (world units).
+    d_pt: f32,
+}
+
+fn v3(a: [f32; 4]) -> Vec3 {
+    Vec3::new(a[0], a[1], a[2])
+}
+
+fn dot(a: Vec3, b: Vec3) -> f32 {
+    (a.x * b.x + a.y * b.y) + a.z * b.z
+}
+
+/// `rn`, `un`: right and up over their squared lengths (an image offset `a` moves a ray by `rn a`).
+fn axes(v: &GpuView) -> (Vec3, Vec3, f32) {
+    let (r, u) = (v3(v.right), v3(v.up));
+    let (r2, u2) = (dot(r, r), dot(u, u));
+    (r * (1.0 / r2), u * (1.0 / u2), (r2 * u2).sqrt())
+}
+
+/// Ray origin and direction through image point (a, b).
+fn ray(v: &GpuView, rn: Vec3, un: Vec3, a: f32, b: f32) -> (Vec3, Vec3) {
+    let (eye, f) = (v3(v.eye), v3(v.forward));
+    if v.orthographic() {
+        (eye + rn * a + un * b, f)
+    } else {
+        (eye, f + rn * a + un * b)
+    }
+}
+
+fn texel_frame(v: &GpuView, rsm: RsmRef, m: usize) -> TexelFrame {
+    let u = f32::EPSILON;
+    let [tx, ty] = morton::decode2(m as u32);
+    let texel = 2.0 / rsm.side as f32;
+    let a = (tx as f32 + 0.5) * texel - 1.0;
+    let b = 1.0 - (ty as f32 + 0.5) * texel;
+    let z = rsm.depth[m] / v.forward[3] + v.eye[3];
+    let (rn, un, rl_ul) = axes(v);
+    let (o, dir) = ray(v, rn, un, a, b);
+    let (plane, cosv) = if v.orthographic() {
+        ((texel * texel) / rl_ul, 1.0)
+    } else {
+        (
+            ((texel * texel) * (z * z)) / rl_ul,
+            1.0 / dot(dir, dir).sqrt(),
+        )
+    };
+    let pt = o + dir * z;
+    let d_pt = 16.0 * u * (o.abs().max_element() + dir.abs().max_element() * z.abs());
+    TexelFrame {
+        pt,
+        plane,
+        cosv,
+        d_pt,
+    }
+}
+
+/// The cells a point within `dp` (world units) of `p` may land in (clamped into the grid as
+/// voxelize clamps): the nominal cell first.
+fn candidate_cells(g: &LitGrid, p: Vec3, dp: f32) -> Vec<u32> {
+    let u = f32::EPSILON;
+    let s0 = g.origin[3];
+    let inv = 1.0 / s0;
+    let last = (g.size[0] - 1) as f32;
+    let q = (p - v3(g.origin)) * inv;
+    let dq = dp * inv + 8.0 * u * (q.abs().max_element() + 1.0);
+    let cell = |q: f32| q.floor().clamp(0.0, last) as u32;
+    let per_axis: Vec<Vec<u32>> = (0..3)
+        .map(|k| {
+            let mut c = vec![cell(q[k])];
+            for e in [q[k] - dq, q[k] + dq] {
+                let o = cell(e);
+                if !c.contains(&o) {
+                    c.push(o);
+                }
+            }
+            c
+        })
+        .collect();
+    let mut out = Vec::new();
+    for &x in &per_axis[0] {
+        for &y in &per_axis[1] {
+            for &z in &per_axis[2] {
+                out.push(morton::encode(x, y, z));
+            }
+        }
+    }
+    out
+}
+
+/// The sub-ray count across texel `m` by the kernel's rule, and the other count its rounding may
+/// give (None when it cannot differ).
+fn spread(plane: f32, ndl: f32, s0: f32) -> (u32, Option<u32>) {
+    let kf = 2.0 * plane.sqrt() / ndl / s0;
+    let k = |kf: f32| kf.ceil().clamp(1.0, MAX_SPREAD as f32) as u32;
+    let e = 32.0 * f32::EPSILON * kf.abs();
+    let (lo, hi) = (k(kf - e), k(kf + e));
+    let nominal = k(kf);
+    let other = [lo, hi].into_iter().find(|&o| o != nominal);
+    (nominal, other)
+}
+
+/// Texel `m`'s pieces with `k` sub-rays per axis.
+fn pieces(g: &LitGrid, v: &GpuView, rsm: RsmRef, m: usize, k: u32) -> Vec<Piece> {
+    let u = f32::EPSILON;
+    let rr = rsm.radiance[m];
+    let nrm = rsm.normal[m];
+    let n = v3(nrm);
+    let ndl = nrm[3].max(MIN_NDOTL);
+    let t = texel_frame(v, rsm, m);
+    let s0 = g.origin[3];
+    let surface = t.plane * t.cosv / ndl;
+    let part = surface / (k * k) as f32 * (1.0 / (s0 * s0));
+    let sums = [
+        rr[0] * part,
+        rr[1] * part,
+        rr[2] * part,
+        part,
+        n.x * part,
+        n.y * part,
+        n.z * part,
+        0.0,
+    ];
+    let texel = 2.0 / rsm.side as f32;
+    let [tx, ty] = morton::decode2(m as u32);
+    let a = (tx as f32 + 0.5) * texel - 1.0;
+    let b = 1.0 - (ty as f32 + 0.5) * texel;
+    let (rn, un, _) = axes(v);
+    let z = rsm.depth[m] / v.forward[3] + v.eye[3];
+    let mut out = Vec::new();
+    for j in 0..k {
+        for i in 0..k {
+            if k == 1 {
+                out.push(Piece {
+                    cells: candidate_cells(g, t.pt, t.d_pt),
+                    sums,
+                });
+                continue;
+            }
+            let kf = k as f32;
+            let sa = a + ((i as f32 + 0.5) / kf - 0.5) * texel;
+            let sb = b - ((j as f32 + 0.5) / kf - 0.5) * texel;
+            let (o2, d2) = ray(v, rn, un, sa, sb);
+            let den = dot(n, d2);
+            let d_den = 8.0 * u * d2.abs().max_element();
+            let at_depth = o2 + d2 * z;
+            let d_depth =
+                t.d_pt + 8.0 * u * (o2.abs().max_element() + d2.abs().max_element() * z.abs());
+            let on_plane = |den: f32| {
+                let tt = dot(n, t.pt - o2) / den;
+                let p = o2 + d2 * tt;
+                let rel = d2.abs().max_element() / den.abs();
+                let dp = rel
+                    * (t.d_pt + 8.0 * u * (t.pt.abs().max_element() + o2.abs().max_element()))
+                    + 16.0
+                        * u
+                        * (o2.abs().max_element() + d2.abs().max_element() * tt.abs())
+                        * (1.0 + rel * d2.abs().max_element());
+                (p, dp)
+            };
+            let mut cells;
+            if den.abs() > PARALLEL {
+                let (p, dp) = on_plane(den);
+                cells = candidate_cells(g, p, dp);
+            } else {
+                cells = candidate_cells(g, at_depth, d_depth);
+            }
+            // The plane test within its error of its threshold: either point.
+            if (den.abs() - PARALLEL).abs() <= d_den {
+                let alt = if den.abs() > PARALLEL {
+                    candidate_cells(g, at_depth, d_depth)
+                } else {
+                    let den2 = if den >= 0.0 {
+                        PARALLEL * 2.0
+                    } else {
+                        -PARALLEL * 2.0
+                    };
+                    let (p, dp) = on_plane(den2);
+                    // The GPU's den may be just past the threshold: its point is anywhere along the
+                    // sub-ray past the plane's reach; every cell is possible.
+                    let _ = (p, dp);
+                    (0..g.size[0].pow(3)).collect()
+                };
+                for c in alt {
+                    if !cells.contains(&c) {
+                        cells.push(c);
+                    }
+                }
+            }
+            out.push(Piece { cells, sums });
+        }
+    }
+    out
+}
+
+/// Level 0 of the lit cells (8 floats a cell, `side^3` cells in Morton order) from every light
+/// view's RSM (`views[i]` with `rsms[i]`), pieces added texel by texel in Morton order, view by
+/// view; and the per-float bound (see the module doc).
+pub fn inject(g: &LitGrid, views: &[GpuView], rsms: &[RsmRef]) -> (Vec<f32>, Vec<f32>) {
+    let u = f32::EPSILON;
+    let cells = (g.size[0] as usize).pow(3);
+    let mut sums = vec![0.0f32; cells * 8];
+    let mut mag = vec![0.0f32; cells * 8];
+    let mut count = vec![0u32; cells];
+    let mut loose = vec![0.0f32; cells * 8];
+    for (v, rsm) in views.iter().zip(rsms) {
+        for m in 0..(rsm.side as usize).pow(2) {
+            // Unlit texels (and NaN flags) are skipped, as the WGSL's negated test skips them.
+            #[allow(clippy::neg_cmp_op_on_partial_ord)]
+            if !(rsm.radiance[m][3] > 0.5) {
+                continue;
+            }
+            let t = texel_frame(v, *rsm, m);
+            let ndl = rsm.normal[m][3].max(MIN_NDOTL);
+            let (k, other) = spread(t.plane, ndl, g.origin[3]);
+            for p in pieces(g, v, *rsm, m, k) {
+                let c = p.cells[0] as usize;
+                count[c] += 1;
+                for f in 0..8 {
+                    sums[c * 8 + f] += p.sums[f];
+                    mag[c * 8 + f] += p.sums[f].abs();
+                }
+                if p.cells.len() > 1 {
+                    for &o in &p.cells {
+                        for f in 0..8 {
+                            loose[o as usize * 8 + f] += p.sums[f].abs();
+                        }
+                    }
+                }
+            }
+            if let Some(k2) = other {
+                // The other count's pieces may land anywhere its sub-rays do; the nominal ones may
+                // be missing: both in full.
+                for p in pieces(g, v, *rsm, m, k)
+                    .into_iter()
+                    .chain(pieces(g, v, *rsm, m, k2))
+                {
+                    for &o in &p.cells {
+                        for f in 0..8 {
+                            loose[o as usize * 8 + f] += p.sums[f].abs();
+                        }
+                    }
+                }
+            }
+        }
+    }
+    let bound = (0..cells * 8)
+        .map(|i| mag[i] * (64.0 + count[i / 8] as f32) * u + loose[i])
+        .collect();
+    (sums, bound)
+}
+
+/// Level `l + 1` from level `l` (`child`: 8 floats a cell, Morton order): each float the sum of the
+/// 8 children's, in child order; and its bound from the children's.
+pub fn reduce(child: &[f32], child_bound: &[f32]) -> (Vec<f32>, Vec<f32>) {
+    let cells = child.len() / 64;
+    let mut out = vec![0.0f32; cells * 8];
+    let mut bound = vec![0.0f32; cells * 8];
+    for c in 0..cells {
+        for f in 0..8 {
+            let (mut s, mut m, mut b) = (0.0f32, 0.0f32, 0.0f32);
+            for k in 0..8 {
+                let i = (8 * c + k) * 8 + f;
+                s += child[i];
+                m += child[i].abs();
+                b += child_bound[i];
+            }
+            out[c * 8 + f] = s;
+            bound[c * 8 + f] = b + 8.0 * f32::EPSILON * m;
+        }
+    }
+    (out, bound)
+}
+
+/// Every level (level 0 first) and their bounds.
+pub fn pyramid(g: &LitGrid, views: &[GpuView], rsms: &[RsmRef]) -> (Vec<Vec<f32>>, Vec<Vec<f32>>) {
+    let (l0, b0) = inject(g, views, rsms);
+    let (mut levels, mut bounds) = (vec![l0], vec![b0]);
+    while levels.last().unwrap().len() > 8 {
+        let (l, b) = reduce(levels.last().unwrap(), bounds.last().unwrap());
+        levels.push(l);
+        bounds.push(b);
+    }
+    (levels, bounds)
+}
+
+/// What the gather reads of one cell at level `l` for cone direction `d` (the view sample's
+/// direction vc = -d): its mean radiance times its coverage `min(1, area / face)` (`face` = 4^l
+/// level-0 faces), times the cull by its mean normal `clamp(<sum a n, vc> / sum a / CULL_RAMP, 0,
+/// 1)`; zero where no surface is. `c`: the cell's 8 floats. In the kernel's operation order.
+pub fn cell_light(c: &[f32], l: u32, vc: Vec3) -> Vec4 {
+    let area = c[3];
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
+    if !(area > 0.0) {
+        return Vec4::ZERO;
+    }
+    let inv = 1.0 / area;
+    let cov = (area * (1.0 / (1u32 << (2 * l)) as f32)).min(1.0);
+    let nw = ((c[4] * vc.x + c[5] * vc.y + c[6] * vc.z) * inv * (1.0 / CULL_RAMP)).clamp(0.0, 1.0);
+    let w = (inv * cov) * nw;
+    Vec4::new(c[0] * w, c[1] * w, c[2] * w, 0.0)
+}
+
+/// Bound on [`cell_light`]'s rgb (largest channel) from its arithmetic (16 ULP) and the direction's
+/// error (vc a few ULP off: N's ramp moves by 1e-4 of the unculled light at most).
+pub fn cell_light_bound(c: &[f32], l: u32) -> f32 {
+    let area = c[3];
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
+    if !(area > 0.0) {
+        return 0.0;
+    }
+    let cov = (area / (1u32 << (2 * l)) as f32).min(1.0);
+    let full = c[0].abs().max(c[1].abs()).max(c[2].abs()) / area * cov;
+    full * (16.0 * f32::EPSILON + 1e-4)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// One orthographic view straight down onto a floor at y = 0, every texel lit: the floor's
+    /// whole lit surface lands in the cells the floor lies in, each with its area over s0^2.
+    #[test]
+    fn a_floor_seen_from_above_fills_its_cells_with_its_area() {
+        let side = 8u32;
+        let g = LitGrid {
+            origin: [0.0, 0.0, 0.0, 0.25],
+            size: [side, 0, 0, 0],
+        };
+        // Orthographic over x, z in [0, 2], looking down -y from y = 3, near 0, far 4.
+        let v = GpuView {
+            eye: [1.0, 3.0, 1.0, 0.0],
+            forward: [0.0, -1.0, 0.0, 0.25],
+            right: [1.0, 0.0, 0.0, 4.0],
+            up: [0.0, 0.0, -1.0, 0.0],
+            info: [16, 0, 0, 1],
+        };
+        let n = 16usize * 16;
+        let radiance = vec![[0.5, 0.25, 1.0, 1.0]; n];
+        let normal = vec![[0.0, 1.0, 0.0, 1.0]; n];
+        let depth = vec![0.75; n]; // axis depth 3: y = 0
+        let rsm = RsmRef {
+            side: 16,
+            radiance: &radiance,
+            normal: &normal,
+            depth: &depth,
+        };
+        let (levels, _) = pyramid(&g, &[v], &[rsm]);
+        // The floor's 2 x 2 area is 64 level-0 faces of 0.25^2, spread over the 8 x 8 bottom cells.
+        let top = levels.last().unwrap();
+        assert!((top[3] - 64.0).abs() < 1e-3, "{}", top[3]);
+        assert!((top[0] - 32.0).abs() < 1e-3 && (top[5] - 64.0).abs() < 1e-3);
+        let floor_cell = morton::encode(3, 0, 5) as usize;
+        assert!((levels[0][floor_cell * 8 + 3] - 1.0).abs() < 1e-5);
+        let above = morton::encode(3, 1, 5) as usize;
+        assert_eq!(levels[0][above * 8 + 3], 0.0);
+        // Read from above: its mean radiance, fully covered; from below: culled.
+        let lit = cell_light(&levels[0][floor_cell * 8..floor_cell * 8 + 8], 0, Vec3::Y);
+        assert!(
+            (lit - Vec4::new(0.5, 0.25, 1.0, 0.0)).length() < 1e-5,
+            "{lit}"
+        );
+        let back = cell_light(&levels[0][floor_cell * 8..floor_cell * 8 + 8], 0, -Vec3::Y);
+        assert_eq!(back, Vec4::ZERO);
+    }
+}

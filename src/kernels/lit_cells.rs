@@ -1,0 +1,327 @@
+//! Declaration of `kernels/lit_cells.wgsl` (mirror: `vxgi_cpu_mirror::lit_cells`): the light views'
+//! lit RSM texels in the occlusion pyramid's own cells, where lrsm's gather reads a sample's light.
+//! Level 0 cleared, then injected view by view (each view's RSM as `reflective_shadow_map` wrote
+//! it), then each level above reduced from the one below. Verified level by level: level 0 from
+//! the case's RSMs, level k from the GPU's level k - 1.
+use super::voxelize::VoxelFrame;
+use crate::lrsm::Rsm;
+use std::collections::BTreeMap;
+use vxgi_cpu_mirror::lit_cells::{inject, reduce, LitGrid, RsmRef};
+use vxgi_cpu_mirror::reflective_shadow_map::GpuView;
+use vxgi_harness::bound_name;
+use vxgi_harness::prelude::*;
+use vxgi_harness::run::{Pass, View};
+
+pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
+    "lit_cells",
+    includes: &[super::reflective_shadow_map::LRSM_VIEW, super::MORTON],
+    entry: "inject",
+    inputs: &["grid", "view", "rsm_radiance", "rsm_normal", "rsm_depth", "src"],
+    // Level 0: float sums in an order the GPU chooses, each piece's arithmetic, and whole pieces
+    // whose cell the rounding may change, per float by the mirror; levels above: 8 adds of the
+    // GPU's level below (8 ULP of the summed magnitudes).
+    outputs: &[
+        Output {
+            binding: "cells",
+            tolerance: Tolerance::MirrorBound,
+        },
+        Output {
+            binding: "dst",
+            tolerance: Tolerance::MirrorBound,
+        },
+    ],
+    dispatch: DispatchRule::PerElement { binding: "rsm_depth" },
+    mirror: "vxgi_cpu_mirror::lit_cells::{inject, reduce}",
+    summary: "the light views' lit RSM texels in the occlusion pyramid's cells: per cell area-weighted radiance, area and normal sums (float compare-exchange adds), summed up the levels (lrsm's light where its occlusion is)",
+);
+
+/// Floats a cell holds (two vec4: area-weighted rgb and area, area-weighted normal and 0).
+pub const CELL_FLOATS: usize = 8;
+
+/// Host resource of level `l`.
+pub fn level_name(l: u32) -> String {
+    format!("lit_{l}")
+}
+
+/// Cells of level `l` of a grid of side `side`.
+pub fn level_cells(side: u32, l: u32) -> usize {
+    ((side >> l) as usize).pow(3)
+}
+
+/// The finest lit table a pipeline builds: 128^3 cells (64 MiB at level 0, 73 MiB with its levels,
+/// within WebGPU's default 128 MiB binding). A finer voxel grid's samples below it read it (their
+/// occlusion at the voxels' resolution, their light at this one's).
+pub const MAX_SIDE: u32 = 128;
+
+/// The lit table over a voxel grid: its cells those of the grid's occlusion level whose side is at
+/// most `max_side` (a power of two); and that level (the gather's `lit_base`).
+pub fn grid_of(frame: &VoxelFrame, max_side: u32) -> (LitGrid, u32) {
+    let side = frame.side.min(max_side.max(1));
+    let base = (frame.side / side).trailing_zeros();
+    let grid = LitGrid {
+        origin: [
+            frame.origin.x,
+            frame.origin.y,
+            frame.origin.z,
+            frame.voxel * (1u32 << base) as f32,
+        ],
+        size: [frame.side >> base, 0, 0, 0],
+    };
+    (grid, base)
+}
+
+/// Bytes of every level of a grid of side `side`.
+pub fn pyramid_bytes(side: u32) -> u64 {
+    (0..=side.trailing_zeros())
+        .map(|l| level_cells(side, l) as u64 * CELL_FLOATS as u64 * 4)
+        .sum()
+}
+
+/// The names an inject pass binds for one light view: its view and its RSM's three buffers.
+pub struct ViewNames {
+    pub view: String,
+    pub rsm: [String; 3],
+}
+
+fn buf(n: &str) -> View {
+    View::Buffer(n.to_string())
+}
+
+/// The pass that clears level 0 of a grid of side `side`.
+pub fn clear_pass(shader: &Shader, ctx: &GpuContext, side: u32) -> Pass {
+    let mut clear = DECL.pass(
+        shader,
+        ctx,
+        "clear level 0".into(),
+        vec![("cells".into(), buf(&level_name(0)))],
+        level_cells(side, 0) as u64,
+    );
+    clear.entry = "clear".into();
+    clear
+}
+
+/// The pass that injects light view `k` (`names`: what it reads; its RSM of side `rsm_side`).
+pub fn inject_pass(
+    shader: &Shader,
+    ctx: &GpuContext,
+    k: usize,
+    names: &ViewNames,
+    rsm_side: u32,
+) -> Pass {
+    DECL.pass(
+        shader,
+        ctx,
+        format!("inject light view {k}"),
+        vec![
+            ("grid".into(), buf("lit_grid")),
+            ("view".into(), buf(&names.view)),
+            ("rsm_radiance".into(), buf(&names.rsm[0])),
+            ("rsm_normal".into(), buf(&names.rsm[1])),
+            ("rsm_depth".into(), buf(&names.rsm[2])),
+            ("cells".into(), buf(&level_name(0))),
+        ],
+        (rsm_side as u64).pow(2),
+    )
+}
+
+/// The passes that reduce every level above 0 of a grid of side `side`.
+pub fn reduce_passes(shader: &Shader, ctx: &GpuContext, side: u32) -> Vec<Pass> {
+    let mut out = Vec::new();
+    for l in 1..=side.trailing_zeros() {
+        let mut pass = DECL.pass(
+            shader,
+            ctx,
+            format!("reduce level {l}"),
+            vec![
+                ("src".into(), buf(&level_name(l - 1))),
+                ("dst".into(), buf(&level_name(l))),
+            ],
+            level_cells(side, l) as u64,
+        );
+        pass.entry = "reduce".into();
+        out.push(pass);
+    }
+    out
+}
+
+/// The grid's resources: `lit_grid` and every level zeroed.
+pub fn resources(grid: &LitGrid) -> Resources {
+    let side = grid.size[0];
+    let mut r = Resources::from([("lit_grid".to_string(), HostBuffer::pod(grid).into())]);
+    for l in 0..=side.trailing_zeros() {
+        let n = level_cells(side, l) * CELL_FLOATS;
+        r.insert(
+            level_name(l),
+            HostBuffer::zeroed(n * 4, ScalarKind::F32).into(),
+        );
+    }
+    r
+}
+
+/// A verifiable case: `views` with their RSMs, each its own resources.
+pub fn case_for(
+    shader: &Shader,
+    ctx: &GpuContext,
+    grid: &LitGrid,
+    views: &[GpuView],
+    rsms: &[Rsm],
+    label: String,
+    seed: u64,
+) -> Case {
+    let side = grid.size[0];
+    let mut resources = resources(grid);
+    let mut names = Vec::new();
+    for (k, (v, rsm)) in views.iter().zip(rsms).enumerate() {
+        let n = ViewNames {
+            view: format!("view_{k}"),
+            rsm: ["radiance", "normal", "depth"].map(|s| format!("rsm_{s}_{k}")),
+        };
+        resources.insert(n.view.clone(), HostBuffer::pod(v).into());
+        resources.insert(
+            n.rsm[0].clone(),
+            HostBuffer::f32(bytemuck::cast_slice(&rsm.radiance)).into(),
+        );
+        resources.insert(
+            n.rsm[1].clone(),
+            HostBuffer::f32(bytemuck::cast_slice(&rsm.normal)).into(),
+        );
+        resources.insert(n.rsm[2].clone(), HostBuffer::f32(&rsm.depth).into());
+        names.push((n, rsm.side));
+    }
+    let mut passes = vec![clear_pass(shader, ctx, side)];
+    for (k, (n, rsm_side)) in names.iter().enumerate() {
+        passes.push(inject_pass(shader, ctx, k, n, *rsm_side));
+    }
+    passes.extend(reduce_passes(shader, ctx, side));
+    let mut checks = vec![Check {
+        resource: level_name(0),
+        ..Check::of("cells", Indexing::Linear)
+    }];
+    for l in 1..=side.trailing_zeros() {
+        checks.push(Check {
+            resource: level_name(l),
+            ..Check::of("dst", Indexing::Linear)
+        });
+    }
+    let texels: u64 = rsms.iter().map(|r| (r.side as u64).pow(2)).sum();
+    Case {
+        label,
+        seed,
+        resources,
+        passes,
+        checks,
+        effective_bytes: texels * 36 + pyramid_bytes(side) * 2,
+    }
+}
+
+fn rsm_refs(rsms: &[Rsm]) -> Vec<RsmRef<'_>> {
+    rsms.iter()
+        .map(|r| RsmRef {
+            side: r.side,
+            radiance: &r.radiance,
+            normal: &r.normal,
+            depth: &r.depth,
+        })
+        .collect()
+}
+
+/// Every level (level 0 first, 8 floats a cell) by the mirror.
+pub fn lit_mirror(grid: &LitGrid, views: &[GpuView], rsms: &[Rsm]) -> Vec<Vec<f32>> {
+    vxgi_cpu_mirror::lit_cells::pyramid(grid, views, &rsm_refs(rsms)).0
+}
+
+/// Every level (level 0 first) on the GPU.
+pub fn lit_on_gpu(
+    ctx: &GpuContext,
+    grid: &LitGrid,
+    views: &[GpuView],
+    rsms: &[Rsm],
+) -> anyhow::Result<Vec<Vec<f32>>> {
+    let shader = DECL.shader()?;
+    let case = case_for(&shader, ctx, grid, views, rsms, "lit cells".into(), 0);
+    let names: Vec<String> = (0..=grid.size[0].trailing_zeros())
+        .map(level_name)
+        .collect();
+    let refs: Vec<&str> = names.iter().map(String::as_str).collect();
+    let out = case.run(ctx, &shader, DECL.name, &refs)?;
+    Ok(names
+        .iter()
+        .map(|n| out.buffer(n).as_f32().to_vec())
+        .collect())
+}
+
+pub struct LitCells;
+
+impl Kernel for LitCells {
+    fn decl(&self) -> &'static KernelDecl {
+        &DECL
+    }
+
+    /// A generated scene's light views (one to three of them, RSM side 16..64) over a grid of side
+    /// 4..32 fitted to the scene's bounds.
+    fn case(&self, shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
+        use super::reflective_shadow_map::{case_views, rsm_mirror};
+        let (scene, label) = super::gbuffer::generated_scene(seed, index);
+        let data = crate::trace::SceneData::new(&scene);
+        let rsm_side = [16u32, 32, 64][index % 3];
+        let side = 4u32 << (index % 4);
+        let (_, all) = case_views(&data, rsm_side);
+        let count = 1 + index % 3.min(all.len());
+        let views: Vec<_> = all
+            .iter()
+            .cycle()
+            .skip(index)
+            .take(count.min(all.len()))
+            .collect();
+        let rsms: Vec<Rsm> = views.iter().map(|v| rsm_mirror(&data, v)).collect();
+        let (lo, hi) = data.bounds;
+        let extent = (hi - lo).max_element().max(1e-3);
+        let frame = VoxelFrame {
+            origin: lo,
+            voxel: extent / side as f32,
+            side,
+        };
+        let gpu_views: Vec<GpuView> = views.iter().map(|v| v.view).collect();
+        case_for(
+            shader,
+            ctx,
+            &grid_of(&frame, side).0,
+            &gpu_views,
+            &rsms,
+            format!("{label}, {count} light views of {rsm_side}^2 into {side}^3"),
+            seed,
+        )
+    }
+
+    /// Level 0 from the case's RSMs; level k from the GPU's level k - 1.
+    fn mirror(&self, case: &Case, data: &Resources, _mode: FloatMode) -> MirrorOutputs {
+        let f32s = |n: &str| data[n].buffer().expect("buffer").as_f32().to_vec();
+        let f4s = |n: &str| -> Vec<[f32; 4]> { bytemuck::cast_slice(&f32s(n)).to_vec() };
+        let grid: LitGrid = bytemuck::pod_read_unaligned(&data["lit_grid"].buffer().unwrap().bytes);
+        let mut views = Vec::new();
+        let mut rsms = Vec::new();
+        for k in 0.. {
+            let name = format!("view_{k}");
+            let Some(v) = data.get(&name) else { break };
+            let v: GpuView = bytemuck::pod_read_unaligned(&v.buffer().unwrap().bytes);
+            views.push(v);
+            rsms.push(Rsm {
+                side: v.info[0],
+                radiance: f4s(&format!("rsm_radiance_{k}")),
+                normal: f4s(&format!("rsm_normal_{k}")),
+                depth: f32s(&format!("rsm_depth_{k}")),
+            });
+        }
+        let (l0, b0) = inject(&grid, &views, &rsm_refs(&rsms));
+        let mut out = BTreeMap::new();
+        out.insert(level_name(0), HostBuffer::f32(&l0));
+        out.insert(bound_name(&level_name(0)), HostBuffer::f32(&b0));
+        for l in 1..case.checks.len() as u32 {
+            let below = f32s(&level_name(l - 1));
+            let (level, b) = reduce(&below, &vec![0.0; below.len()]);
+            out.insert(level_name(l), HostBuffer::f32(&level));
+            out.insert(bound_name(&level_name(l)), HostBuffer::f32(&b));
+        }
+        out
+    }
+}
