@@ -28,6 +28,12 @@
 //   trilinear taps then span about the disc, at log2(texels) about twice it), and L is already eq.
 //   1's premultiplied alpha_i L_i (the lit surface in the sample, its area from the light's image,
 //   projected along the cone by N, over the cone's cross-section): the march reads (L, alpha).
+// Lit cells (params.lit_cells = 1, the default `lrsm_lit_cells`; a deviation from Algorithm 1,
+//   docs/accuracy/lrsm.md): where alpha > 0 a sample's colour is the lit cells' (lit_cells.wgsl: the
+//   light views' lit texels in the occlusion pyramid's cells) read as alpha is read, at the same
+//   level, cells and trilinear weights: per cell its mean radiance times its coverage min(1, area /
+//   4^l level-0 faces) times N's ramp by its mean normal against vc = -d; premultiplied, as eq. 1's
+//   alpha_i L_i (the march reads (L, alpha)). No LRSM is read.
 // Shadow cones (entry `shadow`, the option `[render] shadow_cone_angle` > 0; the default direct light is
 // direct_light's exact rays): per G-buffer pixel, direct light as direct_light.wgsl computes it (same
 // incident light, BRDF and cut-offs) with each light's visibility V = 1 - A of one cone of half-angle
@@ -50,6 +56,9 @@
 @group(0) @binding(19) var<storage, read> lights: array<Light>;
 @group(0) @binding(20) var<storage, read> shadow_params: ShadowParams;
 @group(0) @binding(21) var<storage, read_write> soft_direct: array<vec4<f32>>;
+// The lit cells (lit_cells.wgsl), every level, two vec4 a cell; level l from cell lit_offsets[l].
+@group(0) @binding(23) var<storage, read> lit: array<vec4<f32>>;
+@group(0) @binding(24) var<storage, read> lit_offsets: array<u32>;
 
 struct ShadowParams {
     tan_half: f32,      // tan of the shadow cones' half-angle
@@ -99,11 +108,70 @@ fn disc_share(c: f32, r: f32) -> f32 {
     return min(max(span / (2.0 * r), 0.0), 1.0);
 }
 
-// The march's sample: occlusion from the voxels, radiance from the LRSMs (see the header).
+// A lit cell's light seen along vc at level l (mirror: lit_cells::cell_light): its mean radiance
+// times its coverage min(1, area / 4^l), times the cull by its mean normal (N's ramp); 0 where no
+// surface is.
+fn cell_light(c0: vec4<f32>, c1: vec4<f32>, l: u32, vc: vec3<f32>) -> vec3<f32> {
+    let area = c0.w;
+    if (!(area > 0.0)) {
+        return vec3<f32>(0.0);
+    }
+    let inv = 1.0 / area;
+    let cov = min(area * (1.0 / f32(1u << (2u * l))), 1.0);
+    let nw = clamp(((c1.x * vc.x + c1.y * vc.y) + c1.z * vc.z) * inv * (1.0 / LRSM_CULL_RAMP), 0.0, 1.0);
+    let w = (inv * cov) * nw;
+    return c0.xyz * w;
+}
+
+// The lit cells at x, trilinear in occlusion level l (>= params.lit_base) with the occlusion read's
+// cells and weights: the lit table's level l - lit_base has the same cells.
+fn lit_level(x: vec3<f32>, l: u32, vc: vec3<f32>) -> vec3<f32> {
+    let n = i32(cone.side >> l);
+    let inv = cone.inv_s0 * (1.0 / f32(1u << l));
+    let q = (x - cone.origin.xyz) * inv - vec3<f32>(0.5);
+    let fl = floor(q);
+    let f = q - fl;
+    let i0 = vec3<i32>(fl);
+    let ll = l - params.lit_base;
+    let off = lit_offsets[ll];
+    var acc = vec3<f32>(0.0);
+    for (var corner = 0u; corner < 8u; corner++) {
+        let cc = vec3<u32>(corner & 1u, (corner >> 1u) & 1u, (corner >> 2u) & 1u);
+        let w = select(vec3<f32>(1.0) - f, f, cc == vec3<u32>(1u));
+        let i = i0 + vec3<i32>(cc);
+        if (any(i < vec3<i32>(0)) || any(i >= vec3<i32>(n))) {
+            continue;
+        }
+        let c = 2u * (off + morton3(vec3<u32>(i)));
+        acc += cell_light(lit[c], lit[c + 1u], ll, vc) * (w.x * w.y * w.z);
+    }
+    return acc;
+}
+
+// The lit cells blended between two levels as sample_volume blends occlusion; a sample finer than
+// the lit table's finest level reads that level.
+fn lit_volume(x: vec3<f32>, lf_in: f32, vc: vec3<f32>) -> vec3<f32> {
+    let top = cone.levels - 1u;
+    let lf = max(lf_in, f32(params.lit_base));
+    let l0 = floor(lf);
+    if (l0 >= f32(top)) {
+        return lit_level(x, top, vc);
+    }
+    let a = lf - l0;
+    let l = u32(l0);
+    return lit_level(x, l, vc) * (1.0 - a) + lit_level(x, l + 1u, vc) * a;
+}
+
+// The march's sample: occlusion from the voxels, radiance from the LRSMs or the lit cells (see the
+// header).
 fn sample_cone(x: vec3<f32>, l: f32, diam: f32, d: vec3<f32>, tan_half: f32) -> vec4<f32> {
     let s = sample_volume(x, l);
     if (!(s.w > 0.0)) {
         return s;
+    }
+    if (params.lit_cells != 0u) {
+        // Premultiplied: the lit surface in the sample's cells over their faces, as alpha_i L_i.
+        return vec4<f32>(lit_volume(x, l, -d), s.w);
     }
     var lsum = vec3<f32>(0.0);
     for (var k = 0u; k < arrayLength(&views); k++) {

@@ -153,6 +153,20 @@ pub fn check(scene: &Scene, pipeline: Pipeline, limits: &wgpu::Limits) -> Result
     }
     let views = crate::plan::light_views(scene) as u64;
     match pipeline {
+        Pipeline::Lrsm if r.lrsm_lit_cells => {
+            // The lit cells, every level, in one binding (the table's side capped: lit_cells::MAX_SIDE).
+            let side = r.voxels.min(crate::kernels::lit_cells::MAX_SIDE);
+            let bytes = crate::kernels::lit_cells::pyramid_bytes(side);
+            if bytes > binding.min(limits.max_buffer_size) {
+                return past(
+                    format!(
+                        "lrsm: the lit cells of {side}^3 cells and their levels (32 bytes a cell)"
+                    ),
+                    bytes,
+                    "lower voxels or set lrsm_lit_cells = false (the LRSMs)",
+                );
+            }
+        }
         Pipeline::Lrsm => {
             // Every view's LRSM (all layers, whole mip chain) is gathered from one binding per
             // stream (radiance, normal, depth moments: four binary16 values each).
@@ -403,7 +417,7 @@ mod tests {
         assert!(
             e.contains("cannot run lrsm")
                 && e.contains(
-                    "lrsm_cone_trace (max_storage_buffers_per_shader_stage: needs 20, has 16"
+                    "lrsm_cone_trace (max_storage_buffers_per_shader_stage: needs 22, has 16"
                 ),
             "{e}"
         );

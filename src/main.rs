@@ -376,6 +376,10 @@ struct RenderFlags {
     /// (false: Algorithm 1's layers) [default false].
     #[arg(long = "lrsm-area-weights", alias = "lrsm_area_weights")]
     lrsm_area_weights: Option<bool>,
+    /// lrsm: each sample's light from the light views' texels in the occlusion pyramid's cells
+    /// (false: Algorithm 1's layered RSMs, read in light space) [default true].
+    #[arg(long = "lrsm-lit-cells", alias = "lrsm_lit_cells")]
+    lrsm_lit_cells: Option<bool>,
     /// lrsm: soft shadows from shadow cones of this half-angle through the occlusion voxels, degrees
     /// (0 = exact shadow rays) [default 0].
     #[arg(long = "shadow-cone-angle", alias = "shadow_cone_angle")]
@@ -478,6 +482,7 @@ fn load_scene(path: &Option<PathBuf>, flags: &RenderFlags) -> Result<vxgi::scene
         lrsm_surface_coverage,
         lrsm_view_weight,
         lrsm_area_weights,
+        lrsm_lit_cells,
         shadow_cone_angle,
         cache_resolution,
         irradiance_resolution,
@@ -638,11 +643,10 @@ fn run_render(
                 m.vct_dense_bytes as f64 / 1e6
             ),
             Some(vxgi::render::VolumeMemory::Lrsm(m)) => println!(
-                "lrsm: occlusion voxels {:.1} MB, one RSM {:.1} MB, {} LRSMs {:.1} MB",
+                "lrsm: occlusion voxels {:.1} MB, one RSM {:.1} MB, {}",
                 m.occlusion as f64 / 1e6,
                 m.rsm as f64 / 1e6,
-                m.views,
-                m.lrsm as f64 / 1e6
+                m.light_text()
             ),
             Some(vxgi::render::VolumeMemory::Caches(_)) if !r.plan.runs("gather_caches") => {
                 println!("cprc: no radiance caches (the plan skipped them, see below)")

@@ -15,7 +15,7 @@ pub enum Quality {
     /// balanced cones).
     Fast,
     /// The defaults with two interleaved 5-degree cones a pixel (vct-dense, vct-svo, lrsm; lrsm with
-    /// the area-weighted LRSM); cprc: the defaults.
+    /// the lit cells); cprc: the defaults.
     #[default]
     Balanced,
     /// The settings that reach combined FLIP < 0.1 on the Cornell box against the converged
@@ -66,16 +66,21 @@ const NARROW_CONES: [(&str, Value); 4] = [
     ("cone_level_bias", Value::F32(-1.25)),
 ];
 
-/// lrsm's cones in every preset: [`NARROW_CONES`] and the area-weighted LRSM
-/// (docs/accuracy/lrsm.md). With the `[render]` defaults' five 30-degree cones a sample's disc
-/// spans coarse LRSM levels, whose filtered depth moments and radiance mix the surfaces of a wide
-/// footprint (light straddling thin_wall's wall, leak 0.135); narrow cones read fine levels. The
-/// other cone tracers' `accurate` set (16 cones of 2.5 degrees a pixel) passes lavapipe's loop
-/// limit by 8x here: a march step reads up to three cube faces' layers.
+/// lrsm's cones in every preset: [`NARROW_CONES`], each sample's light from the lit cells, and
+/// the area-weighted LRSM where a scene turns the lit cells off (docs/accuracy/lrsm.md). With the
+/// `[render]` defaults' five 30-degree cones a sample spans coarse levels: the LRSMs' filtered
+/// depth moments and radiance mix the surfaces of a wide footprint (light straddling thin_wall's
+/// wall, leak 0.135), the lit cells' coarse cells hold a corner's walls under one mean normal
+/// (Cornell box 0.41 of the indirect energy); narrow cones read fine levels. The other cone
+/// tracers' `accurate` set (16 cones of 2.5 degrees a pixel) passes lavapipe's loop limit by 8x
+/// with the LRSMs: a march step reads up to three cube faces' layers.
 fn lrsm_cones() -> Vec<(&'static str, Value)> {
     [
         NARROW_CONES.as_slice(),
-        &[("lrsm_area_weights", Value::Bool(true))],
+        &[
+            ("lrsm_lit_cells", Value::Bool(true)),
+            ("lrsm_area_weights", Value::Bool(true)),
+        ],
     ]
     .concat()
 }
@@ -84,7 +89,7 @@ fn lrsm_cones() -> Vec<(&'static str, Value)> {
 pub fn preset(quality: Quality, pipeline: Pipeline) -> Vec<(&'static str, Value)> {
     use Value::{F32, U32};
     match (quality, pipeline) {
-        // lrsm: every preset narrows the cones and weighs the LRSM by area.
+        // lrsm: every preset narrows the cones and reads the lit cells.
         (Quality::Fast, Pipeline::Lrsm) => [lrsm_cones(), vec![("voxels", U32(64))]].concat(),
         (Quality::Balanced, Pipeline::Lrsm) => lrsm_cones(),
         (Quality::Accurate, Pipeline::Lrsm) => {
@@ -130,6 +135,7 @@ fn set(r: &mut RenderSettings, key: &str, v: Value) {
         ("irradiance_resolution", Value::U32(x)) => r.irradiance_resolution = x,
         ("mip_clamp", Value::F32(x)) => r.mip_clamp = x,
         ("lrsm_area_weights", Value::Bool(x)) => r.lrsm_area_weights = x,
+        ("lrsm_lit_cells", Value::Bool(x)) => r.lrsm_lit_cells = x,
         _ => unreachable!("a preset sets `{key}` = {v}, which `set` does not know"),
     }
 }
@@ -213,7 +219,9 @@ const fn looped(n: u64) -> u64 {
 /// - vct-svo (svo_cone_trace.wgsl `sample_cone`): the descent to the finer level's node (`find`,
 ///   up to `depth` levels) and, where it is missing, to the coarser one's (`depth - 1`), then two
 ///   levels of 8 corners;
-/// - lrsm (lrsm_cone_trace.wgsl `sample_cone`): the occlusion sample, the loop over the light
+/// - lrsm with the lit cells (lrsm_cone_trace.wgsl `lit_volume`): the occlusion sample and the lit
+///   cells', two levels of 8 cells;
+/// - lrsm with the LRSMs (lrsm_cone_trace.wgsl `sample_cone`): the occlusion sample, the loop over the light
 ///   views, and in every view the sample lies in front of (a bound: a wide sample's disc may
 ///   overlap several; of a point light's six cube faces at most three) the taps
 ///   (common/lrsm_sample.wgsl `lrsm_taps`: the levels below the fetched one, 2 levels of 4 taps)
@@ -233,6 +241,8 @@ pub fn step_iterations(scene: &Scene, pipeline: Pipeline) -> u64 {
             let depth = vxgi_cpu_mirror::sparse_voxel_octree::depth_for(r.voxels) as u64;
             1 + looped(depth) + looped(depth.saturating_sub(1)) + quadrilinear
         }
+        // The lit cells: the occlusion sample and the lit cells' own (two levels of 8 cells).
+        Pipeline::Lrsm if r.lrsm_lit_cells => 1 + 2 * quadrilinear,
         Pipeline::Lrsm => {
             // A cube's faces come in opposite pairs and a sample lies in front of (zv > 0) at most
             // one of each pair: 3 of a point light's 6 views are sampled, the loop runs over all.

@@ -1141,8 +1141,10 @@ pub fn render_lrsm_factors(
     if let Radiance::Lrsm(a) = swap.radiance {
         scene.render.lrsm_view_weight = a.view_weight;
     }
-    // The frame's LRSMs are Algorithm 1's; the rows that read area-weighted ones build their own.
+    // The frame's LRSMs are Algorithm 1's (read as the paper reads them, not through the lit
+    // cells); the rows that read area-weighted ones build their own.
     scene.render.lrsm_area_weights = false;
+    scene.render.lrsm_lit_cells = false;
     let mirror = |_: &str| true;
     let mut f = host::run(
         &crate::pipeline::LRSM,

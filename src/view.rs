@@ -746,9 +746,7 @@ impl App {
                     Some(VolumeMemory::Octree(m)) => {
                         memory.push(format!("octree {:.1} MB", m.bytes as f64 / 1e6))
                     }
-                    Some(VolumeMemory::Lrsm(m)) => {
-                        memory.push(format!("{} LRSMs {:.1} MB", m.views, m.lrsm as f64 / 1e6))
-                    }
+                    Some(VolumeMemory::Lrsm(m)) => memory.push(m.light_text()),
                     Some(VolumeMemory::Caches(c)) => {
                         memory.push(format!("{} radiance caches", c.caches))
                     }

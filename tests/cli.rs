@@ -172,10 +172,12 @@ fn settings_past_the_device_limits_are_refused_at_once() {
     }
     let toml = std::fs::read_to_string(root.join("cornell_box.toml")).unwrap();
     let light = "[[lights]]\ntype = \"point\"\nposition = [0.0, 1.9, 0.0]\nintensity = [0.05, 0.05, 0.05]\n\n";
-    // The scene file up to its light, then 200 lights (its [render] is the defaults').
+    // The scene file up to its light, then 200 lights, read through the paper's LRSMs (whose size
+    // grows with the light views; the lit cells' does not).
     let head = &toml[..toml.find("[[lights]]").unwrap()];
     let p = d.join("many_lights.toml");
-    std::fs::write(&p, format!("{head}{}", light.repeat(200))).unwrap();
+    let lrsms = "[render]\nlrsm_lit_cells = false\n";
+    std::fs::write(&p, format!("{head}{}{lrsms}", light.repeat(200))).unwrap();
     let p = p.to_str().unwrap();
     let out = d.join("out");
     let t = std::time::Instant::now();

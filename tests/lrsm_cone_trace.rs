@@ -10,29 +10,43 @@ use vxgi::kernels::lrsm_cone_trace::LrsmConeTrace;
 use vxgi::render::{render_lrsm, Pipeline};
 use vxgi::scene::{Light, Scene};
 
+/// With the lit cells (every preset's) and with the paper's LRSMs (the default): indirect light on most pixels, the
+/// memory each light structure takes, and every declared stage but the other structure's ran.
 #[test]
 fn the_cornell_box_gathers_indirect_light_and_reports_its_memory() {
-    let mut scene = cornell(48, 48, 32);
-    scene.render.rsm_side = 32;
-    let (frame, memory) = render_lrsm(gpu(), &scene, &ConeSettings::default(), |_| {}).unwrap();
-    let lit = frame
-        .indirect
-        .pixels
-        .iter()
-        .filter(|p| p.iter().all(|c| c.is_finite() && *c >= 0.0) && p[0] + p[1] + p[2] > 1e-3)
-        .count();
-    assert!(lit > 48 * 48 / 4, "only {lit} pixels get indirect light");
-    // One 32^2 RSM of 36 bytes a texel; six LRSMs of 4 layers, 16^2 .. 1^2, 24 bytes a texel.
-    assert_eq!(memory.views, 6);
-    assert_eq!(memory.rsm, 32 * 32 * 36);
-    let texels: u64 = (0..5).map(|k| 4 * (16u64 >> k).pow(2)).sum();
-    assert_eq!(memory.lrsm, 6 * texels * 24);
-    // Every declared stage ran (the chain records the volume's, then the camera's).
-    let mut names: Vec<&str> = frame.stages.iter().map(|s| s.0).collect();
-    let mut declared = Pipeline::Lrsm.stages();
-    names.sort_unstable();
-    declared.sort_unstable();
-    assert_eq!(names, declared);
+    for lit_cells in [true, false] {
+        let mut scene = cornell(48, 48, 32);
+        scene.render.rsm_side = 32;
+        scene.render.lrsm_lit_cells = lit_cells;
+        let (frame, memory) = render_lrsm(gpu(), &scene, &ConeSettings::default(), |_| {}).unwrap();
+        let lit = frame
+            .indirect
+            .pixels
+            .iter()
+            .filter(|p| p.iter().all(|c| c.is_finite() && *c >= 0.0) && p[0] + p[1] + p[2] > 1e-3)
+            .count();
+        assert!(lit > 48 * 48 / 4, "only {lit} pixels get indirect light");
+        // One 32^2 RSM of 36 bytes a texel. The lit cells: 32^3 .. 1^3 cells of 32 bytes; six
+        // LRSMs of 4 layers, 16^2 .. 1^2, 24 bytes a texel.
+        assert_eq!(memory.views, 6);
+        assert_eq!(memory.rsm, 32 * 32 * 36);
+        let cells: u64 = (0..6).map(|k| (32u64 >> k).pow(3)).sum();
+        let texels: u64 = (0..5).map(|k| 4 * (16u64 >> k).pow(2)).sum();
+        let (want_lit, want_lrsm, other) = if lit_cells {
+            (cells * 32, 0, "lrsm_partition")
+        } else {
+            (0, 6 * texels * 24, "lit_cells")
+        };
+        assert_eq!((memory.lit, memory.lrsm), (want_lit, want_lrsm));
+        // Every declared stage but the other structure's ran (the chain records the volume's,
+        // then the camera's).
+        let mut names: Vec<&str> = frame.stages.iter().map(|s| s.0).collect();
+        let mut declared = Pipeline::Lrsm.stages();
+        declared.retain(|s| *s != other);
+        names.sort_unstable();
+        declared.sort_unstable();
+        assert_eq!(names, declared);
+    }
 }
 
 /// `lrsm_surface_coverage` (the default): the occlusion mips by surface coverage keep the Cornell box's one-voxel
@@ -49,6 +63,8 @@ fn the_cornell_box_gathers_indirect_light_and_reports_its_memory() {
 fn surface_coverage_occlusion_lets_the_gather_see_the_walls() {
     let mut scene = cornell(48, 48, 64);
     scene.render.rsm_side = 32;
+    // Through the paper's LRSMs (the default; explicit, as the test is about their alpha weights).
+    scene.render.lrsm_lit_cells = false;
     scene.render.lrsm_surface_coverage = false;
     let (volume, _) = render_lrsm(gpu(), &scene, &ConeSettings::default(), |_| {}).unwrap();
     scene.render.lrsm_surface_coverage = true;
@@ -135,16 +151,18 @@ fn a_soft_direct_term_at_the_bottom_of_the_normal_range_may_flush() {
     assert_case_passes(&shader, &LrsmConeTrace, &case);
 }
 
-/// lrsm at the Cornell box's own 256x256 against the committed converged reference (4096 spp): the
-/// paper's literal settings (volume-coverage occlusion, N weighing L), the `[render]` defaults
-/// (surface coverage, N only culling, five 30-degree cones), `lrsm_area_weights`, and the
-/// `balanced` preset every lrsm frame of the CLI takes (two interleaved 5-degree cones a pixel, area
-/// weights). Measured on lavapipe with the trilinear LRSM fetch and the views' seam weights
-/// (`disc_share`): combined FLIP 0.471 / 0.329 / 0.356 / 0.202, indirect 0.839 / 0.569 / 0.582 /
-/// 0.403, indirect energy 0.081 / 0.667 / 0.998 / 0.669 of the reference's (docs/accuracy/lrsm.md
-/// has the per-factor table between them). A regression guard at the measured values plus a small
-/// margin, and the indirect energy's share (for the area weights within a quarter of the
-/// reference's: [0.8, 1.25]); `balanced` stays below vct-dense's defaults (0.238).
+/// lrsm at the Cornell box's own 256x256 against the committed converged reference (4096 spp).
+/// Through the paper's LRSMs: its literal settings (volume-coverage occlusion, N weighing L), the
+/// `[render]` defaults (surface coverage, N only culling, five 30-degree cones) and
+/// `lrsm_area_weights`; through the lit cells (`lrsm_lit_cells`, the default): the `[render]`
+/// defaults and the `balanced` preset every lrsm frame of the CLI takes (two interleaved 5-degree
+/// cones a pixel). Measured on lavapipe, combined FLIP / indirect FLIP / indirect energy of the
+/// reference's: LRSMs 0.471 / 0.839 / 0.081, 0.329 / 0.569 / 0.667, 0.356 / 0.582 / 0.998; lit
+/// cells 0.348 / 0.628 / 0.409 (wide cones read coarse cells, where a corner's mean normal culls
+/// the wall it holds), 0.148 / 0.236 / 0.963 (docs/accuracy/lrsm.md has the per-factor table
+/// between them). A regression guard at the measured values plus a small margin, and the indirect
+/// energy's share; the `balanced` frame's is within a quarter of the reference's ([0.8, 1.25]) and
+/// its combined FLIP within vct-dense's `balanced` frame's (0.142) + 0.03.
 #[test]
 fn lrsm_against_the_converged_reference() {
     use vxgi::quality::{resolved, Quality};
@@ -152,33 +170,51 @@ fn lrsm_against_the_converged_reference() {
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("references/cornell_box_256_4096spp");
     let read = |name: &str| vxgi::images::read_exr(&dir.join(format!("{name}.exr"))).unwrap();
     let (ref_combined, ref_indirect) = (read("combined"), read("indirect"));
-    let with = |paper: bool, area: bool| {
+    let with = |paper: bool, area: bool, lit_cells: bool| {
         let mut scene = Scene::cornell_box();
         scene.render.lrsm_surface_coverage = !paper;
         scene.render.lrsm_view_weight = paper;
         scene.render.lrsm_area_weights = area;
+        scene.render.lrsm_lit_cells = lit_cells;
         scene
     };
     let mut balanced = Scene::cornell_box();
     balanced.render.quality = Quality::Balanced;
     let balanced = resolved(&balanced, vxgi::render::Pipeline::Lrsm).unwrap().0;
+    assert!(
+        balanced.render.lrsm_lit_cells,
+        "the balanced frame reads the lit cells"
+    );
     for (name, scene, max_combined, max_indirect, share) in [
         (
-            "the paper's settings",
-            with(true, false),
+            "the paper's LRSMs",
+            with(true, false, false),
             0.48,
             0.85,
             0.06..0.12,
         ),
         (
-            "the [render] defaults",
-            with(false, false),
+            "the LRSMs, [render] defaults",
+            with(false, false, false),
             0.34,
             0.58,
             0.6..0.75,
         ),
-        ("area weights", with(false, true), 0.37, 0.60, 0.8..1.25),
-        ("the balanced preset", balanced, 0.22, 0.42, 0.6..0.75),
+        (
+            "area-weighted LRSMs",
+            with(false, true, false),
+            0.37,
+            0.60,
+            0.8..1.25,
+        ),
+        (
+            "the lit cells, [render] defaults",
+            with(false, false, true),
+            0.36,
+            0.64,
+            0.35..0.47,
+        ),
+        ("the balanced preset", balanced, 0.172, 0.25, 0.8..1.25),
     ] {
         let cones = ConeSettings::from(&scene.render);
         let (r, _) = render_lrsm(gpu(), &scene, &cones, |_| {}).unwrap();
@@ -209,7 +245,9 @@ fn lrsm_against_the_converged_reference() {
 fn samples_crossing_a_cube_face_seam_take_radiance_continuously() {
     use vxgi::cpu_mirror::voxelize::voxelize;
     use vxgi::kernels::lrsm_cone_trace::{mirror_frame, LrsmSettings};
-    let scene = Scene::cornell_box();
+    let mut scene = Scene::cornell_box();
+    // The LRSMs' cube faces (the lit cells have no faces).
+    scene.render.lrsm_lit_cells = false;
     let data = vxgi::trace::SceneData::new(&scene);
     let side = scene.render.voxels;
     let (input, voxels) = vxgi::kernels::voxelize::prepare(&scene, side).unwrap();
@@ -238,13 +276,15 @@ fn samples_crossing_a_cube_face_seam_take_radiance_continuously() {
 }
 
 /// `vxgi lrsm-factors` swaps what it says it swaps: its row with the default settings is the lrsm
-/// mirror frame, and its row with both factors from the lit voxels is vct-dense's mirror frame (the
-/// same march over the same voxel grid), so a row's difference from another is the factor it swaps.
+/// mirror frame through the paper's LRSMs, and its row with both factors from the lit voxels is
+/// vct-dense's mirror frame (the same march over the same voxel grid), so a row's difference from
+/// another is the factor it swaps.
 #[test]
 fn the_factor_diagnostic_reproduces_the_frames_it_swaps_between() {
     use vxgi::lrsm_factors::{rows, Alpha, Radiance};
     let mut scene = cornell(32, 32, 32);
     scene.render.rsm_side = 16;
+    scene.render.lrsm_lit_cells = false;
     let cones = ConeSettings::from(&scene.render);
     let row = |alpha: Alpha, radiance: Radiance| {
         let (_, swap) = rows()

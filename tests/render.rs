@@ -267,7 +267,10 @@ fn quality_presets_resolve_and_explicit_flags_win() {
     let narrow = "cones = 2, cone_half_angle = 5, cone_interleave = 8, cone_level_bias = -1.25";
     for (pipeline, keys) in [
         ("vct-dense", narrow.to_string()),
-        ("lrsm", format!("{narrow}, lrsm_area_weights = true")),
+        (
+            "lrsm",
+            format!("{narrow}, lrsm_lit_cells = true, lrsm_area_weights = true"),
+        ),
         ("cprc", "the defaults".to_string()),
     ] {
         let (code, out, err) = vxgi(&["render", "--plan", "--pipeline", pipeline]);
@@ -1636,7 +1639,12 @@ fn resident_frames_relight_the_kept_voxels_when_a_light_moves() {
     use vxgi::render::Pipeline;
     for (pipeline, photons, kept) in [
         (Pipeline::VctDense, 0, vec!["voxelize"]),
-        (Pipeline::Lrsm, 0, vec!["voxelize", "occlusion_voxels"]),
+        // (lit_cells: the gather reads the LRSMs.)
+        (
+            Pipeline::Lrsm,
+            0,
+            vec!["voxelize", "occlusion_voxels", "lit_cells"],
+        ),
         (Pipeline::Cprc, 0, vec!["voxelize"]),
         (
             Pipeline::VctSvo,

@@ -75,8 +75,18 @@ fn params_struct_matches_the_reflected_wgsl_layout() {
     crate::common::assert_layout!(
         DECL.shader().unwrap(),
         SampleParams {
-            depth_slices, normal_slices, levels, side0, cdf, min_variance, min_alpha, overlap,
-            view_weight, area, _pad as "_pad1", _pad as "_pad2" + 4,
+            depth_slices,
+            normal_slices,
+            levels,
+            side0,
+            cdf,
+            min_variance,
+            min_alpha,
+            overlap,
+            view_weight,
+            area,
+            lit_cells,
+            lit_base,
         }
     );
 }

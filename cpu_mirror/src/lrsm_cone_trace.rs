@@ -28,6 +28,10 @@ pub struct LrsmVolume<'a> {
     /// Every view's LRSM, concatenated (view k's from texel `views[k].info[2]`).
     pub lrsm: Lrsm<'a>,
     pub views: &'a [GpuView],
+    /// The lit cells (`sp.lit_cells`; lit_cells.rs), every level, two vec4 a cell; level l from
+    /// cell `lit_offsets[l]`. Empty otherwise.
+    pub lit: &'a [[f32; 4]],
+    pub lit_offsets: &'a [u32],
     /// Bound on any sample's L (for samples whose alpha the mirror has as 0).
     pub lmax: f32,
 }
@@ -41,6 +45,45 @@ impl LrsmVolume<'_> {
             normal: &self.lrsm.normal[base..],
             moments: &self.lrsm.moments[base..],
         }
+    }
+
+    /// The lit cells' premultiplied L at `x`, level `lf` (cone direction `d`), read with the
+    /// occlusion read's cells and weights, and its bound (largest channel): the sample point's
+    /// rounding (as alpha's, `trilinear_level`), each cell's own arithmetic
+    /// (`lit_cells::cell_light_bound`) weighted as the cell is, and the level's drift (the march
+    /// adds log2's rounding, 2^-21, at every step: at most 2^-14 over its samples; the larger
+    /// change at its two ends).
+    pub fn lit_radiance(&self, x: Vec3, lf: f32, d: Vec3) -> (Vec3, f32) {
+        use crate::lit_cells::{cell_light, cell_light_bound};
+        let vc = -d;
+        // Occlusion level l is the lit table's level l - base; finer samples read level base.
+        let base = self.sp.lit_base;
+        let lf = lf.max(base as f32);
+        let cell = |l: u32, m: usize| {
+            let c = 2 * (self.lit_offsets[(l - base) as usize] as usize + m);
+            let (a, b) = (self.lit[c], self.lit[c + 1]);
+            [a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3]]
+        };
+        let top = self.p.levels - 1;
+        let at = |lf: f32| {
+            crate::cone_trace::quadrilinear(top, lf, |l| {
+                trilinear_level(self.p, x, l, |m| cell_light(&cell(l, m), l - base, vc))
+            })
+        };
+        let (s, e) = at(lf);
+        let (b, _) = crate::cone_trace::quadrilinear(top, lf, |l| {
+            trilinear_level(self.p, x, l, |m| {
+                Vec4::splat(cell_light_bound(&cell(l, m), l - base))
+            })
+        });
+        let drift = 2f32.powi(-14);
+        let change = |o: Vec4| (o - s).truncate().abs().max_element();
+        let d_level = change(at(lf + drift).0).max(change(at((lf - drift).max(base as f32)).0));
+        let l = s.truncate();
+        (
+            l,
+            e.rgb + b.x + d_level + 8.0 * f32::EPSILON * l.abs().max_element(),
+        )
     }
 
     /// L at `x` (diameter `diam`, cone direction `d`) and its bound (largest channel).
@@ -195,7 +238,7 @@ impl Volume for LrsmVolume<'_> {
         _tan_half: f32,
     ) -> (Vec4, SampleError) {
         let (s, serr) = self.sample(x, lf);
-        let premultiplied = self.sp.area != 0;
+        let premultiplied = self.sp.area != 0 || self.sp.lit_cells != 0;
         // With premultiplied L a GPU whose alpha is above 0 where the mirror's is 0, or 0 where the
         // mirror's is within its error of it, adds or leaves L whole.
         let flip = if premultiplied { self.lmax } else { 0.0 };
@@ -209,7 +252,11 @@ impl Volume for LrsmVolume<'_> {
                 },
             );
         }
-        let (l, l_err) = self.radiance(x, diam, d);
+        let (l, l_err) = if self.sp.lit_cells != 0 {
+            self.lit_radiance(x, lf, d)
+        } else {
+            self.radiance(x, diam, d)
+        };
         if premultiplied {
             return (
                 l.extend(s.w),

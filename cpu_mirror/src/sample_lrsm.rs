@@ -38,7 +38,12 @@ pub struct SampleParams {
     /// level finer than log2 of the disc's diameter in texels (the trilinear taps then span about
     /// the disc). Sample LRSM itself does not read it.
     pub area: u32,
-    pub _pad: [u32; 2],
+    /// 1: lrsm_cone_trace reads each sample's light from the lit cells (lit_cells.wgsl), premultiplied,
+    /// and no LRSM. Sample LRSM itself does not read it.
+    pub lit_cells: u32,
+    /// With `lit_cells`: the occlusion level the lit cells' finest level stands at (0 where the
+    /// table is as fine as the voxels; lit_cells.rs caps its side). Samples finer than it read it.
+    pub lit_base: u32,
 }
 
 /// The LRSM as the kernel binds it: every level of every layer, levels concatenated.
@@ -354,7 +359,8 @@ mod tests {
             overlap: 0.05,
             view_weight: 1,
             area: 0,
-            _pad: [0; 2],
+            lit_cells: 0,
+            lit_base: 0,
         }
     }
 

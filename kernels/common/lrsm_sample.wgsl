@@ -27,8 +27,12 @@ struct SampleParams {
     // premultiplied product: a sample's L is the colour its march adds (not alpha L), fetched one
     // level finer than log2 of the disc's diameter in texels. Sample LRSM itself does not read it.
     area: u32,
-    _pad1: u32,
-    _pad2: u32,
+    // 1: lrsm_cone_trace reads each sample's light from the lit cells (lit_cells.wgsl), premultiplied,
+    // and no LRSM. Sample LRSM itself does not read it.
+    lit_cells: u32,
+    // With lit_cells: the occlusion level the lit cells' finest level stands at (0 where the table
+    // is as fine as the voxels; lit_cells.wgsl's grid caps its side). Samples finer than it read it.
+    lit_base: u32,
 }
 
 fn spread2(v_in: u32) -> u32 {

@@ -24,7 +24,7 @@ pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
     includes: &[super::TANGENT_BASIS, super::SCENE_TYPES, CONE_MARCH, super::LRSM_TEXEL, LRSM_SAMPLE, LRSM_MATH, LRSM_VIEW, LIGHTS, BRDF, super::MORTON],
     inputs: super::march_inputs![
         "occ", "occ_offsets", "params", "depth_ranges", "lrsm_radiance", "lrsm_normal",
-        "lrsm_moments", "views", "lights", "shadow_params",
+        "lrsm_moments", "views", "lights", "shadow_params", "lit", "lit_offsets",
     ],
     // The march's bound (`super::march_outputs!`) with each sample's LRSM bound, computed per pixel
     // by the mirror; shadow cones: direct_light's term bound times the cone's visibility bound.
@@ -55,6 +55,12 @@ pub struct LrsmSettings {
     /// Area-weighted LRSMs read as eq. 1's premultiplied product (`lrsm_area_weights`; N then
     /// weighs L whatever `view_weight` says): docs/accuracy/lrsm.md.
     pub area_weights: bool,
+    /// Each sample's light from the lit cells (`lrsm_lit_cells`, [`super::lit_cells`]) instead of
+    /// the LRSMs, which are then not built.
+    pub lit_cells: bool,
+    /// The lit table's largest side ([`super::lit_cells::MAX_SIDE`]; lower in some verify cases,
+    /// where the gather reads a table coarser than the voxels).
+    pub lit_max_side: u32,
 }
 
 impl From<&crate::scene::RenderSettings> for LrsmSettings {
@@ -68,11 +74,27 @@ impl From<&crate::scene::RenderSettings> for LrsmSettings {
             surface_coverage: r.lrsm_surface_coverage,
             view_weight: r.lrsm_view_weight,
             area_weights: r.lrsm_area_weights,
+            lit_cells: r.lrsm_lit_cells,
+            lit_max_side: super::lit_cells::MAX_SIDE,
         }
     }
 }
 
 impl LrsmSettings {
+    /// The gather's Sample LRSM parameters (lit cells or LRSMs as these settings ask) over a voxel
+    /// grid `frame`.
+    pub fn sample_params(&self, frame: &VoxelFrame) -> SampleParams {
+        let mut p = super::sample_lrsm::sample_params(&self.partition(), 0, self.view_weight);
+        p.lit_cells = self.lit_cells as u32;
+        p.lit_base = self.lit_grid(frame).1;
+        p
+    }
+
+    /// The lit table over `frame` and the occlusion level its finest level stands at.
+    pub fn lit_grid(&self, frame: &VoxelFrame) -> (vxgi_cpu_mirror::lit_cells::LitGrid, u32) {
+        super::lit_cells::grid_of(frame, self.lit_max_side)
+    }
+
     /// The RSM's partition into layers these settings ask for.
     pub fn partition(&self) -> PartitionConfig {
         PartitionConfig {
@@ -105,6 +127,10 @@ pub struct LrsmFrame {
     /// Every view's LRSM (all levels), concatenated: radiance, normal, moments, as the values the
     /// GPU's binary16 texels hold (`vxgi_cpu_mirror::lrsm_prefilter`'s storage).
     pub streams: [Vec<[f32; 4]>; 3],
+    /// With `lrsm_lit_cells` the lit cells instead of the LRSMs (whose streams are then empty):
+    /// every level, two vec4 a cell ([`super::lit_cells`]), and each level's first cell.
+    pub lit: Vec<[f32; 4]>,
+    pub lit_offsets: Vec<u32>,
     /// Bytes of each structure: occlusion voxels, RSMs (one view at a time), LRSMs.
     pub memory: LrsmMemory,
 }
@@ -117,16 +143,32 @@ pub struct LrsmMemory {
     pub rsm: u64,
     /// All views' LRSMs (3 streams of 8 bytes per texel, every level).
     pub lrsm: u64,
+    /// The lit cells (every level, 32 bytes a cell).
+    pub lit: u64,
     pub views: u32,
 }
 
 impl LrsmMemory {
-    fn of(occ: &[u32], rsm_side: u32, streams: &[Vec<[f32; 4]>; 3], views: usize) -> Self {
+    /// The light structure the gather reads, and its size: the lit cells or the LRSMs.
+    pub fn light_text(&self) -> String {
+        if self.lit > 0 {
+            format!(
+                "lit cells of {} light views {:.1} MB",
+                self.views,
+                self.lit as f64 / 1e6
+            )
+        } else {
+            format!("{} LRSMs {:.1} MB", self.views, self.lrsm as f64 / 1e6)
+        }
+    }
+
+    fn of(frame: &LrsmFrame, rsm_side: u32) -> Self {
         Self {
-            occlusion: occ.len() as u64 * 4,
+            occlusion: frame.occ.len() as u64 * 4,
             rsm: (rsm_side as u64).pow(2) * 36,
-            lrsm: streams[0].len() as u64 * 3 * lrsm_prefilter::TEXEL_BYTES,
-            views: views as u32,
+            lrsm: frame.streams[0].len() as u64 * 3 * lrsm_prefilter::TEXEL_BYTES,
+            lit: frame.lit.len() as u64 * 16,
+            views: frame.views.len() as u32,
         }
     }
 }
@@ -269,6 +311,8 @@ impl LrsmFrame {
         let count = views.len();
         // Seconds in each view's RSM and in its layers (the two stages), summed over the views.
         let mut partition_secs = 0.0;
+        // With lit cells: every view's RSM, injected together after the last.
+        let mut rsms = Vec::new();
         for (k, v) in views.iter_mut().enumerate() {
             progress(&format!("RSM and LRSM of light view {} of {count}", k + 1));
             v.view.info[2] = streams[0].len() as u32;
@@ -276,6 +320,10 @@ impl LrsmFrame {
                 Some(ctx) => rsm_on_gpu(ctx, data, v).context("reflective shadow map")?,
                 None => super::reflective_shadow_map::rsm_mirror(data, v),
             };
+            if settings.lit_cells {
+                rsms.push(rsm);
+                continue;
+            }
             let p = std::time::Instant::now();
             let s = match on_gpu("lrsm_partition") {
                 Some(ctx) => lrsm_on_gpu(ctx, &rsm, &config).context("LRSM")?,
@@ -289,24 +337,58 @@ impl LrsmFrame {
         if !views.is_empty() {
             let all = t.elapsed().as_secs_f64();
             stages.push(("reflective_shadow_map", all - partition_secs));
-            stages.push(("lrsm_partition", partition_secs));
+            if !settings.lit_cells {
+                stages.push(("lrsm_partition", partition_secs));
+            }
         }
-        let memory = LrsmMemory::of(&occ, settings.rsm_side, &streams, views.len());
-        Ok(Self {
+        let (mut lit, mut lit_offsets) = (Vec::new(), Vec::new());
+        if settings.lit_cells {
+            progress("lit cells");
+            let t = std::time::Instant::now();
+            let (grid, _) = settings.lit_grid(&voxels);
+            let gpu_views: Vec<GpuView> = views.iter().map(|v| v.view).collect();
+            let levels = match on_gpu("lit_cells") {
+                Some(ctx) => super::lit_cells::lit_on_gpu(ctx, &grid, &gpu_views, &rsms)
+                    .context("lit cells")?,
+                None => super::lit_cells::lit_mirror(&grid, &gpu_views, &rsms),
+            };
+            for level in &levels {
+                lit_offsets.push((lit.len() / 2) as u32);
+                lit.extend(bytemuck::cast_slice::<f32, [f32; 4]>(level));
+            }
+            stages.push(("lit_cells", t.elapsed().as_secs_f64()));
+        }
+        let params = settings.sample_params(&voxels);
+        let mut frame = Self {
             voxels,
             occ,
             occ_offsets,
             views: views.iter().map(|v| v.view).collect(),
-            params: super::sample_lrsm::sample_params(&config, 0, settings.view_weight),
+            params,
             depth_ranges: config.depth_ranges(),
             streams,
-            memory,
-        })
+            lit,
+            lit_offsets,
+            memory: LrsmMemory::default(),
+        };
+        frame.memory = LrsmMemory::of(&frame, settings.rsm_side);
+        Ok(frame)
     }
 
     /// Bound on any cone sample's radiance: per view, the sum over layers of the largest opacity-
     /// weighted radiance (V, N and the decay are at most 1), summed over views.
     pub fn lmax(&self) -> f32 {
+        if self.params.lit_cells != 0 {
+            // A lit cell's light is at most its mean radiance (coverage and N's ramp <= 1), and a
+            // level's mean at most its children's largest (1e-3 for the sums' roundings).
+            let mean = self
+                .lit
+                .chunks(2)
+                .filter(|c| c[0][3] > 0.0)
+                .map(|c| c[0][0].max(c[0][1]).max(c[0][2]) / c[0][3])
+                .fold(0.0f32, f32::max);
+            return mean * 1.001;
+        }
         let layers = (self.params.depth_slices * self.params.normal_slices) as usize;
         let texels = (self.params.side0 as usize).pow(2);
         let per_view: usize = self.streams[0].len() / self.views.len().max(1);
@@ -338,6 +420,8 @@ impl LrsmFrame {
                 moments: &self.streams[2],
             },
             views: &self.views,
+            lit: &self.lit,
+            lit_offsets: &self.lit_offsets,
             lmax: self.lmax(),
         }
     }
@@ -399,6 +483,8 @@ pub fn case_for(
         ),
         ("shadow_params", HostBuffer::pod(&shadow)),
         ("soft_direct", HostBuffer::zeroed(n * 16, ScalarKind::F32)),
+        ("lit", HostBuffer::of(&or_one(&frame.lit))),
+        ("lit_offsets", HostBuffer::of(&or_one(&frame.lit_offsets))),
     ]);
     let mut case = tracer_case(&DECL, data, gbuffer, params, volume, label, seed);
     if shadow_tan > 0.0 {
@@ -430,6 +516,8 @@ fn frame_of(data: &Resources, params: &ConeParams) -> LrsmFrame {
         depth_ranges: f4("depth_ranges"),
         streams: ["lrsm_radiance", "lrsm_normal", "lrsm_moments"]
             .map(|n| lrsm_prefilter::values(b(n))),
+        lit: f4("lit"),
+        lit_offsets: b("lit_offsets").as_u32().to_vec(),
         memory: LrsmMemory::default(),
     }
 }
@@ -506,6 +594,14 @@ impl Kernel for LrsmConeTrace {
             // Every fourth case with area-weighted LRSMs (premultiplied samples one level finer),
             // among them the surface-coverage cases (index % 8 == 6).
             area_weights: index % 4 == 2,
+            // Every fourth case reads the lit cells (no LRSM).
+            lit_cells: index.is_multiple_of(4),
+            // Half of those (32^3) read a lit table of 8^3: samples below its level read it.
+            lit_max_side: if index % 8 == 4 {
+                8
+            } else {
+                super::lit_cells::MAX_SIDE
+            },
         };
         let frame = LrsmFrame::build(
             ctx,
@@ -534,9 +630,11 @@ impl Kernel for LrsmConeTrace {
                 frame.params.depth_slices * frame.params.normal_slices,
                 frame.views.len(),
                 if settings.surface_coverage {
-                    ", surface-coverage occlusion"
+                    ", surface-coverage occlusion".to_string()
+                } else if settings.lit_cells {
+                    format!(", lit cells from level {}", frame.params.lit_base)
                 } else {
-                    ""
+                    String::new()
                 }
             ),
             seed,

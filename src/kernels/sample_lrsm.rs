@@ -98,7 +98,8 @@ pub fn sample_params(config: &PartitionConfig, cdf: u32, view_weight: bool) -> S
         overlap: config.overlap,
         view_weight: (view_weight || config.area_weights) as u32,
         area: config.area_weights as u32,
-        _pad: [0; 2],
+        lit_cells: 0,
+        lit_base: 0,
     }
 }
 

@@ -4,12 +4,15 @@
 use super::host::{HostFrame, Side};
 use super::*;
 use crate::kernels::{
-    lrsm_partition, lrsm_prefilter, occlusion_voxels, reflective_shadow_map as rsm_kernel,
+    lit_cells, lrsm_partition, lrsm_prefilter, occlusion_voxels,
+    reflective_shadow_map as rsm_kernel,
 };
 
 /// lrsm's frame: G-buffer and direct light as vct-dense; the voxel grid becomes binary occlusion
-/// voxels and their mips; every light view gets an RSM, then its layers, pre-filtered; the gather
-/// cone-traces occlusion from the voxels and radiance from the LRSMs.
+/// voxels and their mips; every light view gets an RSM, then its lit texels go into the occlusion
+/// pyramid's cells (`lrsm_lit_cells`, the default) or its layers are built and pre-filtered (the
+/// paper's LRSMs); the gather cone-traces occlusion from the voxels and radiance from the lit cells
+/// or the LRSMs.
 pub static LRSM: PipelineDecl = PipelineDecl {
     name: "lrsm",
     stages: &[
@@ -47,6 +50,14 @@ pub static LRSM: PipelineDecl = PipelineDecl {
             reuse: Reuse::Lights,
             split: Split::Always,
             plan: |i| light_view_plan(i, "lrsm_partition", &["lrsm_partition", "lrsm_prefilter"]),
+            host: None,
+        },
+        StageDecl {
+            name: "lit_cells",
+            kernels: &[&lit_cells::DECL],
+            reuse: Reuse::Lights,
+            split: Split::Always,
+            plan: |i| light_view_plan(i, "lit_cells", &["lit_cells"]),
             host: None,
         },
         StageDecl {
@@ -116,22 +127,46 @@ fn light_view_plan(
     kernels: &[&'static str],
 ) -> Vec<PlannedPass> {
     let lights = i.scene.lights.len();
-    let size = format!(
-        "{} light views x {}^2 RSM, {} layers",
-        crate::plan::light_views(i.scene),
-        i.lrsm.rsm_side,
-        (i.lrsm.depth_splits + 1) * (i.lrsm.normal_splits + 1)
-    );
+    let views = crate::plan::light_views(i.scene);
+    let size = if stage == "lit_cells" {
+        let cells = i.scene.render.voxels.min(i.lrsm.lit_max_side);
+        format!(
+            "{views} light views x {}^2 RSM into {cells}^3 cells",
+            i.lrsm.rsm_side
+        )
+    } else {
+        format!(
+            "{views} light views x {}^2 RSM, {} layers",
+            i.lrsm.rsm_side,
+            (i.lrsm.depth_splits + 1) * (i.lrsm.normal_splits + 1)
+        )
+    };
+    // Which of the two light structures the gather reads: the other's stage is skipped.
+    let lit = i.lrsm.lit_cells;
+    let other = match stage {
+        "lrsm_partition" if lit => {
+            Some("skipped: the gather reads the lit cells (lrsm_lit_cells), not the LRSMs")
+        }
+        "lit_cells" if !lit => Some("skipped: the gather reads the LRSMs (lrsm_lit_cells = false)"),
+        _ => None,
+    };
     let why = if i.cached {
         LRSM_CACHED
     } else if lights == 0 {
         "skipped: no lights, no RSM (indirect is 0)"
+    } else if let Some(skip) = other {
+        skip
     } else {
-        "each view's RSM from the light (point lights: six cube faces; directional: orthographic)"
+        match stage {
+            "lrsm_partition" => "each view's RSM split into layers and pre-filtered (the paper's LRSMs)",
+            "lit_cells" => "each view's lit RSM texels into the occlusion pyramid's level-0 cells, then summed up the levels",
+            _ => "each view's RSM from the light (point lights: six cube faces; directional: orthographic)",
+        }
     };
+    let runs = !i.cached && lights > 0 && other.is_none();
     kernels
         .iter()
-        .map(|k| PlannedPass::new(stage, k, size.clone(), !i.cached && lights > 0, why))
+        .map(|k| PlannedPass::new(stage, k, size.clone(), runs, why))
         .collect()
 }
 
@@ -139,10 +174,15 @@ fn lrsm_cone_trace_plan(i: &PlanInputs) -> Vec<PlannedPass> {
     let mut p = cone_trace_plan(i).remove(0);
     p.stage = "lrsm_cone_trace";
     p.kernel = "lrsm_cone_trace";
+    let views = crate::plan::light_views(i.scene);
     p.why = format!(
-        "{}; radiance from {} LRSM views, read only where a sample has occlusion{}",
+        "{}; radiance from {}, read only where a sample has occlusion{}",
         p.why,
-        crate::plan::light_views(i.scene),
+        if i.lrsm.lit_cells {
+            format!("the lit cells of {views} light views")
+        } else {
+            format!("{views} LRSM views")
+        },
         if i.lrsm.shadow_cone_angle > 0.0 && !i.scene.lights.is_empty() {
             "; + direct light with one shadow cone per light"
         } else {
@@ -259,6 +299,23 @@ pub(crate) fn lrsm_chain(
     let fshader = lrsm_prefilter::DECL.shader()?;
     const RSM: &str = "reflective_shadow_map";
     const PARTITION: &str = "lrsm_partition";
+    const LIT: &str = "lit_cells";
+    // With lit cells: level 0 cleared before the first view, each view injected after its RSM,
+    // the levels above reduced after the last, every level copied into `lit`.
+    // No light view, no lit cell: the gather reads the zeroed table.
+    let lit_shader = lit_cells::DECL.shader()?;
+    let (lit_grid, _) = settings.lit_grid(&vframe);
+    let lit_side = lit_grid.size[0];
+    let injects = settings.lit_cells && !views.is_empty();
+    if injects {
+        chain.merge(lit_cells::DECL.name, lit_cells::resources(&lit_grid))?;
+        chain.push_as(
+            lit_cells::DECL.shader()?,
+            lit_cells::DECL.name,
+            LIT,
+            vec![lit_cells::clear_pass(&lit_shader, ctx, lit_side)],
+        );
+    }
     for (v, view) in views.iter().enumerate() {
         let (frame_name, view_name) = light_view_names(v);
         let mut d = data.clone();
@@ -287,6 +344,20 @@ pub(crate) fn lrsm_chain(
             r.rename_resource(n, &rsm_gb(n), false);
         }
         chain.add(&rsmk::DECL, RSM, r)?;
+        if injects {
+            let names = lit_cells::ViewNames {
+                view: view_name,
+                rsm: ["rsm_radiance", "rsm_normal", "rsm_depth"].map(String::from),
+            };
+            let pass = lit_cells::inject_pass(&lit_shader, ctx, v, &names, rsm_side);
+            chain.push_as(
+                lit_cells::DECL.shader()?,
+                lit_cells::DECL.name,
+                LIT,
+                vec![pass],
+            );
+            continue;
+        }
         let zero_rsm = crate::lrsm::Rsm {
             side: rsm_side,
             radiance: vec![[0.0; 4]; texels],
@@ -332,6 +403,28 @@ pub(crate) fn lrsm_chain(
             first += config.layers() as u64 * ((side0 >> k) as u64).pow(2);
         }
     }
+    let (mut lit, mut lit_offsets) = (Vec::new(), Vec::new());
+    if settings.lit_cells {
+        if injects {
+            let passes = lit_cells::reduce_passes(&lit_shader, ctx, lit_side);
+            chain.push_as(lit_shader, lit_cells::DECL.name, LIT, passes);
+        }
+        let mut cells = 0u64;
+        for l in 0..=lit_side.trailing_zeros() {
+            lit_offsets.push(cells as u32);
+            if injects {
+                chain.copies.push(ChainCopy {
+                    src_range: None,
+                    after: chain.pass_count(),
+                    src: lit_cells::level_name(l),
+                    dst: "lit".into(),
+                    offset: cells * 32,
+                });
+            }
+            cells += lit_cells::level_cells(lit_side, l) as u64;
+        }
+        lit = vec![[0.0f32; 4]; 2 * cells as usize];
+    }
     // The camera's G-buffer and direct light, then the gather over the tiles screen_tiles lists.
     let g = gbuffer::case_for(data, "render".into(), 0);
     let camera_gb = g.resources.clone();
@@ -341,21 +434,33 @@ pub(crate) fn lrsm_chain(
         let d = direct_light::case_with_gbuffer(ctx, data, &Default::default(), "render".into(), 0);
         chain.add(&direct_light::DECL, direct_light::DECL.name, d)?;
     }
-    let stream = vec![[0.0f32; 4]; (per_view * views.len() as u64) as usize];
+    let streams = if settings.lit_cells {
+        0
+    } else {
+        views.len() as u64
+    };
+    let stream = vec![[0.0f32; 4]; (per_view * streams) as usize];
     let frame = LrsmFrame {
         voxels: vframe,
         occ: vec![0; words as usize],
         occ_offsets,
         views: views.iter().map(|v| v.view).collect(),
-        params: crate::kernels::sample_lrsm::sample_params(&config, 0, settings.view_weight),
+        params: settings.sample_params(&vframe),
         depth_ranges: config.depth_ranges(),
         streams: [stream.clone(), stream.clone(), stream],
         memory: LrsmMemory::default(),
+        lit_offsets,
+        lit,
     };
     let memory = LrsmMemory {
         occlusion: words as u64 * 4,
         rsm: texels as u64 * 36,
-        lrsm: crate::lrsm::lrsm_bytes(&config) * views.len() as u64,
+        lrsm: if settings.lit_cells {
+            0
+        } else {
+            crate::lrsm::lrsm_bytes(&config) * views.len() as u64
+        },
+        lit: frame.lit.len() as u64 * 16,
         views: views.len() as u32,
     };
     let params = cone_trace::cone_params(&vframe, cones);
