@@ -38,7 +38,9 @@ struct LitGrid {
 @group(0) @binding(3) var<storage, read> rsm_normal: array<vec4<f32>>;
 @group(0) @binding(4) var<storage, read> rsm_depth: array<f32>;
 @group(0) @binding(5) var<storage, read_write> cells: array<atomic<u32>>;
-@group(0) @binding(6) var<storage, read> src: array<vec4<f32>>;
+// read_write although reduce only reads it: a pipeline binds src and dst as windows of one buffer,
+// which a dispatch may bind twice only as writable storage.
+@group(0) @binding(6) var<storage, read_write> src: array<vec4<f32>>;
 @group(0) @binding(7) var<storage, read_write> dst: array<vec4<f32>>;
 
 const MAX_SPREAD: f32 = 16.0;

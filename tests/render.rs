@@ -1690,6 +1690,49 @@ fn resident_frames_relight_the_kept_voxels_when_a_light_moves() {
     }
 }
 
+/// lrsm with the lit cells (every preset's): a moved light re-runs the light views and the lit
+/// cells over the kept occlusion voxels in one submission that creates nothing, and the frame is a
+/// fresh renderer's to the lit cells' rounding (their float sums run in the order the GPU's
+/// invocations do, so not bit for bit: within 1e-4 of the largest indirect value, where a stale or
+/// uncleared table would be off by the light itself).
+#[test]
+fn resident_lit_cells_follow_a_moved_light() {
+    let mut scene = small(Scene::cornell_box(), 40, 40);
+    scene.render.voxels = 32;
+    scene.render.rsm_side = 32;
+    scene.render.lrsm_lit_cells = true;
+    let (want, got, c) = relit_frame(vxgi::render::Pipeline::Lrsm, &scene);
+    assert!(want.direct == got.direct && want.ao == got.ao);
+    let largest = want
+        .indirect
+        .pixels
+        .iter()
+        .flatten()
+        .fold(0.0f32, |a, &v| a.max(v));
+    let worst = want
+        .indirect
+        .pixels
+        .iter()
+        .flatten()
+        .zip(got.indirect.pixels.iter().flatten())
+        .fold(0.0f32, |a, (x, y)| a.max((x - y).abs()));
+    assert!(
+        largest > 0.0 && worst <= 1e-4 * largest,
+        "{worst} of {largest}"
+    );
+    assert_eq!(
+        got.plan.skipped(),
+        vec!["voxelize", "occlusion_voxels", "lrsm_partition"],
+        "{}",
+        got.plan
+    );
+    assert_eq!(
+        (c.submissions, c.buffers_created, c.readback_bytes),
+        (1, 0, 0),
+        "{c:?}"
+    );
+}
+
 /// Another renderer records vct-dense's frame into its own encoder (`Resident::encode`) and
 /// submits it itself; the images are in GPU buffers it can bind or read: the same as `render`'s.
 #[test]

@@ -87,13 +87,46 @@ fn buf(n: &str) -> View {
     View::Buffer(n.to_string())
 }
 
+/// Where a grid's levels live: each in its own buffer (`level_name`, the verified cases), or as
+/// windows of one buffer, every level in turn (a pipeline's: the gather binds that buffer whole).
+#[derive(Clone, Copy)]
+pub enum Levels<'a> {
+    Own,
+    Windows { buffer: &'a str, side: u32 },
+}
+
+impl Levels<'_> {
+    /// Level `l`'s view.
+    pub fn view(&self, l: u32) -> View {
+        match *self {
+            Levels::Own => buf(&level_name(l)),
+            Levels::Windows { buffer, side } => {
+                let first: usize = (0..l).map(|k| level_cells(side, k)).sum();
+                let bytes = (CELL_FLOATS * 4) as u64;
+                View::BufferRange {
+                    name: buffer.to_string(),
+                    offset: first as u64 * bytes,
+                    size: level_cells(side, l) as u64 * bytes,
+                }
+            }
+        }
+    }
+}
+
+/// Each level's first cell when the levels are windows of one buffer (the gather's `lit_offsets`).
+pub fn level_offsets(side: u32) -> Vec<u32> {
+    (0..=side.trailing_zeros())
+        .map(|l| (0..l).map(|k| level_cells(side, k) as u32).sum())
+        .collect()
+}
+
 /// The pass that clears level 0 of a grid of side `side`.
-pub fn clear_pass(shader: &Shader, ctx: &GpuContext, side: u32) -> Pass {
+pub fn clear_pass(shader: &Shader, ctx: &GpuContext, side: u32, levels: Levels) -> Pass {
     let mut clear = DECL.pass(
         shader,
         ctx,
         "clear level 0".into(),
-        vec![("cells".into(), buf(&level_name(0)))],
+        vec![("cells".into(), levels.view(0))],
         level_cells(side, 0) as u64,
     );
     clear.entry = "clear".into();
@@ -107,6 +140,7 @@ pub fn inject_pass(
     k: usize,
     names: &ViewNames,
     rsm_side: u32,
+    levels: Levels,
 ) -> Pass {
     DECL.pass(
         shader,
@@ -118,14 +152,14 @@ pub fn inject_pass(
             ("rsm_radiance".into(), buf(&names.rsm[0])),
             ("rsm_normal".into(), buf(&names.rsm[1])),
             ("rsm_depth".into(), buf(&names.rsm[2])),
-            ("cells".into(), buf(&level_name(0))),
+            ("cells".into(), levels.view(0)),
         ],
         (rsm_side as u64).pow(2),
     )
 }
 
 /// The passes that reduce every level above 0 of a grid of side `side`.
-pub fn reduce_passes(shader: &Shader, ctx: &GpuContext, side: u32) -> Vec<Pass> {
+pub fn reduce_passes(shader: &Shader, ctx: &GpuContext, side: u32, levels: Levels) -> Vec<Pass> {
     let mut out = Vec::new();
     for l in 1..=side.trailing_zeros() {
         let mut pass = DECL.pass(
@@ -133,8 +167,8 @@ pub fn reduce_passes(shader: &Shader, ctx: &GpuContext, side: u32) -> Vec<Pass> 
             ctx,
             format!("reduce level {l}"),
             vec![
-                ("src".into(), buf(&level_name(l - 1))),
-                ("dst".into(), buf(&level_name(l))),
+                ("src".into(), levels.view(l - 1)),
+                ("dst".into(), levels.view(l)),
             ],
             level_cells(side, l) as u64,
         );
@@ -144,10 +178,15 @@ pub fn reduce_passes(shader: &Shader, ctx: &GpuContext, side: u32) -> Vec<Pass> 
     out
 }
 
-/// The grid's resources: `lit_grid` and every level zeroed.
+/// The grid itself (`lit_grid`).
+pub fn grid_resource(grid: &LitGrid) -> Resources {
+    Resources::from([("lit_grid".to_string(), HostBuffer::pod(grid).into())])
+}
+
+/// The grid's resources: `lit_grid` and every level zeroed, each its own buffer.
 pub fn resources(grid: &LitGrid) -> Resources {
     let side = grid.size[0];
-    let mut r = Resources::from([("lit_grid".to_string(), HostBuffer::pod(grid).into())]);
+    let mut r = grid_resource(grid);
     for l in 0..=side.trailing_zeros() {
         let n = level_cells(side, l) * CELL_FLOATS;
         r.insert(
@@ -188,11 +227,11 @@ pub fn case_for(
         resources.insert(n.rsm[2].clone(), HostBuffer::f32(&rsm.depth).into());
         names.push((n, rsm.side));
     }
-    let mut passes = vec![clear_pass(shader, ctx, side)];
+    let mut passes = vec![clear_pass(shader, ctx, side, Levels::Own)];
     for (k, (n, rsm_side)) in names.iter().enumerate() {
-        passes.push(inject_pass(shader, ctx, k, n, *rsm_side));
+        passes.push(inject_pass(shader, ctx, k, n, *rsm_side, Levels::Own));
     }
-    passes.extend(reduce_passes(shader, ctx, side));
+    passes.extend(reduce_passes(shader, ctx, side, Levels::Own));
     let mut checks = vec![Check {
         resource: level_name(0),
         ..Check::of("cells", Indexing::Linear)

@@ -301,19 +301,28 @@ pub(crate) fn lrsm_chain(
     const PARTITION: &str = "lrsm_partition";
     const LIT: &str = "lit_cells";
     // With lit cells: level 0 cleared before the first view, each view injected after its RSM,
-    // the levels above reduced after the last, every level copied into `lit`.
-    // No light view, no lit cell: the gather reads the zeroed table.
+    // the levels above reduced after the last, every level a window of the gather's `lit`. No
+    // light view, no lit cell: the gather reads the zeroed table.
     let lit_shader = lit_cells::DECL.shader()?;
     let (lit_grid, _) = settings.lit_grid(&vframe);
     let lit_side = lit_grid.size[0];
+    let lit_levels = lit_cells::Levels::Windows {
+        buffer: "lit",
+        side: lit_side,
+    };
     let injects = settings.lit_cells && !views.is_empty();
     if injects {
-        chain.merge(lit_cells::DECL.name, lit_cells::resources(&lit_grid))?;
+        chain.merge(lit_cells::DECL.name, lit_cells::grid_resource(&lit_grid))?;
         chain.push_as(
             lit_cells::DECL.shader()?,
             lit_cells::DECL.name,
             LIT,
-            vec![lit_cells::clear_pass(&lit_shader, ctx, lit_side)],
+            vec![lit_cells::clear_pass(
+                &lit_shader,
+                ctx,
+                lit_side,
+                lit_levels,
+            )],
         );
     }
     for (v, view) in views.iter().enumerate() {
@@ -349,7 +358,7 @@ pub(crate) fn lrsm_chain(
                 view: view_name,
                 rsm: ["rsm_radiance", "rsm_normal", "rsm_depth"].map(String::from),
             };
-            let pass = lit_cells::inject_pass(&lit_shader, ctx, v, &names, rsm_side);
+            let pass = lit_cells::inject_pass(&lit_shader, ctx, v, &names, rsm_side, lit_levels);
             chain.push_as(
                 lit_cells::DECL.shader()?,
                 lit_cells::DECL.name,
@@ -406,23 +415,11 @@ pub(crate) fn lrsm_chain(
     let (mut lit, mut lit_offsets) = (Vec::new(), Vec::new());
     if settings.lit_cells {
         if injects {
-            let passes = lit_cells::reduce_passes(&lit_shader, ctx, lit_side);
+            let passes = lit_cells::reduce_passes(&lit_shader, ctx, lit_side, lit_levels);
             chain.push_as(lit_shader, lit_cells::DECL.name, LIT, passes);
         }
-        let mut cells = 0u64;
-        for l in 0..=lit_side.trailing_zeros() {
-            lit_offsets.push(cells as u32);
-            if injects {
-                chain.copies.push(ChainCopy {
-                    src_range: None,
-                    after: chain.pass_count(),
-                    src: lit_cells::level_name(l),
-                    dst: "lit".into(),
-                    offset: cells * 32,
-                });
-            }
-            cells += lit_cells::level_cells(lit_side, l) as u64;
-        }
+        lit_offsets = lit_cells::level_offsets(lit_side);
+        let cells = lit_cells::pyramid_bytes(lit_side) / 32;
         lit = vec![[0.0f32; 4]; 2 * cells as usize];
     }
     // The camera's G-buffer and direct light, then the gather over the tiles screen_tiles lists.
