@@ -26,7 +26,8 @@ pub struct BenchRow {
     pub cone_level_bias: f32,
     pub coverage_correlation: f32,
     /// lrsm: RSM side per light view and layers (depth x <n.l>, "area-weighted" with
-    /// `lrsm_area_weights`); swept for that pipeline only.
+    /// `lrsm_area_weights`; "lit cells" with `lrsm_lit_cells`, which builds no layers); swept for
+    /// that pipeline only.
     pub rsm_side: u32,
     pub lrsm_layers: String,
     /// cprc: cache side in texels, distribution tile, and the caches the frame placed (0 elsewhere).
@@ -223,12 +224,15 @@ pub fn svo_sweep(base: &RenderSettings, quick: bool) -> Vec<RenderSettings> {
 /// lrsm's sweep: voxels {32, 64, 128} x cones {1, `base`'s (at least 2)} x RSM side {64, 128, 256} x
 /// layers {1 x 1, 2 x 2, 3 x 2} = 54 (the cone angle, interleave, clamp and step at `base`'s); plus
 /// `base` at voxels 256 and 512 (its occlusion voxels are bits: the papers' 512^3 fits) and `base`
-/// with `lrsm_area_weights` the other way = 57. Quick: 32^3, `base`'s cones, RSM {32, 64} x layers
-/// {1 x 1, 2 x 2} = 4.
+/// with `lrsm_lit_cells` the other way (the lit cells against the LRSMs) = 57. With the lit cells
+/// (every preset's) the layers are not built, so they are not swept: 18 + 3 = 21. Quick: 32^3,
+/// `base`'s cones, RSM {32, 64} x layers {1 x 1, 2 x 2} = 4 (with the lit cells: RSM {32, 64} x
+/// {the lit cells, 2 x 2 LRSMs} = 4).
 pub fn lrsm_sweep(base: &RenderSettings, quick: bool) -> Vec<RenderSettings> {
     type Axes<'a> = (&'a [u32], &'a [u32], &'a [u32], &'a [(u32, u32)]);
     let own = [base.cones];
     let both = [1, base.cones.max(2)];
+    let base_layers = [(base.lrsm_depth_splits, base.lrsm_normal_splits)];
     let (voxels, cones, sides, layers): Axes = if quick {
         (&[32], &own, &[32, 64], &[(0, 0), (1, 1)])
     } else {
@@ -238,6 +242,30 @@ pub fn lrsm_sweep(base: &RenderSettings, quick: bool) -> Vec<RenderSettings> {
             &[64, 128, 256],
             &[(0, 0), (1, 1), (2, 1)],
         )
+    };
+    if quick && base.lrsm_lit_cells {
+        let mut out = Vec::new();
+        for &r in sides {
+            out.push(RenderSettings {
+                voxels: 32,
+                rsm_side: r,
+                ..base.clone()
+            });
+            out.push(RenderSettings {
+                voxels: 32,
+                rsm_side: r,
+                lrsm_lit_cells: false,
+                lrsm_depth_splits: 1,
+                lrsm_normal_splits: 1,
+                ..base.clone()
+            });
+        }
+        return out;
+    }
+    let layers = if base.lrsm_lit_cells {
+        &base_layers[..]
+    } else {
+        layers
     };
     let mut out = Vec::new();
     for &v in voxels {
@@ -264,7 +292,7 @@ pub fn lrsm_sweep(base: &RenderSettings, quick: bool) -> Vec<RenderSettings> {
             });
         }
         out.push(RenderSettings {
-            lrsm_area_weights: !base.lrsm_area_weights,
+            lrsm_lit_cells: !base.lrsm_lit_cells,
             ..base.clone()
         });
     }
@@ -556,16 +584,20 @@ pub fn bench(
             cone_level_bias: settings.cone_level_bias,
             coverage_correlation: settings.coverage_correlation,
             rsm_side: settings.rsm_side,
-            lrsm_layers: format!(
-                "{}x{}{}",
-                settings.lrsm_depth_splits + 1,
-                settings.lrsm_normal_splits + 1,
-                if settings.lrsm_area_weights {
-                    " area-weighted"
-                } else {
-                    ""
-                }
-            ),
+            lrsm_layers: if settings.lrsm_lit_cells {
+                "lit cells".into()
+            } else {
+                format!(
+                    "{}x{}{}",
+                    settings.lrsm_depth_splits + 1,
+                    settings.lrsm_normal_splits + 1,
+                    if settings.lrsm_area_weights {
+                        " area-weighted"
+                    } else {
+                        ""
+                    }
+                )
+            },
             cache_resolution: settings.cache_resolution,
             cache_tile: settings.cache_tile,
             caches,
@@ -889,8 +921,16 @@ mod tests {
         assert_eq!(svo.iter().filter(|s| s.anisotropic_voxels).count(), 25);
         let lrsm = sweep(&base, false, Pipeline::Lrsm);
         assert_eq!(lrsm.len(), 57);
-        let other = |s: &&RenderSettings| s.lrsm_area_weights != base.lrsm_area_weights;
+        let other = |s: &&RenderSettings| s.lrsm_lit_cells != base.lrsm_lit_cells;
         assert_eq!(lrsm.iter().filter(other).count(), 1);
+        let lit = RenderSettings {
+            lrsm_lit_cells: true,
+            ..base.clone()
+        };
+        assert_eq!(sweep(&lit, false, Pipeline::Lrsm).len(), 21);
+        let quick = sweep(&lit, true, Pipeline::Lrsm);
+        assert_eq!(quick.iter().filter(|s| s.lrsm_lit_cells).count(), 2);
+        assert_eq!(quick.len(), 4);
         assert_eq!(lrsm.iter().filter(|s| s.voxels > 128).count(), 2);
         assert!(lrsm
             .iter()
