@@ -47,15 +47,6 @@ const MAX_SPREAD: f32 = 16.0;
 const PARALLEL: f32 = 1e-6;
 const MIN_NDOTL: f32 = 1e-3;
 
-fn compact2(v: u32) -> u32 {
-    var x = v & 0x55555555u;
-    x = (x | (x >> 1u)) & 0x33333333u;
-    x = (x | (x >> 2u)) & 0x0f0f0f0fu;
-    x = (x | (x >> 4u)) & 0x00ff00ffu;
-    x = (x | (x >> 8u)) & 0x0000ffffu;
-    return x;
-}
-
 fn dot3(a: vec3<f32>, b: vec3<f32>) -> f32 {
     return (a.x * b.x + a.y * b.y) + a.z * b.z;
 }

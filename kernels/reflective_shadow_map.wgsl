@@ -23,15 +23,6 @@
 
 const PI: f32 = 3.14159265358979;
 
-fn compact2(v: u32) -> u32 {
-    var x = v & 0x55555555u;
-    x = (x | (x >> 1u)) & 0x33333333u;
-    x = (x | (x >> 2u)) & 0x0f0f0f0fu;
-    x = (x | (x >> 4u)) & 0x00ff00ffu;
-    x = (x | (x >> 8u)) & 0x0000ffffu;
-    return x;
-}
-
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let m = gid.x + gid.y * groups.x * 64u;

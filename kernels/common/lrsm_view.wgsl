@@ -1,6 +1,6 @@
 // common/lrsm_view.wgsl — one light view of the lrsm pipeline (a spot light's cone, one of a point
 // light's six 90-degree cube faces, or a directional light's orthographic view of the scene).
-// Mirror: GpuView in cpu_mirror/src/reflective_shadow_map.rs. Included by reflective_shadow_map.wgsl and lrsm_cone_trace.wgsl.
+// Mirror: GpuView in cpu_mirror/src/reflective_shadow_map.rs. Included by reflective_shadow_map.wgsl, lit_cells.wgsl and lrsm_cone_trace.wgsl.
 
 struct LrsmView {
     eye: vec4<f32>,      // light position (orthographic: the image plane's centre); w = near
@@ -22,4 +22,15 @@ fn view_axis_depth(v: LrsmView, p: vec3<f32>) -> f32 {
 // Light-space depth of p normalised by the view's near and far (unclamped).
 fn view_depth(v: LrsmView, p: vec3<f32>) -> f32 {
     return (view_axis_depth(v, p) - v.eye.w) * v.forward.w;
+}
+
+// One coordinate of an RSM texel from its index in the view's 2D Morton order (the even bits of the
+// index: x; of the index >> 1: y). Integers only: exact.
+fn compact2(v: u32) -> u32 {
+    var x = v & 0x55555555u;
+    x = (x | (x >> 1u)) & 0x33333333u;
+    x = (x | (x >> 2u)) & 0x0f0f0f0fu;
+    x = (x | (x >> 4u)) & 0x00ff00ffu;
+    x = (x | (x >> 8u)) & 0x0000ffffu;
+    return x;
 }
