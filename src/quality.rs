@@ -70,8 +70,8 @@ const NARROW_CONES: [(&str, Value); 4] = [
 /// the area-weighted LRSM where a scene turns the lit cells off (docs/accuracy/lrsm.md). With the
 /// `[render]` defaults' five 30-degree cones a sample spans coarse levels: the LRSMs' filtered
 /// depth moments and radiance mix the surfaces of a wide footprint (light straddling thin_wall's
-/// wall, leak 0.135), the lit cells' coarse cells hold a corner's walls under one mean normal
-/// (Cornell box 0.41 of the indirect energy); narrow cones read fine levels. The other cone
+/// wall, leak 0.135), and the lit cells gather 0.41 of the Cornell box's indirect energy (its
+/// coarse samples near the cone's start are opaque and culled); narrow cones read fine levels. The other cone
 /// tracers' `accurate` set (16 cones of 2.5 degrees a pixel) passes lavapipe's loop limit by 8x
 /// with the LRSMs: a march step reads up to three cube faces' layers.
 fn lrsm_cones() -> Vec<(&'static str, Value)> {

@@ -245,8 +245,8 @@ pub struct RenderSettings {
     /// default: the paper's layered RSMs, which put a wall's light half a cell off its occlusion).
     /// With narrow cones (the presets') it gathers 0.85-1.00 of the reference's indirect energy on
     /// six scenes where the LRSMs gather 0.66-1.41; with the defaults' five 30-degree cones less
-    /// than the LRSMs (coarse cells mix a corner's walls under one mean normal):
-    /// docs/accuracy/lrsm.md.
+    /// than the LRSMs (0.41 of the Cornell box's; part of it the cone's first coarse samples,
+    /// opaque and culled: docs/accuracy/lrsm.md).
     pub lrsm_lit_cells: bool,
     /// lrsm: soft shadows — direct light's visibility from one cone of this half-angle (degrees) per
     /// light through the occlusion voxels instead of an exact shadow ray; 0 (the default) = exact rays,

@@ -158,8 +158,7 @@ fn a_soft_direct_term_at_the_bottom_of_the_normal_range_may_flush() {
 /// defaults and the `balanced` preset every lrsm frame of the CLI takes (two interleaved 5-degree
 /// cones a pixel). Measured on lavapipe, combined FLIP / indirect FLIP / indirect energy of the
 /// reference's: LRSMs 0.471 / 0.839 / 0.081, 0.329 / 0.569 / 0.667, 0.356 / 0.582 / 0.998; lit
-/// cells 0.348 / 0.628 / 0.409 (wide cones read coarse cells, where a corner's mean normal culls
-/// the wall it holds), 0.148 / 0.236 / 0.963 (docs/accuracy/lrsm.md has the per-factor table
+/// cells 0.348 / 0.628 / 0.409 (wide cones lose the light: docs/accuracy/lrsm.md), 0.148 / 0.236 / 0.963 (docs/accuracy/lrsm.md has the per-factor table
 /// between them). A regression guard at the measured values plus a small margin, and the indirect
 /// energy's share; the `balanced` frame's is within a quarter of the reference's ([0.8, 1.25]) and
 /// its combined FLIP within vct-dense's `balanced` frame's (0.142) + 0.03.
