@@ -71,12 +71,10 @@ const PI: f32 = 3.14159265358979;
 
 // (0, 0, 0, occlusion) at x, trilinear in occlusion level l.
 fn sample_level(x: vec3<f32>, l: u32) -> vec4<f32> {
-    let n = i32(cone.side >> l);
-    let inv = cone.inv_s0 * (1.0 / f32(1u << l));
-    let q = (x - cone.origin.xyz) * inv - vec3<f32>(0.5);
-    let fl = floor(q);
-    let f = q - fl;
-    let i0 = vec3<i32>(fl);
+    let g = grid_point(x, l, cone.origin.xyz, cone.inv_s0, cone.side);
+    let n = g.n;
+    let f = g.f;
+    let i0 = g.i0;
     let off = occ_offsets[l];
     var acc = 0.0;
     for (var corner = 0u; corner < 8u; corner++) {
@@ -126,12 +124,10 @@ fn cell_light(c0: vec4<f32>, c1: vec4<f32>, l: u32, vc: vec3<f32>) -> vec3<f32> 
 // The lit cells at x, trilinear in occlusion level l (>= params.lit_base) with the occlusion read's
 // cells and weights: the lit table's level l - lit_base has the same cells.
 fn lit_level(x: vec3<f32>, l: u32, vc: vec3<f32>) -> vec3<f32> {
-    let n = i32(cone.side >> l);
-    let inv = cone.inv_s0 * (1.0 / f32(1u << l));
-    let q = (x - cone.origin.xyz) * inv - vec3<f32>(0.5);
-    let fl = floor(q);
-    let f = q - fl;
-    let i0 = vec3<i32>(fl);
+    let g = grid_point(x, l, cone.origin.xyz, cone.inv_s0, cone.side);
+    let n = g.n;
+    let f = g.f;
+    let i0 = g.i0;
     let ll = l - params.lit_base;
     let off = lit_offsets[ll];
     var acc = vec3<f32>(0.0);

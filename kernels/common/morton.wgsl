@@ -1,5 +1,7 @@
 // common/morton.wgsl — the Morton order of the voxel grids (mirror: vxgi_cpu_mirror::morton):
 // bit i of x, y, z at bits 3i, 3i + 1, 3i + 2, for coordinates below 1024. Integers only: exact.
+// And where a point falls in a level of such a grid (`grid_point`), which every trilinear read of
+// one shares.
 
 fn spread3(v: u32) -> u32 {
     var x = v & 0x3ffu;
@@ -25,4 +27,19 @@ fn morton3(p: vec3<u32>) -> u32 {
 
 fn morton_decode(m: u32) -> vec3<u32> {
     return vec3<u32>(compact3(m), compact3(m >> 1u), compact3(m >> 2u));
+}
+
+// Where point x falls in level l of the grid with this origin, 1 / s0 and side: the level's side n,
+// the trilinear cell's lower corner i0 and the fractions f. Mirror: cone_trace.rs `GridPoint`.
+struct GridPoint {
+    n: i32,
+    i0: vec3<i32>,
+    f: vec3<f32>,
+}
+
+fn grid_point(x: vec3<f32>, l: u32, origin: vec3<f32>, inv_s0: f32, side: u32) -> GridPoint {
+    let inv = inv_s0 * (1.0 / f32(1u << l));
+    let q = (x - origin) * inv - vec3<f32>(0.5);
+    let fl = floor(q);
+    return GridPoint(i32(side >> l), vec3<i32>(fl), q - fl);
 }

@@ -29,23 +29,9 @@ fn grid_level_offset(side: u32, l: u32) -> u32 {
     return ((1u << (3u * (big + 1u))) - (1u << (3u * (big + 1u - l)))) / 7u;
 }
 
-// Where point x falls in level l of the grid with this origin, 1 / s0 and side: the level's side n,
-// the trilinear cell's lower corner i0 and the fractions f. Mirror: cone_trace.rs `GridPoint`.
-struct GridPoint {
-    n: i32,
-    i0: vec3<i32>,
-    f: vec3<f32>,
-}
-
-fn grid_point(x: vec3<f32>, l: u32, origin: vec3<f32>, inv_s0: f32, side: u32) -> GridPoint {
-    let inv = inv_s0 * (1.0 / f32(1u << l));
-    let q = (x - origin) * inv - vec3<f32>(0.5);
-    let fl = floor(q);
-    return GridPoint(i32(side >> l), vec3<i32>(fl), q - fl);
-}
 
 // Level l of the grid with this origin, 1 / s0 and side, stored from `base`, at point x (the grid's
-// own frame).
+// own frame; `grid_point` in common/morton.wgsl).
 fn sample_grid(x: vec3<f32>, l: u32, origin: vec3<f32>, inv_s0: f32, side: u32, base: u32) -> vec4<f32> {
     let g = grid_point(x, l, origin, inv_s0, side);
     let n = g.n;
