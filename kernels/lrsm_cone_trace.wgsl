@@ -72,27 +72,21 @@ const PI: f32 = 3.14159265358979;
 // (0, 0, 0, occlusion) at x, trilinear in occlusion level l.
 fn sample_level(x: vec3<f32>, l: u32) -> vec4<f32> {
     let g = grid_point(x, l, cone.origin.xyz, cone.inv_s0, cone.side);
-    let n = g.n;
-    let f = g.f;
-    let i0 = g.i0;
     let off = occ_offsets[l];
     var acc = 0.0;
     for (var corner = 0u; corner < 8u; corner++) {
-        let cc = vec3<u32>(corner & 1u, (corner >> 1u) & 1u, (corner >> 2u) & 1u);
-        let w = select(vec3<f32>(1.0) - f, f, cc == vec3<u32>(1u));
-        let i = i0 + vec3<i32>(cc);
-        if (any(i < vec3<i32>(0)) || any(i >= vec3<i32>(n))) {
+        let c = grid_corner(g, corner);
+        if (!c.inside) {
             continue;
         }
-        let u = vec3<u32>(i);
-        let m = morton3(u);
+        let m = morton3(c.u);
         var b: u32;
         if (l == 0u) {
             b = ((occ[off + (m >> 5u)] >> (m & 31u)) & 1u) * 255u;
         } else {
             b = (occ[off + (m >> 2u)] >> (8u * (m & 3u))) & 255u;
         }
-        acc += (f32(b) * (1.0 / 255.0)) * (w.x * w.y * w.z);
+        acc += (f32(b) * (1.0 / 255.0)) * c.w;
     }
     return vec4<f32>(0.0, 0.0, 0.0, acc);
 }
@@ -125,21 +119,16 @@ fn cell_light(c0: vec4<f32>, c1: vec4<f32>, l: u32, vc: vec3<f32>) -> vec3<f32> 
 // cells and weights: the lit table's level l - lit_base has the same cells.
 fn lit_level(x: vec3<f32>, l: u32, vc: vec3<f32>) -> vec3<f32> {
     let g = grid_point(x, l, cone.origin.xyz, cone.inv_s0, cone.side);
-    let n = g.n;
-    let f = g.f;
-    let i0 = g.i0;
     let ll = l - params.lit_base;
     let off = lit_offsets[ll];
     var acc = vec3<f32>(0.0);
     for (var corner = 0u; corner < 8u; corner++) {
-        let cc = vec3<u32>(corner & 1u, (corner >> 1u) & 1u, (corner >> 2u) & 1u);
-        let w = select(vec3<f32>(1.0) - f, f, cc == vec3<u32>(1u));
-        let i = i0 + vec3<i32>(cc);
-        if (any(i < vec3<i32>(0)) || any(i >= vec3<i32>(n))) {
+        let c = grid_corner(g, corner);
+        if (!c.inside) {
             continue;
         }
-        let c = 2u * (off + morton3(vec3<u32>(i)));
-        acc += cell_light(lit[c], lit[c + 1u], ll, vc) * (w.x * w.y * w.z);
+        let k = 2u * (off + morton3(c.u));
+        acc += cell_light(lit[k], lit[k + 1u], ll, vc) * c.w;
     }
     return acc;
 }

@@ -43,3 +43,19 @@ fn grid_point(x: vec3<f32>, l: u32, origin: vec3<f32>, inv_s0: f32, side: u32) -
     let fl = floor(q);
     return GridPoint(i32(side >> l), vec3<i32>(fl), q - fl);
 }
+
+// Corner `corner` (0..7) of g's trilinear cell: whether it lies in the grid, its coordinates there
+// and its trilinear weight (the product in x, y, z order, as the mirror's).
+struct GridCorner {
+    inside: bool,
+    u: vec3<u32>,
+    w: f32,
+}
+
+fn grid_corner(g: GridPoint, corner: u32) -> GridCorner {
+    let cc = vec3<u32>(corner & 1u, (corner >> 1u) & 1u, (corner >> 2u) & 1u);
+    let w = select(vec3<f32>(1.0) - g.f, g.f, cc == vec3<u32>(1u));
+    let i = g.i0 + vec3<i32>(cc);
+    let inside = !(any(i < vec3<i32>(0)) || any(i >= vec3<i32>(g.n)));
+    return GridCorner(inside, vec3<u32>(max(i, vec3<i32>(0))), w.x * w.y * w.z);
+}

@@ -34,21 +34,14 @@ fn grid_level_offset(side: u32, l: u32) -> u32 {
 // own frame; `grid_point` in common/morton.wgsl).
 fn sample_grid(x: vec3<f32>, l: u32, origin: vec3<f32>, inv_s0: f32, side: u32, base: u32) -> vec4<f32> {
     let g = grid_point(x, l, origin, inv_s0, side);
-    let n = g.n;
-    let f = g.f;
-    let i0 = g.i0;
     let off = base + grid_level_offset(side, l);
     var acc = vec4<f32>(0.0);
     for (var corner = 0u; corner < 8u; corner++) {
-        let cc = vec3<u32>(corner & 1u, (corner >> 1u) & 1u, (corner >> 2u) & 1u);
-        let w = select(vec3<f32>(1.0) - f, f, cc == vec3<u32>(1u));
-        let i = i0 + vec3<i32>(cc);
-        if (any(i < vec3<i32>(0)) || any(i >= vec3<i32>(n))) {
+        let c = grid_corner(g, corner);
+        if (!c.inside) {
             continue;
         }
-        let u = vec3<u32>(i);
-        let v = pyramid_at(off + morton3(u));
-        acc += v * (w.x * w.y * w.z);
+        acc += pyramid_at(off + morton3(c.u)) * c.w;
     }
     return acc;
 }
