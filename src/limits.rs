@@ -155,7 +155,8 @@ pub fn check(scene: &Scene, pipeline: Pipeline, limits: &wgpu::Limits) -> Result
     match pipeline {
         Pipeline::Lrsm if r.lrsm_lit_cells => {
             // The lit cells, every level, in one binding (the table's side capped: lit_cells::MAX_SIDE).
-            let side = r.voxels.min(crate::kernels::lit_cells::MAX_SIDE);
+            use crate::kernels::lit_cells::{table_side, MAX_SIDE};
+            let side = table_side(r.voxels, MAX_SIDE);
             let bytes = crate::kernels::lit_cells::pyramid_bytes(side);
             if bytes > binding.min(limits.max_buffer_size) {
                 return past(

@@ -56,7 +56,7 @@ pub const MAX_SIDE: u32 = 128;
 /// The lit table over a voxel grid: its cells those of the grid's occlusion level whose side is at
 /// most `max_side` (a power of two); and that level (the gather's `lit_base`).
 pub fn grid_of(frame: &VoxelFrame, max_side: u32) -> (LitGrid, u32) {
-    let side = frame.side.min(max_side.max(1));
+    let side = table_side(frame.side, max_side);
     let base = (frame.side / side).trailing_zeros();
     let grid = LitGrid {
         origin: [
@@ -68,6 +68,11 @@ pub fn grid_of(frame: &VoxelFrame, max_side: u32) -> (LitGrid, u32) {
         size: [frame.side >> base, 0, 0, 0],
     };
     (grid, base)
+}
+
+/// The lit table's side over a voxel grid of side `voxels`, its cap `max_side`.
+pub fn table_side(voxels: u32, max_side: u32) -> u32 {
+    voxels.min(max_side.max(1))
 }
 
 /// Bytes of every level of a grid of side `side`.
@@ -176,6 +181,12 @@ pub fn reduce_passes(shader: &Shader, ctx: &GpuContext, side: u32, levels: Level
         out.push(pass);
     }
     out
+}
+
+/// Every level of a grid of side `side` in one buffer, zeroed (a pipeline's table before its passes
+/// fill it; `Levels::Windows` names its levels).
+pub fn zeroed_table(side: u32) -> HostBuffer {
+    HostBuffer::zeroed(pyramid_bytes(side) as usize, ScalarKind::F32)
 }
 
 /// The grid itself (`lit_grid`).

@@ -483,15 +483,7 @@ pub fn case_for(
         ),
         ("shadow_params", HostBuffer::pod(&shadow)),
         ("soft_direct", HostBuffer::zeroed(n * 16, ScalarKind::F32)),
-        // A chain's table starts zeroed (its passes fill it): made without copying its bytes.
-        (
-            "lit",
-            if frame.lit.iter().all(|c| *c == [0.0; 4]) {
-                HostBuffer::zeroed(frame.lit.len().max(1) * 16, ScalarKind::F32)
-            } else {
-                HostBuffer::of(&frame.lit)
-            },
-        ),
+        ("lit", HostBuffer::of(&or_one(&frame.lit))),
         ("lit_offsets", HostBuffer::of(&or_one(&frame.lit_offsets))),
     ]);
     let mut case = tracer_case(&DECL, data, gbuffer, params, volume, label, seed);

@@ -129,7 +129,7 @@ fn light_view_plan(
     let lights = i.scene.lights.len();
     let views = crate::plan::light_views(i.scene);
     let size = if stage == "lit_cells" {
-        let cells = i.scene.render.voxels.min(i.lrsm.lit_max_side);
+        let cells = lit_cells::table_side(i.scene.render.voxels, i.lrsm.lit_max_side);
         format!(
             "{views} light views x {}^2 RSM into {cells}^3 cells",
             i.lrsm.rsm_side
@@ -412,15 +412,13 @@ pub(crate) fn lrsm_chain(
             first += config.layers() as u64 * ((side0 >> k) as u64).pow(2);
         }
     }
-    let (mut lit, mut lit_offsets) = (Vec::new(), Vec::new());
+    let mut lit_offsets = Vec::new();
     if settings.lit_cells {
         if injects {
             let passes = lit_cells::reduce_passes(&lit_shader, ctx, lit_side, lit_levels);
             chain.push_as(lit_shader, lit_cells::DECL.name, LIT, passes);
         }
         lit_offsets = lit_cells::level_offsets(lit_side);
-        let cells = lit_cells::pyramid_bytes(lit_side) / 32;
-        lit = vec![[0.0f32; 4]; 2 * cells as usize];
     }
     // The camera's G-buffer and direct light, then the gather over the tiles screen_tiles lists.
     let g = gbuffer::case_for(data, "render".into(), 0);
@@ -447,7 +445,8 @@ pub(crate) fn lrsm_chain(
         streams: [stream.clone(), stream.clone(), stream],
         memory: LrsmMemory::default(),
         lit_offsets,
-        lit,
+        // The table is the chain's own zeroed buffer (below), not a host copy.
+        lit: Vec::new(),
     };
     let memory = LrsmMemory {
         occlusion: words as u64 * 4,
@@ -457,7 +456,11 @@ pub(crate) fn lrsm_chain(
         } else {
             crate::lrsm::lrsm_bytes(&config) * views.len() as u64
         },
-        lit: frame.lit.len() as u64 * 16,
+        lit: if settings.lit_cells {
+            lit_cells::pyramid_bytes(lit_side)
+        } else {
+            0
+        },
         views: views.len() as u32,
     };
     let params = cone_trace::cone_params(&vframe, cones);
@@ -466,7 +469,12 @@ pub(crate) fn lrsm_chain(
     } else {
         0.0
     };
-    let c = lrsm_cone_trace::case_for(data, &camera_gb, &frame, &params, tan, "render".into(), 0);
+    let mut c =
+        lrsm_cone_trace::case_for(data, &camera_gb, &frame, &params, tan, "render".into(), 0);
+    if settings.lit_cells {
+        c.resources
+            .insert("lit".into(), lit_cells::zeroed_table(lit_side).into());
+    }
     push_tiled_cone_pass(
         &mut chain,
         data,
