@@ -7,7 +7,11 @@
 // A cell holds 8 floats, two vec4: (sum a r, sum a g, sum a b, sum a), (sum a n.x, sum a n.y,
 // sum a n.z, 0), a each piece's area in level-0 faces (s0^2), r g b its RSM radiance, n its normal.
 // Cells in Morton order per level; the children of cell P are cells 8P .. 8P + 7 of the level below.
-//   clear (one invocation per level-0 cell): its 8 floats 0.
+// Level 0 is summed exactly, in any invocation order: each value as 64-bit two's-complement fixed
+// point (`fixed`: 32 fraction bits; radiance in units of Q = grid.scale.y, area and normal in faces;
+// magnitudes clamped to MAX_PIECE), its low word added into the cell's own slot of `cells`, the
+// carry and high word into the same index of `hi`; `resolve` then turns each slot into its float.
+//   clear (one invocation per level-0 cell): its 8 words in `cells` and in `hi` 0.
 //   inject (one invocation per texel m of one view's RSM; coverage <= 1/2 returns): the texel
 //     (x, y) = 2D Morton decode of m, image point a = (x + 1/2) t - 1, b = 1 - (y + 1/2) t (t = 2 /
 //     side), axis depth z = depth / forward.w + eye.w; rn = right / |right|^2, un = up / |up|^2; the
@@ -20,16 +24,19 @@
 //     through pt with normal n (a sub-ray within 1e-6 of parallel to it takes depth z), each carrying
 //     surface / k^2; k = 1 is pt itself. Each piece lands in the cell holding its point, clamped
 //     into the grid (a point on the grid's high faces goes to the last cell, as voxelize puts it),
-//     and adds its 7 sums there: f32 adds by compare-exchange on their bits (WGSL has no float
-//     atomics; the order is the GPU's).
+//     and adds its 7 values there ((r / Q) a, (g / Q) a, (b / Q) a, a, n a) in fixed point.
+//   resolve (one invocation per level-0 cell): each of its 7 sums to f32 (the magnitude's high and
+//     low words converted, the low scaled by 2^-32, added; radiance times Q), word 7 0.
 //   reduce (one invocation per cell of the level written, dst's length / 2): each float the sum of
 //     its 8 children's, in child order.
-// Accuracy: per-element bound from the mirror: each piece's own arithmetic, the float sums in any
-// order, and in full every piece whose cell, sub-ray count or plane test the rounding may change.
+// Accuracy: per-element bound from the mirror: each piece's own arithmetic and its quantum, the
+// resolve's rounding, and in full every piece whose cell, sub-ray count or plane test the rounding
+// may change. Deterministic: a frame's lit cells are the same bits on every run on one device.
 
 struct LitGrid {
     origin: vec4<f32>,  // xyz the grid's low corner, w = s0
     size: vec4<u32>,    // x = side at level 0; yzw unused
+    scale: vec4<f32>,   // x = 1 / Q, y = Q (a power of two): the radiance's fixed-point unit; zw unused
 }
 
 @group(0) @binding(0) var<storage, read> grid: LitGrid;
@@ -42,26 +49,41 @@ struct LitGrid {
 // which a dispatch may bind twice only as writable storage.
 @group(0) @binding(6) var<storage, read_write> src: array<vec4<f32>>;
 @group(0) @binding(7) var<storage, read_write> dst: array<vec4<f32>>;
+// The high words of level 0's fixed-point sums, one per word of `cells`.
+@group(0) @binding(8) var<storage, read_write> hi: array<atomic<u32>>;
 
 const MAX_SPREAD: f32 = 16.0;
 const PARALLEL: f32 = 1e-6;
 const MIN_NDOTL: f32 = 1e-3;
+const MAX_PIECE: f32 = 2147483520.0;
+const TWO_32: f32 = 4294967296.0;
 
 fn dot3(a: vec3<f32>, b: vec3<f32>) -> f32 {
     return (a.x * b.x + a.y * b.y) + a.z * b.z;
 }
 
-fn add_float(i: u32, v: f32) {
-    if (v == 0.0) {
+// v in its unit as 64-bit two's complement with 32 fraction bits: (low word, high word).
+fn fixed(v: f32) -> vec2<u32> {
+    let a = min(abs(v), MAX_PIECE);
+    let h = floor(a);
+    var lo = u32(round((a - h) * TWO_32));
+    var hw = u32(h);
+    if (v < 0.0) {
+        lo = ~lo + 1u;
+        hw = ~hw + select(0u, 1u, lo == 0u);
+    }
+    return vec2<u32>(lo, hw);
+}
+
+fn add_fixed(i: u32, v: f32) {
+    let q = fixed(v);
+    if (q.x == 0u && q.y == 0u) {
         return;
     }
-    var old = atomicLoad(&cells[i]);
-    loop {
-        let r = atomicCompareExchangeWeak(&cells[i], old, bitcast<u32>(bitcast<f32>(old) + v));
-        if (r.exchanged) {
-            break;
-        }
-        old = r.old_value;
+    let old = atomicAdd(&cells[i], q.x);
+    let h = q.y + select(0u, 1u, old + q.x < old);
+    if (h != 0u) {
+        atomicAdd(&hi[i], h);
     }
 }
 
@@ -82,13 +104,14 @@ fn add_piece(p: vec3<f32>, rad: vec3<f32>, n: vec3<f32>, part: f32) {
     let q = (p - grid.origin.xyz) * (1.0 / grid.origin.w);
     let c = vec3<u32>(clamp(floor(q), vec3<f32>(0.0), vec3<f32>(last)));
     let base = 8u * morton3(c);
-    add_float(base, rad.x * part);
-    add_float(base + 1u, rad.y * part);
-    add_float(base + 2u, rad.z * part);
-    add_float(base + 3u, part);
-    add_float(base + 4u, n.x * part);
-    add_float(base + 5u, n.y * part);
-    add_float(base + 6u, n.z * part);
+    let r = rad * grid.scale.x;
+    add_fixed(base, r.x * part);
+    add_fixed(base + 1u, r.y * part);
+    add_fixed(base + 2u, r.z * part);
+    add_fixed(base + 3u, part);
+    add_fixed(base + 4u, n.x * part);
+    add_fixed(base + 5u, n.y * part);
+    add_fixed(base + 6u, n.z * part);
 }
 
 @compute @workgroup_size(64)
@@ -99,6 +122,7 @@ fn clear(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
     }
     for (var k = 0u; k < 8u; k++) {
         atomicStore(&cells[8u * c + k], 0u);
+        atomicStore(&hi[8u * c + k], 0u);
     }
 }
 
@@ -157,6 +181,33 @@ fn inject(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
             add_piece(p, rr.xyz, n, part);
         }
     }
+}
+
+@compute @workgroup_size(64)
+fn resolve(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let c = gid.x + gid.y * groups.x * 64u;
+    if (8u * c >= arrayLength(&cells)) {
+        return;
+    }
+    for (var k = 0u; k < 7u; k++) {
+        let i = 8u * c + k;
+        var lo = atomicLoad(&cells[i]);
+        var hw = atomicLoad(&hi[i]);
+        let negative = (hw & 0x80000000u) != 0u;
+        if (negative) {
+            lo = ~lo + 1u;
+            hw = ~hw + select(0u, 1u, lo == 0u);
+        }
+        var f = f32(hw) + f32(lo) * (1.0 / TWO_32);
+        if (negative) {
+            f = -f;
+        }
+        if (k < 3u) {
+            f = f * grid.scale.y;
+        }
+        atomicStore(&cells[i], bitcast<u32>(f));
+    }
+    atomicStore(&cells[8u * c + 7u], 0u);
 }
 
 @compute @workgroup_size(64)

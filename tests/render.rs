@@ -1160,8 +1160,8 @@ fn all_finite(r: &vxgi::render::Rendered) -> bool {
         .all(|i| i.pixels.iter().flatten().all(|c| c.is_finite()))
 }
 
-/// Any finite light that loads renders in every pipeline: a 3e38 light (the largest f32 is 3.4e38)
-/// gives finite images, and a light 2^20 times the Cornell box's gives 2^20 times its frame (the
+/// Any finite light that loads renders in every pipeline (lrsm with the lit cells too): a 3e38
+/// light (the largest f32 is 3.4e38) gives finite images, and a light 2^20 times the Cornell box's gives 2^20 times its frame (the
 /// exposure scales lights and images by powers of two). vct-svo's fixed point fits a 1000 W/sr
 /// light (its scale comes from the frame's values): 100 times the frame of 10 W/sr.
 #[test]
@@ -1178,7 +1178,15 @@ fn bright_lights_render_in_every_pipeline() {
             .unwrap()
             .0
     };
-    for p in Pipeline::ALL {
+    // lrsm twice: through its LRSMs and through the lit cells (their radiance unit follows the
+    // lights).
+    let runs = Pipeline::ALL
+        .into_iter()
+        .map(|p| (p, false))
+        .chain([(Pipeline::Lrsm, true)]);
+    for (p, lit_cells) in runs {
+        let mut base = base.clone();
+        base.render.lrsm_lit_cells = lit_cells;
         let huge = base.with_lights_scaled(3e38 / 10.0);
         let r = frame(p, &huge);
         assert!(all_finite(&r), "{p:?}: non-finite pixels with a 3e38 light");
@@ -1692,9 +1700,8 @@ fn resident_frames_relight_the_kept_voxels_when_a_light_moves() {
 
 /// lrsm with the lit cells (every preset's): a moved light re-runs the light views and the lit
 /// cells over the kept occlusion voxels in one submission that creates nothing, and the frame is a
-/// fresh renderer's to the lit cells' rounding (their float sums run in the order the GPU's
-/// invocations do, so not bit for bit: within 1e-4 of the largest indirect value, where a stale or
-/// uncleared table would be off by the light itself).
+/// fresh renderer's bit for bit (the lit cells' sums are exact whatever order the GPU's invocations
+/// run in; a stale or uncleared table would be off by the light itself).
 #[test]
 fn resident_lit_cells_follow_a_moved_light() {
     let mut scene = small(Scene::cornell_box(), 40, 40);
@@ -1702,24 +1709,8 @@ fn resident_lit_cells_follow_a_moved_light() {
     scene.render.rsm_side = 32;
     scene.render.lrsm_lit_cells = true;
     let (want, got, c) = relit_frame(vxgi::render::Pipeline::Lrsm, &scene);
-    assert!(want.direct == got.direct && want.ao == got.ao);
-    let largest = want
-        .indirect
-        .pixels
-        .iter()
-        .flatten()
-        .fold(0.0f32, |a, &v| a.max(v));
-    let worst = want
-        .indirect
-        .pixels
-        .iter()
-        .flatten()
-        .zip(got.indirect.pixels.iter().flatten())
-        .fold(0.0f32, |a, (x, y)| a.max((x - y).abs()));
-    assert!(
-        largest > 0.0 && worst <= 1e-4 * largest,
-        "{worst} of {largest}"
-    );
+    assert!(want.indirect.pixels.iter().flatten().any(|&v| v > 0.0));
+    assert!(want.direct == got.direct && want.indirect == got.indirect && want.ao == got.ao);
     assert_eq!(
         got.plan.skipped(),
         vec!["voxelize", "occlusion_voxels", "lrsm_partition"],
@@ -1972,12 +1963,10 @@ fn embedded_pipeline_frames_match_vxgi_render() {
     assert!(e.contains("multiple of 64"), "{e}");
 }
 
-/// A static scene and camera give identical consecutive frames (bit for bit) in every pipeline,
-/// with the reuse rules on (the second frame reuses what the first built) and off:
-/// nothing in a frame depends on anything but the scene, the camera and the settings. Not so for
-/// lrsm's lit cells (every preset's): their sums are float adds in the order the GPU's invocations
-/// run, so a frame that builds them again agrees to rounding (`resident_lit_cells_follow_a_moved_light`);
-/// one that reuses them, as the viewer's frames of a static scene do, is bit for bit the same.
+/// A static scene and camera give identical consecutive frames (bit for bit) in every pipeline
+/// (lrsm with its LRSMs and with the lit cells), with the reuse rules on (the second frame reuses
+/// what the first built) and off: nothing in a frame depends on anything but the scene, the camera
+/// and the settings, not even the order the GPU's invocations run in.
 #[test]
 fn a_static_scene_gives_identical_consecutive_frames_in_every_pipeline() {
     use vxgi::kernels::cone_trace::ConeSettings;
@@ -1987,36 +1976,29 @@ fn a_static_scene_gives_identical_consecutive_frames_in_every_pipeline() {
     scene.render.voxels = 32;
     scene.render.rsm_side = 32;
     let cones = ConeSettings::from(&scene.render);
-    for p in Pipeline::ALL {
+    let mut lit = scene.clone();
+    lit.render.lrsm_lit_cells = true;
+    let runs = Pipeline::ALL
+        .into_iter()
+        .map(|p| (p, &scene, p.name().to_string()))
+        .chain([(Pipeline::Lrsm, &lit, "lrsm with the lit cells".to_string())]);
+    for (p, scene, name) in runs {
         let mut frames = Vec::new();
         let mut fresh = Renderer::new(p, false);
         for _ in 0..2 {
-            frames.push(fresh.render(gpu(), &scene, &cones, |_| {}).unwrap().0);
+            frames.push(fresh.render(gpu(), scene, &cones, |_| {}).unwrap().0);
         }
         let mut resident = Resident::new(gpu(), p).unwrap();
         for _ in 0..2 {
-            frames.push(resident.render(&scene, &cones).unwrap());
+            frames.push(resident.render(scene, &cones).unwrap());
         }
         for (k, f) in frames.iter().enumerate().skip(1) {
             let first = &frames[0];
             assert!(
                 f.direct == first.direct && f.indirect == first.indirect && f.ao == first.ao,
-                "{}: frame {k} differs from frame 0",
-                p.name()
+                "{name}: frame {k} differs from frame 0"
             );
         }
-    }
-    // lrsm's lit cells: the resident renderer's later frames reuse them, bit for bit.
-    let mut lit = scene.clone();
-    lit.render.lrsm_lit_cells = true;
-    let mut resident = Resident::new(gpu(), Pipeline::Lrsm).unwrap();
-    let first = resident.render(&lit, &cones).unwrap();
-    for k in 1..3 {
-        let f = resident.render(&lit, &cones).unwrap();
-        assert!(
-            f.direct == first.direct && f.indirect == first.indirect && f.ao == first.ao,
-            "lrsm with the lit cells: frame {k} differs from frame 0"
-        );
     }
 }
 

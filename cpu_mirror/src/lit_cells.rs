@@ -7,9 +7,17 @@
 //! (`s0^2`), `rgb` its RSM radiance, `n` its normal. Level 0 is injected ([`inject`]), each level
 //! above sums its 8 children ([`reduce`]); the gather reads a cell as [`cell_light`].
 //!
+//! Level 0 is summed exactly, whatever order the GPU's invocations run in: each piece's seven values
+//! as 64-bit fixed point ([`fixed`]: 32 fraction bits; the radiance in units of the grid's
+//! `scale.y`, area and normal in level-0 faces), added as two's complement in two `u32` words (the
+//! low word in the cell's own float slot, the high word in `hi`, carried from the low word's
+//! wrap), then each slot turned into its float in place ([`resolve`]). So two runs of one frame
+//! give the same bits, on one GPU; the mirror sums the same integers.
+//!
 //! Bound (level 0, per float): each piece's own arithmetic (64 ULP of it: the texel's depth,
-//! image area, cosine, `<n, l>` and `k^2` divisions, two square roots, the products), the float
-//! sum in an order the GPU chooses (`count` ULP of the summed magnitudes), and every piece whose
+//! image area, cosine, `<n, l>` and `k^2` divisions, two square roots, the products) and its
+//! rounding to the fixed-point quantum (one quantum a piece: either neighbour), the resolve's two
+//! roundings (2 ULP of the sum), and every piece whose
 //! cell the rounding of its point may change (its point within its error of a cell's face), whose
 //! sub-ray count `k` rounding may change (`2 sqrt(plane) / <n, l> / s0` within its error of an
 //! integer: the texel's pieces for both counts) or whose plane test may go either way: its whole
@@ -38,6 +46,55 @@ pub struct LitGrid {
     pub origin: [f32; 4],
     /// x = side (cells per axis at level 0); yzw unused.
     pub size: [u32; 4],
+    /// The radiance's fixed-point unit: x = 1 / Q, y = Q, Q a power of two ([`radiance_unit`]); zw
+    /// unused. A piece's radiance x area is summed in units of Q with 32 fraction bits: at most
+    /// 2^31 Q a piece (more is clamped) and a cell, the quantum 2^-32 Q.
+    pub scale: [f32; 4],
+}
+
+/// Fraction bits of the fixed-point sums.
+pub const FRACTION_BITS: u32 = 32;
+/// The largest magnitude a piece's value takes in fixed point (the largest f32 below 2^31, in units
+/// of the quantity's unit); larger ones are clamped to it.
+pub const MAX_PIECE: f32 = 2_147_483_520.0;
+
+/// `[1 / Q, Q, 0, 0]` for Q the power of two at or above `typical` (a positive finite radiance;
+/// anything else gives Q = 1): the grid's `scale`.
+pub fn radiance_unit(typical: f32) -> [f32; 4] {
+    let q = if typical.is_finite() && typical > 0.0 {
+        let e = typical.log2().ceil().clamp(-120.0, 120.0) as i32;
+        2f32.powi(e)
+    } else {
+        1.0
+    };
+    [1.0 / q, q, 0.0, 0.0]
+}
+
+/// `v` (in its unit) as 64-bit two's-complement fixed point with [`FRACTION_BITS`] fraction bits:
+/// its magnitude clamped to [`MAX_PIECE`], the fraction rounded to the nearest quantum (ties to
+/// even), in the kernel's operations (`floor`, an exact subtraction and scaling, `round`).
+pub fn fixed(v: f32) -> i64 {
+    let a = v.abs().min(MAX_PIECE);
+    let h = a.floor();
+    let l = ((a - h) * 4_294_967_296.0).round_ties_even();
+    let q = ((h as i64) << FRACTION_BITS) + l as i64;
+    if v < 0.0 {
+        -q
+    } else {
+        q
+    }
+}
+
+/// A cell's sum in fixed point back to its float, in the kernel's operations: the magnitude's high
+/// and low words each converted (rounded to nearest), the low scaled by 2^-32, added.
+pub fn resolve(q: i64) -> f32 {
+    let m = q.unsigned_abs();
+    let f = (m >> FRACTION_BITS) as u32 as f32 + (m as u32) as f32 * (1.0 / 4_294_967_296.0);
+    if q < 0 {
+        -f
+    } else {
+        f
+    }
 }
 
 /// One light view's RSM as the kernel binds it (2D Morton order).
@@ -173,10 +230,11 @@ fn pieces(g: &LitGrid, v: &GpuView, rsm: RsmRef, m: usize, k: u32) -> Vec<Piece>
     let s0 = g.origin[3];
     let surface = t.plane * t.cosv / ndl;
     let part = surface / (k * k) as f32 * (1.0 / (s0 * s0));
+    let inv_q = g.scale[0];
     let sums = [
-        rr[0] * part,
-        rr[1] * part,
-        rr[2] * part,
+        (rr[0] * inv_q) * part,
+        (rr[1] * inv_q) * part,
+        (rr[2] * inv_q) * part,
         part,
         n.x * part,
         n.y * part,
@@ -256,12 +314,12 @@ fn pieces(g: &LitGrid, v: &GpuView, rsm: RsmRef, m: usize, k: u32) -> Vec<Piece>
 }
 
 /// Level 0 of the lit cells (8 floats a cell, `side^3` cells in Morton order) from every light
-/// view's RSM (`views[i]` with `rsms[i]`), pieces added texel by texel in Morton order, view by
-/// view; and the per-float bound (see the module doc).
+/// view's RSM (`views[i]` with `rsms[i]`): each piece's values in fixed point, summed exactly per
+/// cell, resolved to floats; and the per-float bound (see the module doc).
 pub fn inject(g: &LitGrid, views: &[GpuView], rsms: &[RsmRef]) -> (Vec<f32>, Vec<f32>) {
     let u = f32::EPSILON;
     let cells = (g.size[0] as usize).pow(3);
-    let mut sums = vec![0.0f32; cells * 8];
+    let mut acc = vec![0i64; cells * 8];
     let mut mag = vec![0.0f32; cells * 8];
     let mut count = vec![0u32; cells];
     let mut loose = vec![0.0f32; cells * 8];
@@ -279,7 +337,7 @@ pub fn inject(g: &LitGrid, views: &[GpuView], rsms: &[RsmRef]) -> (Vec<f32>, Vec
                 let c = p.cells[0] as usize;
                 count[c] += 1;
                 for f in 0..8 {
-                    sums[c * 8 + f] += p.sums[f];
+                    acc[c * 8 + f] = acc[c * 8 + f].wrapping_add(fixed(p.sums[f]));
                     mag[c * 8 + f] += p.sums[f].abs();
                 }
                 if p.cells.len() > 1 {
@@ -306,9 +364,19 @@ pub fn inject(g: &LitGrid, views: &[GpuView], rsms: &[RsmRef]) -> (Vec<f32>, Vec
             }
         }
     }
-    let bound = (0..cells * 8)
-        .map(|i| mag[i] * (64.0 + count[i / 8] as f32) * u + loose[i])
-        .collect();
+    let quantum = 1.0 / 4_294_967_296.0f32;
+    let mut sums = vec![0.0f32; cells * 8];
+    let mut bound = vec![0.0f32; cells * 8];
+    for i in 0..cells * 8 {
+        if i % 8 == 7 {
+            continue;
+        }
+        // The radiance's unit is Q (exact: a power of two), the others' a level-0 face.
+        let unit = if i % 8 < 3 { g.scale[1] } else { 1.0 };
+        sums[i] = resolve(acc[i]) * unit;
+        bound[i] = (mag[i] * 64.0 * u + count[i / 8] as f32 * quantum + loose[i]) * unit
+            + 2.0 * u * sums[i].abs();
+    }
     (sums, bound)
 }
 
@@ -388,6 +456,7 @@ mod tests {
         let g = LitGrid {
             origin: [0.0, 0.0, 0.0, 0.25],
             size: [side, 0, 0, 0],
+            scale: radiance_unit(1.0),
         };
         // Orthographic over x, z in [0, 2], looking down -y from y = 3, near 0, far 4.
         let v = GpuView {
@@ -424,5 +493,30 @@ mod tests {
         );
         let back = cell_light(&levels[0][floor_cell * 8..floor_cell * 8 + 8], 0, -Vec3::Y);
         assert_eq!(back, Vec4::ZERO);
+    }
+
+    /// Fixed point holds a value to its quantum (2^-32 of its unit), either sign, up to the clamp;
+    /// a sum of pieces of both signs, carried across the low word, resolves to the exact sum's float.
+    #[test]
+    fn fixed_point_round_trips_and_sums_exactly() {
+        for v in [
+            0.0f32, 1e-12, 0.3, -0.3, 1.0, -1.0, 12345.678, -7.5e6, 3e9, -3e9,
+        ] {
+            let back = resolve(fixed(v));
+            let want = v.clamp(-MAX_PIECE, MAX_PIECE);
+            assert!(
+                (back - want).abs() <= 2f32.powi(-32) + want.abs() * 2.0 * f32::EPSILON,
+                "{v}: {back}"
+            );
+        }
+        // 0.75 + 0.75 wraps the low word (carry into the high word); -1.25 borrows back.
+        let sum = [0.75f32, 0.75, -1.25, 1e-9]
+            .iter()
+            .fold(0i64, |a, &v| a.wrapping_add(fixed(v)));
+        assert_eq!(sum, (1i64 << 30) + fixed(1e-9));
+        assert_eq!(resolve(sum), 0.25 + 1e-9f32);
+        assert_eq!(radiance_unit(3.0), [0.25, 4.0, 0.0, 0.0]);
+        assert_eq!(radiance_unit(4.0), [0.25, 4.0, 0.0, 0.0]);
+        assert_eq!(radiance_unit(f32::NAN), [1.0, 1.0, 0.0, 0.0]);
     }
 }

@@ -1,8 +1,8 @@
 //! Declaration of `kernels/lit_cells.wgsl` (mirror: `vxgi_cpu_mirror::lit_cells`): the light views'
 //! lit RSM texels in the occlusion pyramid's own cells, where lrsm's gather reads a sample's light.
 //! Level 0 cleared, then injected view by view (each view's RSM as `reflective_shadow_map` wrote
-//! it), then each level above reduced from the one below. Verified level by level: level 0 from
-//! the case's RSMs, level k from the GPU's level k - 1.
+//! it) in fixed point, resolved to floats, then each level above reduced from the one below.
+//! Verified level by level: level 0 from the case's RSMs, level k from the GPU's level k - 1.
 use super::voxelize::VoxelFrame;
 use crate::lrsm::Rsm;
 use std::collections::BTreeMap;
@@ -17,9 +17,9 @@ pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
     includes: &[super::reflective_shadow_map::LRSM_VIEW, super::MORTON],
     entry: "inject",
     inputs: &["grid", "view", "rsm_radiance", "rsm_normal", "rsm_depth", "src"],
-    // Level 0: float sums in an order the GPU chooses, each piece's arithmetic, and whole pieces
-    // whose cell the rounding may change, per float by the mirror; levels above: 8 adds of the
-    // GPU's level below (8 ULP of the summed magnitudes).
+    // Level 0: exact fixed-point sums, so each piece's arithmetic and quantum, the resolve's two
+    // roundings, and whole pieces whose cell the rounding may change, per float by the mirror;
+    // levels above: 8 adds of the GPU's level below (8 ULP of the summed magnitudes).
     outputs: &[
         Output {
             binding: "cells",
@@ -32,7 +32,7 @@ pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
     ],
     dispatch: DispatchRule::PerElement { binding: "rsm_depth" },
     mirror: "vxgi_cpu_mirror::lit_cells::{inject, reduce}",
-    summary: "the light views' lit RSM texels in the occlusion pyramid's cells: per cell area-weighted radiance, area and normal sums (float compare-exchange adds), summed up the levels (lrsm's light where its occlusion is)",
+    summary: "the light views' lit RSM texels in the occlusion pyramid's cells: per cell area-weighted radiance, area and normal sums (exact 64-bit fixed-point adds, resolved to floats), summed up the levels (lrsm's light where its occlusion is)",
 );
 
 /// Floats a cell holds (two vec4: area-weighted rgb and area, area-weighted normal and 0).
@@ -66,6 +66,8 @@ pub fn grid_of(frame: &VoxelFrame, max_side: u32) -> (LitGrid, u32) {
             frame.voxel * (1u32 << base) as f32,
         ],
         size: [frame.side >> base, 0, 0, 0],
+        // Unit 1 until a frame sets its own (`radiance_unit`).
+        scale: vxgi_cpu_mirror::lit_cells::radiance_unit(1.0),
     };
     (grid, base)
 }
@@ -80,6 +82,41 @@ pub fn pyramid_bytes(side: u32) -> u64 {
     (0..=side.trailing_zeros())
         .map(|l| level_cells(side, l) as u64 * CELL_FLOATS as u64 * 4)
         .sum()
+}
+
+/// Bytes of the high words of level 0's fixed-point sums (`lit_hi`: a word per float of level 0).
+pub fn high_word_bytes(side: u32) -> u64 {
+    level_cells(side, 0) as u64 * CELL_FLOATS as u64 * 4
+}
+
+/// Every buffer the lit cells hold: the levels and level 0's high words.
+pub fn table_bytes(side: u32) -> u64 {
+    pyramid_bytes(side) + high_word_bytes(side)
+}
+
+/// The radiance unit of a frame's lit cells (the grid's `scale`) for `lights` over scene `bounds`:
+/// the reflected radiance of a white surface facing the light at the farthest point of the bounds
+/// from it (a directional light's: I / pi everywhere), the largest over the lights. Nearer surfaces
+/// of a point or spot light reflect (far / d)^2 times that, within the sums' 2^31 units down to d =
+/// far / 46341; the quantum, 2^-32 of it, is far below any light the image shows.
+pub fn radiance_unit(
+    lights: &[vxgi_cpu_mirror::direct_light::GpuLight],
+    bounds: (glam::Vec3, glam::Vec3),
+) -> [f32; 4] {
+    use vxgi_cpu_mirror::direct_light::DIRECTIONAL;
+    let typical = lights
+        .iter()
+        .map(|l| {
+            let i = l.intensity[0].max(l.intensity[1]).max(l.intensity[2]) / std::f32::consts::PI;
+            if l.position[3] == DIRECTIONAL {
+                return i;
+            }
+            let p = glam::Vec3::new(l.position[0], l.position[1], l.position[2]);
+            let far = (p - bounds.0).abs().max((p - bounds.1).abs()).length();
+            i / (far * far).max(f32::MIN_POSITIVE)
+        })
+        .fold(0.0f32, f32::max);
+    vxgi_cpu_mirror::lit_cells::radiance_unit(typical)
 }
 
 /// The names an inject pass binds for one light view: its view and its RSM's three buffers.
@@ -131,7 +168,10 @@ pub fn clear_pass(shader: &Shader, ctx: &GpuContext, side: u32, levels: Levels) 
         shader,
         ctx,
         "clear level 0".into(),
-        vec![("cells".into(), levels.view(0))],
+        vec![
+            ("cells".into(), levels.view(0)),
+            ("hi".into(), buf(HIGH_WORDS)),
+        ],
         level_cells(side, 0) as u64,
     );
     clear.entry = "clear".into();
@@ -158,9 +198,27 @@ pub fn inject_pass(
             ("rsm_normal".into(), buf(&names.rsm[1])),
             ("rsm_depth".into(), buf(&names.rsm[2])),
             ("cells".into(), levels.view(0)),
+            ("hi".into(), buf(HIGH_WORDS)),
         ],
         (rsm_side as u64).pow(2),
     )
+}
+
+/// The pass that turns level 0's fixed-point sums into floats (after the last inject).
+pub fn resolve_pass(shader: &Shader, ctx: &GpuContext, side: u32, levels: Levels) -> Pass {
+    let mut resolve = DECL.pass(
+        shader,
+        ctx,
+        "resolve level 0".into(),
+        vec![
+            ("grid".into(), buf("lit_grid")),
+            ("cells".into(), levels.view(0)),
+            ("hi".into(), buf(HIGH_WORDS)),
+        ],
+        level_cells(side, 0) as u64,
+    );
+    resolve.entry = "resolve".into();
+    resolve
 }
 
 /// The passes that reduce every level above 0 of a grid of side `side`.
@@ -189,9 +247,16 @@ pub fn zeroed_table(side: u32) -> HostBuffer {
     HostBuffer::zeroed(pyramid_bytes(side) as usize, ScalarKind::F32)
 }
 
-/// The grid itself (`lit_grid`).
+/// Host resource of level 0's high words.
+pub const HIGH_WORDS: &str = "lit_hi";
+
+/// The grid itself (`lit_grid`) and level 0's high words (`lit_hi`, zeroed).
 pub fn grid_resource(grid: &LitGrid) -> Resources {
-    Resources::from([("lit_grid".to_string(), HostBuffer::pod(grid).into())])
+    let hi = HostBuffer::zeroed(high_word_bytes(grid.size[0]) as usize, ScalarKind::U32);
+    Resources::from([
+        ("lit_grid".to_string(), HostBuffer::pod(grid).into()),
+        (HIGH_WORDS.to_string(), hi.into()),
+    ])
 }
 
 /// The grid's resources: `lit_grid` and every level zeroed, each its own buffer.
@@ -242,6 +307,7 @@ pub fn case_for(
     for (k, (n, rsm_side)) in names.iter().enumerate() {
         passes.push(inject_pass(shader, ctx, k, n, *rsm_side, Levels::Own));
     }
+    passes.push(resolve_pass(shader, ctx, side, Levels::Own));
     passes.extend(reduce_passes(shader, ctx, side, Levels::Own));
     let mut checks = vec![Check {
         resource: level_name(0),
@@ -260,7 +326,7 @@ pub fn case_for(
         resources,
         passes,
         checks,
-        effective_bytes: texels * 36 + pyramid_bytes(side) * 2,
+        effective_bytes: texels * 36 + pyramid_bytes(side) * 2 + high_word_bytes(side) * 2,
     }
 }
 
@@ -308,7 +374,7 @@ impl Kernel for LitCells {
     }
 
     /// A generated scene's light views (one to three of them, RSM side 16..64) over a grid of side
-    /// 4..32 fitted to the scene's bounds.
+    /// 4..32 fitted to the scene's bounds; the radiance unit at the brightest texel, or far below it.
     fn case(&self, shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
         use super::reflective_shadow_map::{case_views, rsm_mirror};
         let (scene, label) = super::gbuffer::generated_scene(seed, index);
@@ -332,10 +398,23 @@ impl Kernel for LitCells {
             side,
         };
         let gpu_views: Vec<GpuView> = views.iter().map(|v| v.view).collect();
+        // The radiance unit at the RSMs' brightest texel; every fourth case 2^-20 of it, so that the
+        // sums pass the low word and carry into the high one.
+        let peak = rsms
+            .iter()
+            .flat_map(|r| r.radiance.iter())
+            .map(|c| c[0].max(c[1]).max(c[2]))
+            .fold(0.0f32, f32::max);
+        let mut grid = grid_of(&frame, side).0;
+        grid.scale = vxgi_cpu_mirror::lit_cells::radiance_unit(if index % 4 == 3 {
+            peak * 2f32.powi(-20)
+        } else {
+            peak
+        });
         case_for(
             shader,
             ctx,
-            &grid_of(&frame, side).0,
+            &grid,
             &gpu_views,
             &rsms,
             format!("{label}, {count} light views of {rsm_side}^2 into {side}^3"),

@@ -86,13 +86,20 @@ impl LrsmSettings {
     pub fn sample_params(&self, frame: &VoxelFrame) -> SampleParams {
         let mut p = super::sample_lrsm::sample_params(&self.partition(), 0, self.view_weight);
         p.lit_cells = self.lit_cells as u32;
-        p.lit_base = self.lit_grid(frame).1;
+        p.lit_base = super::lit_cells::grid_of(frame, self.lit_max_side).1;
         p
     }
 
-    /// The lit table over `frame` and the occlusion level its finest level stands at.
-    pub fn lit_grid(&self, frame: &VoxelFrame) -> (vxgi_cpu_mirror::lit_cells::LitGrid, u32) {
-        super::lit_cells::grid_of(frame, self.lit_max_side)
+    /// The lit table over `frame` for the scene `data` (its radiance unit from the scene's lights)
+    /// and the occlusion level its finest level stands at.
+    pub fn lit_grid(
+        &self,
+        frame: &VoxelFrame,
+        data: &crate::trace::SceneData,
+    ) -> (vxgi_cpu_mirror::lit_cells::LitGrid, u32) {
+        let (mut grid, base) = super::lit_cells::grid_of(frame, self.lit_max_side);
+        grid.scale = super::lit_cells::radiance_unit(&data.lights, data.bounds);
+        (grid, base)
     }
 
     /// The RSM's partition into layers these settings ask for.
@@ -143,7 +150,8 @@ pub struct LrsmMemory {
     pub rsm: u64,
     /// All views' LRSMs (3 streams of 8 bytes per texel, every level).
     pub lrsm: u64,
-    /// The lit cells (every level, 32 bytes a cell).
+    /// The lit cells (every level, 32 bytes a cell, and the high words of level 0's fixed-point
+    /// sums, 32 bytes a level-0 cell).
     pub lit: u64,
     pub views: u32,
 }
@@ -167,7 +175,15 @@ impl LrsmMemory {
             occlusion: frame.occ.len() as u64 * 4,
             rsm: (rsm_side as u64).pow(2) * 36,
             lrsm: frame.streams[0].len() as u64 * 3 * lrsm_prefilter::TEXEL_BYTES,
-            lit: frame.lit.len() as u64 * 16,
+            lit: if frame.lit.is_empty() {
+                0
+            } else {
+                let level0 = frame
+                    .lit_offsets
+                    .get(1)
+                    .map_or(frame.lit.len() / 2, |&c| c as usize);
+                (frame.lit.len() * 16 + level0 * 32) as u64
+            },
             views: frame.views.len() as u32,
         }
     }
@@ -345,7 +361,7 @@ impl LrsmFrame {
         if settings.lit_cells {
             progress("lit cells");
             let t = std::time::Instant::now();
-            let (grid, _) = settings.lit_grid(&voxels);
+            let (grid, _) = settings.lit_grid(&voxels, data);
             let gpu_views: Vec<GpuView> = views.iter().map(|v| v.view).collect();
             let levels = match on_gpu("lit_cells") {
                 Some(ctx) => super::lit_cells::lit_on_gpu(ctx, &grid, &gpu_views, &rsms)

@@ -304,7 +304,7 @@ pub(crate) fn lrsm_chain(
     // the levels above reduced after the last, every level a window of the gather's `lit`. No
     // light view, no lit cell: the gather reads the zeroed table.
     let lit_shader = lit_cells::DECL.shader()?;
-    let (lit_grid, _) = settings.lit_grid(&vframe);
+    let (lit_grid, _) = settings.lit_grid(&vframe, data);
     let lit_side = lit_grid.size[0];
     let lit_levels = lit_cells::Levels::Windows {
         buffer: "lit",
@@ -415,7 +415,18 @@ pub(crate) fn lrsm_chain(
     let mut lit_offsets = Vec::new();
     if settings.lit_cells {
         if injects {
-            let passes = lit_cells::reduce_passes(&lit_shader, ctx, lit_side, lit_levels);
+            let mut passes = vec![lit_cells::resolve_pass(
+                &lit_shader,
+                ctx,
+                lit_side,
+                lit_levels,
+            )];
+            passes.extend(lit_cells::reduce_passes(
+                &lit_shader,
+                ctx,
+                lit_side,
+                lit_levels,
+            ));
             chain.push_as(lit_shader, lit_cells::DECL.name, LIT, passes);
         }
         lit_offsets = lit_cells::level_offsets(lit_side);
@@ -457,7 +468,7 @@ pub(crate) fn lrsm_chain(
             crate::lrsm::lrsm_bytes(&config) * views.len() as u64
         },
         lit: if settings.lit_cells {
-            lit_cells::pyramid_bytes(lit_side)
+            lit_cells::table_bytes(lit_side)
         } else {
             0
         },
