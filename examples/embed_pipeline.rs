@@ -31,8 +31,15 @@ fn main() {
             }
         },
     };
-    let scene = Scene::cornell_box();
     for p in pipelines {
+        // The quality preset (`balanced`), as `vxgi render` applies it.
+        let scene = match vxgi::quality::resolved(&Scene::cornell_box(), p) {
+            Ok((scene, _)) => scene,
+            Err(e) => {
+                eprintln!("{}: {e}", p.name());
+                std::process::exit(1);
+            }
+        };
         match embedded_flip(p, &scene) {
             Ok(flip) if flip < 0.02 => {
                 println!(

@@ -8,8 +8,8 @@
 // sum a n.z, 0), a each piece's area in level-0 faces (s0^2), r g b its RSM radiance, n its normal.
 // Cells in Morton order per level; the children of cell P are cells 8P .. 8P + 7 of the level below.
 // Level 0 is summed exactly, in any invocation order: each value as 64-bit two's-complement fixed
-// point (`fixed`: 32 fraction bits; radiance in units of Q = grid.scale.y, area and normal in faces;
-// magnitudes clamped to MAX_PIECE), its low word added into the cell's own slot of `cells`, the
+// point (`fixed`: 24 fraction bits; radiance in units of Q = grid.scale.y, area and normal in faces;
+// magnitudes clamped to MAX_PIECE = 2^24 units, so a cell holds 2^15 such pieces), its low word added into the cell's own slot of `cells`, the
 // carry and high word into the same index of `hi`; `resolve` then turns each slot into its float.
 //   clear (one invocation per level-0 cell): its 8 words in `cells` and in `hi` 0.
 //   inject (one invocation per texel m of one view's RSM; coverage <= 1/2 returns): the texel
@@ -26,7 +26,8 @@
 //     into the grid (a point on the grid's high faces goes to the last cell, as voxelize puts it),
 //     and adds its 7 values there ((r / Q) a, (g / Q) a, (b / Q) a, a, n a) in fixed point.
 //   resolve (one invocation per level-0 cell): each of its 7 sums to f32 (the magnitude's high and
-//     low words converted, the low scaled by 2^-32, added; radiance times Q), word 7 0.
+//     low words converted, the high scaled by 2^8 and the low by 2^-24, added; radiance times Q),
+//     word 7 0.
 //   reduce (one invocation per cell of the level written, dst's length / 2): each float the sum of
 //     its 8 children's, in child order.
 // Accuracy: per-element bound from the mirror: each piece's own arithmetic and its quantum, the
@@ -55,19 +56,25 @@ struct LitGrid {
 const MAX_SPREAD: f32 = 16.0;
 const PARALLEL: f32 = 1e-6;
 const MIN_NDOTL: f32 = 1e-3;
-const MAX_PIECE: f32 = 2147483520.0;
-const TWO_32: f32 = 4294967296.0;
+const MAX_PIECE: f32 = 16777216.0;
+const TWO_24: f32 = 16777216.0;
 
 fn dot3(a: vec3<f32>, b: vec3<f32>) -> f32 {
     return (a.x * b.x + a.y * b.y) + a.z * b.z;
 }
 
-// v in its unit as 64-bit two's complement with 32 fraction bits: (low word, high word).
+// v in its unit as 64-bit two's complement with 24 fraction bits: (low word, high word); NaN 0
+// (the negated test: a NaN fails every comparison), infinities clamped as the finite values.
 fn fixed(v: f32) -> vec2<u32> {
+    if (!(abs(v) >= 0.0)) {
+        return vec2<u32>(0u);
+    }
     let a = min(abs(v), MAX_PIECE);
     let h = floor(a);
-    var lo = u32(round((a - h) * TWO_32));
-    var hw = u32(h);
+    let hu = u32(h);
+    // h 2^24 + l, l < 2^24: the low word's top byte is h's low byte.
+    var lo = (hu << 24u) | u32(round((a - h) * TWO_24));
+    var hw = hu >> 8u;
     if (v < 0.0) {
         lo = ~lo + 1u;
         hw = ~hw + select(0u, 1u, lo == 0u);
@@ -198,7 +205,7 @@ fn resolve(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
             lo = ~lo + 1u;
             hw = ~hw + select(0u, 1u, lo == 0u);
         }
-        var f = f32(hw) + f32(lo) * (1.0 / TWO_32);
+        var f = f32(hw) * 256.0 + f32(lo) * (1.0 / TWO_24);
         if (negative) {
             f = -f;
         }

@@ -393,7 +393,21 @@ impl<'c> Resident<'c> {
     ];
 
     /// A renderer of `pipeline`'s frames on `ctx`; refused for a pipeline without resident frames
-    /// ([`Resident::PIPELINES`]).
+    /// ([`Resident::PIPELINES`]). It draws a scene's `render` settings as they are: the scene's
+    /// quality preset (`scene.render.quality`, `balanced` by default) is applied by
+    /// [`crate::quality::resolved`], as `vxgi render` does, before the scene is handed to it.
+    ///
+    /// ```no_run
+    /// # fn main() -> anyhow::Result<()> {
+    /// use vxgi::{kernels::cone_trace::ConeSettings, render::Pipeline, resident::Resident};
+    /// let ctx = vxgi::harness::GpuContext::new()?;
+    /// let scene = vxgi::scene::Scene::cornell_box();
+    /// let (scene, _) = vxgi::quality::resolved(&scene, Pipeline::Lrsm).map_err(anyhow::Error::msg)?;
+    /// let frame = Resident::new(&ctx, Pipeline::Lrsm)?.render(&scene, &ConeSettings::from(&scene.render))?;
+    /// println!("{} x {}", frame.combined.width, frame.combined.height);
+    /// # Ok(())
+    /// # }
+    /// ```
     pub fn new(ctx: &'c GpuContext, pipeline: Pipeline) -> Result<Self> {
         anyhow::ensure!(
             Self::PIPELINES.contains(&pipeline),

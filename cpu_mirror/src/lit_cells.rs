@@ -8,7 +8,7 @@
 //! above sums its 8 children ([`reduce`]); the gather reads a cell as [`cell_light`].
 //!
 //! Level 0 is summed exactly, whatever order the GPU's invocations run in: each piece's seven values
-//! as 64-bit fixed point ([`fixed`]: 32 fraction bits; the radiance in units of the grid's
+//! as 64-bit fixed point ([`fixed`]: 24 fraction bits; the radiance in units of the grid's
 //! `scale.y`, area and normal in level-0 faces), added as two's complement in two `u32` words (the
 //! low word in the cell's own float slot, the high word in `hi`, carried from the low word's
 //! wrap), then each slot turned into its float in place ([`resolve`]). So two runs of one frame
@@ -47,16 +47,17 @@ pub struct LitGrid {
     /// x = side (cells per axis at level 0); yzw unused.
     pub size: [u32; 4],
     /// The radiance's fixed-point unit: x = 1 / Q, y = Q, Q a power of two ([`radiance_unit`]); zw
-    /// unused. A piece's radiance x area is summed in units of Q with 32 fraction bits: at most
-    /// 2^31 Q a piece (more is clamped) and a cell, the quantum 2^-32 Q.
+    /// unused. A piece's radiance x area is summed in units of Q with 24 fraction bits: at most
+    /// 2^24 Q a piece (more is clamped), 2^39 Q a cell, the quantum 2^-24 Q.
     pub scale: [f32; 4],
 }
 
 /// Fraction bits of the fixed-point sums.
-pub const FRACTION_BITS: u32 = 32;
-/// The largest magnitude a piece's value takes in fixed point (the largest f32 below 2^31, in units
-/// of the quantity's unit); larger ones are clamped to it.
-pub const MAX_PIECE: f32 = 2_147_483_520.0;
+pub const FRACTION_BITS: u32 = 24;
+/// The largest magnitude a piece's value takes in fixed point (2^24, in units of the quantity's
+/// unit); larger ones are clamped to it. A cell's sum stays within the 64 bits for 2^15 pieces at
+/// this clamp (128 texels of infinite radiance, each split into at most 256 pieces).
+pub const MAX_PIECE: f32 = 16_777_216.0;
 
 /// `[1 / Q, Q, 0, 0]` for Q the power of two at or above `typical` (a positive finite radiance;
 /// anything else gives Q = 1): the grid's `scale`.
@@ -71,12 +72,16 @@ pub fn radiance_unit(typical: f32) -> [f32; 4] {
 }
 
 /// `v` (in its unit) as 64-bit two's-complement fixed point with [`FRACTION_BITS`] fraction bits:
-/// its magnitude clamped to [`MAX_PIECE`], the fraction rounded to the nearest quantum (ties to
-/// even), in the kernel's operations (`floor`, an exact subtraction and scaling, `round`).
+/// its magnitude clamped to [`MAX_PIECE`] (infinities too), the fraction rounded to the nearest
+/// quantum (ties to even), in the kernel's operations (`floor`, an exact subtraction and scaling,
+/// `round`); NaN 0 (an RSM texel whose radiance is NaN adds no light).
 pub fn fixed(v: f32) -> i64 {
+    if v.is_nan() {
+        return 0;
+    }
     let a = v.abs().min(MAX_PIECE);
     let h = a.floor();
-    let l = ((a - h) * 4_294_967_296.0).round_ties_even();
+    let l = ((a - h) * 16_777_216.0).round_ties_even();
     let q = ((h as i64) << FRACTION_BITS) + l as i64;
     if v < 0.0 {
         -q
@@ -85,11 +90,21 @@ pub fn fixed(v: f32) -> i64 {
     }
 }
 
+/// The magnitude [`fixed`] holds of `v` (in its unit): NaN 0, at most [`MAX_PIECE`].
+fn magnitude(v: f32) -> f32 {
+    if v.is_nan() {
+        0.0
+    } else {
+        v.abs().min(MAX_PIECE)
+    }
+}
+
 /// A cell's sum in fixed point back to its float, in the kernel's operations: the magnitude's high
-/// and low words each converted (rounded to nearest), the low scaled by 2^-32, added.
+/// and low words each converted (rounded to nearest), the high scaled by 2^8 and the low by 2^-24,
+/// added.
 pub fn resolve(q: i64) -> f32 {
     let m = q.unsigned_abs();
-    let f = (m >> FRACTION_BITS) as u32 as f32 + (m as u32) as f32 * (1.0 / 4_294_967_296.0);
+    let f = (m >> 32) as u32 as f32 * 256.0 + (m as u32) as f32 * (1.0 / 16_777_216.0);
     if q < 0 {
         -f
     } else {
@@ -338,12 +353,12 @@ pub fn inject(g: &LitGrid, views: &[GpuView], rsms: &[RsmRef]) -> (Vec<f32>, Vec
                 count[c] += 1;
                 for f in 0..8 {
                     acc[c * 8 + f] = acc[c * 8 + f].wrapping_add(fixed(p.sums[f]));
-                    mag[c * 8 + f] += p.sums[f].abs();
+                    mag[c * 8 + f] += magnitude(p.sums[f]);
                 }
                 if p.cells.len() > 1 {
                     for &o in &p.cells {
                         for f in 0..8 {
-                            loose[o as usize * 8 + f] += p.sums[f].abs();
+                            loose[o as usize * 8 + f] += magnitude(p.sums[f]);
                         }
                     }
                 }
@@ -357,14 +372,14 @@ pub fn inject(g: &LitGrid, views: &[GpuView], rsms: &[RsmRef]) -> (Vec<f32>, Vec
                 {
                     for &o in &p.cells {
                         for f in 0..8 {
-                            loose[o as usize * 8 + f] += p.sums[f].abs();
+                            loose[o as usize * 8 + f] += magnitude(p.sums[f]);
                         }
                     }
                 }
             }
         }
     }
-    let quantum = 1.0 / 4_294_967_296.0f32;
+    let quantum = 1.0 / 16_777_216.0f32;
     let mut sums = vec![0.0f32; cells * 8];
     let mut bound = vec![0.0f32; cells * 8];
     for i in 0..cells * 8 {
@@ -495,7 +510,7 @@ mod tests {
         assert_eq!(back, Vec4::ZERO);
     }
 
-    /// Fixed point holds a value to its quantum (2^-32 of its unit), either sign, up to the clamp;
+    /// Fixed point holds a value to its quantum (2^-24 of its unit), either sign, up to the clamp;
     /// a sum of pieces of both signs, carried across the low word, resolves to the exact sum's float.
     #[test]
     fn fixed_point_round_trips_and_sums_exactly() {
@@ -505,16 +520,21 @@ mod tests {
             let back = resolve(fixed(v));
             let want = v.clamp(-MAX_PIECE, MAX_PIECE);
             assert!(
-                (back - want).abs() <= 2f32.powi(-32) + want.abs() * 2.0 * f32::EPSILON,
+                (back - want).abs() <= 2f32.powi(-25) + want.abs() * 2.0 * f32::EPSILON,
                 "{v}: {back}"
             );
         }
-        // 0.75 + 0.75 wraps the low word (carry into the high word); -1.25 borrows back.
-        let sum = [0.75f32, 0.75, -1.25, 1e-9]
+        // 200 + 100 passes 256 units (2^32 quanta): the low word wraps and carries into the high
+        // word; -299.75 borrows back; 1e-6 is 17 quanta.
+        let sum = [200.0f32, 100.0, -299.75, 1e-6]
             .iter()
             .fold(0i64, |a, &v| a.wrapping_add(fixed(v)));
-        assert_eq!(sum, (1i64 << 30) + fixed(1e-9));
-        assert_eq!(resolve(sum), 0.25 + 1e-9f32);
+        assert_eq!(sum, (1i64 << 22) + 17);
+        assert_eq!(resolve(sum), 4_194_321.0 / 16_777_216.0);
+        assert_eq!(resolve(-sum), -resolve(sum));
+        assert_eq!(fixed(f32::NAN), 0);
+        assert_eq!(fixed(f32::INFINITY), fixed(MAX_PIECE));
+        assert_eq!(fixed(f32::NEG_INFINITY), -fixed(MAX_PIECE));
         assert_eq!(radiance_unit(3.0), [0.25, 4.0, 0.0, 0.0]);
         assert_eq!(radiance_unit(4.0), [0.25, 4.0, 0.0, 0.0]);
         assert_eq!(radiance_unit(f32::NAN), [1.0, 1.0, 0.0, 0.0]);

@@ -97,8 +97,9 @@ pub fn table_bytes(side: u32) -> u64 {
 /// The radiance unit of a frame's lit cells (the grid's `scale`) for `lights` over scene `bounds`:
 /// the reflected radiance of a white surface facing the light at the farthest point of the bounds
 /// from it (a directional light's: I / pi everywhere), the largest over the lights. Nearer surfaces
-/// of a point or spot light reflect (far / d)^2 times that, within the sums' 2^31 units down to d =
-/// far / 46341; the quantum, 2^-32 of it, is far below any light the image shows.
+/// of a point or spot light reflect (far / d)^2 times that: a piece is clamped at 2^24 units (a
+/// piece of one face nearer than far / 4096); the quantum, 2^-24 of the unit, is far below any
+/// light the image shows.
 pub fn radiance_unit(
     lights: &[vxgi_cpu_mirror::direct_light::GpuLight],
     bounds: (glam::Vec3, glam::Vec3),
@@ -374,7 +375,8 @@ impl Kernel for LitCells {
     }
 
     /// A generated scene's light views (one to three of them, RSM side 16..64) over a grid of side
-    /// 4..32 fitted to the scene's bounds; the radiance unit at the brightest texel, or far below it.
+    /// 4..32 fitted to the scene's bounds; the radiance unit at the brightest texel, or far below it;
+    /// a NaN and an infinite radiance in every fifth case.
     fn case(&self, shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
         use super::reflective_shadow_map::{case_views, rsm_mirror};
         let (scene, label) = super::gbuffer::generated_scene(seed, index);
@@ -389,7 +391,19 @@ impl Kernel for LitCells {
             .skip(index)
             .take(count.min(all.len()))
             .collect();
-        let rsms: Vec<Rsm> = views.iter().map(|v| rsm_mirror(&data, v)).collect();
+        let mut rsms: Vec<Rsm> = views.iter().map(|v| rsm_mirror(&data, v)).collect();
+        // Hard values in every fifth case: a lit texel whose red is NaN (it adds no light) and one
+        // whose green is infinite (clamped as the largest piece).
+        if index % 5 == 4 {
+            let lit: Vec<usize> = (0..rsms[0].radiance.len())
+                .filter(|&m| rsms[0].radiance[m][3] > 0.5)
+                .take(2)
+                .collect();
+            if let [a, b] = lit[..] {
+                rsms[0].radiance[a][0] = f32::NAN;
+                rsms[0].radiance[b][1] = f32::INFINITY;
+            }
+        }
         let (lo, hi) = data.bounds;
         let extent = (hi - lo).max_element().max(1e-3);
         let frame = VoxelFrame {
@@ -404,6 +418,7 @@ impl Kernel for LitCells {
             .iter()
             .flat_map(|r| r.radiance.iter())
             .map(|c| c[0].max(c[1]).max(c[2]))
+            .filter(|c| c.is_finite())
             .fold(0.0f32, f32::max);
         let mut grid = grid_of(&frame, side).0;
         grid.scale = vxgi_cpu_mirror::lit_cells::radiance_unit(if index % 4 == 3 {

@@ -178,11 +178,12 @@ impl LrsmMemory {
             lit: if frame.lit.is_empty() {
                 0
             } else {
+                // The table's side from its level 0 (the cells before level 1's first).
                 let level0 = frame
                     .lit_offsets
                     .get(1)
                     .map_or(frame.lit.len() / 2, |&c| c as usize);
-                (frame.lit.len() * 16 + level0 * 32) as u64
+                super::lit_cells::table_bytes((level0 as f64).cbrt().round() as u32)
             },
             views: frame.views.len() as u32,
         }
