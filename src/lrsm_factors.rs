@@ -944,6 +944,10 @@ pub fn rows() -> Vec<(&'static str, Swap)> {
             "the light views' texels in the occlusion cells, N culls each cell by its mean normal",
             s(Surface, lrsm(in_cells(Cull::Cell, true))),
         ),
+        (
+            "the light views' texels in the occlusion cells, N culls by the mean normal, alpha <- the lit voxels' surface coverage",
+            s(Voxels, lrsm(in_cells(Cull::Cell, true))),
+        ),
     ]
 }
 
