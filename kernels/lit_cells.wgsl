@@ -63,6 +63,12 @@ fn dot3(a: vec3<f32>, b: vec3<f32>) -> f32 {
     return (a.x * b.x + a.y * b.y) + a.z * b.z;
 }
 
+// -q of a 64-bit two's-complement q = (low word, high word).
+fn negate64(q: vec2<u32>) -> vec2<u32> {
+    let lo = ~q.x + 1u;
+    return vec2<u32>(lo, ~q.y + select(0u, 1u, lo == 0u));
+}
+
 // v in its unit as 64-bit two's complement with 24 fraction bits: (low word, high word); NaN 0
 // (the negated test: a NaN fails every comparison), infinities clamped as the finite values.
 fn fixed(v: f32) -> vec2<u32> {
@@ -73,13 +79,11 @@ fn fixed(v: f32) -> vec2<u32> {
     let h = floor(a);
     let hu = u32(h);
     // h 2^24 + l, l < 2^24: the low word's top byte is h's low byte.
-    var lo = (hu << 24u) | u32(round((a - h) * TWO_24));
-    var hw = hu >> 8u;
+    let q = vec2<u32>((hu << 24u) | u32(round((a - h) * TWO_24)), hu >> 8u);
     if (v < 0.0) {
-        lo = ~lo + 1u;
-        hw = ~hw + select(0u, 1u, lo == 0u);
+        return negate64(q);
     }
-    return vec2<u32>(lo, hw);
+    return q;
 }
 
 fn add_fixed(i: u32, v: f32) {
@@ -198,14 +202,12 @@ fn resolve(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
     }
     for (var k = 0u; k < 7u; k++) {
         let i = 8u * c + k;
-        var lo = atomicLoad(&cells[i]);
-        var hw = atomicLoad(&hi[i]);
-        let negative = (hw & 0x80000000u) != 0u;
+        var q = vec2<u32>(atomicLoad(&cells[i]), atomicLoad(&hi[i]));
+        let negative = (q.y & 0x80000000u) != 0u;
         if (negative) {
-            lo = ~lo + 1u;
-            hw = ~hw + select(0u, 1u, lo == 0u);
+            q = negate64(q);
         }
-        var f = f32(hw) * 256.0 + f32(lo) * (1.0 / TWO_24);
+        var f = f32(q.y) * 256.0 + f32(q.x) * (1.0 / TWO_24);
         if (negative) {
             f = -f;
         }
