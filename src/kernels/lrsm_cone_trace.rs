@@ -170,20 +170,17 @@ impl LrsmMemory {
         }
     }
 
-    fn of(frame: &LrsmFrame, rsm_side: u32) -> Self {
+    /// What `frame` holds (its lit table by its levels, `lit_offsets`, whether its `lit` is filled
+    /// or a chain binds its own), with one RSM of side `rsm_side`.
+    pub fn of(frame: &LrsmFrame, rsm_side: u32) -> Self {
         Self {
             occlusion: frame.occ.len() as u64 * 4,
             rsm: (rsm_side as u64).pow(2) * 36,
             lrsm: frame.streams[0].len() as u64 * 3 * lrsm_prefilter::TEXEL_BYTES,
-            lit: if frame.lit.is_empty() {
-                0
-            } else {
-                // The table's side from its level 0 (the cells before level 1's first).
-                let level0 = frame
-                    .lit_offsets
-                    .get(1)
-                    .map_or(frame.lit.len() / 2, |&c| c as usize);
-                super::lit_cells::table_bytes((level0 as f64).cbrt().round() as u32)
+            // A table of side s has log2(s) + 1 levels.
+            lit: match frame.lit_offsets.len() {
+                0 => 0,
+                levels => super::lit_cells::table_bytes(1 << (levels - 1)),
             },
             views: frame.views.len() as u32,
         }

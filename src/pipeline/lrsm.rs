@@ -459,21 +459,7 @@ pub(crate) fn lrsm_chain(
         // The table is the chain's own zeroed buffer (below), not a host copy.
         lit: Vec::new(),
     };
-    let memory = LrsmMemory {
-        occlusion: words as u64 * 4,
-        rsm: texels as u64 * 36,
-        lrsm: if settings.lit_cells {
-            0
-        } else {
-            crate::lrsm::lrsm_bytes(&config) * views.len() as u64
-        },
-        lit: if settings.lit_cells {
-            lit_cells::table_bytes(lit_side)
-        } else {
-            0
-        },
-        views: views.len() as u32,
-    };
+    let memory = LrsmMemory::of(&frame, rsm_side);
     let params = cone_trace::cone_params(&vframe, cones);
     let tan = if soft {
         settings.shadow_cone_angle.to_radians().tan()
