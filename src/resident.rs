@@ -1465,14 +1465,19 @@ fn revoxelized(pipeline: Pipeline, scene: &Scene) -> Result<Option<Voxelized>> {
 }
 
 /// The buffers a frame with moved lights rewrites: the lights, and lrsm's light views (each view's
-/// G-buffer frame and projection, and the gather's list of them), by the rule the chain was built
-/// with.
+/// G-buffer frame and projection, and the gather's list of them) and its lit cells' grid (their
+/// radiance unit follows the lights), by the rule the chain was built with.
 fn light_inputs(pipeline: Pipeline, b: &Built, scene: &Scene) -> Result<Vec<(String, Vec<u8>)>> {
     let lights = crate::trace::gpu_lights(scene);
     let mut out = vec![("lights".to_string(), bytemuck::cast_slice(&lights).to_vec())];
     if pipeline == Pipeline::Lrsm {
-        let config = LrsmSettings::from(&scene.render).partition();
+        let settings = LrsmSettings::from(&scene.render);
+        let config = settings.partition();
         let views = crate::pipeline::lrsm_views(&lights, b.bounds, b.eps, &config)?;
+        if settings.lit_cells && !views.is_empty() {
+            let (grid, _) = settings.lit_grid(&b.voxels, &lights, b.bounds);
+            out.push(("lit_grid".into(), bytemuck::bytes_of(&grid).to_vec()));
+        }
         for (v, view) in views.iter().enumerate() {
             let (frame, projection) = crate::pipeline::light_view_names(v);
             out.push((frame, bytemuck::bytes_of(&view.frame).to_vec()));

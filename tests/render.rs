@@ -1711,6 +1711,26 @@ fn resident_lit_cells_follow_a_moved_light() {
     let (want, got, c) = relit_frame(vxgi::render::Pipeline::Lrsm, &scene);
     assert!(want.indirect.pixels.iter().flatten().any(|&v| v > 0.0));
     assert!(want.direct == got.direct && want.indirect == got.indirect && want.ao == got.ao);
+    // A light three times as bright: the lit cells' radiance unit (a power of two from the lights)
+    // moves with it, and the kept chain takes the new one, as a fresh renderer does.
+    {
+        use vxgi::kernels::cone_trace::ConeSettings;
+        use vxgi::render::{Pipeline::Lrsm, Renderer};
+        let cones = ConeSettings::from(&scene.render);
+        let mut resident = vxgi::resident::Resident::new(gpu(), Lrsm).unwrap();
+        resident.render(&scene, &cones).unwrap();
+        let brighter = scene.with_lights_scaled(3.0);
+        let got = resident.render(&brighter, &cones).unwrap();
+        assert!(
+            got.plan.to_string().contains("the lights moved"),
+            "{}",
+            got.plan
+        );
+        let (want, _) = Renderer::new(Lrsm, false)
+            .render(gpu(), &brighter, &cones, |_| {})
+            .unwrap();
+        assert!(want.indirect == got.indirect, "three times the light");
+    }
     assert_eq!(
         got.plan.skipped(),
         vec!["voxelize", "occlusion_voxels", "lrsm_partition"],

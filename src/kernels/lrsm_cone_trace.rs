@@ -90,15 +90,16 @@ impl LrsmSettings {
         p
     }
 
-    /// The lit table over `frame` for the scene `data` (its radiance unit from the scene's lights)
+    /// The lit table over `frame` for `lights` over scene `bounds` (its radiance unit from them)
     /// and the occlusion level its finest level stands at.
     pub fn lit_grid(
         &self,
         frame: &VoxelFrame,
-        data: &crate::trace::SceneData,
+        lights: &[vxgi_cpu_mirror::direct_light::GpuLight],
+        bounds: (glam::Vec3, glam::Vec3),
     ) -> (vxgi_cpu_mirror::lit_cells::LitGrid, u32) {
         let (mut grid, base) = super::lit_cells::grid_of(frame, self.lit_max_side);
-        grid.scale = super::lit_cells::radiance_unit(&data.lights, data.bounds);
+        grid.scale = super::lit_cells::radiance_unit(lights, bounds);
         (grid, base)
     }
 
@@ -359,7 +360,7 @@ impl LrsmFrame {
         if settings.lit_cells {
             progress("lit cells");
             let t = std::time::Instant::now();
-            let (grid, _) = settings.lit_grid(&voxels, data);
+            let (grid, _) = settings.lit_grid(&voxels, &data.lights, data.bounds);
             let gpu_views: Vec<GpuView> = views.iter().map(|v| v.view).collect();
             let levels = match on_gpu("lit_cells") {
                 Some(ctx) => super::lit_cells::lit_on_gpu(ctx, &grid, &gpu_views, &rsms)

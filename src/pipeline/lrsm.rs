@@ -304,7 +304,7 @@ pub(crate) fn lrsm_chain(
     // the levels above reduced after the last, every level a window of the gather's `lit`. No
     // light view, no lit cell: the gather reads the zeroed table.
     let lit_shader = lit_cells::DECL.shader()?;
-    let (lit_grid, _) = settings.lit_grid(&vframe, data);
+    let (lit_grid, _) = settings.lit_grid(&vframe, &data.lights, data.bounds);
     let lit_side = lit_grid.size[0];
     let lit_levels = lit_cells::Levels::Windows {
         buffer: "lit",
