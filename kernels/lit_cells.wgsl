@@ -9,8 +9,9 @@
 // Cells in Morton order per level; the children of cell P are cells 8P .. 8P + 7 of the level below.
 // Level 0 is summed exactly, in any invocation order: each value as 64-bit two's-complement fixed
 // point (`fixed`: 24 fraction bits; radiance in units of Q = grid.scale.y, area and normal in faces;
-// magnitudes clamped to MAX_PIECE = 2^24 units, so a cell holds 2^15 such pieces), its low word added into the cell's own slot of `cells`, the
-// carry and high word into the same index of `hi`; `resolve` then turns each slot into its float.
+// magnitudes clamped to MAX_PIECE = 2^24 units, so a cell holds 2^15 such pieces), its low word
+// added into the cell's own slot of `cells`, the carry and high word into the same index of `hi`;
+// `resolve` then turns each slot into its float.
 //   clear (one invocation per level-0 cell): its 8 words in `cells` and in `hi` 0.
 //   inject (one invocation per texel m of one view's RSM; coverage <= 1/2 returns): the texel
 //     (x, y) = 2D Morton decode of m, image point a = (x + 1/2) t - 1, b = 1 - (y + 1/2) t (t = 2 /
