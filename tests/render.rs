@@ -1615,18 +1615,32 @@ fn relit_frame(
     vxgi::render::Rendered,
     vxgi::harness::Counters,
 ) {
+    relit_frame_by(pipeline, scene, |moved| {
+        let vxgi::scene::Light::Point { position, .. } = &mut moved.lights[0] else {
+            panic!("the Cornell box has a point light")
+        };
+        position[0] += 0.3;
+    })
+}
+
+/// [`relit_frame`] with the lights changed by `change` instead.
+fn relit_frame_by(
+    pipeline: vxgi::render::Pipeline,
+    scene: &Scene,
+    change: impl FnOnce(&mut Scene),
+) -> (
+    vxgi::render::Rendered,
+    vxgi::render::Rendered,
+    vxgi::harness::Counters,
+) {
     use vxgi::kernels::cone_trace::ConeSettings;
     use vxgi::render::Renderer;
     use vxgi::resident::Resident;
-    use vxgi::scene::Light;
     let cones = ConeSettings::from(&scene.render);
     let mut resident = Resident::new(gpu(), pipeline).unwrap();
     resident.render(scene, &cones).unwrap();
     let mut moved = scene.clone();
-    let Light::Point { position, .. } = &mut moved.lights[0] else {
-        panic!("the Cornell box has a point light")
-    };
-    position[0] += 0.3;
+    change(&mut moved);
     let before = vxgi::harness::thread_counters();
     let got = resident.render(&moved, &cones).unwrap();
     let c = vxgi::harness::thread_counters().since(&before);
@@ -1713,24 +1727,15 @@ fn resident_lit_cells_follow_a_moved_light() {
     assert!(want.direct == got.direct && want.indirect == got.indirect && want.ao == got.ao);
     // A light three times as bright: the lit cells' radiance unit (a power of two from the lights)
     // moves with it, and the kept chain takes the new one, as a fresh renderer does.
-    {
-        use vxgi::kernels::cone_trace::ConeSettings;
-        use vxgi::render::{Pipeline::Lrsm, Renderer};
-        let cones = ConeSettings::from(&scene.render);
-        let mut resident = vxgi::resident::Resident::new(gpu(), Lrsm).unwrap();
-        resident.render(&scene, &cones).unwrap();
-        let brighter = scene.with_lights_scaled(3.0);
-        let got = resident.render(&brighter, &cones).unwrap();
-        assert!(
-            got.plan.to_string().contains("the lights moved"),
-            "{}",
-            got.plan
-        );
-        let (want, _) = Renderer::new(Lrsm, false)
-            .render(gpu(), &brighter, &cones, |_| {})
-            .unwrap();
-        assert!(want.indirect == got.indirect, "three times the light");
-    }
+    let (want3, got3, _) = relit_frame_by(vxgi::render::Pipeline::Lrsm, &scene, |s| {
+        *s = s.with_lights_scaled(3.0)
+    });
+    assert!(
+        got3.plan.to_string().contains("the lights moved"),
+        "{}",
+        got3.plan
+    );
+    assert!(want3.indirect == got3.indirect, "three times the light");
     assert_eq!(
         got.plan.skipped(),
         vec!["voxelize", "occlusion_voxels", "lrsm_partition"],

@@ -76,10 +76,7 @@ pub fn radiance_unit(typical: f32) -> [f32; 4] {
 /// quantum (ties to even), in the kernel's operations (`floor`, an exact subtraction and scaling,
 /// `round`); NaN 0 (an RSM texel whose radiance is NaN adds no light).
 pub fn fixed(v: f32) -> i64 {
-    if v.is_nan() {
-        return 0;
-    }
-    let a = v.abs().min(MAX_PIECE);
+    let a = magnitude(v);
     let h = a.floor();
     let l = ((a - h) * 16_777_216.0).round_ties_even();
     let q = ((h as i64) << FRACTION_BITS) + l as i64;
