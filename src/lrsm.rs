@@ -323,34 +323,58 @@ pub fn light_views(
                 .collect()
         };
         for (forward, tan) in axes {
-            let forward = forward.normalize();
-            let helper = if forward.y.abs() > 0.9 {
-                Vec3::Z
-            } else {
-                Vec3::Y
-            };
-            let right = forward.cross(helper).normalize();
-            let up = right.cross(forward);
-            let v4 = |v: Vec3, w: f32| [v.x, v.y, v.z, w];
-            views.push(LightView {
-                frame: vxgi_cpu_mirror::gbuffer::Frame {
-                    eye: v4(eye, eps),
-                    forward: v4(forward, 0.0),
-                    right: v4(right * tan, 0.0),
-                    up: v4(up * tan, 0.0),
-                    size: [rsm_side, rsm_side, lights.len() as u32, 0],
-                },
-                view: vxgi_cpu_mirror::reflective_shadow_map::GpuView {
-                    eye: v4(eye, 0.0),
-                    forward: v4(forward, 1.0 / far),
-                    right: v4(right / tan, (rsm_side / 2) as f32 / (2.0 * tan)),
-                    up: v4(up / tan, 0.0),
-                    info: [rsm_side, i as u32, 0, 0],
-                },
-            });
+            views.push(view_along(
+                eye,
+                forward.normalize(),
+                tan,
+                far,
+                [rsm_side, i as u32, lights.len() as u32, 0],
+                eps,
+            ));
         }
     }
     Ok(views)
+}
+
+/// The view from `eye` along the unit vector `forward`: its image plane spans `half` on each
+/// side at unit distance (perspective: the tangent of the half-angle) or in world units
+/// (orthographic), depth runs to `far`. `at` = [RSM side, light index, light count, 1 where
+/// orthographic else 0]. The basis's `up` helper is +z for a view within 26 degrees of the y axis,
+/// else +y.
+fn view_along(
+    eye: glam::Vec3,
+    forward: glam::Vec3,
+    half: f32,
+    far: f32,
+    at: [u32; 4],
+    eps: f32,
+) -> LightView {
+    use glam::Vec3;
+    let [rsm_side, index, light_count, orthographic] = at;
+    let helper = if forward.y.abs() > 0.9 {
+        Vec3::Z
+    } else {
+        Vec3::Y
+    };
+    let right = forward.cross(helper).normalize();
+    let up = right.cross(forward);
+    let v4 = |v: Vec3, w: f32| [v.x, v.y, v.z, w];
+    LightView {
+        frame: vxgi_cpu_mirror::gbuffer::Frame {
+            eye: v4(eye, eps),
+            forward: v4(forward, 0.0),
+            right: v4(right * half, 0.0),
+            up: v4(up * half, 0.0),
+            size: [rsm_side, rsm_side, light_count, orthographic],
+        },
+        view: vxgi_cpu_mirror::reflective_shadow_map::GpuView {
+            eye: v4(eye, 0.0),
+            forward: v4(forward, 1.0 / far),
+            right: v4(right / half, (rsm_side / 2) as f32 / (2.0 * half)),
+            up: v4(up / half, 0.0),
+            info: [rsm_side, index, 0, orthographic],
+        },
+    }
 }
 
 /// A directional light's view: orthographic along its direction, square, covering the bounds' bounding
@@ -369,28 +393,12 @@ pub fn orthographic_view(
     let radius = (bounds.1 - bounds.0).length() * 0.5 * 1.001 + 1e-6;
     let eye = centre - forward * (radius * 1.01);
     let far = radius * 2.02;
-    let helper = if forward.y.abs() > 0.9 {
-        Vec3::Z
-    } else {
-        Vec3::Y
-    };
-    let right = forward.cross(helper).normalize();
-    let up = right.cross(forward);
-    let v4 = |v: Vec3, w: f32| [v.x, v.y, v.z, w];
-    LightView {
-        frame: vxgi_cpu_mirror::gbuffer::Frame {
-            eye: v4(eye, eps),
-            forward: v4(forward, 0.0),
-            right: v4(right * radius, 0.0),
-            up: v4(up * radius, 0.0),
-            size: [rsm_side, rsm_side, light_count as u32, 1],
-        },
-        view: vxgi_cpu_mirror::reflective_shadow_map::GpuView {
-            eye: v4(eye, 0.0),
-            forward: v4(forward, 1.0 / far),
-            right: v4(right / radius, (rsm_side / 2) as f32 / (2.0 * radius)),
-            up: v4(up / radius, 0.0),
-            info: [rsm_side, index as u32, 0, 1],
-        },
-    }
+    view_along(
+        eye,
+        forward,
+        radius,
+        far,
+        [rsm_side, index as u32, light_count as u32, 1],
+        eps,
+    )
 }

@@ -131,6 +131,35 @@ pub struct Hit {
     pub front: bool,
 }
 
+/// The stackless walk both queries share (bvh_trace.wgsl's loop): nodes in the flat order, a box
+/// entered where the ray meets it before `t_far`, each leaf's triangle index given to `leaf` with
+/// the current `t_far`; `leaf` returns the next `t_far` (a hit's t narrows it), or None to end the
+/// walk.
+fn walk(
+    nodes: &[GpuNode],
+    o: Vec3,
+    d: Vec3,
+    mut t_far: f32,
+    mut leaf: impl FnMut(u32, f32) -> Option<f32>,
+) {
+    let inv_d = safe_inverse(d);
+    let mut i = 0usize;
+    while i < nodes.len() {
+        let n = &nodes[i];
+        if n.entry == NONE {
+            match leaf(n.shape, t_far) {
+                Some(t) => t_far = t,
+                None => return,
+            }
+            i = n.exit as usize;
+        } else if box_hit(o, inv_d, Vec3::from(n.lo), Vec3::from(n.hi), t_far) {
+            i = n.entry as usize;
+        } else {
+            i = n.exit as usize;
+        }
+    }
+}
+
 /// Nearest hit in `(t_min, t_max)`, visiting nodes in the flat order (ties keep the first visited).
 pub fn closest(
     nodes: &[GpuNode],
@@ -140,31 +169,20 @@ pub fn closest(
     t_min: f32,
     t_max: f32,
 ) -> Option<Hit> {
-    let inv_d = safe_inverse(d);
     let mut best: Option<Hit> = None;
-    let mut t_best = t_max;
-    let mut i = 0usize;
-    while i < nodes.len() {
-        let n = &nodes[i];
-        if n.entry == NONE {
-            let tri = &tris[n.shape as usize];
-            if let Some(h) = intersect(o, d, tri, t_min, t_best, 0.0) {
-                t_best = h.t;
-                best = Some(Hit {
-                    t: h.t,
-                    tri: n.shape,
-                    u: h.u,
-                    v: h.v,
-                    front: h.det > 0.0,
-                });
-            }
-            i = n.exit as usize;
-        } else if box_hit(o, inv_d, Vec3::from(n.lo), Vec3::from(n.hi), t_best) {
-            i = n.entry as usize;
-        } else {
-            i = n.exit as usize;
-        }
-    }
+    walk(nodes, o, d, t_max, |shape, t_far| {
+        let Some(h) = intersect(o, d, &tris[shape as usize], t_min, t_far, 0.0) else {
+            return Some(t_far);
+        };
+        best = Some(Hit {
+            t: h.t,
+            tri: shape,
+            u: h.u,
+            v: h.v,
+            front: h.det > 0.0,
+        });
+        Some(h.t)
+    });
     best
 }
 
@@ -177,22 +195,12 @@ pub fn occluded(
     t_min: f32,
     t_max: f32,
 ) -> bool {
-    let inv_d = safe_inverse(d);
-    let mut i = 0usize;
-    while i < nodes.len() {
-        let n = &nodes[i];
-        if n.entry == NONE {
-            if intersect(o, d, &tris[n.shape as usize], t_min, t_max, 0.0).is_some() {
-                return true;
-            }
-            i = n.exit as usize;
-        } else if box_hit(o, inv_d, Vec3::from(n.lo), Vec3::from(n.hi), t_max) {
-            i = n.entry as usize;
-        } else {
-            i = n.exit as usize;
-        }
-    }
-    false
+    let mut hit = false;
+    walk(nodes, o, d, t_max, |shape, t_far| {
+        hit = intersect(o, d, &tris[shape as usize], t_min, t_far, 0.0).is_some();
+        (!hit).then_some(t_far)
+    });
+    hit
 }
 
 /// Every triangle (brute force) the ray hits with barycentrics widened by `slack`: the comparison's

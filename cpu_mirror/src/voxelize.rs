@@ -190,7 +190,12 @@ pub fn resolve(a: &Acc) -> ([f32; 4], [f32; 4]) {
 
 /// The whole kernel: colour and normal grids (Morton order) and the sorted list of non-empty voxels.
 pub fn voxelize(input: &VoxInput, side: u32) -> (Vec<[f32; 4]>, Vec<[f32; 4]>, Vec<u32>) {
-    let acc = accumulate(&input.tris, &input.texels, &input.lut, side);
+    resolve_grid(&accumulate(&input.tris, &input.texels, &input.lut, side))
+}
+
+/// Every voxel's accumulators resolved: the colour and normal grids (the accumulators' order) and
+/// the sorted list of the voxels any sample landed in.
+pub fn resolve_grid(acc: &[Acc]) -> (Vec<[f32; 4]>, Vec<[f32; 4]>, Vec<u32>) {
     let mut colour = Vec::with_capacity(acc.len());
     let mut normal = Vec::with_capacity(acc.len());
     let mut list = Vec::new();

@@ -233,6 +233,14 @@ pub struct Pass {
 }
 
 impl Pass {
+    /// What the WGSL binding `binding` is bound to in this pass.
+    pub fn view(&self, binding: &str) -> Option<&View> {
+        self.bindings
+            .iter()
+            .find(|(n, _)| n == binding)
+            .map(|(_, v)| v)
+    }
+
     /// A pass of `entry` dispatched over the workgroup grid `groups`.
     pub fn direct(
         label: impl Into<String>,
@@ -457,7 +465,7 @@ impl Checker<'_> {
             }
             for &bi in &entry.uses {
                 let b = &self.shader.bindings[bi];
-                let Some((_, view)) = pass.bindings.iter().find(|(n, _)| *n == b.name) else {
+                let Some(view) = pass.view(&b.name) else {
                     return Err(HarnessError::MissingBinding {
                         kernel: self.kernel.into(),
                         path: self.shader.path.clone(),
@@ -904,11 +912,7 @@ pub fn prepare_chain_adopting<'a>(
             // Views and samplers must outlive the bind-group entries that borrow them: build them first.
             for &bi in &entry.uses {
                 let b = &shader.bindings[bi];
-                let (_, view) = pass
-                    .bindings
-                    .iter()
-                    .find(|(n, _)| *n == b.name)
-                    .expect("checked");
+                let view = pass.view(&b.name).expect("checked");
                 match view {
                     View::Texture(n) | View::TextureMip { name: n, .. } => {
                         let GpuRes::Texture(t) = &gpu[n] else {
@@ -950,11 +954,7 @@ pub fn prepare_chain_adopting<'a>(
             }
             for &bi in &entry.uses {
                 let b = &shader.bindings[bi];
-                let (_, view) = pass
-                    .bindings
-                    .iter()
-                    .find(|(n, _)| *n == b.name)
-                    .expect("checked");
+                let view = pass.view(&b.name).expect("checked");
                 let resource = match view {
                     View::Buffer(n) => {
                         let GpuRes::Buffer(buf) = &gpu[n] else {

@@ -4,7 +4,7 @@ use super::cluster_keys::{depths, sanitise};
 use crate::gbuffers::{normals, packed, GPattern};
 use bytemuck::Zeroable;
 use vxgi_cpu_mirror::cluster_extract::{extract, heads, Cluster};
-use vxgi_cpu_mirror::cluster_keys::{axis_directions, keys, slice_bounds, KeyInputs, KeyParams};
+use vxgi_cpu_mirror::cluster_keys::{axis_directions, keys, KeyInputs};
 use vxgi_cpu_mirror::histogram_axes::all_axes;
 use vxgi_cpu_mirror::octahedral::reweight_table;
 use vxgi_cpu_mirror::radix_sort::sort;
@@ -106,20 +106,7 @@ pub fn distribution_inputs_with_depth(
     let hp = super::tile_normal_histogram::params(width, height, tile).expect("valid sizes");
     let (raw, blurred) = histograms(&n, &hp);
     let tile_axes = all_axes(&blurred, &raw, &reweight_table());
-    let p = KeyParams {
-        width,
-        height,
-        tile,
-        tiles_x: hp.tiles_x,
-        slices,
-        _pad: [0; 3],
-    };
-    let mut bounds = slice_bounds(
-        super::cluster_keys::SLICE_NEAR,
-        super::cluster_keys::SLICE_FAR,
-        slices,
-    );
-    bounds.push(f32::INFINITY);
+    let (p, bounds) = super::cluster_keys::key_params(width, height, tile, slices);
     let dirs = axis_directions();
     let k = keys(
         &p,

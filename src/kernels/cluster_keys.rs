@@ -74,6 +74,23 @@ pub fn case_for(
 pub const SLICE_NEAR: f32 = 0.1;
 pub const SLICE_FAR: f32 = 100.0;
 
+/// The keys' parameters for a `width` x `height` G-buffer in tiles of `tile` with `slices` depth
+/// slices, and the slices' bounds as the kernel binds them.
+pub fn key_params(width: u32, height: u32, tile: u32, slices: u32) -> (KeyParams, Vec<f32>) {
+    let hp = super::tile_normal_histogram::params(width, height, tile).expect("valid sizes");
+    let p = KeyParams {
+        width,
+        height,
+        tile,
+        tiles_x: hp.tiles_x,
+        slices,
+        _pad: [0; 3],
+    };
+    let mut bounds = slice_bounds(SLICE_NEAR, SLICE_FAR, slices);
+    bounds.push(f32::INFINITY); // never read: keeps the binding non-empty when slices == 1
+    (p, bounds)
+}
+
 /// [`case_for`] with the tile axes given (a chain's earlier stage computes them on the GPU: pass
 /// zeroed placeholders of `tiles` entries and bind that stage's output instead).
 #[allow(clippy::too_many_arguments)]
@@ -90,17 +107,7 @@ pub fn case_with_axes(
     label: String,
     seed: u64,
 ) -> Case {
-    let hp = super::tile_normal_histogram::params(width, height, tile).expect("valid sizes");
-    let p = KeyParams {
-        width,
-        height,
-        tile,
-        tiles_x: hp.tiles_x,
-        slices,
-        _pad: [0; 3],
-    };
-    let mut bounds = slice_bounds(SLICE_NEAR, SLICE_FAR, slices);
-    bounds.push(f32::INFINITY); // never read: keeps the binding non-empty when slices == 1
+    let (p, bounds) = key_params(width, height, tile, slices);
     let n = (width * height) as usize;
     let io = Io {
         params: Block(p),

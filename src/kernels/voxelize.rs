@@ -8,7 +8,7 @@ use crate::scene::Scene;
 use glam::Vec3;
 use std::collections::BTreeMap;
 use vxgi_cpu_mirror::voxelize::{
-    accumulate, occupancy, occupancy_words, resolve, VoxInput, VoxTriangle, FIXED,
+    accumulate, occupancy, occupancy_words, resolve_grid, VoxInput, VoxTriangle, FIXED,
 };
 use vxgi_harness::prelude::*;
 use vxgi_harness::run::{grid_for, Pass, View, Workgroups};
@@ -529,23 +529,12 @@ impl Kernel for Voxelize {
         let b = |n: &str| data[n].buffer().expect("buffer");
         let p: VoxParams = *bytemuck::from_bytes(&b("params").bytes);
         let tris: &[VoxTriangle] = bytemuck::cast_slice(&b("vox_triangles").bytes);
-        let acc = accumulate(
+        let (colour, normal, mut list) = resolve_grid(&accumulate(
             &tris[..p.triangles as usize],
             b("vox_texels").as_u32(),
             b("vox_lut").as_u32(),
             p.side,
-        );
-        let mut colour = Vec::with_capacity(acc.len());
-        let mut normal = Vec::with_capacity(acc.len());
-        let mut list = Vec::new();
-        for (v, a) in acc.iter().enumerate() {
-            let (c, n) = resolve(a);
-            colour.push(c);
-            normal.push(n);
-            if a.count > 0 {
-                list.push(v as u32);
-            }
-        }
+        ));
         // Resolve leaves every window's accumulators zero (the next window's splat, and the next
         // frame's, start from them).
         let raw = vec![0u32; b("acc").as_u32().len()];
