@@ -7,8 +7,10 @@
 // (r = mirror direction of the light about the shading normal, wo towards the eye, n = diffuse.w);
 // point: I cos / r^2; spot: times spot_factor (1 inside falloff, 0 outside cone, smoothstep in cosine
 // between); directional: I cos. Lights below the geometric surface or the shading normal add nothing.
-// Shadow rays start at p + ng * eps (ng = the triangle's front normal, eps = frame.eye.w) and end at the
-// light (distance r) or at 3e38.
+// Shadow rays start at p + ng * eps (ng = the triangle's front normal, eps = frame.eye.w) and end short
+// of the light, t < max(r - 2 eps, 0) (r its distance from p: the start's offset may bring the ray up
+// to eps nearer the light, and it ends eps before that), so that a light in a surface's plane is not
+// shadowed by that plane within rounding, as p is not by its own surface; or at 3e38.
 // Output: radiance (rgb, 0) per pixel, row-major.
 // Accuracy: per-element bound (see shade_with_bound): 64 ULP per light term, 8 ULP absolute on the
 // cosines, pow's exp2/log2 rule; a term whose visibility or spot edge rounding decides adds its value.
@@ -55,7 +57,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
         let inc = incident(light, p);
         let wi = inc.wi;
         let e = inc.e;
-        let t_max = inc.t_max;
+        let t_max = max(inc.t_max - 2.0 * eps, 0.0);
         let cos = dot(n, wi);
         if (cos <= 0.0 || dot(ng, wi) <= 0.0 || all(e == vec3<f32>(0.0))) {
             continue;

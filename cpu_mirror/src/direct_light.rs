@@ -7,7 +7,8 @@
 //! - point: irradiance `I cos / r^2`; spot: the same times `spot_factor` (1 inside `falloff`, 0 outside
 //!   `cone`, smoothstep in cosine between); directional: `I cos`;
 //! - a light below the geometric surface (`ng . wi <= 0`) or the shading normal (`cos <= 0`) adds
-//!   nothing; shadow rays start at `p + ng * eps` and end at the light (distance r) or run to infinity.
+//!   nothing; shadow rays start at `p + ng * eps` and end `2 eps` short of the light ([`shadow_end`]) or
+//!   run to infinity.
 //!
 //! The reference renderer (`vxgi::reference`) calls [`shade`] too: one definition of the contract.
 use crate::bvh_trace::{all_hits, occluded, GpuNode, GpuTriangle, FAR};
@@ -233,12 +234,22 @@ pub fn shade_with(
         if cos <= 0.0 || ng.dot(inc.wi) <= 0.0 || inc.irradiance == Vec3::ZERO {
             continue;
         }
-        if occluded(origin, inc.wi, 0.0, inc.t_max) {
+        if occluded(origin, inc.wi, 0.0, shadow_end(inc.t_max, eps)) {
             continue;
         }
         sum += brdf(m, n, inc.wi, wo, cos) * inc.irradiance * cos;
     }
     sum
+}
+
+/// Where a shadow ray towards a light at distance `t_light` from the surface point (3e38 for a
+/// directional light) ends: `2 eps` short of it. The ray starts `eps` off the surface, which may
+/// bring it up to `eps` nearer the light, and ends `eps` before that, so that a light lying in a
+/// surface's plane (a point light placed on a ceiling) is not shadowed by that plane within
+/// rounding, as the point is not by its own surface; 0 for a light nearer than `2 eps`. A product
+/// by 2 and one correctly rounded subtraction: the GPU's value is this one.
+pub fn shadow_end(t_light: f32, eps: f32) -> f32 {
+    (t_light - 2.0 * eps).max(0.0)
 }
 
 /// Geometric front normal of a triangle (normalised cross of its edges).
@@ -310,17 +321,18 @@ pub fn shade_with_bound(
             }
             continue;
         }
-        let strict = occluded(nodes, tris, origin, inc.wi, 0.0, inc.t_max);
+        let t_end = shadow_end(inc.t_max, eps);
+        let strict = occluded(nodes, tris, origin, inc.wi, 0.0, t_end);
         let term = brdf(m, n, inc.wi, wo, cos) * inc.irradiance * cos;
         let t_lo = -eps * 0.01;
-        let t_hi = (inc.t_max * (1.0 + 1e-5)).min(FAR);
+        let t_hi = (t_end * (1.0 + 1e-5)).min(FAR);
         let wide = !all_hits(tris, origin, inc.wi, t_lo, t_hi, 1e-4).is_empty();
         let narrow = !all_hits(
             tris,
             origin,
             inc.wi,
             eps * 0.01,
-            inc.t_max * (1.0 - 1e-5),
+            t_end * (1.0 - 1e-5),
             -1e-4,
         )
         .is_empty();
