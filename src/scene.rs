@@ -1324,6 +1324,25 @@ fn obj_mesh(
                             .ok()
                             .map(Arc::new)
                     });
+                    // What the light-transport contract has no term for is said, not dropped
+                    // silently: light comes from [[lights]], surfaces are opaque.
+                    let ignored: Vec<&str> = [
+                        ("Ke (emission)", m.emissive.is_some_and(|e| e != [0.0; 3])),
+                        (
+                            "d / Tr (transparency)",
+                            m.dissolve.is_some_and(|d| d < 1.0),
+                        ),
+                    ]
+                    .into_iter()
+                    .filter_map(|(what, set)| set.then_some(what))
+                    .collect();
+                    if !ignored.is_empty() {
+                        warnings.push(format!(
+                            "material {}: {} ignored (light comes from [[lights]] entries; surfaces are opaque)",
+                            m.name,
+                            ignored.join(", ")
+                        ));
+                    }
                     Material {
                         name: m.name,
                         diffuse: m.diffuse.unwrap_or([0.8; 3]),
@@ -1512,7 +1531,7 @@ fn obj_mesh(
         }
         let fallback = mesh.material.iter().filter(|&&m| m == grey).count();
         if fallback > 0 {
-            warnings.push(format!("{obj_label}: {fallback} triangles have no material (no .mtl or no usemtl): grey diffuse 0.8"));
+            warnings.push(format!("{obj_label}: {fallback} triangles have no material (no .mtl file, no usemtl, or a usemtl name the .mtl does not define): grey diffuse 0.8"));
         }
         if mesh.triangles.is_empty() {
             return Err(SceneError::EmptyMesh {
@@ -1918,9 +1937,13 @@ fn validate_light(l: &Light) -> Result<(), String> {
             falloff_deg,
             ..
         } => {
-            if !finite3(*position) || !finite3(*direction) || Vec3::from(*direction).length() <= 0.0
-            {
-                return Err("position must be finite and direction finite and non-zero".into());
+            if !finite3(*position) {
+                return Err(format!("position {position:?} must be finite"));
+            }
+            if !finite3(*direction) || Vec3::from(*direction).length() <= 0.0 {
+                return Err(format!(
+                    "direction {direction:?} must be finite and non-zero (where the spot points)"
+                ));
             }
             if !(*cone_deg > 0.0 && *cone_deg <= 90.0) {
                 return Err(format!("cone_deg = {cone_deg} must be in (0, 90]"));

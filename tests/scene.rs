@@ -555,6 +555,40 @@ fn a_corrupt_texture_is_a_short_warning() {
     assert!(w.contains("not a valid PNG"), "{w}");
 }
 
+/// MTL statements the light-transport contract has no term for (emission, transparency) are named
+/// in a warning, not dropped silently; a `Ke 0 0 0` or `d 1` (what exporters write by default) is
+/// not.
+#[test]
+fn emission_and_transparency_are_named_as_ignored() {
+    let d = dir("ignored-mtl");
+    std::fs::write(
+        d.join("mesh.mtl"),
+        "newmtl glow\nKd 0.5 0.5 0.5\nKe 5 5 5\nnewmtl glass\nKd 0.5 0.5 0.5\nd 0.5\nnewmtl plain\nKd 0.5 0.5 0.5\nKe 0 0 0\nd 1\n",
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("mesh.obj"),
+        format!("mtllib mesh.mtl\nusemtl glow\n{TRI_OBJ}"),
+    )
+    .unwrap();
+    std::fs::write(d.join("scene.toml"), scene_toml("mesh.obj", "")).unwrap();
+    let s = Scene::load(d.join("scene.toml")).unwrap();
+    let ignored: Vec<&String> = s
+        .warnings
+        .iter()
+        .filter(|w| w.contains("ignored"))
+        .collect();
+    assert_eq!(ignored.len(), 2, "{:?}", s.warnings);
+    assert!(
+        ignored[0].contains("glow") && ignored[0].contains("Ke"),
+        "{ignored:?}"
+    );
+    assert!(
+        ignored[1].contains("glass") && ignored[1].contains("transparency"),
+        "{ignored:?}"
+    );
+}
+
 /// Values out of range name the file and line of their key; coordinates past f32's reach are named
 /// as such; long directions are rescaled (no overflow); a bound set by two keys names both.
 #[test]
