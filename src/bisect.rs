@@ -80,7 +80,7 @@ pub fn render_split(
         order.len()
     );
     let on_mirror = |stage: &str| order[..split].contains(&stage);
-    let (mut r, _) = crate::render::supersampled(scene, |s| {
+    let (mut r, _) = crate::render::supersampled(scene, pipeline, |s| {
         crate::pipeline::host::frame(pipeline.decl(), Some(ctx), s, cones, &on_mirror, &progress)
     })?;
     // A stage that is no split point runs on the side of the split point before it (its step is

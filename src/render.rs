@@ -265,20 +265,22 @@ pub(crate) fn cone_tiles_of(list: &[u32]) -> (u32, u32) {
 /// pixel as pixels of their own) and box-filtered back to the camera's pixels; as is where
 /// `supersample` is 1. What else the frame reports (memory, caches, tile counts) is the samples'.
 ///
-/// Light intensities past [`EXPOSURE_LIMIT`] are rendered at an exposure: every light scaled by the
-/// power of two 2^-k that brings the largest intensity component into [1, 2), the radiance images
-/// scaled back by 2^k (light transport is linear in the lights, and a power of two is exact in
-/// floating point). The kernels' f32 sums (up to 4096 texels before cprc's pre-convolution divides,
-/// N^4 in the interleaved resolve, 1/r^2 of a point light) and vct-svo's fixed point then stay in
-/// range for any finite intensity. Radiance past f32::MAX after scaling back saturates there.
+/// `pipeline`'s frames are rendered at an exposure ([`exposure_for`]) where the lights are very
+/// bright, or for vct-svo very dim: every light scaled by the power of two 2^-k, the radiance
+/// images scaled back by 2^k (light transport is linear in the lights, and a power of two is exact
+/// in floating point). The kernels' f32 sums (up to 4096 texels before cprc's pre-convolution
+/// divides, N^4 in the interleaved resolve, 1/r^2 of a point light) and vct-svo's fixed point then
+/// stay in range for any finite intensity. Radiance past f32::MAX after scaling back saturates
+/// there.
 pub(crate) fn supersampled<T>(
     scene: &Scene,
+    pipeline: Pipeline,
     frame: impl FnOnce(&Scene) -> Result<(Rendered, T)>,
 ) -> Result<(Rendered, T)> {
-    let k = exposure(scene);
+    let k = exposure_for(scene, pipeline);
     if k != 0 {
         let exposed = scene.with_lights_scaled(2f32.powi(-k));
-        let (r, extra) = supersampled(&exposed, frame)?;
+        let (r, extra) = supersampled(&exposed, pipeline, frame)?;
         return Ok((r.radiance_scaled(k), extra));
     }
     let s = scene.render.supersample;
@@ -295,8 +297,41 @@ pub(crate) fn supersampled<T>(
 /// unchanged bit for bit.
 pub const EXPOSURE_LIMIT: f32 = 65536.0;
 
-/// The k of the exposure 2^-k a scene is rendered at: 0 where every intensity component is at most
-/// [`EXPOSURE_LIMIT`], else the one that brings the largest into [1, 2).
+/// The lights' typical radiance below which vct-svo renders at an exposure ([`exposure_for`]):
+/// 2^-6. Every shipped scene's is above it, so their frames are unchanged bit for bit.
+pub const DIM_LIMIT: f32 = 1.0 / 64.0;
+
+/// The k of the exposure 2^-k `pipeline`'s frames of `scene` are rendered at: [`exposure`]'s for
+/// bright lights; and for vct-svo, where the lights' typical radiance at that exposure
+/// (`lit_cells::typical_radiance`: a white surface's at the far side of the mesh's bounds) is below
+/// [`DIM_LIMIT`], the one that brings it into [1/4, 1/2) (keeping the brightest intensity within
+/// 2^64). vct-svo's octree holds the light and the voxels' coverage (up to 1) in one fixed point,
+/// whose scale the coverage keeps near 2^24 steps a unit at most: in a scene modelled in large units
+/// (a room in centimetres, lit by lights of ordinary intensity) the radiance is far below 1, and the
+/// photons' shares of a voxel's light rounded to nothing (indirect exactly 0).
+pub fn exposure_for(scene: &Scene, pipeline: Pipeline) -> i32 {
+    let k = exposure(scene);
+    if pipeline != Pipeline::VctSvo || scene.mesh.positions.is_empty() {
+        return k;
+    }
+    let (lo, hi) = scene.mesh.positions.iter().fold(
+        (glam::Vec3::splat(f32::MAX), glam::Vec3::splat(f32::MIN)),
+        |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+    );
+    let lights = crate::trace::gpu_lights(scene);
+    let typical = crate::kernels::lit_cells::typical_radiance(&lights, (lo, hi));
+    if !(typical.is_finite() && typical > 0.0) || typical * 2f32.powi(-k) >= DIM_LIMIT {
+        return k;
+    }
+    let brightest = lights
+        .iter()
+        .flat_map(|l| l.intensity[..3].to_vec())
+        .fold(0.0f32, f32::max);
+    (typical.log2().floor() as i32 + 2).max(brightest.log2().floor() as i32 - 64)
+}
+
+/// The k of the exposure 2^-k a scene is rendered at for its bright lights: 0 where every intensity
+/// component is at most [`EXPOSURE_LIMIT`], else the one that brings the largest into [1, 2).
 pub fn exposure(scene: &Scene) -> i32 {
     let m = scene
         .lights
@@ -1104,7 +1139,7 @@ pub fn mirror_frame(
     scene: &Scene,
     cones: &ConeSettings,
 ) -> Result<(Rendered, Option<crate::cprc::CprcStats>)> {
-    supersampled(scene, |s| {
+    supersampled(scene, pipeline, |s| {
         crate::pipeline::host::frame(pipeline.decl(), None, s, cones, &|_| true, &|_| {})
     })
 }

@@ -468,8 +468,10 @@ impl<'c> Resident<'c> {
     /// One frame (supersampling and bright lights as every pipeline's, see `render::supersampled`).
     pub fn render(&mut self, scene: &Scene, cones: &ConeSettings) -> Result<Rendered> {
         self.check(scene)?;
-        crate::render::supersampled(scene, |s| Ok((self.render_samples(s, cones)?, ())))
-            .map(|(r, ())| r)
+        crate::render::supersampled(scene, self.pipeline, |s| {
+            Ok((self.render_samples(s, cones)?, ()))
+        })
+        .map(|(r, ())| r)
     }
 
     /// What every frame must pass before anything is recorded: the scene within the device's limits.
@@ -528,9 +530,10 @@ impl<'c> Resident<'c> {
     fn check_pixels(&self, scene: &Scene) -> Result<()> {
         self.check(scene)?;
         anyhow::ensure!(
-            scene.render.supersample == 1 && crate::render::exposure(scene) == 0,
-            "encode and present draw the camera's pixels: supersample = 1 and light intensities up to {} (render() does the rest)",
-            crate::render::EXPOSURE_LIMIT
+            scene.render.supersample == 1 && crate::render::exposure_for(scene, self.pipeline) == 0,
+            "encode and present draw the camera's pixels: supersample = 1, light intensities up to {} and for vct-svo a typical radiance of at least {} (render() does the rest: `render::exposure_for`)",
+            crate::render::EXPOSURE_LIMIT,
+            crate::render::DIM_LIMIT
         );
         Ok(())
     }

@@ -368,7 +368,7 @@ impl Controls {
             bail!("{e}");
         }
         crate::limits::check_bounces(&s, self.pipeline).map_err(anyhow::Error::msg)?;
-        let k = crate::render::exposure(&s);
+        let k = crate::render::exposure_for(&s, self.pipeline);
         Ok(if k == 0 {
             (s, 1.0)
         } else {

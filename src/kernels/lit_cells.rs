@@ -94,18 +94,15 @@ pub fn table_bytes(side: u32) -> u64 {
     pyramid_bytes(side) + high_word_bytes(side)
 }
 
-/// The radiance unit of a frame's lit cells (the grid's `scale`) for `lights` over scene `bounds`:
-/// the reflected radiance of a white surface facing the light at the farthest point of the bounds
-/// from it (a directional light's: I / pi everywhere), the largest over the lights. Nearer surfaces
-/// of a point or spot light reflect (far / d)^2 times that: a piece is clamped at 2^24 units (a
-/// piece of one face nearer than far / 4096); the quantum, 2^-24 of the unit, is far below any
-/// light the image shows.
-pub fn radiance_unit(
+/// The reflected radiance of a white surface facing the light at the farthest point of `bounds`
+/// from it (a directional light's: I / pi everywhere), the largest over `lights`: the scale of the
+/// light a frame's surfaces reflect.
+pub fn typical_radiance(
     lights: &[vxgi_cpu_mirror::direct_light::GpuLight],
     bounds: (glam::Vec3, glam::Vec3),
-) -> [f32; 4] {
+) -> f32 {
     use vxgi_cpu_mirror::direct_light::DIRECTIONAL;
-    let typical = lights
+    lights
         .iter()
         .map(|l| {
             let i = l.intensity[0].max(l.intensity[1]).max(l.intensity[2]) / std::f32::consts::PI;
@@ -116,8 +113,18 @@ pub fn radiance_unit(
             let far = (p - bounds.0).abs().max((p - bounds.1).abs()).length();
             i / (far * far).max(f32::MIN_POSITIVE)
         })
-        .fold(0.0f32, f32::max);
-    vxgi_cpu_mirror::lit_cells::radiance_unit(typical)
+        .fold(0.0f32, f32::max)
+}
+
+/// The radiance unit of a frame's lit cells (the grid's `scale`) for `lights` over scene `bounds`:
+/// [`typical_radiance`]. Nearer surfaces of a point or spot light reflect (far / d)^2 times that: a
+/// piece is clamped at 2^24 units (a piece of one face nearer than far / 4096); the quantum, 2^-24
+/// of the unit, is far below any light the image shows.
+pub fn radiance_unit(
+    lights: &[vxgi_cpu_mirror::direct_light::GpuLight],
+    bounds: (glam::Vec3, glam::Vec3),
+) -> [f32; 4] {
+    vxgi_cpu_mirror::lit_cells::radiance_unit(typical_radiance(lights, bounds))
 }
 
 /// The names an inject pass binds for one light view: its view and its RSM's three buffers.
