@@ -16,7 +16,9 @@
 // facing each light (cos = 1). L = albedo / pi * sum over lights of E * max(n . wi, 0) * visible, where
 // E and wi are the direct_light kernel's (point: I / r^2, spot: times its smoothstep, directional: I)
 // taken at the centre, and the shadow ray starts one voxel (world.x) from the centre along n and runs to
-// one voxel short of the light. vox_radiance[v] = (L * alpha, alpha); unlisted voxels are left as they are (0).
+// two voxels short of the light's distance from the centre (the start's offset may bring it up to a
+// voxel nearer the light: a light in a surface's plane is not shadowed by that plane within
+// rounding). vox_radiance[v] = (L * alpha, alpha); unlisted voxels are left as they are (0).
 // Accuracy: per-element bound as direct_light's (64 ULP per term, 8 ULP absolute on the cosine); a
 // term whose shadow ray rounding decides adds its value.
 
@@ -82,7 +84,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
             continue;
         }
         let o = c + n * s;
-        let t_max = max(t_light - s, 0.0);
+        let t_max = max(t_light - 2.0 * s, 0.0);
         let term = col.xyz * (1.0 / PI) * e * cos;
         if (!trace_occluded(o, wi, 0.0, t_max)) {
             sum += term;

@@ -60,3 +60,46 @@ fn a_slowly_moving_light_injects_a_steady_total() {
         assert!(((w[1] - w[0]) / w[0]).abs() < 1e-3, "{totals:?}");
     }
 }
+
+/// A light in a surface's plane (the Cornell box's light moved up onto the ceiling) lights the
+/// voxels below it as one just below the ceiling does: the shadow ray starts a voxel off the
+/// centre along the normal, which for a voxel facing the light brought its end (a voxel short of
+/// the light) back onto the ceiling's plane, hit within rounding. The voxels below the ceiling held
+/// 0.92 of their light at 64^3, and vct-dense's indirect image was 0.60 of the reference's (1.01
+/// now); the rays now end two voxels short. The ceiling's own layer is left out: a light in its
+/// plane meets it edge-on, one just below lights it.
+#[test]
+fn a_light_in_a_surfaces_plane_lights_the_voxels_below_it() {
+    use vxgi::scene::Light;
+    let base = Scene::cornell_box();
+    let (grid, list, frame) = voxelize_on_gpu(gpu(), &base, 64).unwrap();
+    let top = base
+        .mesh
+        .positions
+        .iter()
+        .map(|p| p.y)
+        .fold(f32::MIN, f32::max);
+    let below_ceiling = |m: usize| {
+        let [_, y, _] = vxgi_cpu_mirror::morton::decode(m as u32);
+        frame.origin.y + (y as f32 + 1.0) * frame.voxel < top - frame.voxel
+    };
+    let total = |y: f32| -> f64 {
+        let mut s = base.clone();
+        let Light::Point { position, .. } = &mut s.lights[0] else {
+            panic!("the Cornell box has a point light")
+        };
+        position[1] = y;
+        let rad = light_on_gpu(gpu(), &SceneData::new(&s), &grid, &list, &frame).unwrap();
+        rad.iter()
+            .enumerate()
+            .filter(|&(m, _)| below_ceiling(m))
+            .map(|(_, v)| (v[0] + v[1] + v[2]) as f64)
+            .sum()
+    };
+    let (on, below) = (total(top), total(top - 1e-3));
+    println!(
+        "light on the ceiling / just below it, the voxels under the ceiling: {}",
+        on / below
+    );
+    assert!((on / below - 1.0).abs() < 0.01, "{on} / {below}");
+}

@@ -164,7 +164,7 @@ pub fn light_voxel(
             continue;
         }
         let o = c + n * s;
-        let t_max = (inc.t_max - s).max(0.0);
+        let t_max = crate::direct_light::shadow_end(inc.t_max, s);
         let term = albedo * (1.0 / PI) * inc.irradiance * cos;
         let wide = !all_hits(tris, o, inc.wi, -s * 0.01, t_max * (1.0 + 1e-5), 1e-4).is_empty();
         let narrow = !all_hits(tris, o, inc.wi, s * 0.01, t_max * (1.0 - 1e-5), -1e-4).is_empty();
