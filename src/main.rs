@@ -373,11 +373,13 @@ struct RenderFlags {
     lrsm_view_weight: Option<bool>,
     /// lrsm: area-weighted LRSMs (each RSM texel weighs 1 / <n.l>) read as eq. 1's premultiplied
     /// product, one level finer, N weighing it: 0.92-1.00 of the reference's indirect energy
-    /// (false: Algorithm 1's layers) [default false].
+    /// (false: Algorithm 1's layers) [default false; every quality preset: true, read where a scene
+    /// turns the lit cells off].
     #[arg(long = "lrsm-area-weights", alias = "lrsm_area_weights")]
     lrsm_area_weights: Option<bool>,
     /// lrsm: each sample's light from the light views' texels in the occlusion pyramid's cells
-    /// (false: Algorithm 1's layered RSMs, read in light space) [default true].
+    /// (false: Algorithm 1's layered RSMs, read in light space) [default false; every quality
+    /// preset: true].
     #[arg(long = "lrsm-lit-cells", alias = "lrsm_lit_cells")]
     lrsm_lit_cells: Option<bool>,
     /// lrsm: soft shadows from shadow cones of this half-angle through the occlusion voxels, degrees
@@ -555,11 +557,20 @@ fn run_render(
             vxgi::quality::LOOP_LIMIT
         );
     }
-    if pipeline == Pipeline::Cprc && scene.render.cone_interleave > 1 {
+    let unread: Vec<&str> = unread_keys(pipeline, &scene.render)
+        .into_iter()
+        .filter(|k| scene.explicit_render.contains(*k))
+        .collect();
+    if !unread.is_empty() {
         eprintln!(
-            "warning: cone_interleave = {} is for the per-pixel cone tracers (vct-dense, vct-svo, \
-             lrsm); cprc's caches trace one cone per texel and ignore it",
-            scene.render.cone_interleave
+            "warning: {} does not read {} (set in the scene or on the command line): they change nothing in its frames{}",
+            pipeline.name(),
+            unread.join(", "),
+            if pipeline == Pipeline::Cprc {
+                " (cprc's caches trace one cone per texel of their own)"
+            } else {
+                ""
+            }
         );
     }
     let cones = ConeSettings::from(&scene.render);
@@ -1035,7 +1046,81 @@ fn run_lrsm_factors(
     Ok(())
 }
 
+/// The `[render]` keys `pipeline` does not read with settings `r`: other pipelines' own keys
+/// (lrsm's light views, cprc's caches, vct-svo's octree options), the per-pixel cones in cprc
+/// (its caches trace their own), the depth-ordered blend outside vct-dense and cprc, and the
+/// LRSMs' partition where lrsm reads the lit cells instead.
+fn unread_keys(pipeline: Pipeline, r: &vxgi::scene::RenderSettings) -> Vec<&'static str> {
+    const LRSM: [&str; 9] = [
+        "rsm_side",
+        "lrsm_depth_splits",
+        "lrsm_normal_splits",
+        "lrsm_overlap",
+        "lrsm_surface_coverage",
+        "lrsm_view_weight",
+        "lrsm_area_weights",
+        "lrsm_lit_cells",
+        "shadow_cone_angle",
+    ];
+    const CPRC: [&str; 8] = [
+        "cache_resolution",
+        "irradiance_resolution",
+        "cache_tile",
+        "cache_depth_slices",
+        "gather_radius",
+        "gather_angle",
+        "cache_reuse",
+        "cache_carry",
+    ];
+    const SVO: [&str; 3] = ["photon_map", "anisotropic_voxels", "voxel_lobes"];
+    let mut keys = Vec::new();
+    for (own, owner) in [
+        (&LRSM[..], Pipeline::Lrsm),
+        (&CPRC[..], Pipeline::Cprc),
+        (&SVO[..], Pipeline::VctSvo),
+    ] {
+        if pipeline != owner {
+            keys.extend_from_slice(own);
+        }
+    }
+    match pipeline {
+        Pipeline::Cprc => keys.extend(["cones", "cone_half_angle", "cone_interleave"]),
+        Pipeline::VctSvo => keys.push("depth_ordered_blend"),
+        Pipeline::Lrsm => {
+            keys.push("depth_ordered_blend");
+            if r.lrsm_lit_cells {
+                keys.extend([
+                    "lrsm_depth_splits",
+                    "lrsm_normal_splits",
+                    "lrsm_overlap",
+                    "lrsm_view_weight",
+                    "lrsm_area_weights",
+                ]);
+            }
+        }
+        Pipeline::VctDense => {}
+    }
+    keys
+}
+
 fn run_compare(reference: PathBuf, test: PathBuf, heatmap: Option<PathBuf>) -> Result<()> {
+    for p in [&reference, &test] {
+        if p.is_dir() {
+            bail!(
+                "{}: a directory; pass one of its images, e.g. {}",
+                p.display(),
+                p.join("indirect.exr").display()
+            );
+        }
+    }
+    if let Some(h) = &heatmap {
+        let png = h.extension().is_some_and(|e| e.eq_ignore_ascii_case("png"));
+        anyhow::ensure!(
+            png,
+            "--heatmap {}: the heat map is written as PNG; name it .png",
+            h.display()
+        );
+    }
     let r = read_exr(&reference)?;
     let t = read_exr(&test)?;
     // An .exr holds linear radiance, a .png the sRGB-encoded preview: the two do not compare.

@@ -334,10 +334,10 @@ impl RenderSettings {
                 self.cone_half_angle
             ));
         }
-        if !(self.cone_offset >= 0.0 && self.cone_offset.is_finite()) {
+        if !(self.cone_offset >= 0.0 && self.cone_offset <= self.voxels as f32) {
             return Err(format!(
-                "cone_offset = {} must be finite and >= 0",
-                self.cone_offset
+                "cone_offset = {} must be in [0, voxels = {}] (in voxels: a cone that starts past the grid reads nothing)",
+                self.cone_offset, self.voxels
             ));
         }
         let min_step = crate::quality::MIN_CONE_STEP;

@@ -335,5 +335,69 @@ fn compare_names_an_undefined_energy_ratio_and_mixed_encodings() {
     let (code, out, err) = vxgi(&["compare", &s(&lit), &s(&png)]);
     assert_eq!(code, 0, "{out}\n{err}");
     assert!(err.contains("different formats"), "{err}");
+    // A directory, and a heat map named as another format, are named as such.
+    let (code, _, err) = vxgi(&["compare", &s(&dir), &s(&lit)]);
+    assert_ne!(code, 0);
+    assert!(
+        err.contains("a directory") && err.contains("indirect.exr"),
+        "{err}"
+    );
+    let heat = dir.join("heat.jpg");
+    let (code, _, err) = vxgi(&["compare", &s(&lit), &s(&lit), "--heatmap", &s(&heat)]);
+    assert_ne!(code, 0);
+    assert!(err.contains("name it .png") && !heat.exists(), "{err}");
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A setting the chosen pipeline does not read (set in the file or on the command line) is said to
+/// change nothing, naming it; one it reads is not. A cone offset past the grid is refused.
+#[test]
+fn settings_a_pipeline_does_not_read_are_named_and_a_far_cone_offset_refused() {
+    for (pipeline, flags, unread) in [
+        (
+            "vct-dense",
+            &["--photon-map", "64", "--cache-tile", "4"][..],
+            "cache_tile, photon_map",
+        ),
+        ("cprc", &["--cones", "4"][..], "cones"),
+        (
+            "vct-svo",
+            &["--depth-ordered-blend", "true"][..],
+            "depth_ordered_blend",
+        ),
+        (
+            "lrsm",
+            &["--lrsm-depth-splits", "4"][..],
+            "lrsm_depth_splits",
+        ),
+    ] {
+        let mut args = vec!["render", "--plan", "--pipeline", pipeline];
+        args.extend_from_slice(flags);
+        let (code, _, err) = vxgi(&args);
+        assert_eq!(code, 0, "{err}");
+        assert!(
+            err.contains(&format!("{pipeline} does not read {unread} (")),
+            "{pipeline}: {err}"
+        );
+    }
+    for (pipeline, flags) in [
+        ("vct-svo", &["--photon-map", "64"][..]),
+        (
+            "lrsm",
+            &["--lrsm-lit-cells", "false", "--lrsm-depth-splits", "4"][..],
+        ),
+        ("cprc", &["--cache-tile", "4"][..]),
+    ] {
+        let mut args = vec!["render", "--plan", "--pipeline", pipeline];
+        args.extend_from_slice(flags);
+        let (code, _, err) = vxgi(&args);
+        assert_eq!(code, 0, "{err}");
+        assert!(!err.contains("does not read"), "{pipeline}: {err}");
+    }
+    let (code, _, err) = vxgi(&["render", "--plan", "--cone-offset", "1000"]);
+    assert_ne!(code, 0);
+    assert!(
+        err.contains("cone_offset = 1000 must be in [0, voxels"),
+        "{err}"
+    );
 }
