@@ -73,6 +73,20 @@ pub struct PixelInputs {
     pub specular: Vec<[f32; 4]>,
     /// Any geometry (front or back face): where the AO image is 1.
     pub geometry: Vec<bool>,
+    /// The unit of the clusters' depth slices ([`depth_unit`]).
+    pub depth_unit: f32,
+}
+
+/// The unit of the clusters' depth slices for a scene of `bounds`: the power of two nearest a
+/// quarter of the bounds' diagonal (1 for a room 2 to 5 units across, as every shipped scene but
+/// Sponza, 8 for Sponza), so that a scene modelled in other units slices its depths alike (the
+/// slices are exponential: a power of two moves their bounds by a fraction of one).
+pub fn depth_unit(bounds: (glam::Vec3, glam::Vec3)) -> f32 {
+    let quarter = (bounds.1 - bounds.0).length() / 4.0;
+    if !(quarter.is_finite() && quarter > 0.0) {
+        return 1.0;
+    }
+    2f32.powi(quarter.log2().round().clamp(-60.0, 60.0) as i32)
 }
 
 /// Mip level of a Phong lobe of exponent `e` in a cache of `res^2` texels: the lobe's solid angle at 1%
@@ -117,6 +131,7 @@ pub fn pixel_inputs(
         albedo: Vec::with_capacity(n),
         specular: Vec::with_capacity(n),
         geometry: nrm.iter().map(|v| v[3] != 0.0).collect(),
+        depth_unit: depth_unit(data.bounds),
     };
     for i in 0..n {
         let o = m::pixel(
@@ -269,6 +284,7 @@ pub(crate) fn distribution_stages(
         h,
         s.tile,
         s.slices,
+        px.depth_unit,
         &vec![[0; 4]; tiles],
         "cprc".into(),
         0,
@@ -389,7 +405,12 @@ pub fn distribute_mirror(px: &PixelInputs, s: &CprcSettings, offset: f32) -> Res
     let hp = tile_normal_histogram::params(w, h, s.tile)?;
     let (raw, blurred) = th::histograms(&px.normals, &hp);
     let axes = histogram_axes::all_axes(&blurred, &raw, &octahedral::reweight_table());
-    let mut bounds = ck::slice_bounds(cluster_keys::SLICE_NEAR, cluster_keys::SLICE_FAR, s.slices);
+    let u = px.depth_unit;
+    let mut bounds = ck::slice_bounds(
+        cluster_keys::SLICE_NEAR * u,
+        cluster_keys::SLICE_FAR * u,
+        s.slices,
+    );
     bounds.push(f32::INFINITY);
     let p = ck::KeyParams {
         width: w,

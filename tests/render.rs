@@ -1166,7 +1166,8 @@ fn all_finite(r: &vxgi::render::Rendered) -> bool {
 /// (past the bright lights' exposure limit) the original's. vct-svo's photons (each a small share of
 /// a voxel's light) rounded to nothing in its octree's fixed point there (indirect exactly 0); it now
 /// renders such scenes at an exposure (`render::exposure_for`), also in a resident chain whose
-/// lights change.
+/// lights change. cprc's clusters sliced depth between fixed planes (0.77 of the energy); the
+/// planes now follow the scene's size (`cprc::depth_unit`).
 #[test]
 fn a_scene_in_large_units_keeps_its_indirect_light() {
     use vxgi::kernels::cone_trace::ConeSettings;
@@ -1188,9 +1189,7 @@ fn a_scene_in_large_units_keeps_its_indirect_light() {
             *position = position.map(|c| c * s);
         }
     }
-    // cprc is not: its clusters' depth slices lie between fixed planes in scene units
-    // (docs/bad-input.md).
-    for p in [Pipeline::VctDense, Pipeline::VctSvo, Pipeline::Lrsm] {
+    for p in Pipeline::ALL {
         let frame = |scene: &Scene| {
             Renderer::new(p, false)
                 .render(gpu(), scene, &cones, |_| {})

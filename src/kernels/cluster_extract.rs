@@ -106,7 +106,7 @@ pub fn distribution_inputs_with_depth(
     let hp = super::tile_normal_histogram::params(width, height, tile).expect("valid sizes");
     let (raw, blurred) = histograms(&n, &hp);
     let tile_axes = all_axes(&blurred, &raw, &reweight_table());
-    let (p, bounds) = super::cluster_keys::key_params(width, height, tile, slices);
+    let (p, bounds) = super::cluster_keys::key_params(width, height, tile, slices, 1.0);
     let dirs = axis_directions();
     let k = keys(
         &p,

@@ -66,17 +66,25 @@ pub fn case_for(
     let (raw, blurred) = histograms(normals, &hp);
     let tile_axes = all_axes(&blurred, &raw, &reweight_table());
     case_with_axes(
-        shader, ctx, normals, depth, width, height, tile, slices, &tile_axes, label, seed,
+        shader, ctx, normals, depth, width, height, tile, slices, 1.0, &tile_axes, label, seed,
     )
 }
 
-/// Depth slices of the keys: exponential between these view depths (`slice_bounds`).
+/// Depth slices of the keys: exponential between these view depths (`slice_bounds`), in units of
+/// the scene's depth unit (`cprc::depth_unit`: 1 for a room a few units across).
 pub const SLICE_NEAR: f32 = 0.1;
 pub const SLICE_FAR: f32 = 100.0;
 
 /// The keys' parameters for a `width` x `height` G-buffer in tiles of `tile` with `slices` depth
-/// slices, and the slices' bounds as the kernel binds them.
-pub fn key_params(width: u32, height: u32, tile: u32, slices: u32) -> (KeyParams, Vec<f32>) {
+/// slices, and the slices' bounds as the kernel binds them: between [`SLICE_NEAR`] and
+/// [`SLICE_FAR`] times `unit` (a power of two: the bounds scale exactly).
+pub fn key_params(
+    width: u32,
+    height: u32,
+    tile: u32,
+    slices: u32,
+    unit: f32,
+) -> (KeyParams, Vec<f32>) {
     let hp = super::tile_normal_histogram::params(width, height, tile).expect("valid sizes");
     let p = KeyParams {
         width,
@@ -86,12 +94,12 @@ pub fn key_params(width: u32, height: u32, tile: u32, slices: u32) -> (KeyParams
         slices,
         _pad: [0; 3],
     };
-    let mut bounds = slice_bounds(SLICE_NEAR, SLICE_FAR, slices);
+    let mut bounds = slice_bounds(SLICE_NEAR * unit, SLICE_FAR * unit, slices);
     bounds.push(f32::INFINITY); // never read: keeps the binding non-empty when slices == 1
     (p, bounds)
 }
 
-/// [`case_for`] with the tile axes given (a chain's earlier stage computes them on the GPU: pass
+/// [`case_for`] with the tile axes given and the slices' depth `unit` ([`key_params`]) (a chain's earlier stage computes them on the GPU: pass
 /// zeroed placeholders of `tiles` entries and bind that stage's output instead).
 #[allow(clippy::too_many_arguments)]
 pub fn case_with_axes(
@@ -103,11 +111,12 @@ pub fn case_with_axes(
     height: u32,
     tile: u32,
     slices: u32,
+    unit: f32,
     tile_axes: &[[u32; 4]],
     label: String,
     seed: u64,
 ) -> Case {
-    let (p, bounds) = key_params(width, height, tile, slices);
+    let (p, bounds) = key_params(width, height, tile, slices, unit);
     let n = (width * height) as usize;
     let io = Io {
         params: Block(p),

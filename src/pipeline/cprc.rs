@@ -346,6 +346,7 @@ pub(crate) fn cprc_chain(
         albedo: vec![[0.0; 4]; n],
         specular: vec![[0.0; 4]; n],
         geometry: vec![false; n],
+        depth_unit: crate::cprc::depth_unit(data.bounds),
     };
     let mut pixels = cprc_pixels::outputs(n);
     pixels.insert(
