@@ -292,6 +292,11 @@ pub fn light_views(
     use vxgi_cpu_mirror::direct_light::{DIRECTIONAL, SPOT};
     let mut views = Vec::new();
     for (i, l) in lights.iter().enumerate() {
+        // A light of zero intensity casts nothing: no view (its RSMs would add only their share of
+        // the lit cells' area, `crate::plan::views_of`).
+        if l.intensity[..3] == [0.0; 3] {
+            continue;
+        }
         if l.position[3] == DIRECTIONAL {
             views.push(orthographic_view(l, i, lights.len(), bounds, rsm_side, eps));
             continue;

@@ -167,9 +167,13 @@ pub fn light_views(scene: &Scene) -> usize {
     scene.lights.iter().map(views_of).sum()
 }
 
-/// The light views of one light ([`light_views`]): 1, or 6 cube faces.
+/// The light views of one light ([`light_views`]): 1, or 6 cube faces; none for a light of zero
+/// intensity (it casts nothing).
 pub fn views_of(light: &crate::scene::Light) -> usize {
     use crate::scene::Light;
+    if light.intensity() == [0.0; 3] {
+        return 0;
+    }
     match light {
         // The light views' own rule (lrsm::light_views): one view where the cone's cosine, in
         // f32 as the GPU light holds it, is at least 0.5.

@@ -1160,6 +1160,52 @@ fn all_finite(r: &vxgi::render::Rendered) -> bool {
         .all(|i| i.pixels.iter().flatten().all(|c| c.is_finite()))
 }
 
+/// Several lights in lrsm: a light of zero intensity casts nothing (no light views: the frame is
+/// the one without it, bit for bit, where its views used to take their share of the lit cells'
+/// area and halve the light); the presets read the area-weighted LRSMs where more than one light
+/// casts light (the lit cells average the lights' light in a cell several of them light, the LRSMs
+/// add it: two lights of 5 at one place give the frame of one light of 10).
+#[test]
+fn lrsm_adds_the_light_of_several_lights() {
+    use vxgi::kernels::cone_trace::ConeSettings;
+    use vxgi::render::{Pipeline, Renderer};
+    use vxgi::scene::Light;
+    let mut base = small(Scene::cornell_box(), 32, 32);
+    base.render.voxels = 32;
+    let frame = |s: &Scene| {
+        let (s, _) = vxgi::quality::resolved(s, Pipeline::Lrsm).unwrap();
+        let cones = ConeSettings::from(&s.render);
+        let r = Renderer::new(Pipeline::Lrsm, false)
+            .render(gpu(), &s, &cones, |_| {})
+            .unwrap()
+            .0;
+        (r, s.render.lrsm_lit_cells)
+    };
+    let mut with_zero = base.clone();
+    let mut dark = base.lights[0].clone();
+    if let Light::Point { intensity, .. } = &mut dark {
+        *intensity = [0.0; 3];
+    }
+    with_zero.lights.push(dark);
+    let ((one, lit_one), (zero, lit_zero)) = (frame(&base), frame(&with_zero));
+    assert!(lit_one && lit_zero, "one casting light: the lit cells");
+    assert!(
+        one.indirect == zero.indirect && one.direct == zero.direct,
+        "a light of zero intensity changed lrsm's frame"
+    );
+    let mut two = base.with_lights_scaled(0.5);
+    two.lights.push(two.lights[0].clone());
+    let (halves, lit_two) = frame(&two);
+    assert!(!lit_two, "two casting lights: the LRSMs");
+    let mut lrsm_one = base.clone();
+    lrsm_one.render.lrsm_lit_cells = false;
+    lrsm_one.explicit_render.insert("lrsm_lit_cells".into());
+    let (whole, _) = frame(&lrsm_one);
+    let ratio = energy(&halves.indirect) / energy(&whole.indirect);
+    println!("two lights of 5 / one of 10 through the LRSMs: {ratio:.5}");
+    assert!((ratio - 1.0).abs() < 0.01, "{ratio}");
+}
+
 /// A scene modelled in large units keeps its indirect light: the Cornell box with every coordinate
 /// (mesh, camera, light) times 100 and the light's intensity as it was, so every radiance is 10^-4 of
 /// the original's, renders the original's indirect image times 10^-4; with the intensity times 10^4
