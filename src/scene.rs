@@ -593,6 +593,21 @@ struct SceneFile {
 
 /// The keys of a scene file's `[render]` table (none where the text does not parse: the scene's own
 /// parse reports that).
+/// A texture statement's options and its file: `map_Kd -s 2 2 1 -o 0.5 0.5 0 tex.png` gives
+/// (`-s 2 2 1 -o 0.5 0.5 0`, `tex.png`). Options (MTL's `-blendu`, `-s`, `-o`, `-bm`, ...) come
+/// first, each a dash-led word and its values; the file is the last word after them, so a file
+/// name with spaces is read whole only where no option precedes it.
+fn map_options(statement: &str) -> (String, &str) {
+    let t = statement.trim();
+    if !t.starts_with('-') {
+        return (String::new(), t);
+    }
+    match t.rsplit_once(char::is_whitespace) {
+        Some((options, file)) => (options.trim().to_string(), file),
+        None => (String::new(), t),
+    }
+}
+
 fn render_keys(text: &str) -> std::collections::BTreeSet<String> {
     text.parse::<toml::Table>()
         .ok()
@@ -1312,7 +1327,14 @@ fn obj_mesh(
                 .map(|m| {
                     // A texture that cannot be read is a warning: the material keeps its Kd.
                     let diffuse_map = m.diffuse_texture.and_then(|t| {
-                        let path = obj_dir.join(t.trim());
+                        let (options, file) = map_options(&t);
+                        if !options.is_empty() {
+                            warnings.push(format!(
+                                "material {}: map_Kd options `{options}` ignored (the texture is read as it is, repeating)",
+                                m.name
+                            ));
+                        }
+                        let path = obj_dir.join(file);
                         Texture::load(&path)
                             .map_err(|e| {
                                 warnings.push(format!(
@@ -1414,10 +1436,14 @@ fn obj_mesh(
                 .filter(|&i| i < grey)
                 .unwrap_or(grey);
             if !has_uvs && materials[mat as usize].diffuse_map.is_some() {
-                warnings.push(format!(
+                let w = format!(
                     "{obj_label}: object {} uses textured material {} but has no vt: its texture is read at (0, 0)",
                     m.name, materials[mat as usize].name
-                ));
+                );
+                // tobj splits an object into a mesh per material run: say it once.
+                if !warnings.contains(&w) {
+                    warnings.push(w);
+                }
             }
             for t in m.mesh.indices.chunks(3) {
                 mesh.triangles.push([base + t[0], base + t[1], base + t[2]]);

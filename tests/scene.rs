@@ -555,6 +555,37 @@ fn a_corrupt_texture_is_a_short_warning() {
     assert!(w.contains("not a valid PNG"), "{w}");
 }
 
+/// `map_Kd` with options (`-s 2 2 1 -o 0.5 0.5 0 tex.png`) reads its file and names the options as
+/// ignored; the file was looked up under the whole statement before.
+#[test]
+fn texture_options_are_named_and_the_file_read() {
+    let d = dir("map-options");
+    image::RgbImage::from_raw(2, 2, vec![255; 12])
+        .unwrap()
+        .save(d.join("tex.png"))
+        .unwrap();
+    std::fs::write(
+        d.join("mesh.mtl"),
+        "newmtl m\nKd 0.5 0.5 0.5\nmap_Kd -s 2 2 1 -o 0.5 0.5 0 tex.png\n",
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("mesh.obj"),
+        format!("mtllib mesh.mtl\nusemtl m\nvt 0 0\n{TRI_OBJ}"),
+    )
+    .unwrap();
+    std::fs::write(d.join("scene.toml"), scene_toml("mesh.obj", "")).unwrap();
+    let s = Scene::load(d.join("scene.toml")).unwrap();
+    assert!(s.materials[0].diffuse_map.is_some(), "{:?}", s.warnings);
+    assert!(
+        s.warnings
+            .iter()
+            .any(|w| w.contains("`-s 2 2 1 -o 0.5 0.5 0` ignored")),
+        "{:?}",
+        s.warnings
+    );
+}
+
 /// MTL statements the light-transport contract has no term for (emission, transparency) are named
 /// in a warning, not dropped silently; a `Ke 0 0 0` or `d 1` (what exporters write by default) is
 /// not.
