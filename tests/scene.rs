@@ -527,6 +527,19 @@ fn obj_errors_name_their_line() {
     assert!(e.contains("mesh.obj:3") && e.contains("not UTF-8"), "{e}");
 }
 
+/// The scene of `TRI_OBJ` in `d` with its material `usemtl` from the MTL text `mtl` (a `vt` given, so
+/// a texture is read at (0, 0)).
+fn load_with_mtl(d: &std::path::Path, mtl: &str, usemtl: &str) -> Scene {
+    std::fs::write(d.join("mesh.mtl"), mtl).unwrap();
+    std::fs::write(
+        d.join("mesh.obj"),
+        format!("mtllib mesh.mtl\nusemtl {usemtl}\nvt 0 0\n{TRI_OBJ}"),
+    )
+    .unwrap();
+    std::fs::write(d.join("scene.toml"), scene_toml("mesh.obj", "")).unwrap();
+    Scene::load(d.join("scene.toml")).unwrap()
+}
+
 /// A `map_Kd` that is not a valid image: a short warning (no dump of its bytes), Kd used instead.
 #[test]
 fn a_corrupt_texture_is_a_short_warning() {
@@ -534,18 +547,7 @@ fn a_corrupt_texture_is_a_short_warning() {
     let mut bytes = b"\x89PNG\r\n\x1a\n\x00\x00\x00\x0dIHDR".to_vec();
     bytes.extend((0..200u32).map(|i| (i * 37 % 251) as u8));
     std::fs::write(d.join("bad.png"), bytes).unwrap();
-    std::fs::write(
-        d.join("mesh.mtl"),
-        "newmtl m\nKd 0.5 0.5 0.5\nmap_Kd bad.png\n",
-    )
-    .unwrap();
-    std::fs::write(
-        d.join("mesh.obj"),
-        format!("mtllib mesh.mtl\nusemtl m\nvt 0 0\n{TRI_OBJ}"),
-    )
-    .unwrap();
-    std::fs::write(d.join("scene.toml"), scene_toml("mesh.obj", "")).unwrap();
-    let s = Scene::load(d.join("scene.toml")).unwrap();
+    let s = load_with_mtl(&d, "newmtl m\nKd 0.5 0.5 0.5\nmap_Kd bad.png\n", "m");
     let w = s
         .warnings
         .iter()
@@ -564,18 +566,11 @@ fn texture_options_are_named_and_the_file_read() {
         .unwrap()
         .save(d.join("tex.png"))
         .unwrap();
-    std::fs::write(
-        d.join("mesh.mtl"),
+    let s = load_with_mtl(
+        &d,
         "newmtl m\nKd 0.5 0.5 0.5\nmap_Kd -s 2 2 1 -o 0.5 0.5 0 tex.png\n",
-    )
-    .unwrap();
-    std::fs::write(
-        d.join("mesh.obj"),
-        format!("mtllib mesh.mtl\nusemtl m\nvt 0 0\n{TRI_OBJ}"),
-    )
-    .unwrap();
-    std::fs::write(d.join("scene.toml"), scene_toml("mesh.obj", "")).unwrap();
-    let s = Scene::load(d.join("scene.toml")).unwrap();
+        "m",
+    );
     assert!(s.materials[0].diffuse_map.is_some(), "{:?}", s.warnings);
     assert!(
         s.warnings
@@ -592,18 +587,11 @@ fn texture_options_are_named_and_the_file_read() {
 #[test]
 fn emission_and_transparency_are_named_as_ignored() {
     let d = dir("ignored-mtl");
-    std::fs::write(
-        d.join("mesh.mtl"),
+    let s = load_with_mtl(
+        &d,
         "newmtl glow\nKd 0.5 0.5 0.5\nKe 5 5 5\nnewmtl glass\nKd 0.5 0.5 0.5\nd 0.5\nnewmtl plain\nKd 0.5 0.5 0.5\nKe 0 0 0\nd 1\n",
-    )
-    .unwrap();
-    std::fs::write(
-        d.join("mesh.obj"),
-        format!("mtllib mesh.mtl\nusemtl glow\n{TRI_OBJ}"),
-    )
-    .unwrap();
-    std::fs::write(d.join("scene.toml"), scene_toml("mesh.obj", "")).unwrap();
-    let s = Scene::load(d.join("scene.toml")).unwrap();
+        "glow",
+    );
     let ignored: Vec<&String> = s
         .warnings
         .iter()
