@@ -314,30 +314,27 @@ pub fn exposure_for(scene: &Scene, pipeline: Pipeline) -> i32 {
     if pipeline != Pipeline::VctSvo || scene.mesh.positions.is_empty() {
         return k;
     }
-    let (lo, hi) = scene.mesh.positions.iter().fold(
-        (glam::Vec3::splat(f32::MAX), glam::Vec3::splat(f32::MIN)),
-        |(lo, hi), p| (lo.min(*p), hi.max(*p)),
-    );
     let lights = crate::trace::gpu_lights(scene);
-    let typical = crate::kernels::lit_cells::typical_radiance(&lights, (lo, hi));
+    let typical = crate::kernels::lit_cells::typical_radiance(&lights, scene.mesh.bounds());
     if !(typical.is_finite() && typical > 0.0) || typical * 2f32.powi(-k) >= DIM_LIMIT {
         return k;
     }
-    let brightest = lights
+    (typical.log2().floor() as i32 + 2).max(brightest(scene).log2().floor() as i32 - 64)
+}
+
+/// The largest intensity component of `scene`'s lights (0 without lights).
+fn brightest(scene: &Scene) -> f32 {
+    scene
+        .lights
         .iter()
-        .flat_map(|l| l.intensity[..3].to_vec())
-        .fold(0.0f32, f32::max);
-    (typical.log2().floor() as i32 + 2).max(brightest.log2().floor() as i32 - 64)
+        .flat_map(|l| l.intensity())
+        .fold(0.0f32, f32::max)
 }
 
 /// The k of the exposure 2^-k a scene is rendered at for its bright lights: 0 where every intensity
 /// component is at most [`EXPOSURE_LIMIT`], else the one that brings the largest into [1, 2).
 pub fn exposure(scene: &Scene) -> i32 {
-    let m = scene
-        .lights
-        .iter()
-        .flat_map(|l| l.intensity())
-        .fold(0.0f32, f32::max);
+    let m = brightest(scene);
     if m <= EXPOSURE_LIMIT || !m.is_finite() {
         0
     } else {
@@ -1107,13 +1104,7 @@ pub(crate) fn hierarchy_parts(
     let parts = parts
         .into_iter()
         .map(|(mesh, m)| {
-            let (lo, hi) = mesh.positions.iter().fold(
-                (
-                    glam::Vec3::splat(f32::INFINITY),
-                    glam::Vec3::splat(f32::NEG_INFINITY),
-                ),
-                |(lo, hi), p| (lo.min(*p), hi.max(*p)),
-            );
+            let (lo, hi) = mesh.bounds();
             let scale = glam::Mat3::from_mat4(m).determinant().abs().cbrt();
             let cells = ((hi - lo).max_element() * scale / world.voxel)
                 .ceil()

@@ -845,6 +845,15 @@ impl Instance {
 }
 
 impl Mesh {
+    /// The smallest box holding every vertex, `(lo, hi)`; `(+inf, -inf)` for a mesh without
+    /// vertices.
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        self.positions.iter().fold(
+            (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+            |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+        )
+    }
+
     /// Append `other` (its vertex indices shifted).
     pub fn append(&mut self, other: &Mesh) {
         let base = self.positions.len() as u32;

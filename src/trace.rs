@@ -194,10 +194,7 @@ fn padded(points: [Vec3; 3], extent: f32) -> (Vec3, Vec3) {
 impl SceneData {
     pub fn new(scene: &Scene) -> Self {
         let mesh = &scene.mesh;
-        let (lo, hi) = mesh.positions.iter().fold(
-            (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
-            |(lo, hi), p| (lo.min(*p), hi.max(*p)),
-        );
+        let (lo, hi) = mesh.bounds();
         let (lo, hi) = if mesh.positions.is_empty() {
             (Vec3::ZERO, Vec3::ONE)
         } else {

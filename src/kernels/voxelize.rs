@@ -109,10 +109,7 @@ pub fn fixed_lut() -> Vec<u32> {
 /// The grid `prepare` puts around `mesh` at `side`: origin at the bounding box's low corner, a cube of
 /// the box's largest extent.
 pub fn frame_of(mesh: &crate::scene::Mesh, side: u32) -> VoxelFrame {
-    let (lo, hi) = mesh.positions.iter().fold(
-        (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
-        |(lo, hi), p| (lo.min(*p), hi.max(*p)),
-    );
+    let (lo, hi) = mesh.bounds();
     let extent = (hi - lo).max_element().max(1e-6);
     VoxelFrame {
         origin: lo,
