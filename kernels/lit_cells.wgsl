@@ -27,8 +27,9 @@
 //     into the grid (a point on the grid's high faces goes to the last cell, as voxelize puts it),
 //     and adds its 7 values there ((r / Q) a, (g / Q) a, (b / Q) a, a, n a) in fixed point.
 //   resolve (one invocation per level-0 cell): each of its 7 sums to f32 (the magnitude's high and
-//     low words converted, the high scaled by 2^8 and the low by 2^-24, added; radiance times Q),
-//     word 7 0.
+//     low words converted, the high scaled by 2^8 and the low by 2^-24, added; radiance times Q,
+//     area and normal times the area weight w = grid.scale.z, 1 / the lights casting light: where
+//     several lights light one cell the mean radiance then adds their light), word 7 0.
 //   reduce (one invocation per cell of the level written, dst's length / 2): each float the sum of
 //     its 8 children's, in child order.
 // Accuracy: per-element bound from the mirror: each piece's own arithmetic and its quantum, the
@@ -38,7 +39,8 @@
 struct LitGrid {
     origin: vec4<f32>,  // xyz the grid's low corner, w = s0
     size: vec4<u32>,    // x = side at level 0; yzw unused
-    scale: vec4<f32>,   // x = 1 / Q, y = Q (a power of two): the radiance's fixed-point unit; zw unused
+    scale: vec4<f32>,   // x = 1 / Q, y = Q (a power of two): the radiance's fixed-point unit; z = the
+                        // area weight w (1 / lights casting light); w unused
 }
 
 @group(0) @binding(0) var<storage, read> grid: LitGrid;
@@ -214,6 +216,8 @@ fn resolve(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
         }
         if (k < 3u) {
             f = f * grid.scale.y;
+        } else {
+            f = f * grid.scale.z;
         }
         atomicStore(&cells[i], bitcast<u32>(f));
     }

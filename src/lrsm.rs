@@ -276,6 +276,11 @@ pub struct LightView {
     pub view: vxgi_cpu_mirror::reflective_shadow_map::GpuView,
 }
 
+/// Whether `light` casts light (gets light views): a nonzero intensity.
+pub fn casts(light: &vxgi_cpu_mirror::direct_light::GpuLight) -> bool {
+    light.intensity[..3] != [0.0; 3]
+}
+
 /// The views of `lights` (scene `bounds`, G-buffer `eps` as the camera frame's eye.w): a spot light
 /// whose cone is at most 60 degrees wide (half-angle) gets one view along its axis, fitted to the cone;
 /// a point light, or a wider spot, six 90-degree cube faces (+x, -x, +y, -y, +z, -z); a directional
@@ -292,9 +297,8 @@ pub fn light_views(
     use vxgi_cpu_mirror::direct_light::{DIRECTIONAL, SPOT};
     let mut views = Vec::new();
     for (i, l) in lights.iter().enumerate() {
-        // A light of zero intensity casts nothing: no view (its RSMs would add only their share of
-        // the lit cells' area, `crate::plan::views_of`).
-        if l.intensity[..3] == [0.0; 3] {
+        // A light of zero intensity casts nothing: no view (`crate::plan::views_of`).
+        if !casts(l) {
             continue;
         }
         if l.position[3] == DIRECTIONAL {

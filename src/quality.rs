@@ -66,9 +66,8 @@ const NARROW_CONES: [(&str, Value); 4] = [
     ("cone_level_bias", Value::F32(-1.25)),
 ];
 
-/// lrsm's cones in every preset: [`NARROW_CONES`], each sample's light from the lit cells (where
-/// one light casts light: [`resolved`]), and the area-weighted LRSM where a scene turns the lit
-/// cells off or has several lights (docs/accuracy/lrsm.md). With the
+/// lrsm's cones in every preset: [`NARROW_CONES`], each sample's light from the lit cells, and the
+/// area-weighted LRSM where a scene turns the lit cells off (docs/accuracy/lrsm.md). With the
 /// `[render]` defaults' five 30-degree cones a sample spans coarse levels: the LRSMs' filtered
 /// depth moments and radiance mix the surfaces of a wide footprint (light straddling thin_wall's
 /// wall, leak 0.135), and the lit cells gather 0.41 of the Cornell box's indirect energy (its
@@ -147,24 +146,10 @@ fn set(r: &mut RenderSettings, key: &str, v: Value) {
 pub fn resolved(scene: &Scene, pipeline: Pipeline) -> Result<(Scene, Vec<String>), String> {
     let mut s = scene.clone();
     let mut said = Vec::new();
-    // The lit cells hold, per cell, the area-weighted mean of the radiance every light view's
-    // texels bring: where several lights light one cell they average their light rather than add
-    // it (two equal lights gave half the light of one of twice the intensity). With more than one
-    // light that casts light, lrsm's presets read the area-weighted LRSMs, which add it.
-    let casting = scene
-        .lights
-        .iter()
-        .filter(|l| crate::plan::views_of(l) > 0)
-        .count();
     for (key, v) in preset(scene.render.quality, pipeline) {
         if scene.explicit_render.contains(key) {
             said.push(format!(
                 "{key}: kept as given (the preset's {v} not applied)"
-            ));
-        } else if key == "lrsm_lit_cells" && casting > 1 {
-            set(&mut s.render, key, Value::Bool(false));
-            said.push(format!(
-                "{key} = false (the preset's {v} is for one light: with {casting} the lit cells average the lights' light where several light a cell; the LRSMs add it)"
             ));
         } else {
             set(&mut s.render, key, v);

@@ -46,9 +46,10 @@ pub struct LitGrid {
     pub origin: [f32; 4],
     /// x = side (cells per axis at level 0); yzw unused.
     pub size: [u32; 4],
-    /// The radiance's fixed-point unit: x = 1 / Q, y = Q, Q a power of two ([`radiance_unit`]); zw
-    /// unused. A piece's radiance x area is summed in units of Q with 24 fraction bits: at most
-    /// 2^24 Q a piece (more is clamped), 2^39 Q a cell, the quantum 2^-24 Q.
+    /// The radiance's fixed-point unit: x = 1 / Q, y = Q, Q a power of two ([`radiance_unit`]); z =
+    /// the weight `w` of the area and normal sums ([`area_weight`]: 1 for one light); w unused. A
+    /// piece's radiance x area is summed in units of Q with 24 fraction bits: at most 2^24 Q a piece
+    /// (more is clamped), 2^39 Q a cell, the quantum 2^-24 Q.
     pub scale: [f32; 4],
 }
 
@@ -59,8 +60,8 @@ pub const FRACTION_BITS: u32 = 24;
 /// this clamp (128 texels of infinite radiance, each split into at most 256 pieces).
 pub const MAX_PIECE: f32 = 16_777_216.0;
 
-/// `[1 / Q, Q, 0, 0]` for Q the power of two at or above `typical` (a positive finite radiance;
-/// anything else gives Q = 1): the grid's `scale`.
+/// `[1 / Q, Q, 1, 0]` for Q the power of two at or above `typical` (a positive finite radiance;
+/// anything else gives Q = 1): the grid's `scale`, its area weight 1 ([`area_weight`] sets another).
 pub fn radiance_unit(typical: f32) -> [f32; 4] {
     let q = if typical.is_finite() && typical > 0.0 {
         let e = typical.log2().ceil().clamp(-120.0, 120.0) as i32;
@@ -68,7 +69,22 @@ pub fn radiance_unit(typical: f32) -> [f32; 4] {
     } else {
         1.0
     };
-    [1.0 / q, q, 0.0, 0.0]
+    [1.0 / q, q, 1.0, 0.0]
+}
+
+/// The area weight `w` of a frame lit by `casting` lights (those with light views): `1 / casting`
+/// (1 for none or one).
+///
+/// A cell's light is its mean radiance times its coverage, `S / A * min(1, A / face)` (`S` the sum of
+/// area x radiance, `A` of area): a surface's radiance, not the sum of its pieces'. Where several
+/// lights light one cell, each light's views bring the same surface again, so `A` counts it once
+/// per light and the mean averages their light instead of adding it. With `A` (and the normal
+/// sums, whose direction alone is read) weighted by `1 / casting`, the cell gives `S / face` while
+/// `w A <= face`: each light's own `S_l / face`, added. One light alone on a cell holding more than a
+/// face of its surface (`A_l > face`, where a surface crosses the cell at a slant or two meet) reads
+/// up to `A_l / face` times its single-light light there.
+pub fn area_weight(casting: usize) -> f32 {
+    1.0 / casting.max(1) as f32
 }
 
 /// `v` (in its unit) as 64-bit two's-complement fixed point with [`FRACTION_BITS`] fraction bits:
@@ -383,11 +399,12 @@ pub fn inject(g: &LitGrid, views: &[GpuView], rsms: &[RsmRef]) -> (Vec<f32>, Vec
         if i % 8 == 7 {
             continue;
         }
-        // The radiance's unit is Q (exact: a power of two), the others' a level-0 face.
-        let unit = if i % 8 < 3 { g.scale[1] } else { 1.0 };
+        // The radiance's unit is Q (exact: a power of two), the others' a level-0 face times the
+        // area weight (one more rounding where it is not a power of two).
+        let unit = if i % 8 < 3 { g.scale[1] } else { g.scale[2] };
         sums[i] = resolve(acc[i]) * unit;
         bound[i] = (mag[i] * 64.0 * u + count[i / 8] as f32 * quantum + loose[i]) * unit
-            + 2.0 * u * sums[i].abs();
+            + 3.0 * u * sums[i].abs();
     }
     (sums, bound)
 }
@@ -507,6 +524,54 @@ mod tests {
         assert_eq!(back, Vec4::ZERO);
     }
 
+    /// Two lights lighting one floor: with the area weight 1/2 the cells give the sum of their
+    /// radiances, as one light of that radiance does; with weight 1, their mean.
+    #[test]
+    fn two_lights_on_one_surface_add_their_light_with_the_area_weight() {
+        let side = 8u32;
+        let v = GpuView {
+            eye: [1.0, 3.0, 1.0, 0.0],
+            forward: [0.0, -1.0, 0.0, 0.25],
+            right: [1.0, 0.0, 0.0, 4.0],
+            up: [0.0, 0.0, -1.0, 0.0],
+            info: [16, 0, 0, 1],
+        };
+        let n = 16usize * 16;
+        let normal = vec![[0.0, 1.0, 0.0, 1.0]; n];
+        let depth = vec![0.75; n];
+        let (ra, rb) = (
+            vec![[0.5, 0.25, 1.0, 1.0]; n],
+            vec![[0.25, 0.75, 0.0, 1.0]; n],
+        );
+        let rsm = |radiance| RsmRef {
+            side: 16,
+            radiance,
+            normal: &normal,
+            depth: &depth,
+        };
+        let cell = morton::encode(3, 0, 5) as usize * 8;
+        let light = |w: f32| {
+            let mut g = LitGrid {
+                origin: [0.0, 0.0, 0.0, 0.25],
+                size: [side, 0, 0, 0],
+                scale: radiance_unit(1.0),
+            };
+            g.scale[2] = w;
+            let (levels, _) = pyramid(&g, &[v, v], &[rsm(&ra), rsm(&rb)]);
+            (
+                cell_light(&levels[0][cell..cell + 8], 0, Vec3::Y),
+                cell_light(&levels.last().unwrap()[..8], 3, Vec3::Y),
+            )
+        };
+        let sum = Vec4::new(0.75, 1.0, 1.0, 0.0);
+        let (fine, top) = light(area_weight(2));
+        assert!((fine - sum).length() < 1e-5, "{fine}");
+        // The top cell (the whole grid) holds the 2 x 2 floor across it: one face of its own.
+        assert!((top - sum).length() < 1e-5, "{top}");
+        let (mean, _) = light(area_weight(1));
+        assert!((mean - sum * 0.5).length() < 1e-5, "{mean}");
+    }
+
     /// Fixed point holds a value to its quantum (2^-24 of its unit), either sign, up to the clamp;
     /// a sum of pieces of both signs, carried across the low word, resolves to the exact sum's float.
     #[test]
@@ -532,8 +597,8 @@ mod tests {
         assert_eq!(fixed(f32::NAN), 0);
         assert_eq!(fixed(f32::INFINITY), fixed(MAX_PIECE));
         assert_eq!(fixed(f32::NEG_INFINITY), -fixed(MAX_PIECE));
-        assert_eq!(radiance_unit(3.0), [0.25, 4.0, 0.0, 0.0]);
-        assert_eq!(radiance_unit(4.0), [0.25, 4.0, 0.0, 0.0]);
-        assert_eq!(radiance_unit(f32::NAN), [1.0, 1.0, 0.0, 0.0]);
+        assert_eq!(radiance_unit(3.0), [0.25, 4.0, 1.0, 0.0]);
+        assert_eq!(radiance_unit(4.0), [0.25, 4.0, 1.0, 0.0]);
+        assert_eq!(radiance_unit(f32::NAN), [1.0, 1.0, 1.0, 0.0]);
     }
 }

@@ -383,7 +383,7 @@ impl Kernel for LitCells {
 
     /// A generated scene's light views (one to three of them, RSM side 16..64) over a grid of side
     /// 4..32 fitted to the scene's bounds; the radiance unit at the brightest texel, or far below it;
-    /// a NaN and an infinite radiance in every fifth case.
+    /// the area weight of one light or of three; a NaN and an infinite radiance in every fifth case.
     fn case(&self, shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
         use super::reflective_shadow_map::{case_views, rsm_mirror};
         let (scene, label) = super::gbuffer::generated_scene(seed, index);
@@ -433,13 +433,21 @@ impl Kernel for LitCells {
         } else {
             peak
         });
+        // Every third case weighs area and normal as a frame of three lights casting light does
+        // (1/3: not a power of two, so the resolve rounds once more).
+        if index % 3 == 1 {
+            grid.scale[2] = vxgi_cpu_mirror::lit_cells::area_weight(3);
+        }
         case_for(
             shader,
             ctx,
             &grid,
             &gpu_views,
             &rsms,
-            format!("{label}, {count} light views of {rsm_side}^2 into {side}^3"),
+            format!(
+                "{label}, {count} light views of {rsm_side}^2 into {side}^3, area weight {}",
+                grid.scale[2]
+            ),
             seed,
         )
     }

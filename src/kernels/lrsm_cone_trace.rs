@@ -90,8 +90,8 @@ impl LrsmSettings {
         p
     }
 
-    /// The lit table over `frame` for `lights` over scene `bounds` (its radiance unit from them)
-    /// and the occlusion level its finest level stands at.
+    /// The lit table over `frame` for `lights` over scene `bounds` (its radiance unit from them, its
+    /// area weight from how many cast light) and the occlusion level its finest level stands at.
     pub fn lit_grid(
         &self,
         frame: &VoxelFrame,
@@ -100,6 +100,8 @@ impl LrsmSettings {
     ) -> (vxgi_cpu_mirror::lit_cells::LitGrid, u32) {
         let (mut grid, base) = super::lit_cells::grid_of(frame, self.lit_max_side);
         grid.scale = super::lit_cells::radiance_unit(lights, bounds);
+        let casting = lights.iter().filter(|l| crate::lrsm::casts(l)).count();
+        grid.scale[2] = vxgi_cpu_mirror::lit_cells::area_weight(casting);
         (grid, base)
     }
 
