@@ -94,6 +94,47 @@ fn scene_summarises_the_built_in_cornell_box_and_reports_bad_files() {
     assert_eq!(err.matches("No such file").count(), 1, "{err}");
 }
 
+/// Texture coordinates past what voxelize's fixed point holds: `vxgi scene` refuses the scene, naming
+/// the triangle's material, its texture and the coordinates' range, as `vxgi render` does.
+#[test]
+fn scene_names_texture_coordinates_voxelize_cannot_hold() {
+    let d = std::env::temp_dir().join(format!("vxgi-cli-{}-uv", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    std::fs::copy(root.join("checker.png"), d.join("checker.png")).unwrap();
+    std::fs::write(
+        d.join("m.mtl"),
+        "newmtl tiles\nKd 1 1 1\nmap_Kd checker.png\n",
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("quad.obj"),
+        "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nvt 0 0\nvt 1e7 0\nvt 0 1\nvn 0 0 1\nusemtl tiles\nf 1/1/1 2/2/1 3/3/1\n",
+    )
+    .unwrap();
+    let p = d.join("uv.toml");
+    std::fs::write(
+        &p,
+        "[mesh]\nobj = \"quad.obj\"\n[camera]\neye = [0.5, 0.5, 2.0]\ntarget = [0.5, 0.5, 0.0]\nup = [0.0, 1.0, 0.0]\nfov_y_deg = 40.0\nwidth = 16\nheight = 16\n[[lights]]\ntype = \"point\"\nposition = [0.5, 0.5, 1.0]\nintensity = [1.0, 1.0, 1.0]\n",
+    )
+    .unwrap();
+    let p = p.to_str().unwrap();
+    for args in [
+        vec!["scene", p],
+        vec!["render", p, "--pipeline", "vct-dense"],
+    ] {
+        let (code, _, err) = vxgi(&args);
+        assert_ne!(code, 0, "{args:?}");
+        assert!(
+            err.contains("triangle 0 (material tiles, map_Kd")
+                && err.contains("checker.png")
+                && err.contains("u 0..10000000"),
+            "{args:?}: {err}"
+        );
+    }
+    std::fs::remove_dir_all(&d).ok();
+}
+
 #[test]
 fn two_bounces_are_refused_where_a_pipeline_renders_one_and_planned_by_vct_svo() {
     let (code, _, err) = vxgi(&["render", "--bounces", "2", "--plan"]);

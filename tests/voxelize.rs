@@ -151,10 +151,16 @@ fn map_kd_textures_colour_the_voxels_per_sample() {
     assert_eq!(at(4, 6), [0.0, 1.0, 0.0, 1.0]);
 
     scene.mesh.uvs[1] = Vec2::new(1e7, 0.0);
-    assert!(matches!(
-        prepare(&scene, 8),
-        Err(VoxelizeError::UvRange { triangle: 0, .. })
-    ));
+    let e = prepare(&scene, 8).unwrap_err();
+    assert!(matches!(e, VoxelizeError::UvRange { triangle: 0, .. }));
+    // The message names the material, its texture and the coordinates' range.
+    let e = e.to_string();
+    assert!(
+        e.contains("material default grey")
+            && e.contains("map_Kd quadrants 2x2")
+            && e.contains("u 0..10000000"),
+        "{e}"
+    );
 }
 
 /// The Cornell box at 256^3, past lavapipe's 128 MiB binding: voxelize in the windows `case_for`

@@ -82,10 +82,20 @@ pub enum VoxelizeError {
     )]
     OccupancyTooLarge { side: u32, bytes: u64, limit: u64 },
     #[error(
-        "triangle {triangle}: its texture coordinates span too many repeats of the texture for the \
-         kernel's 32-bit fixed point (1/16 texel) at voxels = {side}"
+        "triangle {triangle} (material {material}, map_Kd {texture}): its texture coordinates \
+         (u {u_span}, v {v_span}) span more texels than voxelize's 32-bit fixed point (1/16 texel) \
+         holds over the triangle's samples at voxels = {side}: let one triangle span fewer repeats \
+         of the texture (the limit falls as the triangle covers more voxels)"
     )]
-    UvRange { triangle: usize, side: u32 },
+    UvRange {
+        triangle: usize,
+        side: u32,
+        material: String,
+        texture: String,
+        /// The triangle's coordinates' range, `lo..hi`, in u and in v.
+        u_span: String,
+        v_span: String,
+    },
     #[error(
         "{triangles} triangles: voxelize's sampling passes take one invocation per triangle, \
          {groups} workgroups of 64 along x, past the device's max_compute_workgroups_per_dimension \
@@ -158,9 +168,37 @@ pub fn checked_mesh(
     }
     let mesh = super::triangle_setup::MeshInput::of(scene, frame);
     if let Some(triangle) = mesh.uv_range_error() {
-        return Err(VoxelizeError::UvRange { triangle, side });
+        return Err(uv_range(scene, triangle, side));
     }
     Ok(mesh)
+}
+
+/// The error naming `triangle`'s material, texture and coordinates.
+fn uv_range(scene: &Scene, triangle: usize, side: u32) -> VoxelizeError {
+    let mesh = &scene.mesh;
+    let m = scene.materials.get(mesh.material[triangle] as usize);
+    let uvs =
+        mesh.triangles[triangle].map(|v| mesh.uvs.get(v as usize).copied().unwrap_or_default());
+    let span = |k: usize| {
+        let (lo, hi) = uvs
+            .iter()
+            .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), uv| {
+                (lo.min(uv[k]), hi.max(uv[k]))
+            });
+        format!("{lo}..{hi}")
+    };
+    VoxelizeError::UvRange {
+        triangle,
+        side,
+        material: m.map_or("?".into(), |m| m.name.clone()),
+        texture: m
+            .and_then(|m| m.diffuse_map.as_ref())
+            .map_or("?".into(), |t| {
+                format!("{} {}x{}", t.path.display(), t.width, t.height)
+            }),
+        u_span: span(0),
+        v_span: span(1),
+    }
 }
 
 /// Where the sampling passes' triangles come from: the host's (`prepare`, uploaded as
