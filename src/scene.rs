@@ -854,6 +854,78 @@ impl Mesh {
         )
     }
 
+    /// Geometry that stretches the voxel grid: where an empty gap along one axis covers at least half
+    /// the grid's side (the bounds' longest extent) and the part of the mesh on the larger-area side
+    /// of it fits a box at most `1 / FAR_STRETCH` of that side, the other part (its triangles, their
+    /// share of the surface, the first of them) and the stretch (the grid's side over that part's
+    /// box's longest extent); `None` otherwise.
+    pub fn far_geometry(&self) -> Option<FarGeometry> {
+        let tri = |i: usize| self.triangles[i].map(|v| self.positions[v as usize]);
+        let n = self.triangles.len();
+        let areas: Vec<f64> = (0..n)
+            .map(|i| {
+                let [a, b, c] = tri(i);
+                0.5 * (b - a).cross(c - a).length() as f64
+            })
+            .collect();
+        let total: f64 = areas.iter().sum();
+        let (lo, hi) = self.bounds();
+        let side = (hi - lo).max_element();
+        // NaN extents (none after loading) and an empty or flat mesh name nothing.
+        if n == 0
+            || side.is_nan()
+            || side <= 0.0
+            || !side.is_finite()
+            || total.is_nan()
+            || total <= 0.0
+        {
+            return None;
+        }
+        // The widest empty gap between the triangles' extents along each axis: (width, axis, its
+        // upper end).
+        let mut widest = (0.0f32, 0, 0.0f32);
+        for axis in 0..3 {
+            let mut spans: Vec<(f32, f32)> = (0..n)
+                .map(|i| {
+                    let c = tri(i).map(|p| p[axis]);
+                    (c[0].min(c[1]).min(c[2]), c[0].max(c[1]).max(c[2]))
+                })
+                .collect();
+            spans.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let mut reach = spans[0].1;
+            for &(a, b) in &spans[1..] {
+                if a - reach > widest.0 {
+                    widest = (a - reach, axis, a);
+                }
+                reach = reach.max(b);
+            }
+        }
+        let (gap, axis, upper) = widest;
+        if gap < 0.5 * side {
+            return None;
+        }
+        let above = |i: usize| tri(i).iter().all(|p| p[axis] >= upper);
+        let share_above = (0..n).filter(|&i| above(i)).map(|i| areas[i]).sum::<f64>() / total;
+        let far_is_above = share_above <= 0.5;
+        let (far, main): (Vec<usize>, Vec<usize>) = (0..n).partition(|&i| above(i) == far_is_above);
+        let main_box = main.iter().flat_map(|&i| tri(i)).fold(
+            (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+            |(lo, hi), p| (lo.min(p), hi.max(p)),
+        );
+        let stretch = side / (main_box.1 - main_box.0).max_element();
+        if stretch.is_nan() || stretch < FAR_STRETCH {
+            return None;
+        }
+        let first = *far.first()?;
+        Some(FarGeometry {
+            stretch,
+            share: (far.iter().map(|&i| areas[i]).sum::<f64>() / total) as f32,
+            triangles: far.len(),
+            first,
+            at: tri(first)[0],
+        })
+    }
+
     /// Append `other` (its vertex indices shifted).
     pub fn append(&mut self, other: &Mesh) {
         let base = self.positions.len() as u32;
@@ -864,6 +936,23 @@ impl Mesh {
             .extend(other.triangles.iter().map(|t| t.map(|v| v + base)));
         self.material.extend_from_slice(&other.material);
     }
+}
+
+/// [`Mesh::far_geometry`]: the grid's stretch from which it is said (its voxels twice as coarse as
+/// the rest needs: a power of two of `voxels` lost).
+pub const FAR_STRETCH: f32 = 2.0;
+
+/// Triangles far from the rest of a mesh ([`Mesh::far_geometry`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct FarGeometry {
+    /// The voxel grid's side over the rest's.
+    pub stretch: f32,
+    /// Their share of the surface's area (at most a half).
+    pub share: f32,
+    pub triangles: usize,
+    /// The first of them, and its first vertex.
+    pub first: usize,
+    pub at: Vec3,
 }
 
 const CORNELL_OBJ: &str = include_str!("../scenes/cornell_box.obj");
@@ -1252,6 +1341,20 @@ impl Scene {
             })?;
         if file.lights.is_empty() {
             warnings.push("the scene has no lights: every image will be black".into());
+        }
+        if let Some(f) = mesh.far_geometry() {
+            let material =
+                (materials.get(mesh.material[f.first] as usize)).map_or("?", |m| m.name.as_str());
+            warnings.push(format!(
+                "{} triangles ({:.1}% of the surface; the first, triangle {} of material {material}, at ({}, {}, {})) lie far from the rest: the voxel grid spans {:.1} times the rest's extent, so its voxels are that much coarser than the rest needs (remove them, or raise voxels)",
+                f.triangles,
+                100.0 * f.share,
+                f.first,
+                f.at.x,
+                f.at.y,
+                f.at.z,
+                f.stretch
+            ));
         }
         Ok(Scene {
             mesh,
