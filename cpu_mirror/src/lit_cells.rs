@@ -16,8 +16,8 @@
 //!
 //! Bound (level 0, per float): each piece's own arithmetic (64 ULP of it: the texel's depth,
 //! image area, cosine, `<n, l>` and `k^2` divisions, two square roots, the products) and its
-//! rounding to the fixed-point quantum (one quantum a piece: either neighbour), the resolve's two
-//! roundings (2 ULP of the sum), and every piece whose
+//! rounding to the fixed-point quantum (one quantum a piece: either neighbour), the resolve's
+//! roundings and the area weight's product (3 ULP of the sum), and every piece whose
 //! cell the rounding of its point may change (its point within its error of a cell's face), whose
 //! sub-ray count `k` rounding may change (`2 sqrt(plane) / <n, l> / s0` within its error of an
 //! integer: the texel's pieces for both counts) or whose plane test may go either way: its whole

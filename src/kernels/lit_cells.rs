@@ -17,8 +17,9 @@ pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
     includes: &[super::reflective_shadow_map::LRSM_VIEW, super::MORTON],
     entry: "inject",
     inputs: &["grid", "view", "rsm_radiance", "rsm_normal", "rsm_depth", "src"],
-    // Level 0: exact fixed-point sums, so each piece's arithmetic and quantum, the resolve's two
-    // roundings, and whole pieces whose cell the rounding may change, per float by the mirror;
+    // Level 0: exact fixed-point sums, so each piece's arithmetic and quantum, the resolve's
+    // roundings and the area weight's product, and whole pieces whose cell the rounding may
+    // change, per float by the mirror;
     // levels above: 8 adds of the GPU's level below (8 ULP of the summed magnitudes).
     outputs: &[
         Output {
