@@ -105,6 +105,32 @@ fn stages_are_named_and_a_typo_is_an_error() {
     assert_eq!(&cprc[5..], ["cache_distribution", "cache_creation"]);
 }
 
+/// Supersampled 3x, the G-buffer's samples at thirds of a pixel meet the Cornell box's edges, where
+/// the GPU may pick the other triangle of a tie: the table names gbuffer as the departure, and says
+/// that its verification allows it (the answer read as a kernel error before).
+#[test]
+fn a_gbuffer_departure_on_ties_is_said_to_be_one() {
+    let mut scene = common::cornell(24, 24, 32);
+    scene.render.supersample = 3;
+    let cones = ConeSettings::from(&scene.render);
+    let order = stages(Pipeline::VctDense, &scene, &cones).unwrap();
+    let rows = bisect(gpu(), &scene, &cones, Pipeline::VctDense, |_| {}).unwrap();
+    let t = table(&order, &rows);
+    println!("{t}");
+    assert_agree(&rows[1..]);
+    let ties = rows[0]
+        .gbuffer_ties
+        .expect("the all-GPU split checks the G-buffer's picks");
+    assert!(
+        ties.unexplained == 0 && ties.accepted > 0 && ties.samples == 72 * 72,
+        "{ties:?}"
+    );
+    assert!(
+        t.contains("gbuffer, only where its verification allows"),
+        "{t}"
+    );
+}
+
 /// vct-svo here with Gaussian lobes, so its normal pool is a stage of its own.
 #[test]
 fn vct_svo_and_cprc_splits_agree_after_the_gpu_gbuffer() {
