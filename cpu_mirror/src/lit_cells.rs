@@ -477,17 +477,14 @@ pub fn cell_light_bound(c: &[f32], l: u32) -> f32 {
 mod tests {
     use super::*;
 
-    /// One orthographic view straight down onto a floor at y = 0, every texel lit: the floor's
-    /// whole lit surface lands in the cells the floor lies in, each with its area over s0^2.
-    #[test]
-    fn a_floor_seen_from_above_fills_its_cells_with_its_area() {
-        let side = 8u32;
+    /// An 8^3 grid of cells of 0.25 over [0, 2]^3, and an orthographic 16^2 view of it over x, z in
+    /// [0, 2], looking down -y from y = 3 (near 0, far 4): an RSM depth of 0.75 is the floor y = 0.
+    fn floor_grid_and_view() -> (LitGrid, GpuView) {
         let g = LitGrid {
             origin: [0.0, 0.0, 0.0, 0.25],
-            size: [side, 0, 0, 0],
+            size: [8, 0, 0, 0],
             scale: radiance_unit(1.0),
         };
-        // Orthographic over x, z in [0, 2], looking down -y from y = 3, near 0, far 4.
         let v = GpuView {
             eye: [1.0, 3.0, 1.0, 0.0],
             forward: [0.0, -1.0, 0.0, 0.25],
@@ -495,6 +492,14 @@ mod tests {
             up: [0.0, 0.0, -1.0, 0.0],
             info: [16, 0, 0, 1],
         };
+        (g, v)
+    }
+
+    /// One orthographic view straight down onto a floor at y = 0, every texel lit: the floor's
+    /// whole lit surface lands in the cells the floor lies in, each with its area over s0^2.
+    #[test]
+    fn a_floor_seen_from_above_fills_its_cells_with_its_area() {
+        let (g, v) = floor_grid_and_view();
         let n = 16usize * 16;
         let radiance = vec![[0.5, 0.25, 1.0, 1.0]; n];
         let normal = vec![[0.0, 1.0, 0.0, 1.0]; n];
@@ -528,14 +533,7 @@ mod tests {
     /// radiances, as one light of that radiance does; with weight 1, their mean.
     #[test]
     fn two_lights_on_one_surface_add_their_light_with_the_area_weight() {
-        let side = 8u32;
-        let v = GpuView {
-            eye: [1.0, 3.0, 1.0, 0.0],
-            forward: [0.0, -1.0, 0.0, 0.25],
-            right: [1.0, 0.0, 0.0, 4.0],
-            up: [0.0, 0.0, -1.0, 0.0],
-            info: [16, 0, 0, 1],
-        };
+        let (grid, v) = floor_grid_and_view();
         let n = 16usize * 16;
         let normal = vec![[0.0, 1.0, 0.0, 1.0]; n];
         let depth = vec![0.75; n];
@@ -551,11 +549,7 @@ mod tests {
         };
         let cell = morton::encode(3, 0, 5) as usize * 8;
         let light = |w: f32| {
-            let mut g = LitGrid {
-                origin: [0.0, 0.0, 0.0, 0.25],
-                size: [side, 0, 0, 0],
-                scale: radiance_unit(1.0),
-            };
+            let mut g = grid;
             g.scale[2] = w;
             let (levels, _) = pyramid(&g, &[v, v], &[rsm(&ra), rsm(&rb)]);
             (
