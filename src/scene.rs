@@ -854,14 +854,22 @@ impl Mesh {
         )
     }
 
-    /// Geometry that stretches the voxel grid: where an empty gap along one axis covers at least half
-    /// the grid's side (the bounds' longest extent) and the part of the mesh on the larger-area side
-    /// of it fits a box at most `1 / FAR_STRETCH` of that side, the other part (its triangles, their
-    /// share of the surface, the first of them) and the stretch (the grid's side over that part's
-    /// box's longest extent); `None` otherwise.
+    /// Empty space that stretches the voxel grid (a cube of the bounds' longest extent, its side):
+    /// along the axis where it is largest, the length of the bounds that holds almost no surface,
+    /// when it is at least half the grid's side. The bounds are cut into [`FAR_BINS`] slabs along
+    /// each axis, each triangle's area spread over the slabs its extent spans; a slab holding less
+    /// than [`FAR_EMPTY`] of the mean slab's area is empty. Finds a small object far from the rest,
+    /// several of them, and a stray sliver reaching far out (a bad vertex), none of which leaves
+    /// the grid's voxels where the surfaces are; surfaces spread through the grid (a ground plane
+    /// or a sky dome around a small scene) are content and are not named.
     pub fn far_geometry(&self) -> Option<FarGeometry> {
         let tri = |i: usize| self.triangles[i].map(|v| self.positions[v as usize]);
         let n = self.triangles.len();
+        let (lo, hi) = self.bounds();
+        let side = (hi - lo).max_element();
+        if n == 0 || side.is_nan() || side <= 0.0 || !side.is_finite() {
+            return None;
+        }
         let areas: Vec<f64> = (0..n)
             .map(|i| {
                 let [a, b, c] = tri(i);
@@ -869,60 +877,53 @@ impl Mesh {
             })
             .collect();
         let total: f64 = areas.iter().sum();
-        let (lo, hi) = self.bounds();
-        let side = (hi - lo).max_element();
-        // NaN extents (none after loading) and an empty or flat mesh name nothing.
-        if n == 0
-            || side.is_nan()
-            || side <= 0.0
-            || !side.is_finite()
-            || total.is_nan()
-            || total <= 0.0
-        {
+        if total.is_nan() || total <= 0.0 {
             return None;
         }
-        // The widest empty gap between the triangles' extents along each axis: (width, axis, its
-        // upper end).
-        let mut widest = (0.0f32, 0, 0.0f32);
+        let mut worst: Option<(f32, usize)> = None;
         for axis in 0..3 {
-            let mut spans: Vec<(f32, f32)> = (0..n)
-                .map(|i| {
-                    let c = tri(i).map(|p| p[axis]);
-                    (c[0].min(c[1]).min(c[2]), c[0].max(c[1]).max(c[2]))
-                })
-                .collect();
-            spans.sort_by(|a, b| a.0.total_cmp(&b.0));
-            let mut reach = spans[0].1;
-            for &(a, b) in &spans[1..] {
-                if a - reach > widest.0 {
-                    widest = (a - reach, axis, a);
+            let extent = hi[axis] - lo[axis];
+            if extent < 0.5 * side {
+                continue;
+            }
+            let bin = extent / FAR_BINS as f32;
+            let mut slabs = [0.0f64; FAR_BINS];
+            for (i, &area) in areas.iter().enumerate() {
+                let c = tri(i).map(|p| (p[axis] - lo[axis]) / bin);
+                let (a, b) = (c[0].min(c[1]).min(c[2]), c[0].max(c[1]).max(c[2]));
+                let (first, last) = (
+                    (a.floor().max(0.0) as usize).min(FAR_BINS - 1),
+                    (b.floor().max(0.0) as usize).min(FAR_BINS - 1),
+                );
+                if first == last {
+                    slabs[first] += area;
+                    continue;
                 }
-                reach = reach.max(b);
+                for (k, slab) in slabs.iter_mut().enumerate().take(last + 1).skip(first) {
+                    let overlap = (b.min(k as f32 + 1.0) - a.max(k as f32)).max(0.0);
+                    *slab += area * (overlap / (b - a)) as f64;
+                }
+            }
+            let empty = slabs
+                .iter()
+                .filter(|&&a| a < FAR_EMPTY * total / FAR_BINS as f64)
+                .count() as f32
+                * bin;
+            if empty >= 0.5 * side && worst.is_none_or(|(e, _)| empty > e) {
+                worst = Some((empty, axis));
             }
         }
-        let (gap, axis, upper) = widest;
-        if gap < 0.5 * side {
-            return None;
-        }
-        let above = |i: usize| tri(i).iter().all(|p| p[axis] >= upper);
-        let share_above = (0..n).filter(|&i| above(i)).map(|i| areas[i]).sum::<f64>() / total;
-        let far_is_above = share_above <= 0.5;
-        let (far, main): (Vec<usize>, Vec<usize>) = (0..n).partition(|&i| above(i) == far_is_above);
-        let main_box = main.iter().flat_map(|&i| tri(i)).fold(
-            (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
-            |(lo, hi), p| (lo.min(p), hi.max(p)),
-        );
-        let stretch = side / (main_box.1 - main_box.0).max_element();
-        if stretch.is_nan() || stretch < FAR_STRETCH {
-            return None;
-        }
-        let first = *far.first()?;
+        let (empty, axis) = worst?;
+        // The triangle reaching farthest towards the low (sign -1) or high (+1) end.
+        let reach = |i: usize, sign: f32| {
+            (tri(i).iter()).fold(f32::NEG_INFINITY, |m, p| m.max(p[axis] * sign))
+        };
+        let reaches = |sign: f32| (0..n).max_by(|&i, &j| reach(i, sign).total_cmp(&reach(j, sign)));
         Some(FarGeometry {
-            stretch,
-            share: (far.iter().map(|&i| areas[i]).sum::<f64>() / total) as f32,
-            triangles: far.len(),
-            first,
-            at: tri(first)[0],
+            axis,
+            side,
+            empty,
+            ends: [(reaches(-1.0)?, lo[axis]), (reaches(1.0)?, hi[axis])],
         })
     }
 
@@ -938,21 +939,30 @@ impl Mesh {
     }
 }
 
-/// [`Mesh::far_geometry`]: the grid's stretch from which it is said (its voxels twice as coarse as
-/// the rest needs: a power of two of `voxels` lost).
-pub const FAR_STRETCH: f32 = 2.0;
+/// `x` to four significant digits, for messages.
+fn sig(x: f32) -> String {
+    if x == 0.0 || !x.is_finite() {
+        return x.to_string();
+    }
+    let scale = 10f64.powi(3 - (x.abs() as f64).log10().floor() as i32);
+    ((x as f64 * scale).round() / scale).to_string()
+}
 
-/// Triangles far from the rest of a mesh ([`Mesh::far_geometry`]).
+/// [`Mesh::far_geometry`]: the slabs along each axis.
+pub const FAR_BINS: usize = 64;
+/// [`Mesh::far_geometry`]: a slab holding less than this share of the mean slab's area is empty.
+pub const FAR_EMPTY: f64 = 1e-3;
+
+/// Empty space stretching a mesh's voxel grid ([`Mesh::far_geometry`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct FarGeometry {
-    /// The voxel grid's side over the rest's.
-    pub stretch: f32,
-    /// Their share of the surface's area (at most a half).
-    pub share: f32,
-    pub triangles: usize,
-    /// The first of them, and its first vertex.
-    pub first: usize,
-    pub at: Vec3,
+    /// The axis (0 = x, 1 = y, 2 = z), the grid's side, and how much of the bounds along the axis
+    /// holds almost no surface.
+    pub axis: usize,
+    pub side: f32,
+    pub empty: f32,
+    /// The triangles reaching the bounds' two ends along the axis, and those ends.
+    pub ends: [(usize, f32); 2],
 }
 
 const CORNELL_OBJ: &str = include_str!("../scenes/cornell_box.obj");
@@ -1342,18 +1352,42 @@ impl Scene {
         if file.lights.is_empty() {
             warnings.push("the scene has no lights: every image will be black".into());
         }
-        if let Some(f) = mesh.far_geometry() {
-            let material =
-                (materials.get(mesh.material[f.first] as usize)).map_or("?", |m| m.name.as_str());
+        // Frame 0, then each dynamic instance's keyframes (at most 32 frames): the first that
+        // stretches the grid is named.
+        let mut frames: Vec<u32> = (instances.list.iter())
+            .flat_map(|i| i.keyframes.iter().map(|k| k.frame))
+            .filter(|&f| f != instances.frame)
+            .collect();
+        frames.sort_unstable();
+        frames.dedup();
+        let far = std::iter::once(None)
+            .chain(frames.into_iter().take(32).map(Some))
+            .find_map(|f| {
+                let g = match f {
+                    None => mesh.far_geometry(),
+                    Some(f) => instances.mesh_at(f).far_geometry(),
+                };
+                g.map(|g| (f, g))
+            });
+        if let Some((frame, f)) = far {
+            let axis = ["x", "y", "z"][f.axis];
+            let end = |(t, at): (usize, f32)| {
+                let material =
+                    (materials.get(mesh.material[t] as usize)).map_or("?", |m| m.name.as_str());
+                format!(
+                    "triangle {t} of material {material} at {axis} = {}",
+                    sig(at)
+                )
+            };
             warnings.push(format!(
-                "{} triangles ({:.1}% of the surface; the first, triangle {} of material {material}, at ({}, {}, {})) lie far from the rest: the voxel grid spans {:.1} times the rest's extent, so its voxels are that much coarser than the rest needs (remove them, or raise voxels)",
-                f.triangles,
-                100.0 * f.share,
-                f.first,
-                f.at.x,
-                f.at.y,
-                f.at.z,
-                f.stretch
+                "{:.0}% of the voxel grid's side along {axis} holds almost no surface ({} of {}{}): the grid covers the scene's bounds, so its voxels are up to {:.1} times coarser than the surfaces need; the bounds' ends along {axis}: {}, {} (remove stray or far geometry, or raise voxels)",
+                100.0 * f.empty / f.side,
+                sig(f.empty),
+                sig(f.side),
+                frame.map_or(String::new(), |f| format!(", at frame {f}")),
+                f.side / (f.side - f.empty).max(f.side / FAR_BINS as f32),
+                end(f.ends[0]),
+                end(f.ends[1]),
             ));
         }
         Ok(Scene {
