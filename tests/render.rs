@@ -1877,6 +1877,26 @@ fn resident_lit_cells_follow_a_moved_light() {
         (1, 0, 0),
         "{c:?}"
     );
+    // Two lights: the kept chain weighs the cells' area by 1/2 as a fresh renderer does, and by 1
+    // again when the second light is turned off.
+    let mut two = scene.clone();
+    let mut second = two.lights[0].clone();
+    if let vxgi::scene::Light::Point { position, .. } = &mut second {
+        *position = [0.4, 0.8, 0.3];
+    }
+    two.lights.push(second);
+    let (want2, got2, _) = relit_frame(vxgi::render::Pipeline::Lrsm, &two);
+    assert!(want2.indirect == got2.indirect, "two lights, one moved");
+    let (want1, got1, _) = relit_frame_by(vxgi::render::Pipeline::Lrsm, &two, |s| {
+        if let vxgi::scene::Light::Point { intensity, .. } = &mut s.lights[1] {
+            *intensity = [0.0; 3];
+        }
+    });
+    assert!(
+        want1.indirect == got1.indirect,
+        "the second light turned off"
+    );
+    assert!(want1.indirect != want2.indirect);
 }
 
 /// Another renderer records vct-dense's frame into its own encoder (`Resident::encode`) and
