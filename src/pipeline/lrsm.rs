@@ -130,8 +130,17 @@ fn light_view_plan(
     let views = crate::plan::light_views(i.scene);
     let size = if stage == "lit_cells" {
         let cells = lit_cells::table_side(i.scene.render.voxels, i.lrsm.lit_max_side);
+        // Several lights casting light add theirs through the cells' area weight (`lit_grid`).
+        let casting = (i.scene.lights.iter())
+            .filter(|l| crate::plan::views_of(l) > 0)
+            .count();
+        let weight = if casting > 1 {
+            format!(", area weighted 1/{casting}: the {casting} lights add")
+        } else {
+            String::new()
+        };
         format!(
-            "{views} light views x {}^2 RSM into {cells}^3 cells",
+            "{views} light views x {}^2 RSM into {cells}^3 cells{weight}",
             i.lrsm.rsm_side
         )
     } else {
