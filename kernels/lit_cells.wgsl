@@ -5,7 +5,8 @@
 // Declaration: src/kernels/lit_cells.rs. Uses common/lrsm_view.wgsl and common/morton.wgsl.
 //
 // A cell holds 8 floats, two vec4: (sum a r, sum a g, sum a b, sum a), (sum a n.x, sum a n.y,
-// sum a n.z, 0), a each piece's area in level-0 faces (s0^2), r g b its RSM radiance, n its normal.
+// sum a n.z, 0), a each piece's area in level-0 faces (s0^2; after resolve times the area weight w),
+// r g b its RSM radiance, n its normal.
 // Cells in Morton order per level; the children of cell P are cells 8P .. 8P + 7 of the level below.
 // Level 0 is summed exactly, in any invocation order: each value as 64-bit two's-complement fixed
 // point (`fixed`: 24 fraction bits; radiance in units of Q = grid.scale.y, area and normal in faces;
@@ -33,7 +34,7 @@
 //   reduce (one invocation per cell of the level written, dst's length / 2): each float the sum of
 //     its 8 children's, in child order.
 // Accuracy: per-element bound from the mirror: each piece's own arithmetic and its quantum, the
-// resolve's rounding, and in full every piece whose cell, sub-ray count or plane test the rounding
+// resolve's roundings and the area weight's product, and in full every piece whose cell, sub-ray count or plane test the rounding
 // may change. Deterministic: a frame's lit cells are the same bits on every run on one device.
 
 struct LitGrid {

@@ -112,7 +112,7 @@ pub struct SplitRow {
 }
 
 /// The camera G-buffer's triangle picks on the GPU against the mirror's, over a frame's samples.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct GbufferTies {
     /// Samples where the GPU picked another triangle than the mirror and rounding may pick either
     /// (a ray on a shared edge, equal depths): gbuffer's verification accepts these.
@@ -120,10 +120,14 @@ pub struct GbufferTies {
     /// Samples where the picks differ and rounding cannot explain it.
     pub unexplained: usize,
     pub samples: usize,
+    /// The first of gbuffer's outputs outside its verification's bound on this frame (its report's
+    /// first line); `None` where every output is within it.
+    pub failure: Option<String>,
 }
 
-/// The camera's G-buffer of `scene`'s frame (its samples where it supersamples) on the GPU, its
-/// triangle picks checked against the mirror's as gbuffer's verification checks them.
+/// The camera's G-buffer of `scene`'s frame (its samples where it supersamples) on the GPU, checked
+/// as `vxgi verify` checks gbuffer (every output within its bound, a differing triangle pick only
+/// where rounding may make it), and its triangle picks counted against the mirror's.
 pub fn gbuffer_ties(ctx: &GpuContext, scene: &Scene) -> Result<GbufferTies> {
     use crate::kernels::gbuffer;
     let samples = if scene.render.supersample > 1 {
@@ -143,6 +147,10 @@ pub fn gbuffer_ties(ctx: &GpuContext, scene: &Scene) -> Result<GbufferTies> {
     )?;
     let gpu = out.buffer("gb_triangle").as_u32();
     let mirror = gbuffer::mirror_gbuffer(&case.resources, gpu);
+    let (checks, ..) =
+        crate::harness::kernel::verify_case(ctx, &shader, &gbuffer::Gbuffer, &case, None)?;
+    let failure = (checks.iter().find(|c| !c.passed()))
+        .map(|c| c.report().lines().next().unwrap_or_default().to_string());
     Ok(GbufferTies {
         accepted: mirror.accepted_differences,
         unexplained: mirror
@@ -152,6 +160,7 @@ pub fn gbuffer_ties(ctx: &GpuContext, scene: &Scene) -> Result<GbufferTies> {
             .filter(|(m, g)| m != g)
             .count(),
         samples: gpu.len(),
+        failure,
     })
 }
 
@@ -243,17 +252,19 @@ pub fn table(stages: &[&str], rows: &[SplitRow]) -> String {
             // A departure at the G-buffer that its verification allows: rays on a shared edge or at
             // equal depths, where rounding may pick either triangle (samples at thirds of a pixel
             // meet the Cornell box's edges).
-            match rows[k].gbuffer_ties {
-                Some(t) if t.unexplained == 0 && t.accepted > 0 => {
+            match &rows[k].gbuffer_ties {
+                Some(t) if t.failure.is_none() => {
                     s += &format!(
-                        ", only where its verification allows: on {} of {} samples the GPU picked another triangle than the mirror where rounding may pick either (a shared edge, equal depths); every later stage agrees with its mirror from its inputs\n",
+                        ", within its verification's bounds on this frame: on {} of {} samples the GPU picked another triangle than the mirror where rounding may pick either (a shared edge, equal depths); every later stage agrees with its mirror from its inputs\n",
                         t.accepted, t.samples
                     )
                 }
-                Some(t) if t.unexplained > 0 => {
+                Some(t) => {
                     s += &format!(
-                        " ({} of {} samples' triangle picks differ where rounding cannot explain it)\n",
-                        t.unexplained, t.samples
+                        " (its verification fails on this frame: {}; {} of {} samples' triangle picks differ where rounding cannot explain it)\n",
+                        t.failure.as_deref().unwrap_or_default(),
+                        t.unexplained,
+                        t.samples
                     )
                 }
                 _ => s += "\n",

@@ -1554,10 +1554,10 @@ fn run_scene(path: Option<std::path::PathBuf>) -> Result<()> {
         c.fov_y_deg,
         scene.render.voxels
     );
-    // What voxelize's arithmetic needs of the mesh (every pipeline voxelizes it; `vxgi render`
-    // refuses it when the triangles are set up).
+    // What voxelize's arithmetic needs of the mesh at the scene's voxels (every pipeline voxelizes
+    // it; `vxgi render` refuses it when the triangles are set up).
     if let Err(e) = vxgi::kernels::voxelize::mesh_input(&scene, scene.render.voxels) {
-        bail!("no pipeline can voxelize this scene: {e}");
+        bail!("the mesh cannot be voxelized: {e}");
     }
     // The device limits each pipeline's frame must fit (what `vxgi render` refuses before it starts).
     match GpuContext::new() {

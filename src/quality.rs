@@ -89,7 +89,7 @@ fn lrsm_cones() -> Vec<(&'static str, Value)> {
 pub fn preset(quality: Quality, pipeline: Pipeline) -> Vec<(&'static str, Value)> {
     use Value::{F32, U32};
     match (quality, pipeline) {
-        // lrsm: every preset narrows the cones and reads the lit cells (one light; `resolved`).
+        // lrsm: every preset narrows the cones and reads the lit cells.
         (Quality::Fast, Pipeline::Lrsm) => [lrsm_cones(), vec![("voxels", U32(64))]].concat(),
         (Quality::Balanced, Pipeline::Lrsm) => lrsm_cones(),
         (Quality::Accurate, Pipeline::Lrsm) => {

@@ -855,10 +855,10 @@ impl Mesh {
     }
 
     /// Empty space that stretches the voxel grid (a cube of the bounds' longest extent, its side):
-    /// along the axis where it is largest, the length of the bounds that holds almost no surface,
-    /// when it is at least half the grid's side. The bounds are cut into [`FAR_BINS`] slabs along
-    /// each axis, each triangle's area spread over the slabs its extent spans; a slab holding less
-    /// than [`FAR_EMPTY`] of the mean slab's area is empty. Finds a small object far from the rest,
+    /// named where the grid's side without it would be at most `1 / FAR_STRETCH` of what it is. The
+    /// bounds are cut into [`FAR_BINS`] slabs along each axis, each triangle's area spread over the
+    /// slabs its extent spans; a slab holding less than [`FAR_EMPTY`] of the mean slab's area is
+    /// empty, and each axis's extent less its empty slabs is what the grid would need along it. Finds a small object far from the rest,
     /// several of them, and a stray sliver reaching far out (a bad vertex), none of which leaves
     /// the grid's voxels where the surfaces are; surfaces spread through the grid (a ground plane
     /// or a sky dome around a small scene) are content and are not named.
@@ -880,10 +880,11 @@ impl Mesh {
         if total.is_nan() || total <= 0.0 {
             return None;
         }
-        let mut worst: Option<(f32, usize)> = None;
-        for axis in 0..3 {
+        // Per axis, the length of the bounds holding almost no surface.
+        let mut empty = [0.0f32; 3];
+        for (axis, empty) in empty.iter_mut().enumerate() {
             let extent = hi[axis] - lo[axis];
-            if extent < 0.5 * side {
+            if extent <= 0.0 {
                 continue;
             }
             let bin = extent / FAR_BINS as f32;
@@ -904,16 +905,22 @@ impl Mesh {
                     *slab += area * (overlap / (b - a)) as f64;
                 }
             }
-            let empty = slabs
+            *empty = slabs
                 .iter()
                 .filter(|&&a| a < FAR_EMPTY * total / FAR_BINS as f64)
                 .count() as f32
                 * bin;
-            if empty >= 0.5 * side && worst.is_none_or(|(e, _)| empty > e) {
-                worst = Some((empty, axis));
-            }
         }
-        let (empty, axis) = worst?;
+        // The grid's side were the empty space gone (at least a slab of the longest axis): named
+        // when that halves it or more. Empty space along a shorter axis that leaves the side as
+        // it is (a backdrop above a wide terrain) is not.
+        let shrunk = (0..3)
+            .map(|a| hi[a] - lo[a] - empty[a])
+            .fold(side / FAR_BINS as f32, f32::max);
+        if side / shrunk < FAR_STRETCH {
+            return None;
+        }
+        let axis = (0..3).max_by(|&a, &b| empty[a].total_cmp(&empty[b]))?;
         // The triangle reaching farthest towards the low (sign -1) or high (+1) end.
         let reach = |i: usize, sign: f32| {
             (tri(i).iter()).fold(f32::NEG_INFINITY, |m, p| m.max(p[axis] * sign))
@@ -922,7 +929,8 @@ impl Mesh {
         Some(FarGeometry {
             axis,
             side,
-            empty,
+            empty: empty[axis],
+            shrunk,
             ends: [(reaches(-1.0)?, lo[axis]), (reaches(1.0)?, hi[axis])],
         })
     }
@@ -948,6 +956,9 @@ fn sig(x: f32) -> String {
     ((x as f64 * scale).round() / scale).to_string()
 }
 
+/// [`Mesh::far_geometry`]: the grid's stretch from which it is named (its voxels twice as coarse as
+/// the surfaces need: a power of two of `voxels` lost).
+pub const FAR_STRETCH: f32 = 2.0;
 /// [`Mesh::far_geometry`]: the slabs along each axis.
 pub const FAR_BINS: usize = 64;
 /// [`Mesh::far_geometry`]: a slab holding less than this share of the mean slab's area is empty.
@@ -956,11 +967,13 @@ pub const FAR_EMPTY: f64 = 1e-3;
 /// Empty space stretching a mesh's voxel grid ([`Mesh::far_geometry`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct FarGeometry {
-    /// The axis (0 = x, 1 = y, 2 = z), the grid's side, and how much of the bounds along the axis
-    /// holds almost no surface.
+    /// The axis with the most empty space (0 = x, 1 = y, 2 = z), the grid's side, how much of the
+    /// bounds along the axis holds almost no surface, and the side the grid would have without the
+    /// empty space along every axis.
     pub axis: usize,
     pub side: f32,
     pub empty: f32,
+    pub shrunk: f32,
     /// The triangles reaching the bounds' two ends along the axis, and those ends.
     pub ends: [(usize, f32); 2],
 }
@@ -1385,7 +1398,7 @@ impl Scene {
                 sig(f.empty),
                 sig(f.side),
                 frame.map_or(String::new(), |f| format!(", at frame {f}")),
-                f.side / (f.side - f.empty).max(f.side / FAR_BINS as f32),
+                f.side / f.shrunk,
                 end(f.ends[0]),
                 end(f.ends[1]),
             ));

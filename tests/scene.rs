@@ -281,6 +281,17 @@ fn geometry_far_from_the_rest_is_named() {
     // Just behind the back wall (z = -1): the grid grows, but most of it holds surface.
     let near = load("near", &cube([0.0, 0.3, -1.6], base));
     assert!(near.mesh.far_geometry().is_none());
+    // A 100 x 100 ground and a backdrop 60 above it: y is mostly empty, but the grid's side stays
+    // the ground's without that space.
+    let (g, b) = (base + 1, base + 5);
+    let wide = load(
+        "wide",
+        &format!(
+            "v -50 0 -50\nv 50 0 -50\nv 50 0 50\nv -50 0 50\nv -50 60 -50\nv 50 60 -50\nv 50 61 -50\nv -50 61 -50\nf {g} {} {}\nf {g} {} {}\nf {b} {} {}\nf {b} {} {}\n",
+            g + 2, g + 1, g + 3, g + 2, b + 1, b + 2, b + 2, b + 3
+        ),
+    );
+    assert!(wide.mesh.far_geometry().is_none());
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
     for name in ["cornell_box", "thin_wall", "instances", "textured_cornell"] {
         let s = Scene::load(root.join(format!("{name}.toml"))).unwrap();

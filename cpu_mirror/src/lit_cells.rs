@@ -4,7 +4,8 @@
 //!
 //! A cell holds two vec4 of sums over the lit surface that lands in it: `(sum a r, sum a g, sum a
 //! b, sum a)` and `(sum a n.x, sum a n.y, sum a n.z, 0)`, `a` each piece's area in level-0 faces
-//! (`s0^2`), `rgb` its RSM radiance, `n` its normal. Level 0 is injected ([`inject`]), each level
+//! (`s0^2`; once resolved, times the area weight of several lights, [`area_weight`]), `rgb` its RSM
+//! radiance, `n` its normal. Level 0 is injected ([`inject`]), each level
 //! above sums its 8 children ([`reduce`]); the gather reads a cell as [`cell_light`].
 //!
 //! Level 0 is summed exactly, whatever order the GPU's invocations run in: each piece's seven values
@@ -80,9 +81,10 @@ pub fn radiance_unit(typical: f32) -> [f32; 4] {
 /// lights light one cell, each light's views bring the same surface again, so `A` counts it once
 /// per light and the mean averages their light instead of adding it. With `A` (and the normal
 /// sums, whose direction alone is read) weighted by `1 / casting`, the cell gives `S / face` while
-/// `w A <= face`: each light's own `S_l / face`, added. One light alone on a cell holding more than a
-/// face of its surface (`A_l > face`, where a surface crosses the cell at a slant or two meet) reads
-/// up to `A_l / face` times its single-light light there.
+/// `w A <= face`: each light's own `S_l / face`, added. A cell holding more than a face of surface
+/// lit by fewer than all the lights (`A_l > face`: a surface crossing a level-0 cell at a slant, two
+/// surfaces meeting; at coarser levels several surfaces, lit by one room's light alone) reads up to
+/// `min(casting, A_l / face)` times its light there.
 pub fn area_weight(casting: usize) -> f32 {
     1.0 / casting.max(1) as f32
 }
