@@ -1555,9 +1555,21 @@ fn run_scene(path: Option<std::path::PathBuf>) -> Result<()> {
         scene.render.voxels
     );
     // What voxelize's arithmetic needs of the mesh at the scene's voxels (every pipeline voxelizes
-    // it; `vxgi render` refuses it when the triangles are set up).
-    if let Err(e) = vxgi::kernels::voxelize::mesh_input(&scene, scene.render.voxels) {
-        bail!("the mesh cannot be voxelized: {e}");
+    // it; `vxgi render` refuses it when the triangles are set up), and the grid it puts around it.
+    match vxgi::kernels::voxelize::mesh_input(&scene, scene.render.voxels) {
+        Err(e) => bail!("the mesh cannot be voxelized: {e}"),
+        Ok((_, f)) => {
+            let hi = f.origin + glam::Vec3::splat(f.voxel * f.side as f32);
+            let when = if scene.instances.list.iter().any(|i| i.dynamic) {
+                ", at frame 0"
+            } else {
+                ""
+            };
+            println!(
+                "voxel grid: {}^3 voxels of {} from ({}, {}, {}) to ({}, {}, {}) (a cube around the mesh's bounds{when})",
+                f.side, f.voxel, f.origin.x, f.origin.y, f.origin.z, hi.x, hi.y, hi.z
+            );
+        }
     }
     // The device limits each pipeline's frame must fit (what `vxgi render` refuses before it starts).
     match GpuContext::new() {

@@ -87,6 +87,11 @@ fn scene_summarises_the_built_in_cornell_box_and_reports_bad_files() {
         out.contains("30 triangles") && out.contains("1 lights"),
         "{out}"
     );
+    // The Cornell box spans 2 units along its longest axes.
+    assert!(
+        out.contains("voxel grid: 128^3 voxels of 0.015625"),
+        "{out}"
+    );
     let (code, _, err) = vxgi(&["scene", "/nonexistent/scene.toml"]);
     assert_ne!(code, 0);
     assert!(err.contains("/nonexistent/scene.toml"), "{err}");
