@@ -867,17 +867,18 @@ impl Mesh {
         let n = self.triangles.len();
         let (lo, hi) = self.bounds();
         let side = (hi - lo).max_element();
+        // An empty or flat mesh, or one whose extent passes f32's range: nothing to measure.
         if n == 0 || side.is_nan() || side <= 0.0 || !side.is_finite() {
             return None;
         }
         let areas: Vec<f64> = (0..n)
             .map(|i| {
                 let [a, b, c] = tri(i);
-                0.5 * (b - a).cross(c - a).length() as f64
+                0.5 * (b - a).as_dvec3().cross((c - a).as_dvec3()).length()
             })
             .collect();
         let total: f64 = areas.iter().sum();
-        if total.is_nan() || total <= 0.0 {
+        if !total.is_finite() || total <= 0.0 {
             return None;
         }
         // Per axis, the length of the bounds holding almost no surface.

@@ -292,6 +292,13 @@ fn geometry_far_from_the_rest_is_named() {
         ),
     );
     assert!(wide.mesh.far_geometry().is_none());
+    // The Cornell box 1e19 times its size (areas past f32's range) is measured in f64: not named;
+    // the far box at that scale is.
+    for (s, named) in [(&near, false), (&far, true)] {
+        let mut m = s.mesh.clone();
+        m.positions.iter_mut().for_each(|p| *p *= 1e19);
+        assert_eq!(m.far_geometry().is_some(), named);
+    }
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
     for name in ["cornell_box", "thin_wall", "instances", "textured_cornell"] {
         let s = Scene::load(root.join(format!("{name}.toml"))).unwrap();
