@@ -26,22 +26,27 @@
 //     through pt with normal n (a sub-ray within 1e-6 of parallel to it takes depth z), each carrying
 //     surface / k^2; k = 1 is pt itself. Each piece lands in the cell holding its point, clamped
 //     into the grid (a point on the grid's high faces goes to the last cell, as voxelize puts it),
-//     and adds its 7 values there ((r / Q) a, (g / Q) a, (b / Q) a, a, n a) in fixed point.
+//     and adds its 7 values there ((r / Q) a, (g / Q) a, (b / Q) a, a, n a) in fixed point, and its
+//     light's bit (view.info.y mod 32) into word 7.
 //   resolve (one invocation per level-0 cell): each of its 7 sums to f32 (the magnitude's high and
 //     low words converted, the high scaled by 2^8 and the low by 2^-24, added; radiance times Q,
-//     area and normal times the area weight w = grid.scale.z, 1 / the lights casting light: where
-//     several lights light one cell the mean radiance then adds their light), word 7 0.
+//     area and normal times the area weight w: where several lights light one cell the mean
+//     radiance then adds their light), word 7 0. w is 1 / the lights whose pieces reached the
+//     cell (the bits inject set in word 7) where grid.size.y = 1 (at most 32 lights cast light),
+//     else grid.scale.z (1 / the lights casting light).
 //   reduce (one invocation per cell of the level written, dst's length / 2): each float the sum of
 //     its 8 children's, in child order.
 // Accuracy: per-element bound from the mirror: each piece's own arithmetic and its quantum, the
-// resolve's roundings and the area weight's product, and in full every piece whose cell, sub-ray count or plane test the rounding
-// may change. Deterministic: a frame's lit cells are the same bits on every run on one device.
+// resolve's roundings and the area weight's (1 / k and the product), and in full every piece whose
+// cell, sub-ray count or plane test the rounding may change, and so whether its light reaches the
+// cell (the weight between the fewest lights and the most). Deterministic: a frame's lit cells are
+// the same bits on every run on one device.
 
 struct LitGrid {
     origin: vec4<f32>,  // xyz the grid's low corner, w = s0
-    size: vec4<u32>,    // x = side at level 0; yzw unused
+    size: vec4<u32>,    // x = side at level 0; y = 1: the area weight per cell (resolve); zw unused
     scale: vec4<f32>,   // x = 1 / Q, y = Q (a power of two): the radiance's fixed-point unit; z = the
-                        // area weight w (1 / lights casting light); w unused
+                        // area weight of every cell where size.y = 0 (1 / lights casting light); w unused
 }
 
 @group(0) @binding(0) var<storage, read> grid: LitGrid;
@@ -127,6 +132,8 @@ fn add_piece(p: vec3<f32>, rad: vec3<f32>, n: vec3<f32>, part: f32) {
     add_fixed(base + 4u, n.x * part);
     add_fixed(base + 5u, n.y * part);
     add_fixed(base + 6u, n.z * part);
+    // The lights reaching the cell: bit (light index mod 32) of word 7 (read by resolve).
+    atomicOr(&cells[base + 7u], 1u << (view.info.y & 31u));
 }
 
 @compute @workgroup_size(64)
@@ -204,6 +211,10 @@ fn resolve(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
     if (8u * c >= arrayLength(&cells)) {
         return;
     }
+    var w = grid.scale.z;
+    if (grid.size.y == 1u) {
+        w = 1.0 / f32(max(countOneBits(atomicLoad(&cells[8u * c + 7u])), 1u));
+    }
     for (var k = 0u; k < 7u; k++) {
         let i = 8u * c + k;
         var q = vec2<u32>(atomicLoad(&cells[i]), atomicLoad(&hi[i]));
@@ -218,7 +229,7 @@ fn resolve(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
         if (k < 3u) {
             f = f * grid.scale.y;
         } else {
-            f = f * grid.scale.z;
+            f = f * w;
         }
         atomicStore(&cells[i], bitcast<u32>(f));
     }

@@ -1163,9 +1163,10 @@ fn all_finite(r: &vxgi::render::Rendered) -> bool {
 /// Several lights in lrsm: a light of zero intensity casts nothing (no light views: the frame is
 /// the one without it, bit for bit, where its views used to take their share of the lit cells'
 /// area and halve the light). Lights that cast add their light in the lit cells, which every preset
-/// reads: two lights of 5 at one place give the frame of one light of 10 (the cells averaged the
-/// two lights' light, a half, before their area was weighted by the lights casting), and two
-/// lights at different places the sum of their frames alone, to the cells' coverage clamp.
+/// reads, a cell's area weighted by 1 / the lights reaching it: two lights of 5 at one place give
+/// the frame of one light of 10 (the cells averaged the two lights' light, a half, before), two
+/// lights at different places the sum of their frames alone, to the cells' coverage clamp, and
+/// lights that light only the outside of the box leave the frame as it is.
 #[test]
 fn lrsm_adds_the_light_of_several_lights() {
     use vxgi::kernels::cone_trace::ConeSettings;
@@ -1233,9 +1234,38 @@ fn lrsm_adds_the_light_of_several_lights() {
         .sum::<f64>()
         / sum;
     println!("two lights at two places / the sum of each alone: energy {ratio:.5}, mean |difference| {diff:.5}");
-    // Not exact: a cell holding more than a face of surface lit by one of the two reads up to twice
-    // its light (the coverage clamp, `lit_cells::area_weight`); measured 1.0046 and 0.0106, a
-    // quarter and a third of the bounds. The averaging gave 0.5 where both lights reach.
+    // Lights whose views see only the outside of the closed box (above its ceiling, on its
+    // floor's underside) leave the frame as it is, with the `[render]` defaults' wide cones too
+    // (which read the coarse levels): a cell's weight counts the lights that reach it. One weight
+    // for the frame, 1 / the lights casting, gave 1.207 of the one light's indirect energy.
+    for quality in [true, false] {
+        let mut alone = base.clone();
+        alone.render.lrsm_lit_cells = true;
+        alone.explicit_render.insert("lrsm_lit_cells".into());
+        let render = |s: &Scene| {
+            let s = if quality {
+                vxgi::quality::resolved(s, Pipeline::Lrsm).unwrap().0
+            } else {
+                s.clone()
+            };
+            let cones = ConeSettings::from(&s.render);
+            Renderer::new(Pipeline::Lrsm, false)
+                .render(gpu(), &s, &cones, |_| {})
+                .unwrap()
+                .0
+        };
+        let mut outside = alone.clone();
+        for at in [[0.0, 2.5, 0.0], [0.5, 2.2, -0.5], [0.0, -0.5, 0.0]] {
+            outside.lights.push(moved(&alone, at, 1.0));
+        }
+        let ratio = energy(&render(&outside).indirect) / energy(&render(&alone).indirect);
+        println!("three lights outside the box, preset cones {quality}: {ratio:.5}");
+        assert!((ratio - 1.0).abs() < 0.01, "{ratio}");
+    }
+    // Not exact: a cell both lights reach, holding more than a face of surface one of them lights,
+    // reads more of that light (the coverage clamp, `lit_cells::area_weight`); measured 0.9974 and
+    // 0.0068 (one weight for the frame: 1.0046 and 0.0106). The averaging gave 0.5 where both
+    // lights reach.
     assert!((ratio - 1.0).abs() < 0.02 && diff < 0.03, "{ratio} {diff}");
 }
 
@@ -1883,8 +1913,9 @@ fn resident_lit_cells_follow_a_moved_light() {
         (1, 0, 0),
         "{c:?}"
     );
-    // Two lights: the kept chain weighs the cells' area by 1/2 as a fresh renderer does; with the
-    // second light turned off (six views fewer: the chain is built again), by 1.
+    // Two lights: the kept chain weighs each cell's area by the lights reaching it as a fresh
+    // renderer does; with the second light turned off (six views fewer: the chain is built again),
+    // by 1.
     let mut two = scene.clone();
     let mut second = two.lights[0].clone();
     if let vxgi::scene::Light::Point { position, .. } = &mut second {

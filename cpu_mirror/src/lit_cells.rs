@@ -73,8 +73,9 @@ pub fn radiance_unit(typical: f32) -> [f32; 4] {
     [1.0 / q, q, 1.0, 0.0]
 }
 
-/// The area weight `w` of a frame lit by `casting` lights (those with light views): `1 / casting`
-/// (1 for none or one).
+/// The area weight `w` of every cell of a frame lit by `casting` lights (those with light views),
+/// where the scene has more lights than the cells' masks hold ([`weigh_lights`]): `1 / casting` (1
+/// for none or one).
 ///
 /// A cell's light is its mean radiance times its coverage, `S / A * min(1, A / face)` (`S` the sum of
 /// area x radiance, `A` of area): a surface's radiance, not the sum of its pieces'. Where several
@@ -84,9 +85,33 @@ pub fn radiance_unit(typical: f32) -> [f32; 4] {
 /// `w A <= face`: each light's own `S_l / face`, added. A cell holding more than a face of surface
 /// lit by fewer than all the lights (`A_l > face`: a surface crossing a level-0 cell at a slant, two
 /// surfaces meeting; at coarser levels several surfaces, lit by one room's light alone) reads up to
-/// `min(casting, A_l / face)` times its light there.
+/// `min(casting, A_l / face)` times its light there; [`cell_weight`] weighs each cell by the lights
+/// that reach it instead.
 pub fn area_weight(casting: usize) -> f32 {
     1.0 / casting.max(1) as f32
+}
+
+/// The most lights whose reach a cell's word 7 counts (a bit each).
+pub const MASK_LIGHTS: usize = 32;
+
+/// The grid of a frame of `lights` lights, `casting` of them casting light: per-cell weights
+/// ([`cell_weight`]) where every light has its own bit in the cells' masks (at most
+/// [`MASK_LIGHTS`]; a light's bit is its index's), else the one weight [`area_weight`] for every
+/// cell.
+pub fn weigh_lights(g: &mut LitGrid, casting: usize, lights: usize) {
+    g.size[1] = (lights <= MASK_LIGHTS) as u32;
+    g.scale[2] = area_weight(casting);
+}
+
+/// The area weight of a cell that the lights of bits `mask` reach (the kernel's `resolve`): `1 / k`
+/// for the k lights that reached it where the grid weighs per cell (`size[1] = 1`), so a cell one
+/// light reaches keeps its single-light light whatever else lights the scene; else `scale[2]`.
+pub fn cell_weight(g: &LitGrid, mask: u32) -> f32 {
+    if g.size[1] == 1 {
+        1.0 / mask.count_ones().max(1) as f32
+    } else {
+        g.scale[2]
+    }
 }
 
 /// `v` (in its unit) as 64-bit two's-complement fixed point with [`FRACTION_BITS`] fraction bits:
@@ -353,7 +378,12 @@ pub fn inject(g: &LitGrid, views: &[GpuView], rsms: &[RsmRef]) -> (Vec<f32>, Vec
     let mut mag = vec![0.0f32; cells * 8];
     let mut count = vec![0u32; cells];
     let mut loose = vec![0.0f32; cells * 8];
+    // The lights reaching each cell (bit: light index mod 32): by the nominal pieces, by pieces that
+    // can land nowhere else, and by any piece that may land there.
+    let (mut lights, mut sure, mut maybe) =
+        (vec![0u32; cells], vec![0u32; cells], vec![0u32; cells]);
     for (v, rsm) in views.iter().zip(rsms) {
+        let bit = 1u32 << (v.info[1] & 31);
         for m in 0..(rsm.side as usize).pow(2) {
             // Unlit texels (and NaN flags) are skipped, as the WGSL's negated test skips them.
             #[allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -366,6 +396,13 @@ pub fn inject(g: &LitGrid, views: &[GpuView], rsms: &[RsmRef]) -> (Vec<f32>, Vec
             for p in pieces(g, v, *rsm, m, k) {
                 let c = p.cells[0] as usize;
                 count[c] += 1;
+                lights[c] |= bit;
+                if p.cells.len() == 1 {
+                    sure[c] |= bit;
+                }
+                for &o in &p.cells {
+                    maybe[o as usize] |= bit;
+                }
                 for f in 0..8 {
                     acc[c * 8 + f] = acc[c * 8 + f].wrapping_add(fixed(p.sums[f]));
                     mag[c * 8 + f] += magnitude(p.sums[f]);
@@ -386,6 +423,7 @@ pub fn inject(g: &LitGrid, views: &[GpuView], rsms: &[RsmRef]) -> (Vec<f32>, Vec
                     .chain(pieces(g, v, *rsm, m, k2))
                 {
                     for &o in &p.cells {
+                        maybe[o as usize] |= bit;
                         for f in 0..8 {
                             loose[o as usize * 8 + f] += magnitude(p.sums[f]);
                         }
@@ -397,16 +435,28 @@ pub fn inject(g: &LitGrid, views: &[GpuView], rsms: &[RsmRef]) -> (Vec<f32>, Vec
     let quantum = 1.0 / 16_777_216.0f32;
     let mut sums = vec![0.0f32; cells * 8];
     let mut bound = vec![0.0f32; cells * 8];
+    let weight = |mask: u32| cell_weight(g, mask);
     for i in 0..cells * 8 {
         if i % 8 == 7 {
             continue;
         }
+        let c = i / 8;
         // The radiance's unit is Q (exact: a power of two), the others' a level-0 face times the
-        // area weight (one more rounding where it is not a power of two).
-        let unit = if i % 8 < 3 { g.scale[1] } else { g.scale[2] };
-        sums[i] = resolve(acc[i]) * unit;
-        bound[i] = (mag[i] * 64.0 * u + count[i / 8] as f32 * quantum + loose[i]) * unit
-            + 3.0 * u * sums[i].abs();
+        // area weight: the resolve's two roundings, the weight's (1 / k: 2.5 ULP, WGSL's division)
+        // and its product, 6 ULP. Where a piece that may land elsewhere decides whether a light
+        // reaches the cell, the weight is any between the fewest lights and the most: all of it.
+        let raw = resolve(acc[i]);
+        let (unit, spread) = if i % 8 < 3 {
+            (g.scale[1], 0.0)
+        } else {
+            let (most, fewest) = (weight(sure[c]), weight(maybe[c] | lights[c]));
+            (weight(lights[c]), raw.abs() * (most - fewest))
+        };
+        let top = if i % 8 < 3 { unit } else { weight(sure[c]) };
+        sums[i] = raw * unit;
+        bound[i] = (mag[i] * 64.0 * u + count[c] as f32 * quantum + loose[i]) * top
+            + 6.0 * u * sums[i].abs()
+            + spread;
     }
     (sums, bound)
 }
@@ -531,41 +581,63 @@ mod tests {
         assert_eq!(back, Vec4::ZERO);
     }
 
-    /// Two lights lighting one floor: with the area weight 1/2 the cells give the sum of their
-    /// radiances, as one light of that radiance does; with weight 1, their mean.
+    /// Two lights lighting one floor: with the area weight 1/2 (the grid's, or each cell's from the
+    /// two lights reaching it) the cells give the sum of their radiances, as one light of that
+    /// radiance does; with weight 1, their mean. Weighed per cell, the cells the second light does
+    /// not reach (its RSM's left half unlit) keep the first light's alone.
     #[test]
     fn two_lights_on_one_surface_add_their_light_with_the_area_weight() {
-        let (grid, v) = floor_grid_and_view();
+        let (grid, va) = floor_grid_and_view();
+        let mut vb = va;
+        vb.info[1] = 1;
         let n = 16usize * 16;
         let normal = vec![[0.0, 1.0, 0.0, 1.0]; n];
         let depth = vec![0.75; n];
-        let (ra, rb) = (
-            vec![[0.5, 0.25, 1.0, 1.0]; n],
-            vec![[0.25, 0.75, 0.0, 1.0]; n],
-        );
+        let ra = vec![[0.5, 0.25, 1.0, 1.0]; n];
+        // Light b lights the texels with x >= 8 (2D Morton order: bit 0 of x is bit 0 of m).
+        let rb: Vec<[f32; 4]> = (0..n as u32)
+            .map(|m| {
+                let lit = morton::decode2(m)[0] >= 8;
+                [0.25, 0.75, 0.0, if lit { 1.0 } else { 0.0 }]
+            })
+            .collect();
         let rsm = |radiance| RsmRef {
             side: 16,
             radiance,
             normal: &normal,
             depth: &depth,
         };
-        let cell = morton::encode(3, 0, 5) as usize * 8;
-        let light = |w: f32| {
-            let mut g = grid;
-            g.scale[2] = w;
-            let (levels, _) = pyramid(&g, &[v, v], &[rsm(&ra), rsm(&rb)]);
-            (
-                cell_light(&levels[0][cell..cell + 8], 0, Vec3::Y),
-                cell_light(&levels.last().unwrap()[..8], 3, Vec3::Y),
-            )
+        // A cell both lights reach (x >= 1 in world units), one that light a alone reaches.
+        let (both, one) = (
+            morton::encode(5, 0, 5) as usize * 8,
+            morton::encode(2, 0, 5) as usize * 8,
+        );
+        let light = |g: LitGrid, vb: GpuView| {
+            let (levels, _) = pyramid(&g, &[va, vb], &[rsm(&ra), rsm(&rb)]);
+            let at = |c: usize| cell_light(&levels[0][c..c + 8], 0, Vec3::Y);
+            (at(both), at(one))
         };
-        let sum = Vec4::new(0.75, 1.0, 1.0, 0.0);
-        let (fine, top) = light(area_weight(2));
-        assert!((fine - sum).length() < 1e-5, "{fine}");
-        // The top cell (the whole grid) holds the 2 x 2 floor across it: one face of its own.
-        assert!((top - sum).length() < 1e-5, "{top}");
-        let (mean, _) = light(area_weight(1));
-        assert!((mean - sum * 0.5).length() < 1e-5, "{mean}");
+        let (a, sum) = (
+            Vec4::new(0.5, 0.25, 1.0, 0.0),
+            Vec4::new(0.75, 1.0, 1.0, 0.0),
+        );
+        let mut per_cell = grid;
+        weigh_lights(&mut per_cell, 2, 2);
+        let (b2, b1) = light(per_cell, vb);
+        assert!(
+            (b2 - sum).length() < 1e-5 && (b1 - a).length() < 1e-5,
+            "{b2} {b1}"
+        );
+        let mut global = grid;
+        weigh_lights(&mut global, 2, 40);
+        let (g2, _) = light(global, vb);
+        assert!((g2 - sum).length() < 1e-5, "{g2}");
+        // Both views counted as one light: weight 1, the two lights' mean where both reach.
+        let (mean, _) = light(per_cell, va);
+        assert!(
+            (mean - (a + Vec4::new(0.25, 0.75, 0.0, 0.0)) * 0.5).length() < 1e-5,
+            "{mean}"
+        );
     }
 
     /// Fixed point holds a value to its quantum (2^-24 of its unit), either sign, up to the clamp;

@@ -33,7 +33,7 @@ pub static DECL: KernelDecl = vxgi_harness::kernel_decl!(
     ],
     dispatch: DispatchRule::PerElement { binding: "rsm_depth" },
     mirror: "vxgi_cpu_mirror::lit_cells::{inject, reduce}",
-    summary: "the light views' lit RSM texels in the occlusion pyramid's cells: per cell area-weighted radiance, area and normal sums (exact 64-bit fixed-point adds, resolved to floats), summed up the levels (lrsm's light where its occlusion is)",
+    summary: "the light views' lit RSM texels in the occlusion pyramid's cells: per cell area-weighted radiance, area and normal sums (exact 64-bit fixed-point adds, resolved to floats, area and normal weighted by 1 / the lights reaching the cell), summed up the levels (lrsm's light where its occlusion is)",
 );
 
 /// Floats a cell holds (two vec4: area-weighted rgb and area, area-weighted normal and 0).
@@ -419,7 +419,7 @@ impl Kernel for LitCells {
             voxel: extent / side as f32,
             side,
         };
-        let gpu_views: Vec<GpuView> = views.iter().map(|v| v.view).collect();
+        let mut gpu_views: Vec<GpuView> = views.iter().map(|v| v.view).collect();
         // The radiance unit at the RSMs' brightest texel; every fourth case 2^-20 of it, so that the
         // sums pass the low word and carry into the high one.
         let peak = rsms
@@ -434,10 +434,22 @@ impl Kernel for LitCells {
         } else {
             peak
         });
-        // Every third case weighs area and normal as a frame of three lights casting light does
-        // (1/3: not a power of two, so the resolve rounds once more).
-        if index % 3 == 1 {
-            grid.scale[2] = vxgi_cpu_mirror::lit_cells::area_weight(3);
+        // Every third case weighs area and normal as a frame of more lights than the cells' masks
+        // hold does (one weight, 1/3: not a power of two, so the resolve rounds once more); every
+        // other third per cell, each view a light of its own (up to three lights reaching a cell).
+        match index % 3 {
+            1 => vxgi_cpu_mirror::lit_cells::weigh_lights(&mut grid, 3, 40),
+            2 => {
+                vxgi_cpu_mirror::lit_cells::weigh_lights(
+                    &mut grid,
+                    gpu_views.len(),
+                    gpu_views.len(),
+                );
+                for (j, v) in gpu_views.iter_mut().enumerate() {
+                    v.info[1] = j as u32;
+                }
+            }
+            _ => {}
         }
         case_for(
             shader,
@@ -447,7 +459,11 @@ impl Kernel for LitCells {
             &rsms,
             format!(
                 "{label}, {count} light views of {rsm_side}^2 into {side}^3, area weight {}",
-                grid.scale[2]
+                if grid.size[1] == 1 {
+                    "per cell".to_string()
+                } else {
+                    grid.scale[2].to_string()
+                }
             ),
             seed,
         )

@@ -101,7 +101,7 @@ impl LrsmSettings {
         let (mut grid, base) = super::lit_cells::grid_of(frame, self.lit_max_side);
         grid.scale = super::lit_cells::radiance_unit(lights, bounds);
         let casting = lights.iter().filter(|l| crate::lrsm::casts(l)).count();
-        grid.scale[2] = vxgi_cpu_mirror::lit_cells::area_weight(casting);
+        vxgi_cpu_mirror::lit_cells::weigh_lights(&mut grid, casting, lights.len());
         (grid, base)
     }
 

@@ -134,10 +134,14 @@ fn light_view_plan(
         let casting = (i.scene.lights.iter())
             .filter(|l| crate::plan::views_of(l) > 0)
             .count();
-        let weight = if casting > 1 {
-            format!(", area weighted 1/{casting}: the {casting} lights add")
-        } else {
+        let weight = if casting <= 1 {
             String::new()
+        } else if i.scene.lights.len() <= vxgi_cpu_mirror::lit_cells::MASK_LIGHTS {
+            format!(
+                ", each cell's area weighted by the lights reaching it: the {casting} lights add"
+            )
+        } else {
+            format!(", area weighted 1/{casting} (more lights than a cell's mask holds): the {casting} lights add")
         };
         format!(
             "{views} light views x {}^2 RSM into {cells}^3 cells{weight}",
