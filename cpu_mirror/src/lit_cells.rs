@@ -397,7 +397,8 @@ pub fn inject(g: &LitGrid, views: &[GpuView], rsms: &[RsmRef]) -> (Vec<f32>, Vec
                 let c = p.cells[0] as usize;
                 count[c] += 1;
                 lights[c] |= bit;
-                if p.cells.len() == 1 {
+                // Sure where the GPU takes the same sub-ray count and the piece one cell.
+                if p.cells.len() == 1 && other.is_none() {
                     sure[c] |= bit;
                 }
                 for &o in &p.cells {
