@@ -13,6 +13,16 @@ fn dir(name: &str) -> PathBuf {
 
 const TRI_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
 
+/// Asserts that one of `s`'s warnings holds every one of `parts`.
+#[track_caller]
+fn assert_warns(s: &Scene, parts: &[&str]) {
+    assert!(
+        (s.warnings.iter()).any(|w| parts.iter().all(|p| w.contains(p))),
+        "no warning holds {parts:?}: {:?}",
+        s.warnings
+    );
+}
+
 fn scene_toml(obj: &str, extra: &str) -> String {
     format!(
         "[mesh]\nobj = \"{obj}\"\n\n[camera]\neye = [0.0, 0.5, 3.0]\ntarget = [0.0, 0.5, 0.0]\nup = [0.0, 1.0, 0.0]\nfov_y_deg = 40.0\nwidth = 32\nheight = 32\n{extra}"
@@ -61,27 +71,13 @@ fn a_mesh_without_mtl_is_grey_with_a_warning() {
     let p = write("nomtl", TRI_OBJ, &scene_toml("mesh.obj", "[[lights]]\ntype = \"directional\"\ndirection = [0.0, -1.0, 0.0]\nintensity = [1.0, 1.0, 1.0]\n"));
     let s = Scene::load(&p).unwrap();
     assert_eq!(s.materials[s.mesh.material[0] as usize].diffuse, [0.8; 3]);
-    assert!(
-        s.warnings.iter().any(|w| w.contains("grey diffuse 0.8")),
-        "{:?}",
-        s.warnings
-    );
+    assert_warns(&s, &["grey diffuse 0.8"]);
     // An mtllib that names a missing file: the warning names it.
     let obj = format!("mtllib nothere.mtl\n{TRI_OBJ}");
     let s = Scene::load(write("mtlmissing", &obj, &scene_toml("mesh.obj", ""))).unwrap();
-    assert!(
-        s.warnings
-            .iter()
-            .any(|w| w.contains("no usable .mtl") && w.contains("nothere.mtl")),
-        "{:?}",
-        s.warnings
-    );
+    assert_warns(&s, &["no usable .mtl", "nothere.mtl"]);
     let s2 = Scene::load(write("nolights", TRI_OBJ, &scene_toml("mesh.obj", ""))).unwrap();
-    assert!(
-        s2.warnings.iter().any(|w| w.contains("no lights")),
-        "{:?}",
-        s2.warnings
-    );
+    assert_warns(&s2, &["no lights"]);
 }
 
 #[test]
@@ -203,13 +199,7 @@ fn zero_area_triangles_are_dropped_with_one_warning() {
 fn sponza_loads_from_the_bvh_package() {
     let s = Scene::load(Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/sponza.toml")).unwrap();
     assert_eq!(s.mesh.triangles.len(), 66444);
-    assert!(
-        s.warnings
-            .iter()
-            .any(|w| w.contains("6 of 66450 triangles have zero area")),
-        "{:?}",
-        s.warnings
-    );
+    assert_warns(&s, &["6 of 66450 triangles have zero area"]);
     let e = Scene::load(write("crate", TRI_OBJ, &scene_toml("crate:nope/x.obj", ""))).unwrap_err();
     assert!(e.to_string().contains("only the bvh package"), "{e}");
     assert!(s.mesh.far_geometry().is_none());
@@ -251,13 +241,7 @@ fn geometry_far_from_the_rest_is_named() {
     let f = far.mesh.far_geometry().expect("the far box is named");
     assert_eq!((f.axis, f.ends[0].1), (2, -8.3));
     assert!(f.empty / f.side > 0.6, "{f:?}");
-    assert!(
-        far.warnings
-            .iter()
-            .any(|w| w.contains("along z holds almost no surface") && w.contains("at z = -8.3")),
-        "{:?}",
-        far.warnings
-    );
+    assert_warns(&far, &["along z holds almost no surface", "at z = -8.3"]);
     let both = load(
         "both",
         &(cube([-30.0, 1.0, 0.0], base) + &cube([30.0, 1.0, 0.0], base + 8)),
@@ -386,11 +370,7 @@ fn map_kd_textures_are_loaded_and_sampled_by_the_gbuffer() {
         .expect("map_Kd loaded");
     assert_eq!((tex.width, tex.height), (2, 2));
     assert!(scene.materials[1].diffuse_map.is_none());
-    assert!(
-        scene.warnings.iter().any(|w| w.contains("nowhere.png")),
-        "{:?}",
-        scene.warnings
-    );
+    assert_warns(&scene, &["nowhere.png"]);
 
     let data = vxgi::trace::SceneData::new(&scene);
     let case = case_for(&data, "textured quad".into(), 1);
@@ -668,13 +648,7 @@ fn texture_options_are_named_and_the_file_read() {
         "m",
     );
     assert!(s.materials[0].diffuse_map.is_some(), "{:?}", s.warnings);
-    assert!(
-        s.warnings
-            .iter()
-            .any(|w| w.contains("`-s 2 2 1 -o 0.5 0.5 0` ignored")),
-        "{:?}",
-        s.warnings
-    );
+    assert_warns(&s, &["`-s 2 2 1 -o 0.5 0.5 0` ignored"]);
 }
 
 /// MTL statements the light-transport contract has no term for (emission, transparency) are named
