@@ -591,8 +591,6 @@ struct SceneFile {
     render: RenderSettings,
 }
 
-/// The keys of a scene file's `[render]` table (none where the text does not parse: the scene's own
-/// parse reports that).
 /// A texture statement's options and its file: `map_Kd -s 2 2 1 -o 0.5 0.5 0 tex.png` gives
 /// (`-s 2 2 1 -o 0.5 0.5 0`, `tex.png`). Options (MTL's `-blendu`, `-s`, `-o`, `-bm`, ...) come
 /// first, each a dash-led word and its values; the file is the last word after them, so a file
@@ -608,6 +606,8 @@ fn map_options(statement: &str) -> (String, &str) {
     }
 }
 
+/// The keys of a scene file's `[render]` table (none where the text does not parse: the scene's own
+/// parse reports that).
 fn render_keys(text: &str) -> std::collections::BTreeSet<String> {
     text.parse::<toml::Table>()
         .ok()
@@ -858,10 +858,11 @@ impl Mesh {
     /// named where the grid's side without it would be at most `1 / FAR_STRETCH` of what it is. The
     /// bounds are cut into [`FAR_BINS`] slabs along each axis, each triangle's area spread over the
     /// slabs its extent spans; a slab holding less than [`FAR_EMPTY`] of the mean slab's area is
-    /// empty, and each axis's extent less its empty slabs is what the grid would need along it. Finds a small object far from the rest,
-    /// several of them, and a stray sliver reaching far out (a bad vertex), none of which leaves
-    /// the grid's voxels where the surfaces are; surfaces spread through the grid (a ground plane
-    /// or a sky dome around a small scene) are content and are not named.
+    /// empty, and each axis's extent less its empty slabs is what the grid would need along it.
+    /// Finds a small object far from the rest, several of them, and a stray sliver reaching far out
+    /// (a bad vertex), none of which leaves the grid's voxels where the surfaces are; surfaces
+    /// spread through the grid (a ground plane or a sky dome around a small scene) are content and
+    /// are not named.
     pub fn far_geometry(&self) -> Option<FarGeometry> {
         let tri = |i: usize| self.triangles[i].map(|v| self.positions[v as usize]);
         let n = self.triangles.len();

@@ -99,8 +99,14 @@ pub const MASK_LIGHTS: usize = 32;
 /// [`MASK_LIGHTS`]; a light's bit is its index's), else the one weight [`area_weight`] for every
 /// cell.
 pub fn weigh_lights(g: &mut LitGrid, casting: usize, lights: usize) {
-    g.size[1] = (lights <= MASK_LIGHTS) as u32;
+    g.size[1] = weighs_per_cell(lights) as u32;
     g.scale[2] = area_weight(casting);
+}
+
+/// Whether a frame of `lights` lights weighs each cell by the lights reaching it: each light has a
+/// bit of its own in the cells' masks.
+pub fn weighs_per_cell(lights: usize) -> bool {
+    lights <= MASK_LIGHTS
 }
 
 /// The area weight of a cell that the lights of bits `mask` reach (the kernel's `resolve`): `1 / k`

@@ -136,7 +136,7 @@ fn light_view_plan(
             .count();
         let weight = if casting <= 1 {
             String::new()
-        } else if i.scene.lights.len() <= vxgi_cpu_mirror::lit_cells::MASK_LIGHTS {
+        } else if vxgi_cpu_mirror::lit_cells::weighs_per_cell(i.scene.lights.len()) {
             format!(
                 ", each cell's area weighted by the lights reaching it: the {casting} lights add"
             )
