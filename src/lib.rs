@@ -12,6 +12,7 @@ pub mod kernels;
 pub mod limits;
 pub mod lrsm;
 pub mod lrsm_factors;
+mod obj_input;
 pub mod pipeline;
 pub mod plan;
 pub mod quality;

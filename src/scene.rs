@@ -7,6 +7,8 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use thiserror::Error;
 
+use crate::obj_input;
+
 #[derive(Debug, Error)]
 pub enum SceneError {
     #[error("{path}: {source}")]
@@ -79,7 +81,8 @@ pub enum SceneError {
     },
 }
 
-/// A `map_Kd` texture as loaded (any format the `image` crate reads here: PNG, JPEG): 8-bit sRGB
+/// A `map_Kd` texture as loaded (PNG, JPEG, TGA, BMP, DXT-compressed DDS, HDR, EXR, PNM: the `image` crate's
+/// decoders enabled in Cargo.toml): 8-bit sRGB
 /// texels, row 0 at the image's top (texture coordinate v = 1).
 #[derive(Clone, PartialEq)]
 pub struct Texture {
@@ -104,17 +107,126 @@ impl std::fmt::Debug for Texture {
 impl Texture {
     /// Read an image file (alpha dropped).
     pub fn load(path: &Path) -> Result<Self, String> {
-        let img = image::open(path).map_err(|e| image_error(&e))?.to_rgb8();
-        let (width, height) = img.dimensions();
+        Self::read(path).map(|(t, _)| t)
+    }
+
+    /// Read an image file, its format from its contents (a PNG named .jpg is read as PNG), and say
+    /// what of it is not used: an alpha channel below 1 somewhere (cut-outs: surfaces are opaque).
+    /// Floating-point images (EXR, HDR) hold linear values: they are encoded as sRGB, as 8-bit
+    /// textures are stored, clamped to [0, 1] (an albedo).
+    pub fn read(path: &Path) -> Result<(Self, Option<String>), String> {
+        let img = image::ImageReader::open(path)
+            .map_err(|e| e.to_string())?
+            .with_guessed_format()
+            .map_err(|e| e.to_string())?
+            .decode()
+            .map_err(|e| image_error(&e))?;
+        let (width, height) = (img.width(), img.height());
         if width == 0 || height == 0 {
             return Err("the image is empty".into());
         }
-        Ok(Self {
-            path: path.to_path_buf(),
-            width,
-            height,
-            rgb: img.pixels().map(|p| p.0).collect(),
-        })
+        let cut_out = img.color().has_alpha() && img.to_rgba8().pixels().any(|p| p.0[3] < 255);
+        let rgb: Vec<[u8; 3]> = if matches!(
+            img.color(),
+            image::ColorType::Rgb32F | image::ColorType::Rgba32F
+        ) {
+            let lut = crate::trace::srgb_lut();
+            img.to_rgb32f()
+                .pixels()
+                .map(|p| p.0.map(|c| linear_to_srgb8(c, &lut)))
+                .collect()
+        } else {
+            img.to_rgb8().pixels().map(|p| p.0).collect()
+        };
+        let note = cut_out
+            .then(|| "its alpha channel (cut-outs) ignored: surfaces are opaque".to_string());
+        Ok((
+            Self {
+                path: path.to_path_buf(),
+                width,
+                height,
+                rgb,
+            },
+            note,
+        ))
+    }
+}
+
+/// The materials' textures fitted into `budget` texels in all (the texture atlas every pipeline
+/// binds whole: [`crate::trace::ATLAS_TEXELS`]): while they hold more, the one with the most texels is
+/// read at half its width and height (a triangle filter; a texture several materials share is one).
+/// Returns the warning naming each texture read smaller, or `None` where they fit as they are.
+pub fn fit_textures(materials: &mut [Material], budget: usize) -> Option<String> {
+    let mut unique: Vec<Arc<Texture>> = Vec::new();
+    for t in materials.iter().filter_map(|m| m.diffuse_map.as_ref()) {
+        if !unique.iter().any(|u| Arc::ptr_eq(u, t)) {
+            unique.push(t.clone());
+        }
+    }
+    let texels = |u: &[Arc<Texture>]| -> usize {
+        u.iter().map(|t| t.width as usize * t.height as usize).sum()
+    };
+    let before = texels(&unique);
+    if before <= budget {
+        return None;
+    }
+    let mut smaller = unique.clone();
+    while texels(&smaller) > budget {
+        let (i, _) = smaller
+            .iter()
+            .enumerate()
+            .max_by_key(|(_, t)| t.width as usize * t.height as usize)
+            .expect("textures past a budget exist");
+        let t = &smaller[i];
+        if t.width == 1 && t.height == 1 {
+            break;
+        }
+        let (w, h) = ((t.width / 2).max(1), (t.height / 2).max(1));
+        let img =
+            image::RgbImage::from_raw(t.width, t.height, t.rgb.iter().flat_map(|c| *c).collect())
+                .expect("a texture's texels fill its size");
+        let half = image::imageops::resize(&img, w, h, image::imageops::FilterType::Triangle);
+        smaller[i] = Arc::new(Texture {
+            path: t.path.clone(),
+            width: w,
+            height: h,
+            rgb: half.pixels().map(|p| p.0).collect(),
+        });
+    }
+    let mut changed = Vec::new();
+    for (old, new) in unique.iter().zip(&smaller) {
+        if Arc::ptr_eq(old, new) {
+            continue;
+        }
+        changed.push(format!(
+            "{} {}x{} -> {}x{}",
+            old.path.display(),
+            old.width,
+            old.height,
+            new.width,
+            new.height
+        ));
+        for m in materials.iter_mut() {
+            if m.diffuse_map.as_ref().is_some_and(|t| Arc::ptr_eq(t, old)) {
+                m.diffuse_map = Some(new.clone());
+            }
+        }
+    }
+    Some(format!(
+        "the textures hold {before} texels, past the {budget} of the texture atlas (one storage binding every pipeline reads): read at lower resolution: {}",
+        changed.join(", ")
+    ))
+}
+
+/// The 8-bit sRGB code whose decoded value (`lut`, the table every reader decodes with) is nearest
+/// the linear value `c` (clamped to [0, 1]; NaN reads 0).
+fn linear_to_srgb8(c: f32, lut: &[f32]) -> u8 {
+    let c = if c.is_nan() { 0.0 } else { c.clamp(0.0, 1.0) };
+    let above = lut.partition_point(|&v| v < c).min(255);
+    if above > 0 && c - lut[above - 1] <= lut[above] - c {
+        (above - 1) as u8
+    } else {
+        above as u8
     }
 }
 
@@ -343,7 +455,7 @@ impl RenderSettings {
         let min_step = crate::quality::MIN_CONE_STEP;
         if !(self.cone_step >= min_step && self.cone_step <= 1.0) {
             return Err(format!(
-                "cone_step = {} must be in [{min_step}, 1] (cone diameters per step; a shorter step is lost to f32 rounding of the march distance)",
+                "cone_step = {} must be in [{min_step}, 1] (cone diameters per step; a shorter step's opacity is lost to the GPU's f32 pow: quality::MIN_CONE_STEP)",
                 self.cone_step
             ));
         }
@@ -1064,11 +1176,23 @@ impl Scene {
     fn embedded(name: &str, toml_text: &str, obj: &str, mtl: &str) -> Self {
         let explicit = render_keys(toml_text);
         let file: SceneFile = toml::from_str(toml_text).expect("built-in scene parses");
-        let mut reader = std::io::BufReader::new(obj.as_bytes());
-        let loaded = tobj::load_obj_buf(&mut reader, &load_options(), |_| {
-            tobj::load_mtl_buf(&mut std::io::BufReader::new(mtl.as_bytes()))
-        });
         let label = format!("built-in {name}");
+        let mut notes = Vec::new();
+        let (text, materials) =
+            obj_input::mtl_text(&label, mtl, &mut notes).expect("built-in .mtl reads");
+        let mtl = vec![MtlSource {
+            label: format!("built-in {name}.mtl"),
+            text,
+            dir: PathBuf::from("."),
+            named_as: obj
+                .lines()
+                .find_map(|l| l.trim().strip_prefix("mtllib "))
+                .unwrap_or("")
+                .trim()
+                .to_string(),
+            materials,
+        }];
+        let loaded = load_obj_text(obj, &mtl);
         Self::assemble(
             &label,
             file,
@@ -1077,7 +1201,8 @@ impl Scene {
                 loaded,
                 text: obj.to_string(),
                 dir: PathBuf::from("."),
-                mtl: vec![(format!("built-in {name}.mtl"), mtl.to_string())],
+                mtl,
+                notes,
             }),
             Vec::new(),
         )
@@ -1119,39 +1244,38 @@ impl Scene {
                 obj: obj_path.display().to_string(),
                 message: e.to_string(),
             })?;
-            let text = String::from_utf8(bytes).map_err(|e| {
-                let at = e.utf8_error().valid_up_to();
-                let line = e.as_bytes()[..at].iter().filter(|&&b| b == b'\n').count() + 1;
-                SceneError::Obj {
+            let mut notes = Vec::new();
+            let label = obj_path.display().to_string();
+            let text = obj_input::obj_text(
+                &label,
+                &obj_input::decode(&label, bytes, &mut notes),
+                &mut notes,
+            );
+            let obj_dir = obj_input::folder_of(&obj_path);
+            let mtl = read_mtls(&text, &obj_dir, &mut notes).map_err(|e| match e {
+                MtlRead::Material(e) => e,
+                MtlRead::Obj(message) => SceneError::Obj {
                     path: p.clone(),
-                    obj: format!("{}:{line}", obj_path.display()),
-                    message: "not UTF-8 text (an OBJ is a text file)".into(),
-                }
+                    obj: label.clone(),
+                    message,
+                },
             })?;
-            let obj_dir = obj_path.parent().unwrap_or(Path::new(".")).to_path_buf();
-            let mtls: Vec<(String, String)> = text
-                .lines()
-                .filter_map(|l| l.trim().strip_prefix("mtllib "))
-                .map(|m| obj_dir.join(m.trim()))
-                .filter_map(|m| Some((m.display().to_string(), std::fs::read_to_string(&m).ok()?)))
-                .collect();
-            for (label, mtl_text) in &mtls {
-                check_mtl_syntax(label, mtl_text)?;
-            }
             // tobj is not known to panic on what passed the checks above; should it, the panic is
             // an error naming the file, not an abort.
-            let loaded = std::panic::catch_unwind(|| tobj::load_obj(&obj_path, &load_options()))
-                .map_err(|_| SceneError::Obj {
+            let loaded = std::panic::catch_unwind(|| load_obj_text(&text, &mtl)).map_err(|_| {
+                SceneError::Obj {
                     path: p.clone(),
-                    obj: obj_path.display().to_string(),
+                    obj: label.clone(),
                     message: "the OBJ reader (tobj) failed on this file or its .mtl".into(),
-                })?;
+                }
+            })?;
             Ok(ObjSource {
-                label: obj_path.display().to_string(),
+                label,
                 loaded,
                 text,
                 dir: obj_dir,
-                mtl: mtls,
+                mtl,
+                notes,
             })
         };
         let base = file.mesh.as_ref().map(|m| read_obj(&m.obj)).transpose()?;
@@ -1405,6 +1529,9 @@ impl Scene {
                 end(f.ends[1]),
             ));
         }
+        if let Some(w) = fit_textures(&mut materials, crate::trace::ATLAS_TEXELS) {
+            warnings.push(w);
+        }
         Ok(Scene {
             mesh,
             materials,
@@ -1446,8 +1573,103 @@ struct ObjSource {
     loaded: tobj::LoadResult,
     text: String,
     dir: PathBuf,
-    /// The .mtl files its `mtllib` lines name (label, text), for the lines of material errors.
-    mtl: Vec<(String, String)>,
+    /// The .mtl files its `mtllib` lines name, for material errors' lines and textures' folders.
+    mtl: Vec<MtlSource>,
+    /// What reading the files changed or left out (`obj_input`): loader warnings.
+    notes: Vec<String>,
+}
+
+/// A .mtl file as tobj reads it (`obj_input::mtl_text`): its label (path), text, folder, the
+/// `mtllib` argument that named it and the materials it defines.
+struct MtlSource {
+    label: String,
+    text: String,
+    dir: PathBuf,
+    named_as: String,
+    materials: Vec<String>,
+}
+
+/// Why an OBJ's .mtl files could not be read.
+enum MtlRead {
+    Material(SceneError),
+    Obj(String),
+}
+
+/// The .mtl files an OBJ's `mtllib` lines name, found beside it (`obj_input::find_file`; an argument
+/// that names no file is read as several file names, as the format allows), each read as tobj reads
+/// it. A file that is not there is a note naming where it was looked for.
+fn read_mtls(
+    obj_text: &str,
+    obj_dir: &Path,
+    notes: &mut Vec<String>,
+) -> Result<Vec<MtlSource>, MtlRead> {
+    let mut out = Vec::new();
+    for named_as in obj_text
+        .lines()
+        .filter_map(|l| l.trim().strip_prefix("mtllib "))
+        .map(str::trim)
+    {
+        let files: Vec<(String, Option<PathBuf>)> = match obj_input::find_file(&[obj_dir], named_as)
+        {
+            Some(f) => vec![(named_as.to_string(), Some(f))],
+            None => named_as
+                .split_whitespace()
+                .map(|w| (w.to_string(), obj_input::find_file(&[obj_dir], w)))
+                .collect(),
+        };
+        if files.iter().all(|(_, f)| f.is_none()) {
+            notes.push(format!(
+                "mtllib {named_as}: no such file in {} (its materials are grey diffuse 0.8)",
+                obj_dir.display()
+            ));
+            continue;
+        }
+        for (name, file) in files {
+            let Some(file) = file else {
+                notes.push(format!(
+                    "mtllib {name}: no such file in {}",
+                    obj_dir.display()
+                ));
+                continue;
+            };
+            let label = file.display().to_string();
+            let bytes = std::fs::read(&file).map_err(|e| MtlRead::Obj(format!("{label}: {e}")))?;
+            let decoded = obj_input::decode(&label, bytes, notes);
+            let (text, materials) = obj_input::mtl_text(&label, &decoded, notes).map_err(|e| {
+                MtlRead::Material(SceneError::Material {
+                    path: label.clone(),
+                    line: e.line,
+                    name: e.material,
+                    message: e.message,
+                })
+            })?;
+            out.push(MtlSource {
+                label,
+                text,
+                dir: obj_input::folder_of(&file),
+                named_as: named_as.to_string(),
+                materials,
+            });
+        }
+    }
+    Ok(out)
+}
+
+/// tobj's reading of an OBJ's text (`obj_input::obj_text`) with its .mtl files as read by
+/// [`read_mtls`] (an `mtllib` whose files were not found loads nothing).
+fn load_obj_text(text: &str, mtl: &[MtlSource]) -> tobj::LoadResult {
+    tobj::load_obj_buf(&mut text.as_bytes(), &load_options(), |named| {
+        let named = named.to_string_lossy();
+        let texts: Vec<&str> = mtl
+            .iter()
+            .filter(|m| m.named_as == named.trim())
+            .map(|m| m.text.as_str())
+            .collect();
+        if texts.is_empty() {
+            return Err(tobj::LoadError::OpenFileFailed);
+        }
+        tobj::load_mtl_buf(&mut texts.join("\n").as_bytes())
+    })
 }
 
 /// An OBJ's mesh (triangulated, checked, flat normals where it has none) and its materials (the .mtl's,
@@ -1459,6 +1681,7 @@ fn obj_mesh(
     let obj_label = src.label.as_str();
     let obj_text = src.text.as_str();
     let obj_dir = src.dir.as_path();
+    warnings.extend(src.notes.iter().cloned());
     {
         let (models, mtl) = src.loaded.map_err(|e| {
             let line = obj_error_line(obj_text, &e);
@@ -1487,16 +1710,33 @@ fn obj_mesh(
                 .into_iter()
                 .map(|m| {
                     // A texture that cannot be read is a warning: the material keeps its Kd.
-                    let diffuse_map = m.diffuse_texture.and_then(|t| {
-                        let (options, file) = map_options(&t);
+                    let diffuse_map = m.diffuse_texture.as_ref().and_then(|t| {
+                        let (options, file) = map_options(t);
                         if !options.is_empty() {
                             warnings.push(format!(
                                 "material {}: map_Kd options `{options}` ignored (the texture is read as it is, repeating)",
                                 m.name
                             ));
                         }
-                        let path = obj_dir.join(file);
-                        Texture::load(&path)
+                        // Beside the .mtl that defines the material, then beside the OBJ.
+                        let mtl_dir = src
+                            .mtl
+                            .iter()
+                            .rev()
+                            .find(|f| f.materials.contains(&m.name))
+                            .map(|f| f.dir.as_path());
+                        let dirs: Vec<&Path> = mtl_dir.into_iter().chain([obj_dir]).collect();
+                        let Some(path) = obj_input::find_file(&dirs, file) else {
+                            let looked: Vec<String> =
+                                dirs.iter().map(|d| d.display().to_string()).collect();
+                            warnings.push(format!(
+                                "material {}: map_Kd {file} not used (no such file in {}): Kd instead",
+                                m.name,
+                                looked.join(" or ")
+                            ));
+                            return None;
+                        };
+                        Texture::read(&path)
                             .map_err(|e| {
                                 warnings.push(format!(
                                     "material {}: map_Kd {} not used ({e}): Kd instead",
@@ -1505,7 +1745,16 @@ fn obj_mesh(
                                 ))
                             })
                             .ok()
-                            .map(Arc::new)
+                            .map(|(t, note)| {
+                                if let Some(note) = note {
+                                    warnings.push(format!(
+                                        "material {}: map_Kd {}: {note}",
+                                        m.name,
+                                        path.display()
+                                    ));
+                                }
+                                Arc::new(t)
+                            })
                     });
                     // What the light-transport contract has no term for is said, not dropped
                     // silently: light comes from [[lights]], surfaces are opaque.
@@ -1514,6 +1763,11 @@ fn obj_mesh(
                         (
                             "d / Tr (transparency)",
                             m.dissolve.is_some_and(|d| d < 1.0),
+                        ),
+                        ("map_d (cut-out)", m.dissolve_texture.is_some()),
+                        (
+                            "map_Ka (ambient texture; map_Kd is the albedo's)",
+                            m.ambient_texture.is_some() && m.diffuse_texture.is_none(),
                         ),
                     ]
                     .into_iter()
@@ -1606,9 +1860,23 @@ fn obj_mesh(
                     warnings.push(w);
                 }
             }
-            for t in m.mesh.indices.chunks(3) {
-                mesh.triangles.push([base + t[0], base + t[1], base + t[2]]);
-                mesh.material.push(mat);
+            // One arity per face; none where every face is a triangle.
+            let arities: Vec<usize> = if m.mesh.face_arities.is_empty() {
+                vec![3; m.mesh.indices.len() / 3]
+            } else {
+                m.mesh.face_arities.iter().map(|&a| a as usize).collect()
+            };
+            let mut first = 0;
+            for a in arities {
+                let face: Vec<u32> = m.mesh.indices[first..first + a]
+                    .iter()
+                    .map(|&i| base + i)
+                    .collect();
+                first += a;
+                for t in triangulate(&face, &mesh.positions) {
+                    mesh.triangles.push(t);
+                    mesh.material.push(mat);
+                }
             }
         }
         // Source lines: single_index may duplicate vertices, so locate each position by value.
@@ -1745,9 +2013,63 @@ fn obj_mesh(
     }
 }
 
+/// The triangles of one OBJ face (indices into `positions`), wound as the face is: itself, a fan from
+/// the first vertex where the polygon is convex (what tobj's triangulation gives), ear clipping
+/// (earcutr) in the polygon's plane where it is not, which a fan would cover outside the polygon and
+/// fold over itself. Fewer than three vertices: none.
+fn triangulate(face: &[u32], positions: &[Vec3]) -> Vec<[u32; 3]> {
+    let fan = || (1..face.len() - 1).map(|i| [face[0], face[i], face[i + 1]]);
+    if face.len() < 3 {
+        return Vec::new();
+    }
+    if face.len() == 3 {
+        return fan().collect();
+    }
+    let p: Vec<Vec3> = face.iter().map(|&i| positions[i as usize]).collect();
+    let k = p.len();
+    // Newell's normal: the polygon's area vector, whatever its shape.
+    let n = (0..k).fold(Vec3::ZERO, |acc, i| {
+        let (a, b) = (p[i], p[(i + 1) % k]);
+        acc + Vec3::new(
+            (a.y - b.y) * (a.z + b.z),
+            (a.z - b.z) * (a.x + b.x),
+            (a.x - b.x) * (a.y + b.y),
+        )
+    });
+    // A turn against the normal by more than rounding (relative 1e-4) is a reflex vertex.
+    let convex = (0..k).all(|i| {
+        let turn = (p[(i + 1) % k] - p[i]).cross(p[(i + 2) % k] - p[(i + 1) % k]);
+        turn.dot(n) >= -1e-4 * turn.length() * n.length()
+    });
+    if convex || !n.is_finite() || n == Vec3::ZERO {
+        return fan().collect();
+    }
+    let (u, v) = match n.abs().max_position() {
+        0 => (1, 2),
+        1 => (2, 0),
+        _ => (0, 1),
+    };
+    let flat: Vec<f64> = p.iter().flat_map(|q| [q[u] as f64, q[v] as f64]).collect();
+    match earcutr::earcut(&flat, &[], 2) {
+        Ok(t) if !t.is_empty() => t
+            .chunks(3)
+            .map(|c| {
+                let [a, b, cc] = [c[0], c[1], c[2]];
+                if (p[b] - p[a]).cross(p[cc] - p[a]).dot(n) < 0.0 {
+                    [face[a], face[cc], face[b]]
+                } else {
+                    [face[a], face[b], face[cc]]
+                }
+            })
+            .collect(),
+        _ => fan().collect(),
+    }
+}
+
 fn load_options() -> tobj::LoadOptions {
     tobj::LoadOptions {
-        triangulate: true,
+        // [`triangulate`] does it, for concave polygons too.
+        triangulate: false,
         single_index: true,
         ignore_points: true,
         ignore_lines: true,
@@ -1925,35 +2247,9 @@ fn obj_error_line(text: &str, e: &tobj::LoadError) -> Option<usize> {
     None
 }
 
-/// The .mtl statements tobj reads as colours (`Ka`, `Kd`, `Ks`, `Ke`) need three numbers: with fewer,
-/// tobj 4 panics instead of returning its parse error.
-fn check_mtl_syntax(label: &str, text: &str) -> Result<(), SceneError> {
-    let mut name = String::new();
-    for (i, l) in text.lines().enumerate() {
-        let w: Vec<&str> = l.split_whitespace().collect();
-        match w.first().copied() {
-            Some("newmtl") => name = w.get(1).copied().unwrap_or("").to_string(),
-            Some(k @ ("Ka" | "Kd" | "Ks" | "Ke")) if w.len() < 4 => {
-                return Err(SceneError::Material {
-                    path: label.into(),
-                    line: i + 1,
-                    name,
-                    message: format!("{k} needs three numbers (r g b), found {}", w.len() - 1),
-                })
-            }
-            _ => {}
-        }
-    }
-    Ok(())
-}
-
 /// Kd and Ks finite and in [0, 1] per channel (reflectances: more would create energy, less is not
 /// light), Ns finite and >= 0 (the Phong exponent). The error names the .mtl line of the value.
-fn check_material(
-    m: &Material,
-    mtls: &[(String, String)],
-    obj_label: &str,
-) -> Result<(), SceneError> {
+fn check_material(m: &Material, mtls: &[MtlSource], obj_label: &str) -> Result<(), SceneError> {
     let bad3 = |v: [f32; 3]| !v.iter().all(|x| (0.0..=1.0).contains(x));
     let problem = if bad3(m.diffuse) {
         Some((
@@ -1973,13 +2269,14 @@ fn check_material(
     let Some((key, message)) = problem else {
         return Ok(());
     };
-    // The .mtl that defines the material (an OBJ may name several).
-    let defines = |text: &str| {
-        text.lines()
-            .any(|l| l.trim().strip_prefix("newmtl").map(str::trim) == Some(&m.name))
-    };
-    let (path, line) = match mtls.iter().find(|(_, t)| defines(t)).or(mtls.first()) {
-        Some((label, text)) => {
+    // The .mtl that defines the material (an OBJ may name several; a later definition is used).
+    let (path, line) = match mtls
+        .iter()
+        .rev()
+        .find(|f| f.materials.contains(&m.name))
+        .or(mtls.first())
+    {
+        Some(MtlSource { label, text, .. }) => {
             let mut line = 0;
             let mut inside = false;
             for (i, l) in text.lines().enumerate() {
@@ -2050,7 +2347,17 @@ fn image_error(e: &image::ImageError) -> String {
                 .unwrap_or_default();
             format!("not a valid {format} file (decoding failed{reason})")
         }
-        I::Unsupported(_) => "an image format or feature the image crate does not read".into(),
+        I::Unsupported(u) => {
+            let what: String = u
+                .to_string()
+                .lines()
+                .next()
+                .unwrap_or("")
+                .chars()
+                .take(100)
+                .collect();
+            format!("{what}: the formats read here are PNG, JPEG, TGA, BMP, DDS (DXT1, DXT3, DXT5), HDR, EXR and PNM; convert it to PNG")
+        }
         I::IoError(io) => io.to_string(),
         I::Limits(l) => format!("past the decoder's limits ({l})"),
         other => {

@@ -69,6 +69,11 @@ pub struct SceneData {
     tree: Option<(Bvh<f32, 3>, Vec<TriShape>)>,
 }
 
+/// The most texels the texture atlas holds: 4 bytes each in one storage binding of WebGPU's default
+/// limit (128 MiB), so that every device binds it. The loader reads larger sets of textures at lower
+/// resolution to fit (`scene::fit_textures`).
+pub const ATLAS_TEXELS: usize = (128 << 20) / 4;
+
 /// The scene's `map_Kd` textures one after another, each distinct texture once, texels packed sRGB8
 /// `r | g << 8 | b << 16` (one black texel when there are none: bindings cannot be empty), and per
 /// material (first texel, width, height, 0), zeros for a material without texture.

@@ -561,8 +561,13 @@ fn bad_materials_are_errors_with_their_mtl_line() {
             4,
             "Ns",
         ),
-        // tobj panics on a colour of fewer than three numbers: refused before it reads the file.
-        ("newmtl m\nKd 0.5\n", 2, "Kd needs three numbers"),
+        // Two numbers are neither MTL's `Kd r` (g = b = r) nor `Kd r g b`.
+        ("newmtl m\nKd 0.5 0.5\n", 2, "Kd needs one or three numbers"),
+        (
+            "newmtl m\nKd 0.5 0.5 0.5\nNs high\n",
+            3,
+            "Ns needs a number",
+        ),
     ] {
         let e = Scene::load(with_mtl("badmtl", mtl, "")).unwrap_err();
         assert!(
@@ -595,12 +600,124 @@ fn obj_errors_name_their_line() {
             "{obj:?}: {e}"
         );
     }
-    // Not text at all.
+    // Not UTF-8: read as Latin-1 (statements are ASCII), the first such line named; a statement it
+    // breaks is an error with its line as any other.
     let d = dir("binobj");
     std::fs::write(d.join("mesh.obj"), b"v 0 0 0\nv 1 0 0\n\xff\xfe garbage\n").unwrap();
     std::fs::write(d.join("scene.toml"), scene_toml("mesh.obj", "")).unwrap();
     let e = Scene::load(d.join("scene.toml")).unwrap_err().to_string();
-    assert!(e.contains("mesh.obj:3") && e.contains("not UTF-8"), "{e}");
+    assert!(e.contains("mesh.obj"), "{e}");
+    let mut latin1 = b"# mod".to_vec();
+    latin1.push(0xE8);
+    latin1.extend(format!("le\n{TRI_OBJ}").as_bytes());
+    std::fs::write(d.join("mesh.obj"), latin1).unwrap();
+    let s = Scene::load(d.join("scene.toml")).unwrap();
+    assert_warns(&s, &["mesh.obj:1: not UTF-8", "Latin-1"]);
+    assert_eq!(s.mesh.triangles.len(), 1);
+}
+
+/// Files as exporters and scene archives write them: a byte-order mark, carriage returns, tabs and
+/// Latin-1 comments, an `mtllib` and a `map_Kd` with Windows separators, quotes and another letter
+/// case than the files, the texture beside its .mtl in a subfolder and in TGA, MTL colour forms tobj
+/// would reject as a whole file (`Kd r`, `Ka xyz`, `Ks spectral`, `illum 2.0`, `d -halo`), a polyline,
+/// vertex colours and a concave polygon. Everything is read as meant; what is not used is named.
+#[test]
+fn files_as_archives_write_them_are_read_as_meant() {
+    let d = dir("archive");
+    std::fs::create_dir_all(d.join("Mats")).unwrap();
+    let mut mtl =
+        b"\xEF\xBB\xBF# mat\xE9riaux\r\nnewmtl floor\r\nKd\t0.5\r\nKa xyz 0.9505 1 1.089\r\n"
+            .to_vec();
+    mtl.extend(b"Ks spectral steel.rfl 1\r\nillum 2.0\r\nd -halo 1\r\nmap_Kd \"Tex.TGA\"\r\n");
+    std::fs::write(d.join("Mats/scene.mtl"), mtl).unwrap();
+    let tex = image::RgbImage::from_fn(4, 2, |x, _| image::Rgb([x as u8 * 60, 10, 200]));
+    tex.save(d.join("Mats/tex.tga")).unwrap();
+    // An L-shaped floor (a hexagon with a reflex vertex at (1, 0, 1)): a fan from its first vertex
+    // would cover the missing quarter and fold over the reflex corner.
+    let obj = "\u{feff}mtllib mats\\scene.mtl\r\nusemtl\tfloor\r\n\
+        v 0 0 0 1 0 0\r\nv 0 0 2\r\nv 2 0 2\r\nv 2 0 1\r\nv 1 0 1\r\nv 1 0 0\r\n\
+        vt 0 0\r\nvn 0 1 0\r\nl 1 2 3\r\nf 5/1/1 6/1/1 1/1/1 2/1/1 3/1/1 4/1/1\r\n";
+    std::fs::write(d.join("floor.obj"), obj).unwrap();
+    std::fs::write(d.join("scene.toml"), scene_toml("floor.obj", "")).unwrap();
+    let s = Scene::load(d.join("scene.toml")).unwrap();
+    let m = &s.materials[0];
+    assert_eq!(m.name, "floor");
+    assert_eq!(m.diffuse, [0.5; 3]);
+    let t = m
+        .diffuse_map
+        .as_ref()
+        .expect("the TGA beside the .mtl is read");
+    assert_eq!((t.width, t.height, t.rgb[1]), (4, 2, [60, 10, 200]));
+    assert_warns(&s, &["scene.mtl:1: not UTF-8"]);
+    assert_warns(&s, &["scene.mtl:5: material floor: Ks spectral"]);
+    assert_warns(&s, &["1 polylines"]);
+    assert_warns(&s, &["the colours of 1 vertices"]);
+    assert!(
+        !s.warnings
+            .iter()
+            .any(|w| w.contains("no usable") || w.contains("not used")),
+        "{:?}",
+        s.warnings
+    );
+    // The L's four triangles, each facing up, cover its area (3) once.
+    assert_eq!(s.mesh.triangles.len(), 4);
+    let mut area = 0.0;
+    for t in &s.mesh.triangles {
+        let [a, b, c] = t.map(|v| s.mesh.positions[v as usize]);
+        let n = (b - a).cross(c - a);
+        assert!(n.y > 0.0, "{t:?} faces down");
+        area += 0.5 * n.length();
+    }
+    assert!((area - 3.0).abs() < 1e-5, "{area}");
+}
+
+/// Textures past the atlas's texels are read at lower resolution, largest first, and named.
+#[test]
+fn textures_past_the_atlas_are_read_smaller() {
+    use std::sync::Arc;
+    use vxgi::scene::{fit_textures, Material, Texture};
+    let tex = |w: u32, h: u32| {
+        Arc::new(Texture {
+            path: format!("t{w}.png").into(),
+            width: w,
+            height: h,
+            rgb: vec![[200, 100, 50]; (w * h) as usize],
+        })
+    };
+    let big = tex(64, 64);
+    let mut materials: Vec<Material> = [Some(big.clone()), Some(big), Some(tex(32, 16)), None]
+        .into_iter()
+        .map(|t| Material {
+            diffuse_map: t,
+            ..Material::grey()
+        })
+        .collect();
+    assert_eq!(fit_textures(&mut materials, 64 * 64 + 32 * 16), None);
+    let w = fit_textures(&mut materials, 2000).expect("past the budget");
+    assert!(
+        w.contains("t64.png 64x64 -> 32x32") && !w.contains("t32.png"),
+        "{w}"
+    );
+    let a = materials[0].diffuse_map.as_ref().unwrap();
+    assert!(Arc::ptr_eq(a, materials[1].diffuse_map.as_ref().unwrap()));
+    assert_eq!((a.width, a.height, a.rgb[0]), (32, 32, [200, 100, 50]));
+}
+
+/// A floating-point texture (EXR) holds linear values: stored as the sRGB code that decodes nearest.
+#[test]
+fn float_textures_are_encoded_as_srgb() {
+    let d = dir("exrtex");
+    let img = image::Rgb32FImage::from_pixel(2, 2, image::Rgb([0.5, 0.0, 2.0]));
+    img.save(d.join("lin.exr")).unwrap();
+    let (t, note) = vxgi::scene::Texture::read(&d.join("lin.exr")).unwrap();
+    assert_eq!(note, None);
+    let lut = vxgi::trace::srgb_lut();
+    assert!(
+        (lut[t.rgb[0][0] as usize] - 0.5).abs() < 0.003,
+        "{:?}",
+        t.rgb[0]
+    );
+    assert_eq!((t.rgb[0][1], t.rgb[0][2]), (0, 255));
 }
 
 /// The scene of `TRI_OBJ` in `d` with its material `usemtl` from the MTL text `mtl` (a `vt` given, so
