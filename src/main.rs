@@ -911,10 +911,18 @@ fn run_report(
             Some(s) => s,
             None => vxgi::scene::Scene::load(n)?,
         };
-        let label = Path::new(n)
+        let stem = Path::new(n)
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_else(|| n.clone());
+        // Each scene's images go to OUT/<label>/: scenes whose files share a stem (a/room.toml,
+        // b/room.toml) get `room`, `room_2`, ... rather than overwriting each other.
+        let mut label = stem.clone();
+        let mut k = 1;
+        while loaded.iter().any(|(l, _): &(String, _)| *l == label) {
+            k += 1;
+            label = format!("{stem}_{k}");
+        }
         loaded.push((label, scene));
     }
     create_out(&out)?;
@@ -1148,6 +1156,13 @@ fn run_compare(reference: PathBuf, test: PathBuf, heatmap: Option<PathBuf>) -> R
 }
 
 fn main() {
+    // Output piped into a reader that stops early (`vxgi list | head -1`) ends the process as any
+    // Unix tool does, instead of a panic in `println!` (Rust ignores SIGPIPE by default).
+    #[cfg(unix)]
+    // SAFETY: restores the default disposition of one signal before any thread starts.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     if let Err(e) = real_main() {
         eprintln!("error: {e}");
         // A cause whose text the line above already holds (`{path}: {source}` errors) is not

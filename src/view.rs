@@ -191,8 +191,8 @@ impl Script {
                     }
                     "resize" => {
                         let v = whole(2)?;
-                        if v[0] == 0 || v[1] == 0 {
-                            return Err(fail("a window is at least 1x1"));
+                        if v[0] == 0 || v[1] == 0 || v[0] > 8192 || v[1] > 8192 {
+                            return Err(fail("a window is 1x1 to 8192x8192 (the camera's limit)"));
                         }
                         Action::Resize(v[0], v[1])
                     }
