@@ -516,7 +516,16 @@ fn spinner() -> ProgressBar {
 }
 
 fn create_out(dir: &Path) -> Result<()> {
-    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))
+    if dir.exists() && !dir.is_dir() {
+        bail!("--out {}: a file, not a folder", dir.display());
+    }
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    // A folder that cannot be written is said now, with its path, not after the GPU work.
+    let probe = dir.join(".vxgi-write-check");
+    std::fs::write(&probe, b"")
+        .with_context(|| format!("--out {}: cannot write into it", dir.display()))?;
+    std::fs::remove_file(&probe).ok();
+    Ok(())
 }
 
 /// [`vxgi::limits::check_bounces`] as the CLI's error.
@@ -1128,9 +1137,26 @@ fn run_compare(reference: PathBuf, test: PathBuf, heatmap: Option<PathBuf>) -> R
             "--heatmap {}: the heat map is written as PNG; name it .png",
             h.display()
         );
+        anyhow::ensure!(
+            h != &reference && h != &test,
+            "--heatmap {}: that is an image being compared; name another file",
+            h.display()
+        );
     }
     let r = read_exr(&reference)?;
     let t = read_exr(&test)?;
+    // Radiance is not negative: an image with negative pixels (another tool's output) would give
+    // energies and errors without meaning (an energy ratio below 0).
+    for (img, path) in [(&r, &reference), (&t, &test)] {
+        if let Some(i) = img.pixels.iter().position(|p| p.iter().any(|&c| c < 0.0)) {
+            bail!(
+                "{}: negative radiance at ({}, {})",
+                path.display(),
+                i as u32 % img.width,
+                i as u32 / img.width
+            );
+        }
+    }
     // An .exr holds linear radiance, a .png the sRGB-encoded preview: the two do not compare.
     let ext = |p: &Path| p.extension().map(|e| e.to_ascii_lowercase());
     if ext(&reference) != ext(&test) {

@@ -50,6 +50,21 @@ pub fn images_for(
                         img.height
                     );
                 }
+                // A reference every error is measured against: radiance, finite and not
+                // negative, and some light (against black every ratio is undefined).
+                if let Some((x, y)) = img.first_non_finite() {
+                    anyhow::bail!("{}: non-finite pixel at ({x}, {y})", path.display());
+                }
+                if let Some(i) = img.pixels.iter().position(|p| p.iter().any(|&c| c < 0.0)) {
+                    let (x, y) = (i as u32 % w, i as u32 / w);
+                    anyhow::bail!("{}: negative radiance at ({x}, {y})", path.display());
+                }
+                if img.pixels.iter().flatten().all(|&c| c == 0.0) {
+                    anyhow::bail!(
+                        "{}: black everywhere: errors against it are undefined",
+                        path.display()
+                    );
+                }
                 Ok(img)
             };
             Ok((read("indirect.exr")?, read("combined.exr")?))

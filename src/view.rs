@@ -216,7 +216,16 @@ impl Script {
             let text = std::fs::read_to_string(path)
                 .with_context(|| format!("reading the script {}", path.display()))?;
             Self::parse(&text).with_context(|| format!("in {}", path.display()))
+        } else if path.is_dir() {
+            anyhow::bail!("--script {arg}: a folder; pass a script file or the steps themselves")
         } else {
+            // Steps start with a frame number; a single word that does not is a file's name.
+            let first = arg.split_whitespace().next().unwrap_or("");
+            if !arg.contains(char::is_whitespace) && first.parse::<u32>().is_err() {
+                anyhow::bail!(
+                    "--script {arg}: no such file (steps are `FRAME ACTION ARGS`, e.g. \"2 orbit 5 0\")"
+                );
+            }
             Self::parse(arg)
         }
     }

@@ -447,3 +447,94 @@ fn settings_a_pipeline_does_not_read_are_named_and_a_far_cone_offset_refused() {
         "{err}"
     );
 }
+
+/// Output into a pipe its reader closed ends the process as a Unix tool's does, without a panic; a
+/// view script's window past the camera's limit and a cone step whose opacity the GPU's `pow`
+/// rounds away are refused before anything runs.
+#[test]
+fn a_closed_pipe_a_huge_window_and_a_short_cone_step_end_cleanly() {
+    use std::io::Read;
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_vxgi"))
+        .arg("list")
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("run vxgi");
+    drop(child.stdout.take());
+    let mut err = String::new();
+    child
+        .stderr
+        .take()
+        .unwrap()
+        .read_to_string(&mut err)
+        .unwrap();
+    let status = child.wait().unwrap();
+    assert!(
+        status.code() != Some(101) && !err.contains("panicked"),
+        "{status:?}: {err}"
+    );
+    let (code, _, err) = vxgi(&["view", "--frames", "2", "--script", "1 resize 16385 1"]);
+    assert_eq!(code, 1, "{err}");
+    assert!(
+        err.contains("8192x8192") && !err.contains("panicked"),
+        "{err}"
+    );
+    let (code, _, err) = vxgi(&["render", "--plan", "--cone-step", "0.001"]);
+    assert_eq!(code, 1, "{err}");
+    assert!(
+        err.contains("cone_step = 0.001 must be in [0.015625, 1]"),
+        "{err}"
+    );
+}
+
+/// Inputs that are not what they claim are named before any work: an image with negative
+/// radiance, a heat map that would overwrite an input, a reference folder of black images, an
+/// `--out` that is a file, a `--script` naming a file that is not there.
+#[test]
+fn bad_images_references_and_paths_are_named_first() {
+    use vxgi::images::{write_exr, RgbImage};
+    let dir = std::env::temp_dir().join(format!("vxgi-cli-named-{}", std::process::id()));
+    std::fs::create_dir_all(dir.join("black")).unwrap();
+    let s = |p: &std::path::Path| p.display().to_string();
+    let lit = dir.join("lit.exr");
+    let neg = dir.join("neg.exr");
+    write_exr(&lit, &RgbImage::new(4, 4, vec![[0.5; 3]; 16])).unwrap();
+    let mut px = vec![[0.5; 3]; 16];
+    px[6] = [0.5, -1.0, 0.5];
+    write_exr(&neg, &RgbImage::new(4, 4, px)).unwrap();
+    let (code, _, err) = vxgi(&["compare", &s(&lit), &s(&neg)]);
+    assert_eq!(code, 1, "{err}");
+    assert!(
+        err.contains("neg.exr: negative radiance at (2, 1)"),
+        "{err}"
+    );
+    let png = dir.join("lit.png");
+    image::RgbImage::from_raw(4, 4, vec![128; 48])
+        .unwrap()
+        .save(&png)
+        .unwrap();
+    let (code, _, err) = vxgi(&["compare", &s(&png), &s(&png), "--heatmap", &s(&png)]);
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("an image being compared"), "{err}");
+    let black = RgbImage::new(256, 256, vec![[0.0; 3]; 256 * 256]);
+    for name in ["indirect.exr", "combined.exr"] {
+        write_exr(&dir.join("black").join(name), &black).unwrap();
+    }
+    let out = dir.join("factors");
+    let (code, _, err) = vxgi(&[
+        "lrsm-factors",
+        "--reference",
+        &s(&dir.join("black")),
+        "--out",
+        &s(&out),
+    ]);
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("black everywhere"), "{err}");
+    let (code, _, err) = vxgi(&["render", "--out", &s(&lit)]);
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("a file, not a folder"), "{err}");
+    let (code, _, err) = vxgi(&["view", "--frames", "2", "--script", "nope.txt"]);
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("--script nope.txt: no such file"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
+}
