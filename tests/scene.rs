@@ -319,16 +319,19 @@ fn bad_cameras_lights_and_settings_are_errors() {
         matches!(e, SceneError::Render { .. }) && e.to_string().contains("voxels = 100"),
         "{e}"
     );
-    // A march step too short to advance the march distance in f32 (it would spin until a
-    // watchdog ends it) is refused, naming the smallest step.
-    let step = "[render]\ncone_step = 1e-30\n";
-    let e = Scene::load(write("step", TRI_OBJ, &scene_toml("mesh.obj", step))).unwrap_err();
-    assert!(
-        matches!(e, SceneError::Render { .. })
-            && e.to_string().contains("cone_step")
-            && e.to_string().contains("f32 rounding"),
-        "{e}"
-    );
+    // A march step whose opacity the GPU's f32 pow rounds away (and, far shorter, one too short to
+    // advance the march distance) is refused, naming the smallest step.
+    for step in ["1e-30", "0.001"] {
+        let text = format!("[render]\ncone_step = {step}\n");
+        let e = Scene::load(write("step", TRI_OBJ, &scene_toml("mesh.obj", &text))).unwrap_err();
+        assert!(
+            matches!(e, SceneError::Render { .. })
+                && e.to_string().contains("cone_step")
+                && e.to_string().contains("[0.015625, 1]")
+                && e.to_string().contains("f32 pow"),
+            "{e}"
+        );
+    }
 }
 
 /// A quad with `vt` and a `map_Kd` texture of four coloured texels, seen head-on: the G-buffer kernel
