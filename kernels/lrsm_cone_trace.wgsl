@@ -31,8 +31,9 @@
 // Lit cells (params.lit_cells = 1, the default `lrsm_lit_cells`; a deviation from Algorithm 1,
 //   docs/accuracy/lrsm.md): where alpha > 0 a sample's colour is the lit cells' (lit_cells.wgsl: the
 //   light views' lit texels in the occlusion pyramid's cells) read as alpha is read, at the same
-//   level, cells and trilinear weights: per cell its mean radiance times its coverage min(1, area /
-//   4^l level-0 faces) times N's ramp by its mean normal against vc = -d; premultiplied, as eq. 1's
+//   level, cells and trilinear weights: per cell its mean radiance times its coverage min(1, area
+//   |N|_1 / |N| / 4^l level-0 faces: a tilted surface crosses |N|_1 times the cells an axis-aligned
+//   one does, each holding less of it) times N's ramp by its mean normal against vc = -d; premultiplied, as eq. 1's
 //   alpha_i L_i (the march reads (L, alpha)). No LRSM is read.
 // Shadow cones (entry `shadow`, the option `[render] shadow_cone_angle` > 0; the default direct light is
 // direct_light's exact rays): per G-buffer pixel, direct light as direct_light.wgsl computes it (same
@@ -101,15 +102,21 @@ fn disc_share(c: f32, r: f32) -> f32 {
 }
 
 // A lit cell's light seen along vc at level l (mirror: lit_cells::cell_light): its mean radiance
-// times its coverage min(1, area / 4^l), times the cull by its mean normal (N's ramp); 0 where no
-// surface is.
+// times its coverage min(1, area |N|_1 / |N| / 4^l) (N its area-weighted normal sum), times the
+// cull by its mean normal (N's ramp); 0 where no surface is.
 fn cell_light(c0: vec4<f32>, c1: vec4<f32>, l: u32, vc: vec3<f32>) -> vec3<f32> {
     let area = c0.w;
     if (!(area > 0.0)) {
         return vec3<f32>(0.0);
     }
     let inv = 1.0 / area;
-    let cov = min(area * (1.0 / f32(1u << (2u * l))), 1.0);
+    // The cells a surface crosses per unit of its area grow with |n|_1 (1 axis-aligned, up to
+    // sqrt(3)): a crossed cell holds 4^l / |n|_1 of a tilted surface on average, which covers it as
+    // an axis-aligned wall filling its face does (the occlusion voxels mark every crossed cell).
+    let m = c1.xyz;
+    let ml = length(m);
+    let crossing = select(1.0, ((abs(m.x) + abs(m.y)) + abs(m.z)) / ml, ml > 0.0);
+    let cov = min((area * crossing) * (1.0 / f32(1u << (2u * l))), 1.0);
     let nw = clamp(((c1.x * vc.x + c1.y * vc.y) + c1.z * vc.z) * inv * (1.0 / LRSM_CULL_RAMP), 0.0, 1.0);
     let w = (inv * cov) * nw;
     return c0.xyz * w;

@@ -513,23 +513,47 @@ pub fn cell_light(c: &[f32], l: u32, vc: Vec3) -> Vec4 {
         return Vec4::ZERO;
     }
     let inv = 1.0 / area;
-    let cov = (area * (1.0 / (1u32 << (2 * l)) as f32)).min(1.0);
+    let cov = (area * crossing(c) * (1.0 / (1u32 << (2 * l)) as f32)).min(1.0);
     let nw = ((c[4] * vc.x + c[5] * vc.y + c[6] * vc.z) * inv * (1.0 / CULL_RAMP)).clamp(0.0, 1.0);
     let w = (inv * cov) * nw;
     Vec4::new(c[0] * w, c[1] * w, c[2] * w, 0.0)
 }
 
-/// Bound on [`cell_light`]'s rgb (largest channel) from its arithmetic (16 ULP) and the direction's
-/// error (vc a few ULP off: N's ramp moves by 1e-4 of the unculled light at most).
+/// How many cells a surface with the cell's mean normal `N` (its area-weighted normal sum, `c[4..7]`)
+/// crosses per unit of its area, relative to an axis-aligned surface: `|N|_1 / |N|`, 1 for an
+/// axis-aligned wall, sqrt(2) at 45 degrees about an axis, sqrt(3) along a diagonal (1 where the
+/// normals cancel to 0). A plane crossing cells of side `h` holds `h^2 / |n|_1` of itself in a crossed
+/// cell on average; the occlusion voxels mark every crossed cell, so a cell's coverage is its area
+/// times this over its face. Without it a wall turned 45 degrees about an axis read 1 / sqrt(2) of
+/// its light (docs/accuracy/orientation.md).
+pub fn crossing(c: &[f32]) -> f32 {
+    let m = Vec3::new(c[4], c[5], c[6]);
+    let ml = m.length();
+    if ml > 0.0 {
+        ((m.x.abs() + m.y.abs()) + m.z.abs()) / ml
+    } else {
+        1.0
+    }
+}
+
+/// Bound on [`cell_light`]'s rgb (largest channel) from its arithmetic (16 ULP, and 16 more for
+/// [`crossing`]'s sum, length and division) and the direction's error (vc a few ULP off: N's ramp
+/// moves by 1e-4 of the unculled light at most). Where the normal sum is within rounding of 0
+/// (its length below 1e-6 of the area: a GPU may flush it), the crossing factor may be anything
+/// from 1 to sqrt(3): the bound is the light at sqrt(3).
 pub fn cell_light_bound(c: &[f32], l: u32) -> f32 {
     let area = c[3];
     #[allow(clippy::neg_cmp_op_on_partial_ord)]
     if !(area > 0.0) {
         return 0.0;
     }
-    let cov = (area / (1u32 << (2 * l)) as f32).min(1.0);
-    let full = c[0].abs().max(c[1].abs()).max(c[2].abs()) / area * cov;
-    full * (16.0 * f32::EPSILON + 1e-4)
+    let face = (1u32 << (2 * l)) as f32;
+    let peak = c[0].abs().max(c[1].abs()).max(c[2].abs()) / area;
+    if Vec3::new(c[4], c[5], c[6]).length() <= 1e-6 * area {
+        return peak * (area * 3f32.sqrt() / face).min(1.0) * (1.0 + 1e-4);
+    }
+    let cov = (area * crossing(c) / face).min(1.0);
+    peak * cov * (32.0 * f32::EPSILON + 1e-4)
 }
 
 #[cfg(test)]
@@ -552,6 +576,35 @@ mod tests {
             info: [16, 0, 0, 1],
         };
         (g, v)
+    }
+
+    /// A cell's coverage is its area times how many cells its surface crosses per unit of area: a
+    /// wall turned 45 degrees about an axis, which holds 1 / sqrt(2) of a face in a crossed cell on
+    /// average, covers it as an axis-aligned wall filling its face does; an axis-aligned half face
+    /// covers half. The light is the mean radiance times that coverage.
+    #[test]
+    fn a_tilted_wall_covers_the_cells_it_crosses() {
+        let h = std::f32::consts::FRAC_1_SQRT_2;
+        let cell = |area: f32, n: [f32; 3]| {
+            [
+                0.5 * area,
+                0.5 * area,
+                0.5 * area,
+                area,
+                n[0] * area,
+                n[1] * area,
+                n[2] * area,
+            ]
+        };
+        let up = Vec3::Y;
+        let tilted = cell(h, [h, 0.0, h]);
+        assert!((crossing(&tilted) - 2f32.sqrt()).abs() < 1e-6);
+        let lit = cell_light(&tilted, 0, Vec3::new(h, 0.0, h));
+        assert!((lit.x - 0.5).abs() < 1e-5, "{lit}");
+        assert_eq!(cell_light(&cell(0.5, [0.0, 1.0, 0.0]), 0, up).x, 0.25);
+        assert_eq!(cell_light(&cell(1.0, [0.0, 1.0, 0.0]), 0, up).x, 0.5);
+        // Normals that cancel: read as an axis-aligned surface's area.
+        assert_eq!(crossing(&cell(1.0, [0.0, 0.0, 0.0])), 1.0);
     }
 
     /// One orthographic view straight down onto a floor at y = 0, every texel lit: the floor's
