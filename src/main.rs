@@ -1422,6 +1422,20 @@ fn run_temporal(
                 motion.name()
             ));
             let (reference, new) = references.of(&own);
+            if new
+                && reference
+                    .iter()
+                    .all(|f| f.pixels.iter().flatten().all(|&c| c == 0.0))
+            {
+                // Every measure is relative to the reference's mean: against black it is 0 for
+                // any pipeline, which would read as perfectly stable.
+                bar.suspend(|| {
+                    eprintln!(
+                        "warning: {}: the ideal cones' indirect light is 0 in every frame: instability and error are undefined (written as 0)",
+                        motion.name()
+                    )
+                });
+            }
             if new && check_reference {
                 bar.set_message(format!("{}: the reference's floor", motion.name()));
                 floors.push((
