@@ -1137,8 +1137,11 @@ fn run_compare(reference: PathBuf, test: PathBuf, heatmap: Option<PathBuf>) -> R
             "--heatmap {}: the heat map is written as PNG; name it .png",
             h.display()
         );
+        let same = |a: &Path, b: &Path| {
+            a == b || matches!((a.canonicalize(), b.canonicalize()), (Ok(x), Ok(y)) if x == y)
+        };
         anyhow::ensure!(
-            h != &reference && h != &test,
+            !same(h, &reference) && !same(h, &test),
             "--heatmap {}: that is an image being compared; name another file",
             h.display()
         );
@@ -1547,6 +1550,9 @@ fn run_bisect(
         .as_deref()
         .map(|s| vxgi::bisect::split_after(&stages, s))
         .transpose()?;
+    if split.is_some() {
+        create_out(&out)?;
+    }
     let ctx = GpuContext::new().context("creating the GPU context")?;
     eprintln!("adapter: {}", ctx.describe());
     let bar = spinner();
@@ -1555,7 +1561,6 @@ fn run_bisect(
         Some(split) => {
             let r = vxgi::bisect::render_split(&ctx, &scene, &cones, pipeline, split, message)?;
             bar.finish_and_clear();
-            create_out(&out)?;
             write_frame(&out, [&r.direct, &r.indirect, &r.combined, &r.ao])?;
             print!("{}", r.plan);
             println!(

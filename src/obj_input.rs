@@ -8,9 +8,10 @@
 //! - Statements are normalised without moving a line (errors keep the file's line numbers): lone
 //!   carriage returns end lines, tabs separate words, a `\` at a line's end joins the next line.
 //! - What tobj would reject as a whole .mtl (every material then lost) is read per statement: the
-//!   colour forms `Kd r` (g = b = r) and `Kd xyz x y z` (CIE XYZ), `d -halo v`, `Tr`, `illum` written
-//!   as a float; what cannot be read (`Kd spectral`) is dropped and named. Malformed numbers are
-//!   errors naming the line, as the values the loader checks are.
+//!   colour forms `Kd r` (g = b = r) and `Kd xyz x y z` (CIE XYZ), values after a colour's three,
+//!   `d -halo v`, `Tr`, `illum` written as a float; what cannot be read (`Kd spectral`, an unreadable
+//!   `Ka`) is dropped and named. Malformed numbers the renderer reads (Kd, Ks, Ns, Ni, d) are errors
+//!   naming the line, as the values the loader checks are.
 //!
 //! Every change that alters what a user sees is said in a note (a loader warning).
 use std::path::{Component, Path, PathBuf};
@@ -104,7 +105,12 @@ pub fn decode(label: &str, bytes: Vec<u8>, notes: &mut Vec<String>) -> String {
     String::from_utf8(body).unwrap_or_else(|e| {
         let at = e.utf8_error().valid_up_to();
         let bytes = e.into_bytes();
-        let line = bytes[..at].iter().filter(|&&b| b == b'\n').count() + 1;
+        let ends = |c: u8| bytes[..at].iter().filter(|&&b| b == c).count();
+        let line = if ends(b'\n') > 0 {
+            ends(b'\n')
+        } else {
+            ends(b'\r')
+        } + 1;
         notes.push(format!(
             "{label}:{line}: not UTF-8: the file is read as Latin-1 (ISO 8859-1)"
         ));
@@ -113,14 +119,23 @@ pub fn decode(label: &str, bytes: Vec<u8>, notes: &mut Vec<String>) -> String {
 }
 
 /// The file's lines as tobj reads statements, one per line of the file: lone carriage returns end
-/// lines, tabs are spaces, and a line ending in `\` takes the next one (which is left empty).
+/// lines, tabs are spaces, indentation is dropped, and a statement ending in `\` takes the next line
+/// (which is left empty).
 fn lines_of(text: &str) -> Vec<String> {
     let text = text.replace("\r\n", "\n").replace('\r', "\n");
-    let mut lines: Vec<String> = text.lines().map(|l| l.replace('\t', " ")).collect();
+    // tobj reads a statement's keyword from the line's first byte: indentation is dropped.
+    let mut lines: Vec<String> = text
+        .lines()
+        .map(|l| l.replace('\t', " ").trim_start().to_string())
+        .collect();
     let mut i = 0;
     while i < lines.len() {
         let mut j = i;
-        while lines[i].trim_end().ends_with('\\') && j + 1 < lines.len() {
+        // A comment ending in `\` (a Windows folder) continues nothing.
+        while !lines[i].starts_with('#')
+            && lines[i].trim_end().ends_with('\\')
+            && j + 1 < lines.len()
+        {
             j += 1;
             let next = std::mem::take(&mut lines[j]);
             let head = lines[i]
@@ -217,34 +232,41 @@ pub fn mtl_text(
             }
             "Ka" | "Kd" | "Ks" | "Ke" => {
                 let rest = &words[1..];
+                // The leading numbers: what follows them (a fourth value, a comment) is not read,
+                // as tobj read only three.
+                let lead =
+                    |w: &[String]| -> Vec<f32> { w.iter().map_while(|w| number(w)).collect() };
                 let rgb: Option<[f32; 3]> = match rest.first().map(String::as_str) {
                     Some("spectral") => {
                         notes.push(format!(
-                            "{label}:{}: material {name}: {key} spectral (a reflectance curve file) is not read: {}",
+                            "{label}:{}: material {name}: {key} spectral (a reflectance curve file) is not read: ignored",
                             i + 1,
-                            if key == "Kd" { "Kd 0.8 instead" } else { "ignored" }
                         ));
                         line.clear();
                         continue;
                     }
-                    Some("xyz") => {
-                        let v: Option<Vec<f32>> = rest[1..].iter().map(|w| number(w)).collect();
-                        match v.as_deref() {
-                            Some(&[x]) => Some(xyz_to_rgb([x, x, x])),
-                            Some(&[x, y, z]) => Some(xyz_to_rgb([x, y, z])),
-                            _ => None,
-                        }
-                    }
-                    _ => {
-                        let v: Option<Vec<f32>> = rest.iter().map(|w| number(w)).collect();
-                        match v.as_deref() {
-                            Some(&[r]) => Some([r, r, r]),
-                            Some(&[r, g, b]) => Some([r, g, b]),
-                            _ => None,
-                        }
-                    }
+                    Some("xyz") => match lead(&rest[1..]).as_slice() {
+                        [x] => Some(xyz_to_rgb([*x, *x, *x])),
+                        [x, y, z, ..] => Some(xyz_to_rgb([*x, *y, *z])),
+                        _ => None,
+                    },
+                    _ => match lead(rest).as_slice() {
+                        [r] => Some([*r, *r, *r]),
+                        [r, g, b, ..] => Some([*r, *g, *b]),
+                        _ => None,
+                    },
                 };
                 let Some(rgb) = rgb else {
+                    // Ka is not read (light comes from [[lights]]) and Ke only to be named.
+                    if matches!(key, "Ka" | "Ke") {
+                        notes.push(format!(
+                            "{label}:{}: material {name}: {key} `{}` not read: ignored",
+                            i + 1,
+                            rest.join(" ")
+                        ));
+                        line.clear();
+                        continue;
+                    }
                     return Err(err(format!(
                         "{key} needs one or three numbers (r [g b]), or `xyz x [y z]`, found `{}`",
                         rest.join(" ")
@@ -252,7 +274,22 @@ pub fn mtl_text(
                 };
                 *line = format!("{key} {} {} {}", rgb[0], rgb[1], rgb[2]);
             }
-            "Ns" | "Ni" | "d" | "Tr" => {
+            // Transparency (1 - d), which tobj does not read; exporters disagree on whether Tr 1
+            // means clear or opaque, so only a value strictly between is named.
+            "Tr" => {
+                if words
+                    .get(1)
+                    .and_then(|w| number(w))
+                    .is_some_and(|t| t > 0.0 && t < 1.0)
+                {
+                    notes.push(format!(
+                        "{label}:{}: material {name}: Tr (transparency) ignored: surfaces are opaque",
+                        i + 1
+                    ));
+                }
+                line.clear();
+            }
+            "Ns" | "Ni" | "d" => {
                 // `d -halo v`: a dissolve that depends on the view; surfaces are opaque here.
                 let v = words[1..]
                     .iter()
@@ -264,11 +301,7 @@ pub fn mtl_text(
                         words[1..].join(" ")
                     )));
                 };
-                // Tr is transparency, 1 - d (tobj reads only d).
-                *line = match key {
-                    "Tr" => format!("d {}", 1.0 - v),
-                    _ => format!("{key} {v}"),
-                };
+                *line = format!("{key} {v}");
             }
             // The illumination model is not read (the light-transport contract fixes it); tobj
             // rejects all but an integer.
@@ -304,8 +337,18 @@ mod tests {
 
     #[test]
     fn continuation_and_carriage_returns_keep_the_line_count() {
-        let l = lines_of("f 1 2 \\\n3\r\nv\t1 2 3\rvn 0 0 1");
-        assert_eq!(l, ["f 1 2 3", "", "v 1 2 3", "vn 0 0 1"]);
+        let l = lines_of("f 1 2 \\\n3\r\nv\t1 2 3\rvn 0 0 1\n# D:\\out\\\n  v 0 0 0");
+        assert_eq!(
+            l,
+            [
+                "f 1 2 3",
+                "",
+                "v 1 2 3",
+                "vn 0 0 1",
+                "# D:\\out\\",
+                "v 0 0 0"
+            ]
+        );
     }
 
     #[test]
@@ -313,18 +356,22 @@ mod tests {
         let mut notes = Vec::new();
         let (t, names) = mtl_text(
             "m.mtl",
-            "newmtl a\nKd 0.5\nKa xyz 0.9505 1 1.089\nKs spectral c.rfl\nd -halo 0.5\nillum 2.0\nTr 0.25",
+            "newmtl a\nKd 0.5\nKa xyz 0.9505 1 1.089\nKs spectral c.rfl\nd -halo 0.5\nillum 2.0\nTr 0.25\n  Ks 0.1 0.2 0.3 1 # rgba\nKa grey\nTr 1",
             &mut notes,
         )
         .unwrap();
-        let l: Vec<&str> = t.lines().collect();
+        let l: Vec<&str> = t.split('\n').collect();
         assert_eq!(names, ["a"]);
         assert_eq!(l[1], "Kd 0.5 0.5 0.5");
         // D65 white in XYZ is sRGB white.
         let ka: Vec<f32> = l[2][3..].split(' ').map(|w| w.parse().unwrap()).collect();
         assert!(ka.iter().all(|c| (c - 1.0).abs() < 1e-3), "{ka:?}");
-        assert_eq!((l[3], l[4], l[5], l[6]), ("", "d 0.5", "", "d 0.75"));
-        assert_eq!(notes.len(), 1, "{notes:?}");
+        assert_eq!((l[3], l[4], l[5], l[6]), ("", "d 0.5", "", ""));
+        // Indented, with a fourth value and a comment: the three numbers; an unreadable Ka is
+        // dropped; Tr 1 (clear or opaque, as the exporter meant) is not named.
+        assert_eq!((l[7], l[8], l[9]), ("Ks 0.1 0.2 0.3", "", ""));
+        assert_eq!(notes.len(), 3, "{notes:?}");
+        assert!(notes[1].contains("Tr (transparency)") && notes[2].contains("Ka `grey`"));
         let e = mtl_text("m.mtl", "newmtl a\nKd 0.5 0.5", &mut notes).unwrap_err();
         assert_eq!((e.line, e.material.as_str()), (2, "a"));
     }

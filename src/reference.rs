@@ -59,15 +59,24 @@ pub fn images_for(
                     let (x, y) = (i as u32 % w, i as u32 / w);
                     anyhow::bail!("{}: negative radiance at ({x}, {y})", path.display());
                 }
-                if img.pixels.iter().flatten().all(|&c| c == 0.0) {
-                    anyhow::bail!(
-                        "{}: black everywhere: errors against it are undefined",
-                        path.display()
-                    );
-                }
                 Ok(img)
             };
-            Ok((read("indirect.exr")?, read("combined.exr")?))
+            let (indirect, combined) = (read("indirect.exr")?, read("combined.exr")?);
+            let black = |img: &RgbImage| img.pixels.iter().flatten().all(|&c| c == 0.0);
+            if black(&combined) {
+                anyhow::bail!(
+                    "{}: black everywhere: errors against it are undefined",
+                    dir.join("combined.exr").display()
+                );
+            }
+            if black(&indirect) {
+                // A scene with nothing to bounce light (a lone lit plane) has none.
+                eprintln!(
+                    "warning: {}: black everywhere: the indirect image's relative errors and energy are undefined",
+                    dir.join("indirect.exr").display()
+                );
+            }
+            Ok((indirect, combined))
         }
         None => {
             let r = render_reference(scene, &ReferenceOptions::spp(spp), |_| {});

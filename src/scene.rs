@@ -170,6 +170,7 @@ pub fn fit_textures(materials: &mut [Material], budget: usize) -> Option<String>
     if before <= budget {
         return None;
     }
+    let lut = crate::trace::srgb_lut();
     let mut smaller = unique.clone();
     while texels(&smaller) > budget {
         let (i, _) = smaller
@@ -182,15 +183,26 @@ pub fn fit_textures(materials: &mut [Material], budget: usize) -> Option<String>
             break;
         }
         let (w, h) = ((t.width / 2).max(1), (t.height / 2).max(1));
-        let img =
-            image::RgbImage::from_raw(t.width, t.height, t.rgb.iter().flat_map(|c| *c).collect())
-                .expect("a texture's texels fill its size");
+        // Filtered in linear albedo (a black and white checker halves to 0.5, not to code 128,
+        // which decodes to 0.22), then encoded as every texture is stored.
+        let img = image::Rgb32FImage::from_raw(
+            t.width,
+            t.height,
+            t.rgb
+                .iter()
+                .flat_map(|c| c.map(|v| lut[v as usize]))
+                .collect(),
+        )
+        .expect("a texture's texels fill its size");
         let half = image::imageops::resize(&img, w, h, image::imageops::FilterType::Triangle);
         smaller[i] = Arc::new(Texture {
             path: t.path.clone(),
             width: w,
             height: h,
-            rgb: half.pixels().map(|p| p.0).collect(),
+            rgb: half
+                .pixels()
+                .map(|p| p.0.map(|c| linear_to_srgb8(c, &lut)))
+                .collect(),
         });
     }
     let mut changed = Vec::new();
@@ -1705,10 +1717,26 @@ fn obj_mesh(
                 message,
             }
         })?;
+        // One texture per file, however many materials name it (the atlas holds it once).
+        let mut read: Vec<(PathBuf, Arc<Texture>)> = Vec::new();
+        let mut superseded = Vec::new();
         let mut materials: Vec<Material> = match mtl {
-            Ok(m) => m
+            Ok(all) => {
+                // A material defined again later is the later one wherever it is used: the
+                // earlier is neither read nor checked.
+                superseded = (0..all.len())
+                    .map(|i| all[i + 1..].iter().any(|m| m.name == all[i].name))
+                    .collect();
+                all
                 .into_iter()
-                .map(|m| {
+                .zip(superseded.clone())
+                .map(|(m, superseded)| {
+                    if superseded {
+                        return Material {
+                            name: m.name,
+                            ..Material::grey()
+                        };
+                    }
                     // A texture that cannot be read is a warning: the material keeps its Kd.
                     let diffuse_map = m.diffuse_texture.as_ref().and_then(|t| {
                         let (options, file) = map_options(t);
@@ -1736,6 +1764,9 @@ fn obj_mesh(
                             ));
                             return None;
                         };
+                        if let Some((_, t)) = read.iter().find(|(p, _)| *p == path) {
+                            return Some(t.clone());
+                        }
                         Texture::read(&path)
                             .map_err(|e| {
                                 warnings.push(format!(
@@ -1753,7 +1784,9 @@ fn obj_mesh(
                                         path.display()
                                     ));
                                 }
-                                Arc::new(t)
+                                let t = Arc::new(t);
+                                read.push((path.clone(), t.clone()));
+                                t
                             })
                     });
                     // What the light-transport contract has no term for is said, not dropped
@@ -1788,7 +1821,8 @@ fn obj_mesh(
                         diffuse_map,
                     }
                 })
-                .collect(),
+                .collect()
+            }
             Err(e) => {
                 // Name the file tobj could not use: the OBJ's `mtllib` lines, resolved beside it.
                 let named: Vec<String> = obj_text
@@ -1807,8 +1841,10 @@ fn obj_mesh(
                 Vec::new()
             }
         };
-        for m in &materials {
-            check_material(m, &src.mtl, obj_label)?;
+        for (i, m) in materials.iter().enumerate() {
+            if !superseded.get(i).copied().unwrap_or(false) {
+                check_material(m, &src.mtl, obj_label)?;
+            }
         }
         let grey = materials.len() as u32;
         materials.push(Material::grey());
@@ -2015,8 +2051,8 @@ fn obj_mesh(
 
 /// The triangles of one OBJ face (indices into `positions`), wound as the face is: itself, a fan from
 /// the first vertex where the polygon is convex (what tobj's triangulation gives), ear clipping
-/// (earcutr) in the polygon's plane where it is not, which a fan would cover outside the polygon and
-/// fold over itself. Fewer than three vertices: none.
+/// (earcutr) in the polygon's plane where a vertex is reflex, where a fan would cover outside the
+/// polygon and fold over itself. Fewer than three vertices (`f` with none): none.
 fn triangulate(face: &[u32], positions: &[Vec3]) -> Vec<[u32; 3]> {
     let fan = || (1..face.len() - 1).map(|i| [face[0], face[i], face[i + 1]]);
     if face.len() < 3 {
@@ -2036,10 +2072,12 @@ fn triangulate(face: &[u32], positions: &[Vec3]) -> Vec<[u32; 3]> {
             (a.x - b.x) * (a.y + b.y),
         )
     });
-    // A turn against the normal by more than rounding (relative 1e-4) is a reflex vertex.
+    // A vertex turning against the polygon's normal by an angle whose sine passes 1e-4 is reflex;
+    // a straight one (three points on a line within rounding) is not, whichever way its rounding
+    // turns it.
     let convex = (0..k).all(|i| {
-        let turn = (p[(i + 1) % k] - p[i]).cross(p[(i + 2) % k] - p[(i + 1) % k]);
-        turn.dot(n) >= -1e-4 * turn.length() * n.length()
+        let (e1, e2) = (p[(i + 1) % k] - p[i], p[(i + 2) % k] - p[(i + 1) % k]);
+        e1.cross(e2).dot(n) >= -1e-4 * e1.length() * e2.length() * n.length()
     });
     if convex || !n.is_finite() || n == Vec3::ZERO {
         return fan().collect();

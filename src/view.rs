@@ -221,7 +221,10 @@ impl Script {
         } else {
             // Steps start with a frame number; a single word that does not is a file's name.
             let first = arg.split_whitespace().next().unwrap_or("");
-            if !arg.contains(char::is_whitespace) && first.parse::<u32>().is_err() {
+            if !arg.trim().is_empty()
+                && !arg.contains(char::is_whitespace)
+                && first.parse::<u32>().is_err()
+            {
                 anyhow::bail!(
                     "--script {arg}: no such file (steps are `FRAME ACTION ARGS`, e.g. \"2 orbit 5 0\")"
                 );

@@ -609,7 +609,7 @@ fn obj_errors_name_their_line() {
     std::fs::write(d.join("mesh.obj"), b"v 0 0 0\nv 1 0 0\n\xff\xfe garbage\n").unwrap();
     std::fs::write(d.join("scene.toml"), scene_toml("mesh.obj", "")).unwrap();
     let e = Scene::load(d.join("scene.toml")).unwrap_err().to_string();
-    assert!(e.contains("mesh.obj"), "{e}");
+    assert!(e.contains("mesh.obj: the mesh has no triangles"), "{e}");
     let mut latin1 = b"# mod".to_vec();
     latin1.push(0xE8);
     latin1.extend(format!("le\n{TRI_OBJ}").as_bytes());
@@ -704,6 +704,29 @@ fn textures_past_the_atlas_are_read_smaller() {
     let a = materials[0].diffuse_map.as_ref().unwrap();
     assert!(Arc::ptr_eq(a, materials[1].diffuse_map.as_ref().unwrap()));
     assert_eq!((a.width, a.height, a.rgb[0]), (32, 32, [200, 100, 50]));
+    // Filtered in linear albedo: a black and white checker reads 0.5 at half size.
+    let mut checker = Material {
+        diffuse_map: Some(Arc::new(Texture {
+            path: "checker.png".into(),
+            width: 4,
+            height: 4,
+            rgb: (0..16)
+                .map(|i| [if (i + i / 4) % 2 == 0 { 0 } else { 255 }; 3])
+                .collect(),
+        })),
+        ..Material::grey()
+    };
+    fit_textures(std::slice::from_mut(&mut checker), 4).unwrap();
+    let half = checker.diffuse_map.unwrap();
+    let lut = vxgi::trace::srgb_lut();
+    assert_eq!((half.width, half.height), (2, 2));
+    assert!(
+        half.rgb
+            .iter()
+            .all(|c| (lut[c[0] as usize] - 0.5).abs() < 0.01),
+        "{:?}",
+        half.rgb
+    );
 }
 
 /// A floating-point texture (EXR) holds linear values: stored as the sRGB code that decodes nearest.

@@ -538,9 +538,11 @@ pub fn crossing(c: &[f32]) -> f32 {
 
 /// Bound on [`cell_light`]'s rgb (largest channel) from its arithmetic (16 ULP, and 16 more for
 /// [`crossing`]'s sum, length and division) and the direction's error (vc a few ULP off: N's ramp
-/// moves by 1e-4 of the unculled light at most). Where the normal sum is within rounding of 0
-/// (its length below 1e-6 of the area: a GPU may flush it), the crossing factor may be anything
-/// from 1 to sqrt(3): the bound is the light at sqrt(3).
+/// moves by 1e-4 of the unculled light at most). Where the normal sum nearly cancels (its length
+/// below 1e-6 of the area, whose fixed-point sums round each component by up to 2^-24 faces and
+/// so turn its direction anywhere) or is small enough for a GPU to flush its squares to 0 (below
+/// 1e-18), the crossing factor may be anything from 1 to sqrt(3): the bound is the light at
+/// sqrt(3).
 pub fn cell_light_bound(c: &[f32], l: u32) -> f32 {
     let area = c[3];
     #[allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -549,7 +551,8 @@ pub fn cell_light_bound(c: &[f32], l: u32) -> f32 {
     }
     let face = (1u32 << (2 * l)) as f32;
     let peak = c[0].abs().max(c[1].abs()).max(c[2].abs()) / area;
-    if Vec3::new(c[4], c[5], c[6]).length() <= 1e-6 * area {
+    let ml = Vec3::new(c[4], c[5], c[6]).length();
+    if ml <= 1e-6 * area || ml < 1e-18 {
         return peak * (area * 3f32.sqrt() / face).min(1.0) * (1.0 + 1e-4);
     }
     let cov = (area * crossing(c) / face).min(1.0);
