@@ -1259,10 +1259,28 @@ fn real_main() -> Result<()> {
             if frames == Some(0) {
                 bail!("--frames must be at least 1");
             }
+            if let Some(shot) = &screenshot {
+                let png = shot
+                    .extension()
+                    .is_some_and(|e| e.eq_ignore_ascii_case("png"));
+                anyhow::ensure!(
+                    png,
+                    "--screenshot {}: the screenshot is written as PNG; name it .png",
+                    shot.display()
+                );
+            }
             let script = match script {
                 Some(s) => vxgi::view::Script::from_arg(&s)?,
                 None => vxgi::view::Script::default(),
             };
+            if let (Some(n), Some(last)) = (frames, script.steps.iter().map(|(f, _)| *f).max()) {
+                if last >= n {
+                    eprintln!(
+                        "warning: --script has steps at frame {last}, past the last of --frames {n} (frame {}): they do not run",
+                        n - 1
+                    );
+                }
+            }
             vxgi::view::run(vxgi::view::ViewOptions {
                 scene: load_scene(&scene, &render)?,
                 pipeline,
@@ -1369,6 +1387,14 @@ fn run_temporal(
     flags: RenderFlags,
 ) -> Result<()> {
     use vxgi::temporal::{self, Motion};
+    // A pipeline named twice is measured once.
+    let mut pipelines = pipelines;
+    let mut seen = Vec::new();
+    pipelines.retain(|p| {
+        let first = !seen.contains(p);
+        seen.push(*p);
+        first
+    });
     if frames < 2 || rays == 0 || spp == 0 || rays.checked_mul(4).is_none() {
         bail!("--frames must be at least 2, --rays and --spp at least 1 (and --rays at most 2^30)");
     }

@@ -533,5 +533,10 @@ fn bad_images_references_and_paths_are_named_first() {
     let (code, _, err) = vxgi(&["view", "--frames", "2", "--script", "nope.txt"]);
     assert_eq!(code, 1, "{err}");
     assert!(err.contains("--script nope.txt: no such file"), "{err}");
+    let (code, _, err) = vxgi(&["view", "--frames", "2", "--screenshot", "s.jpg"]);
+    assert!(
+        code == 1 && err.contains("written as PNG; name it .png"),
+        "{err}"
+    );
     std::fs::remove_dir_all(&dir).ok();
 }
