@@ -2030,6 +2030,27 @@ fn obj_mesh(
                 dropped,
             });
         }
+        // A face whose vertex normals all point to its back: one-sided, it is seen from its
+        // winding's front (docs/contract.md), where its shading normal faces away; such a surface
+        // renders black from the side the normals claim. Said, not changed.
+        let against = mesh
+            .triangles
+            .iter()
+            .filter(|t| {
+                let [a, b, c] = t.map(|v| mesh.positions[v as usize]);
+                let face = (b - a).cross(c - a);
+                t.iter().all(|&v| {
+                    let n = mesh.normals[v as usize];
+                    n != Vec3::ZERO && n.dot(face) < 0.0
+                })
+            })
+            .count();
+        if against > 0 {
+            warnings.push(format!(
+                "{obj_label}: {against} of {} triangles have every vertex normal (vn) against their winding: a face's front is its counter-clockwise side, so these render black where their normals face; reverse their vertex order (or their normals)",
+                mesh.triangles.len()
+            ));
+        }
         // Flat normals from the winding where the OBJ has none: such a triangle gets vertices of its
         // own, so a vertex shared by faces of different orientation keeps each face flat.
         for t in 0..mesh.triangles.len() {

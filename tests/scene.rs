@@ -1135,3 +1135,22 @@ mod fuzz {
         );
     }
 }
+
+/// A face whose vertex normals all point to its back renders black from the side they claim (one
+/// sided, its front is its winding's): named, with the count; agreeing normals are not.
+#[test]
+fn normals_against_the_winding_are_named() {
+    let agree = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//1\n";
+    let s = Scene::load(write("vnok", agree, &scene_toml("mesh.obj", ""))).unwrap();
+    assert!(
+        !s.warnings.iter().any(|w| w.contains("winding")),
+        "{:?}",
+        s.warnings
+    );
+    let against = agree.replace("vn 0 0 1", "vn 0 0 -1");
+    let s = Scene::load(write("vnback", &against, &scene_toml("mesh.obj", ""))).unwrap();
+    assert_warns(
+        &s,
+        &["1 of 1 triangles have every vertex normal (vn) against their winding"],
+    );
+}
