@@ -862,6 +862,29 @@ fn run_bench(
     // The sweep is around the scene's own settings; `bench` adds its preset's point.
     let scene = load_scene(&scene, &flags)?;
     check_bounces(pipeline, &scene)?;
+    // A key the file or a flag sets that every configuration of the sweep replaces measures
+    // nothing the user asked for: said (the planner's rows keep it).
+    let base = toml::Value::try_from(&scene.render)?;
+    let configs: Vec<toml::Value> = vxgi::bench::sweep(&scene.render, quick, pipeline)
+        .iter()
+        .map(toml::Value::try_from)
+        .collect::<Result<_, _>>()?;
+    let swept: Vec<&str> = scene
+        .explicit_render
+        .iter()
+        .filter(|k| {
+            configs
+                .iter()
+                .all(|c| c.get(k.as_str()) != base.get(k.as_str()))
+        })
+        .map(String::as_str)
+        .collect();
+    if !swept.is_empty() {
+        eprintln!(
+            "warning: the bench's sweep sets {} in every configuration (the values given are kept only by the planner's rows)",
+            swept.join(", ")
+        );
+    }
     create_out(&out)?;
     let ctx = GpuContext::new().context("creating the GPU context")?;
     eprintln!("adapter: {}", ctx.describe());

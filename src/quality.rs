@@ -8,7 +8,9 @@ use crate::scene::{RenderSettings, Scene};
 use serde::Deserialize;
 
 /// A quality preset.
-#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq, clap::ValueEnum)]
+#[derive(
+    Clone, Copy, Debug, Default, Deserialize, serde::Serialize, PartialEq, Eq, clap::ValueEnum,
+)]
 #[serde(rename_all = "lowercase")]
 pub enum Quality {
     /// Half the voxel resolution: the frame's volume an eighth of the default's (lrsm: with its

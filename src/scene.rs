@@ -297,7 +297,7 @@ impl Light {
 }
 
 /// `[render]`: every key optional. Unknown keys are errors (typos should not pass silently).
-#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Deserialize, serde::Serialize, PartialEq)]
 #[serde(deny_unknown_fields, default)]
 pub struct RenderSettings {
     /// The quality preset (`crate::quality`): the keys it sets apply where this file and the command

@@ -617,6 +617,17 @@ fn bench_quick_writes_csv_table_and_plot() {
         "{svg}"
     );
     assert!(stdout.contains("combined FLIP"), "{stdout}");
+    assert!(!err.contains("sweep sets"), "{err}");
+    // A flag every configuration of the sweep replaces is said to be (it measured nothing asked).
+    let o = dir.join("bench-cones").display().to_string();
+    let args = [
+        "bench", &scene, "--quick", "--spp", "1", "--cones", "3", "--out", &o,
+    ];
+    let (code, _, err) = vxgi(&args);
+    assert!(
+        code == 0 && err.contains("the bench's sweep sets cones in every configuration"),
+        "{err}"
+    );
 
     // The quick sweep of another pipeline: 4 configurations; its CSV.
     let quick = |pipeline: &str| {
