@@ -1196,12 +1196,6 @@ impl Scene {
             label: format!("built-in {name}.mtl"),
             text,
             dir: PathBuf::from("."),
-            named_as: obj
-                .lines()
-                .find_map(|l| l.trim().strip_prefix("mtllib "))
-                .unwrap_or("")
-                .trim()
-                .to_string(),
             materials,
         }];
         let loaded = load_obj_text(obj, &mtl);
@@ -1591,13 +1585,12 @@ struct ObjSource {
     notes: Vec<String>,
 }
 
-/// A .mtl file as tobj reads it (`obj_input::mtl_text`): its label (path), text, folder, the
-/// `mtllib` argument that named it and the materials it defines.
+/// A .mtl file as tobj reads it (`obj_input::mtl_text`): its label (path), text, folder and the
+/// materials it defines.
 struct MtlSource {
     label: String,
     text: String,
     dir: PathBuf,
-    named_as: String,
     materials: Vec<String>,
 }
 
@@ -1659,7 +1652,6 @@ fn read_mtls(
                 label,
                 text,
                 dir: obj_input::folder_of(&file),
-                named_as: named_as.to_string(),
                 materials,
             });
         }
@@ -1668,19 +1660,25 @@ fn read_mtls(
 }
 
 /// tobj's reading of an OBJ's text (`obj_input::obj_text`) with its .mtl files as read by
-/// [`read_mtls`] (an `mtllib` whose files were not found loads nothing).
+/// [`read_mtls`], all of them before the OBJ's first statement: tobj resolves a `usemtl` against
+/// the materials read so far, so one before its `mtllib` line found nothing. (tobj's errors carry
+/// no line; [`obj_error_line`] finds it in the OBJ's own text.)
 fn load_obj_text(text: &str, mtl: &[MtlSource]) -> tobj::LoadResult {
+    const EVERY: &str = "\u{1}every mtllib";
+    let text = if mtl.is_empty() {
+        text.to_string()
+    } else {
+        format!("mtllib {EVERY}\n{text}")
+    };
     tobj::load_obj_buf(&mut text.as_bytes(), &load_options(), |named| {
-        let named = named.to_string_lossy();
-        let texts: Vec<&str> = mtl
-            .iter()
-            .filter(|m| m.named_as == named.trim())
-            .map(|m| m.text.as_str())
-            .collect();
-        if texts.is_empty() {
-            return Err(tobj::LoadError::OpenFileFailed);
+        if named.to_string_lossy().trim() == EVERY {
+            let texts: Vec<&str> = mtl.iter().map(|m| m.text.as_str()).collect();
+            tobj::load_mtl_buf(&mut texts.join("\n").as_bytes())
+        } else if mtl.is_empty() {
+            Err(tobj::LoadError::OpenFileFailed)
+        } else {
+            Ok((Vec::new(), Default::default()))
         }
-        tobj::load_mtl_buf(&mut texts.join("\n").as_bytes())
     })
 }
 

@@ -1154,3 +1154,17 @@ fn normals_against_the_winding_are_named() {
         &["1 of 1 triangles have every vertex normal (vn) against their winding"],
     );
 }
+
+/// A `usemtl` before the `mtllib` line that defines its material finds it (tobj resolves names as
+/// it reads: the .mtl files are read first).
+#[test]
+fn usemtl_before_its_mtllib_finds_its_material() {
+    let d = dir("usemtlfirst");
+    std::fs::write(d.join("m.mtl"), "newmtl red\nKd 0.7 0.1 0.1\n").unwrap();
+    let obj = format!("usemtl red\n{TRI_OBJ}mtllib m.mtl\n");
+    std::fs::write(d.join("mesh.obj"), obj).unwrap();
+    std::fs::write(d.join("scene.toml"), scene_toml("mesh.obj", "")).unwrap();
+    let s = Scene::load(d.join("scene.toml")).unwrap();
+    assert_eq!(s.materials[s.mesh.material[0] as usize].diffuse, [0.7, 0.1, 0.1]);
+    assert!(!s.warnings.iter().any(|w| w.contains("no material")), "{:?}", s.warnings);
+}
