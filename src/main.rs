@@ -1168,6 +1168,12 @@ fn run_compare(reference: PathBuf, test: PathBuf, heatmap: Option<PathBuf>) -> R
             "--heatmap {}: that is an image being compared; name another file",
             h.display()
         );
+        // Its folder is made now, as --out's are, rather than found missing after the metrics.
+        if let Some(dir) = h.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).with_context(|| {
+                format!("--heatmap {}: creating {}", h.display(), dir.display())
+            })?;
+        }
     }
     let r = read_exr(&reference)?;
     let t = read_exr(&test)?;

@@ -715,19 +715,49 @@ struct SceneFile {
     render: RenderSettings,
 }
 
-/// A texture statement's options and its file: `map_Kd -s 2 2 1 -o 0.5 0.5 0 tex.png` gives
-/// (`-s 2 2 1 -o 0.5 0.5 0`, `tex.png`). Options (MTL's `-blendu`, `-s`, `-o`, `-bm`, ...) come
-/// first, each a dash-led word and its values; the file is the last word after them, so a file
-/// name with spaces is read whole only where no option precedes it.
+/// A texture statement's options and its file: `map_Kd -s 2 2 1 -o 0.5 0.5 0 my tex.png` gives
+/// (`-s 2 2 1 -o 0.5 0.5 0`, `my tex.png`). Options (MTL's `-blendu`, `-s`, `-o`, `-bm`, ...) come
+/// first, each a dash-led word and its values (numbers, or MTL's words for them: `on`, `off`, a
+/// channel, a reflection map's face); the file is the rest, spaces and all. A statement whose rest
+/// would be empty keeps its last word as the file.
 fn map_options(statement: &str) -> (String, &str) {
     let t = statement.trim();
-    if !t.starts_with('-') {
-        return (String::new(), t);
+    const WORDS: [&str; 15] = [
+        "on",
+        "off",
+        "r",
+        "g",
+        "b",
+        "m",
+        "l",
+        "z",
+        "sphere",
+        "cube_top",
+        "cube_bottom",
+        "cube_front",
+        "cube_back",
+        "cube_left",
+        "cube_right",
+    ];
+    let mut rest = t;
+    let mut in_option = false;
+    loop {
+        let word = rest.split_whitespace().next().unwrap_or("");
+        let value = in_option && (word.parse::<f32>().is_ok() || WORDS.contains(&word));
+        if word.is_empty() || !(word.starts_with('-') && word.parse::<f32>().is_err() || value) {
+            break;
+        }
+        in_option = true;
+        rest = rest.trim_start()[word.len()..].trim_start();
     }
-    match t.rsplit_once(char::is_whitespace) {
-        Some((options, file)) => (options.trim().to_string(), file),
-        None => (String::new(), t),
+    if rest.is_empty() {
+        return match t.rsplit_once(char::is_whitespace) {
+            Some((options, file)) => (options.trim().to_string(), file),
+            None => (String::new(), t),
+        };
     }
+    let options = t[..t.len() - rest.len()].trim().to_string();
+    (options, rest)
 }
 
 /// The keys of a scene file's `[render]` table (none where the text does not parse: the scene's own

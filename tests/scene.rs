@@ -792,6 +792,15 @@ fn texture_options_are_named_and_the_file_read() {
     );
     assert!(s.materials[0].diffuse_map.is_some(), "{:?}", s.warnings);
     assert_warns(&s, &["`-s 2 2 1 -o 0.5 0.5 0` ignored"]);
+    // A file name with spaces after options with word values.
+    std::fs::copy(d.join("tex.png"), d.join("my tex.png")).unwrap();
+    let s = load_with_mtl(
+        &d,
+        "newmtl m\nKd 0.5 0.5 0.5\nmap_Kd -blendu off -bm 1.0 -imfchan l my tex.png\n",
+        "m",
+    );
+    assert!(s.materials[0].diffuse_map.is_some(), "{:?}", s.warnings);
+    assert_warns(&s, &["`-blendu off -bm 1.0 -imfchan l` ignored"]);
 }
 
 /// MTL statements the light-transport contract has no term for (emission, transparency) are named
@@ -1165,6 +1174,13 @@ fn usemtl_before_its_mtllib_finds_its_material() {
     std::fs::write(d.join("mesh.obj"), obj).unwrap();
     std::fs::write(d.join("scene.toml"), scene_toml("mesh.obj", "")).unwrap();
     let s = Scene::load(d.join("scene.toml")).unwrap();
-    assert_eq!(s.materials[s.mesh.material[0] as usize].diffuse, [0.7, 0.1, 0.1]);
-    assert!(!s.warnings.iter().any(|w| w.contains("no material")), "{:?}", s.warnings);
+    assert_eq!(
+        s.materials[s.mesh.material[0] as usize].diffuse,
+        [0.7, 0.1, 0.1]
+    );
+    assert!(
+        !s.warnings.iter().any(|w| w.contains("no material")),
+        "{:?}",
+        s.warnings
+    );
 }
