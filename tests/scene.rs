@@ -785,22 +785,17 @@ fn texture_options_are_named_and_the_file_read() {
         .unwrap()
         .save(d.join("tex.png"))
         .unwrap();
-    let s = load_with_mtl(
-        &d,
-        "newmtl m\nKd 0.5 0.5 0.5\nmap_Kd -s 2 2 1 -o 0.5 0.5 0 tex.png\n",
-        "m",
-    );
-    assert!(s.materials[0].diffuse_map.is_some(), "{:?}", s.warnings);
-    assert_warns(&s, &["`-s 2 2 1 -o 0.5 0.5 0` ignored"]);
-    // A file name with spaces after options with word values.
     std::fs::copy(d.join("tex.png"), d.join("my tex.png")).unwrap();
-    let s = load_with_mtl(
-        &d,
-        "newmtl m\nKd 0.5 0.5 0.5\nmap_Kd -blendu off -bm 1.0 -imfchan l my tex.png\n",
-        "m",
-    );
-    assert!(s.materials[0].diffuse_map.is_some(), "{:?}", s.warnings);
-    assert_warns(&s, &["`-blendu off -bm 1.0 -imfchan l` ignored"]);
+    // The second: a file name with spaces after options with word values.
+    for (options, file) in [
+        ("-s 2 2 1 -o 0.5 0.5 0", "tex.png"),
+        ("-blendu off -bm 1.0 -imfchan l", "my tex.png"),
+    ] {
+        let mtl = format!("newmtl m\nKd 0.5 0.5 0.5\nmap_Kd {options} {file}\n");
+        let s = load_with_mtl(&d, &mtl, "m");
+        assert!(s.materials[0].diffuse_map.is_some(), "{:?}", s.warnings);
+        assert_warns(&s, &[&format!("`{options}` ignored")]);
+    }
 }
 
 /// MTL statements the light-transport contract has no term for (emission, transparency) are named
