@@ -65,9 +65,18 @@ impl RgbImage {
 
     /// The first non-finite pixel, as (x, y).
     pub fn first_non_finite(&self) -> Option<(u32, u32)> {
+        self.first(|c| !c.is_finite())
+    }
+
+    /// The first pixel with a negative channel (not radiance), as (x, y).
+    pub fn first_negative(&self) -> Option<(u32, u32)> {
+        self.first(|c| c < 0.0)
+    }
+
+    fn first(&self, bad: impl Fn(f32) -> bool) -> Option<(u32, u32)> {
         self.pixels
             .iter()
-            .position(|p| p.iter().any(|c| !c.is_finite()))
+            .position(|p| p.iter().any(|&c| bad(c)))
             .map(|i| (i as u32 % self.width, i as u32 / self.width))
     }
 }

@@ -1180,13 +1180,8 @@ fn run_compare(reference: PathBuf, test: PathBuf, heatmap: Option<PathBuf>) -> R
     // Radiance is not negative: an image with negative pixels (another tool's output) would give
     // energies and errors without meaning (an energy ratio below 0).
     for (img, path) in [(&r, &reference), (&t, &test)] {
-        if let Some(i) = img.pixels.iter().position(|p| p.iter().any(|&c| c < 0.0)) {
-            bail!(
-                "{}: negative radiance at ({}, {})",
-                path.display(),
-                i as u32 % img.width,
-                i as u32 / img.width
-            );
+        if let Some((x, y)) = img.first_negative() {
+            bail!("{}: negative radiance at ({x}, {y})", path.display());
         }
     }
     // An .exr holds linear radiance, a .png the sRGB-encoded preview: the two do not compare.

@@ -55,8 +55,7 @@ pub fn images_for(
                 if let Some((x, y)) = img.first_non_finite() {
                     anyhow::bail!("{}: non-finite pixel at ({x}, {y})", path.display());
                 }
-                if let Some(i) = img.pixels.iter().position(|p| p.iter().any(|&c| c < 0.0)) {
-                    let (x, y) = (i as u32 % w, i as u32 / w);
+                if let Some((x, y)) = img.first_negative() {
                     anyhow::bail!("{}: negative radiance at ({x}, {y})", path.display());
                 }
                 Ok(img)

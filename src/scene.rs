@@ -130,11 +130,7 @@ impl Texture {
             img.color(),
             image::ColorType::Rgb32F | image::ColorType::Rgba32F
         ) {
-            let lut = crate::trace::srgb_lut();
-            img.to_rgb32f()
-                .pixels()
-                .map(|p| p.0.map(|c| linear_to_srgb8(c, &lut)))
-                .collect()
+            img.to_rgb32f().pixels().map(|p| p.0.map(srgb8)).collect()
         } else {
             img.to_rgb8().pixels().map(|p| p.0).collect()
         };
@@ -199,10 +195,7 @@ pub fn fit_textures(materials: &mut [Material], budget: usize) -> Option<String>
             path: t.path.clone(),
             width: w,
             height: h,
-            rgb: half
-                .pixels()
-                .map(|p| p.0.map(|c| linear_to_srgb8(c, &lut)))
-                .collect(),
+            rgb: half.pixels().map(|p| p.0.map(srgb8)).collect(),
         });
     }
     let mut changed = Vec::new();
@@ -230,16 +223,10 @@ pub fn fit_textures(materials: &mut [Material], budget: usize) -> Option<String>
     ))
 }
 
-/// The 8-bit sRGB code whose decoded value (`lut`, the table every reader decodes with) is nearest
-/// the linear value `c` (clamped to [0, 1]; NaN reads 0).
-fn linear_to_srgb8(c: f32, lut: &[f32]) -> u8 {
-    let c = if c.is_nan() { 0.0 } else { c.clamp(0.0, 1.0) };
-    let above = lut.partition_point(|&v| v < c).min(255);
-    if above > 0 && c - lut[above - 1] <= lut[above] - c {
-        (above - 1) as u8
-    } else {
-        above as u8
-    }
+/// The 8-bit sRGB code of a linear albedo (clamped to [0, 1]; NaN reads 0), as the previews are
+/// written (`images::srgb8`).
+fn srgb8(c: f32) -> u8 {
+    (crate::images::srgb_encode(c) * 255.0 + 0.5) as u8
 }
 
 #[derive(Clone, Debug, Deserialize, PartialEq)]
@@ -1289,12 +1276,12 @@ impl Scene {
             );
             let obj_dir = obj_input::folder_of(&obj_path);
             let mtl = read_mtls(&text, &obj_dir, &mut notes).map_err(|e| match e {
-                MtlRead::Material(e) => e,
-                MtlRead::Obj(message) => SceneError::Obj {
+                SceneError::Obj { obj, message, .. } => SceneError::Obj {
                     path: p.clone(),
-                    obj: label.clone(),
+                    obj,
                     message,
                 },
+                e => e,
             })?;
             // tobj is not known to panic on what passed the checks above; should it, the panic is
             // an error naming the file, not an abort.
@@ -1624,20 +1611,16 @@ struct MtlSource {
     materials: Vec<String>,
 }
 
-/// Why an OBJ's .mtl files could not be read.
-enum MtlRead {
-    Material(SceneError),
-    Obj(String),
-}
-
 /// The .mtl files an OBJ's `mtllib` lines name, found beside it (`obj_input::find_file`; an argument
 /// that names no file is read as several file names, as the format allows), each read as tobj reads
-/// it. A file that is not there is a note naming where it was looked for.
+/// it. A file that is not there is a note naming where it was looked for (the only word of it: tobj
+/// is given no file to fail on). A file that cannot be read is [`SceneError::Obj`] (its `path` the
+/// caller's to fill), a statement that cannot be [`SceneError::Material`].
 fn read_mtls(
     obj_text: &str,
     obj_dir: &Path,
     notes: &mut Vec<String>,
-) -> Result<Vec<MtlSource>, MtlRead> {
+) -> Result<Vec<MtlSource>, SceneError> {
     let mut out = Vec::new();
     for named_as in obj_text
         .lines()
@@ -1654,7 +1637,7 @@ fn read_mtls(
         };
         if files.iter().all(|(_, f)| f.is_none()) {
             notes.push(format!(
-                "mtllib {named_as}: no such file in {} (its materials are grey diffuse 0.8)",
+                "no usable .mtl (mtllib {named_as}: no such file in {}): its materials are grey diffuse 0.8",
                 obj_dir.display()
             ));
             continue;
@@ -1668,16 +1651,19 @@ fn read_mtls(
                 continue;
             };
             let label = file.display().to_string();
-            let bytes = std::fs::read(&file).map_err(|e| MtlRead::Obj(format!("{label}: {e}")))?;
+            let bytes = std::fs::read(&file).map_err(|e| SceneError::Obj {
+                path: String::new(),
+                obj: label.clone(),
+                message: e.to_string(),
+            })?;
             let decoded = obj_input::decode(&label, bytes, notes);
-            let (text, materials) = obj_input::mtl_text(&label, &decoded, notes).map_err(|e| {
-                MtlRead::Material(SceneError::Material {
+            let (text, materials) =
+                obj_input::mtl_text(&label, &decoded, notes).map_err(|e| SceneError::Material {
                     path: label.clone(),
                     line: e.line,
                     name: e.material,
                     message: e.message,
-                })
-            })?;
+                })?;
             out.push(MtlSource {
                 label,
                 text,
@@ -1701,11 +1687,11 @@ fn load_obj_text(text: &str, mtl: &[MtlSource]) -> tobj::LoadResult {
         format!("mtllib {EVERY}\n{text}")
     };
     tobj::load_obj_buf(&mut text.as_bytes(), &load_options(), |named| {
+        // Every `mtllib` line of the OBJ itself loads nothing: its files are in EVERY, and one
+        // that was not found is already named by read_mtls.
         if named.to_string_lossy().trim() == EVERY {
             let texts: Vec<&str> = mtl.iter().map(|m| m.text.as_str()).collect();
             tobj::load_mtl_buf(&mut texts.join("\n").as_bytes())
-        } else if mtl.is_empty() {
-            Err(tobj::LoadError::OpenFileFailed)
         } else {
             Ok((Vec::new(), Default::default()))
         }
@@ -1852,12 +1838,8 @@ fn obj_mesh(
                 .collect()
             }
             Err(e) => {
-                // Name the file tobj could not use: the OBJ's `mtllib` lines, resolved beside it.
-                let named: Vec<String> = obj_text
-                    .lines()
-                    .filter_map(|l| l.trim().strip_prefix("mtllib"))
-                    .map(|m| obj_dir.join(m.trim()).display().to_string())
-                    .collect();
+                // Name the files tobj could not use (read_mtls found and read them).
+                let named: Vec<&str> = src.mtl.iter().map(|m| m.label.as_str()).collect();
                 let which = if named.is_empty() {
                     "the OBJ has no mtllib line".to_string()
                 } else {
