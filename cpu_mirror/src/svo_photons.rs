@@ -6,14 +6,23 @@
 //! A photon carries the radiance its texel gives the voxel it lands in. The texel's pencil of light has
 //! cross-section `d^2 * omega` at the hit (`omega` the texel's solid angle), so it brings the flux
 //! `E * d^2 * omega` (`E` the light contract's irradiance across the beam: `incident`'s, without the
-//! cosine, which the surface area it spreads over cancels) and the surface reflects `albedo` of it.
-//! Spread over the surface area a voxel holds, that is outgoing radiance
-//! `L = albedo * E * d^2 * omega / (pi * A)`. A planar surface with unit normal `n` crosses, per unit of
-//! its area, `(|nx| + |ny| + |nz|) / h^2` cells of size `h` (the cells a plane passes through), so the
-//! mean area per crossed cell is `A = h^2 / |n|_1`; the photon stores
-//! `albedo * E * d^2 omega * |n|_1 / (pi h^2)`. Summed over a cell this is `L` times the cell's share of
-//! area over the mean: the premultiplied `L * alpha` the octree holds, `alpha` the surface's coverage
-//! of the cell.
+//! cosine) over the surface area `d^2 omega / cos` (`cos` between the beam and the normal), and the
+//! surface reflects `albedo` of it. The voxel's premultiplied radiance `L * alpha` is what the octree
+//! holds, and the voxels' `alpha` is voxelize's, 1 wherever a surface was sampled: so a voxel's photons
+//! must add to the radiance of its surface, `albedo * E * cos / pi` where the light reaches all of it,
+//! whatever share of the voxel that surface takes. Each photon is its texel's flux over the area `A` of
+//! its own plane (the point and its normal) inside its voxel ([`cell_area`]):
+//! `value = albedo * E * d^2 omega / (pi * max(A, MIN_AREA h^2))`. Where the texels are finer than
+//! the cell's piece of plane, its photons add to that radiance; where they are coarser (a grazing
+//! surface, a light far away), a cell gets a photon with the probability `A / (d^2 omega / cos)`, and
+//! that photon `L` times its inverse: the same light on average. The floor keeps a sliver a plane
+//! cuts off a cell's corner from taking a photon's flux over almost no area: such slivers get less
+//! than their surface's light on average, and voxelize, sampling the surface, leaves many of them
+//! empty anyway.
+//! A plane's area in a cell swings from 0 to `sqrt(2) h^2` with where it crosses the cell; the mean
+//! over every offset, `h^2 / |n|_1`, would make a voxel's light depend on that offset instead (a
+//! 45-degree wall through voxel corners would hold 1.4 times the light of one through their middles:
+//! docs/accuracy/orientation.md).
 //!
 //! The texel's `d^2 omega`: a perspective view with texel side `s` on the image plane at distance 1 has
 //! `omega = s^2 cos^3(a)` (`a` off the axis), and with `zv = d cos(a)` the depth along the axis,
@@ -27,8 +36,8 @@
 //! direction distribution (VCT 7), reflected at injection, where the surface normal is exact:
 //! `(m r w, w)` with `r = 2 (n.wi) n - wi` the light's mirror direction, `m = Ns / (Ns + 1)` the mean
 //! length of a von Mises-Fisher lobe of concentration ~Ns (the Phong lobe `cos^Ns`), and
-//! `w = lum(Ks E) d^2 omega |n|_1 / h^2` the specular flux per mean cell area (the value's scale without
-//! `1 / pi`: the lobe's density is per steradian). Summed over a cell, `|sum m r w| / sum w` encodes the
+//! `w = lum(Ks E) d^2 omega / max(A, MIN_AREA h^2)` (the value's scale without `1 / pi`: the lobe's
+//! density is per steradian). Summed over a cell, `|sum m r w| / sum w` encodes the
 //! reflected light's spread (the BRDF's, the light's and the normals' at once) as the normal pool's
 //! length does (Toksvig); svo_cone_trace evaluates the lobe towards each cone. Luminance only: the
 //! glossy light is grey.
@@ -80,6 +89,122 @@ pub fn luminance(c: Vec3) -> f32 {
     (0.2126 * c.x + 0.7152 * c.y) + 0.0722 * c.z
 }
 
+/// The least area of a plane in its cell a photon's flux is spread over, in units of the cell's face:
+/// an eighth (a 45-degree plane holds `1 / sqrt(2)` of a face in a cell on average). See the module's
+/// documentation.
+pub const MIN_AREA: f32 = 0.125;
+
+/// `strip(s, a, b)` for `0 <= a <= b`, `a + b > 0`: the area of `{(x, y) in [0, 1]^2 : a x + b y <= s}`,
+/// in the kernel's operation order. Piecewise, each piece free of cancellation: `s^2 / 2ab` up to
+/// `s = a`, then linear up to `b`, then `1 - (a + b - s)^2 / 2ab`.
+pub fn strip(s: f32, a: f32, b: f32) -> f32 {
+    if s >= a + b {
+        1.0
+    } else if s <= 0.0 {
+        0.0
+    } else if s < a {
+        s * s / (2.0 * a * b)
+    } else if s <= b {
+        (s - 0.5 * a) / b
+    } else {
+        let t = (a + b) - s;
+        1.0 - t * t / (2.0 * a * b)
+    }
+}
+
+/// The plane's components sorted: `(a, b, c)` with `a <= b <= c` of `|n|` (exact: min and max).
+fn sorted(m: Vec3) -> (f32, f32, f32) {
+    let a = m.x.min(m.y).min(m.z);
+    let c = m.x.max(m.y).max(m.z);
+    let b = m.x.min(m.y).max(m.x.max(m.y).min(m.z));
+    (a, b, c)
+}
+
+/// The plane's offset `d` in the cell mirrored so that every normal component is `>= 0`: `sum |n_k| q'_k`
+/// with `q'_k = q_k`, or `1 - q_k` where `n_k < 0`.
+fn offset(q: Vec3, n: Vec3) -> f32 {
+    let m = n.abs();
+    let f = |q: f32, n: f32| if n < 0.0 { 1.0 - q } else { q };
+    (m.x * f(q.x, n.x) + m.y * f(q.y, n.y)) + m.z * f(q.z, n.z)
+}
+
+/// The area of the plane through `q` with normal `n` inside the unit cell `[0, 1]^3`, in the kernel's
+/// operation order (0 for `n = 0`). Seen along the normal's largest component `c`, the plane's piece of
+/// the cell projects onto the strip `d - c <= a x + b y <= d` of the unit square, and the area is that
+/// strip's over the cosine `c / |n|`: `|n| / c * (strip(d) - strip(d - c))`. A plane along a face
+/// (`a = b = 0`) has area 1 on either face of the cell, `0 <= d <= c`: a photon on a face lands in the
+/// cell floor gives it, on its near face, and the cell must hold the plane it lands with.
+pub fn cell_area(q: Vec3, n: Vec3) -> f32 {
+    let (a, b, c) = sorted(n.abs());
+    if c <= 0.0 {
+        return 0.0;
+    }
+    let len = ((n.x * n.x + n.y * n.y) + n.z * n.z).sqrt();
+    let d = offset(q, n);
+    let s = if a + b <= 0.0 {
+        if d >= 0.0 && d <= c {
+            1.0
+        } else {
+            0.0
+        }
+    } else {
+        strip(d, a, b) - strip(d - c, a, b)
+    };
+    (len / c) * s
+}
+
+/// Bounds on what a GPU's [`cell_area`] of the same `q` and `n` gives, `(lo, hi)`. `q` is the same
+/// there (exact or correctly rounded operations); the offset `d` is three products and two sums, which
+/// may contract into fused operations: within `4 u sum |n_k q'_k|` of the mirror's (`u = 2^-24`), and
+/// `d - c` one more rounding each side. `strip` is monotone, so its range over those intervals bounds
+/// it, and its own arithmetic (a square, a product, a 2.5-ULP division, `1 -` a value `<= 1/2`) is
+/// within `8 u` absolute; the subtraction of the two `u`. `|n| / c`: a dot product (3 ULP), sqrt (via
+/// 1 / inverseSqrt, 5 ULP) and a division (2.5 ULP): 12 ULP.
+pub fn cell_area_range(q: Vec3, n: Vec3) -> (f64, f64) {
+    let u = f32::EPSILON as f64 / 2.0;
+    let (a, b, c) = sorted(n.abs());
+    if c <= 0.0 {
+        return (0.0, 0.0);
+    }
+    let m = n.abs();
+    let f = |q: f32, n: f32| if n < 0.0 { 1.0 - q } else { q };
+    let mag = (m.x * f(q.x, n.x).abs() + m.y * f(q.y, n.y).abs() + m.z * f(q.z, n.z).abs()) as f64;
+    let d = offset(q, n) as f64;
+    let e_d = 4.0 * u * mag + u * d.abs();
+    let e_dc = e_d + 2.0 * u * (d - c as f64).abs();
+    let (a, b, c) = (a as f64, b as f64, c as f64);
+    let strip64 = |s: f64| -> f64 {
+        if s >= a + b {
+            1.0
+        } else if s <= 0.0 {
+            0.0
+        } else if s < a {
+            s * s / (2.0 * a * b)
+        } else if s <= b {
+            (s - 0.5 * a) / b
+        } else {
+            let t = (a + b) - s;
+            1.0 - t * t / (2.0 * a * b)
+        }
+    };
+    // Along a face the offset is one product (the others are exact zeros): the same on a GPU.
+    let (lo, hi) = if a + b <= 0.0 {
+        let s = if d >= 0.0 && d <= c { 1.0 } else { 0.0 };
+        (s, s)
+    } else {
+        (
+            strip64(d - e_d) - strip64(d - c + e_dc) - 17.0 * u,
+            strip64(d + e_d) - strip64(d - c - e_dc) + 17.0 * u,
+        )
+    };
+    let len = (n.as_dvec3()).length();
+    let k = len / c;
+    (
+        (k * lo * (1.0 - 12.0 * u)).max(0.0),
+        k * hi * (1.0 + 12.0 * u),
+    )
+}
+
 /// The photon of a light-view G-buffer pixel (position, normal, albedo), in the kernel's operation
 /// order.
 ///
@@ -88,7 +213,8 @@ pub fn luminance(c: Vec3) -> f32 {
 /// value is a product of about a dozen correctly rounded or 2.5-ULP operations plus `sqrt` (via
 /// inverseSqrt, 8 ULP?) and `dot` (any order): 64 ULP of it, plus the depth's cancellation — `zv` is a
 /// dot product, off by up to 4 ULP of `|rel| . |forward|`, and enters cubed, so `3 e_zv / zv` relative —
-/// plus `incident_error`'s irradiance (a spot's soft edge) times the rest.
+/// plus `incident_error`'s irradiance (a spot's soft edge) times the rest, plus the share's range (its
+/// cell area within [`cell_area_range`]) times the irradiance.
 pub fn photon(
     p: &PhotonParams,
     light: &GpuLight,
@@ -125,12 +251,28 @@ pub fn photon(
     } else {
         0.0
     };
-    let l1 = (n.x.abs() + n.y.abs()) + n.z.abs();
-    let scale = area * (l1 * (inv_h * inv_h * (1.0 / PI)));
+    // The texel's share: its flux over its plane's area in the cell, that area at least MIN_AREA.
+    // A point past the grid (a hit a rounding outside it) is taken onto the cell it is clamped to.
+    let q = (cell - Vec3::new(pos[0] as f32, pos[1] as f32, pos[2] as f32))
+        .clamp(Vec3::ZERO, Vec3::ONE);
+    let share = area * (inv_h * inv_h) / cell_area(q, n).max(MIN_AREA);
+    // Its range on a GPU: the cell's area within `cell_area_range`, `max` monotone, then a product,
+    // a square and a division (4.5 ULP).
+    let share_err = {
+        let u64 = u as f64 / 2.0;
+        let (lo, hi) = cell_area_range(q, n);
+        let k = area as f64 * (inv_h as f64 * inv_h as f64);
+        let s_lo = k / hi.max(MIN_AREA as f64) * (1.0 - 10.0 * u64);
+        let s_hi = k / lo.max(MIN_AREA as f64) * (1.0 + 10.0 * u64);
+        (share as f64 - s_lo).max(s_hi - share as f64) as f32
+    };
+    let scale = share * (1.0 / PI);
     let kd = v3(albedo);
     let value = kd * inc.irradiance * scale;
-    let bound = value * rel_err + kd * e_irr * (scale * (1.0 + rel_err));
-    // Specular: the same scale without 1/pi, the mirror direction (unit vectors: a few ULP, plus the
+    let bound = value * rel_err
+        + kd * e_irr * (scale * (1.0 + rel_err))
+        + kd * (inc.irradiance + e_irr) * (share_err * (1.0 / PI) * (1.0 + rel_err));
+    // Specular: the same share without 1/pi, the mirror direction (unit vectors: a few ULP, plus the
     // light direction's error), the lobe's mean length.
     let ks = v3(material.specular);
     let (mut spec, mut spec_bound) = ([0.0; 4], [0.0; 4]);
@@ -138,13 +280,13 @@ pub fn photon(
         let ns = material.diffuse[3].max(0.0);
         let m = ns / (ns + 1.0);
         let ke = ks * inc.irradiance;
-        let s = area * (l1 * (inv_h * inv_h));
-        let w = luminance(ke) * s;
+        let w = luminance(ke) * share;
         let r = n * (2.0 * n.dot(inc.wi)) - inc.wi;
         let q = r * (m * w);
         let (_, e_dir) = incident_error(light, x, 0.0);
         let e_w = w.abs() * (rel_err + 8.0 * u)
-            + luminance(ks) * e_irr.max_element() * s * (1.0 + rel_err);
+            + luminance(ks) * e_irr.max_element() * share * (1.0 + rel_err)
+            + luminance(ks) * (inc.irradiance + e_irr).max_element() * share_err * (1.0 + rel_err);
         let e_q = (r.abs() * m) * e_w + Vec3::splat(m * w.abs() * (3.0 * e_dir + 16.0 * u));
         spec = [q.x, q.y, q.z, w];
         spec_bound = [e_q.x, e_q.y, e_q.z, e_w];
@@ -239,7 +381,8 @@ mod tests {
     }
 
     /// A directional light straight down on a floor: every cell the texels tile gets exactly the
-    /// floor's radiance albedo * E / pi (texels nest in cells: 4 x 4 of them per cell).
+    /// floor's radiance albedo * E / pi (texels nest in cells: 4 x 4 of them per cell), wherever the
+    /// floor lies in its cells, its normal up or down (a thin wall's two sides).
     #[test]
     fn uniform_light_gives_the_surface_radiance_per_cell() {
         let side = 64;
@@ -250,32 +393,38 @@ mod tests {
             direction: [0.0, -1.0, 0.0, 0.0],
             intensity: [2.0, 1.0, 0.5, 0.0],
         };
-        let p = params(
-            eye,
-            side,
-            2.0 * half / side as f32,
-            true,
-            Vec3::new(-8.0, -0.5, -8.0),
-            1.0,
-            16,
-        );
-        let pos = floor_view(eye, side, Some(half));
-        let nrm = vec![[0.0, 1.0, 0.0, 1.0]; pos.len()];
-        let alb = vec![[0.5, 0.5, 0.5, 1.0]; pos.len()];
-        let ph = diffuse_photons(&p, light, [&pos, &nrm, &alb]);
-        let mut cells = std::collections::HashMap::<[u32; 3], Vec3>::new();
-        for q in &ph {
-            assert_eq!(q.pos[3], 1);
-            assert_eq!(q.pos[1], 0);
-            *cells.entry([q.pos[0], q.pos[1], q.pos[2]]).or_default() += v3(q.value);
-        }
-        assert_eq!(cells.len(), 256);
-        let want = Vec3::new(2.0, 1.0, 0.5) * 0.5 / PI;
-        for (c, v) in cells {
-            assert!(
-                (v - want).abs().max_element() < 1e-6,
-                "{c:?}: {v} vs {want}"
-            );
+        // The floor inside its cells, on their lower and upper faces, and a rounding below the
+        // grid (clamped into its first layer).
+        for (origin_y, cell_y) in [(-0.5, 0), (0.0, 0), (-1.0, 1), (1e-6, 0)] {
+            for up in [1.0, -1.0] {
+                let p = params(
+                    eye,
+                    side,
+                    2.0 * half / side as f32,
+                    true,
+                    Vec3::new(-8.0, origin_y, -8.0),
+                    1.0,
+                    16,
+                );
+                let pos = floor_view(eye, side, Some(half));
+                let nrm = vec![[0.0, up, 0.0, 1.0]; pos.len()];
+                let alb = vec![[0.5, 0.5, 0.5, 1.0]; pos.len()];
+                let ph = diffuse_photons(&p, light, [&pos, &nrm, &alb]);
+                let mut cells = std::collections::HashMap::<[u32; 3], Vec3>::new();
+                for q in &ph {
+                    assert_eq!(q.pos[3], 1);
+                    assert_eq!(q.pos[1], cell_y);
+                    *cells.entry([q.pos[0], q.pos[1], q.pos[2]]).or_default() += v3(q.value);
+                }
+                assert_eq!(cells.len(), 256);
+                let want = Vec3::new(2.0, 1.0, 0.5) * 0.5 / PI;
+                for (c, v) in cells {
+                    assert!(
+                        (v - want).abs().max_element() < 1e-6,
+                        "origin {origin_y}, normal {up}: {c:?}: {v} vs {want}"
+                    );
+                }
+            }
         }
     }
 
@@ -304,7 +453,8 @@ mod tests {
         let nrm = vec![[0.0, 1.0, 0.0, 1.0]; pos.len()];
         let alb = vec![[0.8, 0.8, 0.8, 1.0]; pos.len()];
         let ph = diffuse_photons(&p, light, [&pos, &nrm, &alb]);
-        // Flux back from the stored radiance: value * pi * h^2 / |n|_1 per photon.
+        // Flux back from the stored radiance: value * pi * A per photon, A = h^2 (a floor's area in
+        // its cell).
         let flux: f64 = ph
             .iter()
             .map(|q| q.value[0] as f64 * std::f64::consts::PI * (h * h) as f64)
@@ -315,6 +465,160 @@ mod tests {
         assert!(ph
             .iter()
             .all(|q| q.bound[0] > 0.0 && q.bound[0] < 1e-4 * q.value[0]));
+    }
+
+    /// The plane's area in the unit cell by inclusion-exclusion over the cube's corners (f64): for
+    /// `n > 0` componentwise, the volume below `n.x = d` is `sum_v (-1)^|v| max(0, d - n.v)^3 / 6 n1 n2 n3`,
+    /// and the area its derivative in `d` times `|n|`. Independent of [`cell_area`]'s projection.
+    fn corner_area(q: [f64; 3], n: [f64; 3]) -> f64 {
+        let d = q[0] * n[0] + q[1] * n[1] + q[2] * n[2];
+        let mut sum = 0.0;
+        for v in 0..8 {
+            let c = [(v & 1) as f64, ((v >> 1) & 1) as f64, ((v >> 2) & 1) as f64];
+            let sign = if (v as u32).count_ones() % 2 == 0 {
+                1.0
+            } else {
+                -1.0
+            };
+            let t = (d - (c[0] * n[0] + c[1] * n[1] + c[2] * n[2])).max(0.0);
+            sum += sign * t * t;
+        }
+        let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+        len * sum / (2.0 * n[0] * n[1] * n[2])
+    }
+
+    #[test]
+    fn a_planes_area_in_a_cell() {
+        let r2 = 2f32.sqrt();
+        let cases = [
+            // Axis-aligned anywhere in the cell, and on its faces.
+            ([0.3, 0.5, 0.7], [0.0, 1.0, 0.0], 1.0),
+            ([0.3, 0.0, 0.7], [0.0, 1.0, 0.0], 1.0),
+            ([0.3, 0.0, 0.7], [0.0, -1.0, 0.0], 1.0),
+            ([0.3, 1.0, 0.7], [0.0, -1.0, 0.0], 1.0),
+            // The diagonal rectangle, and one through a corner region.
+            ([0.5, 0.5, 0.5], [1.0, 1.0, 0.0], r2),
+            ([0.25, 0.0, 0.5], [1.0, 1.0, 0.0], 0.25 * r2),
+            ([0.0, 0.0, 0.0], [1.0, 1.0, 0.0], 0.0),
+            // The regular hexagon through the centre, the triangle through three corners.
+            ([0.5, 0.5, 0.5], [1.0, 1.0, 1.0], 0.75 * 3f32.sqrt()),
+            ([1.0, 0.0, 0.0], [-1.0, -1.0, -1.0], 0.5 * 3f32.sqrt()),
+            ([0.3, 0.3, 0.3], [0.0, 0.0, 0.0], 0.0),
+        ];
+        for (q, n, want) in cases {
+            let got = cell_area(Vec3::from(q), Vec3::from(n));
+            assert!((got - want).abs() < 1e-6, "{q:?} {n:?}: {got} vs {want}");
+            // Scale-free in n.
+            let got3 = cell_area(Vec3::from(q), Vec3::from(n) * 3.0);
+            assert!((got3 - want).abs() < 1e-6);
+        }
+    }
+
+    #[test]
+    fn a_planes_area_agrees_with_inclusion_exclusion_and_its_range_holds_it() {
+        // xorshift64: uniform in [0, 1).
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        };
+        for _ in 0..20000 {
+            let n: [f32; 3] = std::array::from_fn(|_| {
+                let m = 0.05 + 0.95 * next();
+                if next() < 0.5 {
+                    -m
+                } else {
+                    m
+                }
+            });
+            let q: [f32; 3] = std::array::from_fn(|_| next());
+            // Mirror q with n to the all-positive normal the formula takes.
+            let qp = std::array::from_fn(|k| {
+                if n[k] < 0.0 {
+                    1.0 - q[k] as f64
+                } else {
+                    q[k] as f64
+                }
+            });
+            let np = n.map(|c| c.abs() as f64);
+            let want = corner_area(qp, np);
+            let got = cell_area(Vec3::from(q), Vec3::from(n)) as f64;
+            assert!((got - want).abs() < 2e-5, "{q:?} {n:?}: {got} vs {want}");
+            let (lo, hi) = cell_area_range(Vec3::from(q), Vec3::from(n));
+            assert!(
+                lo <= got && got <= hi,
+                "{q:?} {n:?}: {got} outside [{lo}, {hi}]"
+            );
+        }
+    }
+
+    /// A directional light on a wall at 45 degrees to the grid, at offsets from through the cells'
+    /// corners to their middles: every cell its photons fill gets the wall's radiance, where the
+    /// texels cover it (the cells the wall only clips are read as the texels land, so those within a
+    /// texel of the wall's ends and of the cells' corners are left out).
+    #[test]
+    fn a_tilted_wall_gives_its_radiance_to_every_cell_at_any_offset() {
+        // Texels of 1/64: a cell's photons miscount its area by at most a row each way (3%).
+        let side = 768;
+        let half = 6.0;
+        let s2 = 0.5f32.sqrt();
+        let dir = Vec3::new(-s2, 0.0, -s2); // the light shines along -n
+        let light = GpuLight {
+            position: [0.0, 0.0, 0.0, DIRECTIONAL],
+            direction: [dir.x, dir.y, dir.z, 0.0],
+            intensity: [1.0, 1.0, 1.0, 0.0],
+        };
+        let want = 0.5 / PI; // albedo 0.5, E 1, cos 1
+        for phase in [0.0f32, 0.1, 0.28, 0.5, 0.75] {
+            // The wall x + z = phase * sqrt(2)... through (phase, 0, 0) in cells of size 1.
+            let n = Vec3::new(s2, 0.0, s2);
+            let t = Vec3::new(s2, 0.0, -s2);
+            let mut pos = Vec::new();
+            for y in 0..side {
+                for x in 0..side {
+                    let u = 2.0 * (x as f32 + 0.5) / side as f32 - 1.0;
+                    let v = 2.0 * (y as f32 + 0.5) / side as f32 - 1.0;
+                    let p = Vec3::new(phase, 0.0, 0.0) + t * (u * half) + Vec3::Y * (v * half);
+                    pos.push([p.x, p.y, p.z, 1.0]);
+                }
+            }
+            let eye = Vec3::new(phase, 0.0, 0.0) + n * 10.0;
+            let p = PhotonParams {
+                eye: [eye.x, eye.y, eye.z, (2.0 * half / side as f32).powi(2)],
+                forward: [-n.x, -n.y, -n.z, 0.0],
+                grid: [-8.0, -8.0, -8.0, 1.0],
+                info: [side, 0, 16, 1],
+            };
+            let nrm = vec![[n.x, n.y, n.z, 1.0]; pos.len()];
+            let alb = vec![[0.5, 0.5, 0.5, 1.0]; pos.len()];
+            let ph = diffuse_photons(&p, light, [&pos, &nrm, &alb]);
+            let mut cells = std::collections::HashMap::<[u32; 3], f32>::new();
+            for q in &ph {
+                *cells.entry([q.pos[0], q.pos[1], q.pos[2]]).or_default() += q.value[0];
+            }
+            // Cells well inside the wall, whose plane piece is at least a quarter of a face.
+            let mut checked = 0;
+            for (c, v) in &cells {
+                let centre = Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32) - Vec3::splat(8.0);
+                let inside = (centre + Vec3::splat(0.5) - Vec3::new(phase, 0.0, 0.0))
+                    .dot(t)
+                    .abs()
+                    < half - 1.5
+                    && (centre.y + 0.5).abs() < half - 1.5;
+                let q = Vec3::new(phase, 0.0, 0.0) - centre;
+                let a = cell_area(q, n);
+                if inside && a > 0.25 {
+                    checked += 1;
+                    assert!(
+                        (v / want - 1.0).abs() < 0.04,
+                        "phase {phase}, cell {c:?} (area {a}): {v} vs {want}"
+                    );
+                }
+            }
+            assert!(checked > 20, "phase {phase}: {checked} cells checked");
+        }
     }
 
     /// A one-texel view and a point light 5 units above the origin, looking down; grid of 8 voxels of

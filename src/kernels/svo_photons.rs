@@ -35,7 +35,8 @@ vxgi_harness::bindings! {
             photon_pos: Vec<[u32; 4]> => Tolerance::Exact,
             // The value: the light contract's arithmetic, a dot product and a cube over a sqrt,
             // within the mirror's per-texel bound (64 ULP + the depth's cancellation + a spot's soft
-            // edge).
+            // edge + the range of the share, whose plane area in the voxel is ill-conditioned where
+            // a plane nearly along a face passes near it).
             photon_value: Vec<[f32; 4]> => Tolerance::MirrorBound,
             // The specular photon: the same arithmetic without 1/pi, the mirror direction (a dot
             // product and two products of unit vectors) and the lobe length; the mirror's bound adds
