@@ -49,8 +49,13 @@ const PI: f32 = 3.14159265358979;
 // The least area of a plane in its cell a photon's flux is spread over, in faces (the mirror's
 // MIN_AREA: a sliver a plane cuts off a cell's corner does not take a flux over almost no area).
 const MIN_AREA: f32 = 0.125;
+// cell_area's exact decisions (the mirror's constants, with their reasons): a largest component
+// below LEAST_COMPONENT is no plane's; (a + b) 2^16 <= c is along a face; a <= b 2^-24 is dropped.
+const LEAST_COMPONENT: f32 = 0x1p-8f;
+const ALONG_A_FACE: f32 = 65536.0;
+const NEGLIGIBLE: f32 = 0x1p-24f;
 
-// The area of {(x, y) in [0, 1]^2 : a x + b y <= s}, 0 <= a <= b, a + b > 0; piecewise without
+// The area of {(x, y) in [0, 1]^2 : a x + b y <= s}, 0 <= a <= b, b > 0; piecewise without
 // cancellation.
 fn strip(s: f32, a: f32, b: f32) -> f32 {
     if (s >= a + b) {
@@ -71,24 +76,27 @@ fn strip(s: f32, a: f32, b: f32) -> f32 {
 
 // The area of the plane through q with normal n inside the unit cell [0, 1]^3: mirrored so that every
 // component of n is >= 0 (q_k -> 1 - q_k), sorted a <= b <= c, the piece projects along the largest
-// component onto the strip d - c <= a x + b y <= d of the unit square, over the cosine c / |n|. A
-// plane along a face (a = b = 0) has area 1 on either face, 0 <= d <= c: a photon on a face lands in
-// the cell floor gives it, on its near face.
+// component onto the strip d - c <= a x + b y <= d of the unit square, over the cosine c / |n|; q in
+// the cell. A plane along a face has the face's area over the cosine wherever it lies in the cell,
+// either face included: a photon on a face lands in the cell floor gives it.
 fn cell_area(q: vec3<f32>, n: vec3<f32>) -> f32 {
     let m = abs(n);
-    let a = min(min(m.x, m.y), m.z);
+    var a = min(min(m.x, m.y), m.z);
     let c = max(max(m.x, m.y), m.z);
     let b = max(min(m.x, m.y), min(max(m.x, m.y), m.z));
-    if (c <= 0.0) {
+    if (c < LEAST_COMPONENT) {
         return 0.0;
+    }
+    let k = sqrt(dot(n, n)) / c;
+    if ((a + b) * ALONG_A_FACE <= c) {
+        return k;
+    }
+    if (a <= b * NEGLIGIBLE) {
+        a = 0.0;
     }
     let qm = select(q, vec3<f32>(1.0) - q, n < vec3<f32>(0.0));
     let d = (m.x * qm.x + m.y * qm.y) + m.z * qm.z;
-    var s = select(0.0, 1.0, d >= 0.0 && d <= c);
-    if (a + b > 0.0) {
-        s = strip(d, a, b) - strip(d - c, a, b);
-    }
-    return (sqrt(dot(n, n)) / c) * s;
+    return k * (strip(d, a, b) - strip(d - c, a, b));
 }
 
 @compute @workgroup_size(64)

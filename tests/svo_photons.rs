@@ -69,6 +69,7 @@ fn photons_carry_the_voxels_light_wherever_a_wall_crosses_them() {
         ratios.push(photons_over_voxel_light(&scene));
     }
     println!("{ratios:.3?}");
+    // Measured (lavapipe): 77-81% of the voxels within 25%, totals 0.98-1.07 of voxel_light's.
     for light in &ratios {
         assert!(
             light.near > 0.7 && (0.9..1.15).contains(&light.total),

@@ -20,9 +20,9 @@
 //! than their surface's light on average, and voxelize, sampling the surface, leaves many of them
 //! empty anyway.
 //! A plane's area in a cell swings from 0 to `sqrt(2) h^2` with where it crosses the cell; the mean
-//! over every offset, `h^2 / |n|_1`, would make a voxel's light depend on that offset instead (a
-//! 45-degree wall through voxel corners would hold 1.4 times the light of one through their middles:
-//! docs/accuracy/orientation.md).
+//! over every offset, `h^2 / |n|_1`, would make a voxel's light depend on that offset instead (at 45
+//! degrees a voxel the wall crosses along its diagonal would hold twice its radiance, one whose
+//! corner it cuts next to nothing: docs/accuracy/orientation.md).
 //!
 //! The texel's `d^2 omega`: a perspective view with texel side `s` on the image plane at distance 1 has
 //! `omega = s^2 cos^3(a)` (`a` off the axis), and with `zv = d cos(a)` the depth along the axis,
@@ -94,7 +94,7 @@ pub fn luminance(c: Vec3) -> f32 {
 /// documentation.
 pub const MIN_AREA: f32 = 0.125;
 
-/// `strip(s, a, b)` for `0 <= a <= b`, `a + b > 0`: the area of `{(x, y) in [0, 1]^2 : a x + b y <= s}`,
+/// `strip(s, a, b)` for `0 <= a <= b`, `b > 0`: the area of `{(x, y) in [0, 1]^2 : a x + b y <= s}`,
 /// in the kernel's operation order. Piecewise, each piece free of cancellation: `s^2 / 2ab` up to
 /// `s = a`, then linear up to `b`, then `1 - (a + b - s)^2 / 2ab`.
 pub fn strip(s: f32, a: f32, b: f32) -> f32 {
@@ -111,6 +111,20 @@ pub fn strip(s: f32, a: f32, b: f32) -> f32 {
         1.0 - t * t / (2.0 * a * b)
     }
 }
+
+/// Below this largest component a normal is no plane's (the G-buffer's normals are unit vectors,
+/// whose largest component is at least `1 / sqrt(3)`): the area is 0. It keeps every product below
+/// normal, where a GPU may flush.
+pub const LEAST_COMPONENT: f32 = 1.0 / 256.0;
+/// A plane whose two smaller components add to at most `2^-16` of its largest is along a face: over
+/// the whole grid (at most 2^10 cells a side) it rises less than a 64th of a cell, and its area in
+/// its cell is the face's over the cosine. Deciding it exactly keeps a tilt of a rounding (an
+/// interpolated normal) on a face from an ill-conditioned area, and keeps subnormal components,
+/// which a GPU may flush, out of the strip.
+const ALONG_A_FACE: f32 = 65536.0;
+/// A smaller component at most `2^-24` of the middle one is dropped (the strip's area moves by at most
+/// `a / 2b <= 2^-25`), so that `2ab` is never below normal.
+const NEGLIGIBLE: f32 = 1.0 / 16777216.0;
 
 /// The plane's components sorted: `(a, b, c)` with `a <= b <= c` of `|n|` (exact: min and max).
 fn sorted(m: Vec3) -> (f32, f32, f32) {
@@ -131,46 +145,50 @@ fn offset(q: Vec3, n: Vec3) -> f32 {
 /// The area of the plane through `q` with normal `n` inside the unit cell `[0, 1]^3`, in the kernel's
 /// operation order (0 for `n = 0`). Seen along the normal's largest component `c`, the plane's piece of
 /// the cell projects onto the strip `d - c <= a x + b y <= d` of the unit square, and the area is that
-/// strip's over the cosine `c / |n|`: `|n| / c * (strip(d) - strip(d - c))`. A plane along a face
-/// (`a = b = 0`) has area 1 on either face of the cell, `0 <= d <= c`: a photon on a face lands in the
-/// cell floor gives it, on its near face, and the cell must hold the plane it lands with.
+/// strip's over the cosine `c / |n|`: `|n| / c * (strip(d) - strip(d - c))`. `q` is in the cell (the
+/// caller clamps it). A plane along a face ([`ALONG_A_FACE`]) has the face's area over the cosine
+/// wherever it lies in the cell, on either face included: a photon on a face lands in the cell floor
+/// gives it, and that cell must hold the plane it lands with.
 pub fn cell_area(q: Vec3, n: Vec3) -> f32 {
     let (a, b, c) = sorted(n.abs());
-    if c <= 0.0 {
+    if c < LEAST_COMPONENT {
         return 0.0;
     }
     let len = ((n.x * n.x + n.y * n.y) + n.z * n.z).sqrt();
+    if (a + b) * ALONG_A_FACE <= c {
+        return len / c;
+    }
+    let a = if a <= b * NEGLIGIBLE { 0.0 } else { a };
     let d = offset(q, n);
-    let s = if a + b <= 0.0 {
-        if d >= 0.0 && d <= c {
-            1.0
-        } else {
-            0.0
-        }
-    } else {
-        strip(d, a, b) - strip(d - c, a, b)
-    };
-    (len / c) * s
+    (len / c) * (strip(d, a, b) - strip(d - c, a, b))
 }
 
-/// Bounds on what a GPU's [`cell_area`] of the same `q` and `n` gives, `(lo, hi)`. `q` is the same
-/// there (exact or correctly rounded operations); the offset `d` is three products and two sums, which
-/// may contract into fused operations: within `4 u sum |n_k q'_k|` of the mirror's (`u = 2^-24`), and
-/// `d - c` one more rounding each side. `strip` is monotone, so its range over those intervals bounds
-/// it, and its own arithmetic (a square, a product, a 2.5-ULP division, `1 -` a value `<= 1/2`) is
-/// within `8 u` absolute; the subtraction of the two `u`. `|n| / c`: a dot product (3 ULP), sqrt (via
-/// 1 / inverseSqrt, 5 ULP) and a division (2.5 ULP): 12 ULP.
+/// Bounds on what a GPU's [`cell_area`] of the same `q` and `n` gives, `(lo, hi)` (`u = 2^-24`, an
+/// ULP is `2u` at 1). The decisions (least component, along a face, negligible component) are exact
+/// comparisons of exact values on both, and flushing a subnormal does not change them. `q` is the
+/// same there (exact or correctly rounded operations); the offset `d` is three products and two
+/// sums, which may contract into fused operations and round in another order: within
+/// `6 u sum |n_k q'_k|` of the mirror's, and `d - c` one more rounding each side. `strip` is
+/// monotone, so its range over those intervals bounds it, and its own arithmetic (a square, a
+/// product, a 2.5-ULP division, `1 -` a value `<= 1/2`) is within `8 u` absolute; the subtraction of
+/// the two `u`. `|n| / c`: a dot product (3 ULP, halved by the root), sqrt (via 1 / inverseSqrt,
+/// 4.5 ULP), a division (2.5 ULP) and the product with the strip: within `24 u` of itself.
 pub fn cell_area_range(q: Vec3, n: Vec3) -> (f64, f64) {
     let u = f32::EPSILON as f64 / 2.0;
     let (a, b, c) = sorted(n.abs());
-    if c <= 0.0 {
+    if c < LEAST_COMPONENT {
         return (0.0, 0.0);
     }
+    let k = n.as_dvec3().length() / c as f64;
+    if (a + b) * ALONG_A_FACE <= c {
+        return (k * (1.0 - 24.0 * u), k * (1.0 + 24.0 * u));
+    }
+    let a = if a <= b * NEGLIGIBLE { 0.0 } else { a };
     let m = n.abs();
     let f = |q: f32, n: f32| if n < 0.0 { 1.0 - q } else { q };
     let mag = (m.x * f(q.x, n.x).abs() + m.y * f(q.y, n.y).abs() + m.z * f(q.z, n.z).abs()) as f64;
     let d = offset(q, n) as f64;
-    let e_d = 4.0 * u * mag + u * d.abs();
+    let e_d = 6.0 * u * mag;
     let e_dc = e_d + 2.0 * u * (d - c as f64).abs();
     let (a, b, c) = (a as f64, b as f64, c as f64);
     let strip64 = |s: f64| -> f64 {
@@ -187,21 +205,12 @@ pub fn cell_area_range(q: Vec3, n: Vec3) -> (f64, f64) {
             1.0 - t * t / (2.0 * a * b)
         }
     };
-    // Along a face the offset is one product (the others are exact zeros): the same on a GPU.
-    let (lo, hi) = if a + b <= 0.0 {
-        let s = if d >= 0.0 && d <= c { 1.0 } else { 0.0 };
-        (s, s)
-    } else {
-        (
-            strip64(d - e_d) - strip64(d - c + e_dc) - 17.0 * u,
-            strip64(d + e_d) - strip64(d - c - e_dc) + 17.0 * u,
-        )
-    };
-    let len = (n.as_dvec3()).length();
-    let k = len / c;
+    let lo = strip64(d - e_d) - strip64(d - c + e_dc) - 17.0 * u;
+    let hi = strip64(d + e_d) - strip64(d - c - e_dc) + 17.0 * u;
+    // lo may be a little below 0: two strips of a rounding below 1 apart.
     (
-        (k * lo * (1.0 - 12.0 * u)).max(0.0),
-        k * hi * (1.0 + 12.0 * u),
+        k * lo * (1.0 + 24.0 * u.copysign(-lo)),
+        k * hi * (1.0 + 24.0 * u),
     )
 }
 
@@ -500,6 +509,11 @@ mod tests {
             ([0.5, 0.5, 0.5], [1.0, 1.0, 0.0], r2),
             ([0.25, 0.0, 0.5], [1.0, 1.0, 0.0], 0.25 * r2),
             ([0.0, 0.0, 0.0], [1.0, 1.0, 0.0], 0.0),
+            // Along a face within a tilt of a rounding (an interpolated normal), or with a subnormal
+            // component: the face's area, on either face.
+            ([0.3, 0.0, 0.7], [1e-6, 1.0, 0.0], 1.0),
+            ([0.3, 0.0, 0.7], [1e-6, -1.0, 1e-6], 1.0),
+            ([0.3, 1.0, 0.7], [0.0, 1.0, 1e-40], 1.0),
             // The regular hexagon through the centre, the triangle through three corners.
             ([0.5, 0.5, 0.5], [1.0, 1.0, 1.0], 0.75 * 3f32.sqrt()),
             ([1.0, 0.0, 0.0], [-1.0, -1.0, -1.0], 0.5 * 3f32.sqrt()),
@@ -545,22 +559,94 @@ mod tests {
             let np = n.map(|c| c.abs() as f64);
             let want = corner_area(qp, np);
             let got = cell_area(Vec3::from(q), Vec3::from(n)) as f64;
+            // The f32 offset's rounding (a few u of |n|_1 <= sqrt(3)) times the strip's slope
+            // (at most 1 / b <= 20 with components >= 0.05): about 1.2e-5; the f64 reference's
+            // cancellation (terms up to |n|_1^2 / 2 n1 n2 n3 <= 4000) is far below.
             assert!((got - want).abs() < 2e-5, "{q:?} {n:?}: {got} vs {want}");
-            let (lo, hi) = cell_area_range(Vec3::from(q), Vec3::from(n));
-            assert!(
-                lo <= got && got <= hi,
-                "{q:?} {n:?}: {got} outside [{lo}, {hi}]"
-            );
         }
+    }
+
+    /// What a GPU may compute for [`cell_area`] stays inside [`cell_area_range`]: the offset with its
+    /// products fused and summed in other orders, `|n| / c` 8 ULP off, each strip 4 ULP off; on
+    /// normals with zero, subnormal, tiny and equal components and points on the cell's faces.
+    #[test]
+    fn a_gpus_cell_area_stays_in_its_range() {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let ulps = |x: f32, k: i32| f32::from_bits((x.to_bits() as i32 + k).max(0) as u32);
+        let mut checked = 0;
+        for _ in 0..20000 {
+            let mut pick = || match (next() * 8.0) as u32 {
+                0 => 0.0,
+                1 => 1e-40,
+                2 => 1e-7,
+                3 => 1e-3,
+                _ => 0.05 + 0.95 * next(),
+            };
+            let mut n = Vec3::new(pick(), pick(), pick());
+            if next() < 0.2 {
+                n.y = n.x;
+            }
+            let n = (n / n.length()) * Vec3::new(1.0, if next() < 0.5 { -1.0 } else { 1.0 }, 1.0);
+            if !n.is_finite() {
+                continue;
+            }
+            let q = Vec3::from_array(std::array::from_fn(|_| match (next() * 6.0) as u32 {
+                0 => 0.0,
+                1 => 1.0,
+                2 => 1.0 - f32::EPSILON / 2.0,
+                _ => next(),
+            }));
+            let (lo, hi) = cell_area_range(q, n);
+            let mirror = cell_area(q, n) as f64;
+            assert!(
+                lo <= mirror && mirror <= hi,
+                "{q} {n}: {mirror} outside [{lo}, {hi}]"
+            );
+            let (a, b, c) = sorted(n.abs());
+            if c < LEAST_COMPONENT || (a + b) * ALONG_A_FACE <= c {
+                continue;
+            }
+            let a = if a <= b * NEGLIGIBLE { 0.0 } else { a };
+            let m = n.abs();
+            let f = |q: f32, n: f32| if n < 0.0 { 1.0 - q } else { q };
+            let p = [f(q.x, n.x), f(q.y, n.y), f(q.z, n.z)];
+            let offsets = [
+                (m.x * p[0] + m.y * p[1]) + m.z * p[2],
+                m.x.mul_add(p[0], m.y * p[1]) + m.z * p[2],
+                m.z.mul_add(p[2], m.x.mul_add(p[0], m.y * p[1])),
+                m.z.mul_add(p[2], m.y.mul_add(p[1], m.x * p[0])),
+                (m.z * p[2] + m.y * p[1]) + m.x * p[0],
+            ];
+            let k = n.length() / c;
+            for d in offsets {
+                for (dk, ds) in [(-8, -4), (8, 4), (-8, 4), (8, -4)] {
+                    let area = ulps(k, dk) as f64
+                        * (ulps(strip(d, a, b), ds) as f64 - ulps(strip(d - c, a, b), -ds) as f64);
+                    assert!(
+                        lo <= area && area <= hi,
+                        "{q} {n}: a GPU's {area} outside [{lo}, {hi}] (offset {d})"
+                    );
+                    checked += 1;
+                }
+            }
+        }
+        assert!(checked > 100000, "{checked}");
     }
 
     /// A directional light on a wall at 45 degrees to the grid, at offsets from through the cells'
     /// corners to their middles: every cell its photons fill gets the wall's radiance, where the
-    /// texels cover it (the cells the wall only clips are read as the texels land, so those within a
-    /// texel of the wall's ends and of the cells' corners are left out).
+    /// texels cover it (cells near the wall's ends are left out, and those it only clips, whose few
+    /// texels miscount their area the most).
     #[test]
     fn a_tilted_wall_gives_its_radiance_to_every_cell_at_any_offset() {
-        // Texels of 1/64: a cell's photons miscount its area by at most a row each way (3%).
+        // Texels of 1/64. A cell's piece of this wall is a rectangle, 1 high and `a` wide (its
+        // area): its photons miscount it by at most a row of texels each way, `1 / 64a + 1 / 64`.
         let side = 768;
         let half = 6.0;
         let s2 = 0.5f32.sqrt();
@@ -601,18 +687,18 @@ mod tests {
             // Cells well inside the wall, whose plane piece is at least a quarter of a face.
             let mut checked = 0;
             for (c, v) in &cells {
-                let centre = Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32) - Vec3::splat(8.0);
-                let inside = (centre + Vec3::splat(0.5) - Vec3::new(phase, 0.0, 0.0))
+                let corner = Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32) - Vec3::splat(8.0);
+                let inside = (corner + Vec3::splat(0.5) - Vec3::new(phase, 0.0, 0.0))
                     .dot(t)
                     .abs()
                     < half - 1.5
-                    && (centre.y + 0.5).abs() < half - 1.5;
-                let q = Vec3::new(phase, 0.0, 0.0) - centre;
-                let a = cell_area(q, n);
+                    && (corner.y + 0.5).abs() < half - 1.5;
+                let a = cell_area(Vec3::new(phase, 0.0, 0.0) - corner, n);
                 if inside && a > 0.25 {
                     checked += 1;
+                    let tolerance = 1.0 / (64.0 * a) + 1.0 / 64.0 + 1e-3;
                     assert!(
-                        (v / want - 1.0).abs() < 0.04,
+                        (v / want - 1.0).abs() < tolerance,
                         "phase {phase}, cell {c:?} (area {a}): {v} vs {want}"
                     );
                 }

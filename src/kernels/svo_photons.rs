@@ -35,12 +35,12 @@ vxgi_harness::bindings! {
             photon_pos: Vec<[u32; 4]> => Tolerance::Exact,
             // The value: the light contract's arithmetic, a dot product and a cube over a sqrt,
             // within the mirror's per-texel bound (64 ULP + the depth's cancellation + a spot's soft
-            // edge + the range of the share, whose plane area in the voxel is ill-conditioned where
-            // a plane nearly along a face passes near it).
+            // edge + the range of the share: its plane's area in the voxel, over the rounding of the
+            // plane's offset, which is ill-conditioned where a tilted plane passes a cell's face).
             photon_value: Vec<[f32; 4]> => Tolerance::MirrorBound,
-            // The specular photon: the same arithmetic without 1/pi, the mirror direction (a dot
-            // product and two products of unit vectors) and the lobe length; the mirror's bound adds
-            // the light direction's error.
+            // The specular photon: the same arithmetic without 1/pi (the same share and its range),
+            // the mirror direction (a dot product and two products of unit vectors) and the lobe
+            // length; the mirror's bound adds the light direction's error.
             photon_spec: Vec<[f32; 4]> => Tolerance::MirrorBound,
         }
     }
@@ -317,7 +317,7 @@ impl Kernel for SvoPhotons {
     }
 
     /// A generated scene's lights, one of their views (every cube face comes round), map side 16..64,
-    /// grids of 16..64 voxels.
+    /// grids of 16..64 voxels; a third of the texels made hard (see [`hard_texels`]).
     fn case(&self, shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
         let (scene, label) = super::gbuffer::generated_scene(seed, index);
         let data = SceneData::new(&scene);
@@ -327,8 +327,9 @@ impl Kernel for SvoPhotons {
         let (lights, views) = super::reflective_shadow_map::case_views(&data, side);
         let face = (index / 9) % views.len();
         let view = views[face];
-        let gb = view_gbuffer(ctx, &data, &view);
+        let mut gb = view_gbuffer(ctx, &data, &view);
         let params = params_for(&view, &frame);
+        hard_texels(&mut gb, &params);
         case_for(
             shader,
             ctx,
@@ -346,7 +347,8 @@ impl Kernel for SvoPhotons {
     }
 
     fn mirror(&self, _case: &Case, data: &Resources, _mode: FloatMode) -> MirrorOutputs {
-        // Scene-scale arithmetic: no subnormals arise (accepted flushed by the harness anyway).
+        // Scene-scale arithmetic; a normal's subnormal component meets only cell_area's exact
+        // decisions, which flushing it does not change.
         let mut io = Io::read(data);
         let ph = photons(
             &io.params.0,
@@ -369,4 +371,40 @@ impl Kernel for SvoPhotons {
         ]);
         out
     }
+}
+
+/// Texels where the plane's area in its cell is hardest, in every third texel that holds a photon:
+/// its point moved onto the nearest cell face along its normal's largest axis (a rounding either side
+/// of it once the kernel divides by the voxel size), and of those, every second one's normal turned
+/// along that axis but for a tilt of a rounding (1e-7) or a subnormal component (1e-40).
+fn hard_texels(gb: &mut Resources, p: &PhotonParams) {
+    let mut pos: Vec<[f32; 4]> = field(gb, "gb_position");
+    let mut nrm: Vec<[f32; 4]> = field(gb, "gb_normal");
+    let (origin, inv_h) = (glam::Vec3::from_slice(&p.grid[..3]), p.grid[3]);
+    for (i, (x, n)) in pos.iter_mut().zip(&mut nrm).enumerate() {
+        if n[3] <= 0.0 || i % 3 != 0 {
+            continue;
+        }
+        let axis = (0..3)
+            .max_by(|&a, &b| n[a].abs().total_cmp(&n[b].abs()))
+            .unwrap();
+        let cell = ((x[axis] - origin[axis]) * inv_h).round();
+        x[axis] = origin[axis] + cell / inv_h;
+        let tilt = match i % 9 {
+            3 => 1e-7,
+            6 => 1e-40,
+            _ => continue,
+        };
+        let sign = n[axis].signum();
+        *n = [tilt, tilt, tilt, n[3]];
+        n[axis] = sign;
+    }
+    gb.insert(
+        "gb_position".into(),
+        HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(&pos))),
+    );
+    gb.insert(
+        "gb_normal".into(),
+        HostResource::Buffer(HostBuffer::f32(bytemuck::cast_slice(&nrm))),
+    );
 }
