@@ -94,23 +94,39 @@ pub fn luminance(c: Vec3) -> f32 {
 /// documentation.
 pub const MIN_AREA: f32 = 0.125;
 
-/// `strip(s, a, b)` for `0 <= a <= b`, `b > 0`: the area of `{(x, y) in [0, 1]^2 : a x + b y <= s}`,
-/// in the kernel's operation order. Piecewise, each piece free of cancellation: `s^2 / 2ab` up to
-/// `s = a`, then linear up to `b`, then `1 - (a + b - s)^2 / 2ab`.
-pub fn strip(s: f32, a: f32, b: f32) -> f32 {
-    if s >= a + b {
-        1.0
-    } else if s <= 0.0 {
-        0.0
-    } else if s < a {
-        s * s / (2.0 * a * b)
-    } else if s <= b {
-        (s - 0.5 * a) / b
-    } else {
-        let t = (a + b) - s;
-        1.0 - t * t / (2.0 * a * b)
-    }
+/// Defines `strip` at one float width: one body for the kernel's f32 and the bound's f64.
+macro_rules! strip_at {
+    ($(#[$doc:meta])* $name:ident, $t:ty) => {
+        $(#[$doc])*
+        pub fn $name(s: $t, a: $t, b: $t) -> $t {
+            if s >= a + b {
+                1.0
+            } else if s <= 0.0 {
+                0.0
+            } else if s < a {
+                s * s / (2.0 * a * b)
+            } else if s <= b {
+                (s - 0.5 * a) / b
+            } else {
+                let t = (a + b) - s;
+                1.0 - t * t / (2.0 * a * b)
+            }
+        }
+    };
 }
+
+strip_at!(
+    /// `strip(s, a, b)` for `0 <= a <= b`, `b > 0`: the area of `{(x, y) in [0, 1]^2 : a x + b y <= s}`,
+    /// in the kernel's operation order. Piecewise, each piece free of cancellation: `s^2 / 2ab` up
+    /// to `s = a`, then linear up to `b`, then `1 - (a + b - s)^2 / 2ab`.
+    strip,
+    f32
+);
+strip_at!(
+    /// [`strip`] in f64, for [`cell_area_range`] (monotone in `s`).
+    strip64,
+    f64
+);
 
 /// Below this largest component a normal is no plane's (the G-buffer's normals are unit vectors,
 /// whose largest component is at least `1 / sqrt(3)`): the area is 0. It keeps every product below
@@ -191,22 +207,8 @@ pub fn cell_area_range(q: Vec3, n: Vec3) -> (f64, f64) {
     let e_d = 6.0 * u * mag;
     let e_dc = e_d + 2.0 * u * (d - c as f64).abs();
     let (a, b, c) = (a as f64, b as f64, c as f64);
-    let strip64 = |s: f64| -> f64 {
-        if s >= a + b {
-            1.0
-        } else if s <= 0.0 {
-            0.0
-        } else if s < a {
-            s * s / (2.0 * a * b)
-        } else if s <= b {
-            (s - 0.5 * a) / b
-        } else {
-            let t = (a + b) - s;
-            1.0 - t * t / (2.0 * a * b)
-        }
-    };
-    let lo = strip64(d - e_d) - strip64(d - c + e_dc) - 17.0 * u;
-    let hi = strip64(d + e_d) - strip64(d - c - e_dc) + 17.0 * u;
+    let lo = strip64(d - e_d, a, b) - strip64(d - c + e_dc, a, b) - 17.0 * u;
+    let hi = strip64(d + e_d, a, b) - strip64(d - c - e_dc, a, b) + 17.0 * u;
     // lo may be a little below 0: two strips of a rounding below 1 apart.
     (
         k * lo * (1.0 + 24.0 * u.copysign(-lo)),
@@ -528,16 +530,19 @@ mod tests {
         }
     }
 
-    #[test]
-    fn a_planes_area_agrees_with_inclusion_exclusion_and_its_range_holds_it() {
-        // xorshift64: uniform in [0, 1).
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = move || {
+    /// Uniform numbers in [0, 1) from a seed (xorshift64).
+    fn uniform(mut state: u64) -> impl FnMut() -> f32 {
+        move || {
             state ^= state << 13;
             state ^= state >> 7;
             state ^= state << 17;
             (state >> 40) as f32 / (1u64 << 24) as f32
-        };
+        }
+    }
+
+    #[test]
+    fn a_planes_area_agrees_with_inclusion_exclusion() {
+        let mut next = uniform(0x9e37_79b9_7f4a_7c15);
         for _ in 0..20000 {
             let n: [f32; 3] = std::array::from_fn(|_| {
                 let m = 0.05 + 0.95 * next();
@@ -571,13 +576,7 @@ mod tests {
     /// normals with zero, subnormal, tiny and equal components and points on the cell's faces.
     #[test]
     fn a_gpus_cell_area_stays_in_its_range() {
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut next = uniform(0x2545_f491_4f6c_dd1d);
         let ulps = |x: f32, k: i32| f32::from_bits((x.to_bits() as i32 + k).max(0) as u32);
         let mut checked = 0;
         for _ in 0..20000 {
