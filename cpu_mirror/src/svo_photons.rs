@@ -129,8 +129,8 @@ strip_at!(
 );
 
 /// Below this largest component a normal is no plane's (the G-buffer's normals are unit vectors,
-/// whose largest component is at least `1 / sqrt(3)`): the area is 0. It keeps every product below
-/// normal, where a GPU may flush.
+/// whose largest component is at least `1 / sqrt(3)`): the area is 0. It keeps the products that
+/// matter (`2ab`) out of the subnormal range, where a GPU may flush.
 pub const LEAST_COMPONENT: f32 = 1.0 / 256.0;
 /// A plane whose two smaller components add to at most `2^-16` of its largest is along a face: over
 /// the whole grid (at most 2^10 cells a side) it rises less than a 64th of a cell, and its area in
@@ -180,8 +180,8 @@ pub fn cell_area(q: Vec3, n: Vec3) -> f32 {
 }
 
 /// Bounds on what a GPU's [`cell_area`] of the same `q` and `n` gives, `(lo, hi)` (`u = 2^-24`, an
-/// ULP is `2u` at 1). The decisions (least component, along a face, negligible component) are exact
-/// comparisons of exact values on both, and flushing a subnormal does not change them. `q` is the
+/// ULP is `2u` at 1). The decisions (least component, along a face, negligible component) compare
+/// the same correctly rounded values on both, and flushing a subnormal does not change them. `q` is the
 /// same there (exact or correctly rounded operations); the offset `d` is three products and two
 /// sums, which may contract into fused operations and round in another order: within
 /// `6 u sum |n_k q'_k|` of the mirror's, and `d - c` one more rounding each side. `strip` is
@@ -222,7 +222,7 @@ pub fn cell_area_range(q: Vec3, n: Vec3) -> (f64, f64) {
 /// Bounds (WGSL rules, u = 2^-24): the voxel is exact (`(p - origin) * inv_h`: one correctly rounded
 /// subtraction and one multiplication per axis, no contraction possible, then floor and clamp). The
 /// value is a product of about a dozen correctly rounded or 2.5-ULP operations plus `sqrt` (via
-/// inverseSqrt, 8 ULP?) and `dot` (any order): 64 ULP of it, plus the depth's cancellation — `zv` is a
+/// 1 / inverseSqrt, 4.5 ULP) and `dot` (any order): 64 ULP of it, plus the depth's cancellation — `zv` is a
 /// dot product, off by up to 4 ULP of `|rel| . |forward|`, and enters cubed, so `3 e_zv / zv` relative —
 /// plus `incident_error`'s irradiance (a spot's soft edge) times the rest, plus the share's range (its
 /// cell area within [`cell_area_range`]) times the irradiance.
@@ -564,27 +564,41 @@ mod tests {
             let np = n.map(|c| c.abs() as f64);
             let want = corner_area(qp, np);
             let got = cell_area(Vec3::from(q), Vec3::from(n)) as f64;
-            // The f32 offset's rounding (a few u of |n|_1 <= sqrt(3)) times the strip's slope
-            // (at most 1 / b <= 20 with components >= 0.05): about 1.2e-5; the f64 reference's
-            // cancellation (terms up to |n|_1^2 / 2 n1 n2 n3 <= 4000) is far below.
+            // The f32 offset's rounding (about 2u of |n|_1 < 3) times the strip's slope (at most
+            // 1 / b <= 20 with components >= 0.05) times |n| / c (<= sqrt(3)): about 1.3e-5; the
+            // f64 reference's cancellation (terms up to |n|_1^2 / 2 n1 n2 n3 < 36000) is far below.
             assert!((got - want).abs() < 2e-5, "{q:?} {n:?}: {got} vs {want}");
         }
     }
 
     /// What a GPU may compute for [`cell_area`] stays inside [`cell_area_range`]: the offset with its
-    /// products fused and summed in other orders, `|n| / c` 8 ULP off, each strip 4 ULP off; on
-    /// normals with zero, subnormal, tiny and equal components and points on the cell's faces.
+    /// products fused and summed in other orders, `|n| / c` 9 ULP off, each strip `8 u` off, and the
+    /// inputs' subnormals flushed; on normals with zero, subnormal, tiny, equal and near-the-face
+    /// components and points on the cell's faces.
     #[test]
     fn a_gpus_cell_area_stays_in_its_range() {
         let mut next = uniform(0x2545_f491_4f6c_dd1d);
         let ulps = |x: f32, k: i32| f32::from_bits((x.to_bits() as i32 + k).max(0) as u32);
+        let flush = |v: Vec3| {
+            Vec3::from_array(v.to_array().map(|x| {
+                if x.abs() < f32::MIN_POSITIVE {
+                    0.0f32.copysign(x)
+                } else {
+                    x
+                }
+            }))
+        };
+        let u = f32::EPSILON as f64 / 2.0;
         let mut checked = 0;
         for _ in 0..20000 {
-            let mut pick = || match (next() * 8.0) as u32 {
+            let mut pick = || match (next() * 10.0) as u32 {
                 0 => 0.0,
                 1 => 1e-40,
                 2 => 1e-7,
                 3 => 1e-3,
+                // About the face decision's threshold beside a largest component near 1.
+                4 => 7.6e-6,
+                5 => 1.6e-5,
                 _ => 0.05 + 0.95 * next(),
             };
             let mut n = Vec3::new(pick(), pick(), pick());
@@ -602,13 +616,23 @@ mod tests {
                 _ => next(),
             }));
             let (lo, hi) = cell_area_range(q, n);
-            let mirror = cell_area(q, n) as f64;
-            assert!(
-                lo <= mirror && mirror <= hi,
-                "{q} {n}: {mirror} outside [{lo}, {hi}]"
-            );
+            let inside = |area: f64, what: &str| {
+                assert!(
+                    lo <= area && area <= hi,
+                    "{q} {n}: {what} {area} outside [{lo}, {hi}]"
+                )
+            };
+            inside(cell_area(q, n) as f64, "the mirror's");
+            inside(cell_area(flush(q), flush(n)) as f64, "flushed");
             let (a, b, c) = sorted(n.abs());
-            if c < LEAST_COMPONENT || (a + b) * ALONG_A_FACE <= c {
+            if c < LEAST_COMPONENT {
+                continue;
+            }
+            let k = n.length() / c;
+            if (a + b) * ALONG_A_FACE <= c {
+                for dk in [-9, 9] {
+                    inside(ulps(k, dk) as f64, "along a face");
+                }
                 continue;
             }
             let a = if a <= b * NEGLIGIBLE { 0.0 } else { a };
@@ -622,15 +646,11 @@ mod tests {
                 m.z.mul_add(p[2], m.y.mul_add(p[1], m.x * p[0])),
                 (m.z * p[2] + m.y * p[1]) + m.x * p[0],
             ];
-            let k = n.length() / c;
             for d in offsets {
-                for (dk, ds) in [(-8, -4), (8, 4), (-8, 4), (8, -4)] {
-                    let area = ulps(k, dk) as f64
-                        * (ulps(strip(d, a, b), ds) as f64 - ulps(strip(d - c, a, b), -ds) as f64);
-                    assert!(
-                        lo <= area && area <= hi,
-                        "{q} {n}: a GPU's {area} outside [{lo}, {hi}] (offset {d})"
-                    );
+                for (dk, ds) in [(-9, -8.0), (9, 8.0), (-9, 8.0), (9, -8.0)] {
+                    let strips =
+                        (strip(d, a, b) as f64 + ds * u) - (strip(d - c, a, b) as f64 - ds * u);
+                    inside(ulps(k, dk) as f64 * strips, "a GPU's");
                     checked += 1;
                 }
             }

@@ -347,8 +347,8 @@ impl Kernel for SvoPhotons {
     }
 
     fn mirror(&self, _case: &Case, data: &Resources, _mode: FloatMode) -> MirrorOutputs {
-        // Scene-scale arithmetic; a normal's subnormal component meets only cell_area's exact
-        // decisions, which flushing it does not change.
+        // Scene-scale arithmetic; a normal's subnormal component decides cell_area's branches the
+        // same way flushed or not, and elsewhere adds less than the bounds' absolute terms.
         let mut io = Io::read(data);
         let ph = photons(
             &io.params.0,
@@ -373,10 +373,11 @@ impl Kernel for SvoPhotons {
     }
 }
 
-/// Texels where the plane's area in its cell is hardest, in every third texel that holds a photon:
-/// its point moved onto the nearest cell face along its normal's largest axis (a rounding either side
-/// of it once the kernel divides by the voxel size), and of those, every second one's normal turned
-/// along that axis but for a tilt of a rounding (1e-7) or a subnormal component (1e-40).
+/// Texels where the plane's area in its cell is hardest, the photon texels at indices divisible by 3:
+/// the point moved onto the nearest cell face along its normal's largest axis (a rounding either side
+/// of it once the kernel scales by 1 / voxel size), and two in three of those with the normal turned
+/// along that axis but for a tilt of a rounding (1e-7) or a subnormal component (1e-40), of either
+/// sign.
 fn hard_texels(gb: &mut Resources, p: &PhotonParams) {
     let mut pos: Vec<[f32; 4]> = field(gb, "gb_position");
     let mut nrm: Vec<[f32; 4]> = field(gb, "gb_normal");
@@ -394,7 +395,7 @@ fn hard_texels(gb: &mut Resources, p: &PhotonParams) {
             3 => 1e-7,
             6 => 1e-40,
             _ => continue,
-        };
+        } * if i % 18 < 9 { 1.0 } else { -1.0 };
         let sign = n[axis].signum();
         *n = [tilt, tilt, tilt, n[3]];
         n[axis] = sign;
