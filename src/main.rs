@@ -501,7 +501,20 @@ fn load_scene(path: &Option<PathBuf>, flags: &RenderFlags) -> Result<vxgi::scene
         supersample
     );
     scene.render.validate().map_err(anyhow::Error::msg)?;
+    warn_back_faces(&scene);
     Ok(scene)
+}
+
+/// Say where most of the camera's view is the back of faces, which reflect nothing: an inside-out
+/// mesh renders black there in every pipeline and the reference alike, with nothing else to say so.
+fn warn_back_faces(scene: &vxgi::scene::Scene) {
+    let data = vxgi::trace::SceneData::new(scene);
+    if let Some(share) = vxgi::trace::back_face_share(&data).filter(|&s| s > 0.5) {
+        eprintln!(
+            "warning: {:.0}% of what the camera sees is the back of faces (their vertex order turns them away from the camera), which reflect nothing: surfaces are one-sided. If the mesh is inside out (a room modelled with its faces turned outwards), reverse each face's vertex order",
+            share * 100.0
+        );
+    }
 }
 
 /// A spinner with the elapsed time and a message (hidden when stderr is not a terminal).
@@ -943,6 +956,10 @@ fn run_report(
             Some(s) => s,
             None => vxgi::scene::Scene::load(n)?,
         };
+        for w in &scene.warnings {
+            eprintln!("warning: {n}: {w}");
+        }
+        warn_back_faces(&scene);
         let stem = Path::new(n)
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
@@ -1639,6 +1656,7 @@ fn run_scene(path: Option<std::path::PathBuf>) -> Result<()> {
     for w in &scene.warnings {
         eprintln!("warning: {w}");
     }
+    warn_back_faces(&scene);
     let c = &scene.camera;
     for (k, i) in scene.instances.list.iter().enumerate() {
         println!(

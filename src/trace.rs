@@ -328,6 +328,29 @@ fn shapes_of(triangles: &[GpuTriangle], extent: f32) -> Vec<TriShape> {
         .collect()
 }
 
+/// The share of the camera's view that meets the back of a face (its winding turned away from the
+/// camera), from a 32 x 32 grid of camera rays; `None` where no ray meets anything. Back faces
+/// reflect nothing (the light-transport contract: surfaces are one-sided), so where most of the view
+/// is back faces the mesh is likely inside out (a room modelled with its faces turned outwards).
+pub fn back_face_share(data: &SceneData) -> Option<f32> {
+    const GRID: u32 = 32;
+    let tracer = Tracer::new(data);
+    let (w, h) = (data.frame.size[0] as f32, data.frame.size[1] as f32);
+    let (mut hits, mut back) = (0u32, 0u32);
+    for j in 0..GRID {
+        for i in 0..GRID {
+            let fx = (i as f32 + 0.5) / GRID as f32 * w;
+            let fy = (j as f32 + 0.5) / GRID as f32 * h;
+            let (o, d) = vxgi_cpu_mirror::gbuffer::ray_through(&data.frame, fx, fy);
+            if let Some(hit) = tracer.closest(o, d, 0.0, f32::INFINITY) {
+                hits += 1;
+                back += u32::from(!hit.front);
+            }
+        }
+    }
+    (hits > 0).then(|| back as f32 / hits as f32)
+}
+
 /// CPU ray queries over the `bvh` crate's own tree (the reference renderer's traversal): the tree
 /// [`SceneData::new`] built and flattened for the kernels, not a second build.
 pub struct Tracer<'a> {

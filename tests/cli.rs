@@ -99,6 +99,40 @@ fn scene_summarises_the_built_in_cornell_box_and_reports_bad_files() {
     assert_eq!(err.matches("No such file").count(), 1, "{err}");
 }
 
+/// An inside-out mesh (the Cornell box with every face's vertex order reversed) renders black in
+/// every pipeline and the reference alike (back faces reflect nothing): `vxgi scene` and `vxgi
+/// render` say so; the shipped box, seen from inside its front faces, says nothing.
+#[test]
+fn an_inside_out_mesh_is_named() {
+    let d = std::env::temp_dir().join(format!("vxgi-cli-{}-inside-out", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let obj = std::fs::read_to_string(root.join("cornell_box.obj")).unwrap();
+    let flipped: Vec<String> = obj
+        .lines()
+        .map(|l| match l.strip_prefix("f ") {
+            Some(f) => format!(
+                "f {}",
+                f.split_whitespace().rev().collect::<Vec<_>>().join(" ")
+            ),
+            None => l.to_string(),
+        })
+        .collect();
+    std::fs::write(d.join("cornell_box.obj"), flipped.join("\n")).unwrap();
+    std::fs::copy(root.join("cornell_box.mtl"), d.join("cornell_box.mtl")).unwrap();
+    std::fs::copy(root.join("cornell_box.toml"), d.join("scene.toml")).unwrap();
+    let scene = d.join("scene.toml");
+    let (code, _, err) = vxgi(&["scene", scene.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        err.contains("100% of what the camera sees is the back of faces"),
+        "{err}"
+    );
+    let (code, _, err) = vxgi(&["scene", root.join("cornell_box.toml").to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    assert!(!err.contains("back of faces"), "{err}");
+}
+
 /// Texture coordinates past what voxelize's fixed point holds: `vxgi scene` refuses the scene, naming
 /// the triangle's material, its texture and the coordinates' range, as `vxgi render` does.
 #[test]
