@@ -501,17 +501,18 @@ fn load_scene(path: &Option<PathBuf>, flags: &RenderFlags) -> Result<vxgi::scene
         supersample
     );
     scene.render.validate().map_err(anyhow::Error::msg)?;
-    warn_back_faces(&scene);
+    warn_back_faces(&scene, "");
     Ok(scene)
 }
 
 /// Say where most of the camera's view is the back of faces, which reflect nothing: an inside-out
-/// mesh renders black there in every pipeline and the reference alike, with nothing else to say so.
-fn warn_back_faces(scene: &vxgi::scene::Scene) {
+/// mesh, or a camera behind a wall, renders black there in every pipeline and the reference alike,
+/// with nothing else to say so. `label` names the scene where a command loads several.
+fn warn_back_faces(scene: &vxgi::scene::Scene, label: &str) {
     let data = vxgi::trace::SceneData::new(scene);
     if let Some(share) = vxgi::trace::back_face_share(&data).filter(|&s| s > 0.5) {
         eprintln!(
-            "warning: {:.0}% of what the camera sees is the back of faces (their vertex order turns them away from the camera), which reflect nothing: surfaces are one-sided. If the mesh is inside out (a room modelled with its faces turned outwards), reverse each face's vertex order",
+            "warning: {label}{:.0}% of what the camera sees is the back of faces (their vertex order turns them away from the camera), which reflect nothing: surfaces are one-sided. Either the camera is behind them (outside a closed room, behind a wall: move it) or the mesh is inside out (a room modelled with its faces turned outwards: reverse each face's vertex order)",
             share * 100.0
         );
     }
@@ -959,7 +960,7 @@ fn run_report(
         for w in &scene.warnings {
             eprintln!("warning: {n}: {w}");
         }
-        warn_back_faces(&scene);
+        warn_back_faces(&scene, &format!("{n}: "));
         let stem = Path::new(n)
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
@@ -1656,7 +1657,7 @@ fn run_scene(path: Option<std::path::PathBuf>) -> Result<()> {
     for w in &scene.warnings {
         eprintln!("warning: {w}");
     }
-    warn_back_faces(&scene);
+    warn_back_faces(&scene, "");
     let c = &scene.camera;
     for (k, i) in scene.instances.list.iter().enumerate() {
         println!(

@@ -329,9 +329,10 @@ fn shapes_of(triangles: &[GpuTriangle], extent: f32) -> Vec<TriShape> {
 }
 
 /// The share of the camera's view that meets the back of a face (its winding turned away from the
-/// camera), from a 32 x 32 grid of camera rays; `None` where no ray meets anything. Back faces
-/// reflect nothing (the light-transport contract: surfaces are one-sided), so where most of the view
-/// is back faces the mesh is likely inside out (a room modelled with its faces turned outwards).
+/// camera), from a 32 x 32 grid of camera rays; `None` where fewer than a twentieth of the rays meet
+/// anything (too little of the view to judge). Back faces reflect nothing (the light-transport
+/// contract: surfaces are one-sided), so where most of the view is back faces either the camera is
+/// behind them or the mesh is inside out (a room modelled with its faces turned outwards).
 pub fn back_face_share(data: &SceneData) -> Option<f32> {
     const GRID: u32 = 32;
     let tracer = Tracer::new(data);
@@ -348,7 +349,7 @@ pub fn back_face_share(data: &SceneData) -> Option<f32> {
             }
         }
     }
-    (hits > 0).then(|| back as f32 / hits as f32)
+    (hits * 20 >= GRID * GRID).then(|| back as f32 / hits as f32)
 }
 
 /// CPU ray queries over the `bvh` crate's own tree (the reference renderer's traversal): the tree

@@ -100,8 +100,9 @@ fn scene_summarises_the_built_in_cornell_box_and_reports_bad_files() {
 }
 
 /// An inside-out mesh (the Cornell box with every face's vertex order reversed) renders black in
-/// every pipeline and the reference alike (back faces reflect nothing): `vxgi scene` and `vxgi
-/// render` say so; the shipped box, seen from inside its front faces, says nothing.
+/// every pipeline and the reference alike (back faces reflect nothing): `vxgi scene`, `vxgi render`
+/// (here its plan, which needs no GPU) and `vxgi report` say so; the shipped box, seen from inside
+/// its front faces, says nothing.
 #[test]
 fn an_inside_out_mesh_is_named() {
     let d = std::env::temp_dir().join(format!("vxgi-cli-{}-inside-out", std::process::id()));
@@ -122,15 +123,17 @@ fn an_inside_out_mesh_is_named() {
     std::fs::copy(root.join("cornell_box.mtl"), d.join("cornell_box.mtl")).unwrap();
     std::fs::copy(root.join("cornell_box.toml"), d.join("scene.toml")).unwrap();
     let scene = d.join("scene.toml");
+    let said = "100% of what the camera sees is the back of faces";
     let (code, _, err) = vxgi(&["scene", scene.to_str().unwrap()]);
     assert_eq!(code, 0, "{err}");
-    assert!(
-        err.contains("100% of what the camera sees is the back of faces"),
-        "{err}"
-    );
+    assert!(err.contains(said), "{err}");
+    let (code, _, err) = vxgi(&["render", scene.to_str().unwrap(), "--plan"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains(said), "{err}");
     let (code, _, err) = vxgi(&["scene", root.join("cornell_box.toml").to_str().unwrap()]);
     assert_eq!(code, 0, "{err}");
     assert!(!err.contains("back of faces"), "{err}");
+    std::fs::remove_dir_all(&d).ok();
 }
 
 /// Texture coordinates past what voxelize's fixed point holds: `vxgi scene` refuses the scene, naming
