@@ -137,10 +137,10 @@ pub const LEAST_COMPONENT: f32 = 1.0 / 256.0;
 /// its cell is the face's over the cosine. Deciding it exactly keeps a tilt of a rounding (an
 /// interpolated normal) on a face from an ill-conditioned area, and keeps subnormal components,
 /// which a GPU may flush, out of the strip.
-const ALONG_A_FACE: f32 = 65536.0;
+pub const ALONG_A_FACE: f32 = 65536.0;
 /// A smaller component at most `2^-24` of the middle one is dropped (the strip's area moves by at most
 /// `a / 2b <= 2^-25`), so that `2ab` is never below normal.
-const NEGLIGIBLE: f32 = 1.0 / 16777216.0;
+pub const NEGLIGIBLE: f32 = 1.0 / 16777216.0;
 
 /// The plane's components sorted: `(a, b, c)` with `a <= b <= c` of `|n|` (exact: min and max).
 fn sorted(m: Vec3) -> (f32, f32, f32) {

@@ -317,7 +317,7 @@ impl Kernel for SvoPhotons {
     }
 
     /// A generated scene's lights, one of their views (every cube face comes round), map side 16..64,
-    /// grids of 16..64 voxels; a third of the texels made hard (see [`hard_texels`]).
+    /// grids of 16..64 voxels; a third of the texels made hard (`hard_texels`).
     fn case(&self, shader: &Shader, ctx: &GpuContext, seed: u64, index: usize) -> Case {
         let (scene, label) = super::gbuffer::generated_scene(seed, index);
         let data = SceneData::new(&scene);
