@@ -142,20 +142,43 @@ pub const ALONG_A_FACE: f32 = 65536.0;
 /// `a / 2b <= 2^-25`), so that `2ab` is never below normal.
 pub const NEGLIGIBLE: f32 = 1.0 / 16777216.0;
 
-/// The plane's components sorted: `(a, b, c)` with `a <= b <= c` of `|n|` (exact: min and max).
-fn sorted(m: Vec3) -> (f32, f32, f32) {
+/// What [`cell_area`] makes of a normal, by the exact decisions the kernel takes in the same order:
+/// its components `|n|` sorted `a <= b <= c` (min and max: exact).
+enum Plane {
+    /// The largest component below [`LEAST_COMPONENT`]: no plane, area 0.
+    Degenerate,
+    /// Within [`ALONG_A_FACE`] of a face: the face's area over the cosine `c / |n|`.
+    AlongAFace { c: f32 },
+    /// Any other: the strip's, `a` dropped to 0 where [`NEGLIGIBLE`] beside `b`.
+    Tilted { a: f32, b: f32, c: f32 },
+}
+
+fn plane(n: Vec3) -> Plane {
+    let m = n.abs();
     let a = m.x.min(m.y).min(m.z);
     let c = m.x.max(m.y).max(m.z);
     let b = m.x.min(m.y).max(m.x.max(m.y).min(m.z));
-    (a, b, c)
+    if c < LEAST_COMPONENT {
+        Plane::Degenerate
+    } else if (a + b) * ALONG_A_FACE <= c {
+        Plane::AlongAFace { c }
+    } else {
+        let a = if a <= b * NEGLIGIBLE { 0.0 } else { a };
+        Plane::Tilted { a, b, c }
+    }
 }
 
-/// The plane's offset `d` in the cell mirrored so that every normal component is `>= 0`: `sum |n_k| q'_k`
-/// with `q'_k = q_k`, or `1 - q_k` where `n_k < 0`.
-fn offset(q: Vec3, n: Vec3) -> f32 {
-    let m = n.abs();
+/// `q` mirrored so that every normal component counts `>= 0`: `q'_k = q_k`, or `1 - q_k` where
+/// `n_k < 0`.
+fn mirrored(q: Vec3, n: Vec3) -> Vec3 {
     let f = |q: f32, n: f32| if n < 0.0 { 1.0 - q } else { q };
-    (m.x * f(q.x, n.x) + m.y * f(q.y, n.y)) + m.z * f(q.z, n.z)
+    Vec3::new(f(q.x, n.x), f(q.y, n.y), f(q.z, n.z))
+}
+
+/// The plane's offset `d` in the mirrored cell: `sum |n_k| q'_k`, in the kernel's order.
+fn offset(q: Vec3, n: Vec3) -> f32 {
+    let (m, p) = (n.abs(), mirrored(q, n));
+    (m.x * p.x + m.y * p.y) + m.z * p.z
 }
 
 /// The area of the plane through `q` with normal `n` inside the unit cell `[0, 1]^3`, in the kernel's
@@ -166,17 +189,15 @@ fn offset(q: Vec3, n: Vec3) -> f32 {
 /// wherever it lies in the cell, on either face included: a photon on a face lands in the cell floor
 /// gives it, and that cell must hold the plane it lands with.
 pub fn cell_area(q: Vec3, n: Vec3) -> f32 {
-    let (a, b, c) = sorted(n.abs());
-    if c < LEAST_COMPONENT {
-        return 0.0;
-    }
     let len = ((n.x * n.x + n.y * n.y) + n.z * n.z).sqrt();
-    if (a + b) * ALONG_A_FACE <= c {
-        return len / c;
+    match plane(n) {
+        Plane::Degenerate => 0.0,
+        Plane::AlongAFace { c } => len / c,
+        Plane::Tilted { a, b, c } => {
+            let d = offset(q, n);
+            (len / c) * (strip(d, a, b) - strip(d - c, a, b))
+        }
     }
-    let a = if a <= b * NEGLIGIBLE { 0.0 } else { a };
-    let d = offset(q, n);
-    (len / c) * (strip(d, a, b) - strip(d - c, a, b))
 }
 
 /// Bounds on what a GPU's [`cell_area`] of the same `q` and `n` gives, `(lo, hi)` (`u = 2^-24`, an
@@ -191,18 +212,17 @@ pub fn cell_area(q: Vec3, n: Vec3) -> f32 {
 /// 4.5 ULP), a division (2.5 ULP) and the product with the strip: within `24 u` of itself.
 pub fn cell_area_range(q: Vec3, n: Vec3) -> (f64, f64) {
     let u = f32::EPSILON as f64 / 2.0;
-    let (a, b, c) = sorted(n.abs());
-    if c < LEAST_COMPONENT {
-        return (0.0, 0.0);
-    }
-    let k = n.as_dvec3().length() / c as f64;
-    if (a + b) * ALONG_A_FACE <= c {
-        return (k * (1.0 - 24.0 * u), k * (1.0 + 24.0 * u));
-    }
-    let a = if a <= b * NEGLIGIBLE { 0.0 } else { a };
-    let m = n.abs();
-    let f = |q: f32, n: f32| if n < 0.0 { 1.0 - q } else { q };
-    let mag = (m.x * f(q.x, n.x).abs() + m.y * f(q.y, n.y).abs() + m.z * f(q.z, n.z).abs()) as f64;
+    let len = n.as_dvec3().length();
+    let (a, b, c) = match plane(n) {
+        Plane::Degenerate => return (0.0, 0.0),
+        Plane::AlongAFace { c } => {
+            let k = len / c as f64;
+            return (k * (1.0 - 24.0 * u), k * (1.0 + 24.0 * u));
+        }
+        Plane::Tilted { a, b, c } => (a, b, c),
+    };
+    let k = len / c as f64;
+    let mag = n.abs().dot(mirrored(q, n).abs()) as f64;
     let d = offset(q, n) as f64;
     let e_d = 6.0 * u * mag;
     let e_dc = e_d + 2.0 * u * (d - c as f64).abs();
@@ -624,21 +644,19 @@ mod tests {
             };
             inside(cell_area(q, n) as f64, "the mirror's");
             inside(cell_area(flush(q), flush(n)) as f64, "flushed");
-            let (a, b, c) = sorted(n.abs());
-            if c < LEAST_COMPONENT {
-                continue;
-            }
-            let k = n.length() / c;
-            if (a + b) * ALONG_A_FACE <= c {
-                for dk in [-9, 9] {
-                    inside(ulps(k, dk) as f64, "along a face");
+            let (a, b, c) = match plane(n) {
+                Plane::Degenerate => continue,
+                Plane::AlongAFace { c } => {
+                    for dk in [-9, 9] {
+                        inside(ulps(n.length() / c, dk) as f64, "along a face");
+                    }
+                    continue;
                 }
-                continue;
-            }
-            let a = if a <= b * NEGLIGIBLE { 0.0 } else { a };
+                Plane::Tilted { a, b, c } => (a, b, c),
+            };
+            let k = n.length() / c;
             let m = n.abs();
-            let f = |q: f32, n: f32| if n < 0.0 { 1.0 - q } else { q };
-            let p = [f(q.x, n.x), f(q.y, n.y), f(q.z, n.z)];
+            let p = mirrored(q, n).to_array();
             let offsets = [
                 (m.x * p[0] + m.y * p[1]) + m.z * p[2],
                 m.x.mul_add(p[0], m.y * p[1]) + m.z * p[2],
